@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package ugvr needs to build, test and fuzz. Idempotent: packages already present are
+# skipped by apt-get, and the package lists are refreshed only when something is missing.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake ninja-build pkg-config git
+  clang libclang-rt-14-dev            # libFuzzer + sanitizer runtimes
+  libgtest-dev libgmock-dev
+  libtbb-dev                          # oneTBB: parallel topology and (later) rendering
+  zlib1g-dev liblz4-dev libzstd-dev   # VTK XML compressors; brick store compression
+  libpugixml-dev                      # VTK XML headers
+  python3 python3-matplotlib          # benchmark plots
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+[ "$(id -u)" -eq 0 ] || SUDO="sudo"
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,69 @@
+#include "ugvr/core/progress.h"
+
+#include <unistd.h>
+
+#include <cstdio>
+
+namespace ugvr {
+
+namespace {
+std::atomic<bool> g_enabled{true};
+}
+
+void Progress::set_enabled(bool enabled) { g_enabled = enabled; }
+bool Progress::enabled() { return g_enabled; }
+
+Progress::Progress(std::string label, uint64_t total)
+    : label_(std::move(label)),
+      total_(total),
+      start_(std::chrono::steady_clock::now()),
+      last_report_(start_),
+      tty_(isatty(STDERR_FILENO) != 0) {}
+
+Progress::~Progress() { finish(); }
+
+void Progress::add(uint64_t amount) {
+  done_ += amount;
+  report(false);
+}
+
+void Progress::set(uint64_t done) {
+  done_ = done;
+  report(false);
+}
+
+void Progress::finish() {
+  if (finished_) return;
+  done_ = total_;
+  report(true);
+  finished_ = true;
+}
+
+void Progress::report(bool final) {
+  if (!g_enabled) return;
+  const auto now = std::chrono::steady_clock::now();
+  std::unique_lock lock(mutex_, std::try_to_lock);
+  if (!lock.owns_lock() && !final) return;  // another thread is reporting; skip rather than wait
+  if (!lock.owns_lock()) lock.lock();
+  const double fraction = total_ ? std::min(1.0, double(done_) / double(total_)) : 1.0;
+  const double seconds = std::chrono::duration<double>(now - start_).count();
+  const double since = std::chrono::duration<double>(now - last_report_).count();
+  if (tty_) {
+    if (!final && since < 0.1) return;
+    constexpr int kWidth = 30;
+    const int filled = int(fraction * kWidth);
+    std::fprintf(stderr, "\r%s [%.*s%*s] %5.1f%% %6.1fs", label_.c_str(), filled,
+                 "==============================", kWidth - filled, "", fraction * 100.0, seconds);
+    if (final) std::fputc('\n', stderr);
+  } else {
+    const int decile = int(fraction * 10);
+    if (!final && (decile == last_decile_ || since < 2.0)) return;
+    if (final && seconds < 1.0) return;  // quick work stays silent in logs
+    last_decile_ = decile;
+    std::fprintf(stderr, "%s: %.0f%% (%.1fs)\n", label_.c_str(), fraction * 100.0, seconds);
+  }
+  std::fflush(stderr);
+  last_report_ = now;
+}
+
+}  // namespace ugvr

@@ -1,0 +1,41 @@
+// Progress reporting for long work, on stderr: a redrawn bar when stderr is a terminal, a line every ~10% (at most one
+// every 2 s) otherwise, nothing when disabled. Thread-safe: add() may be called from worker threads.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <mutex>
+#include <string>
+
+namespace ugvr {
+
+class Progress {
+ public:
+  // Globally silences all progress output (tests, --quiet).
+  static void set_enabled(bool enabled);
+  static bool enabled();
+
+  Progress(std::string label, uint64_t total);
+  ~Progress();
+  Progress(const Progress&) = delete;
+  Progress& operator=(const Progress&) = delete;
+
+  void add(uint64_t amount);
+  void set(uint64_t done);
+  void finish();
+
+ private:
+  void report(bool final);
+
+  std::string label_;
+  uint64_t total_;
+  std::atomic<uint64_t> done_{0};
+  std::chrono::steady_clock::time_point start_, last_report_;
+  int last_decile_ = -1;
+  bool tty_;
+  bool finished_ = false;
+  std::mutex mutex_;
+};
+
+}  // namespace ugvr

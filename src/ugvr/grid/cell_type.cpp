@@ -1,0 +1,68 @@
+#include "ugvr/grid/cell_type.h"
+
+namespace ugvr {
+
+VtkCellMapping map_vtk_cell_type(int vtk_type) {
+  using K = VtkCellMapping::Kind;
+  auto keep = [](CellType t, int corners, int points, std::string_view name, bool voxel = false) {
+    return VtkCellMapping{K::Keep, t, uint8_t(corners), int16_t(points), voxel, name};
+  };
+  auto drop = [](int points, std::string_view name) {
+    return VtkCellMapping{K::DropLowerDimension, {}, 0, int16_t(points), false, name};
+  };
+  auto unsupported = [](std::string_view name) { return VtkCellMapping{K::Unsupported, {}, 0, -1, false, name}; };
+  switch (vtk_type) {
+    case 1: return drop(1, "VTK_VERTEX");
+    case 2: return drop(-1, "VTK_POLY_VERTEX");
+    case 3: return drop(2, "VTK_LINE");
+    case 4: return drop(-1, "VTK_POLY_LINE");
+    case 5: return drop(3, "VTK_TRIANGLE");
+    case 6: return drop(-1, "VTK_TRIANGLE_STRIP");
+    case 7: return drop(-1, "VTK_POLYGON");
+    case 8: return drop(4, "VTK_PIXEL");
+    case 9: return drop(4, "VTK_QUAD");
+    case 10: return keep(CellType::Tetra, 4, 4, "VTK_TETRA");
+    case 11: return keep(CellType::Hexahedron, 8, 8, "VTK_VOXEL", true);
+    case 12: return keep(CellType::Hexahedron, 8, 8, "VTK_HEXAHEDRON");
+    case 13: return keep(CellType::Wedge, 6, 6, "VTK_WEDGE");
+    case 14: return keep(CellType::Pyramid, 5, 5, "VTK_PYRAMID");
+    case 15: return unsupported("VTK_PENTAGONAL_PRISM");
+    case 16: return unsupported("VTK_HEXAGONAL_PRISM");
+    case 21: return drop(3, "VTK_QUADRATIC_EDGE");
+    case 22: return drop(6, "VTK_QUADRATIC_TRIANGLE");
+    case 23: return drop(8, "VTK_QUADRATIC_QUAD");
+    case 24: return keep(CellType::Tetra, 4, 10, "VTK_QUADRATIC_TETRA");
+    case 25: return keep(CellType::Hexahedron, 8, 20, "VTK_QUADRATIC_HEXAHEDRON");
+    case 26: return keep(CellType::Wedge, 6, 15, "VTK_QUADRATIC_WEDGE");
+    case 27: return keep(CellType::Pyramid, 5, 13, "VTK_QUADRATIC_PYRAMID");
+    case 28: return drop(9, "VTK_BIQUADRATIC_QUAD");
+    case 29: return keep(CellType::Hexahedron, 8, 27, "VTK_TRIQUADRATIC_HEXAHEDRON");
+    case 30: return drop(8, "VTK_QUADRATIC_LINEAR_QUAD");
+    case 31: return keep(CellType::Wedge, 6, 12, "VTK_QUADRATIC_LINEAR_WEDGE");
+    case 32: return keep(CellType::Wedge, 6, 18, "VTK_BIQUADRATIC_QUADRATIC_WEDGE");
+    case 33: return keep(CellType::Hexahedron, 8, 24, "VTK_BIQUADRATIC_QUADRATIC_HEXAHEDRON");
+    case 34: return drop(7, "VTK_BIQUADRATIC_TRIANGLE");
+    case 35: return drop(4, "VTK_CUBIC_LINE");
+    case 36: return drop(-1, "VTK_QUADRATIC_POLYGON");
+    case 37: return keep(CellType::Pyramid, 5, 19, "VTK_TRIQUADRATIC_PYRAMID");
+    case 41: return unsupported("VTK_CONVEX_POINT_SET");
+    case 42: return unsupported("VTK_POLYHEDRON");
+    case 68: return drop(-1, "VTK_LAGRANGE_CURVE");
+    case 69: return drop(-1, "VTK_LAGRANGE_TRIANGLE");
+    case 70: return drop(-1, "VTK_LAGRANGE_QUADRILATERAL");
+    case 71: return unsupported("VTK_LAGRANGE_TETRAHEDRON");
+    case 72: return unsupported("VTK_LAGRANGE_HEXAHEDRON");
+    case 73: return unsupported("VTK_LAGRANGE_WEDGE");
+    case 74: return unsupported("VTK_LAGRANGE_PYRAMID");
+    case 75: return drop(-1, "VTK_BEZIER_CURVE");
+    case 76: return drop(-1, "VTK_BEZIER_TRIANGLE");
+    case 77: return drop(-1, "VTK_BEZIER_QUADRILATERAL");
+    case 78: return unsupported("VTK_BEZIER_TETRAHEDRON");
+    case 79: return unsupported("VTK_BEZIER_HEXAHEDRON");
+    case 80: return unsupported("VTK_BEZIER_WEDGE");
+    case 81: return unsupported("VTK_BEZIER_PYRAMID");
+    default: return unsupported("unknown cell type");
+  }
+}
+
+}  // namespace ugvr

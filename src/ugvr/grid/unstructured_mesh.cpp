@@ -1,0 +1,86 @@
+#include "ugvr/grid/unstructured_mesh.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
+#include <string>
+
+#include "ugvr/core/error.h"
+
+namespace ugvr {
+
+uint64_t& CellTypeCounts::operator[](CellType t) {
+  switch (t) {
+    case CellType::Tetra: return tetra;
+    case CellType::Pyramid: return pyramid;
+    case CellType::Wedge: return wedge;
+    case CellType::Hexahedron: return hexahedron;
+  }
+  return tetra;
+}
+
+uint64_t CellTypeCounts::operator[](CellType t) const { return const_cast<CellTypeCounts&>(*this)[t]; }
+
+void UnstructuredMesh::add_cell(CellType type, std::span<const uint32_t> vertices) {
+  cell_types.push_back(type);
+  connectivity.insert(connectivity.end(), vertices.begin(), vertices.end());
+  cell_offsets.push_back(connectivity.size());
+}
+
+void UnstructuredMesh::reserve(uint64_t cells, uint64_t indices) {
+  cell_types.reserve(cells);
+  cell_offsets.reserve(cells + 1);
+  connectivity.reserve(indices);
+}
+
+CellTypeCounts UnstructuredMesh::cell_type_counts() const {
+  CellTypeCounts counts;
+  for (CellType t : cell_types) ++counts[t];
+  return counts;
+}
+
+Bounds UnstructuredMesh::bounds() const {
+  return tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, points.size(), 1 << 16), Bounds{},
+      [&](const tbb::blocked_range<size_t>& r, Bounds b) {
+        for (size_t i = r.begin(); i != r.end(); ++i) b.add(to_double(points[i]));
+        return b;
+      },
+      [](Bounds a, const Bounds& b) {
+        a.add(b);
+        return a;
+      });
+}
+
+uint64_t UnstructuredMesh::memory_bytes() const {
+  return points.capacity() * sizeof(Vec3f) + cell_types.capacity() * sizeof(CellType) +
+         cell_offsets.capacity() * sizeof(uint64_t) + connectivity.capacity() * sizeof(uint32_t);
+}
+
+void UnstructuredMesh::validate(std::string_view source) const {
+  if (cell_offsets.size() != cell_types.size() + 1 || cell_offsets.front() != 0 ||
+      cell_offsets.back() != connectivity.size()) {
+    fail_in(source, "inconsistent cell arrays: " + std::to_string(cell_types.size()) + " cells, " +
+                        std::to_string(cell_offsets.size()) + " offsets, " + std::to_string(connectivity.size()) +
+                        " indices");
+  }
+  const uint64_t n = points.size();
+  for (uint64_t c = 0; c < cell_types.size(); ++c) {
+    const uint8_t id = uint8_t(cell_types[c]);
+    if (!is_valid_cell_type(id)) fail_in(source, "cell " + std::to_string(c) + " has invalid type " + std::to_string(id));
+    if (cell_offsets[c + 1] < cell_offsets[c] ||
+        cell_offsets[c + 1] - cell_offsets[c] != cell_vertex_count(cell_types[c])) {
+      fail_in(source, "cell " + std::to_string(c) + " (" + std::string(cell_name(cell_types[c])) + ") has " +
+                          std::to_string(int64_t(cell_offsets[c + 1] - cell_offsets[c])) + " vertices, expected " +
+                          std::to_string(cell_vertex_count(cell_types[c])));
+    }
+    for (uint32_t v : cell(c)) {
+      if (v >= n) {
+        fail_in(source, "cell " + std::to_string(c) + " refers to vertex " + std::to_string(v) + " but there are " +
+                            std::to_string(n) + " vertices");
+      }
+    }
+  }
+}
+
+}  // namespace ugvr

@@ -1,0 +1,52 @@
+// VtkCellImporter: the one place where cells listed the VTK way (a VTK type id and point ids per cell) become
+// UnstructuredMesh cells, shared by the XML and legacy VTK readers so both apply the same policy (cell_type.h):
+// linear volume cells are kept, quadratic ones linearised to their corners, VTK_VOXEL reordered to a hexahedron,
+// lower-dimensional cells dropped with one summary warning, anything else refused with the file and cell index.
+// When cells are dropped, cell fields read from the file must go through filter_cell_data() to stay aligned.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "ugvr/grid/data_array.h"
+#include "ugvr/grid/unstructured_mesh.h"
+
+namespace ugvr {
+
+class VtkCellImporter {
+ public:
+  // `source` names the file in messages; `point_count` bounds the point ids.
+  VtkCellImporter(std::string source, uint64_t point_count);
+
+  void reserve(uint64_t cells, uint64_t indices);
+  // Adds the file's cell number `file_cell` (used only in messages). Throws ugvr::Error for unsupported types, a
+  // wrong number of point ids, or ids outside [0, point_count).
+  template <class Id>
+  void add(int vtk_type, std::span<const Id> ids, uint64_t file_cell);
+
+  // Hands the cells to `mesh` (whose points the caller sets) and appends a warning for dropped cells.
+  // Throws if the file had cells but none of them is a volume cell.
+  void finish(UnstructuredMesh& mesh, std::vector<std::string>& warnings);
+
+  bool dropped_any() const { return dropped_ > 0; }
+  uint64_t file_cell_count() const { return file_cells_; }
+  // Cell data from the file (one tuple per file cell) restricted to the kept cells.
+  DataArray filter_cell_data(DataArray data) const;
+
+ private:
+  [[noreturn]] void fail_cell(uint64_t file_cell, const std::string& message) const;
+  void note_kept(uint64_t file_cell);
+
+  std::string source_;
+  uint64_t point_count_;
+  UnstructuredMesh cells_;
+  uint64_t file_cells_ = 0;
+  uint64_t dropped_ = 0;
+  std::array<uint64_t, 128> dropped_by_type_{};
+  std::vector<uint64_t> kept_;  // filled only once something has been dropped
+};
+
+}  // namespace ugvr
