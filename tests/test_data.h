@@ -1,0 +1,45 @@
+// Locating the real datasets of ../shared/data (override with UGVR_DATA). Tests that need one call
+// UGVR_REQUIRE_DATA("blunt-fin/bluntfinxyz.bin"), which reports the test as skipped when the file is absent.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <unistd.h>
+
+namespace ugvr::test {
+
+inline std::string data_dir() {
+  if (const char* env = std::getenv("UGVR_DATA"); env && *env) return env;
+  return std::string(UGVR_SOURCE_DIR) + "/../shared/data";
+}
+
+inline std::string data_path(const std::string& relative) { return data_dir() + "/" + relative; }
+
+// A fresh scratch directory per test, removed when the test ends.
+class ScratchDir {
+ public:
+  ScratchDir() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path_ = std::filesystem::temp_directory_path() /
+            ("ugvr-test-" + std::string(info->test_suite_name()) + "-" + info->name() + "-" +
+             std::to_string(::getpid()));
+    std::filesystem::remove_all(path_);
+    std::filesystem::create_directories(path_);
+  }
+  ~ScratchDir() { std::filesystem::remove_all(path_); }
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  std::filesystem::path path_;
+};
+
+}  // namespace ugvr::test
+
+#define UGVR_REQUIRE_DATA(relative)                                                          \
+  const std::string relative_data_path = ::ugvr::test::data_path(relative);                  \
+  if (!std::filesystem::exists(relative_data_path)) {                                        \
+    GTEST_SKIP() << "dataset not found: " << relative_data_path << " (set UGVR_DATA)";       \
+  }
