@@ -52,4 +52,8 @@ struct UnstructuredMesh {
   bool operator==(const UnstructuredMesh&) const = default;
 };
 
+// Signed volume of a cell from its faces (divergence theorem; a non-planar quadrilateral counts as the surface
+// spanned by its two triangle fans' average). Positive for a cell in VTK's orientation, negative when inverted.
+double cell_volume(const UnstructuredMesh& mesh, uint64_t cell);
+
 }  // namespace ugvr
