@@ -10,6 +10,7 @@ PACKAGES=(
   libtbb-dev                          # oneTBB: parallel topology and (later) rendering
   zlib1g-dev liblz4-dev libzstd-dev   # VTK XML compressors; brick store compression
   libpugixml-dev                      # VTK XML headers
+  libcli11-dev nlohmann-json3-dev     # command line; JSON output and settings files
   python3 python3-matplotlib          # benchmark plots
 )
 

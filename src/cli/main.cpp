@@ -1,2 +1,36 @@
+// ugvr command-line front end: one subcommand per job; each lives in its own cmd_*.cpp and registers here.
+#include <CLI/CLI.hpp>
 #include <cstdio>
-int main() { std::puts("ugvr"); return 0; }
+
+#include "cli/commands.h"
+#include "ugvr/core/error.h"
+#include "ugvr/core/progress.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"ugvr: interactive direct volume rendering of large unstructured grids"};
+  app.set_version_flag("--version", std::string("ugvr ") + UGVR_VERSION);
+  app.require_subcommand(1);
+  bool quiet = false;
+  app.add_flag("-q,--quiet", quiet, "No progress output");
+  app.parse_complete_callback([&] { ugvr::Progress::set_enabled(!quiet); });
+
+  ugvr::cli::register_info(app);
+  ugvr::cli::register_generate(app);
+  ugvr::cli::register_convert(app);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const ugvr::Error& e) {
+    std::fprintf(stderr, "ugvr: error: %s\n", e.what());
+    return 1;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "ugvr: error: out of memory\n");
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "ugvr: internal error: %s\n", e.what());
+    return 2;
+  }
+  return 0;
+}

@@ -1,0 +1,19 @@
+// Subcommand registration. Each register_* adds its subcommand with options and a callback that does the work;
+// callbacks throw ugvr::Error for anything the user can fix.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <string>
+#include <vector>
+
+namespace ugvr::cli {
+
+void register_info(CLI::App& app);
+void register_generate(CLI::App& app);
+void register_convert(CLI::App& app);
+
+// Adds the positional INPUT argument every reading subcommand takes: one file, or a PLOT3D grid file followed by
+// its solution file.
+CLI::Option* add_input(CLI::App& cmd, std::vector<std::string>& inputs);
+
+}  // namespace ugvr::cli
