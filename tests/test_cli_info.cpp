@@ -1,0 +1,181 @@
+// End to end: `ugvr info --json` on every dataset of ../shared/data in a format of the foundation, checked against
+// the counts and ranges published with the data (SOURCE.txt) and in the literature.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "test_data.h"
+
+namespace ugvr {
+namespace {
+
+using nlohmann::json;
+
+struct CommandResult {
+  int status;
+  std::string out;
+};
+
+CommandResult run(const std::string& args) {
+  const std::string cmd = std::string(UGVR_BINARY) + " --quiet " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  std::string out;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) out.append(buf.data(), n);
+  const int status = pclose(p);
+  return {WEXITSTATUS(status), out};
+}
+
+json info(const std::string& files) {
+  const CommandResult r = run("info --json " + files);
+  EXPECT_EQ(r.status, 0) << r.out;
+  try {
+    return json::parse(r.out);
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "not JSON: " << r.out;
+    return json::object();
+  }
+}
+
+const json* field(const json& block, const std::string& name) {
+  for (const json& f : block["fields"]) {
+    if (f["name"] == name) return &f;
+  }
+  return nullptr;
+}
+
+void expect_range(const json& block, const std::string& name, double lo, double hi, double tol) {
+  const json* f = field(block, name);
+  ASSERT_NE(f, nullptr) << "no field " << name;
+  EXPECT_NEAR((*f)["range"][0].get<double>(), lo, tol) << name;
+  EXPECT_NEAR((*f)["range"][1].get<double>(), hi, tol) << name;
+}
+
+void expect_cells(const json& block, uint64_t tet, uint64_t pyr, uint64_t wedge, uint64_t hex) {
+  const json& c = block["cell_types"];
+  EXPECT_EQ(c["tetra"], tet);
+  EXPECT_EQ(c["pyramid"], pyr);
+  EXPECT_EQ(c["wedge"], wedge);
+  EXPECT_EQ(c["hexahedron"], hex);
+}
+
+TEST(CliInfo, BluntFin) {
+  UGVR_REQUIRE_DATA("blunt-fin/bluntfinxyz.bin");
+  const json r = info(relative_data_path + " " + ::ugvr::test::data_path("blunt-fin/bluntfinq.bin"));
+  ASSERT_EQ(r["blocks"].size(), 1u);
+  const json& b = r["blocks"][0];
+  EXPECT_EQ(b["kind"], "curvilinear");
+  EXPECT_EQ(b["dimensions"], json({40, 32, 32}));
+  EXPECT_EQ(r["points"], 40960);
+  EXPECT_EQ(r["cells"], 37479);
+  expect_range(b, "Density", 0.193, 4.98, 0.01);
+  expect_range(b, "Pressure", 0.26, 10.0, 0.05);
+  expect_range(b, "VelocityMagnitude", 0.0, 3.12, 0.02);
+}
+
+TEST(CliInfo, OxygenPostWithIblank) {
+  UGVR_REQUIRE_DATA("lox-post/postxyz.bin");
+  const json r = info(relative_data_path + " " + ::ugvr::test::data_path("lox-post/postq.bin"));
+  const json& b = r["blocks"][0];
+  EXPECT_EQ(b["dimensions"], json({38, 76, 38}));
+  EXPECT_EQ(r["points"], 109744);
+  EXPECT_EQ(r["cells"], 102675);
+  ASSERT_TRUE(b.contains("iblank_blanked_points"));
+  EXPECT_GT(b["iblank_blanked_points"].get<uint64_t>(), 0u);
+  expect_range(b, "Density", 1.0, 1.0, 1e-6);
+}
+
+TEST(CliInfo, KieferBracketQuadraticTets) {
+  UGVR_REQUIRE_DATA("fea-kiefer-bracket/dataset.vtu");
+  const json r = info(relative_data_path);
+  const json& b = r["blocks"][0];
+  EXPECT_EQ(b["kind"], "unstructured");
+  expect_cells(b, 56786, 0, 0, 0);
+  EXPECT_EQ(r["points"], 102578);
+  expect_range(b, "Equivalent (von-Mises) Stress (psi)", 0.014, 23.3, 0.05);
+  EXPECT_EQ(b["inverted_cells"], 0);
+}
+
+TEST(CliInfo, NotchHexAndWedgeBothFormats) {
+  UGVR_REQUIRE_DATA("notch-stress/notch_stress.vtk");
+  const json legacy = info(relative_data_path);
+  expect_cells(legacy["blocks"][0], 0, 0, 4, 2188);
+  EXPECT_EQ(legacy["points"], 12717);
+  const json xml = info(::ugvr::test::data_path("notch-stress/notch_disp.vtu"));
+  expect_cells(xml["blocks"][0], 0, 0, 4, 2188);
+}
+
+TEST(CliInfo, CanHexWithCellField) {
+  UGVR_REQUIRE_DATA("can/can.vtu");
+  const json r = info(relative_data_path);
+  const json& b = r["blocks"][0];
+  expect_cells(b, 0, 0, 0, 4800);
+  EXPECT_EQ(r["points"], 6724);
+  const json* eqps = field(b, "EQPS");
+  ASSERT_NE(eqps, nullptr);
+  EXPECT_EQ((*eqps)["location"], "cell");
+  expect_range(b, "EQPS", 0.0216, 2.89, 0.005);
+  const json* displ = field(b, "DISPL");
+  ASSERT_NE(displ, nullptr);
+  EXPECT_EQ((*displ)["components"], 3);
+}
+
+TEST(CliInfo, OfficeStructuredGrid) {
+  UGVR_REQUIRE_DATA("vtk-office/office.binary.vtk");
+  const json r = info(relative_data_path);
+  const json& b = r["blocks"][0];
+  EXPECT_EQ(b["kind"], "curvilinear");
+  EXPECT_EQ(b["dimensions"], json({21, 20, 20}));
+  EXPECT_EQ(r["cells"], 7220);
+  expect_range(b, "scalars", -3.87, 0.719, 0.01);
+}
+
+TEST(CliInfo, SmallFixtures) {
+  UGVR_REQUIRE_DATA("vtk-small-ugrids/Tetrahedron.vtu");
+  const std::string d = ::ugvr::test::data_path("vtk-small-ugrids/");
+  expect_cells(info(d + "Tetrahedron.vtu")["blocks"][0], 96, 0, 0, 0);
+  expect_cells(info(d + "tetraMesh.vtk")["blocks"][0], 160, 0, 0, 0);
+  expect_cells(info(d + "hexa.vtk")["blocks"][0], 0, 0, 0, 10648);
+  expect_cells(info(d + "AngularSector.vtk")["blocks"][0], 0, 144, 0, 7632);
+  expect_cells(info(d + "a_grid.vtk")["blocks"][0], 4802, 0, 0, 0);
+  const json mixed = info(d + "uGridEx.vtk");
+  expect_cells(mixed["blocks"][0], 2, 0, 0, 2);
+  EXPECT_FALSE(mixed["warnings"].empty()) << "dropped 2-D cells are reported";
+  const json structured = info(d + "SampleStructGrid.vtk");
+  EXPECT_EQ(structured["blocks"][0]["dimensions"], json({20, 30, 40}));
+  expect_cells(info(d + "tetra.vtu")["blocks"][0], 1, 0, 0, 0);
+}
+
+TEST(CliInfo, RejectedInputsNameTheFileAndProblem) {
+  UGVR_REQUIRE_DATA("vtk-small-ugrids/polyhedron2pieces.vtu");
+  const CommandResult poly = run("info " + relative_data_path);
+  EXPECT_EQ(poly.status, 1);
+  EXPECT_NE(poly.out.find("polyhedron2pieces.vtu"), std::string::npos) << poly.out;
+  EXPECT_NE(poly.out.find("POLYHEDRON"), std::string::npos) << poly.out;
+  const CommandResult surface = run("info " + ::ugvr::test::data_path("vtk-small-ugrids/blow.vtk"));
+  EXPECT_EQ(surface.status, 1);
+  EXPECT_NE(surface.out.find("blow.vtk"), std::string::npos) << surface.out;
+}
+
+TEST(CliInfo, TopologyOfARealMesh) {
+  UGVR_REQUIRE_DATA("vtk-small-ugrids/a_grid.vtk");
+  const json r = info("--topology " + relative_data_path);
+  const json& t = r["blocks"][0]["topology"];
+  EXPECT_EQ(t["nonmanifold_faces"], 0);
+  // Every tet face is interior (shared by 2) or boundary: 4 * tets = 2 * interior + boundary.
+  const uint64_t boundary = t["boundary_faces"];
+  EXPECT_GT(boundary, 0u);
+  EXPECT_EQ((4 * 4802 - boundary) % 2, 0u);
+}
+
+TEST(CliInfo, UsageErrors) {
+  EXPECT_NE(run("info").status, 0);
+  EXPECT_NE(run("info /nonexistent/file.vtu").status, 0);
+  EXPECT_NE(run("frobnicate").status, 0);
+}
+
+}  // namespace
+}  // namespace ugvr
