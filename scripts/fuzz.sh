@@ -22,6 +22,29 @@ seed() {  # target, files...
 }
 seed fuzz_vtk_xml "$data"/vtk-small-ugrids/*.vtu
 seed fuzz_vtk_legacy "$data"/vtk-small-ugrids/*.vtk "$data"/vtk-office/*.vtk
+# PLOT3D: the real files are too large as seeds; make small ones in the target's input layout (uint32 grid length,
+# grid file, Q file) for big- and little-endian, C and Fortran layouts, with and without IBLANK.
+/usr/bin/python3 - fuzz-corpus/fuzz_plot3d/seeds <<'PY'
+import os, struct, sys
+out = sys.argv[1]
+os.makedirs(out, exist_ok=True)
+dims = (3, 2, 2)
+n = dims[0] * dims[1] * dims[2]
+for endian in "<>":
+    for fortran in (False, True):
+        for iblank in (False, True):
+            def rec(payload):
+                return struct.pack(endian + "i", len(payload)) + payload + struct.pack(endian + "i", len(payload)) if fortran else payload
+            xyz = struct.pack(endian + "%df" % (3 * n), *[float(i % 7) + 0.5 * (i // n) for i in range(3 * n)])
+            if iblank:
+                xyz += struct.pack(endian + "%di" % n, *[1 if i % 5 else 0 for i in range(n)])
+            grid = rec(struct.pack(endian + "3i", *dims)) + rec(xyz)
+            q = rec(struct.pack(endian + "3i", *dims)) + rec(struct.pack(endian + "4f", 0.5, 0.0, 1e3, 1.0))
+            q += rec(struct.pack(endian + "%df" % (5 * n), *[1.0 + 0.01 * i for i in range(5 * n)]))
+            name = "p3d_%s_%s_%s" % ("be" if endian == ">" else "le", "fortran" if fortran else "c", "iblank" if iblank else "plain")
+            with open(os.path.join(out, name), "wb") as f:
+                f.write(struct.pack("<I", len(grid)) + grid + q)
+PY
 
 status=0
 for bin in build-fuzz/fuzz/fuzz_*; do
