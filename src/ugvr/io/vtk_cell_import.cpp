@@ -24,6 +24,13 @@ template <class Id>
 void VtkCellImporter::add(int vtk_type, std::span<const Id> ids, uint64_t file_cell) {
   ++file_cells_;
   const VtkCellMapping m = map_vtk_cell_type(vtk_type);
+  if (m.kind != VtkCellMapping::Kind::Unsupported && m.expected_points >= 0 && ids.size() > size_t(m.expected_points)) {
+    if (extra_point_cells_++ == 0) {
+      extra_point_example_ = "cell " + std::to_string(file_cell) + ", " + std::string(m.vtk_name) + " with " +
+                             std::to_string(ids.size()) + " points";
+    }
+    ids = ids.first(size_t(m.expected_points));
+  }
   if (m.expected_points >= 0 && ids.size() != size_t(m.expected_points)) {
     fail_cell(file_cell, std::string(m.vtk_name) + " (type " + std::to_string(vtk_type) + ") needs " +
                              std::to_string(m.expected_points) + " points, the file lists " +
@@ -81,6 +88,11 @@ void VtkCellImporter::finish(UnstructuredMesh& mesh, std::vector<std::string>& w
     }
     warnings.push_back(source_ + ": ignored " + std::to_string(dropped_) + " lower-dimensional cell(s) (" + detail +
                        "); their cell data is dropped with them");
+  }
+  if (extra_point_cells_ > 0) {
+    warnings.push_back(source_ + ": " + std::to_string(extra_point_cells_) +
+                       " cell(s) list more points than their type has (first: " + extra_point_example_ +
+                       "); their first (corner) points were used, as VTK's linear cells do");
   }
   mesh.cell_types = std::move(cells_.cell_types);
   mesh.cell_offsets = std::move(cells_.cell_offsets);

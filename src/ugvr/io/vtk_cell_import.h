@@ -3,6 +3,8 @@
 // linear volume cells are kept, quadratic ones linearised to their corners, VTK_VOXEL reordered to a hexahedron,
 // lower-dimensional cells dropped with one summary warning, anything else refused with the file and cell index.
 // When cells are dropped, cell fields read from the file must go through filter_cell_data() to stay aligned.
+// A cell listing more points than its type has (writers that label 20-node hexahedra as VTK_HEXAHEDRON, such as the
+// notch example) keeps its first points, which are the corners, as VTK's linear cells do; one warning counts them.
 #pragma once
 
 #include <array>
@@ -45,6 +47,8 @@ class VtkCellImporter {
   UnstructuredMesh cells_;
   uint64_t file_cells_ = 0;
   uint64_t dropped_ = 0;
+  uint64_t extra_point_cells_ = 0;
+  std::string extra_point_example_;
   std::array<uint64_t, 128> dropped_by_type_{};
   std::vector<uint64_t> kept_;  // filled only once something has been dropped
 };
