@@ -79,7 +79,10 @@ json block_json(const Block& b, const ReportOptions& opts) {
         b.grid);
     j["dimensions"] = d.points;
     if (const auto* s = std::get_if<StructuredGrid>(&b.grid); s && s->has_iblank()) {
-      j["iblank_blanked_points"] = uint64_t(std::count(s->iblank.begin(), s->iblank.end(), 0));
+      // 0 = no data (blanked); negative = overset fringe points interpolated from another block (still in use).
+      j["iblank"] = {{"blanked_points", uint64_t(std::count(s->iblank.begin(), s->iblank.end(), 0))},
+                     {"overset_points", uint64_t(std::count_if(s->iblank.begin(), s->iblank.end(),
+                                                               [](int32_t v) { return v < 0; }))}};
     }
   }
   json fields = json::array();
@@ -147,7 +150,10 @@ std::string format_report_text(const nlohmann::json& r) {
       o << " " << b["dimensions"][0] << " x " << b["dimensions"][1] << " x " << b["dimensions"][2] << " points";
     }
     o << ", " << fmt_count(b["points"]) << " points, " << fmt_count(b["cells"]) << " cells\n";
-    if (b.contains("iblank_blanked_points")) o << "  IBLANK: " << fmt_count(b["iblank_blanked_points"]) << " points blanked\n";
+    if (b.contains("iblank")) {
+      o << "  IBLANK: " << fmt_count(b["iblank"]["blanked_points"]) << " points blanked, "
+        << fmt_count(b["iblank"]["overset_points"]) << " overset fringe points\n";
+    }
     if (b.contains("cell_types")) {
       o << "  cells:";
       for (const char* k : {"tetra", "pyramid", "wedge", "hexahedron"}) {

@@ -13,7 +13,7 @@ struct ReportOptions {
 };
 
 // Keys: format, sources, load_seconds, points, cells, bounds {min, max}, memory_bytes, warnings, blocks[] with
-// name, kind, dimensions (structured: point dims; iblank_blanked points), cell_types {tetra, ...} and
+// name, kind, dimensions (structured: point dims; iblank {blanked_points, overset_points}), cell_types {tetra, ...} and
 // inverted_cells (unstructured), fields[] {name, location, type, components, range: [min, max], nan_count,
 // component_ranges: [[min, max], ...] (vectors)}, topology {boundary_faces, nonmanifold_faces, seconds}.
 nlohmann::json dataset_report(const Dataset& ds, double load_seconds, const ReportOptions& opts = {});
