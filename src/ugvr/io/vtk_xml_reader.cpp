@@ -1,6 +1,1065 @@
-// PLACEHOLDER: being written; replaced by the real reader.
+// VTK XML reader: .vtu, .pvtu, .vts, .vti, .vtr.
+//
+// How a file is read (see vtk_xml_skeleton.h and vtk_xml_array.h for the byte-level layouts):
+//  1. The file is scanned once for its markup (scan_xml_skeleton): tags are kept, array text is replaced by its file
+//     range, and scanning stops at the appended data. pugixml parses only that skeleton.
+//  2. Every array a piece needs is described (type, components, encoding, where its bytes are) and probed: its header
+//     is read and its size checked against the counts of the markup (NumberOfPoints, NumberOfCells, extents) before
+//     anything is allocated. The cell types are counted in a first streaming pass so the mesh is reserved exactly
+//     (quadratic cells keep only their corners; lower-dimensional cells are dropped).
+//  3. Arrays are decoded chunk by chunk straight into their final place: points into the mesh (converted to float32),
+//     fields into their DataArray in the stored type, cells by reading offsets, types and connectivity in lockstep
+//     and handing each cell to VtkCellImporter. No array is ever held whole in another form beside the result.
+//
+// Pieces: the <Piece>s of an UnstructuredGrid (in one .vtu or in the files a .pvtu lists) are concatenated into one
+// mesh, point ids offset by the points of the pieces before; fields are concatenated by name, so every piece must
+// have the same point and cell arrays (same type and components). Pieces of structured files are placed into the
+// WholeExtent by their Extent and must cover it.
+//
+// Fields: PointData becomes vertex fields, CellData cell fields (filtered like the cells when some are dropped).
+// Arrays of a type the model has no place for (String, Bit) are skipped with a warning. VTK's own arrays such as
+// vtkGhostType are ordinary numeric arrays and are kept as fields (a warning says when duplicate ghost cells are
+// present). FieldData (global values) is ignored.
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <pugixml.hpp>
+#include <set>
+#include <string>
+#include <vector>
+
 #include "ugvr/core/error.h"
+#include "ugvr/core/file.h"
+#include "ugvr/core/progress.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/vtk_cell_import.h"
+#include "ugvr/io/vtk_xml_array.h"
+#include "ugvr/io/vtk_xml_skeleton.h"
+
 namespace ugvr {
-Dataset read_vtk_xml(const std::string& path) { fail_in(path, "reader not yet implemented"); }
+
+namespace {
+
+constexpr size_t kChunkValues = size_t(1) << 16;  // cells or ids decoded per step
+constexpr uint64_t kMaxPoints = uint64_t(UINT32_MAX);
+constexpr int kMaxComponents = 1 << 20;
+
+// ---------------------------------------------------------------------------------------------------------------
+// Parsed markup of one file.
+
+struct XmlDoc {
+  std::string path;
+  uint64_t file_size = 0;
+  pugi::xml_document doc;
+  XmlSkeleton skeleton;  // markup released after parsing; origins kept for messages
+  XmlEncoding encoding;
+  pugi::xml_node root;  // <VTKFile>
+  std::string type;     // VTKFile's type attribute
+
+  uint64_t offset(pugi::xml_node n) const {
+    const ptrdiff_t o = n.offset_debug();
+    return o < 0 ? 0 : skeleton.file_offset(uint64_t(o));
+  }
+  [[noreturn]] void fail(pugi::xml_node n, const std::string& message) const {
+    fail_at_offset(path, offset(n), message);
+  }
+};
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\n' || s.front() == '\r'))
+    s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\n' || s.back() == '\r'))
+    s.remove_suffix(1);
+  return s;
+}
+
+template <class T>
+std::optional<T> parse_number(std::string_view s) {
+  s = trim(s);
+  if (s.starts_with('+')) s.remove_prefix(1);
+  T v{};
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (s.empty() || r.ec != std::errc() || r.ptr != s.data() + s.size()) return std::nullopt;
+  return v;
+}
+
+// Whitespace-separated numbers of an attribute; nullopt unless there are exactly `n` of them.
+template <class T>
+std::optional<std::vector<T>> parse_numbers(std::string_view s, size_t n) {
+  std::vector<T> out;
+  size_t i = 0;
+  while (i < s.size()) {
+    while (i < s.size() && std::string_view(" \t\r\n").find(s[i]) != std::string_view::npos) ++i;
+    size_t e = i;
+    while (e < s.size() && std::string_view(" \t\r\n").find(s[e]) == std::string_view::npos) ++e;
+    if (e > i) {
+      const auto v = parse_number<T>(s.substr(i, e - i));
+      if (!v || out.size() == n) return std::nullopt;
+      out.push_back(*v);
+    }
+    i = e;
+  }
+  if (out.size() != n) return std::nullopt;
+  return out;
+}
+
+std::string element_name(pugi::xml_node n) { return "<" + std::string(n.name()) + ">"; }
+
+uint64_t count_attribute(const XmlDoc& d, pugi::xml_node n, const char* name) {
+  const pugi::xml_attribute a = n.attribute(name);
+  if (a.empty()) d.fail(n, element_name(n) + " has no " + name + " attribute");
+  const auto v = parse_number<uint64_t>(a.value());
+  if (!v) {
+    d.fail(n, element_name(n) + " attribute " + name + "=\"" + std::string(a.value()).substr(0, 40) +
+                  "\" is not a non-negative integer");
+  }
+  return *v;
+}
+
+XmlEncoding parse_encoding(const XmlDoc& d) {
+  XmlEncoding e;
+  const std::string order = d.root.attribute("byte_order").value();
+  if (order == "BigEndian")
+    e.big_endian = true;
+  else if (!order.empty() && order != "LittleEndian")
+    d.fail(d.root, "byte_order=\"" + order.substr(0, 40) + "\" is neither LittleEndian nor BigEndian");
+  const std::string header = d.root.attribute("header_type").value();
+  if (header == "UInt64")
+    e.header_uint64 = true;
+  else if (!header.empty() && header != "UInt32")
+    d.fail(d.root, "header_type=\"" + header.substr(0, 40) + "\" is neither UInt32 nor UInt64");
+  const std::string compressor = d.root.attribute("compressor").value();
+  if (compressor == "vtkZLibDataCompressor")
+    e.codec = Codec::Zlib;
+  else if (compressor == "vtkLZ4DataCompressor")
+    e.codec = Codec::Lz4;
+  else if (!compressor.empty())
+    d.fail(d.root, "compressor \"" + compressor.substr(0, 60) +
+                       "\" is not supported (vtkZLibDataCompressor and vtkLZ4DataCompressor are)");
+  if (const pugi::xml_node app = d.root.child("AppendedData")) {
+    const std::string enc = app.attribute("encoding").value();
+    if (enc == "base64")
+      e.appended_base64 = true;
+    else if (!enc.empty() && enc != "raw")
+      d.fail(app, "<AppendedData> encoding=\"" + enc.substr(0, 40) + "\" is neither raw nor base64");
+    e.appended_data = d.skeleton.appended_data;
+  }
+  return e;
+}
+
+std::unique_ptr<XmlDoc> load_doc(const std::string& path) {
+  auto d = std::make_unique<XmlDoc>();
+  d->path = path;
+  {
+    const InputFile file(path);
+    d->file_size = file.size();
+    d->skeleton = scan_xml_skeleton(file);
+  }
+  const pugi::xml_parse_result r = d->doc.load_buffer(d->skeleton.markup.data(), d->skeleton.markup.size(),
+                                                      pugi::parse_default | pugi::parse_pi, pugi::encoding_utf8);
+  if (!r) {
+    fail_at_offset(path, d->skeleton.file_offset(uint64_t(std::max<ptrdiff_t>(r.offset, 0))),
+                   std::string("malformed XML: ") + r.description());
+  }
+  std::string().swap(d->skeleton.markup);
+  d->root = d->doc.child("VTKFile");
+  if (!d->root) fail_in(path, "no <VTKFile> root element: not a VTK XML file");
+  d->type = d->root.attribute("type").value();
+  d->encoding = parse_encoding(*d);
+  return d;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Describing arrays.
+
+// Why an array was not described: its type has no place in the model (skipped with a warning), or it is malformed.
+struct Unsupported {
+  std::string reason;
+};
+
+std::variant<XmlArray, Unsupported> describe_array(const XmlDoc& d, pugi::xml_node n, const std::string& label) {
+  XmlArray a;
+  a.element_offset = d.offset(n);
+  a.name = n.attribute("Name").value();
+  a.label = label;
+  const std::string type = n.attribute("type").value();
+  const auto st = parse_scalar_type(type);
+  if (!st) return Unsupported{"type \"" + type.substr(0, 40) + "\""};
+  a.type = *st;
+  if (const pugi::xml_attribute c = n.attribute("NumberOfComponents")) {
+    const auto v = parse_number<int64_t>(c.value());
+    if (!v || *v < 1 || *v > kMaxComponents) {
+      d.fail(n, label + ": NumberOfComponents=\"" + std::string(c.value()).substr(0, 40) + "\" is not in 1.." +
+                    std::to_string(kMaxComponents));
+    }
+    a.components = int(*v);
+  }
+  const std::string format = n.attribute("format").value();
+  if (format == "appended") {
+    a.format = XmlArrayFormat::Appended;
+    if (!d.encoding.appended_data) d.fail(n, label + ": format=\"appended\" but the file has no <AppendedData>");
+    const uint64_t off = count_attribute(d, n, "offset");
+    const uint64_t start = *d.encoding.appended_data;
+    if (off > d.file_size - std::min(start, d.file_size)) {
+      d.fail(n, label + ": offset " + std::to_string(off) +
+                    " points past the end of the file (appended data starts at byte " + std::to_string(start) +
+                    ", the file has " + std::to_string(d.file_size) + " bytes)");
+    }
+    a.begin = start + off;
+    a.end = d.file_size;
+    return a;
+  }
+  if (format == "ascii")
+    a.format = XmlArrayFormat::Ascii;
+  else if (format == "binary")
+    a.format = XmlArrayFormat::Binary;
+  else
+    d.fail(n, label + ": format=\"" + format.substr(0, 40) + "\" is not ascii, binary or appended");
+  // The element's text was replaced by a marker with its file range; no marker means no text.
+  a.begin = a.end = a.element_offset;
+  int markers = 0;
+  for (pugi::xml_node c : n.children()) {
+    if (c.type() != pugi::node_pi || std::string_view(c.name()) != kXmlTextMarker) continue;
+    const auto range = parse_numbers<uint64_t>(c.value(), 2);
+    if (!range || ++markers > 1) d.fail(n, label + ": data text interrupted by child elements");
+    a.begin = (*range)[0];
+    a.end = (*range)[0] + (*range)[1];
+  }
+  return a;
+}
+
+// The first <DataArray> child (Points, Coordinates) or the one with the given Name (Cells).
+pugi::xml_node data_array(pugi::xml_node parent, std::string_view name = {}) {
+  for (pugi::xml_node c : parent.children("DataArray")) {
+    if (name.empty() || name == c.attribute("Name").value()) return c;
+  }
+  return {};
+}
+
+XmlArray required_array(const XmlDoc& d, pugi::xml_node n, const std::string& label) {
+  auto v = describe_array(d, n, label);
+  if (auto* u = std::get_if<Unsupported>(&v)) d.fail(n, label + ": unsupported " + u->reason);
+  return std::get<XmlArray>(std::move(v));
+}
+
+struct FieldSpec {
+  std::string name;
+  Association association;
+  ScalarType type;
+  int components;
+  bool operator==(const FieldSpec&) const = default;
+};
+
+// The arrays of a <PointData> or <CellData> element. Unnamed arrays are named "array<k>"; arrays of unsupported
+// types and repeated names are skipped with a warning.
+std::vector<XmlArray> field_arrays(const XmlDoc& d, pugi::xml_node parent, Association assoc,
+                                   const std::string& piece_label, std::vector<std::string>& warnings) {
+  std::vector<XmlArray> out;
+  if (!parent) return out;
+  const std::string where = piece_label + (assoc == Association::Vertex ? "<PointData>" : "<CellData>");
+  std::set<std::string> names;
+  int k = 0;
+  for (pugi::xml_node n : parent.children("DataArray")) {
+    std::string name = n.attribute("Name").value();
+    if (name.empty()) name = "array" + std::to_string(k);
+    ++k;
+    const std::string label = where + " DataArray '" + name + "'";
+    auto v = describe_array(d, n, label);
+    if (auto* u = std::get_if<Unsupported>(&v)) {
+      warnings.push_back(base_name(d.path) + ": " + label + " skipped: " + u->reason + " is not a numeric type");
+      continue;
+    }
+    if (!names.insert(name).second) {
+      warnings.push_back(base_name(d.path) + ": " + label + " skipped: a field of that name was read already");
+      continue;
+    }
+    XmlArray a = std::get<XmlArray>(std::move(v));
+    a.name = name;
+    out.push_back(std::move(a));
+  }
+  return out;
+}
+
+// Pieces agree on their fields: the same names with the same type and components, in any order.
+void check_same_fields(const XmlDoc& d, pugi::xml_node piece, const std::vector<FieldSpec>& expected,
+                       const std::vector<XmlArray>& got, Association assoc, const std::string& piece_label) {
+  const std::string kind = assoc == Association::Vertex ? "point" : "cell";
+  for (const XmlArray& a : got) {
+    const auto it = std::find_if(expected.begin(), expected.end(),
+                                 [&](const FieldSpec& s) { return s.name == a.name && s.association == assoc; });
+    if (it == expected.end()) {
+      d.fail(piece, piece_label + "has " + kind + " array '" + a.name + "' which the first piece does not have");
+    }
+    if (it->type != a.type || it->components != a.components) {
+      d.fail(piece, piece_label + kind + " array '" + a.name + "' is " + std::string(scalar_type_name(a.type)) + " x " +
+                        std::to_string(a.components) + " but " + std::string(scalar_type_name(it->type)) + " x " +
+                        std::to_string(it->components) + " in the first piece");
+    }
+  }
+  for (const FieldSpec& s : expected) {
+    if (s.association != assoc) continue;
+    if (std::none_of(got.begin(), got.end(), [&](const XmlArray& a) { return a.name == s.name; })) {
+      d.fail(piece, piece_label + "lacks " + kind + " array '" + s.name + "' which the first piece has");
+    }
+  }
+}
+
+std::string tuples_text(uint64_t tuples, int components, const char* what) {
+  return std::string(what) + "=" + std::to_string(tuples) + " x " + std::to_string(components) + " components";
+}
+
+uint64_t checked_product(uint64_t a, uint64_t b, const XmlDoc& d, pugi::xml_node n) {
+  if (b != 0 && a > UINT64_MAX / b) d.fail(n, "array size overflows 64 bits");
+  return a * b;
+}
+
+// Reads the next `tuples` tuples of `reader` into data's tuples [first, first + tuples), in the stored type.
+void read_field_slice(XmlArrayReader& reader, DataArray& data, uint64_t first, uint64_t tuples) {
+  const uint64_t nc = uint64_t(data.components());
+  data.visit([&](auto values) { reader.read_native(values.subspan(size_t(first * nc), size_t(tuples * nc))); });
+}
+
+DataArray make_field_data(const FieldSpec& s, uint64_t tuples) { return DataArray(s.type, s.components, tuples); }
+
+// ---------------------------------------------------------------------------------------------------------------
+// UnstructuredGrid (.vtu, .pvtu)
+
+struct UgPiece {
+  size_t doc = 0;
+  pugi::xml_node node;
+  std::string label;  // "Piece 2 " in files with several pieces, else ""
+  uint64_t points = 0, cells = 0;
+  std::optional<XmlArray> points_array, connectivity, offsets, types;
+  std::vector<XmlArray> point_data, cell_data;
+
+  bool empty() const { return points == 0 && cells == 0; }
+};
+
+UgPiece describe_ug_piece(const XmlDoc& d, size_t doc_index, pugi::xml_node piece, const std::string& label,
+                          std::vector<std::string>& warnings) {
+  UgPiece p;
+  p.doc = doc_index;
+  p.node = piece;
+  p.label = label;
+  p.points = count_attribute(d, piece, "NumberOfPoints");
+  p.cells = count_attribute(d, piece, "NumberOfCells");
+  if (p.points > 0) {
+    const pugi::xml_node pa = data_array(piece.child("Points"));
+    if (!pa) d.fail(piece, label + "<Piece> has " + std::to_string(p.points) + " points but no <Points> DataArray");
+    p.points_array = required_array(d, pa, label + "<Points> DataArray");
+    if (p.points_array->components != 3) {
+      d.fail(pa, label + "<Points> DataArray has " + std::to_string(p.points_array->components) +
+                     " components, expected 3");
+    }
+  }
+  if (p.cells > 0) {
+    const pugi::xml_node cells = piece.child("Cells");
+    for (const char* name : {"connectivity", "offsets", "types"}) {
+      const pugi::xml_node n = data_array(cells, name);
+      if (!n) d.fail(piece, label + "<Cells> has no DataArray named '" + name + "'");
+      XmlArray a = required_array(d, n, label + "<Cells> DataArray '" + name + "'");
+      if (a.type == ScalarType::Float32 || a.type == ScalarType::Float64) {
+        d.fail(n, a.label + " must hold integers, not " + std::string(scalar_type_name(a.type)));
+      }
+      if (a.components != 1) d.fail(n, a.label + " must have 1 component");
+      const std::string_view which = name;
+      if (which == "connectivity")
+        p.connectivity = std::move(a);
+      else if (which == "offsets")
+        p.offsets = std::move(a);
+      else
+        p.types = std::move(a);
+    }
+  }
+  p.point_data = field_arrays(d, piece.child("PointData"), Association::Vertex, label, warnings);
+  p.cell_data = field_arrays(d, piece.child("CellData"), Association::Cell, label, warnings);
+  return p;
+}
+
+struct KeptCounts {
+  uint64_t cells = 0, indices = 0;
+};
+
+int clamp_cell_type(int64_t t) { return int(std::clamp<int64_t>(t, INT32_MIN, INT32_MAX)); }
+
+// Streams the types array once to count the cells and corner indices the mesh will keep.
+void count_kept_cells(XmlArrayReader& types, uint64_t cells, KeptCounts& kept) {
+  std::vector<int64_t> buf(size_t(std::min<uint64_t>(cells, kChunkValues)));
+  for (uint64_t c = 0; c < cells;) {
+    const size_t n = size_t(std::min<uint64_t>(kChunkValues, cells - c));
+    types.read(std::span(buf.data(), n));
+    for (size_t i = 0; i < n; ++i) {
+      const VtkCellMapping m = map_vtk_cell_type(clamp_cell_type(buf[i]));
+      if (m.kind == VtkCellMapping::Kind::Keep) {
+        ++kept.cells;
+        kept.indices += m.corner_count;
+      }
+    }
+    c += n;
+  }
+}
+
+// A window over the connectivity array: hands out each cell's ids as one contiguous span, reading ahead in chunks
+// (up to the count the array's header gives; ascii arrays exactly what is asked).
+class IdWindow {
+ public:
+  static constexpr size_t kCapacity = kChunkValues;
+
+  explicit IdWindow(XmlArrayReader& reader)
+      : reader_(reader),
+        total_(reader.value_count()),
+        buf_(size_t(std::min<uint64_t>(kCapacity, total_ ? *total_ : 64))) {}
+
+  // `count` is at most kCapacity.
+  std::span<const int64_t> take(size_t count) {
+    if (len_ - pos_ < count) {
+      const size_t rest = len_ - pos_;
+      std::copy(buf_.begin() + ptrdiff_t(pos_), buf_.begin() + ptrdiff_t(len_), buf_.begin());
+      if (buf_.size() < count) buf_.resize(count);
+      size_t want = count - rest;
+      if (total_) want = size_t(std::min<uint64_t>(buf_.size() - rest, *total_ - read_));
+      if (want < count - rest) reader_.fail("connectivity ends before the cells the offsets describe");
+      reader_.read(std::span(buf_.data() + rest, want));
+      read_ += want;
+      pos_ = 0;
+      len_ = rest + want;
+    }
+    const std::span<const int64_t> ids(buf_.data() + pos_, count);
+    pos_ += count;
+    return ids;
+  }
+
+  // Passes over `count` ids nobody looks at (a huge polygon or poly-vertex that is dropped anyway).
+  void skip(uint64_t count) {
+    const uint64_t buffered = std::min<uint64_t>(count, len_ - pos_);
+    pos_ += size_t(buffered);
+    count -= buffered;
+    if (total_ && count > *total_ - read_) reader_.fail("connectivity ends before the cells the offsets describe");
+    reader_.skip(count);
+    read_ += count;
+  }
+
+ private:
+  XmlArrayReader& reader_;
+  std::optional<uint64_t> total_;
+  uint64_t read_ = 0;
+  std::vector<int64_t> buf_;
+  size_t pos_ = 0, len_ = 0;
+};
+
+// Reads one piece's cells into the importer. `point_base` is the index of the piece's first point in the mesh.
+void read_ug_cells(const InputFile& file, const XmlDoc& d, const UgPiece& p, VtkCellImporter& importer,
+                   uint64_t point_base, uint64_t cell_base, bool offset_ids, Progress& progress) {
+  XmlArrayReader offsets(file, d.encoding, *p.offsets);
+  XmlArrayReader types(file, d.encoding, *p.types);
+  XmlArrayReader conn(file, d.encoding, *p.connectivity);
+  offsets.expect_count(p.cells, "NumberOfCells=" + std::to_string(p.cells));
+  types.expect_count(p.cells, "NumberOfCells=" + std::to_string(p.cells));
+  const std::optional<uint64_t> conn_total = conn.value_count();
+  IdWindow window(conn);
+  const size_t chunk = size_t(std::min<uint64_t>(p.cells, kChunkValues));
+  std::vector<int64_t> off_buf(chunk), type_buf(chunk);
+  std::array<int64_t, 32> shifted{};
+  uint64_t prev = 0;
+  for (uint64_t c0 = 0; c0 < p.cells;) {
+    const size_t n = size_t(std::min<uint64_t>(kChunkValues, p.cells - c0));
+    offsets.read(std::span(off_buf.data(), n));
+    types.read(std::span(type_buf.data(), n));
+    for (size_t i = 0; i < n; ++i) {
+      const uint64_t c = c0 + i;
+      const int64_t end = off_buf[i];
+      if (end < 0 || uint64_t(end) < prev) {
+        offsets.fail("offset " + std::to_string(end) + " of cell " + std::to_string(c) +
+                     " is smaller than the previous offset " + std::to_string(prev));
+      }
+      if (conn_total && uint64_t(end) > *conn_total) {
+        offsets.fail("offset " + std::to_string(end) + " of cell " + std::to_string(c) +
+                     " is beyond the connectivity array's " + std::to_string(*conn_total) + " ids");
+      }
+      const uint64_t count = uint64_t(end) - prev;
+      prev = uint64_t(end);
+      const int type = clamp_cell_type(type_buf[i]);
+      const VtkCellMapping m = map_vtk_cell_type(type);
+      if (count > IdWindow::kCapacity) {
+        // Only a variable-size lower-dimensional cell can be this long legitimately; it is dropped unseen.
+        if (m.kind == VtkCellMapping::Kind::Unsupported) importer.add(type, std::span<const int64_t>(), cell_base + c);
+        if (m.kind == VtkCellMapping::Kind::Keep || m.expected_points >= 0) {
+          offsets.fail("cell " + std::to_string(c) + " (" + std::string(m.vtk_name) + ") lists " +
+                       std::to_string(count) + " point ids");
+        }
+        window.skip(count);
+        importer.add(type, std::span<const int64_t>(), cell_base + c);
+        continue;
+      }
+      std::span<const int64_t> ids = window.take(size_t(count));
+      if (offset_ids && m.kind == VtkCellMapping::Kind::Keep && ids.size() == size_t(m.expected_points)) {
+        // Ids index the piece's own points; the mesh holds all pieces' points one after the other.
+        for (size_t k = 0; k < ids.size(); ++k) {
+          if (ids[k] < 0 || uint64_t(ids[k]) >= p.points) {
+            conn.fail("cell " + std::to_string(c) + ": point id " + std::to_string(ids[k]) + " is outside [0, " +
+                      std::to_string(p.points) + ") of its piece");
+          }
+          shifted[k] = ids[k] + int64_t(point_base);
+        }
+        ids = std::span<const int64_t>(shifted.data(), ids.size());
+      }
+      importer.add(type, ids, cell_base + c);
+    }
+    c0 += n;
+    progress.add(n);
+  }
+  if (conn_total && prev != *conn_total) {
+    conn.fail("holds " + std::to_string(*conn_total) + " ids but the offsets use " + std::to_string(prev));
+  }
+  offsets.finish();
+  types.finish();
+  conn.finish();
+}
+
+std::vector<FieldSpec> field_specs(const UgPiece& p) {
+  std::vector<FieldSpec> s;
+  for (const XmlArray& a : p.point_data) s.push_back({a.name, Association::Vertex, a.type, a.components});
+  for (const XmlArray& a : p.cell_data) s.push_back({a.name, Association::Cell, a.type, a.components});
+  return s;
+}
+
+const XmlArray& find_field(const std::vector<XmlArray>& point_data, const std::vector<XmlArray>& cell_data,
+                           const FieldSpec& s) {
+  const auto& list = s.association == Association::Vertex ? point_data : cell_data;
+  return *std::find_if(list.begin(), list.end(), [&](const XmlArray& a) { return a.name == s.name; });
+}
+
+void warn_ghost_cells(const Block& block, const std::string& source, std::vector<std::string>& warnings) {
+  const Field* ghost = block.fields.find("vtkGhostType", Association::Cell);
+  if (!ghost || ghost->data().type() != ScalarType::UInt8) return;
+  const auto v = ghost->data().values<uint8_t>();
+  // vtkDataSetAttributes::DUPLICATECELL = 1: a copy of a cell owned by another piece.
+  const auto dup = std::count_if(v.begin(), v.end(), [](uint8_t g) { return (g & 1) != 0; });
+  if (dup > 0) {
+    warnings.push_back(source + ": " + std::to_string(dup) +
+                       " duplicate ghost cells kept (marked in cell field vtkGhostType)");
+  }
+}
+
+Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<XmlDoc>> docs, std::string format,
+                          const std::vector<FieldSpec>& declared, pugi::xml_node declared_at, const XmlDoc* pdoc) {
+  Dataset ds;
+  ds.format = std::move(format);
+  ds.sources.push_back(path);
+  for (const auto& d : docs) {
+    if (d->path != path) ds.sources.push_back(d->path);
+  }
+
+  // Describe every piece of every file.
+  std::vector<UgPiece> pieces;
+  for (size_t di = 0; di < docs.size(); ++di) {
+    const XmlDoc& d = *docs[di];
+    if (d.type != "UnstructuredGrid") {
+      fail_in(d.path, "VTKFile type \"" + d.type.substr(0, 40) + "\", expected UnstructuredGrid");
+    }
+    const pugi::xml_node grid = d.root.child("UnstructuredGrid");
+    if (!grid) d.fail(d.root, "no <UnstructuredGrid> element");
+    const size_t count = size_t(std::distance(grid.children("Piece").begin(), grid.children("Piece").end()));
+    size_t k = 0;
+    for (pugi::xml_node piece : grid.children("Piece")) {
+      const std::string label = count > 1 ? "Piece " + std::to_string(k) + " " : "";
+      pieces.push_back(describe_ug_piece(d, di, piece, label, ds.warnings));
+      ++k;
+    }
+  }
+
+  // Fields: those of the first piece with data; every other non-empty piece must agree.
+  std::vector<FieldSpec> specs;
+  const auto first = std::find_if(pieces.begin(), pieces.end(), [](const UgPiece& p) { return !p.empty(); });
+  if (first != pieces.end()) specs = field_specs(*first);
+  for (const UgPiece& p : pieces) {
+    if (p.empty()) continue;
+    check_same_fields(*docs[p.doc], p.node, specs, p.point_data, Association::Vertex, p.label);
+    check_same_fields(*docs[p.doc], p.node, specs, p.cell_data, Association::Cell, p.label);
+  }
+  for (const FieldSpec& s : declared) {
+    const auto it = std::find_if(specs.begin(), specs.end(), [&](const FieldSpec& f) {
+      return f.name == s.name && f.association == s.association;
+    });
+    if (first != pieces.end() && (it == specs.end() || it->type != s.type || it->components != s.components)) {
+      pdoc->fail(declared_at, std::string(s.association == Association::Vertex ? "point" : "cell") + " array '" +
+                                  s.name + "' declared as " + std::string(scalar_type_name(s.type)) + " x " +
+                                  std::to_string(s.components) + " is not in the pieces as declared");
+    }
+  }
+
+  // Probe every array's size and count the kept cells before allocating anything.
+  uint64_t total_points = 0, total_cells = 0;
+  KeptCounts kept;
+  for (size_t di = 0; di < docs.size(); ++di) {
+    const XmlDoc& d = *docs[di];
+    const InputFile file(d.path);
+    for (const UgPiece& p : pieces) {
+      if (p.doc != di || p.empty()) continue;
+      if (p.points_array) {
+        XmlArrayReader(file, d.encoding, *p.points_array)
+            .expect_count(checked_product(p.points, 3, d, p.node), tuples_text(p.points, 3, "NumberOfPoints"));
+      }
+      for (const XmlArray& a : p.point_data) {
+        XmlArrayReader(file, d.encoding, a)
+            .expect_count(checked_product(p.points, uint64_t(a.components), d, p.node),
+                          tuples_text(p.points, a.components, "NumberOfPoints"));
+      }
+      for (const XmlArray& a : p.cell_data) {
+        XmlArrayReader(file, d.encoding, a)
+            .expect_count(checked_product(p.cells, uint64_t(a.components), d, p.node),
+                          tuples_text(p.cells, a.components, "NumberOfCells"));
+      }
+      if (p.cells > 0) {
+        XmlArrayReader types(file, d.encoding, *p.types);
+        types.expect_count(p.cells, "NumberOfCells=" + std::to_string(p.cells));
+        count_kept_cells(types, p.cells, kept);
+      }
+      total_points += p.points;
+      total_cells += p.cells;
+      if (total_points > kMaxPoints) {
+        d.fail(p.node, "more than 2^32-1 points in total; ugvr meshes index vertices with 32 bits");
+      }
+    }
+  }
+
+  // Allocate the result at its final size, then read every piece into place.
+  UnstructuredMesh mesh;
+  mesh.points.resize(size_t(total_points));
+  VtkCellImporter importer(base_name(path), total_points);
+  importer.reserve(kept.cells, kept.indices);
+  std::vector<DataArray> field_data;
+  for (const FieldSpec& s : specs) {
+    field_data.push_back(make_field_data(s, s.association == Association::Vertex ? total_points : total_cells));
+  }
+  const bool several = pieces.size() > 1;
+  uint64_t point_base = 0, cell_base = 0;
+  Progress progress("reading " + base_name(path), total_points + total_cells);
+  for (size_t di = 0; di < docs.size(); ++di) {
+    const XmlDoc& d = *docs[di];
+    const InputFile file(d.path);
+    for (const UgPiece& p : pieces) {
+      if (p.doc != di || p.empty()) continue;
+      if (p.points > 0) {
+        XmlArrayReader r(file, d.encoding, *p.points_array);
+        r.expect_count(p.points * 3, tuples_text(p.points, 3, "NumberOfPoints"));
+        float* xyz = &mesh.points[size_t(point_base)].x;
+        r.read(std::span<float>(xyz, size_t(p.points * 3)));
+        r.finish();
+        progress.add(p.points);
+      }
+      if (p.cells > 0) read_ug_cells(file, d, p, importer, point_base, cell_base, several, progress);
+      for (size_t f = 0; f < specs.size(); ++f) {
+        const bool vertex = specs[f].association == Association::Vertex;
+        XmlArrayReader r(file, d.encoding, find_field(p.point_data, p.cell_data, specs[f]));
+        const uint64_t tuples = vertex ? p.points : p.cells;
+        r.expect_count(tuples * uint64_t(specs[f].components),
+                       tuples_text(tuples, specs[f].components, vertex ? "NumberOfPoints" : "NumberOfCells"));
+        read_field_slice(r, field_data[f], vertex ? point_base : cell_base, tuples);
+        r.finish();
+      }
+      point_base += p.points;
+      cell_base += p.cells;
+    }
+  }
+
+  progress.finish();
+  importer.finish(mesh, ds.warnings);
+  Block block;
+  for (size_t f = 0; f < specs.size(); ++f) {
+    DataArray data = std::move(field_data[f]);
+    if (specs[f].association == Association::Cell) data = importer.filter_cell_data(std::move(data));
+    block.fields.add(Field(specs[f].name, specs[f].association, std::move(data)));
+  }
+  mesh.validate(base_name(path));
+  block.grid = std::move(mesh);
+  block.validate_fields(base_name(path));
+  warn_ghost_cells(block, base_name(path), ds.warnings);
+  ds.blocks.push_back(std::move(block));
+  return ds;
+}
+
+// The arrays a .pvtu declares in <PPointData> / <PCellData>.
+std::vector<FieldSpec> declared_fields(const XmlDoc& d, pugi::xml_node grid) {
+  std::vector<FieldSpec> out;
+  for (const auto& [tag, assoc] :
+       {std::pair{"PPointData", Association::Vertex}, std::pair{"PCellData", Association::Cell}}) {
+    int k = 0;
+    for (pugi::xml_node n : grid.child(tag).children("PDataArray")) {
+      std::string name = n.attribute("Name").value();
+      if (name.empty()) name = "array" + std::to_string(k);
+      ++k;
+      const auto type = parse_scalar_type(n.attribute("type").value());
+      if (!type) continue;  // skipped in the pieces too
+      int components = 1;
+      if (const pugi::xml_attribute c = n.attribute("NumberOfComponents")) {
+        const auto v = parse_number<int64_t>(c.value());
+        if (!v || *v < 1 || *v > kMaxComponents) d.fail(n, "<PDataArray> has a bad NumberOfComponents");
+        components = int(*v);
+      }
+      out.push_back({name, assoc, *type, components});
+    }
+  }
+  return out;
+}
+
+Dataset read_pvtu(std::unique_ptr<XmlDoc> pdoc) {
+  const pugi::xml_node grid = pdoc->root.child("PUnstructuredGrid");
+  if (!grid) pdoc->fail(pdoc->root, "no <PUnstructuredGrid> element");
+  std::vector<std::unique_ptr<XmlDoc>> docs;
+  for (pugi::xml_node piece : grid.children("Piece")) {
+    const std::string source = piece.attribute("Source").value();
+    if (source.empty()) pdoc->fail(piece, "<Piece> has no Source attribute");
+    // Sources are relative to the .pvtu's directory.
+    const std::string piece_path = source.front() == '/' ? source : dir_name(pdoc->path) + source;
+    docs.push_back(load_doc(piece_path));
+  }
+  if (docs.empty()) pdoc->fail(grid, "<PUnstructuredGrid> lists no <Piece Source=...>");
+  const std::vector<FieldSpec> declared = declared_fields(*pdoc, grid);
+  return read_unstructured(pdoc->path, std::move(docs), "VTK XML PUnstructuredGrid (.pvtu)", declared, grid,
+                           pdoc.get());
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Structured grids (.vts, .vti, .vtr)
+
+// Inclusive point index ranges [lo, hi] per axis, as in VTK's Extent attributes.
+struct Extent {
+  std::array<int64_t, 3> lo{}, hi{};
+
+  uint64_t points(int axis) const { return uint64_t(hi[axis] - lo[axis]) + 1; }
+  uint64_t point_count() const { return points(0) * points(1) * points(2); }
+  uint64_t cells(int axis) const { return uint64_t(hi[axis] - lo[axis]); }
+  uint64_t cell_count() const { return cells(0) * cells(1) * cells(2); }
+  bool operator==(const Extent&) const = default;
+};
+
+Extent parse_extent(const XmlDoc& d, pugi::xml_node n, const char* name) {
+  const pugi::xml_attribute a = n.attribute(name);
+  if (a.empty()) d.fail(n, element_name(n) + " has no " + name + " attribute");
+  const auto v = parse_numbers<int64_t>(a.value(), 6);
+  Extent e;
+  bool ok = v.has_value();
+  for (int i = 0; ok && i < 3; ++i) {
+    e.lo[i] = (*v)[size_t(2 * i)];
+    e.hi[i] = (*v)[size_t(2 * i + 1)];
+    // Bounded so sizes and index arithmetic cannot overflow.
+    ok = e.lo[i] >= -(int64_t(1) << 40) && e.hi[i] < (int64_t(1) << 40) && e.hi[i] >= e.lo[i] &&
+         e.hi[i] - e.lo[i] < int64_t(kMaxPoints);
+  }
+  if (!ok) {
+    d.fail(n, element_name(n) + " " + name + "=\"" + std::string(a.value()).substr(0, 80) +
+                  "\" is not six integers x0 x1 y0 y1 z0 z1 with x0 <= x1 < x0 + 2^32 (and so on)");
+  }
+  return e;
+}
+
+bool inside(const Extent& inner, const Extent& outer) {
+  for (int i = 0; i < 3; ++i) {
+    if (inner.lo[i] < outer.lo[i] || inner.hi[i] > outer.hi[i]) return false;
+  }
+  return true;
+}
+
+// Calls run(first_tuple, tuple_count) in order for the runs of consecutive tuples (i fastest) that a piece's
+// values occupy in the whole grid; rows that follow each other in the whole grid are merged into one run.
+void for_each_run(const Extent& piece, const Extent& whole, bool cells,
+                  const std::function<void(uint64_t, uint64_t)>& run) {
+  std::array<uint64_t, 3> n{}, wn{}, off{};
+  for (int i = 0; i < 3; ++i) {
+    n[i] = cells ? piece.cells(i) : piece.points(i);
+    wn[i] = cells ? whole.cells(i) : whole.points(i);
+    off[i] = uint64_t(piece.lo[i] - whole.lo[i]);
+  }
+  if (n[0] == 0 || n[1] == 0 || n[2] == 0) return;
+  uint64_t start = 0, length = 0;
+  for (uint64_t k = 0; k < n[2]; ++k) {
+    for (uint64_t j = 0; j < n[1]; ++j) {
+      const uint64_t first = off[0] + wn[0] * ((off[1] + j) + wn[1] * (off[2] + k));
+      if (length > 0 && first == start + length) {
+        length += n[0];
+        continue;
+      }
+      if (length > 0) run(start, length);
+      start = first;
+      length = n[0];
+    }
+  }
+  if (length > 0) run(start, length);
+}
+
+// Tracks which tuples of the whole grid the pieces' extents cover, when there are several pieces. Only used for
+// arrays the pieces really hold, so its size is backed by data in the file.
+class Coverage {
+ public:
+  Coverage(uint64_t size, bool active) : seen_(active ? size_t(size) : 0) {}
+  bool active() const { return !seen_.empty(); }
+  void mark(uint64_t first, uint64_t count) {
+    std::fill(seen_.begin() + ptrdiff_t(first), seen_.begin() + ptrdiff_t(first + count), true);
+  }
+  bool complete() const {
+    return std::all_of(seen_.begin(), seen_.end(), [](bool b) { return b; });
+  }
+
+ private:
+  std::vector<bool> seen_;
+};
+
+enum class StructuredKind { Curvilinear, Image, Rectilinear };
+
+struct StPiece {
+  pugi::xml_node node;
+  std::string label;
+  Extent extent;
+  uint64_t points = 0, cells = 0;  // cells: 0 unless the grid is 3-D
+  std::optional<XmlArray> points_array;
+  std::array<std::optional<XmlArray>, 3> coords;
+  std::vector<XmlArray> point_data, cell_data;
+};
+
+ImageGrid parse_image_geometry(const XmlDoc& d, pugi::xml_node image, const Extent& whole) {
+  ImageGrid g;
+  std::array<double, 3> origin{0, 0, 0}, spacing{1, 1, 1};
+  for (const auto& [attr, dst] : {std::pair{"Origin", &origin}, std::pair{"Spacing", &spacing}}) {
+    if (const pugi::xml_attribute a = image.attribute(attr)) {
+      const auto v = parse_numbers<double>(a.value(), 3);
+      if (!v || !std::all_of(v->begin(), v->end(), [](double x) { return std::isfinite(x); })) {
+        d.fail(image, std::string("<ImageData> ") + attr + "=\"" + std::string(a.value()).substr(0, 80) +
+                          "\" is not three finite numbers");
+      }
+      std::copy(v->begin(), v->end(), dst->begin());
+    }
+  }
+  for (int i = 0; i < 3; ++i) {
+    if (!(spacing[size_t(i)] > 0) && whole.points(i) > 1) {
+      d.fail(image, "<ImageData> Spacing must be positive along every axis with more than one point");
+    }
+  }
+  if (const pugi::xml_attribute a = image.attribute("Direction")) {
+    const auto v = parse_numbers<double>(a.value(), 9);
+    const std::array<double, 9> identity{1, 0, 0, 0, 1, 0, 0, 0, 1};
+    if (!v || !std::equal(v->begin(), v->end(), identity.begin())) {
+      d.fail(image, "<ImageData> Direction=\"" + std::string(a.value()).substr(0, 80) +
+                        "\" is not the identity; rotated images are not supported (resample to an axis-aligned grid)");
+    }
+  }
+  // VTK places point (i, j, k) of the extent at Origin + (i, j, k) * Spacing; ugvr counts from the extent's corner.
+  g.origin = {origin[0] + double(whole.lo[0]) * spacing[0], origin[1] + double(whole.lo[1]) * spacing[1],
+              origin[2] + double(whole.lo[2]) * spacing[2]};
+  g.spacing = {spacing[0], spacing[1], spacing[2]};
+  return g;
+}
+
+// Point count of an extent, refused above 2^48 so that counts times components stay far from overflow.
+uint64_t checked_point_count(const XmlDoc& d, pugi::xml_node n, const Extent& e) {
+  const uint64_t a = e.points(0), b = e.points(1), c = e.points(2);
+  constexpr uint64_t kMax = uint64_t(1) << 48;
+  if (a * b > kMax || c > kMax / (a * b)) d.fail(n, element_name(n) + " extent has more than 2^48 points");
+  return a * b * c;
+}
+
+StPiece describe_st_piece(const XmlDoc& d, pugi::xml_node pn, StructuredKind kind, const std::string& label,
+                          bool volume, std::vector<std::string>& warnings) {
+  StPiece p;
+  p.node = pn;
+  p.label = label;
+  p.extent = parse_extent(d, pn, "Extent");
+  p.points = checked_point_count(d, pn, p.extent);
+  p.cells = volume ? p.extent.cell_count() : 0;
+  if (kind == StructuredKind::Curvilinear) {
+    const pugi::xml_node pa = data_array(pn.child("Points"));
+    if (!pa) d.fail(pn, label + "<Piece> has no <Points> DataArray");
+    p.points_array = required_array(d, pa, label + "<Points> DataArray");
+    if (p.points_array->components != 3) d.fail(pa, label + "<Points> DataArray must have 3 components");
+  } else if (kind == StructuredKind::Rectilinear) {
+    int axis = 0;
+    for (pugi::xml_node a : pn.child("Coordinates").children("DataArray")) {
+      if (axis == 3) break;
+      p.coords[size_t(axis)] = required_array(d, a, label + "<Coordinates> DataArray " + std::to_string(axis));
+      if (p.coords[size_t(axis)]->components != 1) d.fail(a, "<Coordinates> arrays must have 1 component");
+      ++axis;
+    }
+    if (axis != 3) d.fail(pn, label + "<Coordinates> must hold three DataArrays (x, y, z)");
+  }
+  p.point_data = field_arrays(d, pn.child("PointData"), Association::Vertex, label, warnings);
+  p.cell_data = field_arrays(d, pn.child("CellData"), Association::Cell, label, warnings);
+  return p;
+}
+
+// Opens the reader of a structured piece's field and checks its size.
+std::unique_ptr<XmlArrayReader> open_st_field(const InputFile& file, const XmlDoc& d, const StPiece& p,
+                                              const FieldSpec& s) {
+  auto r = std::make_unique<XmlArrayReader>(file, d.encoding, find_field(p.point_data, p.cell_data, s));
+  const bool vertex = s.association == Association::Vertex;
+  r->expect_count(checked_product(vertex ? p.points : p.cells, uint64_t(s.components), d, p.node),
+                  tuples_text(vertex ? p.points : p.cells, s.components, vertex ? "Extent points" : "Extent cells"));
+  return r;
+}
+
+Dataset read_structured(std::unique_ptr<XmlDoc> doc, StructuredKind kind) {
+  const XmlDoc& d = *doc;
+  const char* tag = kind == StructuredKind::Curvilinear ? "StructuredGrid"
+                    : kind == StructuredKind::Image     ? "ImageData"
+                                                        : "RectilinearGrid";
+  Dataset ds;
+  ds.format = kind == StructuredKind::Curvilinear ? "VTK XML StructuredGrid (.vts)"
+              : kind == StructuredKind::Image     ? "VTK XML ImageData (.vti)"
+                                                  : "VTK XML RectilinearGrid (.vtr)";
+  ds.sources.push_back(d.path);
+  const pugi::xml_node grid = d.root.child(tag);
+  if (!grid) d.fail(d.root, std::string("no <") + tag + "> element");
+  const Extent whole = parse_extent(d, grid, "WholeExtent");
+  const uint64_t whole_points = checked_point_count(d, grid, whole);
+  GridDims dims;
+  for (int i = 0; i < 3; ++i) dims.points[size_t(i)] = uint32_t(whole.points(i));
+  // ugvr's structured grids have cells only when they are 3-D; VTK's 2-D cells carry no volume.
+  const bool volume = whole.points(0) > 1 && whole.points(1) > 1 && whole.points(2) > 1;
+
+  std::vector<StPiece> pieces;
+  const size_t count = size_t(std::distance(grid.children("Piece").begin(), grid.children("Piece").end()));
+  for (pugi::xml_node pn : grid.children("Piece")) {
+    const std::string label = count > 1 ? "Piece " + std::to_string(pieces.size()) + " " : "";
+    pieces.push_back(describe_st_piece(d, pn, kind, label, volume, ds.warnings));
+    if (!inside(pieces.back().extent, whole)) d.fail(pn, label + "<Piece> Extent is outside the WholeExtent");
+  }
+  if (pieces.empty()) d.fail(grid, std::string("<") + tag + "> has no <Piece>");
+  if (pieces.size() == 1 && !(pieces[0].extent == whole)) {
+    d.fail(pieces[0].node, "the only <Piece>'s Extent does not cover the WholeExtent");
+  }
+
+  std::vector<FieldSpec> specs;
+  for (const XmlArray& a : pieces[0].point_data) specs.push_back({a.name, Association::Vertex, a.type, a.components});
+  for (const XmlArray& a : pieces[0].cell_data) specs.push_back({a.name, Association::Cell, a.type, a.components});
+  for (const StPiece& p : pieces) {
+    check_same_fields(d, p.node, specs, p.point_data, Association::Vertex, p.label);
+    check_same_fields(d, p.node, specs, p.cell_data, Association::Cell, p.label);
+  }
+  const auto is_cell = [](const FieldSpec& s) { return s.association == Association::Cell; };
+  if (!volume && std::any_of(specs.begin(), specs.end(), is_cell)) {
+    ds.warnings.push_back(base_name(d.path) + ": cell data ignored: the grid is not 3-D, so it has no volume cells");
+    std::erase_if(specs, is_cell);
+  }
+
+  // Probe every array before allocating; the pieces' data must add up to at least the whole grid.
+  const InputFile file(d.path);
+  uint64_t piece_points = 0, piece_cells = 0;
+  for (const StPiece& p : pieces) {
+    if (p.points_array) {
+      XmlArrayReader(file, d.encoding, *p.points_array)
+          .expect_count(p.points * 3, tuples_text(p.points, 3, "Extent points"));
+    }
+    for (int i = 0; i < 3; ++i) {
+      if (p.coords[size_t(i)]) {
+        XmlArrayReader(file, d.encoding, *p.coords[size_t(i)])
+            .expect_count(p.extent.points(i), "the Extent's points along axis " + std::to_string(i));
+      }
+    }
+    for (const FieldSpec& s : specs) open_st_field(file, d, p, s);
+    piece_points += p.points;
+    piece_cells += p.cells;
+  }
+  if (piece_points < whole_points || (volume && piece_cells < dims.cell_count())) {
+    d.fail(grid, "the pieces' Extents do not cover the WholeExtent");
+  }
+
+  // Coverage is checked for what is read: points (positions or point fields), cells, rectilinear axes.
+  const bool several = pieces.size() > 1;
+  const bool point_arrays = kind == StructuredKind::Curvilinear || !std::all_of(specs.begin(), specs.end(), is_cell);
+  const bool cell_arrays = std::any_of(specs.begin(), specs.end(), is_cell);
+  Coverage point_cover(whole_points, several && point_arrays), cell_cover(dims.cell_count(), several && cell_arrays);
+  std::array<Coverage, 3> axis_cover{Coverage(dims.points[0], several && kind == StructuredKind::Rectilinear),
+                                     Coverage(dims.points[1], several && kind == StructuredKind::Rectilinear),
+                                     Coverage(dims.points[2], several && kind == StructuredKind::Rectilinear)};
+
+  StructuredGrid sgrid;
+  RectilinearGrid rgrid;
+  sgrid.dims = rgrid.dims = dims;
+  if (kind == StructuredKind::Curvilinear) sgrid.points.resize(size_t(whole_points));
+  if (kind == StructuredKind::Rectilinear) {
+    for (int i = 0; i < 3; ++i) rgrid.coords[size_t(i)].resize(dims.points[size_t(i)]);
+  }
+  std::vector<DataArray> field_data;
+  for (const FieldSpec& s : specs) {
+    field_data.push_back(make_field_data(s, s.association == Association::Vertex ? whole_points : dims.cell_count()));
+  }
+
+  for (const StPiece& p : pieces) {
+    if (point_cover.active()) {
+      for_each_run(p.extent, whole, false, [&](uint64_t first, uint64_t n) { point_cover.mark(first, n); });
+    }
+    if (cell_cover.active()) {
+      for_each_run(p.extent, whole, true, [&](uint64_t first, uint64_t n) { cell_cover.mark(first, n); });
+    }
+    if (p.points_array) {
+      XmlArrayReader r(file, d.encoding, *p.points_array);
+      r.expect_count(p.points * 3, tuples_text(p.points, 3, "Extent points"));
+      for_each_run(p.extent, whole, false, [&](uint64_t first, uint64_t n) {
+        r.read(std::span<float>(&sgrid.points[size_t(first)].x, size_t(n * 3)));
+      });
+      r.finish();
+    }
+    for (int i = 0; i < 3; ++i) {
+      if (!p.coords[size_t(i)]) continue;
+      XmlArrayReader r(file, d.encoding, *p.coords[size_t(i)]);
+      r.expect_count(p.extent.points(i), "the Extent's points along axis " + std::to_string(i));
+      const uint64_t first = uint64_t(p.extent.lo[i] - whole.lo[i]);
+      r.read(std::span<double>(rgrid.coords[size_t(i)].data() + first, size_t(p.extent.points(i))));
+      if (axis_cover[size_t(i)].active()) axis_cover[size_t(i)].mark(first, p.extent.points(i));
+      r.finish();
+    }
+    for (size_t f = 0; f < specs.size(); ++f) {
+      const auto r = open_st_field(file, d, p, specs[f]);
+      for_each_run(p.extent, whole, specs[f].association == Association::Cell,
+                   [&](uint64_t first, uint64_t n) { read_field_slice(*r, field_data[f], first, n); });
+      r->finish();
+    }
+  }
+  bool covered = point_cover.complete() && cell_cover.complete();
+  for (const Coverage& c : axis_cover) covered = covered && c.complete();
+  if (!covered) d.fail(grid, "the pieces' Extents leave parts of the WholeExtent without data");
+
+  Block block;
+  switch (kind) {
+    case StructuredKind::Curvilinear: block.grid = std::move(sgrid); break;
+    case StructuredKind::Rectilinear: block.grid = std::move(rgrid); break;
+    case StructuredKind::Image: {
+      ImageGrid g = parse_image_geometry(d, grid, whole);
+      g.dims = dims;
+      block.grid = g;
+      break;
+    }
+  }
+  for (size_t f = 0; f < specs.size(); ++f) {
+    block.fields.add(Field(specs[f].name, specs[f].association, std::move(field_data[f])));
+  }
+  block.validate_fields(base_name(d.path));
+  ds.blocks.push_back(std::move(block));
+  return ds;
+}
+
+}  // namespace
+
+Dataset read_vtk_xml(const std::string& path) {
+  std::unique_ptr<XmlDoc> doc = load_doc(path);
+  const std::string type = doc->type;
+  if (type == "UnstructuredGrid") {
+    std::vector<std::unique_ptr<XmlDoc>> docs;
+    docs.push_back(std::move(doc));
+    return read_unstructured(path, std::move(docs), "VTK XML UnstructuredGrid (.vtu)", {}, {}, nullptr);
+  }
+  if (type == "PUnstructuredGrid") return read_pvtu(std::move(doc));
+  if (type == "StructuredGrid") return read_structured(std::move(doc), StructuredKind::Curvilinear);
+  if (type == "ImageData") return read_structured(std::move(doc), StructuredKind::Image);
+  if (type == "RectilinearGrid") return read_structured(std::move(doc), StructuredKind::Rectilinear);
+  if (type == "PStructuredGrid" || type == "PImageData" || type == "PRectilinearGrid") {
+    fail_in(path, "parallel structured VTK files (" + type + ") are not supported; read one piece file instead");
+  }
+  fail_in(path, "VTKFile type \"" + type.substr(0, 40) +
+                    "\" is not supported: ugvr reads UnstructuredGrid (.vtu, .pvtu), StructuredGrid (.vts), "
+                    "ImageData (.vti) and RectilinearGrid (.vtr)");
+}
+
 }  // namespace ugvr
