@@ -13,21 +13,9 @@ namespace {
 
 using nlohmann::json;
 
-struct CommandResult {
-  int status;
-  std::string out;
-};
+using test::CommandResult;
 
-CommandResult run(const std::string& args) {
-  const std::string cmd = std::string(UGVR_BINARY) + " --quiet " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) out.append(buf.data(), n);
-  const int status = pclose(p);
-  return {WEXITSTATUS(status), out};
-}
+CommandResult run(const std::string& args) { return test::run_ugvr(args); }
 
 json info(const std::string& files) {
   const CommandResult r = run("info --json " + files);

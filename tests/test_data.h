@@ -1,9 +1,12 @@
-// Locating the real datasets of ../shared/data (override with UGVR_DATA). Tests that need one call
+// Test support. Locating the real datasets of ../shared/data (override with UGVR_DATA). Tests that need one call
 // UGVR_REQUIRE_DATA("blunt-fin/bluntfinxyz.bin"), which reports the test as skipped when the file is absent.
 #pragma once
 
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -17,6 +20,23 @@ inline std::string data_dir() {
 }
 
 inline std::string data_path(const std::string& relative) { return data_dir() + "/" + relative; }
+
+// Runs the ugvr binary with `args` (stderr merged into the output); returns its exit status and output.
+struct CommandResult {
+  int status;
+  std::string out;
+};
+inline CommandResult run_ugvr(const std::string& args) {
+  const std::string cmd = std::string(UGVR_BINARY) + " --quiet " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return {-1, "popen failed"};
+  std::string out;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
+  const int status = pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
 
 // A fresh scratch directory per test, removed when the test ends.
 class ScratchDir {

@@ -68,22 +68,12 @@ INSTANTIATE_TEST_SUITE_P(
                       std::vector<std::string>{"lox-post/postxyz.bin", "lox-post/postq.bin"}));
 
 // The CLI path: generate -> info, convert -> info.
-std::pair<int, std::string> run(const std::string& args) {
-  const std::string cmd = std::string(UGVR_BINARY) + " --quiet " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) out.append(buf.data(), n);
-  return {WEXITSTATUS(pclose(p)), out};
-}
-
 TEST(CliGenerate, MixedDatasetDescribesItself) {
   test::ScratchDir dir;
   const std::string out = dir.file("demo.vtu");
-  auto [status, text] = run("generate --cells 20000 --kind mixed -o " + out);
+  auto [status, text] = test::run_ugvr("generate --cells 20000 --kind mixed -o " + out);
   ASSERT_EQ(status, 0) << text;
-  auto [s2, json_text] = run("info --json --topology " + out);
+  auto [s2, json_text] = test::run_ugvr("info --json --topology " + out);
   ASSERT_EQ(s2, 0) << json_text;
   const auto r = nlohmann::json::parse(json_text);
   const auto& b = r["blocks"][0];
@@ -99,18 +89,18 @@ TEST(CliConvert, PlotThreeDToVtu) {
   test::ScratchDir dir;
   const std::string out = dir.file("fin.vtu");
   auto [status, text] =
-      run("convert --compress lz4 " + relative_data_path + " " + test::data_path("blunt-fin/bluntfinq.bin") + " " + out);
+      test::run_ugvr("convert --compress lz4 " + relative_data_path + " " + test::data_path("blunt-fin/bluntfinq.bin") + " " + out);
   ASSERT_EQ(status, 0) << text;
-  auto [s2, json_text] = run("info --json " + out);
+  auto [s2, json_text] = test::run_ugvr("info --json " + out);
   ASSERT_EQ(s2, 0) << json_text;
   const auto r = nlohmann::json::parse(json_text);
   EXPECT_EQ(r["blocks"][0]["cell_types"]["hexahedron"], 37479);
   EXPECT_EQ(r["points"], 40960);
   // Refuses a non-.vtu output and leaves nothing behind on a failed read.
-  auto [s3, t3] = run("convert " + relative_data_path + " " + dir.file("x.vts"));
+  auto [s3, t3] = test::run_ugvr("convert " + relative_data_path + " " + dir.file("x.vts"));
   EXPECT_NE(s3, 0);
   EXPECT_NE(t3.find(".vtu"), std::string::npos) << t3;
-  auto [s4, t4] = run("convert " + test::data_path("vtk-small-ugrids/blow.vtk") + " " + dir.file("blow.vtu"));
+  auto [s4, t4] = test::run_ugvr("convert " + test::data_path("vtk-small-ugrids/blow.vtk") + " " + dir.file("blow.vtu"));
   EXPECT_NE(s4, 0);
   EXPECT_FALSE(std::filesystem::exists(dir.file("blow.vtu")));
 }
