@@ -4,7 +4,9 @@
 #  1. .vtu load of a generated 10M-tet file: seconds, MB/s, cells/s, peak RSS / in-memory dataset (5 runs);
 #     with python3-vtk9 installed, VTK's own reader on the same file in turn (peer).
 #  2. Face-topology build for 10M tets: the generated file and a randomly renumbered synthetic mesh.
-#  3. `ugvr generate` of 100M cells (hex and mixed): time and peak RSS (/usr/bin/time -v), file deleted after.
+#  3. `ugvr generate` of 1M, 10M, 100M hexahedra and 100M mixed cells: time and peak RSS (/usr/bin/time -v); the
+#     files are deleted after each run.
+# Then bench/plot_foundation.py draws docs/img/bench-foundation.png from the newest session in the results.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
@@ -25,12 +27,14 @@ done
 log "$("$build/bench/bench_topology" 0 "$tet")"
 log "$("$build/bench/bench_topology" 10000000)"
 
-for kind in hex mixed; do
-  f="$scratch/gen100m-$kind.vtu"
-  /usr/bin/time -v "$build/ugvr" --quiet generate --cells 100000000 --kind "$kind" -o "$f" >"$scratch/gen.out" 2>"$scratch/gen.time"
+for run in hex:1000000 hex:10000000 hex:100000000 mixed:100000000; do
+  kind=${run%%:*} cells=${run#*:}
+  f="$scratch/gen-$kind-$cells.vtu"
+  /usr/bin/time -v "$build/ugvr" --quiet generate --cells "$cells" --kind "$kind" -o "$f" >"$scratch/gen.out" 2>"$scratch/gen.time"
   rss_kb=$(awk -F': ' '/Maximum resident set size/ {print $2}' "$scratch/gen.time")
   wall=$(awk -F': ' '/Elapsed \(wall clock\)/ {print $2}' "$scratch/gen.time")
   bytes=$(stat -c %s "$f")
-  log "{\"bench\":\"generate\",\"kind\":\"$kind\",\"summary\":\"$(tr -d '\n' <"$scratch/gen.out")\",\"wall\":\"$wall\",\"file_bytes\":$bytes,\"peak_rss_bytes\":$((rss_kb * 1024))}"
+  log "{\"bench\":\"generate\",\"kind\":\"$kind\",\"target_cells\":$cells,\"summary\":\"$(tr -d '\n' <"$scratch/gen.out")\",\"wall\":\"$wall\",\"file_bytes\":$bytes,\"peak_rss_bytes\":$((rss_kb * 1024))}"
   rm -f "$f"
 done
+/usr/bin/python3 bench/plot_foundation.py "$out" docs/img/bench-foundation.png || echo "(plot skipped: needs python3-matplotlib)"

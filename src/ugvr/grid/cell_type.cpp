@@ -1,8 +1,12 @@
 #include "ugvr/grid/cell_type.h"
 
+#include <array>
+
 namespace ugvr {
 
-VtkCellMapping map_vtk_cell_type(int vtk_type) {
+namespace {
+
+VtkCellMapping compute_mapping(int vtk_type) {
   using K = VtkCellMapping::Kind;
   auto keep = [](CellType t, int corners, int points, std::string_view name, bool voxel = false) {
     return VtkCellMapping{K::Keep, t, uint8_t(corners), int16_t(points), voxel, name};
@@ -63,6 +67,19 @@ VtkCellMapping map_vtk_cell_type(int vtk_type) {
     case 81: return unsupported("VTK_BEZIER_PYRAMID");
     default: return unsupported("unknown cell type");
   }
+}
+
+}  // namespace
+
+// Readers call this once per cell of the file, so the switch above is evaluated once per id into a table.
+VtkCellMapping map_vtk_cell_type(int vtk_type) {
+  static const auto table = [] {
+    std::array<VtkCellMapping, 128> t{};
+    for (int i = 0; i < 128; ++i) t[size_t(i)] = compute_mapping(i);
+    return t;
+  }();
+  if (vtk_type < 0 || vtk_type >= 128) return compute_mapping(-1);
+  return table[size_t(vtk_type)];
 }
 
 }  // namespace ugvr
