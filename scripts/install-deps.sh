@@ -11,6 +11,7 @@ PACKAGES=(
   zlib1g-dev liblz4-dev libzstd-dev   # VTK XML compressors; brick store compression
   libpugixml-dev                      # VTK XML headers
   libcli11-dev nlohmann-json3-dev     # command line; JSON output and settings files
+  libnetcdf-dev                       # Exodus II files are netCDF
   python3 python3-matplotlib          # benchmark plots
 )
 

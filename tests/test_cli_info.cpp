@@ -169,3 +169,28 @@ TEST(CliInfo, UsageErrors) {
 
 }  // namespace
 }  // namespace ugvr
+
+namespace ugvr {
+namespace {
+
+TEST(CliInfo, RawVolumeLayoutFromTheCommandLine) {
+  test::ScratchDir dir;
+  const std::string path = dir.file("v.raw");
+  std::vector<uint16_t> values(4 * 5 * 6);
+  for (size_t i = 0; i < values.size(); ++i) values[i] = uint16_t(i);
+  FILE* f = std::fopen(path.c_str(), "wb");
+  ASSERT_EQ(std::fwrite(values.data(), 2, values.size(), f), values.size());
+  std::fclose(f);
+  const json r = info("--raw-dims 4 5 6 --raw-type uint16 --raw-spacing 1 2 3 " + path);
+  const json& b = r["blocks"][0];
+  EXPECT_EQ(b["kind"], "uniform");
+  EXPECT_EQ(b["dimensions"], json({4, 5, 6}));
+  EXPECT_EQ(r["bounds"]["max"], json({3.0, 8.0, 15.0}));
+  expect_range(b, "values", 0, 119, 0);
+  const test::CommandResult wrong = run("info --raw-dims 4 5 7 --raw-type uint16 " + path);
+  EXPECT_EQ(wrong.status, 1);
+  EXPECT_NE(wrong.out.find("v.raw"), std::string::npos) << wrong.out;
+}
+
+}  // namespace
+}  // namespace ugvr

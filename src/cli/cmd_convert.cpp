@@ -16,6 +16,7 @@ void register_convert(CLI::App& app) {
     std::vector<std::string> args;
     VtuWriteOptions write;
     std::string compress;
+    ReadOptions read;
   };
   auto opts = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -24,13 +25,14 @@ void register_convert(CLI::App& app) {
       ->required()
       ->expected(2, 3);
   add_compress_option(*cmd, opts->compress);
+  add_read_options(*cmd, opts->read);
   cmd->callback([opts] {
     opts->write.codec = parse_codec_name(opts->compress);
     std::vector<std::string> inputs(opts->args.begin(), opts->args.end() - 1);
     const std::string& output = opts->args.back();
     if (extension_lower(output) != ".vtu") throw Error(output + ": the output must be a .vtu file");
     const auto t0 = std::chrono::steady_clock::now();
-    const Dataset ds = read_dataset(inputs);
+    const Dataset ds = read_dataset(inputs, opts->read);
     for (const std::string& w : ds.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     const uint64_t bytes = write_vtu(ds, output, opts->write);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -1,8 +1,12 @@
 // Reading any supported input. A dataset is named by one path, or for PLOT3D by its grid file and then its solution
 // file ("ugvr info bluntfinxyz.bin bluntfinq.bin"). The format is recognised from the file contents first (XML
-// header, legacy VTK banner) and the extension second; PLOT3D has no signature and is recognised by its sizes.
+// header, legacy VTK banner, netCDF/HDF5 magic, NRRD magic, Gmsh $MeshFormat) and the extension second; PLOT3D and
+// raw volumes have no signature and are recognised by extension and sizes.
 #pragma once
 
+#include <array>
+#include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -11,15 +15,54 @@
 
 namespace ugvr {
 
-enum class InputFormat { VtkXml, VtkLegacy, Plot3d };
+enum class InputFormat {
+  VtkXml,
+  VtkLegacy,
+  Plot3d,
+  AvsUcd,     // .inp
+  OffTets,    // .off (tetrahedral OFF of the HAVS / Bunyk / ZSweep samples)
+  Ugrid,      // fun3d .ugrid (.ugrid ASCII, .b8/.lb8/.b4/.lb4/.r8/.lr8 ... binary)
+  Gmsh,       // .msh 2.2 / 4.1
+  TetGen,     // .node + .ele
+  Exodus,     // .e .ex2 .exo (netCDF)
+  Nastran,    // .nas .bdf
+  RawVolume,  // .raw (layout given in RawVolumeOptions)
+  Nrrd,       // .nrrd / .nhdr
+};
+
+// Layout of a headerless raw voxel volume (dims, type and spacing come from the command line).
+struct RawVolumeOptions {
+  std::array<uint32_t, 3> dims{0, 0, 0};
+  std::string type = "float32";  // int8 uint8 int16 uint16 int32 uint32 float32 float64
+  std::array<double, 3> spacing{1, 1, 1};
+  std::array<double, 3> origin{0, 0, 0};
+  bool big_endian = false;
+  uint64_t header_bytes = 0;  // bytes to skip at the start of the file
+};
+
+struct ReadOptions {
+  // Exodus: the time step whose variables are read (0-based); -1 = the last one.
+  int64_t time_step = -1;
+  RawVolumeOptions raw;
+};
 
 InputFormat detect_format(std::span<const std::string> paths);
-Dataset read_dataset(std::span<const std::string> paths);
+Dataset read_dataset(std::span<const std::string> paths, const ReadOptions& options = {});
 
 // The per-format entry points (each validates its input fully and throws ugvr::Error with file and offset/line).
 Dataset read_vtk_xml(const std::string& path);
 Dataset read_vtk_legacy(const std::string& path);
 // `q_path` may be empty (geometry only).
 Dataset read_plot3d(const std::string& xyz_path, const std::string& q_path);
+Dataset read_avs_ucd(const std::string& path);
+Dataset read_off_tets(const std::string& path);
+Dataset read_ugrid(const std::string& path);
+Dataset read_gmsh(const std::string& path);
+// Either the .node or the .ele file; the other is found beside it.
+Dataset read_tetgen(const std::string& path);
+Dataset read_exodus(const std::string& path, int64_t time_step);
+Dataset read_nastran(const std::string& path);
+Dataset read_raw_volume(const std::string& path, const RawVolumeOptions& options);
+Dataset read_nrrd(const std::string& path);
 
 }  // namespace ugvr
