@@ -107,3 +107,25 @@ TEST(CliConvert, PlotThreeDToVtu) {
 
 }  // namespace
 }  // namespace ugvr
+
+namespace ugvr {
+namespace {
+
+TEST(CliRefine, OneLevelMultipliesCellsByEight) {
+  test::ScratchDir dir;
+  const std::string in = dir.file("small.vtu"), out = dir.file("fine.vtu");
+  ASSERT_EQ(test::run_ugvr("generate --cells 2000 --kind tet -o " + in).status, 0);
+  const auto before = nlohmann::json::parse(test::run_ugvr("info --json " + in).out);
+  const test::CommandResult r = test::run_ugvr("refine " + in + " -o " + out + " --levels 1");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const test::CommandResult info = test::run_ugvr("info --json --topology " + out);
+  ASSERT_EQ(info.status, 0) << info.out;
+  const auto after = nlohmann::json::parse(info.out);
+  EXPECT_EQ(after["cells"].get<uint64_t>(), 8 * before["cells"].get<uint64_t>());
+  EXPECT_EQ(after["blocks"][0]["inverted_cells"], 0);
+  EXPECT_EQ(after["blocks"][0]["topology"]["nonmanifold_faces"], 0);
+  EXPECT_NE(test::run_ugvr("refine " + in + " -o " + out + " --levels 9").status, 0);
+}
+
+}  // namespace
+}  // namespace ugvr

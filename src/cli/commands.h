@@ -6,14 +6,19 @@
 #include <string>
 #include <vector>
 
+#include "ugvr/io/reader.h"
+
 namespace ugvr::cli {
 
 void register_info(CLI::App& app);
 void register_generate(CLI::App& app);
 void register_convert(CLI::App& app);
+void register_refine(CLI::App& app);
 
 // Adds the positional INPUT argument every reading subcommand takes: one file, or a PLOT3D grid file followed by
 // its solution file.
 CLI::Option* add_input(CLI::App& cmd, std::vector<std::string>& inputs);
+// Adds the reading options: --time-step (Exodus) and the --raw-* layout of headerless voxel volumes.
+void add_read_options(CLI::App& cmd, ReadOptions& options);
 
 }  // namespace ugvr::cli

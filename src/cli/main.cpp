@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   ugvr::cli::register_info(app);
   ugvr::cli::register_generate(app);
   ugvr::cli::register_convert(app);
+  ugvr::cli::register_refine(app);
 
   try {
     app.parse(argc, argv);
