@@ -161,6 +161,34 @@ TEST(CliInfo, TopologyOfARealMesh) {
   EXPECT_EQ((4 * 4802 - boundary) % 2, 0u);
 }
 
+// The formats of issue 8, through the command line.
+TEST(CliInfo, FieldFormats) {
+  UGVR_REQUIRE_DATA("spx/spx.inp");
+  const json spx = info(relative_data_path);
+  expect_cells(spx["blocks"][0], 12936, 0, 0, 0);
+  EXPECT_EQ(spx["points"], 2896);
+  expect_range(spx["blocks"][0], "density", 0.2, 1.0, 1e-6);
+  const json z88 = info(test::data_path("z88-piston-tets/b21_lin_g.nas"));
+  expect_cells(z88["blocks"][0], 278577, 0, 0, 0);
+  EXPECT_EQ(z88["points"], 57184);
+  EXPECT_EQ(z88["blocks"][0]["inverted_cells"], 0);
+  const json disk = info(test::data_path("disk-out-ref/disk_out_ref.ex2"));
+  expect_cells(disk["blocks"][0], 0, 0, 0, 7472);
+  size_t vertex_fields = 0;
+  for (const json& f : disk["blocks"][0]["fields"]) vertex_fields += f["location"] == "vertex";
+  EXPECT_EQ(vertex_fields, 7u);
+  expect_range(disk["blocks"][0], "Temp", 293.15, 913.15, 0.01);
+  expect_cells(info(test::data_path("exodus-misc/mug.e"))["blocks"][0], 0, 0, 0, 1716 + 760);
+  expect_cells(info(test::data_path("exodus-misc/box-noglom.ex2"))["blocks"][0], 40, 0, 0, 0);
+  const json fs8 = info(test::data_path("exodus-misc/mesh_fs8.exo"));
+  expect_cells(fs8["blocks"][0], 0, 0, 336 + 336 + 672, 0);
+  EXPECT_EQ(fs8["blocks"][0]["inverted_cells"], 0);
+  const json first = info("--time-step 0 " + test::data_path("exodus-misc/mug.e"));
+  EXPECT_NE(first["format"].get<std::string>(), info(test::data_path("exodus-misc/mug.e"))["format"].get<std::string>())
+      << "the chosen time step is part of the format line";
+  EXPECT_NE(run("info --time-step 21 " + test::data_path("exodus-misc/mug.e")).status, 0);
+}
+
 TEST(CliInfo, UsageErrors) {
   EXPECT_NE(run("info").status, 0);
   EXPECT_NE(run("info /nonexistent/file.vtu").status, 0);

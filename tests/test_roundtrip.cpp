@@ -65,7 +65,13 @@ INSTANTIATE_TEST_SUITE_P(
                       std::vector<std::string>{"vtk-office/office.binary.vtk"},
                       std::vector<std::string>{"vtk-small-ugrids/SampleStructGrid.vtk"},
                       std::vector<std::string>{"blunt-fin/bluntfinxyz.bin", "blunt-fin/bluntfinq.bin"},
-                      std::vector<std::string>{"lox-post/postxyz.bin", "lox-post/postq.bin"}));
+                      std::vector<std::string>{"lox-post/postxyz.bin", "lox-post/postq.bin"},
+                      std::vector<std::string>{"spx/spx.inp"},
+                      std::vector<std::string>{"z88-piston-tets/b21_lin_g.nas"},
+                      std::vector<std::string>{"disk-out-ref/disk_out_ref.ex2"},
+                      std::vector<std::string>{"exodus-misc/mug.e"},
+                      std::vector<std::string>{"exodus-misc/box-noglom.ex2"},
+                      std::vector<std::string>{"exodus-misc/mesh_fs8.exo"}));
 
 // The CLI path: generate -> info, convert -> info.
 TEST(CliGenerate, MixedDatasetDescribesItself) {
