@@ -3,14 +3,13 @@
 #pragma once
 
 #include <gtest/gtest.h>
-
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
-#include <unistd.h>
 
 namespace ugvr::test {
 
@@ -43,9 +42,8 @@ class ScratchDir {
  public:
   ScratchDir() {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = std::filesystem::temp_directory_path() /
-            ("ugvr-test-" + std::string(info->test_suite_name()) + "-" + info->name() + "-" +
-             std::to_string(::getpid()));
+    path_ = std::filesystem::temp_directory_path() / ("ugvr-test-" + std::string(info->test_suite_name()) + "-" +
+                                                      info->name() + "-" + std::to_string(::getpid()));
     std::filesystem::remove_all(path_);
     std::filesystem::create_directories(path_);
   }
@@ -58,8 +56,8 @@ class ScratchDir {
 
 }  // namespace ugvr::test
 
-#define UGVR_REQUIRE_DATA(relative)                                                          \
-  const std::string relative_data_path = ::ugvr::test::data_path(relative);                  \
-  if (!std::filesystem::exists(relative_data_path)) {                                        \
-    GTEST_SKIP() << "dataset not found: " << relative_data_path << " (set UGVR_DATA)";       \
+#define UGVR_REQUIRE_DATA(relative)                                                    \
+  const std::string relative_data_path = ::ugvr::test::data_path(relative);            \
+  if (!std::filesystem::exists(relative_data_path)) {                                  \
+    GTEST_SKIP() << "dataset not found: " << relative_data_path << " (set UGVR_DATA)"; \
   }

@@ -45,7 +45,10 @@ TEST(CellType, FacesPointOutwardAndCoverTheCell) {
       EXPECT_GT(dot(area, fc - centroid), 0) << cell_name(t) << " face " << f << " points inward";
       volume += dot(fc, area) / 3.0;
     }
-    const double expected = t == CellType::Tetra ? 1.0 / 6 : t == CellType::Pyramid ? 1.0 / 3 : t == CellType::Wedge ? 0.5 : 1.0;
+    const double expected = t == CellType::Tetra     ? 1.0 / 6
+                            : t == CellType::Pyramid ? 1.0 / 3
+                            : t == CellType::Wedge   ? 0.5
+                                                     : 1.0;
     EXPECT_NEAR(volume, expected, 1e-12) << cell_name(t);
     // Every vertex lies on at least 3 faces (a closed polyhedron).
     for (int v = 0; v < info.vertex_count; ++v) EXPECT_GE(uses[v], 3) << cell_name(t);

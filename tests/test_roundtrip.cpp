@@ -24,7 +24,7 @@ void expect_same_block(const Block& expected, const Block& actual, const std::st
   EXPECT_EQ(a.connectivity, b.connectivity) << what;
   ASSERT_EQ(expected.fields.size(), actual.fields.size()) << what;
   for (size_t i = 0; i < expected.fields.size(); ++i) {
-    const Field &f = expected.fields[i];
+    const Field& f = expected.fields[i];
     const Field* g = actual.fields.find(f.name(), f.association());
     ASSERT_NE(g, nullptr) << what << ": field " << f.name();
     EXPECT_EQ(g->data().type(), f.data().type()) << what << ": " << f.name();
@@ -56,22 +56,20 @@ TEST_P(RoundTrip, ReadWriteReadIsIdentical) {
 
 INSTANTIATE_TEST_SUITE_P(
     RealData, RoundTrip,
-    ::testing::Values(std::vector<std::string>{"can/can.vtu"}, std::vector<std::string>{"fea-kiefer-bracket/dataset.vtu"},
-                      std::vector<std::string>{"notch-stress/notch_stress.vtk"},
-                      std::vector<std::string>{"notch-stress/notch_disp.vtu"},
-                      std::vector<std::string>{"vtk-small-ugrids/AngularSector.vtk"},
-                      std::vector<std::string>{"vtk-small-ugrids/uGridEx.vtk"},
-                      std::vector<std::string>{"vtk-small-ugrids/tetraMesh.vtk"},
-                      std::vector<std::string>{"vtk-office/office.binary.vtk"},
-                      std::vector<std::string>{"vtk-small-ugrids/SampleStructGrid.vtk"},
-                      std::vector<std::string>{"blunt-fin/bluntfinxyz.bin", "blunt-fin/bluntfinq.bin"},
-                      std::vector<std::string>{"lox-post/postxyz.bin", "lox-post/postq.bin"},
-                      std::vector<std::string>{"spx/spx.inp"},
-                      std::vector<std::string>{"z88-piston-tets/b21_lin_g.nas"},
-                      std::vector<std::string>{"disk-out-ref/disk_out_ref.ex2"},
-                      std::vector<std::string>{"exodus-misc/mug.e"},
-                      std::vector<std::string>{"exodus-misc/box-noglom.ex2"},
-                      std::vector<std::string>{"exodus-misc/mesh_fs8.exo"}));
+    ::testing::Values(
+        std::vector<std::string>{"can/can.vtu"}, std::vector<std::string>{"fea-kiefer-bracket/dataset.vtu"},
+        std::vector<std::string>{"notch-stress/notch_stress.vtk"},
+        std::vector<std::string>{"notch-stress/notch_disp.vtu"},
+        std::vector<std::string>{"vtk-small-ugrids/AngularSector.vtk"},
+        std::vector<std::string>{"vtk-small-ugrids/uGridEx.vtk"},
+        std::vector<std::string>{"vtk-small-ugrids/tetraMesh.vtk"},
+        std::vector<std::string>{"vtk-office/office.binary.vtk"},
+        std::vector<std::string>{"vtk-small-ugrids/SampleStructGrid.vtk"},
+        std::vector<std::string>{"blunt-fin/bluntfinxyz.bin", "blunt-fin/bluntfinq.bin"},
+        std::vector<std::string>{"lox-post/postxyz.bin", "lox-post/postq.bin"}, std::vector<std::string>{"spx/spx.inp"},
+        std::vector<std::string>{"z88-piston-tets/b21_lin_g.nas"},
+        std::vector<std::string>{"disk-out-ref/disk_out_ref.ex2"}, std::vector<std::string>{"exodus-misc/mug.e"},
+        std::vector<std::string>{"exodus-misc/box-noglom.ex2"}, std::vector<std::string>{"exodus-misc/mesh_fs8.exo"}));
 
 // The CLI path: generate -> info, convert -> info.
 TEST(CliGenerate, MixedDatasetDescribesItself) {
@@ -83,7 +81,8 @@ TEST(CliGenerate, MixedDatasetDescribesItself) {
   ASSERT_EQ(s2, 0) << json_text;
   const auto r = nlohmann::json::parse(json_text);
   const auto& b = r["blocks"][0];
-  for (const char* t : {"tetra", "pyramid", "wedge", "hexahedron"}) EXPECT_GT(b["cell_types"][t].get<uint64_t>(), 0u) << t;
+  for (const char* t : {"tetra", "pyramid", "wedge", "hexahedron"})
+    EXPECT_GT(b["cell_types"][t].get<uint64_t>(), 0u) << t;
   EXPECT_NEAR(r["cells"].get<double>(), 20000, 0.05 * 20000);
   EXPECT_EQ(b["inverted_cells"], 0);
   EXPECT_EQ(b["topology"]["nonmanifold_faces"], 0);
@@ -94,8 +93,8 @@ TEST(CliConvert, PlotThreeDToVtu) {
   UGVR_REQUIRE_DATA("blunt-fin/bluntfinxyz.bin");
   test::ScratchDir dir;
   const std::string out = dir.file("fin.vtu");
-  auto [status, text] =
-      test::run_ugvr("convert --compress lz4 " + relative_data_path + " " + test::data_path("blunt-fin/bluntfinq.bin") + " " + out);
+  auto [status, text] = test::run_ugvr("convert --compress lz4 " + relative_data_path + " " +
+                                       test::data_path("blunt-fin/bluntfinq.bin") + " " + out);
   ASSERT_EQ(status, 0) << text;
   auto [s2, json_text] = test::run_ugvr("info --json " + out);
   ASSERT_EQ(s2, 0) << json_text;
@@ -106,7 +105,8 @@ TEST(CliConvert, PlotThreeDToVtu) {
   auto [s3, t3] = test::run_ugvr("convert " + relative_data_path + " " + dir.file("x.vts"));
   EXPECT_NE(s3, 0);
   EXPECT_NE(t3.find(".vtu"), std::string::npos) << t3;
-  auto [s4, t4] = test::run_ugvr("convert " + test::data_path("vtk-small-ugrids/blow.vtk") + " " + dir.file("blow.vtu"));
+  auto [s4, t4] =
+      test::run_ugvr("convert " + test::data_path("vtk-small-ugrids/blow.vtk") + " " + dir.file("blow.vtu"));
   EXPECT_NE(s4, 0);
   EXPECT_FALSE(std::filesystem::exists(dir.file("blow.vtu")));
 }

@@ -81,8 +81,8 @@ TEST(Topology, HexGridNeighbours) {
 TEST(Topology, MixedCellsShareTriangleAndQuadFaces) {
   // A hexahedron, a pyramid on its top face, and a tet on one pyramid triangle; a wedge on the hex's +x face.
   UnstructuredMesh m;
-  m.points = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1},
-              {0.5f, 0.5f, 2}, {0.5f, -1, 2}, {2, 0, 0}, {2, 0, 1}};
+  m.points = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0},       {0, 1, 0},     {0, 0, 1}, {1, 0, 1},
+              {1, 1, 1}, {0, 1, 1}, {0.5f, 0.5f, 2}, {0.5f, -1, 2}, {2, 0, 0}, {2, 0, 1}};
   const uint32_t hex[] = {0, 1, 2, 3, 4, 5, 6, 7}, pyr[] = {4, 5, 6, 7, 8}, tet[] = {4, 5, 8, 9};
   const uint32_t wedge[] = {1, 10, 2, 5, 11, 6};
   m.add_cell(CellType::Hexahedron, hex);
@@ -111,9 +111,9 @@ TEST(Topology, NonManifoldFacesAreBoundary) {
 TEST(StructuredCells, IblankDropsCellsTouchingBlankedPoints) {
   StructuredGrid g = skewed_grid(4, 4, 4);
   g.iblank.assign(g.points.size(), 1);
-  g.iblank[g.dims.point_index(0, 0, 0)] = 0;  // one corner: 1 cell gone
-  g.iblank[g.dims.point_index(2, 2, 2)] = -1; // overset "in use" value: keeps its cells
-  g.iblank[g.dims.point_index(1, 1, 1)] = 0;  // interior point: its 8 cells gone (one already gone)
+  g.iblank[g.dims.point_index(0, 0, 0)] = 0;   // one corner: 1 cell gone
+  g.iblank[g.dims.point_index(2, 2, 2)] = -1;  // overset "in use" value: keeps its cells
+  g.iblank[g.dims.point_index(1, 1, 1)] = 0;   // interior point: its 8 cells gone (one already gone)
   const ExplicitCells hexes = make_explicit_cells(g, StructuredCellShape::Hexahedra);
   EXPECT_EQ(hexes.mesh.cell_count(), 27u - 8u);
   const ExplicitCells tets = make_explicit_cells(g, StructuredCellShape::FiveTetrahedra);

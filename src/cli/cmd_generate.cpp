@@ -37,10 +37,10 @@ void register_generate(CLI::App& app) {
     std::printf(
         "wrote %s: %llu cells (%llu tetra, %llu pyramid, %llu wedge, %llu hexahedron), %llu points, grid %u x %u x "
         "%u, %s in %.2f s (%.1f MB/s), peak RSS %s\n",
-        opts->output.c_str(), (unsigned long long)s.cells, (unsigned long long)p.tetra,
-        (unsigned long long)p.pyramid, (unsigned long long)p.wedge, (unsigned long long)p.hexahedron,
-        (unsigned long long)s.points, p.ni, p.nj, p.nk, format_bytes(s.bytes).c_str(), s.seconds,
-        double(s.bytes) / 1e6 / s.seconds, format_bytes(peak_rss_bytes()).c_str());
+        opts->output.c_str(), (unsigned long long)s.cells, (unsigned long long)p.tetra, (unsigned long long)p.pyramid,
+        (unsigned long long)p.wedge, (unsigned long long)p.hexahedron, (unsigned long long)s.points, p.ni, p.nj, p.nk,
+        format_bytes(s.bytes).c_str(), s.seconds, double(s.bytes) / 1e6 / s.seconds,
+        format_bytes(peak_rss_bytes()).c_str());
   });
 }
 

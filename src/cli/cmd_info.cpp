@@ -46,8 +46,10 @@ void register_info(CLI::App& app) {
     const Dataset ds = read_dataset(opts->inputs, opts->read);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const nlohmann::json report = dataset_report(ds, seconds, {.topology = opts->topology});
-    if (opts->json) std::printf("%s\n", report.dump(2).c_str());
-    else std::fputs(format_report_text(report).c_str(), stdout);
+    if (opts->json)
+      std::printf("%s\n", report.dump(2).c_str());
+    else
+      std::fputs(format_report_text(report).c_str(), stdout);
   });
 }
 

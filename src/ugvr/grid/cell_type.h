@@ -44,8 +44,7 @@ struct CellInfo {
 
 constexpr CellInfo cell_info(CellType t) {
   switch (t) {
-    case CellType::Tetra:
-      return {"tetra", 4, 4, {{{3, {0, 1, 3}}, {3, {1, 2, 3}}, {3, {2, 0, 3}}, {3, {0, 2, 1}}}}};
+    case CellType::Tetra: return {"tetra", 4, 4, {{{3, {0, 1, 3}}, {3, {1, 2, 3}}, {3, {2, 0, 3}}, {3, {0, 2, 1}}}}};
     case CellType::Hexahedron:
       return {"hexahedron",
               8,
@@ -57,10 +56,10 @@ constexpr CellInfo cell_info(CellType t) {
                 {4, {0, 3, 2, 1}},
                 {4, {4, 5, 6, 7}}}}};
     case CellType::Wedge:
-      return {"wedge", 6, 5, {{{3, {0, 1, 2}}, {3, {3, 5, 4}}, {4, {0, 3, 4, 1}}, {4, {1, 4, 5, 2}}, {4, {2, 5, 3, 0}}}}};
-    case CellType::Pyramid:
       return {
-          "pyramid", 5, 5, {{{4, {0, 3, 2, 1}}, {3, {0, 1, 4}}, {3, {1, 2, 4}}, {3, {2, 3, 4}}, {3, {3, 0, 4}}}}};
+          "wedge", 6, 5, {{{3, {0, 1, 2}}, {3, {3, 5, 4}}, {4, {0, 3, 4, 1}}, {4, {1, 4, 5, 2}}, {4, {2, 5, 3, 0}}}}};
+    case CellType::Pyramid:
+      return {"pyramid", 5, 5, {{{4, {0, 3, 2, 1}}, {3, {0, 1, 4}}, {3, {1, 2, 4}}, {3, {2, 3, 4}}, {3, {3, 0, 4}}}}};
   }
   return {"invalid", 0, 0, {}};
 }
@@ -80,10 +79,10 @@ constexpr bool is_valid_cell_type(uint8_t id) { return id == 10 || id == 12 || i
 //  - Unsupported: polyhedra, pentagonal/hexagonal prisms, Lagrange/Bezier cells, unknown ids: an error.
 struct VtkCellMapping {
   enum class Kind : uint8_t { Keep, DropLowerDimension, Unsupported } kind;
-  CellType type{};                // for Keep
-  uint8_t corner_count = 0;       // for Keep
-  int16_t expected_points = -1;   // points the file must list for this cell, -1 = variable
-  bool voxel_order = false;       // VTK_VOXEL: corners 2<->3 and 6<->7 swapped relative to a hexahedron
+  CellType type{};               // for Keep
+  uint8_t corner_count = 0;      // for Keep
+  int16_t expected_points = -1;  // points the file must list for this cell, -1 = variable
+  bool voxel_order = false;      // VTK_VOXEL: corners 2<->3 and 6<->7 swapped relative to a hexahedron
   std::string_view vtk_name;
 };
 

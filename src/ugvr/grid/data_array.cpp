@@ -22,7 +22,7 @@ size_t scalar_size(ScalarType t) {
 }
 
 std::string_view scalar_type_name(ScalarType t) {
-  static constexpr std::string_view names[] = {"Int8",  "UInt8",  "Int16",  "UInt16",  "Int32",
+  static constexpr std::string_view names[] = {"Int8",   "UInt8", "Int16",  "UInt16",  "Int32",
                                                "UInt32", "Int64", "UInt64", "Float32", "Float64"};
   return names[size_t(t)];
 }

@@ -75,9 +75,9 @@ class DataArray {
   bool operator==(const DataArray& other) const;
 
  private:
-  using Storage = std::variant<std::vector<int8_t>, std::vector<uint8_t>, std::vector<int16_t>,
-                               std::vector<uint16_t>, std::vector<int32_t>, std::vector<uint32_t>,
-                               std::vector<int64_t>, std::vector<uint64_t>, std::vector<float>, std::vector<double>>;
+  using Storage = std::variant<std::vector<int8_t>, std::vector<uint8_t>, std::vector<int16_t>, std::vector<uint16_t>,
+                               std::vector<int32_t>, std::vector<uint32_t>, std::vector<int64_t>, std::vector<uint64_t>,
+                               std::vector<float>, std::vector<double>>;
   Storage storage_;
   int components_ = 1;
   uint64_t tuples_ = 0;
@@ -85,17 +85,28 @@ class DataArray {
 
 template <class T>
 constexpr ScalarType scalar_type_of() {
-  if constexpr (std::is_same_v<T, int8_t>) return ScalarType::Int8;
-  else if constexpr (std::is_same_v<T, uint8_t>) return ScalarType::UInt8;
-  else if constexpr (std::is_same_v<T, int16_t>) return ScalarType::Int16;
-  else if constexpr (std::is_same_v<T, uint16_t>) return ScalarType::UInt16;
-  else if constexpr (std::is_same_v<T, int32_t>) return ScalarType::Int32;
-  else if constexpr (std::is_same_v<T, uint32_t>) return ScalarType::UInt32;
-  else if constexpr (std::is_same_v<T, int64_t>) return ScalarType::Int64;
-  else if constexpr (std::is_same_v<T, uint64_t>) return ScalarType::UInt64;
-  else if constexpr (std::is_same_v<T, float>) return ScalarType::Float32;
-  else if constexpr (std::is_same_v<T, double>) return ScalarType::Float64;
-  else static_assert(sizeof(T) == 0, "unsupported scalar type");
+  if constexpr (std::is_same_v<T, int8_t>)
+    return ScalarType::Int8;
+  else if constexpr (std::is_same_v<T, uint8_t>)
+    return ScalarType::UInt8;
+  else if constexpr (std::is_same_v<T, int16_t>)
+    return ScalarType::Int16;
+  else if constexpr (std::is_same_v<T, uint16_t>)
+    return ScalarType::UInt16;
+  else if constexpr (std::is_same_v<T, int32_t>)
+    return ScalarType::Int32;
+  else if constexpr (std::is_same_v<T, uint32_t>)
+    return ScalarType::UInt32;
+  else if constexpr (std::is_same_v<T, int64_t>)
+    return ScalarType::Int64;
+  else if constexpr (std::is_same_v<T, uint64_t>)
+    return ScalarType::UInt64;
+  else if constexpr (std::is_same_v<T, float>)
+    return ScalarType::Float32;
+  else if constexpr (std::is_same_v<T, double>)
+    return ScalarType::Float64;
+  else
+    static_assert(sizeof(T) == 0, "unsupported scalar type");
 }
 
 }  // namespace ugvr

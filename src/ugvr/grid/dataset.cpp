@@ -38,14 +38,14 @@ Bounds grid_bounds(const Grid& g) {
 }
 
 uint64_t grid_memory_bytes(const Grid& g) {
-  return std::visit(Overload{[](const UnstructuredMesh& m) { return m.memory_bytes(); },
-                             [](const StructuredGrid& s) { return s.memory_bytes(); },
-                             [](const ImageGrid&) { return uint64_t(sizeof(ImageGrid)); },
-                             [](const RectilinearGrid& r) {
-                               return uint64_t((r.coords[0].size() + r.coords[1].size() + r.coords[2].size()) *
-                                               sizeof(double));
-                             }},
-                    g);
+  return std::visit(
+      Overload{[](const UnstructuredMesh& m) { return m.memory_bytes(); },
+               [](const StructuredGrid& s) { return s.memory_bytes(); },
+               [](const ImageGrid&) { return uint64_t(sizeof(ImageGrid)); },
+               [](const RectilinearGrid& r) {
+                 return uint64_t((r.coords[0].size() + r.coords[1].size() + r.coords[2].size()) * sizeof(double));
+               }},
+      g);
 }
 
 void Block::validate_fields(std::string_view source) const {

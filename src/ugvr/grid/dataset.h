@@ -31,8 +31,8 @@ struct Block {
 };
 
 struct Dataset {
-  std::string format;                 // e.g. "VTK XML UnstructuredGrid (.vtu)"
-  std::vector<std::string> sources;   // the files it was read from
+  std::string format;                // e.g. "VTK XML UnstructuredGrid (.vtu)"
+  std::vector<std::string> sources;  // the files it was read from
   std::vector<Block> blocks;
   std::vector<std::string> warnings;  // what the reader dropped or changed, for the user
 

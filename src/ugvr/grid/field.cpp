@@ -14,7 +14,9 @@ namespace ugvr {
 std::string_view association_name(Association a) { return a == Association::Vertex ? "vertex" : "cell"; }
 
 Field::Field(std::string name, Association association, DataArray data)
-    : name_(std::move(name)), association_(association), data_(std::move(data)),
+    : name_(std::move(name)),
+      association_(association),
+      data_(std::move(data)),
       cache_(std::make_unique<RangeCache>()) {}
 
 Field::Field(const Field& o)
@@ -139,9 +141,12 @@ ScalarRef FieldSet::scalar(std::string_view selector) const {
   }
   ScalarRef ref{f, kMagnitude};
   if (comp.empty() || comp == "magnitude" || comp == "mag") return ref;
-  if (comp == "x" || comp == "X") ref.component = 0;
-  else if (comp == "y" || comp == "Y") ref.component = 1;
-  else if (comp == "z" || comp == "Z") ref.component = 2;
+  if (comp == "x" || comp == "X")
+    ref.component = 0;
+  else if (comp == "y" || comp == "Y")
+    ref.component = 1;
+  else if (comp == "z" || comp == "Z")
+    ref.component = 2;
   else {
     int k = -1;
     const auto [p, ec] = std::from_chars(comp.data(), comp.data() + comp.size(), k);

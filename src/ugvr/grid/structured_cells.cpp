@@ -15,21 +15,35 @@ struct CellCorners {
 
 CellCorners corners(const GridDims& d, uint64_t i, uint64_t j, uint64_t k) {
   CellCorners c;
-  for (int b = 0; b < 8; ++b) c.id[size_t(b)] = uint32_t(d.point_index(i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1)));
+  for (int b = 0; b < 8; ++b)
+    c.id[size_t(b)] = uint32_t(d.point_index(i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1)));
   return c;
 }
 
 // The 6 Kuhn tets: each is the path 0 -> e_a -> e_a+e_b -> 7 for a permutation (a, b, c) of the axes, listed so
 // every tet has positive orientation in VTK's convention (vertices 0,1,2 counter-clockwise seen from vertex 3).
 constexpr std::array<std::array<uint8_t, 4>, 6> kSixTets = {{
-    {0, 1, 3, 7}, {0, 3, 2, 7}, {0, 2, 6, 7}, {0, 6, 4, 7}, {0, 4, 5, 7}, {0, 5, 1, 7},
+    {0, 1, 3, 7},
+    {0, 3, 2, 7},
+    {0, 2, 6, 7},
+    {0, 6, 4, 7},
+    {0, 4, 5, 7},
+    {0, 5, 1, 7},
 }};
 // Five-tet split, even parity: corner tets at 0, 3, 5, 6 around the central tet (1, 2, 4, 7); odd parity mirrors it.
 constexpr std::array<std::array<uint8_t, 4>, 5> kFiveTetsEven = {{
-    {0, 1, 2, 4}, {3, 2, 1, 7}, {5, 4, 7, 1}, {6, 7, 4, 2}, {1, 2, 4, 7},
+    {0, 1, 2, 4},
+    {3, 2, 1, 7},
+    {5, 4, 7, 1},
+    {6, 7, 4, 2},
+    {1, 2, 4, 7},
 }};
 constexpr std::array<std::array<uint8_t, 4>, 5> kFiveTetsOdd = {{
-    {1, 0, 5, 3}, {2, 3, 6, 0}, {4, 5, 0, 6}, {7, 6, 3, 5}, {0, 3, 6, 5},
+    {1, 0, 5, 3},
+    {2, 3, 6, 0},
+    {4, 5, 0, 6},
+    {7, 6, 3, 5},
+    {0, 3, 6, 5},
 }};
 // Hexahedron in VTK order from the corner bits.
 constexpr std::array<uint8_t, 8> kHexOrder = {0, 1, 3, 2, 4, 5, 7, 6};
@@ -73,8 +87,10 @@ ExplicitCells make_explicit_cells(const Grid& grid, StructuredCellShape shape) {
 
   const std::vector<int32_t>* blank = iblank_of(grid);
   const auto c = d.cells();
-  const uint64_t per_cell = shape == StructuredCellShape::Hexahedra ? 1 : (shape == StructuredCellShape::FiveTetrahedra ? 5 : 6);
-  out.mesh.reserve(d.cell_count() * per_cell, d.cell_count() * (shape == StructuredCellShape::Hexahedra ? 8 : 4 * per_cell));
+  const uint64_t per_cell =
+      shape == StructuredCellShape::Hexahedra ? 1 : (shape == StructuredCellShape::FiveTetrahedra ? 5 : 6);
+  out.mesh.reserve(d.cell_count() * per_cell,
+                   d.cell_count() * (shape == StructuredCellShape::Hexahedra ? 8 : 4 * per_cell));
   out.source_cell.reserve(d.cell_count() * per_cell);
 
   std::array<uint32_t, 8> v{};
@@ -102,8 +118,10 @@ ExplicitCells make_explicit_cells(const Grid& grid, StructuredCellShape shape) {
             out.source_cell.push_back(cell);
             break;
           case StructuredCellShape::FiveTetrahedra:
-            if ((i + j + k) % 2 == 0) emit_tets(kFiveTetsEven);
-            else emit_tets(kFiveTetsOdd);
+            if ((i + j + k) % 2 == 0)
+              emit_tets(kFiveTetsEven);
+            else
+              emit_tets(kFiveTetsOdd);
             break;
           case StructuredCellShape::SixTetrahedra: emit_tets(kSixTets); break;
         }
@@ -118,8 +136,10 @@ Block to_unstructured_block(const Block& block, StructuredCellShape shape) {
   ExplicitCells cells = make_explicit_cells(block.grid, shape);
   Block out{block.name, std::move(cells.mesh), {}};
   for (const Field& f : block.fields) {
-    if (f.association() == Association::Vertex) out.fields.add(f);
-    else out.fields.add(Field(f.name(), Association::Cell, f.data().gather(cells.source_cell)));
+    if (f.association() == Association::Vertex)
+      out.fields.add(f);
+    else
+      out.fields.add(Field(f.name(), Association::Cell, f.data().gather(cells.source_cell)));
   }
   if (const auto* blank = iblank_of(block.grid)) {
     out.fields.add(Field("IBLANK", Association::Vertex, DataArray::from(*blank, 1)));

@@ -81,7 +81,8 @@ MeshTopology build_topology(const UnstructuredMesh& mesh) {
   for_each_cell(nc, [&](uint64_t c) {
     const CellInfo info = cell_info(mesh.cell_types[c]);
     for (uint32_t f = 0; f < info.face_count; ++f) {
-      std::atomic_ref<uint32_t>(bucket_count[face_key(mesh, c, info.faces[f]).lo]).fetch_add(1, std::memory_order_relaxed);
+      std::atomic_ref<uint32_t>(bucket_count[face_key(mesh, c, info.faces[f]).lo])
+          .fetch_add(1, std::memory_order_relaxed);
     }
   });
   std::vector<uint64_t> bucket_start;

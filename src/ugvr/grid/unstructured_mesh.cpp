@@ -87,7 +87,8 @@ void UnstructuredMesh::validate(std::string_view source) const {
   const uint64_t n = points.size();
   for (uint64_t c = 0; c < cell_types.size(); ++c) {
     const uint8_t id = uint8_t(cell_types[c]);
-    if (!is_valid_cell_type(id)) fail_in(source, "cell " + std::to_string(c) + " has invalid type " + std::to_string(id));
+    if (!is_valid_cell_type(id))
+      fail_in(source, "cell " + std::to_string(c) + " has invalid type " + std::to_string(id));
     if (cell_offsets[c + 1] < cell_offsets[c] ||
         cell_offsets[c + 1] - cell_offsets[c] != cell_vertex_count(cell_types[c])) {
       fail_in(source, "cell " + std::to_string(c) + " (" + std::string(cell_name(cell_types[c])) + ") has " +

@@ -16,8 +16,9 @@ void decompress(Codec codec, std::span<const std::byte> src, std::span<std::byte
   switch (codec) {
     case Codec::None:
       if (src.size() != dst.size()) {
-        fail_at_offset(file, offset,
-                       "stored block of " + std::to_string(src.size()) + " bytes, expected " + std::to_string(dst.size()));
+        fail_at_offset(
+            file, offset,
+            "stored block of " + std::to_string(src.size()) + " bytes, expected " + std::to_string(dst.size()));
       }
       if (!dst.empty()) std::memcpy(dst.data(), src.data(), dst.size());
       return;

@@ -56,8 +56,8 @@ void VtkCellImporter::add(int vtk_type, std::span<const Id> ids, uint64_t file_c
   for (size_t i = 0; i < m.corner_count; ++i) {
     const Id id = ids[i];
     if (id < 0 || uint64_t(id) >= point_count_) {
-      fail_cell(file_cell, "point id " + std::to_string(int64_t(id)) + " is outside [0, " +
-                               std::to_string(point_count_) + ")");
+      fail_cell(file_cell,
+                "point id " + std::to_string(int64_t(id)) + " is outside [0, " + std::to_string(point_count_) + ")");
     }
     v[i] = uint32_t(id);
   }

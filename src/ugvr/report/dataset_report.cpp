@@ -73,16 +73,18 @@ json block_json(const Block& b, const ReportOptions& opts) {
   } else {
     const GridDims d = std::visit(
         [](const auto& g) -> GridDims {
-          if constexpr (requires { g.dims; }) return g.dims;
-          else return {};
+          if constexpr (requires { g.dims; })
+            return g.dims;
+          else
+            return {};
         },
         b.grid);
     j["dimensions"] = d.points;
     if (const auto* s = std::get_if<StructuredGrid>(&b.grid); s && s->has_iblank()) {
       // 0 = no data (blanked); negative = overset fringe points interpolated from another block (still in use).
       j["iblank"] = {{"blanked_points", uint64_t(std::count(s->iblank.begin(), s->iblank.end(), 0))},
-                     {"overset_points", uint64_t(std::count_if(s->iblank.begin(), s->iblank.end(),
-                                                               [](int32_t v) { return v < 0; }))}};
+                     {"overset_points",
+                      uint64_t(std::count_if(s->iblank.begin(), s->iblank.end(), [](int32_t v) { return v < 0; }))}};
     }
   }
   json fields = json::array();
@@ -165,8 +167,9 @@ std::string format_report_text(const nlohmann::json& r) {
     if (b.contains("topology")) {
       const json& tp = b["topology"];
       std::snprintf(t, sizeof t, "%.3f s", tp["seconds"].get<double>());
-      o << "  topology: " << fmt_count(tp["boundary_faces"]) << " boundary faces, " << fmt_count(tp["nonmanifold_faces"])
-        << " non-manifold, " << format_bytes(tp["memory_bytes"]) << ", built in " << t << "\n";
+      o << "  topology: " << fmt_count(tp["boundary_faces"]) << " boundary faces, "
+        << fmt_count(tp["nonmanifold_faces"]) << " non-manifold, " << format_bytes(tp["memory_bytes"]) << ", built in "
+        << t << "\n";
     }
     if (blocks.size() == 1 || i == 0) o << "  bounds: " << fmt_bounds(b["bounds"]) << "\n";
     for (const json& f : b["fields"]) {
