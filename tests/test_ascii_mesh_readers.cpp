@@ -3,7 +3,6 @@
 // fail with the file name and the line.
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <functional>
@@ -56,10 +55,7 @@ void expect_error_at(const std::function<Dataset()>& read, const std::string& pa
 
 TEST(AvsUcdReal, Spx) {
   UGVR_REQUIRE_DATA("spx/spx.inp");
-  const auto start = std::chrono::steady_clock::now();
   const Dataset d = read_avs_ucd(relative_data_path);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  EXPECT_LT(seconds, 2.0);
   const UnstructuredMesh& m = mesh_of(d);
   EXPECT_EQ(m.point_count(), 2896u);
   EXPECT_EQ(m.cell_type_counts().tetra, 12936u);
@@ -76,10 +72,7 @@ TEST(AvsUcdReal, Spx) {
 
 TEST(NastranReal, Z88Piston) {
   UGVR_REQUIRE_DATA("z88-piston-tets/b21_lin_g.nas");
-  const auto start = std::chrono::steady_clock::now();
   const Dataset d = read_nastran(relative_data_path);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  EXPECT_LT(seconds, 2.0);
   const UnstructuredMesh& m = mesh_of(d);
   EXPECT_EQ(m.point_count(), 57184u);
   EXPECT_EQ(m.cell_type_counts().tetra, 278577u);
