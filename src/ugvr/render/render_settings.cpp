@@ -1,0 +1,176 @@
+#include "ugvr/render/render_settings.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+
+#include "ugvr/core/error.h"
+#include "ugvr/core/file.h"
+
+namespace ugvr {
+namespace {
+
+[[noreturn]] void fail_key(std::string_view source, std::string_view key, std::string_view message) {
+  fail_in(source, "key \"" + std::string(key) + "\": " + std::string(message));
+}
+
+bool finite(Vec3d v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+std::vector<double> numbers_of(const nlohmann::json& j, std::string_view source, std::string_view key) {
+  if (!j.is_array()) fail_key(source, key, "expected an array of numbers");
+  std::vector<double> v;
+  for (const auto& e : j) {
+    if (!e.is_number()) fail_key(source, key, "expected an array of numbers");
+    v.push_back(e.get<double>());
+  }
+  return v;
+}
+
+Vec3d vec_of(const nlohmann::json& j, std::string_view source, std::string_view key) {
+  const std::vector<double> v = numbers_of(j, source, key);
+  if (v.size() != 3) fail_key(source, key, "expected [x, y, z]");
+  return {v[0], v[1], v[2]};
+}
+
+double number_of(const nlohmann::json& j, std::string_view source, std::string_view key) {
+  if (!j.is_number()) fail_key(source, key, "expected a number");
+  return j.get<double>();
+}
+
+int side_of(const nlohmann::json& j, std::string_view source, std::string_view key) {
+  if (!j.is_number_integer()) fail_key(source, key, "expected an integer");
+  const int64_t v = j.get<int64_t>();
+  if (v < 1 || v > kMaxImageSide) fail_key(source, key, "must be in [1, " + std::to_string(kMaxImageSide) + "]");
+  return int(v);
+}
+
+RenderMode mode_of(const nlohmann::json& j, std::string_view source) {
+  for (RenderMode m : {RenderMode::EmissionAbsorption, RenderMode::Mip, RenderMode::Isosurface})
+    if (j.is_string() && j.get<std::string>() == render_mode_name(m)) return m;
+  fail_key(source, "mode", "expected \"emission_absorption\", \"mip\" or \"isosurface\"");
+}
+
+// One side of a size string: digits only, in [1, kMaxImageSide].
+int parse_side(std::string_view digits, std::string_view text, std::string_view source) {
+  int v = 0;
+  const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), v);
+  if (digits.empty() || ec != std::errc() || end != digits.data() + digits.size() || v < 1 || v > kMaxImageSide)
+    fail_in(source, "invalid image size \"" + std::string(text) + "\" (expected N or WxH with sides in [1, " +
+                        std::to_string(kMaxImageSide) + "])");
+  return v;
+}
+
+}  // namespace
+
+std::string_view render_mode_name(RenderMode m) {
+  switch (m) {
+    case RenderMode::EmissionAbsorption: return "emission_absorption";
+    case RenderMode::Mip: return "mip";
+    case RenderMode::Isosurface: return "isosurface";
+  }
+  return "?";
+}
+
+void RenderSettings::validate(std::string_view source) const {
+  if (width < 1 || width > kMaxImageSide) fail_key(source, "width", "out of range");
+  if (height < 1 || height > kMaxImageSide) fail_key(source, "height", "out of range");
+  for (double c : background)
+    if (!(c >= 0 && c <= 1)) fail_key(source, "background", "components must be in [0, 1]");
+  for (double v : iso_values)
+    if (!std::isfinite(v)) fail_key(source, "iso_values", "values must be finite");
+  if (mode == RenderMode::Isosurface && iso_values.empty())
+    fail_key(source, "iso_values", "isosurface mode needs at least one iso value");
+  if (clip_plane) {
+    if (!finite(clip_plane->point)) fail_key(source, "clip_plane", "point must be finite");
+    if (!finite(clip_plane->normal) || !(length(clip_plane->normal) > 0))
+      fail_key(source, "clip_plane", "normal must be finite and non-zero");
+  }
+  if (!(early_termination_opacity > 0 && early_termination_opacity <= 1))
+    fail_key(source, "early_termination_opacity", "must be in (0, 1]");
+  if (!(sample_step >= 0) || !std::isfinite(sample_step)) fail_key(source, "sample_step", "must be finite and >= 0");
+  if (!(boundary_overlay_opacity >= 0 && boundary_overlay_opacity <= 1))
+    fail_key(source, "boundary_overlay_opacity", "must be in [0, 1]");
+}
+
+nlohmann::json settings_to_json(const RenderSettings& s) {
+  nlohmann::json j = {{"width", s.width},
+                      {"height", s.height},
+                      {"background", s.background},
+                      {"mode", render_mode_name(s.mode)},
+                      {"field", s.field},
+                      {"iso_values", s.iso_values},
+                      {"clip_plane", nullptr},
+                      {"lighting", s.lighting},
+                      {"early_termination_opacity", s.early_termination_opacity},
+                      {"sample_step", s.sample_step},
+                      {"boundary_overlay_opacity", s.boundary_overlay_opacity}};
+  if (s.clip_plane) {
+    const ClipPlane& c = *s.clip_plane;
+    j["clip_plane"] = {{"point", {c.point.x, c.point.y, c.point.z}}, {"normal", {c.normal.x, c.normal.y, c.normal.z}}};
+  }
+  return j;
+}
+
+RenderSettings settings_from_json(const nlohmann::json& j, std::string_view source) {
+  if (!j.is_object()) fail_in(source, "render settings must be a JSON object");
+  RenderSettings s;
+  for (const auto& [key, v] : j.items()) {
+    if (key == "width") {
+      s.width = side_of(v, source, key);
+    } else if (key == "height") {
+      s.height = side_of(v, source, key);
+    } else if (key == "background") {
+      const std::vector<double> c = numbers_of(v, source, key);
+      if (c.size() != 3 && c.size() != 4) fail_key(source, key, "expected [r, g, b] or [r, g, b, a]");
+      s.background = {c[0], c[1], c[2], c.size() == 4 ? c[3] : 1.0};
+    } else if (key == "mode") {
+      s.mode = mode_of(v, source);
+    } else if (key == "field") {
+      if (!v.is_string()) fail_key(source, key, "expected a string");
+      s.field = v.get<std::string>();
+    } else if (key == "iso_values") {
+      s.iso_values = numbers_of(v, source, key);
+    } else if (key == "clip_plane") {
+      if (v.is_null()) continue;
+      if (!v.is_object() || !v.contains("point") || !v.contains("normal") || v.size() != 2)
+        fail_key(source, key, "expected {\"point\": [x, y, z], \"normal\": [x, y, z]} or null");
+      s.clip_plane =
+          ClipPlane{vec_of(v["point"], source, "clip_plane.point"), vec_of(v["normal"], source, "clip_plane.normal")};
+    } else if (key == "lighting") {
+      if (!v.is_boolean()) fail_key(source, key, "expected true or false");
+      s.lighting = v.get<bool>();
+    } else if (key == "early_termination_opacity") {
+      s.early_termination_opacity = number_of(v, source, key);
+    } else if (key == "sample_step") {
+      s.sample_step = number_of(v, source, key);
+    } else if (key == "boundary_overlay_opacity") {
+      s.boundary_overlay_opacity = number_of(v, source, key);
+    } else {
+      fail_key(source, key, "unknown render setting");
+    }
+  }
+  s.validate(source);
+  return s;
+}
+
+RenderSettings read_render_settings(const std::string& path) {
+  const InputFile in(path);
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in.read_all(uint64_t(1) << 24));
+  } catch (const nlohmann::json::parse_error& e) {
+    fail_in(in.name(), std::string("invalid JSON: ") + e.what());
+  }
+  return settings_from_json(j, in.name());
+}
+
+ImageSize parse_size(std::string_view text, std::string_view source) {
+  const size_t x = text.find_first_of("xX");
+  if (x == std::string_view::npos) {
+    const int side = parse_side(text, text, source);
+    return {side, side};
+  }
+  return {parse_side(text.substr(0, x), text, source), parse_side(text.substr(x + 1), text, source)};
+}
+
+}  // namespace ugvr

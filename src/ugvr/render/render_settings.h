@@ -1,0 +1,63 @@
+// What to render, independent of the engine. JSON form (settings_to_json / settings_from_json), every key optional
+// with the defaults below, unknown keys rejected:
+//   {"width": 512, "height": 512, "background": [r, g, b, a], "mode": "emission_absorption" | "mip" | "isosurface",
+//    "field": "NAME[:component]", "iso_values": [..], "clip_plane": {"point": [x,y,z], "normal": [x,y,z]} | null,
+//    "lighting": true, "early_termination_opacity": 0.99, "sample_step": 0, "boundary_overlay_opacity": 0}
+#pragma once
+
+#include <array>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ugvr/core/vec.h"
+
+namespace ugvr {
+
+enum class RenderMode { EmissionAbsorption, Mip, Isosurface };
+std::string_view render_mode_name(RenderMode m);
+
+// Keeps the half-space dot(p - point, normal) >= 0, the side the normal points to, and removes the other. (ParaView's
+// Clip filter removes that side by default, "Invert" keeps it; ugvr keeps what the normal points at.)
+struct ClipPlane {
+  Vec3d point;
+  Vec3d normal;
+  bool operator==(const ClipPlane&) const = default;
+};
+
+struct ImageSize {
+  int width = 0, height = 0;
+  bool operator==(const ImageSize&) const = default;
+};
+
+inline constexpr int kMaxImageSide = 16384;
+
+struct RenderSettings {
+  int width = 512, height = 512;
+  std::array<double, 4> background{0.32, 0.34, 0.43, 1.0};  // ParaView's default background, opaque
+  RenderMode mode = RenderMode::EmissionAbsorption;
+  std::string field;  // FieldSet::scalar selector; empty = the dataset's first field
+  std::vector<double> iso_values;
+  std::optional<ClipPlane> clip_plane;
+  bool lighting = true;                     // headlight shading of isosurfaces and of the volume gradient
+  double early_termination_opacity = 0.99;  // stop a ray once its accumulated opacity reaches this
+  double sample_step = 0;                   // world units between samples; 0 = the engine picks from cell size
+  double boundary_overlay_opacity = 0;      // opacity of the dataset's outer boundary drawn over the image; 0 = off
+
+  // Throws ugvr::Error "SOURCE: key "K": message": size in [1, 16384], background in [0, 1], isosurface mode
+  // needs iso_values, all numbers finite, clip normal non-zero, early termination in (0, 1], step >= 0,
+  // overlay opacity in [0, 1].
+  void validate(std::string_view source) const;
+  bool operator==(const RenderSettings&) const = default;
+};
+
+nlohmann::json settings_to_json(const RenderSettings& s);
+RenderSettings settings_from_json(const nlohmann::json& json, std::string_view source);
+RenderSettings read_render_settings(const std::string& path);
+
+// "512" -> 512 x 512, "800x600" -> 800 x 600; each side in [1, 16384]. Errors name `source` (e.g. "--size").
+ImageSize parse_size(std::string_view text, std::string_view source = "size");
+
+}  // namespace ugvr
