@@ -40,6 +40,7 @@
 #include "ugvr/core/file.h"
 #include "ugvr/core/progress.h"
 #include "ugvr/grid/cell_type.h"
+#include "ugvr/io/id_map.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/text_tokenizer.h"
 
@@ -50,43 +51,6 @@ namespace {
 constexpr size_t kMaxCardFields = 256;  // CHEXA20 needs 22, CORD2R 11; longer cards are refused
 constexpr size_t kMaxIgnoredNames = 64;
 constexpr uint64_t kProgressMinBytes = uint64_t(16) << 20;
-
-// Maps the arbitrary GRID ids to dense indices in the order they were added. Files nearly always number
-// consecutively, which costs an offset; any other numbering falls back to a hash map.
-class IdMap {
- public:
-  bool add(int64_t id) {
-    if (!hashed_) {
-      if (size_ == 0) first_ = id;
-      if (uint64_t(id) - uint64_t(first_) == size_) {
-        ++size_;
-        return true;
-      }
-      hashed_ = true;
-      map_.reserve(size_ * 2);
-      for (uint64_t i = 0; i < size_; ++i) map_.emplace(int64_t(uint64_t(first_) + i), uint32_t(i));
-    }
-    if (!map_.emplace(id, uint32_t(size_)).second) return false;
-    ++size_;
-    return true;
-  }
-  std::optional<uint32_t> find(int64_t id) const {
-    if (!hashed_) {
-      const uint64_t d = uint64_t(id) - uint64_t(first_);
-      if (d < size_) return uint32_t(d);
-      return std::nullopt;
-    }
-    const auto it = map_.find(id);
-    if (it == map_.end()) return std::nullopt;
-    return it->second;
-  }
-
- private:
-  bool hashed_ = false;
-  int64_t first_ = 0;
-  uint64_t size_ = 0;
-  std::unordered_map<int64_t, uint32_t> map_;
-};
 
 std::string_view trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
