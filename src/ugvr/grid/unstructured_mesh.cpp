@@ -77,6 +77,28 @@ double cell_volume(const UnstructuredMesh& mesh, uint64_t cell) {
   return six_volume / 6.0;
 }
 
+uint64_t count_inverted_cells(const UnstructuredMesh& mesh) {
+  return tbb::parallel_reduce(
+      tbb::blocked_range<uint64_t>(0, mesh.cell_count(), 1 << 14), uint64_t(0),
+      [&](const tbb::blocked_range<uint64_t>& r, uint64_t n) {
+        for (uint64_t c = r.begin(); c != r.end(); ++c) n += cell_volume(mesh, c) < 0;
+        return n;
+      },
+      [](uint64_t a, uint64_t b) { return a + b; });
+}
+
+uint64_t orient_tetrahedra_by_majority(UnstructuredMesh& mesh, bool& flipped) {
+  const uint64_t negative = count_inverted_cells(mesh);
+  flipped = negative * 2 > mesh.cell_count();
+  if (!flipped) return negative;
+  for (uint64_t c = 0; c < mesh.cell_count(); ++c) {
+    if (mesh.cell_types[c] == CellType::Tetra) {
+      std::swap(mesh.connectivity[mesh.cell_offsets[c] + 1], mesh.connectivity[mesh.cell_offsets[c] + 2]);
+    }
+  }
+  return count_inverted_cells(mesh);
+}
+
 void UnstructuredMesh::validate(std::string_view source) const {
   if (cell_offsets.size() != cell_types.size() + 1 || cell_offsets.front() != 0 ||
       cell_offsets.back() != connectivity.size()) {

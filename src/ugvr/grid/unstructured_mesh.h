@@ -55,5 +55,10 @@ struct UnstructuredMesh {
 // Signed volume of a cell from its faces (divergence theorem; a non-planar quadrilateral counts as the surface
 // spanned by its two triangle fans' average). Positive for a cell in VTK's orientation, negative when inverted.
 double cell_volume(const UnstructuredMesh& mesh, uint64_t cell);
+// Cells of negative volume (computed in parallel).
+uint64_t count_inverted_cells(const UnstructuredMesh& mesh);
+// For formats whose tetrahedron orientation convention varies between writers (TetGen, OFF): when most tetrahedra
+// are inverted, swaps vertices 1 and 2 of every one and sets `flipped`. Returns the tetrahedra still inverted.
+uint64_t orient_tetrahedra_by_majority(UnstructuredMesh& mesh, bool& flipped);
 
 }  // namespace ugvr

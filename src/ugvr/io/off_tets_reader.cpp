@@ -57,7 +57,7 @@ class OffTetsReader {
     mesh.points = std::move(points_);
     Dataset d;
     bool flipped = false;
-    const uint64_t inverted = orient(mesh, flipped);
+    const uint64_t inverted = orient_tetrahedra_by_majority(mesh, flipped);
     if (inverted > 0) {
       d.warnings.push_back(path() + ": " + std::to_string(inverted) +
                            " tetrahedra have negative volume after orientation (inverted in the file)");
@@ -262,19 +262,6 @@ class OffTetsReader {
     s += prefixed_ ? ", 4 a b c d" : ", a b c d";
     s += tet_scalar_ ? " scalar per tetrahedron" : " per tetrahedron";
     return s;
-  }
-
-  static uint64_t orient(UnstructuredMesh& mesh, bool& flipped) {
-    uint64_t negative = 0;
-    for (uint64_t c = 0; c < mesh.cell_count(); ++c) negative += cell_volume(mesh, c) < 0;
-    flipped = negative * 2 > mesh.cell_count();
-    if (!flipped) return negative;
-    for (uint64_t c = 0; c < mesh.cell_count(); ++c) {
-      std::swap(mesh.connectivity[mesh.cell_offsets[c] + 1], mesh.connectivity[mesh.cell_offsets[c] + 2]);
-    }
-    uint64_t still = 0;
-    for (uint64_t c = 0; c < mesh.cell_count(); ++c) still += cell_volume(mesh, c) < 0;
-    return still;
   }
 
   InputFile file_;

@@ -167,21 +167,6 @@ Elements read_ele_file(const InputFile& file, const Nodes& nodes) {
   return e;
 }
 
-// Swaps vertices 1 and 2 of every tetrahedron when most are inverted (see the top of the file); returns the number
-// of tetrahedra still of negative volume.
-uint64_t orient_tetrahedra(UnstructuredMesh& mesh, bool& flipped) {
-  uint64_t negative = 0;
-  for (uint64_t c = 0; c < mesh.cell_count(); ++c) negative += cell_volume(mesh, c) < 0;
-  flipped = negative * 2 > mesh.cell_count();
-  if (!flipped) return negative;
-  for (uint64_t c = 0; c < mesh.cell_count(); ++c) {
-    std::swap(mesh.connectivity[mesh.cell_offsets[c] + 1], mesh.connectivity[mesh.cell_offsets[c] + 2]);
-  }
-  uint64_t still = 0;
-  for (uint64_t c = 0; c < mesh.cell_count(); ++c) still += cell_volume(mesh, c) < 0;
-  return still;
-}
-
 }  // namespace
 
 Dataset read_tetgen(const std::string& path) {
@@ -196,7 +181,7 @@ Dataset read_tetgen(const std::string& path) {
   mesh.points = std::move(nodes.points);
   Dataset d;
   bool flipped = false;
-  const uint64_t inverted = orient_tetrahedra(mesh, flipped);
+  const uint64_t inverted = orient_tetrahedra_by_majority(mesh, flipped);
   if (inverted > 0) {
     d.warnings.push_back(ele_file.path() + ": " + std::to_string(inverted) +
                          " tetrahedra have negative volume after orientation (inverted in the file)");

@@ -1,8 +1,4 @@
 #include "ugvr/report/dataset_report.h"
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -20,16 +16,6 @@ using nlohmann::json;
 json bounds_json(const Bounds& b) {
   if (b.empty()) return nullptr;
   return {{"min", {b.lo.x, b.lo.y, b.lo.z}}, {"max", {b.hi.x, b.hi.y, b.hi.z}}};
-}
-
-uint64_t count_inverted(const UnstructuredMesh& m) {
-  return tbb::parallel_reduce(
-      tbb::blocked_range<uint64_t>(0, m.cell_count(), 1 << 14), uint64_t(0),
-      [&](const tbb::blocked_range<uint64_t>& r, uint64_t n) {
-        for (uint64_t c = r.begin(); c != r.end(); ++c) n += cell_volume(m, c) < 0;
-        return n;
-      },
-      [](uint64_t a, uint64_t b) { return a + b; });
 }
 
 json field_json(const Field& f) {
@@ -61,7 +47,7 @@ json block_json(const Block& b, const ReportOptions& opts) {
   if (const auto* m = std::get_if<UnstructuredMesh>(&b.grid)) {
     const CellTypeCounts c = m->cell_type_counts();
     j["cell_types"] = {{"tetra", c.tetra}, {"pyramid", c.pyramid}, {"wedge", c.wedge}, {"hexahedron", c.hexahedron}};
-    j["inverted_cells"] = count_inverted(*m);
+    j["inverted_cells"] = count_inverted_cells(*m);
     if (opts.topology) {
       const auto t0 = std::chrono::steady_clock::now();
       const MeshTopology topo = build_topology(*m);
