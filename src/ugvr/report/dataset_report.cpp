@@ -1,4 +1,5 @@
 #include "ugvr/report/dataset_report.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
