@@ -38,6 +38,19 @@ std::string extension_lower(std::string_view path) {
   return ext;
 }
 
+void pwrite_all(int fd, uint64_t offset, const void* data, size_t n, std::string_view name) {
+  const auto* p = static_cast<const char*>(data);
+  size_t done = 0;
+  while (done < n) {
+    const ssize_t w = ::pwrite(fd, p + done, n - done, off_t(offset + done));
+    if (w < 0) {
+      if (errno == EINTR) continue;
+      fail_in(name, std::string("write failed: ") + std::strerror(errno));
+    }
+    done += size_t(w);
+  }
+}
+
 InputFile::InputFile(std::string path) : path_(std::move(path)) {
   fd_ = ::open(path_.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd_ < 0) fail_in(path_, std::string("cannot open: ") + std::strerror(errno));
@@ -134,16 +147,7 @@ void AtomicOutputFile::write(const void* data, size_t n) {
 
 void AtomicOutputFile::write_at(uint64_t offset, const void* data, size_t n) {
   flush_buffer();
-  const auto* p = static_cast<const char*>(data);
-  size_t done = 0;
-  while (done < n) {
-    const ssize_t w = ::pwrite(fd_, p + done, n - done, off_t(offset + done));
-    if (w < 0) {
-      if (errno == EINTR) continue;
-      fail_in(path_, std::string("write failed: ") + std::strerror(errno));
-    }
-    done += size_t(w);
-  }
+  pwrite_all(fd_, offset, data, n, path_);
 }
 
 void AtomicOutputFile::commit() {

@@ -67,6 +67,10 @@ class AtomicOutputFile {
   bool committed_ = false;
 };
 
+// Writes all n bytes at offset of an open descriptor (retrying short writes and EINTR); throws ugvr::Error naming
+// `name` on failure.
+void pwrite_all(int fd, uint64_t offset, const void* data, size_t n, std::string_view name);
+
 // Last path component ("dir/a.vtu" -> "a.vtu").
 std::string base_name(std::string_view path);
 // Directory part with trailing slash, or "" ("dir/a.vtu" -> "dir/").

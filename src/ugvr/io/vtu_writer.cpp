@@ -157,16 +157,7 @@ class ScratchFile {
   ScratchFile& operator=(const ScratchFile&) = delete;
 
   void write_at(uint64_t offset, const void* data, size_t n, const std::string& name) const {
-    const auto* p = static_cast<const char*>(data);
-    size_t done = 0;
-    while (done < n) {
-      const ssize_t w = ::pwrite(fd_, p + done, n - done, off_t(offset + done));
-      if (w < 0) {
-        if (errno == EINTR) continue;
-        fail_in(name, std::string("scratch write failed: ") + std::strerror(errno));
-      }
-      done += size_t(w);
-    }
+    pwrite_all(fd_, offset, data, n, name + " (scratch file)");
   }
   size_t read_at(uint64_t offset, void* data, size_t n, const std::string& name) const {
     for (;;) {

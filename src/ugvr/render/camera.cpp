@@ -3,12 +3,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <fstream>
 #include <numbers>
-#include <sstream>
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
+#include "ugvr/core/json_file.h"
 
 namespace ugvr {
 namespace {
@@ -128,22 +127,9 @@ Camera camera_from_json(const nlohmann::json& j, std::string_view source) {
   return c;
 }
 
-Camera read_camera(const std::string& path) {
-  const InputFile in(path);
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in.read_all(uint64_t(1) << 24));
-  } catch (const nlohmann::json::parse_error& e) {
-    fail_in(in.name(), std::string("invalid JSON: ") + e.what());
-  }
-  return camera_from_json(j, in.name());
-}
+Camera read_camera(const std::string& path) { return camera_from_json(read_json_file(path), base_name(path)); }
 
-void write_camera(const std::string& path, const Camera& camera) {
-  AtomicOutputFile out(path);
-  out.write(camera_to_json(camera).dump(2) + "\n");
-  out.commit();
-}
+void write_camera(const std::string& path, const Camera& camera) { write_json_file(path, camera_to_json(camera)); }
 
 CameraRays::CameraRays(const Camera& camera, int width, int height) : camera_(camera), width_(width), height_(height) {
   if (width <= 0 || height <= 0) fail_in("camera", "image size must be positive");

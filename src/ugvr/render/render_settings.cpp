@@ -6,6 +6,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
+#include "ugvr/core/json_file.h"
 
 namespace ugvr {
 namespace {
@@ -154,14 +155,7 @@ RenderSettings settings_from_json(const nlohmann::json& j, std::string_view sour
 }
 
 RenderSettings read_render_settings(const std::string& path) {
-  const InputFile in(path);
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in.read_all(uint64_t(1) << 24));
-  } catch (const nlohmann::json::parse_error& e) {
-    fail_in(in.name(), std::string("invalid JSON: ") + e.what());
-  }
-  return settings_from_json(j, in.name());
+  return settings_from_json(read_json_file(path), base_name(path));
 }
 
 ImageSize parse_size(std::string_view text, std::string_view source) {
