@@ -81,6 +81,7 @@ void RenderSettings::validate(std::string_view source) const {
     if (!std::isfinite(v)) fail_key(source, "iso_values", "values must be finite");
   if (mode == RenderMode::Isosurface && iso_values.empty())
     fail_key(source, "iso_values", "isosurface mode needs at least one iso value");
+  if (!(iso_opacity >= 0 && iso_opacity <= 1)) fail_key(source, "iso_opacity", "must be in [0, 1]");
   if (clip_plane) {
     if (!finite(clip_plane->point)) fail_key(source, "clip_plane", "point must be finite");
     if (!finite(clip_plane->normal) || !(length(clip_plane->normal) > 0))
@@ -100,8 +101,10 @@ nlohmann::json settings_to_json(const RenderSettings& s) {
                       {"mode", render_mode_name(s.mode)},
                       {"field", s.field},
                       {"iso_values", s.iso_values},
+                      {"iso_opacity", s.iso_opacity},
                       {"clip_plane", nullptr},
                       {"lighting", s.lighting},
+                      {"volume_lighting", s.volume_lighting},
                       {"early_termination_opacity", s.early_termination_opacity},
                       {"sample_step", s.sample_step},
                       {"boundary_overlay_opacity", s.boundary_overlay_opacity}};
@@ -140,6 +143,11 @@ RenderSettings settings_from_json(const nlohmann::json& j, std::string_view sour
     } else if (key == "lighting") {
       if (!v.is_boolean()) fail_key(source, key, "expected true or false");
       s.lighting = v.get<bool>();
+    } else if (key == "volume_lighting") {
+      if (!v.is_boolean()) fail_key(source, key, "expected true or false");
+      s.volume_lighting = v.get<bool>();
+    } else if (key == "iso_opacity") {
+      s.iso_opacity = number_of(v, source, key);
     } else if (key == "early_termination_opacity") {
       s.early_termination_opacity = number_of(v, source, key);
     } else if (key == "sample_step") {

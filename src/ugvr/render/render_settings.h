@@ -2,7 +2,8 @@
 // with the defaults below, unknown keys rejected:
 //   {"width": 512, "height": 512, "background": [r, g, b, a], "mode": "emission_absorption" | "mip" | "isosurface",
 //    "field": "NAME[:component]", "iso_values": [..], "clip_plane": {"point": [x,y,z], "normal": [x,y,z]} | null,
-//    "lighting": true, "early_termination_opacity": 0.99, "sample_step": 0, "boundary_overlay_opacity": 0}
+//    "iso_opacity": 1, "lighting": true, "volume_lighting": false, "early_termination_opacity": 0.99,
+//    "sample_step": 0, "boundary_overlay_opacity": 0}
 #pragma once
 
 #include <array>
@@ -40,8 +41,10 @@ struct RenderSettings {
   RenderMode mode = RenderMode::EmissionAbsorption;
   std::string field;  // FieldSet::scalar selector; empty = the dataset's first field
   std::vector<double> iso_values;
+  double iso_opacity = 1;  // opacity of each isosurface (opaque, like ParaView's Contour; < 1 shows nested ones)
   std::optional<ClipPlane> clip_plane;
-  bool lighting = true;                     // headlight shading of isosurfaces and of the volume gradient
+  bool lighting = true;          // headlight shading of isosurfaces and of the boundary overlay
+  bool volume_lighting = false;  // shade emission-absorption by the field gradient (ParaView's "Shade", off there too)
   double early_termination_opacity = 0.99;  // stop a ray once its accumulated opacity reaches this
   double sample_step = 0;                   // world units between samples; 0 = the engine picks from cell size
   double boundary_overlay_opacity = 0;      // opacity of the dataset's outer boundary drawn over the image; 0 = off

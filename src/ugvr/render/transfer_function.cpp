@@ -158,6 +158,11 @@ double corrected_opacity(double alpha, double length, double unit_distance) {
   return 1 - std::pow(1 - alpha, length / unit_distance);
 }
 
+double TransferFunction::extinction(double s) const {
+  const double a = std::min(opacity(s), kMaxTableOpacity);
+  return -std::log1p(-a) / opacity_unit_distance;
+}
+
 Vec3d TransferFunction::color(double s) const {
   if (std::isnan(s)) return nan_color;
   return evaluate(color_points, s, [](const ColorPoint& p) { return p.rgb; });

@@ -41,6 +41,14 @@ struct OpacityPoint {
   bool operator==(const OpacityPoint&) const = default;
 };
 
+// The optical model every engine integrates (emission-absorption with emission proportional to extinction, as a
+// ray caster compositing colour c with opacity a does): along a ray, scalar s(x),
+//   extinction  tau(s) = -ln(1 - min(opacity(s), kMaxTableOpacity)) / opacity_unit_distance
+//   radiance    I = integral c(s) tau(s) T(x) dx,   T(x) = exp(-integral_0^x tau)
+// so a constant-s slab of thickness unit_distance has exactly the table's opacity. An opacity of 1 is capped at
+// kMaxTableOpacity (extinction 13.8 / unit distance) to keep tau finite.
+inline constexpr double kMaxTableOpacity = 1 - 1e-6;
+
 // Opacity of a segment of length `length` whose unit-distance opacity is `alpha` (see the header comment).
 double corrected_opacity(double alpha, double length, double unit_distance);
 
@@ -58,6 +66,8 @@ struct TransferFunction {
   double opacity_for_length(double s, double length) const {
     return corrected_opacity(opacity(s), length, opacity_unit_distance);
   }
+  // Extinction coefficient tau(s) of the optical model above (0 for NaN).
+  double extinction(double s) const;
   // Scalar range of the colour points (first x, last x).
   double range_min() const { return color_points.front().x; }
   double range_max() const { return color_points.back().x; }
