@@ -148,7 +148,7 @@ class RayTracer {
   template <CellType T>
   bool exit_of(uint32_t cell, int entry_face, Crossing& out);
   template <CellType T>
-  void cell_segment(uint32_t cell, double t0, double t1, double s0, double s1);
+  void cell_segment(uint32_t cell, double t0, double t1, double s0, double s1, const Crossing& exit);
   void piece(double ta, double tb, double sa, double sb, uint32_t cell, int k);
   Vec3d gradient_at(uint32_t cell, int k, double t) const;
   Vec3d triangle_normal(uint32_t cell, int k, int face, const std::array<uint8_t, 3>& corners) const;
@@ -170,6 +170,10 @@ class RayTracer {
   uint32_t cell_ = 0;
   int k_ = 0, entry_face_ = 0, stall_ = 0;
   double t_in_ = 0, s_in_ = 0;
+  // The face crossing the ray entered the current cell through: its corner vertices and their weights (to start
+  // Newton inside non-tetrahedral cells from parametric coordinates interpolated between entry and exit).
+  uint32_t entry_ids_[3] = {0, 0, 0};
+  double entry_lambda_[3] = {0, 0, 0};
   uint64_t steps_ = 0, max_steps_ = 0;
   double last_exit_ = -kInf;
   double mip_max_ = -kInf;
@@ -414,9 +418,10 @@ void RayTracer::face_jump(double s_before, double s_after, double t, uint32_t ce
 // other cells the isoparametric field along a line is a polynomial of degree up to 3 in t, approximated by linear
 // pieces split at midpoints until the midpoint deviates from the chord by at most the tolerance.
 template <CellType T>
-void RayTracer::cell_segment(uint32_t cell, double t0, double t1, double s0, double s1) {
+void RayTracer::cell_segment(uint32_t cell, double t0, double t1, double s0, double s1, const Crossing& exit) {
   constexpr int k = T == CellType::Tetra ? 0 : T == CellType::Pyramid ? 1 : T == CellType::Wedge ? 2 : 3;
   if constexpr (T == CellType::Tetra) {
+    (void)exit;
     piece(t0, t1, s0, s1, cell, k);
   } else {
     if (sc_.per_cell || !(t1 > t0) || t1 <= t_lo_ || t0 >= t_hi_) {
@@ -438,12 +443,29 @@ void RayTracer::cell_segment(uint32_t cell, double t0, double t1, double s0, dou
     }
     Vec3d v[n];
     for (int i = 0; i < n; ++i) v[i] = to_double(m_.points[vid[i]]);
-    Vec3d guess = parametric_center<T>();
+    // Parametric coordinates of the entry and exit crossings (the faces are planar in parametric space, so the
+    // triangle weights carry over exactly); Newton starts from their interpolation and converges in 2-3 steps.
+    static constexpr std::array<Vec3d, 8> kCorner =
+        T == CellType::Hexahedron
+            ? std::array<Vec3d,
+                         8>{{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}}
+        : T == CellType::Wedge
+            ? std::array<Vec3d, 8>{{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {0, 1, 1}, {}, {}}}
+            : std::array<Vec3d, 8>{{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {}, {}, {}}};
+    constexpr CellInfo kInfo = cell_info(T);
+    Vec3d rst_in{}, rst_out{};
+    for (int i = 0; i < 3; ++i) {
+      int j = 0;
+      while (j < n - 1 && vid[j] != entry_ids_[i]) ++j;
+      rst_in = rst_in + kCorner[j] * entry_lambda_[i];
+      rst_out = rst_out + kCorner[kInfo.faces[exit.face].v[exit.corners[i]]] * exit.lambda[i];
+    }
+    const double inv_length = 1 / (t1 - t0);
     auto eval = [&](double t, double fallback) {
       ++counters_.nonlinear_samples;
+      const Vec3d guess = rst_in + (rst_out - rst_in) * ((t - t0) * inv_length);
       Vec3d rst;
       if (!inverse_map<T>(v, frame_.at(t), guess, rst)) return fallback;
-      guess = rst;
       return interpolate<T>(rst, s);
     };
     auto refine = [&](auto&& self, double ta, double tb, double sa, double sb, int depth) -> void {
@@ -474,6 +496,11 @@ void RayTracer::start_walk(const EntryHit& entry) {
   t_in_ = entry.t;
   s_in_ = scalar_at_face(cell_, k_, in);
   entry_face_ = bt.local_face;
+  {
+    const CellFace face = cell_info(kAllCellTypes[k_]).faces[bt.local_face];
+    const uint32_t* vid = m_.cell_vertices(cell_, k_);
+    for (int i = 0; i < 3; ++i) entry_ids_[i] = vid[face.v[bt.corners[i]]], entry_lambda_[i] = entry.lambda[i];
+  }
   overlay(cell_, k_, bt.local_face, bt.corners, t_in_);
   stall_ = 0;
   in_walk_ = true;
@@ -520,7 +547,14 @@ uint32_t RayTracer::step(uint32_t cell, int entry_face, double& t_in, double& s_
   const double t_out = std::max(out.t, t_in);
   stalled = !(t_out > t_in);
   const double s_out = scalar_at_face<T>(cell, m_.cell_vertices(cell, k), out);
-  cell_segment<T>(cell, t_in, t_out, s_in, s_out);
+  cell_segment<T>(cell, t_in, t_out, s_in, s_out, out);
+  {
+    // Where the next cell is entered (it may be a non-tetrahedral cell starting Newton from here).
+    constexpr CellInfo info = cell_info(T);
+    const CellFace& face = info.faces[out.face];
+    const uint32_t* vid = m_.cell_vertices(cell, k);
+    for (int i = 0; i < 3; ++i) entry_ids_[i] = vid[face.v[out.corners[i]]], entry_lambda_[i] = out.lambda[i];
+  }
   t_in = t_out;
   s_in = s_out;
   return m_.cell_neighbors(cell, k)[out.face];
