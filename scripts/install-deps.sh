@@ -12,6 +12,7 @@ PACKAGES=(
   libpugixml-dev                      # VTK XML headers
   libcli11-dev nlohmann-json3-dev     # command line; JSON output and settings files
   libnetcdf-dev                       # Exodus II files are netCDF
+  libpng-dev                          # rendered images
   python3 python3-matplotlib          # benchmark plots
 )
 

@@ -14,6 +14,7 @@ void register_info(CLI::App& app);
 void register_generate(CLI::App& app);
 void register_convert(CLI::App& app);
 void register_refine(CLI::App& app);
+void register_render(CLI::App& app);
 
 // Adds the positional INPUT argument every reading subcommand takes: one file, or a PLOT3D grid file followed by
 // its solution file.

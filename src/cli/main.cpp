@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   ugvr::cli::register_generate(app);
   ugvr::cli::register_convert(app);
   ugvr::cli::register_refine(app);
+  ugvr::cli::register_render(app);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,394 @@
+// `ugvr render`: one image (or N timed frames) of a dataset. The flags are the engine-independent vocabulary of
+// render_settings.h / camera.h / transfer_function.h, so later engines plug in behind --engine with the same flags.
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+
+#include "cli/commands.h"
+#include "ugvr/core/error.h"
+#include "ugvr/core/file.h"
+#include "ugvr/core/json_file.h"
+#include "ugvr/core/memory.h"
+#include "ugvr/core/progress.h"
+#include "ugvr/io/reader.h"
+#include "ugvr/render/camera.h"
+#include "ugvr/render/exact/exact_engine.h"
+#include "ugvr/render/image.h"
+#include "ugvr/render/render_settings.h"
+#include "ugvr/render/transfer_function.h"
+
+namespace ugvr::cli {
+namespace {
+
+// Every value flag is bound as text and parsed here, so a bad value is a ugvr::Error naming the flag (exit 1) like
+// every other user error, rather than CLI11's own message and exit code.
+struct Options {
+  std::vector<std::string> inputs;
+  ReadOptions read;
+  std::string output, size, engine = "exact", camera, view, view_angle, tf, tf_name, range, unit_distance, field, mode,
+                            iso, iso_opacity, clip, boundary_opacity, background, settings, float_output, stats,
+                            save_camera, save_tf, threads, frames;
+  bool keep_range = false, no_lighting = false, volume_lighting = false;
+};
+
+const std::vector<std::string> kEngines = {"exact"};
+const std::vector<std::string> kViews = {"+x", "-x", "+y", "-y", "+z", "-z", "iso"};
+
+[[noreturn]] void fail_flag(std::string_view flag, const std::string& message) { fail_in(flag, message); }
+
+// Runs f; an error it raises (a file's own message naming the file) is prefixed with the flag that named the file.
+template <class F>
+auto with_flag(std::string_view flag, F&& f) {
+  try {
+    return f();
+  } catch (const Error& e) {
+    fail_flag(flag, e.what());
+  }
+}
+
+double parse_number(std::string_view text, std::string_view flag) {
+  double v = 0;
+  const char* first = text.data();
+  const char* last = first + text.size();
+  // from_chars rejects a leading '+', which people type for positive values.
+  if (first != last && *first == '+') ++first;
+  const auto [end, ec] = std::from_chars(first, last, v);
+  if (first == last || ec != std::errc() || end != last || !std::isfinite(v))
+    fail_flag(flag, "expected a finite number, found \"" + std::string(text) + "\"");
+  return v;
+}
+
+int parse_positive_int(std::string_view text, std::string_view flag) {
+  int v = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (text.empty() || ec != std::errc() || end != text.data() + text.size() || v < 1)
+    fail_flag(flag, "expected a positive integer, found \"" + std::string(text) + "\"");
+  return v;
+}
+
+// "a,b,c" with a count in [min_count, max_count].
+std::vector<double> parse_list(std::string_view text, std::string_view flag, size_t min_count, size_t max_count,
+                               std::string_view form) {
+  std::vector<double> v;
+  size_t start = 0;
+  while (true) {
+    const size_t comma = text.find(',', start);
+    const std::string_view item = text.substr(start, comma == std::string_view::npos ? comma : comma - start);
+    v.push_back(parse_number(item, flag));
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+  if (v.size() < min_count || v.size() > max_count)
+    fail_flag(flag, "expected " + std::string(form) + ", found " + std::to_string(v.size()) + " value" +
+                        (v.size() == 1 ? "" : "s"));
+  return v;
+}
+
+double parse_fraction(std::string_view text, std::string_view flag) {
+  const double v = parse_number(text, flag);
+  if (v < 0 || v > 1) fail_flag(flag, "must be in [0, 1], found " + std::string(text));
+  return v;
+}
+
+std::string join(const std::vector<std::string>& names, std::string_view sep = ", ") {
+  std::string s;
+  for (const std::string& n : names) s += (s.empty() ? "" : std::string(sep)) + n;
+  return s;
+}
+
+RenderMode parse_mode(std::string_view text) {
+  if (text == "ea" || text == "emission_absorption") return RenderMode::EmissionAbsorption;
+  if (text == "mip") return RenderMode::Mip;
+  if (text == "iso" || text == "isosurface") return RenderMode::Isosurface;
+  fail_flag("--mode", "unknown mode \"" + std::string(text) + "\" (expected ea, mip or iso)");
+}
+
+void check_extension(const std::string& path, std::string_view flag, const std::vector<std::string>& allowed) {
+  const std::string ext = extension_lower(path);
+  if (std::find(allowed.begin(), allowed.end(), ext) == allowed.end())
+    fail_flag(flag, "\"" + path + "\" must end in " + join(allowed, " or "));
+}
+
+// The flags on top of --settings (or the defaults): only what was given overrides.
+RenderSettings settings_from_flags(const Options& o) {
+  RenderSettings s =
+      o.settings.empty() ? RenderSettings{} : with_flag("--settings", [&] { return read_render_settings(o.settings); });
+  if (!o.size.empty()) {
+    const ImageSize size = parse_size(o.size, "--size");
+    s.width = size.width;
+    s.height = size.height;
+  }
+  if (!o.field.empty()) s.field = o.field;
+  if (!o.iso.empty()) {
+    s.iso_values = parse_list(o.iso, "--iso", 1, 4096, "one or more comma-separated values");
+    // Iso values only mean something in isosurface mode, so giving them picks it unless --mode says otherwise.
+    if (o.mode.empty()) s.mode = RenderMode::Isosurface;
+  }
+  if (!o.mode.empty()) s.mode = parse_mode(o.mode);
+  if (s.mode == RenderMode::Isosurface && s.iso_values.empty())
+    fail_flag("--mode", "isosurface mode needs --iso V1,V2,...");
+  if (!o.iso_opacity.empty()) s.iso_opacity = parse_fraction(o.iso_opacity, "--iso-opacity");
+  if (!o.clip.empty()) {
+    const std::vector<double> c = parse_list(o.clip, "--clip", 6, 6, "PX,PY,PZ,NX,NY,NZ");
+    const ClipPlane plane{{c[0], c[1], c[2]}, {c[3], c[4], c[5]}};
+    if (length(plane.normal) == 0) fail_flag("--clip", "the normal NX,NY,NZ must be non-zero");
+    s.clip_plane = plane;
+  }
+  if (!o.boundary_opacity.empty())
+    s.boundary_overlay_opacity = parse_fraction(o.boundary_opacity, "--boundary-opacity");
+  if (o.no_lighting) s.lighting = false;
+  if (o.volume_lighting) s.volume_lighting = true;
+  if (!o.background.empty()) {
+    const std::vector<double> b = parse_list(o.background, "--background", 3, 4, "R,G,B or R,G,B,A");
+    for (double c : b)
+      if (c < 0 || c > 1) fail_flag("--background", "components must be in [0, 1]");
+    s.background = {b[0], b[1], b[2], b.size() == 4 ? b[3] : 1.0};
+  }
+  with_flag("--settings", [&] { s.validate(o.settings.empty() ? "render settings" : o.settings); });
+  return s;
+}
+
+// A preset file's own "ScalarOpacityUnitDistance", if it has one: it then wins over the bounds-based default.
+std::optional<double> file_unit_distance(const std::string& path, std::string_view name) {
+  const nlohmann::json j = read_json_file(path);
+  const nlohmann::json* preset = nullptr;
+  if (j.is_object()) {
+    preset = &j;
+  } else if (j.is_array()) {
+    for (const nlohmann::json& p : j) {
+      if (!p.is_object()) continue;
+      if (name.empty() || (p.contains("Name") && p["Name"].is_string() && p["Name"].get<std::string>() == name)) {
+        preset = &p;
+        break;
+      }
+    }
+  }
+  if (!preset || !preset->contains("ScalarOpacityUnitDistance")) return std::nullopt;
+  return (*preset)["ScalarOpacityUnitDistance"].get<double>();
+}
+
+bool is_tf_file(const std::string& tf) {
+  std::error_code ec;
+  return extension_lower(tf) == ".json" || std::filesystem::is_regular_file(tf, ec);
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+void run_render(const Options& o) {
+  // Everything that can be checked without the data is checked first, so a typo fails in milliseconds.
+  if (std::find(kEngines.begin(), kEngines.end(), o.engine) == kEngines.end())
+    fail_flag("--engine", "unknown engine \"" + o.engine + "\" (valid: " + join(kEngines) + ")");
+  check_extension(o.output, "-o", {".png", ".pfm"});
+  if (!o.float_output.empty()) check_extension(o.float_output, "--float", {".pfm"});
+  if (!o.camera.empty() && !o.view.empty()) fail_flag("--view", "cannot be combined with --camera");
+  if (!o.view.empty() && std::find(kViews.begin(), kViews.end(), o.view) == kViews.end())
+    fail_flag("--view", "unknown view \"" + o.view + "\" (expected " + join(kViews) + ")");
+  std::optional<double> view_angle;
+  if (!o.view_angle.empty()) {
+    view_angle = parse_number(o.view_angle, "--view-angle");
+    if (*view_angle <= 0 || *view_angle >= 180) fail_flag("--view-angle", "must be in (0, 180) degrees");
+  }
+  std::optional<Camera> file_camera;
+  if (!o.camera.empty()) file_camera = with_flag("--camera", [&] { return read_camera(o.camera); });
+  const bool tf_from_file = !o.tf.empty() && is_tf_file(o.tf);
+  if (!o.tf_name.empty() && !tf_from_file) fail_flag("--tf-name", "needs --tf FILE.json");
+  TransferFunction tf;
+  std::optional<double> unit_distance;
+  if (tf_from_file) {
+    tf = with_flag("--tf", [&] { return read_paraview_preset(o.tf, o.tf_name); });
+    unit_distance = with_flag("--tf", [&] { return file_unit_distance(o.tf, o.tf_name); });
+  } else {
+    tf = with_flag("--tf", [&] { return builtin_preset(o.tf.empty() ? "viridis" : o.tf); });
+  }
+  std::optional<std::pair<double, double>> range;
+  if (!o.range.empty()) {
+    const std::vector<double> r = parse_list(o.range, "--range", 2, 2, "MIN,MAX");
+    if (!(r[0] < r[1])) fail_flag("--range", "MIN must be less than MAX");
+    range = {r[0], r[1]};
+  }
+  if (!o.unit_distance.empty()) {
+    unit_distance = parse_number(o.unit_distance, "--unit-distance");
+    if (*unit_distance <= 0) fail_flag("--unit-distance", "must be > 0");
+  }
+  const int threads = o.threads.empty() ? 0 : parse_positive_int(o.threads, "--threads");
+  const int frames = o.frames.empty() ? 1 : parse_positive_int(o.frames, "--frames");
+  RenderSettings settings = settings_from_flags(o);
+
+  // The limit must outlive every parallel region, engine construction included.
+  std::optional<tbb::global_control> thread_limit;
+  if (threads > 0) thread_limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(threads));
+
+  const Dataset ds = read_dataset(o.inputs, o.read);
+  for (const std::string& w : ds.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  ExactEngine engine(ds);
+  with_flag("--field", [&] { engine.set_field(ds, settings.field); });
+  // Recorded in --stats so the settings reproduce the image; a selector the user gave ("velocity:x") is kept as is.
+  if (settings.field.empty()) settings.field = engine.field_name();
+
+  const Bounds bounds = engine.bounds();
+  Camera camera;
+  if (file_camera) {
+    camera = *file_camera;
+    if (view_angle) camera.view_angle = *view_angle;
+  } else if (!o.view.empty()) {
+    camera = camera_preset(o.view, bounds, view_angle.value_or(30));
+  } else {
+    // ParaView's default view: along -z, +y up.
+    camera = reset_camera(bounds, view_angle.value_or(30));
+  }
+
+  if (range) {
+    tf.rescale(range->first, range->second);
+  } else if (!o.keep_range) {
+    const double lo = engine.field_min(), hi = engine.field_max();
+    // An all-NaN field has no range; the map then stays where it was rather than becoming NaN itself.
+    if (std::isfinite(lo) && std::isfinite(hi)) tf.rescale(lo, hi);
+  }
+  if (!unit_distance) {
+    const double diagonal = length(bounds.size());
+    unit_distance = diagonal > 0 ? diagonal / 100 : 1.0;
+  }
+  tf.opacity_unit_distance = *unit_distance;
+
+  if (!o.save_camera.empty()) write_camera(o.save_camera, camera);
+  if (!o.save_tf.empty()) write_paraview_preset(o.save_tf, tf);
+
+  Image image;
+  ExactRenderStats stats;
+  std::vector<double> frame_seconds;
+  for (int f = 0; f < frames; ++f) {
+    image = engine.render(camera, tf, settings, &stats);
+    frame_seconds.push_back(stats.render_seconds);
+  }
+  // The first frame pays for page faults and cold caches; benchmarks want the steady state.
+  const double median_seconds =
+      frames > 1 ? median(std::vector<double>(frame_seconds.begin() + 1, frame_seconds.end())) : frame_seconds[0];
+  const int threads_used = stats.threads > 0 ? stats.threads : tbb::this_task_arena::max_concurrency();
+
+  write_image(o.output, image);
+  if (!o.float_output.empty()) write_pfm(o.float_output, image);
+
+  if (!o.stats.empty()) {
+    const uint64_t cells = engine.cell_count();
+    std::string input;
+    for (const std::string& p : o.inputs) input += (input.empty() ? "" : " ") + p;
+    const nlohmann::json j = {
+        {"engine", o.engine},
+        {"input", input},
+        {"field", engine.field_name()},
+        {"field_range", {engine.field_min(), engine.field_max()}},
+        {"width", settings.width},
+        {"height", settings.height},
+        {"cells", cells},
+        {"points", engine.point_count()},
+        {"build_seconds", engine.build_seconds()},
+        {"frame_seconds", frame_seconds},
+        {"median_frame_seconds", median_seconds},
+        {"rays", stats.rays},
+        {"rays_hit", stats.rays_hit},
+        {"cell_steps", stats.cell_steps},
+        {"reentries", stats.reentries},
+        {"nonlinear_samples", stats.nonlinear_samples},
+        {"lost_rays", stats.lost_rays},
+        {"threads", threads_used},
+        {"engine_bytes", engine.memory_bytes()},
+        {"engine_bytes_per_cell", cells ? double(engine.memory_bytes()) / double(cells) : 0.0},
+        {"peak_rss_bytes", peak_rss_bytes()},
+        {"camera", camera_to_json(camera)},
+        {"settings", settings_to_json(settings)},
+    };
+    write_json_file(o.stats, j);
+  }
+
+  if (Progress::enabled()) {
+    std::fprintf(stderr,
+                 "rendered %s: %d x %d, %s engine, field %s [%.6g, %.6g], %llu cells, build %.3f s, frame %.3f s%s, "
+                 "%llu of %llu rays hit, %d threads, engine %s, peak RSS %s\n",
+                 o.output.c_str(), settings.width, settings.height, o.engine.c_str(), engine.field_name().c_str(),
+                 engine.field_min(), engine.field_max(), (unsigned long long)engine.cell_count(),
+                 engine.build_seconds(), median_seconds,
+                 frames > 1 ? (" (median of " + std::to_string(frames - 1) + ")").c_str() : "",
+                 (unsigned long long)stats.rays_hit, (unsigned long long)stats.rays, threads_used,
+                 format_bytes(engine.memory_bytes()).c_str(), format_bytes(peak_rss_bytes()).c_str());
+    if (stats.lost_rays > 0)
+      std::fprintf(stderr, "warning: %llu rays were abandoned on a degenerate walk\n",
+                   (unsigned long long)stats.lost_rays);
+  }
+}
+
+}  // namespace
+
+void register_render(CLI::App& app) {
+  auto opts = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand(
+      "render",
+      "Render a volume image of a dataset (exact CPU ray casting): emission-absorption, MIP or isosurfaces, with "
+      "ParaView's camera, colour map and opacity conventions");
+  add_input(*cmd, opts->inputs);
+  add_read_options(*cmd, opts->read);
+  cmd->add_option("-o,--output", opts->output, "Output image (.png or .pfm)")->required()->type_name("FILE");
+  cmd->add_option("--size", opts->size, "Image size: N (square) or WxH (default 512, or from --settings)")
+      ->type_name("N|WxH");
+  cmd->add_option("--engine", opts->engine, "Rendering engine: exact")->default_str("exact")->type_name("NAME");
+  cmd->add_option("--camera", opts->camera, "Camera JSON file (as written by --save-camera)")->type_name("FILE");
+  cmd->add_option("--view", opts->view,
+                  "View preset framed on the data: +x -x +y -y +z -z iso; default: ParaView's default view, looking "
+                  "along -z with +y up")
+      ->type_name("NAME");
+  cmd->add_option("--view-angle", opts->view_angle, "Vertical view angle in degrees (default 30)")->type_name("DEG");
+  cmd->add_option("--tf", opts->tf,
+                  "Transfer function: a ParaView preset .json file, or a built-in preset: " +
+                      join(builtin_preset_names()) + " (default viridis)")
+      ->type_name("FILE|NAME");
+  cmd->add_option("--tf-name", opts->tf_name, "Preset to take from the --tf file (default: its first)")
+      ->type_name("NAME");
+  cmd->add_flag("--keep-range", opts->keep_range,
+                "Keep the transfer function's own scalar range instead of rescaling it to the field's range");
+  cmd->add_option("--range", opts->range, "Rescale the transfer function to MIN,MAX (default: the field's range)")
+      ->type_name("MIN,MAX");
+  cmd->add_option("--unit-distance", opts->unit_distance,
+                  "Scalar opacity unit distance (default: the --tf file's ScalarOpacityUnitDistance, else the "
+                  "bounds diagonal / 100; ParaView uses the mean cell size)")
+      ->type_name("D");
+  cmd->add_option("--field", opts->field, "Scalar to render: NAME, NAME:x|y|z|k or NAME:magnitude (default: first)")
+      ->type_name("NAME");
+  cmd->add_option("--mode", opts->mode, "ea (emission-absorption, default), mip or iso (isosurfaces)")
+      ->type_name("ea|mip|iso");
+  cmd->add_option("--iso", opts->iso, "Isosurface values V1,V2,... (implies --mode iso)")->type_name("V1,V2,...");
+  cmd->add_option("--iso-opacity", opts->iso_opacity, "Opacity of each isosurface in [0, 1] (default 1)")
+      ->type_name("A");
+  cmd->add_option("--clip", opts->clip, "Clip plane PX,PY,PZ,NX,NY,NZ: keeps the side the normal points to")
+      ->type_name("PX,PY,PZ,NX,NY,NZ");
+  cmd->add_option("--boundary-opacity", opts->boundary_opacity,
+                  "Opacity of the dataset's outer boundary drawn over the image (default 0: off)")
+      ->type_name("A");
+  cmd->add_flag("--no-lighting", opts->no_lighting, "No headlight shading of isosurfaces and the boundary");
+  cmd->add_flag("--volume-lighting", opts->volume_lighting, "Shade emission-absorption by the field gradient");
+  cmd->add_option("--background", opts->background, "Background R,G,B[,A] in [0, 1] (default ParaView's)")
+      ->type_name("R,G,B[,A]");
+  cmd->add_option("--settings", opts->settings, "Render settings JSON; the flags above override it")->type_name("FILE");
+  cmd->add_option("--float", opts->float_output, "Also write the image as a float .pfm")->type_name("FILE");
+  cmd->add_option("--stats", opts->stats, "Write timings, counters and the camera and settings used as JSON")
+      ->type_name("FILE");
+  cmd->add_option("--save-camera", opts->save_camera, "Write the camera used as JSON")->type_name("FILE");
+  cmd->add_option("--save-tf", opts->save_tf, "Write the transfer function used as a ParaView preset")
+      ->type_name("FILE");
+  cmd->add_option("--threads", opts->threads, "Limit the worker threads (default: all cores)")->type_name("N");
+  cmd->add_option("--frames", opts->frames,
+                  "Render N times (benchmarks): --stats lists every frame time and the median after the first")
+      ->type_name("N");
+  cmd->callback([opts] { run_render(*opts); });
+}
+
+}  // namespace ugvr::cli

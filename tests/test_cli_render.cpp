@@ -1,0 +1,222 @@
+// End to end: `ugvr render` on a small generated mixed-cell dataset.
+// Tests named Engine* need a working exact engine (they render); the others check the command line alone, which is
+// validated before the dataset is read.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "test_data.h"
+#include "ugvr/render/camera.h"
+#include "ugvr/render/image.h"
+#include "ugvr/render/transfer_function.h"
+
+namespace ugvr {
+namespace {
+
+using nlohmann::json;
+using test::CommandResult;
+using test::run_ugvr;
+
+// A scratch directory holding a 2,000-cell mixed dataset (all four cell types).
+class CliRender : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const CommandResult r = run_ugvr("generate --cells 2000 --kind mixed -o " + dir_.file("mixed.vtu"));
+    ASSERT_EQ(r.status, 0) << r.out;
+  }
+  std::string data() const { return dir_.file("mixed.vtu"); }
+  std::string file(const std::string& name) const { return dir_.file(name); }
+  CommandResult render(const std::string& args) const { return run_ugvr("render " + data() + " " + args); }
+  // Renders and expects success.
+  void render_ok(const std::string& args) const {
+    const CommandResult r = render(args);
+    ASSERT_EQ(r.status, 0) << args << "\n" << r.out;
+  }
+
+  test::ScratchDir dir_;
+};
+
+std::string read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+TEST_F(CliRender, BadFlagsNameTheFlag) {
+  const std::string out = "-o " + file("a.png") + " ";
+  const std::pair<std::string, std::string> cases[] = {
+      {"--engine foo", "--engine"},
+      {"--size 0", "--size"},
+      {"--size 20000", "--size"},
+      {"--size 3x", "--size"},
+      {"--range 1", "--range"},
+      {"--range 2,1", "--range"},
+      {"--range 0,nan", "--range"},
+      {"--range a,b", "--range"},
+      {"--clip 1,2,3", "--clip"},
+      {"--clip 0,0,0,0,0,0", "--clip"},
+      {"--background 1,1", "--background"},
+      {"--background 2,0,0", "--background"},
+      {"--background 0,0,0,0,0", "--background"},
+      {"--view up", "--view"},
+      {"--view-angle 190", "--view-angle"},
+      {"--view-angle x", "--view-angle"},
+      {"--tf nope", "--tf"},
+      {"--tf " + file("missing.json"), "--tf"},
+      {"--tf-name x", "--tf-name"},
+      {"--unit-distance -1", "--unit-distance"},
+      {"--unit-distance 0", "--unit-distance"},
+      {"--mode foo", "--mode"},
+      {"--mode iso", "--mode"},
+      {"--iso 1,x", "--iso"},
+      {"--iso 1,,2", "--iso"},
+      {"--iso-opacity 2", "--iso-opacity"},
+      {"--boundary-opacity x", "--boundary-opacity"},
+      {"--threads 0", "--threads"},
+      {"--threads 1.5", "--threads"},
+      {"--frames 0", "--frames"},
+      {"--float " + file("x.png"), "--float"},
+      {"--settings " + file("nosuch.json"), "--settings"},
+      {"--camera " + file("nosuch.json"), "--camera"},
+      {"--view +x --camera " + file("nosuch.json"), "--view"},
+  };
+  for (const auto& [args, flag] : cases) {
+    const CommandResult r = render(out + args);
+    EXPECT_EQ(r.status, 1) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find("error: " + flag + ":"), std::string::npos) << args << "\n" << r.out;
+  }
+  const CommandResult r = render("-o " + file("a.jpg"));
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("a.jpg"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(file("a.png")));
+}
+
+TEST_F(CliRender, BadFilesNameTheFile) {
+  std::ofstream(file("bad-settings.json")) << R"({"width": 0})";
+  CommandResult r = render("-o " + file("a.png") + " --settings " + file("bad-settings.json"));
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("bad-settings.json"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("width"), std::string::npos) << r.out;
+  std::ofstream(file("bad-camera.json")) << R"({"position": [0, 0, 1]})";
+  r = render("-o " + file("a.png") + " --camera " + file("bad-camera.json"));
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("bad-camera.json"), std::string::npos) << r.out;
+}
+
+TEST_F(CliRender, HelpListsTheFlags) {
+  const CommandResult r = run_ugvr("render --help");
+  EXPECT_EQ(r.status, 0);
+  for (const char* flag : {"--size", "--camera", "--view", "--tf", "--range", "--unit-distance", "--mode", "--iso",
+                           "--clip", "--background", "--settings", "--float", "--stats", "--save-camera", "--save-tf",
+                           "--threads", "--frames", "diagonal / 100"})
+    EXPECT_NE(r.out.find(flag), std::string::npos) << flag;
+}
+
+// ---- Engine-dependent: these render.
+
+TEST_F(CliRender, EngineWritesPngOfRequestedSize) {
+  render_ok("-o " + file("a.png") + " --size 64x48");
+  const Image im = read_png(file("a.png"));
+  ASSERT_EQ(im.width, 64);
+  ASSERT_EQ(im.height, 48);
+  // ParaView's default background (0.32, 0.34, 0.43); the data must cover some pixels.
+  int covered = 0;
+  for (int y = 0; y < im.height; ++y)
+    for (int x = 0; x < im.width; ++x) {
+      const float* p = im.pixel(x, y);
+      if (std::abs(p[0] - 0.32f) + std::abs(p[1] - 0.34f) + std::abs(p[2] - 0.43f) > 4.0f / 255) ++covered;
+    }
+  EXPECT_GT(covered, 64 * 48 / 20);
+  // Corners are outside the data under the default framing.
+  EXPECT_NEAR(im.pixel(0, 0)[0], 0.32f, 1.0f / 255);
+}
+
+TEST_F(CliRender, EngineSavedCameraAndTransferFunctionReproduceTheImage) {
+  render_ok("-o " + file("a.png") + " --size 40 --view iso --tf inferno --save-camera " + file("cam.json") +
+            " --save-tf " + file("tf.json") + " --stats " + file("s.json"));
+  const Camera cam = read_camera(file("cam.json"));
+  const json stats = json::parse(read_bytes(file("s.json")));
+  EXPECT_EQ(cam, camera_from_json(stats["camera"], "stats"));
+  const Vec3d d = cam.direction(), iso = normalized({-1, -1, -1});
+  EXPECT_NEAR(dot(d, iso), 1.0, 1e-9);
+  const TransferFunction tf = read_paraview_preset(file("tf.json"));
+  // The builtin map was rescaled to the field's range.
+  EXPECT_DOUBLE_EQ(tf.range_min(), stats["field_range"][0].get<double>());
+  EXPECT_DOUBLE_EQ(tf.range_max(), stats["field_range"][1].get<double>());
+  EXPECT_GT(tf.opacity_unit_distance, 0);
+  render_ok("-o " + file("b.png") + " --size 40 --camera " + file("cam.json") + " --tf " + file("tf.json") +
+            " --keep-range");
+  EXPECT_EQ(read_bytes(file("a.png")), read_bytes(file("b.png")));
+}
+
+TEST_F(CliRender, EngineStatsHaveEveryKey) {
+  render_ok("-o " + file("a.png") + " --size 32x24 --frames 3 --threads 2 --float " + file("a.pfm") + " --stats " +
+            file("s.json"));
+  const json s = json::parse(read_bytes(file("s.json")));
+  for (const char* key : {"engine",
+                          "input",
+                          "field",
+                          "field_range",
+                          "width",
+                          "height",
+                          "cells",
+                          "points",
+                          "build_seconds",
+                          "frame_seconds",
+                          "median_frame_seconds",
+                          "rays",
+                          "rays_hit",
+                          "cell_steps",
+                          "reentries",
+                          "nonlinear_samples",
+                          "lost_rays",
+                          "threads",
+                          "engine_bytes",
+                          "engine_bytes_per_cell",
+                          "peak_rss_bytes",
+                          "camera",
+                          "settings"})
+    EXPECT_TRUE(s.contains(key)) << key;
+  EXPECT_EQ(s["engine"], "exact");
+  EXPECT_EQ(s["width"], 32);
+  EXPECT_EQ(s["height"], 24);
+  EXPECT_EQ(s["frame_seconds"].size(), 3u);
+  EXPECT_EQ(s["rays"], 32 * 24);
+  EXPECT_GT(s["rays_hit"].get<uint64_t>(), 0u);
+  EXPECT_EQ(s["lost_rays"], 0);
+  EXPECT_EQ(s["field"], "pressure");
+  EXPECT_GT(s["cells"].get<uint64_t>(), 1900u);
+  EXPECT_LE(s["threads"].get<int>(), 2);
+  EXPECT_NO_THROW(camera_from_json(s["camera"], "stats"));
+  // The float copy is the same image as the PNG, before quantisation.
+  const Image png = read_png(file("a.png")), pfm = read_pfm(file("a.pfm"));
+  EXPECT_LE(compare_images(png, pfm).max_abs, 0.5 / 255 + 1e-6);
+}
+
+TEST_F(CliRender, EngineFlagsOverrideSettingsFile) {
+  std::ofstream(file("settings.json")) << R"({"width": 40, "height": 30, "background": [1, 1, 1, 1]})";
+  render_ok("-o " + file("a.pfm") + " --settings " + file("settings.json") + " --size 20x10");
+  const Image im = read_pfm(file("a.pfm"));
+  EXPECT_EQ(im.width, 20);
+  EXPECT_EQ(im.height, 10);
+  EXPECT_EQ(im.pixel(0, 0)[0], 1.0f);  // the settings' white background, the flag's size
+}
+
+TEST_F(CliRender, EngineIsDeterministicAcrossThreadCounts) {
+  render_ok("-o " + file("a.pfm") + " --size 48 --threads 1");
+  render_ok("-o " + file("b.pfm") + " --size 48");
+  EXPECT_EQ(read_bytes(file("a.pfm")), read_bytes(file("b.pfm")));
+}
+
+TEST_F(CliRender, EngineModesAndUnknownField) {
+  render_ok("-o " + file("mip.png") + " --size 24 --mode mip --field wall_distance");
+  render_ok("-o " + file("iso.png") + " --size 24 --iso 0,0.5 --clip 0,0,1,0,0,1 --no-lighting");
+  render_ok("-o " + file("b.png") + " --size 24 --boundary-opacity 0.3 --volume-lighting --background 0,0,0,0");
+  const CommandResult r = render("-o " + file("x.png") + " --field nosuch");
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("nosuch"), std::string::npos) << r.out;
+}
+
+}  // namespace
+}  // namespace ugvr
