@@ -87,8 +87,13 @@ std::string fmt_num(double v) {
 }
 
 std::string fmt_count(uint64_t v) {
-  std::string s = std::to_string(v);
-  for (int i = int(s.size()) - 3; i > 0; i -= 3) s.insert(size_t(i), ",");
+  // Appends rather than inserts: GCC 12 at -O3 warns falsely (-Wrestrict) on std::string::insert here.
+  const std::string digits = std::to_string(v);
+  std::string s;
+  for (size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) s += ',';
+    s += digits[i];
+  }
   return s;
 }
 
