@@ -36,22 +36,26 @@ BoundaryBins::BoundaryBins(const WalkMesh& mesh, const Camera& camera, int width
       triangle_vertices(mesh, mesh.boundary[i], v);
       double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
       bool everywhere = false;
+      int behind = 0;
       for (uint32_t id : v) {
         const Vec3d a = to_double(mesh.points[id]) - camera.position;
         double sx = dot(a, right), sy = dot(a, up);
         if (!camera.parallel_projection) {
+          // Rays are lines through the eye, so a triangle wholly behind it projects through the eye like one in
+          // front (where the lines meet it, t < 0); only one straddling the eye's plane has no bounded projection.
           const double z = dot(a, fwd);
-          if (z <= near) {
+          if (std::abs(z) <= near) {
             everywhere = true;
             break;
           }
+          behind += z < 0;
           sx /= z, sy /= z;
         }
         const double px = (sx / half_w + 1) * 0.5 * width, py = (1 - sy / half_h) * 0.5 * height;
         x0 = std::min(x0, px), x1 = std::max(x1, px), y0 = std::min(y0, py), y1 = std::max(y1, py);
       }
       PixelBox& b = boxes_[i];
-      if (everywhere) {
+      if (everywhere || (behind > 0 && behind < 3)) {
         b = {0, 0, width - 1, height - 1};
         continue;
       }

@@ -2,8 +2,10 @@
 // tiles its (conservative) pixel box touches; a tile then tests exactly, with the same watertight edge tests the walk
 // uses (ray_frame.h), each of its triangles against each pixel of the triangle's box, and keeps the entering
 // crossings (all edge values <= 0) sorted per pixel by distance. Rays of non-convex meshes, meshes with holes and
-// several pieces re-enter at the next crossing beyond the point where they left. Triangles reaching behind a
-// perspective camera cannot be projected and are tested against every pixel.
+// several pieces re-enter at the next crossing beyond the point where they left. Rays are whole lines (a camera
+// inside the mesh walks from where the line enters behind it and keeps t >= 0): triangles wholly behind a
+// perspective camera project through the eye like any other, and only those straddling the plane of the eye, a thin
+// band, are tested against every pixel.
 #pragma once
 
 #include <cstdint>
