@@ -19,6 +19,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <span>
@@ -171,8 +172,11 @@ inline void jacobian_columns(const Vec3d* v, const double* dN, Vec3d cols[3]) {
 
 // Newton's method on x(rst) = point. Works for every type (for a tetrahedron it converges in one step, up to
 // rounding); inverse_map<Tetra> uses the closed form instead.
+// `tolerance` bounds the last parametric update; Newton converges quadratically, so a caller that needs the
+// coordinates to ~1e-14 may stop at an update of 1e-7 and save an iteration.
 template <CellType T>
-inline bool inverse_map_newton(const Vec3d* v, Vec3d point, Vec3d guess, Vec3d& rst) {
+inline bool inverse_map_newton(const Vec3d* v, Vec3d point, Vec3d guess, Vec3d& rst,
+                               double tolerance = kInverseMapTolerance) {
   constexpr int n = kVertexCount<T>;
   rst = guess;
   for (int it = 0; it < kInverseMapMaxIterations; ++it) {
@@ -188,7 +192,7 @@ inline bool inverse_map_newton(const Vec3d* v, Vec3d point, Vec3d guess, Vec3d& 
     const Vec3d delta{dot(inv[0], b), dot(inv[1], b), dot(inv[2], b)};
     rst = rst + delta;
     const double step = std::max(std::abs(delta.x), std::max(std::abs(delta.y), std::abs(delta.z)));
-    if (step < kInverseMapTolerance) return true;
+    if (step < tolerance) return true;
     if (!(step < 1e8)) return false;  // diverging (or NaN): the point is nowhere near this cell
   }
   return false;
@@ -225,6 +229,85 @@ inline Vec3d gradient_in_cell(const Vec3d* v, Vec3d rst, const double* values) {
     for (int i = 0; i < n; ++i) g[j] += dN[j * n + i] * values[i];
   // J^-T g: the rows of J^-1 are the columns of J^-T.
   return inv[0] * g[0] + inv[1] * g[1] + inv[2] * g[2];
+}
+
+// ---- monomial form -----------------------------------------------------------------------------------------------
+
+// A cell's map (or a vertex field over it) in the monomial basis m = (1, r, s, t, rs, rt, st, rst):
+//   x(r, s, t) = sum_k c[k] m_k(r, s, t).
+// Every type's shape functions span a subset of that basis (tetra: the first 4; wedge: no rs, rst), so one
+// evaluator serves all four and costs about a third of shape functions plus a weighted sum. Inner loops that test or
+// interpolate the same cell many times (voxelizers, ray casters) convert once with to_monomial and then use
+// evaluate / inverse_map_monomial.
+template <class V>
+struct MonomialForm {
+  std::array<V, 8> c{};
+
+  V evaluate(Vec3d p) const {
+    const double rs = p.x * p.y, rt = p.x * p.z, st = p.y * p.z;
+    return c[0] + c[1] * p.x + c[2] * p.y + c[3] * p.z + c[4] * rs + c[5] * rt + c[6] * st + c[7] * (rs * p.z);
+  }
+};
+
+// The monomial coefficients of the map whose vertex values are `values` (positions or scalars): the map evaluated at
+// the 8 corners of the unit cube (shape functions are polynomials, so this holds outside the domain too), then the
+// inclusion-exclusion that turns corner values of a trilinear function into its coefficients.
+template <CellType T, class V>
+MonomialForm<V> to_monomial(const V* values) {
+  V corner[8];  // corner[i | j << 1 | k << 2] at (i, j, k)
+  if constexpr (T == CellType::Hexahedron) {
+    // The corners are the vertices (hot in the ray caster: no shape functions to evaluate).
+    static constexpr int kVertexAt[8] = {0, 1, 3, 2, 4, 5, 7, 6};
+    for (int q = 0; q < 8; ++q) corner[q] = values[kVertexAt[q]];
+  } else
+    for (int q = 0; q < 8; ++q) {
+      double N[kVertexCount<T>];
+      shape_functions<T>({double(q & 1), double((q >> 1) & 1), double((q >> 2) & 1)}, N);
+      V v = values[0] * N[0];
+      for (int i = 1; i < kVertexCount<T>; ++i) v = v + values[i] * N[i];
+      corner[q] = v;
+    }
+  MonomialForm<V> m;
+  m.c[0] = corner[0];
+  m.c[1] = corner[1] - corner[0];
+  m.c[2] = corner[2] - corner[0];
+  m.c[3] = corner[4] - corner[0];
+  m.c[4] = corner[3] - corner[1] - corner[2] + corner[0];
+  m.c[5] = corner[5] - corner[1] - corner[4] + corner[0];
+  m.c[6] = corner[6] - corner[2] - corner[4] + corner[0];
+  m.c[7] = corner[7] - corner[3] - corner[5] - corner[6] + corner[1] + corner[2] + corner[4] - corner[0];
+  return m;
+}
+
+// Newton on a monomial form: as inverse_map_newton, with the stopping step `tolerance` (1e-9 already leaves an error
+// far below 1e-12 in any cell where Newton converges quadratically).
+inline thread_local uint64_t g_newton_calls = 0, g_newton_iters = 0;
+inline bool inverse_map_monomial(const MonomialForm<Vec3d>& m, Vec3d point, Vec3d guess, Vec3d& rst,
+                                 double tolerance = kInverseMapTolerance) {
+  rst = guess;
+  ++g_newton_calls;
+  const Vec3d target = point - m.c[0];
+  for (int it = 0; it < kInverseMapMaxIterations; ++it) {
+    ++g_newton_iters;
+    const double r = rst.x, s = rst.y, t = rst.z;
+    const double rs = r * s, rt = r * t, st = s * t;
+    const Vec3d x = m.c[1] * r + m.c[2] * s + m.c[3] * t + m.c[4] * rs + m.c[5] * rt + m.c[6] * st + m.c[7] * (rs * t);
+    const Vec3d jr = m.c[1] + m.c[4] * s + m.c[5] * t + m.c[7] * st;
+    const Vec3d js = m.c[2] + m.c[4] * r + m.c[6] * t + m.c[7] * rt;
+    const Vec3d jt = m.c[3] + m.c[5] * r + m.c[6] * s + m.c[7] * rs;
+    const Vec3d a0 = cross(js, jt), a1 = cross(jt, jr), a2 = cross(jr, js);
+    const double det = dot(jr, a0);
+    // kSingularJacobian's scale-free test, squared to avoid the square root.
+    if (!(det * det > kSingularJacobian * kSingularJacobian * dot(jr, jr) * dot(js, js) * dot(jt, jt))) return false;
+    const Vec3d b = target - x;
+    const double inv = 1.0 / det;
+    const Vec3d delta{dot(a0, b) * inv, dot(a1, b) * inv, dot(a2, b) * inv};
+    rst = rst + delta;
+    const double step = std::max(std::abs(delta.x), std::max(std::abs(delta.y), std::abs(delta.z)));
+    if (step < tolerance) return true;
+    if (!(step < 1e8)) return false;
+  }
+  return false;
 }
 
 // ---- run-time cell type ------------------------------------------------------------------------------------------

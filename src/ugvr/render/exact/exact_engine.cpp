@@ -461,12 +461,16 @@ void RayTracer::cell_segment(uint32_t cell, double t0, double t1, double s0, dou
       rst_out = rst_out + kCorner[kInfo.faces[exit.face].v[exit.corners[i]]] * exit.lambda[i];
     }
     const double inv_length = 1 / (t1 - t0);
+    // The cell's map and field in monomial form: cheaper per Newton step than the shape functions.
+    const MonomialForm<Vec3d> map = to_monomial<T>(v);
+    const MonomialForm<double> field = to_monomial<T>(s);
     auto eval = [&](double t, double fallback) {
       ++counters_.nonlinear_samples;
       const Vec3d guess = rst_in + (rst_out - rst_in) * ((t - t0) * inv_length);
       Vec3d rst;
-      if (!inverse_map<T>(v, frame_.at(t), guess, rst)) return fallback;
-      return interpolate<T>(rst, s);
+      // An update below 1e-7 leaves an error of ~1e-14 (quadratic convergence): enough for a field value.
+      if (!inverse_map_monomial(map, frame_.at(t), guess, rst, 1e-7)) return fallback;
+      return field.evaluate(rst);
     };
     auto refine = [&](auto&& self, double ta, double tb, double sa, double sb, int depth) -> void {
       const double tm = 0.5 * (ta + tb);
