@@ -1,0 +1,112 @@
+// Encoding of one brick: the R³ samples of one field of one octree node plus the node's validity mask, as one
+// self-describing, independently compressed block. Pure functions of memory (no I/O): the store writer runs encode on
+// many threads, the reader and a RAM cache decode blocks they fetched themselves. The choices (16-bit quantization,
+// 3-D Lorenzo predictor, byte shuffle, zstd) and the measurements behind them are in docs/brick-store.md.
+//
+// Block layout (little-endian; every offset is from the block's first byte):
+//
+//   offset size  field
+//   0      1     u8  samples    1 = Quant16, 2 = Float32 (SampleEncoding)
+//   1      1     u8  predictor  0 = None, 1 = DeltaX, 2 = Lorenzo (Predictor)
+//   2      1     u8  codec      0 = Stored, 1 = Lz4, 2 = Zstd (BrickCodec)
+//   3      1     u8  flags      bit 0: a mask follows (else every sample is valid); bit 1: values are byte-shuffled
+//   4      4     u32 raw_size   bytes of the payload once decompressed
+//   8      4     u32 valid      number of valid samples (1..R³)
+//   12     4     f32 lo         smallest valid sample
+//   16     4     f32 hi         largest valid sample
+//   20     4     f32 step       Quant16: the quantization step; Float32: 0
+//   24     ...   payload, compressed by `codec`
+//
+// The decompressed payload is
+//   [mask]   ceil(R³/8) bytes when flag bit 0 is set: bit (s & 7) of byte s / 8 is 1 where sample s has data
+//   [values] one residual per VALID sample, in sample order (s = x + R·(y + R·z), x fastest): u16 for Quant16,
+//            u32 for Float32; with flag bit 1 the residuals are split into byte planes (all low bytes first).
+// Invalid samples cost nothing: they have no residual. Both sides give them the prediction clamped into the brick's
+// range, so prediction runs over them without a discontinuity; decoding therefore returns, at invalid samples, a
+// deterministic extrapolation of the valid ones within [lo, hi]: a usable pad for linear interpolation at the data
+// boundary, but only the mask says what is data.
+//
+// Prediction p of sample (x, y, z) from the samples before it, as reconstructed (invalid ones as filled), with
+// neighbours outside the brick taken as 0. Naming the neighbours
+//   a = (x-1, y, z)  b = (x, y-1, z)  c = (x, y, z-1)  ab = (x-1, y-1, z)  ac = (x-1, y, z-1)  bc = (x, y-1, z-1)
+//   abc = (x-1, y-1, z-1):
+//   Lorenzo  p = a + ((b + c + abc) - (ab + ac + bc)), sums left to right (the grouping fixes float rounding)
+//   DeltaX   p = a
+//   None     p = 0
+// Quant16: codes q = round((v - lo) / step), 0 <= q <= qmax = round((hi - lo) / step) <= 65535, decoded as
+// v' = min(lo + q·step, hi) in double, rounded to float32, so |v' - v| <= step / 2 plus half a float32 ulp of v. p is
+// computed on codes in exact integers; residual = zigzag16((q - p) mod 2^16) (None: q itself); an invalid sample takes
+// clamp(p, 0, qmax).
+// Float32 (lossless, bit exact): p is computed in float32; pc = clamp(p, lo, hi) (NaN -> lo); residual =
+// zigzag32((ord(v) - ord(pc)) mod 2^32), ord mapping a float's bits to an unsigned integer of the same order so that
+// nearby values give small residuals (None: the float's bits); an invalid sample takes pc.
+// zigzag maps 0, -1, 1, -2, ... (the difference read as signed) to 0, 1, 2, 3, ...
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string_view>
+#include <vector>
+
+namespace ugvr {
+
+enum class SampleEncoding : uint8_t { Quant16 = 1, Float32 = 2 };
+enum class Predictor : uint8_t { None = 0, DeltaX = 1, Lorenzo = 2 };
+enum class BrickCodec : uint8_t { Stored = 0, Lz4 = 1, Zstd = 2 };
+
+std::string_view sample_encoding_name(SampleEncoding e);  // "quant16", "float32"
+std::string_view predictor_name(Predictor p);             // "none", "delta-x", "lorenzo"
+std::string_view brick_codec_name(BrickCodec c);          // "stored", "lz4", "zstd"
+
+// How blocks are written. The default is the measured choice (docs/brick-store.md).
+struct BrickEncoding {
+  SampleEncoding samples = SampleEncoding::Quant16;
+  Predictor predictor = Predictor::Lorenzo;
+  bool shuffle = true;
+  BrickCodec codec = BrickCodec::Zstd;
+  // Zstd: compression level (<= 0: 3). Lz4: <= 0 the fast compressor, >= 1 LZ4HC at that level (same decoder).
+  int level = 0;
+};
+
+inline constexpr size_t kBlockHeaderSize = 24;
+inline constexpr uint32_t kMinBrickResolution = 2, kMaxBrickResolution = 512;  // a Float32 block stays < 4 GiB
+
+// Bytes of a packed mask of r³ samples.
+inline uint64_t mask_bytes(uint32_t r) { return (uint64_t(r) * r * r + 7) / 8; }
+
+struct BlockHeader {
+  SampleEncoding samples = SampleEncoding::Quant16;
+  Predictor predictor = Predictor::None;
+  BrickCodec codec = BrickCodec::Stored;
+  bool has_mask = false, shuffled = false;
+  uint32_t raw_size = 0;
+  uint32_t valid = 0;
+  float lo = 0, hi = 0, step = 0;
+};
+
+struct EncodedBlock {
+  std::vector<std::byte> bytes;  // header + compressed payload
+  uint32_t valid = 0;            // valid samples
+  float lo = 0, hi = 0;          // range of the valid samples
+  float step = 0;                // Quant16 step used (max error step / 2), 0 for Float32
+};
+
+// Encodes `samples` (r³ floats, x fastest) under `mask` (r³ bytes, nonzero = data; nullptr = all data).
+// quant_step (Quant16 only): the coarsest step allowed, e.g. 2 × tolerance × field range; it is raised where the
+// brick's range would need more than 65536 codes, and <= 0 means "the brick's own range over 65535 codes".
+// Throws ugvr::Error if no sample is valid (store no brick instead) or a valid sample is not finite (mask it).
+EncodedBlock encode_brick(const BrickEncoding& encoding, uint32_t r, const float* samples, const uint8_t* mask,
+                          double quant_step);
+
+// Parses and checks a block header against r and the block's size. `file` and `offset` (of the block) name a bad
+// block in the error.
+BlockHeader parse_block_header(std::span<const std::byte> block, uint32_t r, std::string_view file, uint64_t offset);
+
+// Decodes a block into r³ float samples and, if mask is not null, r³ mask bytes (1 = data, 0 = none). Thread-safe
+// (scratch memory and decompression contexts are per thread). Corrupt blocks throw ugvr::Error naming file and
+// offset; the block's checksum is the caller's (the store verifies it before decoding).
+void decode_brick(std::span<const std::byte> block, uint32_t r, float* samples, uint8_t* mask, std::string_view file,
+                  uint64_t offset);
+
+}  // namespace ugvr

@@ -1,0 +1,617 @@
+#include "ugvr/lod/brick_store.h"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <optional>
+
+#include "ugvr/core/error.h"
+
+namespace ugvr {
+
+namespace {
+
+constexpr unsigned char kMagic[8] = {0x89, 'U', 'B', 'S', '\r', '\n', 0x1a, '\n'};
+constexpr uint32_t kFixedHeaderSize = 176;
+constexpr uint32_t kNodeFixedSize = 48, kNodeFieldSize = 24;
+constexpr uint32_t kMaxNameLength = 1024;
+constexpr uint32_t kMaxHeaderSize = 2u << 20;          // far above 1024 fields of 1024-byte names
+constexpr uint64_t kMaxNodeId = uint64_t(1) << 40;     // ids index arrays the writer grows
+constexpr size_t kTableChunkBytes = size_t(16) << 20;  // node table I/O in pieces: bounded temporary memory
+
+uint32_t node_record_size(uint64_t fields) { return uint32_t(kNodeFixedSize + kNodeFieldSize * fields); }
+uint32_t field_record_size(size_t name_length) { return uint32_t((20 + name_length + 7) / 8 * 8); }
+
+uint32_t crc32_of(const void* data, size_t n, uint32_t crc = 0) {
+  return uint32_t(crc32_z(crc, static_cast<const Bytef*>(data), n));
+}
+
+std::string hex32(uint32_t v) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "0x%08x", v);
+  return buf;
+}
+
+// Little-endian fields of a byte buffer (brick_codec.cpp asserts the host is little-endian).
+template <class T>
+void put(std::vector<std::byte>& b, size_t at, T v) {
+  std::memcpy(b.data() + at, &v, sizeof v);
+}
+template <class T>
+T get(const std::byte* p, size_t at) {
+  T v;
+  std::memcpy(&v, p + at, sizeof v);
+  return v;
+}
+
+void put_bounds(std::vector<std::byte>& b, size_t at, const Bounds& box) {
+  for (int a = 0; a < 3; ++a) put<double>(b, at + 8 * size_t(a), box.lo[a]);
+  for (int a = 0; a < 3; ++a) put<double>(b, at + 24 + 8 * size_t(a), box.hi[a]);
+}
+Bounds get_bounds(const std::byte* p, size_t at) {
+  Bounds box;
+  for (int a = 0; a < 3; ++a) box.lo[a] = get<double>(p, at + 8 * size_t(a));
+  for (int a = 0; a < 3; ++a) box.hi[a] = get<double>(p, at + 24 + 8 * size_t(a));
+  return box;
+}
+
+int octant_of(const OctreeNode& n) { return int((n.i & 1) | (n.j & 1) << 1 | (n.k & 1) << 2); }
+
+// What is wrong with a tree, if anything: the node, the byte of its record that holds the culprit, and a sentence.
+struct TreeIssue {
+  uint64_t node;
+  uint32_t record_offset;
+  std::string what;
+};
+
+// The structural rules of the node table (see brick_store.h): node 0 is the root, each child's coordinates, level
+// and position among its siblings agree with its parent's child mask, and children come after their parent (so the
+// table has no cycles and bottom-up passes run in reverse id order).
+template <class Node>
+std::optional<TreeIssue> check_tree(std::span<const Node> nodes) {
+  const uint64_t count = nodes.size();
+  for (uint64_t id = 0; id < count; ++id) {
+    const OctreeNode& n = nodes[id];
+    if (n.level > kMaxOctreeLevel) return TreeIssue{id, 36, "level " + std::to_string(n.level) + " above 31"};
+    const uint64_t extent = uint64_t(1) << n.level;
+    if (n.i >= extent || n.j >= extent || n.k >= extent) {
+      return TreeIssue{id, 24,
+                       "coordinates (" + std::to_string(n.i) + ", " + std::to_string(n.j) + ", " + std::to_string(n.k) +
+                           ") outside level " + std::to_string(n.level)};
+    }
+    if (id == 0) {
+      if (n.parent != kNoNode) return TreeIssue{id, 0, "the root (node 0) has a parent"};
+      if (n.level != 0) return TreeIssue{id, 36, "the root (node 0) is not at level 0"};
+    } else {
+      if (n.parent >= id) {
+        return TreeIssue{id, 0,
+                         n.parent == kNoNode ? std::string("a second root (no parent)")
+                                             : "parent " + std::to_string(n.parent) + " does not precede it"};
+      }
+      const OctreeNode& p = nodes[n.parent];
+      const int o = octant_of(n);
+      if (n.level != p.level + 1 || n.i >> 1 != p.i || n.j >> 1 != p.j || n.k >> 1 != p.k) {
+        return TreeIssue{id, 24, "level and coordinates are not those of a child of node " + std::to_string(n.parent)};
+      }
+      const uint64_t rank = uint64_t(std::popcount(unsigned(p.child_mask) & ((1u << o) - 1)));
+      if (!(p.child_mask >> o & 1) || p.first_child + rank != id) {
+        return TreeIssue{
+            id, 0,
+            "parent " + std::to_string(n.parent) + " does not list it as its child in octant " + std::to_string(o)};
+      }
+    }
+    if ((n.child_mask == 0) != (n.first_child == kNoNode)) {
+      return TreeIssue{id, 8, "child mask and first child disagree"};
+    }
+    if (n.child_mask) {
+      const uint64_t children = uint64_t(std::popcount(unsigned(n.child_mask)));
+      if (n.first_child <= id || n.first_child > count || children > count - n.first_child) {
+        return TreeIssue{id, 8,
+                         "children [" + std::to_string(n.first_child) + ", +" + std::to_string(children) +
+                             ") do not follow it inside the " + std::to_string(count) + " nodes"};
+      }
+      for (uint64_t c = n.first_child; c < n.first_child + children; ++c) {
+        if (nodes[c].parent != id) {
+          return TreeIssue{id, 8, "its child " + std::to_string(c) + " names another parent"};
+        }
+      }
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+uint64_t OctreeNode::child(int octant) const {
+  if (octant < 0 || octant > 7 || !(child_mask >> octant & 1)) return kNoNode;
+  return first_child + uint64_t(std::popcount(unsigned(child_mask) & ((1u << octant) - 1)));
+}
+
+Bounds node_bounds(const Bounds& root, const OctreeNode& node) {
+  const Vec3d cell = root.size() * std::ldexp(1.0, -int(node.level));
+  Bounds b;
+  b.lo = root.lo + Vec3d{cell.x * node.i, cell.y * node.j, cell.z * node.k};
+  // From the next corner rather than lo + cell, so neighbours share their faces exactly.
+  b.hi = root.lo + Vec3d{cell.x * (node.i + 1.0), cell.y * (node.j + 1.0), cell.z * (node.k + 1.0)};
+  return b;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Writer
+
+BrickStoreWriter::BrickStoreWriter(std::string path, BrickStoreLayout layout)
+    : path_(std::move(path)), layout_(std::move(layout)) {
+  const BrickStoreLayout& l = layout_;
+  if (l.resolution < kMinBrickResolution || l.resolution > kMaxBrickResolution) {
+    fail_in(path_, "brick resolution " + std::to_string(l.resolution) + " outside [2, 512]");
+  }
+  if (l.fields.empty() || l.fields.size() > kMaxStoreFields) {
+    fail_in(path_, std::to_string(l.fields.size()) + " fields; a brick store holds 1 to 1024");
+  }
+  uint64_t header = kFixedHeaderSize;
+  for (const BrickStoreField& f : l.fields) {
+    if (f.name.empty() || f.name.size() > kMaxNameLength) {
+      fail_in(path_, "field name of " + std::to_string(f.name.size()) + " bytes; 1 to 1024 allowed");
+    }
+    if (!std::isfinite(f.min) || !std::isfinite(f.max) || f.min > f.max) {
+      fail_in(path_,
+              "field '" + f.name + "': invalid range [" + std::to_string(f.min) + ", " + std::to_string(f.max) + "]");
+    }
+    header += field_record_size(f.name.size());
+  }
+  header_size_ = uint32_t(header);
+  if (l.root.empty() || !(l.root.size().x > 0 && l.root.size().y > 0 && l.root.size().z > 0) ||
+      !std::isfinite(l.root.lo.x + l.root.lo.y + l.root.lo.z + l.root.hi.x + l.root.hi.y + l.root.hi.z)) {
+    fail_in(path_, "the octree root cell must be a finite box of positive size on every axis");
+  }
+  if (l.encoding.samples == SampleEncoding::Float32) {
+    layout_.tolerance = 0;
+  } else if (!(l.tolerance == 0 || (l.tolerance >= kQuant16Tolerance && std::isfinite(l.tolerance)))) {
+    fail_in(path_, "tolerance " + std::to_string(l.tolerance) +
+                       ": 16-bit samples honour at least 1/131070 of the field range; use 0 (per-brick range) or "
+                       "float32 samples for more");
+  }
+  for (const BrickStoreField& f : l.fields) steps_.push_back(2 * layout_.tolerance * (f.max - f.min));
+
+  out_ = std::make_unique<AtomicOutputFile>(path_);
+  // A blank header until commit(): a temporary left by a killed build has no magic.
+  const std::vector<std::byte> blank(header_size_);
+  out_->write(blank.data(), blank.size());
+}
+
+BrickStoreWriter::~BrickStoreWriter() = default;
+
+uint64_t BrickStoreWriter::block_bytes() const {
+  std::lock_guard lock(mutex_);
+  return block_bytes_;
+}
+
+EncodedBrick BrickStoreWriter::encode(std::span<const float* const> fields, const uint8_t* mask) const {
+  const size_t nf = layout_.fields.size();
+  if (fields.size() != nf) {
+    fail_in(path_, "encode: " + std::to_string(fields.size()) + " fields given, the store has " + std::to_string(nf));
+  }
+  const uint32_t r = layout_.resolution;
+  const size_t n = size_t(r) * r * r;
+  const size_t valid = mask ? size_t(std::count_if(mask, mask + n, [](uint8_t m) { return m != 0; })) : n;
+  EncodedBrick out;
+  out.valid = uint32_t(valid);
+  if (valid == 0) return out;
+  for (size_t f = 0; f < nf; ++f) {
+    EncodedBlock block;
+    try {
+      block = encode_brick(layout_.encoding, r, fields[f], valid == n ? nullptr : mask, steps_[f]);
+    } catch (const Error& e) {
+      fail_in(path_, "field '" + layout_.fields[f].name + "': " + e.what());
+    }
+    out.sizes.push_back(uint32_t(block.bytes.size()));
+    out.crcs.push_back(crc32_of(block.bytes.data(), block.bytes.size()));
+    out.lo.push_back(block.lo);
+    out.hi.push_back(block.hi);
+    out.bytes.insert(out.bytes.end(), block.bytes.begin(), block.bytes.end());
+  }
+  return out;
+}
+
+void BrickStoreWriter::append(uint64_t node, const EncodedBrick& brick) {
+  std::lock_guard lock(mutex_);
+  const size_t nf = layout_.fields.size();
+  if (done_) fail_in(path_, "brick appended after commit() or after a failed write");
+  if (node >= kMaxNodeId) fail_in(path_, "node id " + std::to_string(node) + " is absurdly large");
+  if (brick.empty()) return;
+  if (brick.sizes.size() != nf || brick.crcs.size() != nf || brick.lo.size() != nf || brick.hi.size() != nf) {
+    fail_in(path_, "append: brick of node " + std::to_string(node) + " was not encoded for this store");
+  }
+  if (node >= placed_.size()) {
+    const size_t grown = std::max<size_t>(size_t(node) + 1, placed_.size() * 3 / 2);
+    placed_.resize(grown);
+    sizes_.resize(grown * nf);
+    crcs_.resize(grown * nf);
+    lo_.resize(grown * nf);
+    hi_.resize(grown * nf);
+  }
+  if (placed_[node].offset) fail_in(path_, "node " + std::to_string(node) + " already has a brick");
+  const uint64_t offset = out_->position();
+  try {
+    out_->write(brick.bytes.data(), brick.bytes.size());
+  } catch (...) {
+    done_ = true;  // the file may hold part of the brick: only the destructor's cleanup is left to do
+    throw;
+  }
+  placed_[node] = {offset, brick.valid};
+  for (size_t f = 0; f < nf; ++f) {
+    sizes_[node * nf + f] = brick.sizes[f];
+    crcs_[node * nf + f] = brick.crcs[f];
+    lo_[node * nf + f] = brick.lo[f];
+    hi_[node * nf + f] = brick.hi[f];
+  }
+  block_bytes_ += brick.bytes.size();
+}
+
+void BrickStoreWriter::add_brick(uint64_t node, std::span<const float* const> fields, const uint8_t* mask) {
+  append(node, encode(fields, mask));
+}
+
+void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const FieldError> errors) {
+  std::lock_guard lock(mutex_);
+  if (done_) fail_in(path_, "commit() after commit() or after a failed write");
+  done_ = true;  // whatever happens below, this writer writes no more
+  const uint64_t count = nodes.size();
+  const size_t nf = layout_.fields.size();
+  if (count == 0) fail_in(path_, "commit: the tree has no node");
+  if (!errors.empty() && errors.size() != count * nf) {
+    fail_in(path_, "commit: " + std::to_string(errors.size()) + " error entries for " + std::to_string(count) +
+                       " nodes × " + std::to_string(nf) + " fields");
+  }
+  if (auto issue = check_tree(nodes))
+    fail_in(path_, "commit: node " + std::to_string(issue->node) + ": " + issue->what);
+  for (uint64_t id = count; id < placed_.size(); ++id) {
+    if (placed_[id].offset) {
+      fail_in(path_, "commit: a brick was appended for node " + std::to_string(id) + " but the tree has " +
+                         std::to_string(count) + " nodes");
+    }
+  }
+  placed_.resize(count);
+  sizes_.resize(count * nf);
+  crcs_.resize(count * nf);
+  lo_.resize(count * nf);
+  hi_.resize(count * nf);
+
+  // Value ranges bottom-up (children have larger ids), so that a node's range contains its subtree's.
+  std::vector<float> mins(count * nf, INFINITY), maxs(count * nf, -INFINITY);
+  for (uint64_t id = count; id-- > 0;) {
+    const OctreeNode& n = nodes[id];
+    for (size_t f = 0; f < nf; ++f) {
+      float& mn = mins[id * nf + f];
+      float& mx = maxs[id * nf + f];
+      if (placed_[id].offset) {
+        mn = lo_[id * nf + f];
+        mx = hi_[id * nf + f];
+      }
+      if (n.child_mask) {
+        const uint64_t end = n.first_child + uint64_t(std::popcount(unsigned(n.child_mask)));
+        for (uint64_t c = n.first_child; c < end; ++c) {
+          mn = std::min(mn, mins[c * nf + f]);
+          mx = std::max(mx, maxs[c * nf + f]);
+        }
+      }
+    }
+  }
+
+  const uint32_t rec = node_record_size(nf);
+  const double samples = double(layout_.resolution) * layout_.resolution * layout_.resolution;
+  const uint64_t table_offset = out_->position();
+  const uint64_t chunk_nodes = std::max<uint64_t>(1, kTableChunkBytes / rec);
+  std::vector<std::byte> buf;
+  uint32_t table_crc = 0;
+  for (uint64_t first = 0; first < count; first += chunk_nodes) {
+    const uint64_t end = std::min(count, first + chunk_nodes);
+    buf.assign(size_t(end - first) * rec, std::byte{0});
+    for (uint64_t id = first; id < end; ++id) {
+      const size_t at = size_t(id - first) * rec;
+      const OctreeNode& n = nodes[id];
+      put<uint64_t>(buf, at + 0, n.parent);
+      put<uint64_t>(buf, at + 8, n.first_child);
+      put<uint64_t>(buf, at + 16, placed_[id].offset);
+      put<uint32_t>(buf, at + 24, n.i);
+      put<uint32_t>(buf, at + 28, n.j);
+      put<uint32_t>(buf, at + 32, n.k);
+      put<uint8_t>(buf, at + 36, n.level);
+      put<uint8_t>(buf, at + 37, n.child_mask);
+      put<float>(buf, at + 40, float(double(placed_[id].valid) / samples));
+      for (size_t f = 0; f < nf; ++f) {
+        const size_t fa = at + kNodeFixedSize + kNodeFieldSize * f, e = id * nf + f;
+        put<float>(buf, fa + 0, mins[e]);
+        put<float>(buf, fa + 4, maxs[e]);
+        put<float>(buf, fa + 8, errors.empty() ? 0.0f : errors[e].max);
+        put<float>(buf, fa + 12, errors.empty() ? 0.0f : errors[e].rms);
+        put<uint32_t>(buf, fa + 16, placed_[id].offset ? sizes_[e] : 0);
+        put<uint32_t>(buf, fa + 20, placed_[id].offset ? crcs_[e] : 0);
+      }
+    }
+    table_crc = crc32_of(buf.data(), buf.size(), table_crc);
+    out_->write(buf.data(), buf.size());
+  }
+  const uint64_t file_size = out_->position();
+
+  std::vector<std::byte> h(header_size_, std::byte{0});
+  std::memcpy(h.data(), kMagic, sizeof kMagic);
+  put<uint32_t>(h, 8, kBrickStoreVersion);
+  put<uint32_t>(h, 12, header_size_);
+  put<uint32_t>(h, 16, layout_.resolution);
+  put<uint32_t>(h, 20, uint32_t(nf));
+  put<uint32_t>(h, 24, rec);
+  put<uint8_t>(h, 28, uint8_t(layout_.encoding.samples));
+  put<uint8_t>(h, 29, uint8_t(layout_.encoding.predictor));
+  put<uint8_t>(h, 30, uint8_t(layout_.encoding.codec));
+  put<uint8_t>(h, 31, layout_.encoding.shuffle ? 1 : 0);
+  put<int32_t>(h, 32, layout_.encoding.level);
+  put<double>(h, 40, layout_.tolerance);
+  put_bounds(h, 48, layout_.root);
+  put_bounds(h, 96, layout_.data);
+  put<uint64_t>(h, 144, count);
+  put<uint64_t>(h, 152, table_offset);
+  put<uint64_t>(h, 160, file_size);
+  put<uint32_t>(h, 168, table_crc);
+  size_t at = kFixedHeaderSize;
+  for (const BrickStoreField& f : layout_.fields) {
+    put<double>(h, at + 0, f.min);
+    put<double>(h, at + 8, f.max);
+    put<uint8_t>(h, at + 16, uint8_t(f.association));
+    put<uint16_t>(h, at + 18, uint16_t(f.name.size()));
+    std::memcpy(h.data() + at + 20, f.name.data(), f.name.size());
+    at += field_record_size(f.name.size());
+  }
+  put<uint32_t>(h, 172, crc32_of(h.data(), h.size()));
+  out_->write_at(0, h.data(), h.size());
+  out_->commit();
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Reader
+
+BrickStoreReader::BrickStoreReader(std::string path) : file_(std::move(path)) {
+  const std::string& name = file_.path();
+  const uint64_t size = file_.size();
+
+  std::byte fixed[kFixedHeaderSize] = {};
+  const size_t got = file_.read_some_at(0, fixed, sizeof fixed);
+  if (got < sizeof kMagic || std::memcmp(fixed, kMagic, sizeof kMagic) != 0) {
+    const bool blank = got >= sizeof kMagic &&
+                       std::all_of(fixed, fixed + sizeof kMagic, [](std::byte b) { return b == std::byte{0}; });
+    fail_at_offset(name, 0,
+                   blank ? "not a ugvr brick store: the header is blank (the temporary file of an unfinished build?)"
+                         : "not a ugvr brick store (wrong magic number)");
+  }
+  if (got < 12) fail_at_offset(name, got, "truncated brick store header");
+  const uint32_t version = get<uint32_t>(fixed, 8);
+  if (version != kBrickStoreVersion) {
+    fail_at_offset(name, 8,
+                   "brick store format version " + std::to_string(version) + "; this build reads version " +
+                       std::to_string(kBrickStoreVersion));
+  }
+  if (got < kFixedHeaderSize) {
+    fail_at_offset(name, got, "truncated brick store: " + std::to_string(size) + " bytes, shorter than its header");
+  }
+  const uint32_t header_size = get<uint32_t>(fixed, 12);
+  if (header_size < kFixedHeaderSize || header_size % 8 || header_size > kMaxHeaderSize || header_size > size) {
+    fail_at_offset(
+        name, 12,
+        "header size " + std::to_string(header_size) + " impossible (file of " + std::to_string(size) + " bytes)");
+  }
+  std::vector<std::byte> h(header_size);
+  file_.read_at(0, h.data(), h.size());
+  const uint32_t stored_header_crc = get<uint32_t>(h.data(), 172);
+  std::memset(h.data() + 172, 0, 4);
+  if (const uint32_t crc = crc32_of(h.data(), h.size()); crc != stored_header_crc) {
+    fail_at_offset(name, 172,
+                   "header checksum mismatch (stored " + hex32(stored_header_crc) + ", computed " + hex32(crc) +
+                       "): the header is corrupt");
+  }
+
+  // From here on the header is as the writer wrote it; the checks guard against a writer of another make.
+  BrickStoreLayout& l = layout_;
+  l.resolution = get<uint32_t>(h.data(), 16);
+  if (l.resolution < kMinBrickResolution || l.resolution > kMaxBrickResolution) {
+    fail_at_offset(name, 16, "brick resolution " + std::to_string(l.resolution) + " outside [2, 512]");
+  }
+  const uint32_t nf = get<uint32_t>(h.data(), 20);
+  if (nf == 0 || nf > kMaxStoreFields) fail_at_offset(name, 20, std::to_string(nf) + " fields (1 to 1024 allowed)");
+  const uint32_t rec = get<uint32_t>(h.data(), 24);
+  if (rec != node_record_size(nf)) {
+    fail_at_offset(name, 24,
+                   "node record size " + std::to_string(rec) + ", expected " + std::to_string(node_record_size(nf)) +
+                       " for " + std::to_string(nf) + " fields");
+  }
+  const uint8_t samples = get<uint8_t>(h.data(), 28), predictor = get<uint8_t>(h.data(), 29),
+                codec = get<uint8_t>(h.data(), 30), shuffle = get<uint8_t>(h.data(), 31);
+  if (samples < 1 || samples > 2 || predictor > 2 || codec > 2 || shuffle > 1) {
+    fail_at_offset(name, 28, "unknown encoding settings");
+  }
+  l.encoding = {SampleEncoding(samples), Predictor(predictor), shuffle != 0, BrickCodec(codec),
+                get<int32_t>(h.data(), 32)};
+  l.tolerance = get<double>(h.data(), 40);
+  l.root = get_bounds(h.data(), 48);
+  l.data = get_bounds(h.data(), 96);
+  if (l.root.empty() || !(l.root.size().x > 0 && l.root.size().y > 0 && l.root.size().z > 0)) {
+    fail_at_offset(name, 48, "empty octree root cell");
+  }
+  size_t at = kFixedHeaderSize;
+  for (uint32_t f = 0; f < nf; ++f) {
+    if (at + 20 > header_size) fail_at_offset(name, at, "field record " + std::to_string(f) + " past the header");
+    BrickStoreField field;
+    field.min = get<double>(h.data(), at);
+    field.max = get<double>(h.data(), at + 8);
+    const uint8_t assoc = get<uint8_t>(h.data(), at + 16);
+    if (assoc > 1) fail_at_offset(name, at + 16, "unknown field association " + std::to_string(assoc));
+    field.association = Association(assoc);
+    const uint16_t len = get<uint16_t>(h.data(), at + 18);
+    if (len == 0 || len > kMaxNameLength || at + field_record_size(len) > header_size) {
+      fail_at_offset(name, at + 18, "field name length " + std::to_string(len) + " impossible");
+    }
+    field.name.assign(reinterpret_cast<const char*>(h.data() + at + 20), len);
+    l.fields.push_back(std::move(field));
+    at += field_record_size(len);
+  }
+
+  const uint64_t count = get<uint64_t>(h.data(), 144);
+  node_table_offset_ = get<uint64_t>(h.data(), 152);
+  const uint64_t stored_size = get<uint64_t>(h.data(), 160);
+  if (stored_size != size) {
+    fail_at_offset(name, stored_size < size ? stored_size : size,
+                   "the file has " + std::to_string(size) + " bytes, its header says " + std::to_string(stored_size) +
+                       (size < stored_size ? ": truncated" : ": data appended after its end"));
+  }
+  if (count == 0) fail_at_offset(name, 144, "no nodes");
+  if (node_table_offset_ < header_size || node_table_offset_ > size || count > (size - node_table_offset_) / rec ||
+      count * rec != size - node_table_offset_) {
+    fail_at_offset(name, 152,
+                   "node table of " + std::to_string(count) + " records of " + std::to_string(rec) +
+                       " bytes at offset " + std::to_string(node_table_offset_) + " does not end the " +
+                       std::to_string(size) + "-byte file");
+  }
+
+  // Node table, in chunks: the checksum runs over the raw bytes, the records are parsed as they come.
+  nodes_.resize(count);
+  stats_.resize(count * nf);
+  blocks_.resize(count * nf);
+  const uint64_t chunk_nodes = std::max<uint64_t>(1, kTableChunkBytes / rec);
+  std::vector<std::byte> buf;
+  uint32_t table_crc = 0;
+  for (uint64_t first = 0; first < count; first += chunk_nodes) {
+    const uint64_t end = std::min(count, first + chunk_nodes);
+    buf.resize(size_t(end - first) * rec);
+    file_.read_at(node_table_offset_ + first * rec, buf.data(), buf.size());
+    table_crc = crc32_of(buf.data(), buf.size(), table_crc);
+    for (uint64_t id = first; id < end; ++id) {
+      const std::byte* p = buf.data() + size_t(id - first) * rec;
+      BrickNode& n = nodes_[id];
+      n.parent = get<uint64_t>(p, 0);
+      n.first_child = get<uint64_t>(p, 8);
+      n.brick_offset = get<uint64_t>(p, 16);
+      n.i = get<uint32_t>(p, 24);
+      n.j = get<uint32_t>(p, 28);
+      n.k = get<uint32_t>(p, 32);
+      n.level = get<uint8_t>(p, 36);
+      n.child_mask = get<uint8_t>(p, 37);
+      n.valid_fraction = get<float>(p, 40);
+      for (uint32_t f = 0; f < nf; ++f) {
+        const size_t fa = kNodeFixedSize + kNodeFieldSize * f;
+        stats_[id * nf + f] = {get<float>(p, fa), get<float>(p, fa + 4), get<float>(p, fa + 8), get<float>(p, fa + 12)};
+        blocks_[id * nf + f] = {0, get<uint32_t>(p, fa + 16), get<uint32_t>(p, fa + 20)};
+      }
+    }
+  }
+  if (table_crc != get<uint32_t>(h.data(), 168)) {
+    fail_at_offset(name, node_table_offset_,
+                   "node table checksum mismatch (stored " + hex32(get<uint32_t>(h.data(), 168)) + ", computed " +
+                       hex32(table_crc) + "): the node table is corrupt");
+  }
+
+  auto record_offset = [&](uint64_t id, uint64_t within) { return node_table_offset_ + id * rec + within; };
+  if (auto issue = check_tree(std::span<const BrickNode>(nodes_))) {
+    fail_at_offset(name, record_offset(issue->node, issue->record_offset),
+                   "node " + std::to_string(issue->node) + ": " + issue->what);
+  }
+  for (uint64_t id = 0; id < count; ++id) {
+    const BrickNode& n = nodes_[id];
+    if (!(n.valid_fraction >= 0 && n.valid_fraction <= 1) || (n.has_brick() != (n.valid_fraction > 0))) {
+      fail_at_offset(name, record_offset(id, 40),
+                     "node " + std::to_string(id) + ": valid fraction " + std::to_string(n.valid_fraction) +
+                         (n.has_brick() ? " with a brick" : " without a brick"));
+    }
+    uint64_t offset = n.brick_offset;
+    for (uint32_t f = 0; f < nf; ++f) {
+      BlockRef& b = blocks_[id * nf + f];
+      if (!n.has_brick()) {
+        if (b.size) {
+          fail_at_offset(name, record_offset(id, kNodeFixedSize + kNodeFieldSize * f + 16),
+                         "node " + std::to_string(id) + " has no brick but a block size");
+        }
+        continue;
+      }
+      if (b.size < kBlockHeaderSize || offset < header_size || offset > node_table_offset_ ||
+          b.size > node_table_offset_ - offset) {
+        fail_at_offset(name, record_offset(id, kNodeFixedSize + kNodeFieldSize * f + 16),
+                       "node " + std::to_string(id) + " field '" + l.fields[f].name + "': block of " +
+                           std::to_string(b.size) + " bytes at offset " + std::to_string(offset) +
+                           " outside the block area [" + std::to_string(header_size) + ", " +
+                           std::to_string(node_table_offset_) + ")");
+      }
+      b.offset = offset;
+      offset += b.size;
+    }
+  }
+}
+
+int BrickStoreReader::field_index(std::string_view field_name) const {
+  for (size_t f = 0; f < layout_.fields.size(); ++f) {
+    if (layout_.fields[f].name == field_name) return int(f);
+  }
+  return -1;
+}
+
+void BrickStoreReader::check_node_field(uint64_t node, uint32_t field) const {
+  if (node >= nodes_.size()) {
+    fail_in(path(), "node " + std::to_string(node) + " out of range (the store has " + std::to_string(nodes_.size()) +
+                        " nodes)");
+  }
+  if (field >= field_count()) {
+    fail_in(path(), "field " + std::to_string(field) + " out of range (the store has " + std::to_string(field_count()) +
+                        " fields)");
+  }
+}
+
+const BrickNode& BrickStoreReader::node(uint64_t id) const {
+  check_node_field(id, 0);
+  return nodes_[id];
+}
+
+const FieldStats& BrickStoreReader::stats(uint64_t node, uint32_t field) const {
+  check_node_field(node, field);
+  return stats_[node * field_count() + field];
+}
+
+BlockRef BrickStoreReader::block(uint64_t node, uint32_t field) const {
+  check_node_field(node, field);
+  return blocks_[node * field_count() + field];
+}
+
+void BrickStoreReader::read_block(uint64_t node, uint32_t field, std::byte* dst) const {
+  const BlockRef b = block(node, field);
+  if (b.size == 0) {
+    fail_in(path(), "node " + std::to_string(node) + " has no brick: its cell holds no data (valid fraction 0)");
+  }
+  file_.read_at(b.offset, dst, b.size);
+  if (const uint32_t crc = crc32_of(dst, b.size); crc != b.crc32) {
+    fail_at_offset(path(), b.offset,
+                   "node " + std::to_string(node) + " field '" + layout_.fields[field].name +
+                       "': brick checksum mismatch (stored " + hex32(b.crc32) + ", computed " + hex32(crc) +
+                       "): the brick is corrupt");
+  }
+}
+
+void BrickStoreReader::decode_block(uint64_t node, uint32_t field, std::span<const std::byte> block, float* samples,
+                                    uint8_t* mask) const {
+  const BlockRef b = this->block(node, field);
+  try {
+    decode_brick(block, layout_.resolution, samples, mask, path(), b.offset);
+  } catch (const Error& e) {
+    throw Error(std::string(e.what()) + " (node " + std::to_string(node) + ", field '" + layout_.fields[field].name +
+                "')");
+  }
+}
+
+void BrickStoreReader::read_brick(uint64_t node, uint32_t field, float* samples, uint8_t* mask) const {
+  thread_local std::vector<std::byte> buffer;
+  const BlockRef b = block(node, field);
+  buffer.resize(b.size);
+  read_block(node, field, buffer.data());
+  decode_block(node, field, buffer, samples, mask);
+}
+
+}  // namespace ugvr
