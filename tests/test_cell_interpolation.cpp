@@ -5,6 +5,7 @@
 #include <cmath>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ugvr/grid/cell_interpolation.h"
@@ -197,6 +198,35 @@ TEST_P(CellInterpolation, DegenerateCellsAreRefused) {
   const double values[kMaxCellVertices] = {1, 2, 3, 4, 5, 6, 7, 8};
   const Vec3d g = gradient_in_cell(type, v.data(), parametric_center(type), values);
   EXPECT_EQ(g, Vec3d{});
+}
+
+TEST_P(CellInterpolation, MonomialFormMatchesShapeFunctions) {
+  const CellType type = GetParam();
+  const int n = cell_vertex_count(type);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-3, 3);
+  for (int c = 0; c < 100; ++c) {
+    const std::vector<Vec3d> v = random_cell(type, rng, 0.25);
+    double values[kMaxCellVertices];
+    for (int i = 0; i < n; ++i) values[i] = u(rng);
+    const auto [map, field] = with_cell_type(type, [&](auto tag) {
+      constexpr CellType T = decltype(tag)::value;
+      return std::pair{to_monomial<T>(v.data()), to_monomial<T>(values)};
+    });
+    for (int k = 0; k < 20; ++k) {
+      const Vec3d rst = random_rst(type, rng);
+      const Vec3d x = forward(type, v.data(), rst), y = map.evaluate(rst);
+      EXPECT_NEAR(length(x - y), 0.0, 1e-12);
+      EXPECT_NEAR(field.evaluate(rst), interpolate(type, rst, values), 1e-12);
+      Vec3d a, b;
+      ASSERT_TRUE(inverse_map(type, v.data(), x, parametric_center(type), a));
+      ASSERT_TRUE(inverse_map_monomial(map, x, parametric_center(type), b));
+      EXPECT_NEAR(a.x, b.x, 1e-10);
+      EXPECT_NEAR(a.y, b.y, 1e-10);
+      EXPECT_NEAR(a.z, b.z, 1e-10);
+      EXPECT_EQ(parametric_inside(type, a, 1e-9), parametric_margin(type, a) >= -1e-9);
+    }
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(AllTypes, CellInterpolation, ::testing::ValuesIn(kAllCellTypes),

@@ -281,24 +281,25 @@ MonomialForm<V> to_monomial(const V* values) {
 
 // Newton on a monomial form: as inverse_map_newton, with the stopping step `tolerance` (1e-9 already leaves an error
 // far below 1e-12 in any cell where Newton converges quadratically).
-inline thread_local uint64_t g_newton_calls = 0, g_newton_iters = 0;
 inline bool inverse_map_monomial(const MonomialForm<Vec3d>& m, Vec3d point, Vec3d guess, Vec3d& rst,
                                  double tolerance = kInverseMapTolerance) {
   rst = guess;
-  ++g_newton_calls;
   const Vec3d target = point - m.c[0];
+  double det_floor2 = -1;  // kSingularJacobian's threshold, squared, from the first iterate's columns
   for (int it = 0; it < kInverseMapMaxIterations; ++it) {
-    ++g_newton_iters;
     const double r = rst.x, s = rst.y, t = rst.z;
-    const double rs = r * s, rt = r * t, st = s * t;
-    const Vec3d x = m.c[1] * r + m.c[2] * s + m.c[3] * t + m.c[4] * rs + m.c[5] * rt + m.c[6] * st + m.c[7] * (rs * t);
-    const Vec3d jr = m.c[1] + m.c[4] * s + m.c[5] * t + m.c[7] * st;
-    const Vec3d js = m.c[2] + m.c[4] * r + m.c[6] * t + m.c[7] * rt;
-    const Vec3d jt = m.c[3] + m.c[5] * r + m.c[6] * s + m.c[7] * rs;
+    // The Jacobian columns and the map share their terms: x - c0 = r jr + s (c2 + c6 t) + c3 t.
+    const Vec3d q = m.c[6] + m.c[7] * r;
+    const Vec3d jr = m.c[1] + m.c[4] * s + (m.c[5] + m.c[7] * s) * t;
+    const Vec3d js = m.c[2] + m.c[4] * r + q * t;
+    const Vec3d jt = m.c[3] + m.c[5] * r + q * s;
+    const Vec3d x = jr * r + (m.c[2] + m.c[6] * t) * s + m.c[3] * t;
     const Vec3d a0 = cross(js, jt), a1 = cross(jt, jr), a2 = cross(jr, js);
     const double det = dot(jr, a0);
-    // kSingularJacobian's scale-free test, squared to avoid the square root.
-    if (!(det * det > kSingularJacobian * kSingularJacobian * dot(jr, jr) * dot(js, js) * dot(jt, jt))) return false;
+    if (det_floor2 < 0) {
+      det_floor2 = kSingularJacobian * kSingularJacobian * dot(jr, jr) * dot(js, js) * dot(jt, jt);
+    }
+    if (!(det * det > det_floor2)) return false;  // also catches NaN
     const Vec3d b = target - x;
     const double inv = 1.0 / det;
     const Vec3d delta{dot(a0, b) * inv, dot(a1, b) * inv, dot(a2, b) * inv};
