@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   ugvr::cli::register_convert(app);
   ugvr::cli::register_refine(app);
   ugvr::cli::register_render(app);
+  ugvr::cli::register_build(app);
 
   try {
     app.parse(argc, argv);

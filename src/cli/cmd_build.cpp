@@ -1,0 +1,127 @@
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "cli/commands.h"
+#include "ugvr/core/error.h"
+#include "ugvr/core/memory.h"
+#include "ugvr/io/reader.h"
+#include "ugvr/lod/octree_builder.h"
+#include "ugvr/lod/octree_out_of_core.h"
+
+namespace ugvr::cli {
+
+void register_build(CLI::App& app) {
+  struct Options {
+    std::vector<std::string> inputs, fields;
+    std::string output;
+    OctreeBuildOptions build;
+    uint64_t memory = uint64_t(1) << 30;
+    bool float32 = false, json = false, out_of_core = false;
+    ReadOptions read;
+  };
+  auto opts = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand(
+      "build",
+      "Voxelize a mesh into an adaptive octree of bricks (a .ugvr brick store) for level-of-detail rendering: nodes "
+      "split until the data points inside them that differ by more than --error get voxels of their own");
+  add_input(*cmd, opts->inputs);
+  add_read_options(*cmd, opts->read);
+  cmd->add_option("-o,--output", opts->output, "Output brick store (.ugvr)")->required();
+  cmd->add_option("--fields", opts->fields,
+                  "Scalars to store, comma-separated: NAME, NAME:x|y|z|k or NAME:magnitude (default: the first field "
+                  "that is not constant)")
+      ->delimiter(',');
+  cmd->add_option("--brick", opts->build.resolution, "Samples per brick axis")
+      ->check(CLI::Range(kMinBrickResolution, kMaxBrickResolution))
+      ->default_val(opts->build.resolution);
+  cmd->add_option("--max-depth", opts->build.max_depth, "Deepest octree level (root = 0)")
+      ->check(CLI::Range(0, kMaxOctreeLevel))
+      ->default_val(opts->build.max_depth);
+  cmd->add_option("--error", opts->build.error,
+                  "Split threshold, relative to each field's range: data points differing by more get voxels of their "
+                  "own (0: every data point does)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->default_val(opts->build.error);
+  cmd->add_option(
+         "--memory", opts->memory,
+         "Memory budget (e.g. 512MiB, 4GiB); the in-core build holds the mesh and only warns when its peak exceeds it")
+      ->transform(CLI::AsSizeValue(true))
+      ->default_str("1GiB");
+  cmd->add_option("--threads", opts->build.threads, "Worker threads (0: all cores)")
+      ->check(CLI::NonNegativeNumber)
+      ->default_val(0);
+  cmd->add_flag("--float32", opts->float32,
+                "Store samples losslessly as float32 (default: 16 bits, within 7.6e-6 of each field's range)");
+  cmd->add_flag("--out-of-core", opts->out_of_core,
+                "Stream the cells through temporary files next to the output instead of loading the mesh (one .vtu "
+                "input; chosen by itself when the .vtu is larger than 40% of --memory)");
+  cmd->add_flag("--json", opts->json, "Print the summary as one JSON object (for benchmarks)");
+  cmd->callback([opts] {
+    if (extension_lower(opts->output) != ".ugvr") throw Error(opts->output + ": the output must be a .ugvr file");
+    if (opts->float32) opts->build.encoding.samples = SampleEncoding::Float32;
+    validate_build_options(opts->build);
+    const bool vtu = opts->inputs.size() == 1 && extension_lower(opts->inputs[0]) == ".vtu";
+    if (opts->out_of_core && !vtu) throw Error(opts->inputs[0] + ": --out-of-core reads a single .vtu file");
+    const bool out_of_core =
+        opts->out_of_core || (vtu && std::filesystem::file_size(opts->inputs[0]) > opts->memory / 5 * 2);
+    OctreeBuildStats s;
+    std::string names;
+    if (out_of_core) {
+      if (!opts->out_of_core) std::fprintf(stderr, "note: building out of core (the input is large for --memory)\n");
+      s = build_octree_out_of_core(opts->inputs[0], opts->fields, opts->build, opts->memory, opts->output);
+      const BrickStoreReader store(opts->output);
+      for (const BrickStoreField& f : store.layout().fields) names += (names.empty() ? "" : ",") + f.name;
+    } else {
+      const Dataset ds = read_dataset(opts->inputs, opts->read);
+      for (const std::string& w : ds.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+      const OctreeInput input = prepare_octree_input(ds, opts->fields);
+      s = build_octree(input, opts->build, opts->output);
+      for (const BrickStoreField& f : input.fields) names += (names.empty() ? "" : ",") + f.name;
+    }
+    const double samples_per_second = s.brick_seconds > 0 ? double(s.leaf_samples) / s.brick_seconds : 0.0;
+    if (opts->json) {
+      const nlohmann::json j = {{"output", opts->output},
+                                {"fields", names},
+                                {"brick", opts->build.resolution},
+                                {"max_depth", opts->build.max_depth},
+                                {"error", opts->build.error},
+                                {"encoding", opts->float32 ? "float32" : "quant16"},
+                                {"cells", s.cells},
+                                {"out_of_core", out_of_core},
+                                {"nodes", s.nodes},
+                                {"leaves", s.leaves},
+                                {"nodes_with_data", s.bricks},
+                                {"depth_avg", s.mean_leaf_level},
+                                {"depth_max", s.max_level},
+                                {"nodes_per_level", s.nodes_per_level},
+                                {"leaf_samples", s.leaf_samples},
+                                {"valid_samples", s.valid_samples},
+                                {"leaves_in_parts", s.leaves_in_parts},
+                                {"sampler_thread_seconds", s.sampler_seconds},
+                                {"subdivide_seconds", s.subdivide_seconds},
+                                {"brick_seconds", s.brick_seconds},
+                                {"seconds", s.seconds},
+                                {"samples_per_second", samples_per_second},
+                                {"store_bytes", s.store_bytes},
+                                {"peak_rss_bytes", peak_rss_bytes()}};
+      std::printf("%s\n", j.dump().c_str());
+    } else {
+      std::printf(
+          "wrote %s: %llu nodes (%llu leaves, %llu with data), depth avg %.2f max %d, %s, %s %ux%ux%u bricks, %s in "
+          "%.2f s (subdivide %.2f s, bricks %.2f s, %.3g samples/s), peak RSS %s\n",
+          opts->output.c_str(), (unsigned long long)s.nodes, (unsigned long long)s.leaves, (unsigned long long)s.bricks,
+          s.mean_leaf_level, s.max_level, names.c_str(), opts->float32 ? "float32" : "quant16", opts->build.resolution,
+          opts->build.resolution, opts->build.resolution, format_bytes(s.store_bytes).c_str(), s.seconds,
+          s.subdivide_seconds, s.brick_seconds, samples_per_second, format_bytes(peak_rss_bytes()).c_str());
+    }
+    if (!out_of_core && peak_rss_bytes() > opts->memory) {
+      std::fprintf(stderr,
+                   "warning: peak memory %s exceeded --memory %s: this build holds the mesh and its cell lists in "
+                   "memory\n",
+                   format_bytes(peak_rss_bytes()).c_str(), format_bytes(opts->memory).c_str());
+    }
+  });
+}
+
+}  // namespace ugvr::cli
