@@ -235,7 +235,7 @@ double RayTracer::scalar_at_face(uint32_t cell, const uint32_t* vid, const Cross
 // its weights clamped, so the walk can go on.
 template <CellType T>
 bool RayTracer::exit_of(uint32_t cell, int entry_face, Crossing& out) {
-  constexpr CellInfo info = cell_info(T);
+  static constexpr CellInfo info = cell_info(T);
   constexpr int k = T == CellType::Tetra ? 0 : T == CellType::Pyramid ? 1 : T == CellType::Wedge ? 2 : 3;
   const uint32_t* vid = m_.cell_vertices(cell, k);
   std::swap(proj_, prev_proj_);
@@ -270,54 +270,59 @@ bool RayTracer::exit_of(uint32_t cell, int entry_face, Crossing& out) {
       return true;
     }
   }
-  for (int f = 0; f < info.face_count && T != CellType::Tetra; ++f) {
-    if (f == entry_face) continue;
-    const CellFace& face = info.faces[f];
-    const bool split = T != CellType::Tetra && face.size == 4 && m_.quad_split_13(cell, f);
-    for (int tri = 0; tri < face.size - 2; ++tri) {
-      const std::array<uint8_t, 3> c = triangle_corners(face.size, split, tri);
-      const ProjectedVertex& a = proj_[face.v[c[0]]];
-      const ProjectedVertex& b = proj_[face.v[c[1]]];
-      const ProjectedVertex& d = proj_[face.v[c[2]]];
-      const double e_ab = edge_side(a, b), e_bc = edge_side(b, d), e_ca = edge_side(d, a);
-      const double sum = e_ab + e_bc + e_ca;
-      if (e_ab >= 0 && e_bc >= 0 && e_ca >= 0 && sum > 0) {
-        const double inv = 1 / sum;
-        out.face = uint8_t(f);
-        out.corners = c;
-        out.lambda[0] = e_bc * inv, out.lambda[1] = e_ca * inv, out.lambda[2] = e_ab * inv;
-        out.t = out.lambda[0] * a.w + out.lambda[1] * b.w + out.lambda[2] * d.w;
-        return true;
+  // Every triangle of every face but the entry one, with its three edge values: the exact test first, then (no
+  // triangle passes) the front-facing one the ray misses least (scale-free), weights clamped.
+  auto for_each_triangle = [&](auto&& visit) {
+    for (int f = 0; f < info.face_count; ++f) {
+      if (f == entry_face) continue;
+      const CellFace& face = info.faces[f];
+      const bool split = T != CellType::Tetra && face.size == 4 && m_.quad_split_13(cell, f);
+      for (int tri = 0; tri < face.size - 2; ++tri) {
+        const std::array<uint8_t, 3> c = triangle_corners(face.size, split, tri);
+        const ProjectedVertex& a = proj_[face.v[c[0]]];
+        const ProjectedVertex& b = proj_[face.v[c[1]]];
+        const ProjectedVertex& d = proj_[face.v[c[2]]];
+        if (visit(f, c, a, b, d, edge_side(a, b), edge_side(b, d), edge_side(d, a))) return true;
       }
     }
+    return false;
+  };
+  auto set_crossing = [&](int f, const std::array<uint8_t, 3>& c, const ProjectedVertex& a, const ProjectedVertex& b,
+                          const ProjectedVertex& d, double l0, double l1, double l2) {
+    out.face = uint8_t(f);
+    out.corners = c;
+    out.lambda[0] = l0, out.lambda[1] = l1, out.lambda[2] = l2;
+    out.t = l0 * a.w + l1 * b.w + l2 * d.w;
+  };
+  if constexpr (T != CellType::Tetra) {
+    const bool found = for_each_triangle([&](int f, const std::array<uint8_t, 3>& c, const ProjectedVertex& a,
+                                             const ProjectedVertex& b, const ProjectedVertex& d, double e_ab,
+                                             double e_bc, double e_ca) {
+      const double sum = e_ab + e_bc + e_ca;
+      if (!(e_ab >= 0 && e_bc >= 0 && e_ca >= 0 && sum > 0)) return false;
+      const double inv = 1 / sum;
+      set_crossing(f, c, a, b, d, e_bc * inv, e_ca * inv, e_ab * inv);
+      return true;
+    });
+    if (found) return true;
   }
-  // No triangle passes: take the front-facing one the ray misses least (scale-free), weights clamped.
   double best_score = -kInf;
-  for (int f = 0; f < info.face_count; ++f) {
-    if (f == entry_face) continue;
-    const CellFace& face = info.faces[f];
-    const bool split = T != CellType::Tetra && face.size == 4 && m_.quad_split_13(cell, f);
-    for (int tri = 0; tri < face.size - 2; ++tri) {
-      const std::array<uint8_t, 3> c = triangle_corners(face.size, split, tri);
-      const ProjectedVertex& a = proj_[face.v[c[0]]];
-      const ProjectedVertex& b = proj_[face.v[c[1]]];
-      const ProjectedVertex& d = proj_[face.v[c[2]]];
-      const double e_ab = edge_side(a, b), e_bc = edge_side(b, d), e_ca = edge_side(d, a);
-      const double sum = e_ab + e_bc + e_ca;
-      const double norm = std::abs(e_ab) + std::abs(e_bc) + std::abs(e_ca);
-      const double score = norm > 0 ? std::min({e_ab, e_bc, e_ca}) / norm : -kInf;
-      if (score > best_score && sum > 0) {
-        best_score = score;
-        out.face = uint8_t(f);
-        out.corners = c;
-        const double l0 = std::max(e_bc, 0.0), l1 = std::max(e_ca, 0.0), l2 = std::max(e_ab, 0.0);
-        const double ls = l0 + l1 + l2;
-        out.lambda[0] = ls > 0 ? l0 / ls : 1.0 / 3, out.lambda[1] = ls > 0 ? l1 / ls : 1.0 / 3;
-        out.lambda[2] = ls > 0 ? l2 / ls : 1.0 / 3;
-        out.t = out.lambda[0] * a.w + out.lambda[1] * b.w + out.lambda[2] * d.w;
-      }
+  for_each_triangle([&](int f, const std::array<uint8_t, 3>& c, const ProjectedVertex& a, const ProjectedVertex& b,
+                        const ProjectedVertex& d, double e_ab, double e_bc, double e_ca) {
+    const double sum = e_ab + e_bc + e_ca;
+    const double norm = std::abs(e_ab) + std::abs(e_bc) + std::abs(e_ca);
+    const double score = norm > 0 ? std::min({e_ab, e_bc, e_ca}) / norm : -kInf;
+    if (score > best_score && sum > 0) {
+      best_score = score;
+      const double l0 = std::max(e_bc, 0.0), l1 = std::max(e_ca, 0.0), l2 = std::max(e_ab, 0.0);
+      const double ls = l0 + l1 + l2;
+      if (ls > 0)
+        set_crossing(f, c, a, b, d, l0 / ls, l1 / ls, l2 / ls);
+      else
+        set_crossing(f, c, a, b, d, 1.0 / 3, 1.0 / 3, 1.0 / 3);
     }
-  }
+    return false;
+  });
   if (best_score == -kInf) {
     // Not even a front-facing candidate: leave through the first other face at the entry distance.
     out.face = uint8_t(entry_face == 0 ? 1 : 0);
