@@ -28,6 +28,7 @@
 #include "ugvr/lod/octree_out_of_core.h"
 #include "ugvr/lod/octree_pad.h"
 #include "ugvr/lod/octree_split.h"
+#include "ugvr/lod/octree_vtu_cells.h"
 
 namespace ugvr {
 namespace {
@@ -492,7 +493,7 @@ void expect_same_store(const BrickStoreReader& in_core, const BrickStoreReader& 
       EXPECT_EQ(sa.min, sb.min);
       EXPECT_EQ(sa.max, sb.max);
       if (in_core.node(ia).is_leaf()) {
-        EXPECT_EQ(sa.error_max, sb.error_max);  // the rms of a leaf sampled in parts weighs points by incidence
+        EXPECT_EQ(sa.error_max, sb.error_max);  // the rms of a leaf sampled in pieces weighs points by incidence
       } else {
         EXPECT_LE(sb.error_max, sa.error_max);
       }
@@ -516,18 +517,18 @@ TEST(OctreeOutOfCore, SameStoreAsInCore) {
     SCOPED_TRACE("error " + std::to_string(error) + " max depth " + std::to_string(depth));
     const OctreeBuildOptions o = small_options(5, depth, error);
     const OctreeBuildStats a = build_octree(in, o, dir.file("in.ugvr"));
-    // A budget so small (64 KiB of records per worker) that the larger leaves are sampled in parts.
+    // A budget so small (64 KiB of records per worker) that the larger leaves are sampled in pieces.
     const OctreeBuildStats b = build_octree_out_of_core(vtu, fields, o, 1, dir.file("ooc.ugvr"));
-    std::printf("error %g: %llu nodes, %llu leaves sampled in parts\n", error, (unsigned long long)b.nodes,
-                (unsigned long long)b.leaves_in_parts);
+    std::printf("error %g: %llu nodes, %llu leaves sampled in pieces\n", error, (unsigned long long)b.nodes,
+                (unsigned long long)b.leaves_in_pieces);
     EXPECT_EQ(a.nodes, b.nodes);
     EXPECT_EQ(a.leaves, b.leaves);
     EXPECT_EQ(a.cells, b.cells);
     EXPECT_EQ(a.valid_samples, b.valid_samples);
     if (depth <= 1) {
-      EXPECT_GT(b.leaves_in_parts, 0u);  // leaves of ~1000 cells or more: over 100 KB of records
+      EXPECT_GT(b.leaves_in_pieces, 0u);  // leaves of ~1000 cells or more: over 100 KB of records
     }
-    EXPECT_EQ(b.leaf_samples > a.leaf_samples, b.leaves_in_parts > 0);
+    EXPECT_EQ(a.leaf_samples, b.leaf_samples);
     const BrickStoreReader store(dir.file("ooc.ugvr"));
     expect_same_store(BrickStoreReader(dir.file("in.ugvr")), store);
     check_tree(store, in, /*check_overlaps=*/false);
@@ -540,6 +541,35 @@ TEST(OctreeOutOfCore, SameStoreAsInCore) {
     ++files;
   }
   EXPECT_EQ(files, 3u);  // syn.vtu, in.ugvr, ooc.ugvr
+}
+
+TEST(OctreeOutOfCore, PointsInSlicesGiveTheSameCells) {
+  ScratchDir dir;
+  const std::string vtu = dir.file("syn.vtu");
+  write_vtu(with_cells(synthetic_dataset(6, 2), StructuredCellShape::SixTetrahedra), vtu);
+  const std::vector<std::string> fields = {"wave", "cellid", "lin"};
+  std::string bytes[2];
+  uint64_t passes[2] = {0, 0};
+  for (int k = 0; k < 2; ++k) {
+    VtuCellSource source(vtu, fields);
+    const uint64_t budget = k == 0 ? uint64_t(1) << 30 : 100 * (12 + 4 * 2);  // all points, or 100 at a time
+    const std::string soup = dir.file("soup" + std::to_string(k));
+    {
+      SoupWriter w(soup, source.layout());
+      EXPECT_EQ(source.write_soup(w, budget, dir.file("")), 6u * 6 * 7 * 5);
+      w.close();
+    }
+    passes[k] = source.passes();
+    bytes[k] = InputFile(soup).read_all();
+    EXPECT_EQ(source.fields().at(1).name, "cellid");
+    EXPECT_EQ(source.fields().at(1).min, 0.0);
+    EXPECT_EQ(source.fields().at(1).max, 12.0);
+  }
+  EXPECT_EQ(passes[0], 1u);
+  EXPECT_EQ(passes[1], (7u * 8 * 6 + 99) / 100);
+  EXPECT_EQ(bytes[0], bytes[1]);
+  // The corner files are gone.
+  EXPECT_FALSE(std::filesystem::exists(dir.file("corners-0")));
 }
 
 TEST(OctreeOutOfCore, RejectsWhatItCannotRead) {
@@ -558,6 +588,12 @@ TEST(OctreeOutOfCore, RejectsWhatItCannotRead) {
   const auto r = test::run_ugvr("build " + vtu + " -o " + dir.file("y.ugvr") + " --out-of-core --brick 5 --json");
   EXPECT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("\"out_of_core\":true"), std::string::npos) << r.out;
+  // A .vtu larger than 40% of --memory is built out of core by itself.
+  const auto small = test::run_ugvr("build " + vtu + " -o " + dir.file("s.ugvr") + " --memory 1KiB --brick 5 --json");
+  EXPECT_EQ(small.status, 0) << small.out;
+  EXPECT_NE(small.out.find("\"out_of_core\":true"), std::string::npos) << small.out;
+  const auto roomy = test::run_ugvr("build " + vtu + " -o " + dir.file("s.ugvr") + " --brick 5 --json");
+  EXPECT_NE(roomy.out.find("\"out_of_core\":false"), std::string::npos) << roomy.out;
   const auto bad = test::run_ugvr("build " + vtu + " " + vtu + " -o " + dir.file("z.ugvr") + " --out-of-core");
   EXPECT_NE(bad.status, 0) << bad.out;
 }

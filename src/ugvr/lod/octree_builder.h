@@ -10,6 +10,7 @@
 //     at its lattice point and borders shared by neighbours are identical; each brick is padded (octree_pad.h), its
 //     error measured (octree_error.h), encoded and appended to the store as soon as it exists. Only the bricks of the
 //     nodes whose subtrees are in progress are in memory, never the whole tree's.
+// octree_out_of_core.h builds the same store from a .vtu within a memory budget, streaming the cells through files.
 // Gradients are not stored: a renderer takes central differences on the brick it has (the paper's gradient pass
 // stored them, tripling the store for what costs a renderer a few loads per sample).
 #pragma once
@@ -45,9 +46,10 @@ struct OctreeBuildStats {
   int max_level = 0;                      // deepest leaf (root = 0)
   double mean_leaf_level = 0;             // over leaves
   std::vector<uint64_t> nodes_per_level;  // index = level
-  uint64_t leaf_samples = 0;              // samples the sampler computed (leaves x R³, more for leaves in parts)
+  uint64_t leaf_samples = 0;              // samples of the leaves' lattices (leaves x R³)
   uint64_t valid_samples = 0;             // of the leaves' samples, in the mesh
-  uint64_t leaves_in_parts = 0;           // out of core: leaves too large for memory, sampled in parts
+  uint64_t leaves_in_pieces = 0;          // out of core: leaves too large for memory, sampled in pieces
+  uint64_t point_passes = 0;              // out of core: slices of the points the cells were streamed for
   double sampler_seconds = 0;             // summed over threads
   // Wall clock. Out of core, "subdivide" is the writing of the cells to disk (the tree is shaped as bricks are made).
   double subdivide_seconds = 0, brick_seconds = 0, seconds = 0;

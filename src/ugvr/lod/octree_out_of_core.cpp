@@ -153,12 +153,14 @@ class OutOfCoreBuild {
       for (const ErrorSum& s : sums) r->errors.push_back(s.result());
       progress_.add(kVolumeUnits >> std::min(3 * int(node.level), 62));
     } else {
-      // More cells than this worker's share of the budget: the brick from parts (see sample_in_parts), its error
+      // More cells than this worker's share of the budget: the brick in pieces (see sample_in_pieces), its error
       // from the data points streamed from the file.
       std::vector<std::byte>().swap(kept);
-      sample_in_parts(node.level, ijk, file, r->brick);
+      init_brick(r->brick);
+      sample_in_pieces(node, box, file, 0, r->brick);
+      leaf_samples_ += r->brick.mask.size();
       valid_samples_ += r->brick.valid;
-      ++leaves_in_parts_;
+      ++leaves_in_pieces_;
       pad_brick(o_.resolution, F_, r->brick.values.data(), r->brick.mask.data());
       measure_streamed(r->brick, box, file, sums);
       std::filesystem::remove(file);
@@ -177,7 +179,7 @@ class OutOfCoreBuild {
   std::vector<FieldError> errors() const { return {errors_.begin(), errors_.begin() + ptrdiff_t(nodes_.size() * F_)}; }
   uint64_t leaf_samples() const { return leaf_samples_; }
   uint64_t valid_samples() const { return valid_samples_; }
-  uint64_t leaves_in_parts() const { return leaves_in_parts_; }
+  uint64_t leaves_in_pieces() const { return leaves_in_pieces_; }
   double sampler_seconds() const { return double(sampler_ns_) * 1e-9; }
 
   // Progress counts the root's volume in these units; a leaf at level L adds its share.
@@ -321,13 +323,13 @@ class OutOfCoreBuild {
     BrickSamplerStats st;
     sampler.sample(lattice_, level, ijk, local.cells, scratch.sampler, out, &st);
     sampler_ns_ += uint64_t(seconds_since(t0) * 1e9);
-    leaf_samples_ += st.samples;
   }
 
   void sample_leaf(const OctreeNode& node, const Bounds& box, const std::vector<std::byte>& kept, Scratch& scratch,
                    Result& r, std::vector<ErrorSum>& sums) {
     const std::unique_ptr<LocalMesh> local = weld(kept);
     sample(*local, node.level, {node.i, node.j, node.k}, scratch, r.brick);
+    leaf_samples_ += r.brick.mask.size();
     valid_samples_ += r.brick.valid;
     const OctreeDataPoints data(local->mesh, local->refs);
     std::vector<uint64_t> points;
@@ -336,19 +338,34 @@ class OutOfCoreBuild {
     measure_against_points(r.brick, box, data, points, sums);
   }
 
-  // A leaf too large for memory, sampled as the subsampling of its eight half-size parts (octree_downsample.h), each
-  // sampled alone or split again: bit for bit the samples of the whole, for 8 times the sampling work on these leaves
-  // only. The parts are not nodes of the tree.
-  void sample_in_parts(int level, std::array<uint32_t, 3> ijk, const std::string& file, BrickSamples& out) {
-    const Bounds box = lattice_.node_box(level, ijk);
-    const std::array<std::string, 8> files = route("part-" + std::to_string(parts_++), box, file);
-    std::array<BrickSamples, 8> parts;
-    std::array<const BrickSamples*, 8> ptrs{};
+  void init_brick(BrickSamples& b) const {
+    const size_t n = size_t(o_.resolution) * o_.resolution * o_.resolution;
+    b.resolution = o_.resolution;
+    b.field_count = F_;
+    b.values.assign(F_ * n, 0.0f);
+    b.mask.assign(n, 0);
+    b.valid = 0;
+  }
+
+  // A leaf too large for memory, sampled in pieces: its cells are routed to the eight halves of `region` (and those
+  // halves split again while too large), and the leaf's whole lattice is sampled once per piece with that piece's
+  // cells only, keeping the samples inside the piece. A point inside a piece lies only in cells that overlap it, so
+  // it gets what sampling the whole leaf would give it, bit for bit; points outside find no candidate in their
+  // buckets and cost next to nothing, so the work stays about that of the leaf. Pieces are not nodes of the tree.
+  void sample_in_pieces(const OctreeNode& node, const Bounds& region, const std::string& file, int depth,
+                        BrickSamples& out) {
+    const std::array<std::string, 8> files = route("piece-" + std::to_string(pieces_++), region, file);
+    const Vec3d size = region.size();
+    auto box_lo = [&](int axis, uint32_t i) { return region.lo[axis] + size[axis] * (double(i) / 2.0); };
+    const uint32_t R = o_.resolution;
+    const size_t n = size_t(R) * R * R;
     Scratch& scratch = scratch_.local();
+    BrickSamples piece;
     for (uint32_t o = 0; o < 8; ++o) {
       if (files[o].empty()) continue;
-      const std::array<uint32_t, 3> child{2 * ijk[0] + (o & 1), 2 * ijk[1] + ((o >> 1) & 1),
-                                          2 * ijk[2] + ((o >> 2) & 1)};
+      Bounds sub;  // as route() computed it
+      sub.lo = {box_lo(0, o & 1), box_lo(1, (o >> 1) & 1), box_lo(2, (o >> 2) & 1)};
+      sub.hi = {box_lo(0, (o & 1) + 1), box_lo(1, ((o >> 1) & 1) + 1), box_lo(2, ((o >> 2) & 1) + 1)};
       std::vector<std::byte> kept;
       bool complete = true;
       {
@@ -360,17 +377,34 @@ class OutOfCoreBuild {
           kept.insert(kept.end(), rec, rec + bytes);
         }
       }
-      if (complete || level + 1 >= kMaxOctreeLevel) {
-        if (!complete) kept = load(files[o]);
-        sample(*weld(kept), level + 1, child, scratch, parts[o]);
-      } else {
+      // Pieces stop halving after 16 levels (cells so large that each overlaps every piece): then all are loaded.
+      if (!complete && depth < 16) {
         std::vector<std::byte>().swap(kept);
-        sample_in_parts(level + 1, child, files[o], parts[o]);
+        sample_in_pieces(node, sub, files[o], depth + 1, out);
+      } else {
+        if (!complete) kept = load(files[o]);
+        sample(*weld(kept), node.level, {node.i, node.j, node.k}, scratch, piece);
+        std::array<std::vector<uint8_t>, 3> inside;
+        for (int a = 0; a < 3; ++a) {
+          const uint64_t m0 = uint64_t(a == 0 ? node.i : (a == 1 ? node.j : node.k)) * (R - 1);
+          for (uint32_t x = 0; x < R; ++x) {
+            const double c = lattice_.coordinate(a, node.level, m0 + x);
+            inside[size_t(a)].push_back(c >= sub.lo[a] && c <= sub.hi[a]);
+          }
+        }
+        for (uint32_t z = 0; z < R; ++z)
+          for (uint32_t y = 0; y < R; ++y)
+            for (uint32_t x = 0; x < R; ++x) {
+              if (!inside[0][x] || !inside[1][y] || !inside[2][z]) continue;
+              const size_t si = x + size_t(R) * (y + size_t(R) * z);
+              if (!piece.mask[si]) continue;
+              out.valid += !out.mask[si];
+              out.mask[si] = 1;
+              for (uint32_t f = 0; f < F_; ++f) out.values[f * n + si] = piece.values[f * n + si];
+            }
       }
       std::filesystem::remove(files[o]);
-      ptrs[o] = &parts[o];
     }
-    downsample_children(o_.resolution, F_, ptrs, out);
   }
 
   // The leaf's error at the data points of its cells, streamed from its file. Points shared by several cells count
@@ -428,7 +462,7 @@ class OutOfCoreBuild {
   tbb::concurrent_vector<OctreeNode> nodes_;
   tbb::concurrent_vector<FieldError> errors_;  // node x field
   tbb::enumerable_thread_specific<Scratch> scratch_;
-  std::atomic<uint64_t> leaf_samples_{0}, valid_samples_{0}, sampler_ns_{0}, parts_{0}, leaves_in_parts_{0};
+  std::atomic<uint64_t> leaf_samples_{0}, valid_samples_{0}, sampler_ns_{0}, pieces_{0}, leaves_in_pieces_{0};
 };
 
 }  // namespace
@@ -446,13 +480,16 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   const std::string root_file = (temp.path / "root").string();
   uint64_t cells = 0;
   {
+    // Points and vertex scalars are held while the cells are written: half of the budget beyond the program's own,
+    // at least 1 MiB (each slice costs a pass over the cells and an open file).
+    const uint64_t base = uint64_t(48) << 20;
+    const uint64_t point_budget = std::max((memory_budget > base ? memory_budget - base : 0) / 2, uint64_t(1) << 20);
     Progress progress("cells to disk", source.file_cell_count());
     SoupWriter soup(root_file, source.layout());
-    cells = source.write_soup(soup, &progress);
+    cells = source.write_soup(soup, point_budget, temp.path.string(), &progress);
     soup.close();
   }
   const Bounds data_bounds = source.bounds();
-  source.release();  // the points and vertex scalars: from here on only the cell files hold the mesh
 
   BrickLattice lattice;
   lattice.root = octree_root(data_bounds);
@@ -467,17 +504,18 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   BrickStoreWriter writer(path, layout);
 
   // What the budget pays for besides cells: the program and its store writer (about 48 MiB), and per worker the file
-  // buffers of a split (9 MiB) and the bricks of the subtree in progress (8 per level, R³ (4F + 1) bytes each). The
-  // rest is shared by the workers, each of which may hold one node's records: an eighth of its share, as sampling
-  // them takes about 7 times their size (the records with their vector's slack, the welded mesh, the sampler's
-  // prepared cells, about 400 bytes a cell, and its buckets, kept by the allocator between leaves); at least 64 KiB.
+  // buffers of a split (9 soup buffers of 1 MiB and their slack) and the bricks of the subtree in progress (8 per
+  // level, R³ (4F + 1) bytes each). The rest is shared by the workers, each of which may hold one node's records: a
+  // twelfth of its share, as sampling them takes up to about 10 times their size (the records with their vector's
+  // slack, the welded mesh, the sampler's prepared cells, about 400 bytes a cell, and its buckets, and what the
+  // allocator keeps between leaves; measured on 100M tetrahedra); at least 64 KiB.
   const auto workers = uint64_t(std::max(1, tbb::this_task_arena::max_concurrency()));
   const uint64_t brick_bytes =
       uint64_t(options.resolution) * options.resolution * options.resolution * (4 * uint64_t(layout.fields.size()) + 1);
   const uint64_t reserve =
-      (uint64_t(48) << 20) + workers * ((uint64_t(10) << 20) + 8 * uint64_t(options.max_depth + 1) * brick_bytes);
+      (uint64_t(48) << 20) + workers * ((uint64_t(18) << 20) + 8 * uint64_t(options.max_depth + 1) * brick_bytes);
   const uint64_t available = memory_budget > reserve ? memory_budget - reserve : 0;
-  const size_t preload = size_t(std::max<uint64_t>(available / (8 * workers), uint64_t(64) << 10));
+  const size_t preload = size_t(std::max<uint64_t>(available / (12 * workers), uint64_t(64) << 10));
   OctreeBuildStats stats;
   stats.cells = cells;
   stats.subdivide_seconds = seconds_since(start);  // here: writing the cells to disk
@@ -490,7 +528,8 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
     nodes = build.nodes();
     stats.leaf_samples = build.leaf_samples();
     stats.valid_samples = build.valid_samples();
-    stats.leaves_in_parts = build.leaves_in_parts();
+    stats.leaves_in_pieces = build.leaves_in_pieces();
+    stats.point_passes = source.passes();
     stats.sampler_seconds = build.sampler_seconds();
     writer.commit(nodes, build.errors());
   }

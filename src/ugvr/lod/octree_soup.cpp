@@ -9,6 +9,8 @@ namespace ugvr {
 namespace {
 
 constexpr size_t kBufferBytes = size_t(1) << 20;
+// The largest record: 8 vertices, 1024 scalars (the store's limit) at each.
+constexpr size_t kMaxRecordBytes = 16 + 16 * 8 + 4 * 8 * 1024;
 
 [[noreturn]] void fail_io(const std::string& path, const char* what) {
   fail_in(path, std::string(what) + ": " + std::strerror(errno));
@@ -19,7 +21,7 @@ constexpr size_t kBufferBytes = size_t(1) << 20;
 SoupWriter::SoupWriter(std::string path, const SoupLayout& layout) : path_(std::move(path)), layout_(layout) {
   file_ = std::fopen(path_.c_str(), "wb");
   if (!file_) fail_io(path_, "cannot create the temporary cell file");
-  buffer_.reserve(kBufferBytes);
+  buffer_.reserve(kBufferBytes + kMaxRecordBytes);  // flushed past kBufferBytes: never reallocated
 }
 
 SoupWriter::~SoupWriter() {

@@ -13,7 +13,7 @@
 //   ..    n x 3 x f32     vertex positions
 //   ..    Fv x n x f32    values of the vertex fields at the vertices, field by field
 //   ..    Fc x f32        values of the cell fields
-// so a record has 16 + 16 n + 4 (Fv n + Fc) bytes: 80 bytes for a tetrahedron with one vertex field.
+// so a record has 16 + 16 n + 4 (Fv n + Fc) bytes: 96 bytes for a tetrahedron with one vertex field.
 #pragma once
 
 #include <cstddef>

@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
 #include <limits>
 #include <optional>
 #include <pugixml.hpp>
+#include <tuple>
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
@@ -34,6 +37,28 @@ struct Selected {
   Association association = Association::Vertex;
   int component = kMagnitude;
 };
+
+// `count` tuples of a selected array, from tuple `first` on (for messages), as float scalars: the value, a component
+// or the magnitude. Fails on values that are not finite.
+void read_scalars(XmlArrayReader& reader, const Selected& s, uint64_t first, size_t count, float* out) {
+  const size_t c = size_t(s.array.components);
+  thread_local std::vector<double> buf;
+  buf.resize(c * count);
+  reader.read(std::span(buf.data(), buf.size()));
+  for (size_t i = 0; i < count; ++i) {
+    double v = 0;
+    if (c == 1) {
+      v = buf[i];
+    } else if (s.component >= 0) {
+      v = buf[i * c + size_t(s.component)];
+    } else {
+      for (size_t k = 0; k < c; ++k) v += buf[i * c + k] * buf[i * c + k];
+      v = std::sqrt(v);
+    }
+    if (!std::isfinite(v)) reader.fail("value " + std::to_string(first + i) + " is not finite: bricks cannot store it");
+    out[i] = float(v);
+  }
+}
 
 }  // namespace
 
@@ -197,22 +222,19 @@ VtuCellSource::VtuCellSource(std::string path, std::span<const std::string> sele
     select(*a, k);
   }
 
-  // Points and vertex scalars, whole.
+  // One streaming pass over the points and the vertex scalars: bounds, ranges, finiteness.
   {
     XmlArrayReader reader(m.file, m.encoding, *m.points);
     reader.expect_count(3 * points, "NumberOfPoints=" + std::to_string(points) + " x 3 components");
-    points_.resize(points);
     std::vector<float> buf(3 * kChunk);
     for (uint64_t p0 = 0; p0 < points; p0 += kChunk) {
       const size_t n = size_t(std::min<uint64_t>(kChunk, points - p0));
       reader.read(std::span(buf.data(), 3 * n));
-      for (size_t i = 0; i < n; ++i) {
-        points_[p0 + i] = {buf[3 * i], buf[3 * i + 1], buf[3 * i + 2]};
-        bounds_.add(to_double(points_[p0 + i]));
-      }
+      for (size_t i = 0; i < n; ++i) bounds_.add(Vec3d{buf[3 * i], buf[3 * i + 1], buf[3 * i + 2]});
     }
     reader.finish();
   }
+  points_ = points;
   auto name_of = [&](const Selected& s) {
     const std::string& n = s.array.name;
     if (s.array.components == 1) return n;
@@ -220,38 +242,24 @@ VtuCellSource::VtuCellSource(std::string path, std::span<const std::string> sele
     if (s.array.components <= 3) return n + ":" + "xyz"[s.component];
     return n + ":" + std::to_string(s.component);
   };
-  auto read_scalars = [&](XmlArrayReader& reader, const Selected& s, uint64_t tuples, float* out, double& lo,
-                          double& hi) {
-    const size_t c = size_t(s.array.components);
-    std::vector<double> buf(c * kChunk);
-    for (uint64_t t0 = 0; t0 < tuples; t0 += kChunk) {
-      const size_t n = size_t(std::min<uint64_t>(kChunk, tuples - t0));
-      reader.read(std::span(buf.data(), c * n));
-      for (size_t i = 0; i < n; ++i) {
-        double v = 0;
-        if (c == 1) {
-          v = buf[i];
-        } else if (s.component >= 0) {
-          v = buf[i * c + size_t(s.component)];
-        } else {
-          for (size_t k = 0; k < c; ++k) v += buf[i * c + k] * buf[i * c + k];
-          v = std::sqrt(v);
-        }
-        if (!std::isfinite(v))
-          reader.fail("value " + std::to_string(t0 + i) + " is not finite: bricks cannot store it");
-        out[t0 + i] = float(v);
-        lo = std::min(lo, double(out[t0 + i])), hi = std::max(hi, double(out[t0 + i]));
-      }
+  auto range_of = [&](const Selected& s) {
+    XmlArrayReader reader(m.file, m.encoding, s.array);
+    reader.expect_count(points * uint64_t(s.array.components), s.array.label);
+    std::vector<float> v(kChunk);
+    double lo = INFINITY, hi = -INFINITY;
+    for (uint64_t t0 = 0; t0 < points; t0 += kChunk) {
+      const size_t n = size_t(std::min<uint64_t>(kChunk, points - t0));
+      read_scalars(reader, s, t0, n, v.data());
+      for (size_t i = 0; i < n; ++i) lo = std::min(lo, double(v[i])), hi = std::max(hi, double(v[i]));
     }
+    reader.finish();
+    return std::pair(lo, hi);
   };
   if (m.selected.empty()) {  // the default: the first vertex field that is not constant, else the first field
     for (const auto& a : arrays) {
       if (a.second != Association::Vertex) continue;
       select(a, kMagnitude);
-      XmlArrayReader reader(m.file, m.encoding, m.selected.back().array);
-      std::vector<float> v(points);
-      double lo = INFINITY, hi = -INFINITY;
-      read_scalars(reader, m.selected.back(), points, v.data(), lo, hi);
+      const auto [lo, hi] = range_of(m.selected.back());
       if (hi > lo) break;
       m.selected.pop_back();
     }
@@ -269,13 +277,7 @@ VtuCellSource::VtuCellSource(std::string path, std::span<const std::string> sele
     slot.association = s.association;
     if (s.association == Association::Vertex) {
       slot.index = layout_.vertex_fields++;
-      XmlArrayReader reader(m.file, m.encoding, s.array);
-      reader.expect_count(points * uint64_t(s.array.components), s.array.label);
-      std::vector<float>& v = vertex_values_.emplace_back(points);
-      double lo = INFINITY, hi = -INFINITY;
-      read_scalars(reader, s, points, v.data(), lo, hi);
-      reader.finish();
-      f.min = lo, f.max = hi;
+      std::tie(f.min, f.max) = range_of(s);
     } else {
       slot.index = layout_.cell_fields++;
       f.min = INFINITY, f.max = -INFINITY;  // known after write_soup
@@ -286,54 +288,75 @@ VtuCellSource::VtuCellSource(std::string path, std::span<const std::string> sele
   if (points == 0 || cells_ == 0) fail_in(path_, "the dataset has no cells to voxelize");
 }
 
-void VtuCellSource::release() {
-  std::vector<Vec3f>().swap(points_);
-  std::vector<std::vector<float>>().swap(vertex_values_);
+namespace {
+
+// The points [first, first + count) and the vertex scalars there: positions, then values scalar-major.
+void read_point_slice(const VtuCellSource::Markup& m, uint64_t first, uint64_t count, std::vector<Vec3f>& positions,
+                      std::vector<float>& values) {
+  positions.resize(count);
+  {
+    XmlArrayReader reader(m.file, m.encoding, *m.points);
+    reader.skip(3 * first);
+    std::vector<float> buf(3 * kChunk);
+    for (uint64_t p0 = 0; p0 < count; p0 += kChunk) {
+      const size_t n = size_t(std::min<uint64_t>(kChunk, count - p0));
+      reader.read(std::span(buf.data(), 3 * n));
+      for (size_t i = 0; i < n; ++i) positions[p0 + i] = {buf[3 * i], buf[3 * i + 1], buf[3 * i + 2]};
+    }
+  }
+  values.clear();
+  for (const Selected& s : m.selected) {
+    if (s.association != Association::Vertex) continue;
+    XmlArrayReader reader(m.file, m.encoding, s.array);
+    reader.skip(first * uint64_t(s.array.components));
+    const size_t at = values.size();
+    values.resize(at + count);
+    for (uint64_t t0 = 0; t0 < count; t0 += kChunk) {
+      const size_t n = size_t(std::min<uint64_t>(kChunk, count - t0));
+      read_scalars(reader, s, first + t0, n, values.data() + at + t0);
+    }
+  }
 }
 
-uint64_t VtuCellSource::write_soup(SoupWriter& soup, Progress* progress) {
-  Markup& m = *markup_;
+// One pass over the cells: f(file cell index, type, corner count, corner point ids, cell scalar values or null).
+// Cell scalars are decoded only when `cell_values` is set.
+template <class F>
+void stream_cells(const VtuCellSource::Markup& m, uint64_t cells, uint64_t points, bool cell_values, Progress* progress,
+                  F&& f) {
   XmlArrayReader offsets(m.file, m.encoding, *m.offsets);
   XmlArrayReader types(m.file, m.encoding, *m.types);
   XmlArrayReader conn(m.file, m.encoding, *m.connectivity);
-  offsets.expect_count(cells_, "NumberOfCells=" + std::to_string(cells_));
-  types.expect_count(cells_, "NumberOfCells=" + std::to_string(cells_));
-  std::vector<std::unique_ptr<XmlArrayReader>> cell_readers;
-  std::vector<size_t> cell_selected;  // index into m.selected of each cell scalar, in soup order
-  for (size_t s = 0; s < m.selected.size(); ++s) {
-    if (m.selected[s].association != Association::Cell) continue;
-    cell_readers.push_back(std::make_unique<XmlArrayReader>(m.file, m.encoding, m.selected[s].array));
-    cell_readers.back()->expect_count(cells_ * uint64_t(m.selected[s].array.components), m.selected[s].array.label);
-    cell_selected.push_back(s);
+  offsets.expect_count(cells, "NumberOfCells=" + std::to_string(cells));
+  types.expect_count(cells, "NumberOfCells=" + std::to_string(cells));
+  std::vector<const Selected*> cell_scalars;
+  std::vector<std::unique_ptr<XmlArrayReader>> readers;
+  for (const Selected& s : m.selected) {
+    if (s.association != Association::Cell || !cell_values) continue;
+    cell_scalars.push_back(&s);
+    readers.push_back(std::make_unique<XmlArrayReader>(m.file, m.encoding, s.array));
+    readers.back()->expect_count(cells * uint64_t(s.array.components), s.array.label);
   }
-  const uint32_t Fv = layout_.vertex_fields, Fc = layout_.cell_fields;
-  std::vector<int64_t> off(kChunk), type(kChunk);
-  std::vector<std::vector<double>> cell_buf(Fc);
-  std::vector<int64_t> ids;  // connectivity of the chunk
-  uint64_t prev = 0, written = 0;
-  uint32_t vertices[kMaxCellVertices];
-  Vec3f positions[kMaxCellVertices];
-  std::vector<float> vvalues(size_t(Fv) * kMaxCellVertices), cvalues(Fc);
-  std::vector<double> cell_lo(Fc, INFINITY), cell_hi(Fc, -INFINITY);
-  for (uint64_t c0 = 0; c0 < cells_; c0 += kChunk) {
-    const size_t n = size_t(std::min<uint64_t>(kChunk, cells_ - c0));
+  std::vector<int64_t> off(kChunk), type(kChunk), ids;
+  std::vector<float> values(cell_scalars.size() * kChunk), cell(cell_scalars.size());
+  uint32_t corners[kMaxCellVertices];
+  uint64_t prev = 0;
+  for (uint64_t c0 = 0; c0 < cells; c0 += kChunk) {
+    const size_t n = size_t(std::min<uint64_t>(kChunk, cells - c0));
     offsets.read(std::span(off.data(), n));
     types.read(std::span(type.data(), n));
     if (off[n - 1] < 0 || uint64_t(off[n - 1]) < prev) offsets.fail("offsets decrease at cell " + std::to_string(c0));
     ids.resize(size_t(uint64_t(off[n - 1]) - prev));
     conn.read(std::span(ids.data(), ids.size()));
-    for (uint32_t k = 0; k < Fc; ++k) {
-      const Selected& s = m.selected[cell_selected[k]];
-      cell_buf[k].resize(n * size_t(s.array.components));
-      cell_readers[k]->read(std::span(cell_buf[k].data(), cell_buf[k].size()));
+    for (size_t k = 0; k < cell_scalars.size(); ++k) {
+      read_scalars(*readers[k], *cell_scalars[k], c0, n, values.data() + k * kChunk);
     }
-    uint64_t chunk_begin = prev;
+    const uint64_t chunk_begin = prev;
     for (size_t i = 0; i < n; ++i) {
       const uint64_t end = uint64_t(off[i]);
       if (off[i] < 0 || end < prev || off[i] > off[n - 1]) {
         offsets.fail("offsets decrease at cell " + std::to_string(c0 + i));
       }
-      const std::span<const int64_t> cell(ids.data() + (prev - chunk_begin), size_t(end - prev));
+      const std::span<const int64_t> list(ids.data() + (prev - chunk_begin), size_t(end - prev));
       prev = end;
       const VtkCellMapping map = map_vtk_cell_type(int(std::clamp<int64_t>(type[i], INT32_MIN, INT32_MAX)));
       if (map.kind == VtkCellMapping::Kind::DropLowerDimension) continue;
@@ -341,54 +364,156 @@ uint64_t VtuCellSource::write_soup(SoupWriter& soup, Progress* progress) {
         types.fail("cell " + std::to_string(c0 + i) + " has VTK type " + std::to_string(type[i]) +
                    ", which the out-of-core build does not take");
       }
-      const int corners = map.corner_count;
-      if (int64_t(cell.size()) < corners) {
-        conn.fail("cell " + std::to_string(c0 + i) + " lists " + std::to_string(cell.size()) + " point ids, " +
-                  std::string(map.vtk_name) + " needs " + std::to_string(corners));
+      const int n_corners = map.corner_count;
+      if (int64_t(list.size()) < n_corners) {
+        conn.fail("cell " + std::to_string(c0 + i) + " lists " + std::to_string(list.size()) + " point ids, " +
+                  std::string(map.vtk_name) + " needs " + std::to_string(n_corners));
       }
-      for (int k = 0; k < corners; ++k) {
-        int src = k;
-        if (map.voxel_order && (k % 4 == 2 || k % 4 == 3)) src = k ^ 1;  // voxel: corners 2<->3, 6<->7
-        const int64_t id = cell[size_t(src)];
-        if (id < 0 || uint64_t(id) >= points_.size()) {
+      for (int k = 0; k < n_corners; ++k) {
+        const int src = map.voxel_order && (k % 4 == 2 || k % 4 == 3) ? k ^ 1 : k;  // voxel: 2<->3, 6<->7
+        const int64_t id = list[size_t(src)];
+        if (id < 0 || uint64_t(id) >= points) {
           conn.fail("cell " + std::to_string(c0 + i) + ": point id " + std::to_string(id) + " is outside [0, " +
-                    std::to_string(points_.size()) + ")");
+                    std::to_string(points) + ")");
         }
-        vertices[k] = uint32_t(id);
-        positions[k] = points_[size_t(id)];
-        for (uint32_t f = 0; f < Fv; ++f) vvalues[f * size_t(corners) + size_t(k)] = vertex_values_[f][size_t(id)];
+        corners[k] = uint32_t(id);
       }
-      for (uint32_t k = 0; k < Fc; ++k) {
-        const Selected& s = m.selected[cell_selected[k]];
-        const size_t nc = size_t(s.array.components);
-        double v = 0;
-        if (nc == 1) {
-          v = cell_buf[k][i];
-        } else if (s.component >= 0) {
-          v = cell_buf[k][i * nc + size_t(s.component)];
-        } else {
-          for (size_t q = 0; q < nc; ++q) v += cell_buf[k][i * nc + q] * cell_buf[k][i * nc + q];
-          v = std::sqrt(v);
-        }
-        if (!std::isfinite(v)) {
-          cell_readers[k]->fail("value " + std::to_string(c0 + i) + " is not finite: bricks cannot store it");
-        }
-        cvalues[k] = float(v);
-        cell_lo[k] = std::min(cell_lo[k], double(cvalues[k]));
-        cell_hi[k] = std::max(cell_hi[k], double(cvalues[k]));
-      }
-      soup.add(c0 + i, map.type, corners, vertices, positions, vvalues.data(), cvalues.data());
-      ++written;
+      for (size_t k = 0; k < cell_scalars.size(); ++k) cell[k] = values[k * kChunk + i];
+      f(c0 + i, map.type, n_corners, corners, cell_scalars.empty() ? nullptr : cell.data());
     }
     if (progress) progress->add(n);
   }
   offsets.finish();
   types.finish();
   conn.finish();
-  for (auto& r : cell_readers) r->finish();
+  for (auto& r : readers) r->finish();
+}
+
+// Corner files: per slice of the points, the position and vertex values of each corner in the slice, in cell order.
+class CornerFile {
+ public:
+  CornerFile(std::string path, size_t entry_bytes, bool write)
+      : path_(std::move(path)), entry_(entry_bytes), file_(std::fopen(path_.c_str(), write ? "wb" : "rb")) {
+    if (!file_) fail_in(path_, "cannot open a temporary corner file");
+    buffer_.resize(entry_ * 4096);  // tens of KiB: the last pass has every slice's file open
+  }
+  ~CornerFile() {
+    if (file_) std::fclose(file_);
+    std::error_code ec;
+    if (!writing_) std::filesystem::remove(path_, ec);  // read once: no longer needed
+  }
+  void put(const void* entry) {
+    writing_ = true;
+    std::memcpy(buffer_.data() + used_, entry, entry_);
+    if ((used_ += entry_) == buffer_.size()) flush();
+  }
+  void flush() {
+    if (used_ && std::fwrite(buffer_.data(), 1, used_, file_) != used_) fail_in(path_, "cannot write a corner file");
+    used_ = 0;
+  }
+  void close() {
+    flush();
+    if (std::fclose(file_) != 0) fail_in(path_, "cannot close a corner file");
+    file_ = nullptr;
+  }
+  const std::byte* get() {
+    if (pos_ == used_) {
+      used_ = std::fread(buffer_.data(), 1, buffer_.size(), file_);
+      pos_ = 0;
+      if (used_ < entry_) fail_in(path_, "a temporary corner file ends early");
+    }
+    const std::byte* e = buffer_.data() + pos_;
+    pos_ += entry_;
+    return e;
+  }
+
+ private:
+  std::string path_;
+  size_t entry_;
+  std::FILE* file_;
+  std::vector<std::byte> buffer_;
+  size_t used_ = 0, pos_ = 0;
+  bool writing_ = false;
+};
+
+}  // namespace
+
+uint64_t VtuCellSource::write_soup(SoupWriter& soup, uint64_t point_budget, const std::string& temp_dir,
+                                   Progress* progress) {
+  const Markup& m = *markup_;
+  const uint32_t Fv = layout_.vertex_fields, Fc = layout_.cell_fields;
+  const uint64_t per_point = 12 + 4 * uint64_t(Fv);
+  const uint64_t slice = std::max<uint64_t>(1, std::min<uint64_t>(points_, point_budget / per_point));
+  passes_ = (points_ + slice - 1) / slice;
+  std::vector<double> cell_lo(Fc, INFINITY), cell_hi(Fc, -INFINITY);
+  Vec3f positions[kMaxCellVertices];
+  std::vector<float> vvalues(size_t(Fv) * kMaxCellVertices);
+  uint64_t written = 0;
+  auto emit = [&](uint64_t c, CellType t, int n, const uint32_t* corners, const float* cell) {
+    for (uint32_t k = 0; k < Fc; ++k) {
+      if (!std::isfinite(cell[k])) fail_in(path_, "cell " + std::to_string(c) + ": a value is not finite");
+      cell_lo[k] = std::min(cell_lo[k], double(cell[k])), cell_hi[k] = std::max(cell_hi[k], double(cell[k]));
+    }
+    soup.add(c, t, n, corners, positions, vvalues.data(), cell);
+    ++written;
+  };
+  std::vector<Vec3f> pos;
+  std::vector<float> val;
+  if (passes_ == 1) {
+    read_point_slice(m, 0, points_, pos, val);
+    stream_cells(m, cells_, points_, true, progress,
+                 [&](uint64_t c, CellType t, int n, const uint32_t* corners, const float* cell) {
+                   for (int k = 0; k < n; ++k) {
+                     positions[k] = pos[corners[k]];
+                     for (uint32_t f = 0; f < Fv; ++f)
+                       vvalues[f * size_t(n) + size_t(k)] = val[f * points_ + corners[k]];
+                   }
+                   emit(c, t, n, corners, cell);
+                 });
+  } else {
+    // One pass per slice writes its corners; the last pass reads them back in step, a corner from its slice's file.
+    const size_t entry = 12 + 4 * size_t(Fv);
+    std::vector<std::unique_ptr<CornerFile>> files;
+    std::vector<std::byte> e(entry);
+    for (uint64_t p = 0; p < passes_; ++p) {
+      const uint64_t first = p * slice, count = std::min(slice, points_ - first);
+      read_point_slice(m, first, count, pos, val);
+      CornerFile out(temp_dir + "/corners-" + std::to_string(p), entry, true);
+      stream_cells(m, cells_, points_, false, nullptr,
+                   [&](uint64_t, CellType, int n, const uint32_t* corners, const float*) {
+                     for (int k = 0; k < n; ++k) {
+                       if (corners[k] < first || corners[k] - first >= count) continue;
+                       const uint64_t local = corners[k] - first;
+                       std::memcpy(e.data(), &pos[local], 12);
+                       for (uint32_t f = 0; f < Fv; ++f) std::memcpy(e.data() + 12 + 4 * f, &val[f * count + local], 4);
+                       out.put(e.data());
+                     }
+                   });
+      out.close();
+      if (progress) progress->add(cells_ / (passes_ + 1));
+    }
+    std::vector<Vec3f>().swap(pos);
+    std::vector<float>().swap(val);
+    for (uint64_t p = 0; p < passes_; ++p) {
+      files.push_back(std::make_unique<CornerFile>(temp_dir + "/corners-" + std::to_string(p), entry, false));
+    }
+    stream_cells(m, cells_, points_, true, nullptr,
+                 [&](uint64_t c, CellType t, int n, const uint32_t* corners, const float* cell) {
+                   for (int k = 0; k < n; ++k) {
+                     const std::byte* got = files[corners[k] / slice]->get();
+                     std::memcpy(&positions[k], got, 12);
+                     for (uint32_t f = 0; f < Fv; ++f)
+                       std::memcpy(&vvalues[f * size_t(n) + size_t(k)], got + 12 + 4 * f, 4);
+                   }
+                   emit(c, t, n, corners, cell);
+                 });
+  }
   for (uint32_t k = 0; k < Fc; ++k) {
-    BrickStoreField& f = fields_[cell_selected[k]];
-    f.min = cell_lo[k], f.max = cell_hi[k];
+    size_t at = 0;
+    for (size_t f = 0; f < slots_.size(); ++f) {
+      if (slots_[f].association == Association::Cell && slots_[f].index == k) at = f;
+    }
+    fields_[at].min = cell_lo[k], fields_[at].max = cell_hi[k];
   }
   if (written == 0) fail_in(path_, "the file has no volume cells");
   return written;
