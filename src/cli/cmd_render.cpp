@@ -1,5 +1,6 @@
-// `ugvr render`: one image (or N timed frames) of a dataset. The flags are the engine-independent vocabulary of
-// render_settings.h / camera.h / transfer_function.h, so later engines plug in behind --engine with the same flags.
+// `ugvr render`: one image (or N timed frames) of a dataset or a brick store. The flags are the engine-independent
+// vocabulary of render_settings.h / camera.h / transfer_function.h; --engine picks who renders: the exact CPU ray
+// caster (a mesh) or the level-of-detail GPU ray caster (a brick store written by `ugvr build`).
 #include <tbb/global_control.h>
 #include <tbb/task_arena.h>
 
@@ -9,6 +10,7 @@
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
+#include <functional>
 #include <optional>
 
 #include "cli/commands.h"
@@ -17,10 +19,12 @@
 #include "ugvr/core/json_file.h"
 #include "ugvr/core/memory.h"
 #include "ugvr/core/progress.h"
+#include "ugvr/gpu/gl_context.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/exact/exact_engine.h"
 #include "ugvr/render/image.h"
+#include "ugvr/render/lod/lod_engine.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/transfer_function.h"
 
@@ -32,13 +36,15 @@ namespace {
 struct Options {
   std::vector<std::string> inputs;
   ReadOptions read;
-  std::string output, size, engine = "exact", camera, view, view_angle, tf, tf_name, range, unit_distance, field, mode,
+  std::string output, size, engine = "auto", camera, view, view_angle, tf, tf_name, range, unit_distance, field, mode,
                             iso, iso_opacity, clip, boundary_opacity, background, settings, float_output, stats,
-                            save_camera, save_tf, threads, frames;
+                            save_camera, save_tf, threads, frames, cut = "pixels:1", gpu = "auto", step_voxels;
+  uint64_t gpu_memory = uint64_t(2) << 30;
   bool keep_range = false, no_lighting = false, volume_lighting = false;
 };
 
-const std::vector<std::string> kEngines = {"exact"};
+const std::vector<std::string> kEngines = {"auto", "exact", "lod"};
+
 const std::vector<std::string> kViews = {"+x", "-x", "+y", "-y", "+z", "-z", "iso"};
 
 [[noreturn]] void fail_flag(std::string_view flag, const std::string& message) { fail_in(flag, message); }
@@ -192,6 +198,127 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+bool is_brick_store(const std::string& path) { return std::filesystem::path(path).extension() == ".ugvr"; }
+
+// What run_render needs of an engine, whichever it is.
+struct EngineRun {
+  std::string field_name;
+  double field_min = 0, field_max = 0;
+  Bounds bounds;
+  // Renders one frame; returns the frame's wall seconds as the engine measured them.
+  std::function<Image(const Camera&, const TransferFunction&, const RenderSettings&, double&)> render;
+  std::function<void(nlohmann::json&)> add_stats;  // engine-specific --stats keys
+  std::function<std::string()> summary;            // engine-specific part of the progress line
+};
+
+EngineRun exact_run(const Options& o, RenderSettings& settings, std::shared_ptr<void>& keep) {
+  auto ds = std::make_shared<Dataset>(read_dataset(o.inputs, o.read));
+  for (const std::string& w : ds->warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  auto engine = std::make_shared<ExactEngine>(*ds);
+  with_flag("--field", [&] { engine->set_field(*ds, settings.field); });
+  // Recorded in --stats so the settings reproduce the image; a selector the user gave ("velocity:x") is kept as is.
+  if (settings.field.empty()) settings.field = engine->field_name();
+  keep = engine;
+  auto stats = std::make_shared<ExactRenderStats>();
+  EngineRun run;
+  run.field_name = engine->field_name();
+  run.field_min = engine->field_min(), run.field_max = engine->field_max();
+  run.bounds = engine->bounds();
+  run.render = [engine, stats](const Camera& c, const TransferFunction& tf, const RenderSettings& s, double& sec) {
+    Image image = engine->render(c, tf, s, stats.get());
+    sec = stats->render_seconds;
+    return image;
+  };
+  run.add_stats = [engine, stats](nlohmann::json& j) {
+    const uint64_t cells = engine->cell_count();
+    j["cells"] = cells;
+    j["points"] = engine->point_count();
+    j["build_seconds"] = engine->build_seconds();
+    j["rays"] = stats->rays;
+    j["rays_hit"] = stats->rays_hit;
+    j["cell_steps"] = stats->cell_steps;
+    j["reentries"] = stats->reentries;
+    j["nonlinear_samples"] = stats->nonlinear_samples;
+    j["lost_rays"] = stats->lost_rays;
+    j["engine_bytes"] = engine->memory_bytes();
+    j["engine_bytes_per_cell"] = cells ? double(engine->memory_bytes()) / double(cells) : 0.0;
+  };
+  run.summary = [engine, stats] {
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "%llu cells, build %.3f s, %llu of %llu rays hit, engine %s",
+                  (unsigned long long)engine->cell_count(), engine->build_seconds(),
+                  (unsigned long long)stats->rays_hit, (unsigned long long)stats->rays,
+                  format_bytes(engine->memory_bytes()).c_str());
+    std::string s = buf;
+    if (stats->lost_rays > 0)
+      s += "\nwarning: " + std::to_string(stats->lost_rays) + " rays were abandoned on a degenerate walk";
+    return s;
+  };
+  return run;
+}
+
+EngineRun lod_run(const Options& o, RenderSettings& settings, std::shared_ptr<void>& keep) {
+  if (o.inputs.size() != 1 || !is_brick_store(o.inputs[0]))
+    fail_flag("--engine", "the lod engine renders one brick store (.ugvr, made by `ugvr build`)");
+  const CutSpec cut = with_flag("--cut", [&] { return parse_cut_spec(o.cut); });
+  LodOptions lo;
+  lo.atlas_budget_bytes = o.gpu_memory;
+  if (!o.step_voxels.empty()) {
+    lo.step_voxels = parse_number(o.step_voxels, "--step-voxels");
+    if (!(lo.step_voxels > 0) || lo.step_voxels > 8) fail_flag("--step-voxels", "must be in (0, 8]");
+  }
+  struct Held {
+    std::unique_ptr<GlContext> gl;
+    std::unique_ptr<LodEngine> engine;
+    LodRenderStats stats;
+  };
+  auto h = std::make_shared<Held>();
+  h->gl = with_flag("--gpu", [&] { return std::make_unique<GlContext>(o.gpu); });
+  h->engine = std::make_unique<LodEngine>(o.inputs[0], *h->gl, lo);
+  with_flag("--field", [&] { h->engine->set_field(settings.field); });
+  if (settings.field.empty()) settings.field = h->engine->field_name();
+  keep = h;
+  EngineRun run;
+  run.field_name = h->engine->field_name();
+  run.field_min = h->engine->field_min(), run.field_max = h->engine->field_max();
+  run.bounds = h->engine->bounds();
+  run.render = [h, cut](const Camera& c, const TransferFunction& tf, const RenderSettings& s, double& sec) {
+    Image image = h->engine->render(c, tf, s, cut, &h->stats);
+    sec = h->stats.render_seconds;
+    return image;
+  };
+  run.add_stats = [h, cut](nlohmann::json& j) {
+    const LodRenderStats& st = h->stats;
+    j["renderer"] = h->gl->renderer();
+    j["gl_version"] = h->gl->version();
+    j["cut"] = cut_spec_name(cut);
+    j["nodes"] = h->engine->node_count();
+    j["brick_resolution"] = h->engine->resolution();
+    j["cut_nodes"] = st.cut_nodes;
+    j["cut_max_level"] = st.max_level;
+    j["cut_mean_level"] = st.mean_level;
+    j["culled_frustum"] = st.culled_frustum;
+    j["culled_tf"] = st.culled_tf;
+    j["budget_limited"] = st.budget_limited;
+    j["bricks_loaded_last_frame"] = st.bricks_loaded;
+    j["cut_seconds"] = st.cut_seconds;
+    j["load_seconds"] = st.load_seconds;
+    j["gpu_seconds"] = st.gpu_seconds;
+    j["readback_seconds"] = st.readback_seconds;
+    j["atlas_bytes"] = st.atlas_bytes;
+    j["atlas_slots"] = st.atlas_slots;
+  };
+  run.summary = [h, cut] {
+    const LodRenderStats& st = h->stats;
+    char buf[512];
+    std::snprintf(buf, sizeof buf, "cut %s: %llu nodes (levels <= %d, mean %.2f%s), GPU %.3f s, atlas %s, %s",
+                  cut_spec_name(cut).c_str(), (unsigned long long)st.cut_nodes, st.max_level, st.mean_level,
+                  st.budget_limited ? ", limited by --gpu-memory" : "", st.gpu_seconds,
+                  format_bytes(st.atlas_bytes).c_str(), h->gl->renderer().c_str());
+    return std::string(buf);
+  };
+  return run;
+}
 void run_render(const Options& o) {
   // Everything that can be checked without the data is checked first, so a typo fails in milliseconds.
   if (std::find(kEngines.begin(), kEngines.end(), o.engine) == kEngines.end())
@@ -236,14 +363,14 @@ void run_render(const Options& o) {
   std::optional<tbb::global_control> thread_limit;
   if (threads > 0) thread_limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(threads));
 
-  const Dataset ds = read_dataset(o.inputs, o.read);
-  for (const std::string& w : ds.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-  ExactEngine engine(ds);
-  with_flag("--field", [&] { engine.set_field(ds, settings.field); });
-  // Recorded in --stats so the settings reproduce the image; a selector the user gave ("velocity:x") is kept as is.
-  if (settings.field.empty()) settings.field = engine.field_name();
+  const bool lod = o.engine == "lod" || (o.engine == "auto" && o.inputs.size() == 1 && is_brick_store(o.inputs[0]));
+  if (!lod && o.inputs.size() == 1 && is_brick_store(o.inputs[0]))
+    fail_flag("--engine", "a brick store (.ugvr) renders with --engine lod");
+  std::shared_ptr<void> keep;  // the engine and what it needs, alive until the end
+  EngineRun engine = lod ? lod_run(o, settings, keep) : exact_run(o, settings, keep);
+  const std::string engine_name = lod ? "lod" : "exact";
 
-  const Bounds bounds = engine.bounds();
+  const Bounds bounds = engine.bounds;
   Camera camera;
   if (file_camera) {
     camera = *file_camera;
@@ -258,7 +385,7 @@ void run_render(const Options& o) {
   if (range) {
     tf.rescale(range->first, range->second);
   } else if (!o.keep_range) {
-    const double lo = engine.field_min(), hi = engine.field_max();
+    const double lo = engine.field_min, hi = engine.field_max;
     // An all-NaN field has no range; the map then stays where it was rather than becoming NaN itself.
     if (std::isfinite(lo) && std::isfinite(hi)) tf.rescale(lo, hi);
   }
@@ -272,13 +399,13 @@ void run_render(const Options& o) {
   if (!o.save_tf.empty()) write_paraview_preset(o.save_tf, tf);
 
   Image image;
-  ExactRenderStats stats;
   std::vector<double> frame_seconds, frame_cpu_seconds;
   for (int f = 0; f < frames; ++f) {
     const double cpu0 = process_cpu_seconds();
-    image = engine.render(camera, tf, settings, &stats);
+    double seconds = 0;
+    image = engine.render(camera, tf, settings, seconds);
     frame_cpu_seconds.push_back(process_cpu_seconds() - cpu0);
-    frame_seconds.push_back(stats.render_seconds);
+    frame_seconds.push_back(seconds);
   }
   // The first frame pays for page faults and cold caches; benchmarks want the steady state.
   const double median_seconds =
@@ -286,59 +413,42 @@ void run_render(const Options& o) {
   const double median_cpu_seconds =
       frames > 1 ? median(std::vector<double>(frame_cpu_seconds.begin() + 1, frame_cpu_seconds.end()))
                  : frame_cpu_seconds[0];
-  const int threads_used = stats.threads > 0 ? stats.threads : tbb::this_task_arena::max_concurrency();
+  const int threads_used = tbb::this_task_arena::max_concurrency();
 
   write_image(o.output, image);
   if (!o.float_output.empty()) write_pfm(o.float_output, image);
 
   if (!o.stats.empty()) {
-    const uint64_t cells = engine.cell_count();
     std::string input;
     for (const std::string& p : o.inputs) input += (input.empty() ? "" : " ") + p;
-    const nlohmann::json j = {
-        {"engine", o.engine},
+    nlohmann::json j = {
+        {"engine", engine_name},
         {"input", input},
-        {"field", engine.field_name()},
-        {"field_range", {engine.field_min(), engine.field_max()}},
+        {"field", engine.field_name},
+        {"field_range", {engine.field_min, engine.field_max}},
         {"width", settings.width},
         {"height", settings.height},
-        {"cells", cells},
-        {"points", engine.point_count()},
-        {"build_seconds", engine.build_seconds()},
         {"frame_seconds", frame_seconds},
         {"median_frame_seconds", median_seconds},
         // CPU time (all threads) per frame: on a shared machine less disturbed by other load than wall time.
         {"frame_cpu_seconds", frame_cpu_seconds},
         {"median_frame_cpu_seconds", median_cpu_seconds},
-        {"rays", stats.rays},
-        {"rays_hit", stats.rays_hit},
-        {"cell_steps", stats.cell_steps},
-        {"reentries", stats.reentries},
-        {"nonlinear_samples", stats.nonlinear_samples},
-        {"lost_rays", stats.lost_rays},
         {"threads", threads_used},
-        {"engine_bytes", engine.memory_bytes()},
-        {"engine_bytes_per_cell", cells ? double(engine.memory_bytes()) / double(cells) : 0.0},
         {"peak_rss_bytes", peak_rss_bytes()},
         {"camera", camera_to_json(camera)},
         {"settings", settings_to_json(settings)},
     };
+    engine.add_stats(j);
     write_json_file(o.stats, j);
   }
 
   if (Progress::enabled()) {
-    std::fprintf(stderr,
-                 "rendered %s: %d x %d, %s engine, field %s [%.6g, %.6g], %llu cells, build %.3f s, frame %.3f s%s, "
-                 "%llu of %llu rays hit, %d threads, engine %s, peak RSS %s\n",
-                 o.output.c_str(), settings.width, settings.height, o.engine.c_str(), engine.field_name().c_str(),
-                 engine.field_min(), engine.field_max(), (unsigned long long)engine.cell_count(),
-                 engine.build_seconds(), median_seconds,
-                 frames > 1 ? (" (median of " + std::to_string(frames - 1) + ")").c_str() : "",
-                 (unsigned long long)stats.rays_hit, (unsigned long long)stats.rays, threads_used,
-                 format_bytes(engine.memory_bytes()).c_str(), format_bytes(peak_rss_bytes()).c_str());
-    if (stats.lost_rays > 0)
-      std::fprintf(stderr, "warning: %llu rays were abandoned on a degenerate walk\n",
-                   (unsigned long long)stats.lost_rays);
+    std::fprintf(
+        stderr, "rendered %s: %d x %d, %s engine, field %s [%.6g, %.6g], frame %.3f s%s, %s, %d threads, peak RSS %s\n",
+        o.output.c_str(), settings.width, settings.height, engine_name.c_str(), engine.field_name.c_str(),
+        engine.field_min, engine.field_max, median_seconds,
+        frames > 1 ? (" (median of " + std::to_string(frames - 1) + ")").c_str() : "", engine.summary().c_str(),
+        threads_used, format_bytes(peak_rss_bytes()).c_str());
   }
 }
 
@@ -348,14 +458,31 @@ void register_render(CLI::App& app) {
   auto opts = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
       "render",
-      "Render a volume image of a dataset (exact CPU ray casting): emission-absorption, MIP or isosurfaces, with "
-      "ParaView's camera, colour map and opacity conventions");
+      "Render a volume image of a dataset (exact CPU ray casting) or of a brick store (level-of-detail GPU ray "
+      "casting): emission-absorption, MIP or isosurfaces, with ParaView's camera, colour map and opacity conventions");
   add_input(*cmd, opts->inputs);
   add_read_options(*cmd, opts->read);
   cmd->add_option("-o,--output", opts->output, "Output image (.png or .pfm)")->required()->type_name("FILE");
   cmd->add_option("--size", opts->size, "Image size: N (square) or WxH (default 512, or from --settings)")
       ->type_name("N|WxH");
-  cmd->add_option("--engine", opts->engine, "Rendering engine: exact")->default_str("exact")->type_name("NAME");
+  cmd->add_option("--engine", opts->engine,
+                  "Rendering engine: exact (CPU, a mesh), lod (GPU, a .ugvr brick store) or auto (lod for a .ugvr "
+                  "input, else exact)")
+      ->default_str("auto")
+      ->type_name("NAME");
+  cmd->add_option("--cut", opts->cut,
+                  "lod: which octree nodes to render: leaves, error:E (node error <= E of the field range) or "
+                  "pixels:P (one voxel <= P pixels on screen)")
+      ->default_str("pixels:1")
+      ->type_name("SPEC");
+  cmd->add_option("--gpu", opts->gpu, "lod: EGL device index, or auto (first GPU, else Mesa's llvmpipe)")
+      ->default_str("auto")
+      ->type_name("DEVICE");
+  cmd->add_option("--gpu-memory", opts->gpu_memory, "lod: GPU memory for bricks (e.g. 512MiB, 4GiB)")
+      ->transform(CLI::AsSizeValue(true))
+      ->default_str("2GiB");
+  cmd->add_option("--step-voxels", opts->step_voxels, "lod: sample step in voxels of each node (default 0.5)")
+      ->type_name("F");
   cmd->add_option("--camera", opts->camera, "Camera JSON file (as written by --save-camera)")->type_name("FILE");
   cmd->add_option("--view", opts->view,
                   "View preset framed on the data: +x -x +y -y +z -z iso; default: ParaView's default view, looking "

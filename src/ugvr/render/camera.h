@@ -77,6 +77,9 @@ class CameraRays {
   Vec3d forward() const { return forward_; }
   Vec3d right() const { return right_; }
   Vec3d up() const { return up_; }
+  // Half extents of the image plane: at unit distance (perspective) or in world units (parallel).
+  double half_width() const { return half_width_; }
+  double half_height() const { return half_height_; }
 
  private:
   Camera camera_;

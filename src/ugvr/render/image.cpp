@@ -395,4 +395,12 @@ double ssim(const Image& a, const Image& b) {
   return total / double(windows);
 }
 
+void composite_pixel(float* px, const double radiance[3], double transmittance, const std::array<double, 4>& bg) {
+  const double out_a = 1 - transmittance * (1 - bg[3]);
+  const double inv = out_a > 0 ? 1 / out_a : 0;
+  for (int c = 0; c < 3; ++c)
+    px[c] = float(std::clamp((radiance[c] + bg[size_t(c)] * (transmittance * bg[3])) * inv, 0.0, 1.0));
+  px[3] = float(std::clamp(out_a, 0.0, 1.0));
+}
+
 }  // namespace ugvr

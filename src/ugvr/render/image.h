@@ -4,6 +4,7 @@
 // images compare directly). Alpha is 1 - (1 - A_volume) * (1 - A_background).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -20,6 +21,11 @@ struct Image {
   const float* pixel(int x, int y) const { return rgba.data() + (size_t(y) * size_t(width) + size_t(x)) * 4; }
   bool operator==(const Image&) const = default;
 };
+
+// Writes a ray's result into pixel `px` (4 floats): premultiplied `radiance` with `transmittance` left, composited over
+// the straight-colour `background` as described above. Every engine ends its rays here, so their images compare.
+void composite_pixel(float* px, const double radiance[3], double transmittance,
+                     const std::array<double, 4>& background);
 
 // 8-bit PNG (libpng): RGB when every alpha is 1, RGBA otherwise; values clamped to [0, 1] and rounded. Written to a
 // temporary file and renamed. Throws ugvr::Error naming the path.
@@ -39,9 +45,9 @@ void write_image(const std::string& path, const Image& image);
 
 // Differences over the RGB channels (alpha ignored); both images must have the same size (throws otherwise).
 struct ImageDifference {
-  double rms = 0;       // sqrt(mean of squared channel differences)
-  double max_abs = 0;   // largest channel difference
-  double psnr_db = 0;   // 10 log10(1 / mse), peak 1; +infinity for identical images
+  double rms = 0;      // sqrt(mean of squared channel differences)
+  double max_abs = 0;  // largest channel difference
+  double psnr_db = 0;  // 10 log10(1 / mse), peak 1; +infinity for identical images
 };
 ImageDifference compare_images(const Image& a, const Image& b);
 // Mean SSIM of the luminance (0.2126 R + 0.7152 G + 0.0722 B), 8x8 windows with stride 4, constants of Wang et al.

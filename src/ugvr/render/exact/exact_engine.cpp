@@ -595,16 +595,9 @@ bool RayTracer::advance() {
 
 constexpr int kTileSize = 16;
 
-// Composites the ray's result over the background (image.h: straight colour, alpha of volume over background).
 void write_pixel(Image& image, int x, int y, const RayAccumulator& acc, const std::array<double, 4>& bg) {
-  const double out_a = 1 - acc.transmittance * (1 - bg[3]);
-  const Vec3d rgb = acc.radiance + Vec3d{bg[0], bg[1], bg[2]} * (acc.transmittance * bg[3]);
-  const double inv = out_a > 0 ? 1 / out_a : 0;
-  float* px = image.pixel(x, y);
-  px[0] = float(std::clamp(rgb.x * inv, 0.0, 1.0));
-  px[1] = float(std::clamp(rgb.y * inv, 0.0, 1.0));
-  px[2] = float(std::clamp(rgb.z * inv, 0.0, 1.0));
-  px[3] = float(std::clamp(out_a, 0.0, 1.0));
+  const double radiance[3] = {acc.radiance.x, acc.radiance.y, acc.radiance.z};
+  composite_pixel(image.pixel(x, y), radiance, acc.transmittance, bg);
 }
 
 }  // namespace
