@@ -1,0 +1,212 @@
+#version 450
+// Single-pass ray casting of a cut of the brick octree (engine: src/ugvr/render/lod/lod_engine.cpp, which documents
+// the buffers and uniforms it binds). One invocation per pixel; the ray walks the octree front to back, finds the cut
+// node at its current position by descending from the root, marches that node's brick up to the node's exit, and
+// moves on. Coordinates are the root cell's, normalised to [0, 1]³ per axis; ray parameters t are world distances,
+// measured from where the ray enters the root cell so that they stay small (float precision).
+//
+// Samples sit on one grid per level along each ray: the ray is cut into intervals [k·step_L, (k+1)·step_L) with
+// step_L = step_0 / 2^L, and each interval (clipped to the node) is integrated with its midpoint sample. A coarse
+// level's interval boundaries are a subset of the finer level's, so where bricks or levels meet no interval is
+// counted twice or skipped and no sample pattern changes abruptly (no seams; gvdb-voxels #99, OSPRay PR 187).
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(rgba32f, binding = 0) uniform writeonly image2D u_out;  // premultiplied radiance, transmittance
+layout(binding = 1) uniform sampler3D u_atlas;                  // RG16: value in the field range, validity stencil
+layout(binding = 2) uniform sampler1D u_tf;                     // rgb colour, a = extinction per world unit
+
+// Octree, one entry per store node: x = first child id, y = child mask | level << 8.
+layout(std430, binding = 3) readonly buffer Tree { uvec2 tree[]; };
+// Per node for this frame: the atlas slot of a cut node, DESCEND for an ancestor of cut nodes, SKIP otherwise.
+layout(std430, binding = 4) readonly buffer State { uint node_state[]; };
+
+const uint DESCEND = 0xFFFFFFFEu;
+const uint SKIP = 0xFFFFFFFFu;
+const int MODE_EA = 0, MODE_MIP = 1, MODE_ISO = 2;
+const int MAX_ISO = 16;
+
+uniform ivec2 u_size;
+uniform vec3 u_eye;                 // camera position, normalised coordinates
+uniform vec3 u_forward, u_right, u_up;  // camera frame, world
+uniform vec2 u_half;                // half width, half height of the image plane (tan or parallel scale)
+uniform bool u_parallel;
+uniform vec3 u_root_size;           // world size of the root cell per axis
+uniform int u_resolution;           // samples per brick axis
+uniform ivec3 u_slots;              // atlas slots per axis
+uniform vec3 u_atlas_inv;           // 1 / atlas texels per axis
+uniform float u_step0;              // world step at level 0
+uniform bool u_fixed_step;          // one world step at every level
+uniform vec2 u_tf_map;              // TF coordinate = value · x + y (value normalised to the field range)
+uniform float u_tf_texels;
+uniform float u_unit_distance;
+uniform int u_mode;
+uniform int u_iso_count;
+uniform float u_iso[MAX_ISO];       // normalised values, ascending
+uniform float u_iso_opacity;
+uniform bool u_lighting;
+uniform bool u_volume_lighting;
+uniform float u_min_transmittance;  // 1 - early termination opacity
+uniform bool u_clip;
+uniform vec4 u_clip_plane;          // keep dot(xyz, p) + w >= 0, normalised coordinates
+uniform float u_nudge;              // world distance past a node's exit where the next node is looked up
+
+const float AMBIENT = 0.2, DIFFUSE = 0.8, SPECULAR = 0.25, SHININESS = 32.0;
+
+vec4 tf_at(float value) {
+  float u = clamp(value * u_tf_map.x + u_tf_map.y, 0.0, 1.0);
+  return texture(u_tf, (u * (u_tf_texels - 1.0) + 0.5) / u_tf_texels);
+}
+
+vec3 slot_origin(uint slot) {
+  uint sx = uint(u_slots.x), sy = uint(u_slots.y);
+  return vec3(float(slot % sx), float((slot / sx) % sy), float(slot / (sx * sy))) * float(u_resolution + 2);
+}
+
+// Atlas texture coordinate of normalised position p inside the node [lo, lo + size].
+vec3 atlas_coord(vec3 p, vec3 lo, float size, vec3 origin) {
+  vec3 q = clamp((p - lo) / size, 0.0, 1.0) * float(u_resolution - 1);
+  return (origin + 1.5 + q) * u_atlas_inv;
+}
+
+// World-space gradient of the normalised value at atlas coordinate c of a node whose voxels measure h (world).
+vec3 gradient_at(vec3 c, vec3 h) {
+  vec3 g;
+  g.x = texture(u_atlas, c + vec3(u_atlas_inv.x, 0, 0)).r - texture(u_atlas, c - vec3(u_atlas_inv.x, 0, 0)).r;
+  g.y = texture(u_atlas, c + vec3(0, u_atlas_inv.y, 0)).r - texture(u_atlas, c - vec3(0, u_atlas_inv.y, 0)).r;
+  g.z = texture(u_atlas, c + vec3(0, 0, u_atlas_inv.z)).r - texture(u_atlas, c - vec3(0, 0, u_atlas_inv.z)).r;
+  return g / (2.0 * h);
+}
+
+vec3 shade_surface(vec3 color, vec3 g, vec3 view) {
+  float len = length(g);
+  if (!u_lighting || !(len > 0.0)) return color;
+  float c = abs(dot(g, view)) / len;
+  return min(color * (AMBIENT + DIFFUSE * c) + vec3(SPECULAR * pow(c, SHININESS)), vec3(1.0));
+}
+
+void main() {
+  ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
+  if (pix.x >= u_size.x || pix.y >= u_size.y) return;
+  vec2 s = vec2(2.0 * (float(pix.x) + 0.5) / float(u_size.x) - 1.0, 1.0 - 2.0 * (float(pix.y) + 0.5) / float(u_size.y));
+  vec3 offset = u_right * (s.x * u_half.x) + u_up * (s.y * u_half.y);
+  vec3 dir_world = u_parallel ? u_forward : normalize(u_forward + offset);
+  vec3 origin = u_parallel ? u_eye + offset / u_root_size : u_eye;
+  vec3 dir = dir_world / u_root_size;
+
+  vec3 radiance = vec3(0.0);
+  float transmittance = 1.0;
+  float mip_max = -1.0;
+
+  // The root cell [0, 1]³; rays are lines, contributions start at t >= 0 (the eye or the parallel near plane).
+  vec3 safe_dir = mix(dir, vec3(1e-30), equal(dir, vec3(0.0)));
+  vec3 inv_dir = 1.0 / safe_dir;
+  vec3 ta = (vec3(0.0) - origin) * inv_dir, tb = (vec3(1.0) - origin) * inv_dir;
+  float t_in = max(max(min(ta.x, tb.x), min(ta.y, tb.y)), min(ta.z, tb.z));
+  float t_out = min(min(max(ta.x, tb.x), max(ta.y, tb.y)), max(ta.z, tb.z));
+  float t_base = max(t_in, 0.0);
+  vec3 base = origin + dir * t_base;  // t below is measured from here
+  float t = 0.0, t_end = t_out - t_base;
+  if (u_clip) {
+    float f0 = dot(u_clip_plane.xyz, base) + u_clip_plane.w, df = dot(u_clip_plane.xyz, dir);
+    if (df > 0.0) t = max(t, -f0 / df);
+    else if (df < 0.0) t_end = min(t_end, -f0 / df);
+    else if (f0 < 0.0) t_end = -1.0;
+  }
+
+  bool have_prev = false;
+  float prev_value = 0.0, prev_t = 0.0;
+  for (int guard = 0; guard < 65536 && t < t_end && transmittance > u_min_transmittance; ++guard) {
+    // Point location: descend from the root to the cut node (or empty region) just past t.
+    vec3 p = base + dir * (t + u_nudge);
+    uint node = 0u;
+    vec3 lo = vec3(0.0);
+    float size = 1.0;
+    int level = 0;
+    uint state = node_state[0];
+    while (state == DESCEND && level < 31) {
+      vec3 centre = lo + 0.5 * size;
+      uvec3 o = uvec3(greaterThanEqual(p, centre));
+      uint octant = o.x | (o.y << 1) | (o.z << 2);
+      size *= 0.5;
+      lo += vec3(o) * size;
+      ++level;
+      uvec2 tn = tree[node];
+      uint mask = tn.y & 0xFFu;
+      if ((mask & (1u << octant)) == 0u) {
+        state = SKIP;
+        break;
+      }
+      node = tn.x + uint(bitCount(mask & ((1u << octant) - 1u)));
+      state = node_state[node];
+    }
+    vec3 tx = ((lo + mix(vec3(0.0), vec3(size), greaterThan(dir, vec3(0.0)))) - base) * inv_dir;
+    float t_exit = min(min(tx.x, tx.y), min(tx.z, t_end));
+    t_exit = max(t_exit, t + u_nudge);
+    if (state == SKIP || state == DESCEND) {
+      have_prev = false;
+      t = t_exit;
+      continue;
+    }
+
+    vec3 origin_texel = slot_origin(state);
+    float step = u_fixed_step ? u_step0 : u_step0 / float(1 << level);
+    vec3 voxel = u_root_size * (size / float(u_resolution - 1));
+    for (float k = floor(t / step); k * step < t_exit; k += 1.0) {
+      float s0 = max(k * step, t), s1 = min((k + 1.0) * step, t_exit);
+      float len = s1 - s0;
+      if (!(len > 0.0)) continue;
+      float tm = 0.5 * (s0 + s1);
+      vec3 c = atlas_coord(base + dir * tm, lo, size, origin_texel);
+      vec2 v = texture(u_atlas, c).rg;
+      if (v.g < 0.5) {
+        have_prev = false;
+        continue;
+      }
+      if (u_mode == MODE_EA) {
+        vec4 tf = tf_at(v.r);
+        float a = 1.0 - exp(-tf.a * len);
+        float shade = 1.0;
+        if (u_volume_lighting && a > 0.0) {
+          vec3 g = gradient_at(c, voxel);
+          float gl = length(g);
+          if (gl > 0.0) shade = AMBIENT + DIFFUSE * abs(dot(g, dir_world)) / gl;
+        }
+        radiance += transmittance * a * shade * tf.rgb;
+        transmittance *= 1.0 - a;
+        if (transmittance <= u_min_transmittance) break;
+      } else if (u_mode == MODE_MIP) {
+        mip_max = max(mip_max, v.r);
+      } else {
+        if (have_prev && v.r != prev_value) {
+          bool up = v.r > prev_value;
+          for (int i = 0; i < u_iso_count; ++i) {
+            float iso = u_iso[up ? i : u_iso_count - 1 - i];
+            if ((prev_value < iso) == (v.r < iso)) continue;
+            float th = prev_t + (iso - prev_value) / (v.r - prev_value) * (tm - prev_t);
+            vec3 ch = atlas_coord(base + dir * th, lo, size, origin_texel);
+            vec3 color = shade_surface(tf_at(iso).rgb, gradient_at(ch, voxel), dir_world);
+            radiance += transmittance * u_iso_opacity * color;
+            transmittance *= 1.0 - u_iso_opacity;
+          }
+        }
+        have_prev = true;
+        prev_value = v.r;
+        prev_t = tm;
+        if (transmittance <= u_min_transmittance) break;
+      }
+    }
+    t = t_exit;
+  }
+
+  vec4 result = vec4(radiance, transmittance);
+  if (u_mode == MODE_MIP) {
+    result = vec4(0.0, 0.0, 0.0, 1.0);
+    if (mip_max >= 0.0) {
+      vec4 tf = tf_at(mip_max);
+      float a = 1.0 - exp(-tf.a * u_unit_distance);
+      result = vec4(tf.rgb * a, 1.0 - a);
+    }
+  }
+  imageStore(u_out, pix, result);
+}

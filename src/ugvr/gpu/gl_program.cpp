@@ -1,0 +1,179 @@
+#include "ugvr/gpu/gl_program.h"
+
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <regex>
+#include <sstream>
+
+#include "ugvr/core/error.h"
+
+#ifndef UGVR_SHADER_DIR
+#define UGVR_SHADER_DIR "shaders"
+#endif
+
+namespace ugvr {
+
+std::string shader_directory() {
+  const char* env = std::getenv("UGVR_SHADER_DIR");
+  return env && *env ? env : UGVR_SHADER_DIR;
+}
+
+namespace {
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail_in(path, "cannot open shader (set UGVR_SHADER_DIR to the repository's shaders/ directory)");
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void expand(const std::string& dir, const std::string& name, std::vector<std::string>& files,
+            std::vector<std::string>& stack, std::string& out) {
+  for (const std::string& open : stack)
+    if (open == name) fail_in(dir + "/" + name, "include cycle");
+  for (size_t i = 0; i < files.size(); ++i)
+    if (files[i] == dir + "/" + name && !stack.empty()) return;  // included once
+  const std::string path = dir + "/" + name;
+  const std::string text = read_text(path);
+  const int number = int(files.size());
+  files.push_back(path);
+  if (!stack.empty()) out += "#line 1 " + std::to_string(number) + "\n";
+  stack.push_back(name);
+  std::istringstream lines(text);
+  std::string line;
+  int line_no = 0;
+  static const std::regex include_re(R"(^\s*#\s*include\s+\"([^\"]+)\"\s*$)");
+  while (std::getline(lines, line)) {
+    ++line_no;
+    std::smatch m;
+    if (std::regex_match(line, m, include_re)) {
+      expand(dir, m[1].str(), files, stack, out);
+      out += "#line " + std::to_string(line_no + 1) + " " + std::to_string(number) + "\n";
+    } else {
+      out += line;
+      out += '\n';
+    }
+  }
+  stack.pop_back();
+}
+
+}  // namespace
+
+std::string preprocess_shader(const std::string& name, const std::vector<std::pair<std::string, std::string>>& defines,
+                              std::vector<std::string>& files) {
+  const std::string dir = shader_directory();
+  files.clear();
+  std::string body;
+  std::vector<std::string> stack;
+  expand(dir, name, files, stack, body);
+  // The #version line must come first; defines go right after it, then a #line resets the numbering.
+  const size_t version_end = body.find('\n');
+  if (body.compare(0, 8, "#version") != 0 || version_end == std::string::npos)
+    fail_at_line(files[0], 1, "a shader must start with #version");
+  std::string out = body.substr(0, version_end + 1);
+  for (const auto& [k, v] : defines) out += "#define " + k + " " + v + "\n";
+  out += "#line 2 0\n";
+  out += body.substr(version_end + 1);
+  return out;
+}
+
+std::string map_shader_log(const std::string& log, const std::vector<std::string>& files) {
+  // Mesa: "0:12(5): error: ..."; NVIDIA: "0(12) : error C1008: ...".
+  static const std::regex mesa(R"(^(\d+):(\d+)\((\d+)\))"), nvidia(R"(^(\d+)\((\d+)\))");
+  std::istringstream in(log);
+  std::string line, out;
+  while (std::getline(in, line)) {
+    std::smatch m;
+    auto file_of = [&](const std::string& n) {
+      const size_t i = std::stoul(n);
+      return i < files.size() ? files[i] : "source " + n;
+    };
+    if (std::regex_search(line, m, mesa))
+      line = file_of(m[1]) + ":" + m[2].str() + ":" + m[3].str() + line.substr(size_t(m.length(0)));
+    else if (std::regex_search(line, m, nvidia))
+      line = file_of(m[1]) + ":" + m[2].str() + line.substr(size_t(m.length(0)));
+    out += line + "\n";
+  }
+  return out;
+}
+
+ComputeProgram::ComputeProgram(const std::string& name, const std::vector<std::pair<std::string, std::string>>& defines)
+    : name_(name) {
+  std::vector<std::string> files;
+  const std::string source = preprocess_shader(name, defines, files);
+  const GLuint shader = glCreateShader(GL_COMPUTE_SHADER);
+  const char* text = source.c_str();
+  glShaderSource(shader, 1, &text, nullptr);
+  glCompileShader(shader);
+  GLint ok = 0;
+  glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+  auto log_of = [](GLuint object, bool program) {
+    GLint n = 0;
+    program ? glGetProgramiv(object, GL_INFO_LOG_LENGTH, &n) : glGetShaderiv(object, GL_INFO_LOG_LENGTH, &n);
+    std::string log(size_t(std::max(n, 1)), '\0');
+    program ? glGetProgramInfoLog(object, n, nullptr, log.data()) : glGetShaderInfoLog(object, n, nullptr, log.data());
+    log.resize(std::strlen(log.c_str()));
+    return log;
+  };
+  if (!ok) {
+    const std::string log = map_shader_log(log_of(shader, false), files);
+    glDeleteShader(shader);
+    fail_in(files[0], "compile error:\n" + log);
+  }
+  id_ = glCreateProgram();
+  glAttachShader(id_, shader);
+  glLinkProgram(id_);
+  glDeleteShader(shader);
+  glGetProgramiv(id_, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    const std::string log = map_shader_log(log_of(id_, true), files);
+    glDeleteProgram(id_);
+    id_ = 0;
+    fail_in(files[0], "link error:\n" + log);
+  }
+}
+
+ComputeProgram::~ComputeProgram() {
+  if (id_) glDeleteProgram(id_);
+}
+
+ComputeProgram& ComputeProgram::operator=(ComputeProgram&& o) noexcept {
+  if (id_) glDeleteProgram(id_);
+  id_ = std::exchange(o.id_, 0);
+  name_ = std::move(o.name_);
+  return *this;
+}
+
+void GlBuffer::upload(const void* data, size_t bytes) {
+  if (!id_ || bytes > size_) {
+    reset();
+    glCreateBuffers(1, &id_);
+    size_ = std::max<size_t>(bytes, 16);
+    glNamedBufferStorage(id_, GLsizeiptr(size_), nullptr, GL_DYNAMIC_STORAGE_BIT);
+    check_gl("allocating a buffer");
+  }
+  if (bytes) glNamedBufferSubData(id_, 0, GLsizeiptr(bytes), data);
+}
+
+void GlBuffer::reset() {
+  if (id_) glDeleteBuffers(1, &id_);
+  id_ = 0;
+  size_ = 0;
+}
+
+void check_gl(const char* what) {
+  const GLenum e = glGetError();
+  if (e == GL_NO_ERROR) return;
+  while (glGetError() != GL_NO_ERROR) {
+  }
+  const char* name = e == GL_OUT_OF_MEMORY       ? "out of GPU memory"
+                     : e == GL_INVALID_VALUE     ? "GL_INVALID_VALUE"
+                     : e == GL_INVALID_OPERATION ? "GL_INVALID_OPERATION"
+                     : e == GL_INVALID_ENUM      ? "GL_INVALID_ENUM"
+                                                 : "GL error";
+  fail_in("OpenGL", std::string(what) + ": " + name);
+}
+
+}  // namespace ugvr

@@ -1,0 +1,93 @@
+// GLSL compute programs read from the repository's shaders/ directory at start-up, so a shader edit needs no rebuild
+// and a compile error points at the file and line a person can open.
+//
+// Sources may `#include "name.glsl"` (relative to the shader directory, once per file and program). Each file gets
+// its own GLSL source-string number through `#line N S` directives, and the driver's log ("0:12(5): error ..." from
+// Mesa, "0(12) : error ..." from NVIDIA) is rewritten to "shaders/file.comp:12: error ..." before it is thrown.
+// `defines` are inserted after the #version line as "#define NAME VALUE".
+#pragma once
+
+#include <epoxy/gl.h>
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace ugvr {
+
+// UGVR_SHADER_DIR from the environment, else the shaders/ directory of the source tree this binary was built from.
+std::string shader_directory();
+
+// Expands includes and adds #line directives; `files` receives the file of each source-string number. Throws
+// ugvr::Error for a missing file or an include cycle.
+std::string preprocess_shader(const std::string& name, const std::vector<std::pair<std::string, std::string>>& defines,
+                              std::vector<std::string>& files);
+// Rewrites source-string numbers in a driver log to file names.
+std::string map_shader_log(const std::string& log, const std::vector<std::string>& files);
+
+class ComputeProgram {
+ public:
+  ComputeProgram() = default;
+  // Compiles and links shaders/<name>; throws ugvr::Error with the mapped log on failure.
+  explicit ComputeProgram(const std::string& name,
+                          const std::vector<std::pair<std::string, std::string>>& defines = {});
+  ~ComputeProgram();
+  ComputeProgram(ComputeProgram&& o) noexcept : id_(std::exchange(o.id_, 0)), name_(std::move(o.name_)) {}
+  ComputeProgram& operator=(ComputeProgram&& o) noexcept;
+
+  GLuint id() const { return id_; }
+  const std::string& name() const { return name_; }
+  // Location of a uniform; -1 where the compiler removed it (setting -1 is a no-op in GL).
+  GLint uniform(const char* name) const { return glGetUniformLocation(id_, name); }
+
+ private:
+  GLuint id_ = 0;
+  std::string name_;
+};
+
+// Owning handles for GL buffers and textures (the context must be current when they are destroyed).
+class GlBuffer {
+ public:
+  GlBuffer() = default;
+  ~GlBuffer() { reset(); }
+  GlBuffer(GlBuffer&& o) noexcept : id_(std::exchange(o.id_, 0)), size_(std::exchange(o.size_, 0)) {}
+  GlBuffer& operator=(GlBuffer&& o) noexcept {
+    reset();
+    id_ = std::exchange(o.id_, 0), size_ = std::exchange(o.size_, 0);
+    return *this;
+  }
+  // (Re)allocates when `bytes` exceeds the current size, then uploads.
+  void upload(const void* data, size_t bytes);
+  GLuint id() const { return id_; }
+  void reset();
+
+ private:
+  GLuint id_ = 0;
+  size_t size_ = 0;
+};
+
+class GlTexture {
+ public:
+  GlTexture() = default;
+  explicit GlTexture(GLenum target) { glCreateTextures(target, 1, &id_); }
+  ~GlTexture() { reset(); }
+  GlTexture(GlTexture&& o) noexcept : id_(std::exchange(o.id_, 0)) {}
+  GlTexture& operator=(GlTexture&& o) noexcept {
+    reset();
+    id_ = std::exchange(o.id_, 0);
+    return *this;
+  }
+  GLuint id() const { return id_; }
+  void reset() {
+    if (id_) glDeleteTextures(1, &id_);
+    id_ = 0;
+  }
+
+ private:
+  GLuint id_ = 0;
+};
+
+// Throws ugvr::Error naming `what` if GL reports an error (GL_OUT_OF_MEMORY above all).
+void check_gl(const char* what);
+
+}  // namespace ugvr

@@ -1,0 +1,57 @@
+// The GPU side of the brick cache: one 3D texture holding the bricks of the current cut, each in its own slot.
+//
+// Texel layout. Format RG16 (unsigned normalised): R is the sample value mapped linearly from the field's global range
+// [min, max] to [0, 1]; G is the validity stencil, 1 where the sample has data and 0 where it has none. A slot is
+// (R+2)³ texels: the brick's R³ samples at offset (1, 1, 1) and a one-texel apron around them, a copy of the nearest
+// brick sample (clamp). Because neighbouring bricks share their border samples (brick_store.h), trilinear lookups at
+// sample coordinates in [0, R-1] never read the apron; the apron is there for the gradient's central differences at
+// the brick border, which then fall back to one-sided differences instead of reading the next slot. Slots are laid
+// out x fastest over a grid of slots_x × slots_y × slots_z; slot s sits at texel origin
+//   (s % slots_x, (s / slots_x) % slots_y, s / (slots_x · slots_y)) · (R + 2).
+//
+// Before upload, a brick's samples without data are padded (octree_pad.h: one layer grown outward by averaging data
+// neighbours), so hardware trilinear filtering next to the mesh boundary mixes data with pad, never with filler; the
+// interpolated stencil then decides per sample (>= 1/2: data), which keeps the boundary free of the striping of Leven
+// et al.'s figure 5. 16 bits keep the value within 1/131070 of the range, the store's own default tolerance.
+#pragma once
+
+#include <epoxy/gl.h>
+
+#include <cstdint>
+#include <vector>
+
+#include "ugvr/gpu/gl_program.h"
+
+namespace ugvr {
+
+// Builds a slot's texels ((R+2)³ × 2 uint16, x fastest) from a decoded brick: pads `samples` in place (they are the
+// caller's scratch), normalises by [lo, hi], copies the border into the apron.
+void make_atlas_slot(uint32_t resolution, float* samples, const uint8_t* mask, double lo, double hi,
+                     std::vector<uint16_t>& texels);
+
+class BrickAtlas {
+ public:
+  BrickAtlas() = default;
+  // Allocates room for at least `slots` bricks of resolution R within max_3d texels per axis; throws ugvr::Error
+  // when even one axis of slots does not fit, or when the allocation fails (out of GPU memory).
+  BrickAtlas(uint32_t resolution, uint64_t slots, int max_3d);
+
+  uint64_t capacity() const { return uint64_t(slots_[0]) * slots_[1] * slots_[2]; }
+  uint64_t bytes() const;
+  GLuint texture() const { return texture_.id(); }
+  const int* slots_per_axis() const { return slots_; }
+  const int* texels_per_axis() const { return texels_; }
+  // Uploads make_atlas_slot's texels into slot `slot`.
+  void upload(uint64_t slot, const uint16_t* texels);
+
+  // Most slots an atlas can have for R within max_3d texels per axis.
+  static uint64_t max_slots(uint32_t resolution, int max_3d);
+
+ private:
+  uint32_t resolution_ = 0;
+  int slots_[3] = {0, 0, 0};
+  int texels_[3] = {0, 0, 0};
+  GlTexture texture_;
+};
+
+}  // namespace ugvr

@@ -1,0 +1,312 @@
+#include "ugvr/render/lod/lod_engine.h"
+
+#include <epoxy/gl.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <unordered_map>
+
+#include "ugvr/core/error.h"
+#include "ugvr/gpu/gl_program.h"
+#include "ugvr/lod/brick_store.h"
+#include "ugvr/render/lod/brick_atlas.h"
+
+namespace ugvr {
+
+namespace {
+
+// node_state values besides atlas slots (shaders/lod_raycast.comp).
+constexpr uint32_t kDescend = 0xFFFFFFFEu;
+constexpr uint32_t kSkip = 0xFFFFFFFFu;
+constexpr int kTfTexels = 4096;
+constexpr int kMaxIso = 16;  // MAX_ISO in the shader
+constexpr int kWorkgroup = 8;
+constexpr size_t kLoadBatch = 64;  // bricks decoded in parallel between uploads (bounds staging memory)
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+struct LodEngine::Impl {
+  BrickStoreReader store;
+  const GlContext& gl;
+  LodOptions options;
+  uint32_t field = 0;
+  ComputeProgram program;
+  GlBuffer tree, state;
+  GlTexture tf_texture, out_texture;
+  int out_w = 0, out_h = 0;
+  BrickAtlas atlas;
+  bool have_atlas = false;
+  std::unordered_map<uint64_t, uint64_t> resident;  // node -> slot
+  std::vector<uint64_t> slot_owner;                 // slot -> node (kNoNode: free)
+
+  Impl(const std::string& path, const GlContext& g, LodOptions o) : store(path), gl(g), options(o) {}
+  uint64_t budget_slots() const;
+  void ensure_atlas(uint64_t needed);
+  uint64_t load(const std::vector<uint64_t>& nodes);
+};
+
+uint64_t LodEngine::Impl::budget_slots() const {
+  const uint64_t side = store.resolution() + 2;
+  const uint64_t per_brick = side * side * side * 4;
+  return std::min(BrickAtlas::max_slots(store.resolution(), gl.max_3d_texture_size()),
+                  std::max<uint64_t>(1, options.atlas_budget_bytes / per_brick));
+}
+
+void LodEngine::Impl::ensure_atlas(uint64_t needed) {
+  if (have_atlas && atlas.capacity() >= needed) return;
+  // Grow with headroom so that a slowly growing cut does not reallocate every frame; a new atlas starts empty.
+  const uint64_t want = std::min(budget_slots(), std::max(needed + needed / 4, uint64_t(64)));
+  atlas = BrickAtlas();
+  atlas = BrickAtlas(store.resolution(), std::max(want, needed), gl.max_3d_texture_size());
+  have_atlas = true;
+  resident.clear();
+  slot_owner.assign(atlas.capacity(), kNoNode);
+}
+
+// Gives every cut node a slot, keeping resident ones where they are, and loads the missing bricks.
+uint64_t LodEngine::Impl::load(const std::vector<uint64_t>& nodes) {
+  std::vector<uint8_t> used(atlas.capacity(), 0);
+  std::vector<uint64_t> missing;
+  for (uint64_t n : nodes) {
+    auto it = resident.find(n);
+    if (it != resident.end())
+      used[it->second] = 1;
+    else
+      missing.push_back(n);
+  }
+  if (missing.empty()) return 0;
+  // Free slots first, then those of bricks the cut no longer needs.
+  std::vector<uint64_t> slots;
+  for (uint64_t s = 0; s < used.size() && slots.size() < missing.size(); ++s)
+    if (!used[s] && slot_owner[s] == kNoNode) slots.push_back(s);
+  for (uint64_t s = 0; s < used.size() && slots.size() < missing.size(); ++s)
+    if (!used[s] && slot_owner[s] != kNoNode) slots.push_back(s);
+  if (slots.size() < missing.size()) fail_in("lod engine", "internal: the atlas is smaller than the cut");
+
+  const uint32_t r = store.resolution();
+  const size_t n3 = size_t(r) * r * r;
+  const double lo = store.layout().fields[field].min, hi = store.layout().fields[field].max;
+  std::vector<std::vector<uint16_t>> texels(kLoadBatch);
+  for (size_t b = 0; b < missing.size(); b += kLoadBatch) {
+    const size_t count = std::min(kLoadBatch, missing.size() - b);
+    tbb::parallel_for(size_t(0), count, [&](size_t i) {
+      thread_local std::vector<float> samples;
+      thread_local std::vector<uint8_t> mask;
+      samples.resize(n3);
+      mask.resize(n3);
+      store.read_brick(missing[b + i], field, samples.data(), mask.data());
+      make_atlas_slot(r, samples.data(), mask.data(), lo, hi, texels[i]);
+    });
+    for (size_t i = 0; i < count; ++i) {
+      const uint64_t slot = slots[b + i], node = missing[b + i];
+      if (slot_owner[slot] != kNoNode) resident.erase(slot_owner[slot]);
+      atlas.upload(slot, texels[i].data());
+      slot_owner[slot] = node;
+      resident[node] = slot;
+    }
+  }
+  check_gl("uploading bricks");
+  return missing.size();
+}
+
+LodEngine::LodEngine(const std::string& store_path, const GlContext& gl, LodOptions options)
+    : impl_(std::make_unique<Impl>(store_path, gl, options)) {
+  Impl& I = *impl_;
+  if (I.store.resolution() < 2) fail_in(store_path, "brick resolution below 2");
+  if (I.store.node_count() >= kDescend) fail_in(store_path, "too many nodes for the GPU node table (2^32 - 2)");
+  gl.make_current();
+  I.program = ComputeProgram("lod_raycast.comp");
+  // The octree, static: first child and child mask | level << 8 per node.
+  std::vector<uint32_t> tree(I.store.node_count() * 2);
+  for (uint64_t n = 0; n < I.store.node_count(); ++n) {
+    const BrickNode& node = I.store.node(n);
+    tree[2 * n] = node.first_child == kNoNode ? 0u : uint32_t(node.first_child);
+    tree[2 * n + 1] = uint32_t(node.child_mask) | uint32_t(node.level) << 8;
+  }
+  I.tree.upload(tree.data(), tree.size() * sizeof(uint32_t));
+  I.tf_texture = GlTexture(GL_TEXTURE_1D);
+  glTextureStorage1D(I.tf_texture.id(), 1, GL_RGBA32F, kTfTexels);
+  glTextureParameteri(I.tf_texture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTextureParameteri(I.tf_texture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTextureParameteri(I.tf_texture.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  check_gl("creating the lod engine");
+}
+
+LodEngine::~LodEngine() = default;
+
+void LodEngine::set_field(std::string_view name) {
+  Impl& I = *impl_;
+  int f = name.empty() ? 0 : I.store.field_index(name);
+  if (f < 0) {
+    std::string names;
+    for (const BrickStoreField& fd : I.store.layout().fields) names += (names.empty() ? "" : ", ") + fd.name;
+    fail_in(I.store.path(), "no field \"" + std::string(name) + "\" in the store (fields: " + names + ")");
+  }
+  if (uint32_t(f) != I.field) {
+    I.field = uint32_t(f);
+    I.resident.clear();
+    std::fill(I.slot_owner.begin(), I.slot_owner.end(), kNoNode);
+  }
+}
+
+const std::string& LodEngine::field_name() const { return impl_->store.layout().fields[impl_->field].name; }
+double LodEngine::field_min() const { return impl_->store.layout().fields[impl_->field].min; }
+double LodEngine::field_max() const { return impl_->store.layout().fields[impl_->field].max; }
+Bounds LodEngine::bounds() const { return impl_->store.layout().data; }
+uint64_t LodEngine::node_count() const { return impl_->store.node_count(); }
+uint32_t LodEngine::resolution() const { return impl_->store.resolution(); }
+
+Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
+                        const CutSpec& cut_spec, LodRenderStats* stats) {
+  Impl& I = *impl_;
+  settings.validate("render settings");
+  tf.validate("transfer function");
+  if (settings.iso_values.size() > size_t(kMaxIso))
+    fail_in("lod engine", "at most " + std::to_string(kMaxIso) + " isosurface values");
+  const auto t0 = std::chrono::steady_clock::now();
+  LodRenderStats st;
+  I.gl.make_current();
+
+  // The cut, within what the atlas may hold.
+  CutOptions co;
+  co.field = I.field;
+  co.max_nodes = I.budget_slots();
+  const Cut cut = select_cut(I.store, cut_spec, camera, settings.width, settings.height, tf, co);
+  st.cut_seconds = seconds_since(t0);
+  st.cut_nodes = cut.nodes.size();
+  st.culled_frustum = cut.culled_frustum;
+  st.culled_tf = cut.culled_tf;
+  st.budget_limited = cut.budget_limited;
+  st.max_level = cut.max_level;
+  st.mean_level = cut.mean_level;
+
+  const auto t1 = std::chrono::steady_clock::now();
+  I.ensure_atlas(cut.nodes.size());
+  st.bricks_loaded = I.load(cut.nodes);
+  std::vector<uint32_t> state(I.store.node_count(), kSkip);
+  for (uint64_t n : cut.nodes) {
+    state[n] = uint32_t(I.resident.at(n));
+    for (uint64_t p = I.store.node(n).parent; p != kNoNode && state[p] != kDescend; p = I.store.node(p).parent)
+      state[p] = kDescend;
+  }
+  I.state.upload(state.data(), state.size() * sizeof(uint32_t));
+  st.load_seconds = seconds_since(t1);
+  st.atlas_bytes = I.atlas.bytes();
+  st.atlas_slots = I.atlas.capacity();
+
+  // The transfer function over its own range; values reach it through tf_map.
+  const double f_lo = field_min(), f_hi = field_max();
+  const double t_lo = tf.range_min(), t_hi = tf.range_max();
+  {
+    std::vector<float> table(size_t(kTfTexels) * 4);
+    for (int i = 0; i < kTfTexels; ++i) {
+      const double s = t_lo + (t_hi - t_lo) * double(i) / double(kTfTexels - 1);
+      const Vec3d c = tf.color(s);
+      table[size_t(i) * 4 + 0] = float(c.x), table[size_t(i) * 4 + 1] = float(c.y);
+      table[size_t(i) * 4 + 2] = float(c.z), table[size_t(i) * 4 + 3] = float(tf.extinction(s));
+    }
+    glTextureSubImage1D(I.tf_texture.id(), 0, 0, kTfTexels, GL_RGBA, GL_FLOAT, table.data());
+  }
+  const double tf_width = t_hi - t_lo;
+  const float map_x = tf_width > 0 ? float((f_hi - f_lo) / tf_width) : 0.0f;
+  const float map_y = tf_width > 0 ? float((f_lo - t_lo) / tf_width) : 0.0f;
+
+  const int w = settings.width, h = settings.height;
+  if (w != I.out_w || h != I.out_h) {
+    I.out_texture = GlTexture(GL_TEXTURE_2D);
+    glTextureStorage2D(I.out_texture.id(), 1, GL_RGBA32F, w, h);
+    check_gl("allocating the image");
+    I.out_w = w, I.out_h = h;
+  }
+
+  const Bounds& root = I.store.layout().root;
+  const Vec3d root_size = root.size();
+  const CameraRays rays(camera, w, h);
+  const GLuint p = I.program.id();
+  glUseProgram(p);
+  auto vec3f = [&](const char* name, Vec3d v) {
+    glUniform3f(I.program.uniform(name), float(v.x), float(v.y), float(v.z));
+  };
+  glUniform2i(I.program.uniform("u_size"), w, h);
+  const Vec3d eye = camera.position - root.lo;
+  vec3f("u_eye", {eye.x / root_size.x, eye.y / root_size.y, eye.z / root_size.z});
+  vec3f("u_forward", rays.forward());
+  vec3f("u_right", rays.right());
+  vec3f("u_up", rays.up());
+  glUniform2f(I.program.uniform("u_half"), float(rays.half_width()), float(rays.half_height()));
+  glUniform1i(I.program.uniform("u_parallel"), camera.parallel_projection ? 1 : 0);
+  vec3f("u_root_size", root_size);
+  glUniform1i(I.program.uniform("u_resolution"), int(I.store.resolution()));
+  const int* slots = I.atlas.slots_per_axis();
+  const int* texels = I.atlas.texels_per_axis();
+  glUniform3i(I.program.uniform("u_slots"), slots[0], slots[1], slots[2]);
+  glUniform3f(I.program.uniform("u_atlas_inv"), 1.0f / float(texels[0]), 1.0f / float(texels[1]),
+              1.0f / float(texels[2]));
+  const double min_side = std::min({root_size.x, root_size.y, root_size.z});
+  const bool fixed_step = settings.sample_step > 0;
+  const double step0 =
+      fixed_step ? settings.sample_step : I.options.step_voxels * min_side / double(I.store.resolution() - 1);
+  glUniform1f(I.program.uniform("u_step0"), float(step0));
+  glUniform1i(I.program.uniform("u_fixed_step"), fixed_step ? 1 : 0);
+  glUniform2f(I.program.uniform("u_tf_map"), map_x, map_y);
+  glUniform1f(I.program.uniform("u_tf_texels"), float(kTfTexels));
+  glUniform1f(I.program.uniform("u_unit_distance"), float(tf.opacity_unit_distance));
+  const int mode = settings.mode == RenderMode::Mip ? 1 : settings.mode == RenderMode::Isosurface ? 2 : 0;
+  glUniform1i(I.program.uniform("u_mode"), mode);
+  std::vector<float> iso;
+  for (double v : settings.iso_values) iso.push_back(f_hi > f_lo ? float((v - f_lo) / (f_hi - f_lo)) : 0.0f);
+  std::sort(iso.begin(), iso.end());
+  glUniform1i(I.program.uniform("u_iso_count"), int(iso.size()));
+  if (!iso.empty()) glUniform1fv(I.program.uniform("u_iso"), GLsizei(iso.size()), iso.data());
+  glUniform1f(I.program.uniform("u_iso_opacity"), float(settings.iso_opacity));
+  glUniform1i(I.program.uniform("u_lighting"), settings.lighting ? 1 : 0);
+  glUniform1i(I.program.uniform("u_volume_lighting"), settings.volume_lighting ? 1 : 0);
+  glUniform1f(I.program.uniform("u_min_transmittance"), float(1 - settings.early_termination_opacity));
+  glUniform1i(I.program.uniform("u_clip"), settings.clip_plane ? 1 : 0);
+  if (settings.clip_plane) {
+    const Vec3d n = settings.clip_plane->normal;
+    const Vec3d np{n.x * root_size.x, n.y * root_size.y, n.z * root_size.z};
+    const double w0 = dot(root.lo - settings.clip_plane->point, n);
+    const double scale = 1 / length(np);
+    glUniform4f(I.program.uniform("u_clip_plane"), float(np.x * scale), float(np.y * scale), float(np.z * scale),
+                float(w0 * scale));
+  }
+  glUniform1f(I.program.uniform("u_nudge"), float(2e-6 * std::max({root_size.x, root_size.y, root_size.z})));
+
+  glBindImageTexture(0, I.out_texture.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
+  glBindTextureUnit(1, I.atlas.texture());
+  glBindTextureUnit(2, I.tf_texture.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, I.tree.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, I.state.id());
+  glUniform1i(I.program.uniform("u_atlas"), 1);
+  glUniform1i(I.program.uniform("u_tf"), 2);
+  glFinish();
+  const auto t2 = std::chrono::steady_clock::now();
+  glDispatchCompute(GLuint((w + kWorkgroup - 1) / kWorkgroup), GLuint((h + kWorkgroup - 1) / kWorkgroup), 1);
+  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
+  glFinish();
+  st.gpu_seconds = seconds_since(t2);
+  check_gl("ray casting");
+
+  const auto t3 = std::chrono::steady_clock::now();
+  std::vector<float> raw(size_t(w) * size_t(h) * 4);
+  glGetTextureImage(I.out_texture.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(raw.size() * sizeof(float)), raw.data());
+  check_gl("reading the image back");
+  Image image(w, h);
+  for (size_t i = 0; i < size_t(w) * size_t(h); ++i) {
+    const double radiance[3] = {raw[4 * i], raw[4 * i + 1], raw[4 * i + 2]};
+    composite_pixel(image.rgba.data() + 4 * i, radiance, raw[4 * i + 3], settings.background);
+  }
+  st.readback_seconds = seconds_since(t3);
+  st.render_seconds = seconds_since(t0);
+  if (stats) *stats = st;
+  return image;
+}
+
+}  // namespace ugvr

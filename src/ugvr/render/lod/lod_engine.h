@@ -1,0 +1,78 @@
+// The level-of-detail engine: GPU ray casting of a cut of a brick store's octree (Leven et al. 2002, sections
+// 5.2-5.4, done as single-pass ray casting instead of texture slicing). docs/lod-engine.md explains the design.
+//
+// Per frame: choose the cut (lod_cut.h) from the camera, the transfer function and the cut spec; bring the cut's
+// bricks into the atlas (brick_atlas.h; bricks already resident stay where they are, so a camera move re-reads only
+// the bricks that changed); upload the per-node state (slot / descend / skip); run shaders/lod_raycast.comp over the
+// image; read the image back and composite it over the background exactly as the exact engine does, so the two
+// engines' images compare pixel for pixel with one camera / transfer function / settings.
+//
+// Values and geometry are separate: a transfer-function edit re-uploads a 4096-texel table and nothing else.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "ugvr/core/vec.h"
+#include "ugvr/gpu/gl_context.h"
+#include "ugvr/render/camera.h"
+#include "ugvr/render/image.h"
+#include "ugvr/render/lod/lod_cut.h"
+#include "ugvr/render/render_settings.h"
+#include "ugvr/render/transfer_function.h"
+
+namespace ugvr {
+
+struct LodRenderStats {
+  double render_seconds = 0;  // wall time of render()
+  double cut_seconds = 0;     // choosing the cut
+  double load_seconds = 0;    // reading, decoding, padding and uploading bricks not yet resident
+  double gpu_seconds = 0;     // the ray-casting dispatch, to completion (glFinish)
+  double readback_seconds = 0;
+  uint64_t cut_nodes = 0;
+  uint64_t bricks_loaded = 0;  // this frame
+  uint64_t culled_frustum = 0, culled_tf = 0;
+  bool budget_limited = false;
+  int max_level = 0;
+  double mean_level = 0;
+  uint64_t atlas_bytes = 0;
+  uint64_t atlas_slots = 0;
+};
+
+struct LodOptions {
+  uint64_t atlas_budget_bytes = uint64_t(2) << 30;  // GPU memory for bricks
+  double step_voxels = 0.5;  // sample step in voxels of each node (RenderSettings.sample_step = 0)
+};
+
+class LodEngine {
+ public:
+  // Opens the store (validated, brick_store.h) and prepares GPU state in `gl`, which must stay alive and current on
+  // the calling thread. Throws ugvr::Error.
+  LodEngine(const std::string& store_path, const GlContext& gl, LodOptions options = {});
+  ~LodEngine();
+  LodEngine(const LodEngine&) = delete;
+  LodEngine& operator=(const LodEngine&) = delete;
+
+  // Binds a field of the store by name (empty = the first). Throws ugvr::Error listing the store's fields.
+  void set_field(std::string_view name);
+  const std::string& field_name() const;
+  double field_min() const;
+  double field_max() const;
+
+  // Renders settings.width × settings.height. settings.field is ignored (set_field); settings.sample_step > 0 is one
+  // world step at every level, 0 the options' step_voxels per node; boundary_overlay_opacity is not supported.
+  Image render(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings, const CutSpec& cut,
+               LodRenderStats* stats = nullptr);
+
+  Bounds bounds() const;  // the dataset's bounds
+  uint64_t node_count() const;
+  uint32_t resolution() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace ugvr
