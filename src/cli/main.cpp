@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   ugvr::cli::register_refine(app);
   ugvr::cli::register_render(app);
   ugvr::cli::register_build(app);
+  ugvr::cli::register_compare(app);
 
   try {
     app.parse(argc, argv);
