@@ -20,6 +20,8 @@ layout(binding = 2) uniform sampler1D u_tf;                     // rgb colour, a
 layout(std430, binding = 3) readonly buffer Tree { uvec2 tree[]; };
 // Per node for this frame: the atlas slot of a cut node, DESCEND for an ancestor of cut nodes, SKIP otherwise.
 layout(std430, binding = 4) readonly buffer State { uint node_state[]; };
+// Counters for --stats: [0] samples taken, [1] bricks entered (summed over rays).
+layout(std430, binding = 5) buffer Counters { uint counters[]; };
 
 const uint DESCEND = 0xFFFFFFFEu;
 const uint SKIP = 0xFFFFFFFFu;
@@ -61,12 +63,6 @@ vec4 tf_at(float value) {
 vec3 slot_origin(uint slot) {
   uint sx = uint(u_slots.x), sy = uint(u_slots.y);
   return vec3(float(slot % sx), float((slot / sx) % sy), float(slot / (sx * sy))) * float(u_resolution + 2);
-}
-
-// Atlas texture coordinate of normalised position p inside the node [lo, lo + size].
-vec3 atlas_coord(vec3 p, vec3 lo, float size, vec3 origin) {
-  vec3 q = clamp((p - lo) / size, 0.0, 1.0) * float(u_resolution - 1);
-  return (origin + 1.5 + q) * u_atlas_inv;
 }
 
 // World-space gradient of the normalised value at atlas coordinate c of a node whose voxels measure h (world).
@@ -116,6 +112,7 @@ void main() {
 
   bool have_prev = false;
   float prev_value = 0.0, prev_t = 0.0;
+  uint samples = 0u, bricks = 0u;
   for (int guard = 0; guard < 65536 && t < t_end && transmittance > u_min_transmittance; ++guard) {
     // Point location: descend from the root to the cut node (or empty region) just past t.
     vec3 p = base + dir * (t + u_nudge);
@@ -149,16 +146,23 @@ void main() {
       continue;
     }
 
-    vec3 origin_texel = slot_origin(state);
+    // The atlas coordinate is affine in t inside one node: c(t) = c0 + c1 · t.
+    vec3 scale = vec3(float(u_resolution - 1) / size) * u_atlas_inv;
+    vec3 c0 = (slot_origin(state) + 1.5) * u_atlas_inv + (base - lo) * scale;
+    vec3 c1 = dir * scale;
     float step = u_fixed_step ? u_step0 : u_step0 / float(1 << level);
     vec3 voxel = u_root_size * (size / float(u_resolution - 1));
-    for (float k = floor(t / step); k * step < t_exit; k += 1.0) {
-      float s0 = max(k * step, t), s1 = min((k + 1.0) * step, t_exit);
+    ++bricks;
+    float k = floor(t / step);
+    for (float s0 = t; s0 < t_exit; k += 1.0) {
+      float s1 = min((k + 1.0) * step, t_exit);
       float len = s1 - s0;
-      if (!(len > 0.0)) continue;
       float tm = 0.5 * (s0 + s1);
-      vec3 c = atlas_coord(base + dir * tm, lo, size, origin_texel);
+      s0 = s1;
+      if (!(len > 0.0)) continue;
+      vec3 c = c0 + c1 * tm;
       vec2 v = texture(u_atlas, c).rg;
+      ++samples;
       if (v.g < 0.5) {
         have_prev = false;
         continue;
@@ -184,7 +188,7 @@ void main() {
             float iso = u_iso[up ? i : u_iso_count - 1 - i];
             if ((prev_value < iso) == (v.r < iso)) continue;
             float th = prev_t + (iso - prev_value) / (v.r - prev_value) * (tm - prev_t);
-            vec3 ch = atlas_coord(base + dir * th, lo, size, origin_texel);
+            vec3 ch = c0 + c1 * max(th, t);  // a crossing just before this brick: its entry
             vec3 color = shade_surface(tf_at(iso).rgb, gradient_at(ch, voxel), dir_world);
             radiance += transmittance * u_iso_opacity * color;
             transmittance *= 1.0 - u_iso_opacity;
@@ -209,4 +213,6 @@ void main() {
     }
   }
   imageStore(u_out, pix, result);
+  atomicAdd(counters[0], samples);
+  atomicAdd(counters[1], bricks);
 }

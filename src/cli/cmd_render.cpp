@@ -304,6 +304,9 @@ EngineRun lod_run(const Options& o, RenderSettings& settings, std::shared_ptr<vo
     j["cut_seconds"] = st.cut_seconds;
     j["load_seconds"] = st.load_seconds;
     j["gpu_seconds"] = st.gpu_seconds;
+    j["samples"] = st.samples;
+    j["samples_per_second"] = st.gpu_seconds > 0 ? double(st.samples) / st.gpu_seconds : 0.0;
+    j["bricks_entered"] = st.bricks_entered;
     j["readback_seconds"] = st.readback_seconds;
     j["atlas_bytes"] = st.atlas_bytes;
     j["atlas_slots"] = st.atlas_slots;

@@ -37,7 +37,7 @@ struct LodEngine::Impl {
   LodOptions options;
   uint32_t field = 0;
   ComputeProgram program;
-  GlBuffer tree, state;
+  GlBuffer tree, state, counters;
   GlTexture tf_texture, out_texture;
   int out_w = 0, out_h = 0;
   BrickAtlas atlas;
@@ -284,6 +284,9 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   glBindTextureUnit(2, I.tf_texture.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, I.tree.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, I.state.id());
+  const uint32_t zero[2] = {0, 0};
+  I.counters.upload(zero, sizeof zero);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, I.counters.id());
   glUniform1i(I.program.uniform("u_atlas"), 1);
   glUniform1i(I.program.uniform("u_tf"), 2);
   glFinish();
@@ -293,6 +296,10 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   glFinish();
   st.gpu_seconds = seconds_since(t2);
   check_gl("ray casting");
+  uint32_t counted[2] = {0, 0};
+  glGetNamedBufferSubData(I.counters.id(), 0, sizeof counted, counted);
+  st.samples = counted[0];
+  st.bricks_entered = counted[1];
 
   const auto t3 = std::chrono::steady_clock::now();
   std::vector<float> raw(size_t(w) * size_t(h) * 4);

@@ -31,6 +31,8 @@ struct LodRenderStats {
   double load_seconds = 0;    // reading, decoding, padding and uploading bricks not yet resident
   double gpu_seconds = 0;     // the ray-casting dispatch, to completion (glFinish)
   double readback_seconds = 0;
+  uint64_t samples = 0;         // texture samples of the volume taken by all rays
+  uint64_t bricks_entered = 0;  // node traversals, summed over rays
   uint64_t cut_nodes = 0;
   uint64_t bricks_loaded = 0;  // this frame
   uint64_t culled_frustum = 0, culled_tf = 0;
