@@ -3,7 +3,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
-#include <regex>
 #include <sstream>
 
 #include "ugvr/core/error.h"
@@ -29,6 +28,26 @@ std::string read_text(const std::string& path) {
   return s.str();
 }
 
+// `#include "name"` (spaces allowed around '#' and the name): sets name.
+bool include_target(const std::string& line, std::string& name) {
+  size_t i = line.find_first_not_of(" \t");
+  if (i == std::string::npos || line[i] != '#') return false;
+  i = line.find_first_not_of(" \t", i + 1);
+  if (i == std::string::npos || line.compare(i, 7, "include") != 0) return false;
+  const size_t open = line.find('"', i + 7), close = open == std::string::npos ? open : line.find('"', open + 1);
+  if (close == std::string::npos) return false;
+  name = line.substr(open + 1, close - open - 1);
+  return !name.empty() && line.find_first_not_of(" \t\r", close + 1) == std::string::npos;
+}
+
+// Digits at `i`; advances i past them.
+bool read_digits(const std::string& s, size_t& i, std::string& out) {
+  const size_t start = i;
+  while (i < s.size() && s[i] >= '0' && s[i] <= '9') ++i;
+  out = s.substr(start, i - start);
+  return i > start && i - start < 9;
+}
+
 void expand(const std::string& dir, const std::string& name, std::vector<std::string>& files,
             std::vector<std::string>& stack, std::string& out) {
   for (const std::string& open : stack)
@@ -44,12 +63,11 @@ void expand(const std::string& dir, const std::string& name, std::vector<std::st
   std::istringstream lines(text);
   std::string line;
   int line_no = 0;
-  static const std::regex include_re(R"(^\s*#\s*include\s+\"([^\"]+)\"\s*$)");
   while (std::getline(lines, line)) {
     ++line_no;
-    std::smatch m;
-    if (std::regex_match(line, m, include_re)) {
-      expand(dir, m[1].str(), files, stack, out);
+    std::string included;
+    if (include_target(line, included)) {
+      expand(dir, included, files, stack, out);
       out += "#line " + std::to_string(line_no + 1) + " " + std::to_string(number) + "\n";
     } else {
       out += line;
@@ -80,20 +98,23 @@ std::string preprocess_shader(const std::string& name, const std::vector<std::pa
 }
 
 std::string map_shader_log(const std::string& log, const std::vector<std::string>& files) {
-  // Mesa: "0:12(5): error: ..."; NVIDIA: "0(12) : error C1008: ...".
-  static const std::regex mesa(R"(^(\d+):(\d+)\((\d+)\))"), nvidia(R"(^(\d+)\((\d+)\))");
+  // Mesa: "0:12(5): error: ..."; NVIDIA: "0(12) : error ...".
   std::istringstream in(log);
   std::string line, out;
   while (std::getline(in, line)) {
-    std::smatch m;
+    size_t i = 0;
+    std::string source, row, column;
     auto file_of = [&](const std::string& n) {
-      const size_t i = std::stoul(n);
-      return i < files.size() ? files[i] : "source " + n;
+      const size_t k = std::stoul(n);
+      return k < files.size() ? files[k] : "source " + n;
     };
-    if (std::regex_search(line, m, mesa))
-      line = file_of(m[1]) + ":" + m[2].str() + ":" + m[3].str() + line.substr(size_t(m.length(0)));
-    else if (std::regex_search(line, m, nvidia))
-      line = file_of(m[1]) + ":" + m[2].str() + line.substr(size_t(m.length(0)));
+    if (read_digits(line, i, source) && i < line.size()) {
+      if (line[i] == ':' && read_digits(line, ++i, row) && i < line.size() && line[i] == '(' &&
+          read_digits(line, ++i, column) && i < line.size() && line[i] == ')')
+        line = file_of(source) + ":" + row + ":" + column + line.substr(i + 1);
+      else if (i = source.size(); line[i] == '(' && read_digits(line, ++i, row) && i < line.size() && line[i] == ')')
+        line = file_of(source) + ":" + row + line.substr(i + 1);
+    }
     out += line + "\n";
   }
   return out;
