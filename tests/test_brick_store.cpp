@@ -7,6 +7,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <bit>
 #include <cmath>
@@ -14,6 +15,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <map>
 #include <random>
 #include <stdexcept>
 #include <thread>
@@ -111,7 +114,8 @@ std::vector<CodecCase> all_codec_cases() {
 }
 
 // Checks a decoded brick against its source: Float32 bit exact, Quant16 within step/2 plus float rounding, both on
-// valid samples only; Quant16 and invalid samples within the brick's range; the mask reproduced.
+// valid samples only; every sample within the block's decoded range, which is within step/2 of the exact one; the
+// mask reproduced.
 void expect_decoded(const EncodedBlock& block, SampleEncoding e, uint32_t r, const std::vector<float>& in,
                     const uint8_t* mask, const std::string& what) {
   std::vector<float> out(cube(r), NAN);
@@ -131,19 +135,25 @@ void expect_decoded(const EncodedBlock& block, SampleEncoding e, uint32_t r, con
           ++bad;
         }
       } else {
-        const double bound = block.step / 2.0 + std::abs(in[s]) * 6e-8 + 1e-30;
+        const double bound = block.step / 2.0 * (1 + 1e-9) + (std::abs(in[s]) + block.step) * 6e-8 + 1e-30;
         if (!(std::abs(double(out[s]) - in[s]) <= bound)) {
           ADD_FAILURE() << what << ": sample " << s << " " << out[s] << " vs " << in[s] << " (bound " << bound << ")";
           ++bad;
         }
       }
     }
-    if (!valid || e == SampleEncoding::Quant16) {
-      if (!(out[s] >= block.lo && out[s] <= block.hi)) {
-        ADD_FAILURE() << what << ": sample " << s << " decodes to " << out[s] << " outside the brick range";
-        ++bad;
-      }
+    if (!(out[s] >= block.decoded_lo && out[s] <= block.decoded_hi)) {
+      ADD_FAILURE() << what << ": sample " << s << " decodes to " << out[s] << " outside the decoded range";
+      ++bad;
     }
+  }
+  if (e == SampleEncoding::Float32) {
+    EXPECT_EQ(block.decoded_lo, block.lo) << what;
+    EXPECT_EQ(block.decoded_hi, block.hi) << what;
+  } else {
+    const double slack = block.step / 2.0 * (1 + 1e-9) + (std::abs(block.lo) + std::abs(block.hi)) * 6e-8 + 1e-30;
+    EXPECT_LE(std::abs(double(block.decoded_lo) - block.lo), slack) << what;
+    EXPECT_LE(std::abs(double(block.decoded_hi) - block.hi), slack) << what;
   }
 }
 
@@ -181,9 +191,16 @@ TEST(BrickCodec, ConstantAndExtremeBricks) {
   for (SampleEncoding e : {SampleEncoding::Quant16, SampleEncoding::Float32}) {
     const BrickEncoding enc{e, Predictor::Lorenzo, true, BrickCodec::Zstd, 0};
     const std::vector<float> constant(cube(r), -3.25f);
-    EncodedBlock b = encode_brick(enc, r, constant.data(), nullptr, 1e-3);
+    // On a shared grid a constant brick takes the grid's value, as its neighbours do; on its own grid it is exact.
+    EncodedBlock b = encode_brick(enc, r, constant.data(), nullptr, 1e-3, 0.1);
     expect_decoded(b, e, r, constant, nullptr, "constant");
-    EXPECT_EQ(b.step, 0.0f);
+    EXPECT_EQ(b.step, e == SampleEncoding::Quant16 ? 1e-3 : 0.0);
+    EXPECT_EQ(b.shared_grid, e == SampleEncoding::Quant16);
+    b = encode_brick(enc, r, constant.data(), nullptr, 0.0);
+    expect_decoded(b, e, r, constant, nullptr, "constant, own grid");
+    EXPECT_EQ(b.step, 0.0);
+    EXPECT_EQ(b.decoded_lo, -3.25f);
+    EXPECT_EQ(b.decoded_hi, -3.25f);
     // Values near the float limits: the predictor overflows to inf and must still agree on both sides.
     std::vector<float> extreme = random_samples(r, 3, -1.0f, 1.0f);
     for (float& v : extreme) v *= 3e38f;
@@ -192,6 +209,11 @@ TEST(BrickCodec, ConstantAndExtremeBricks) {
     const std::vector<uint8_t> mask = random_mask(r, 5, 0.5);
     b = encode_brick(enc, r, extreme.data(), mask.data(), 0.0);
     expect_decoded(b, e, r, extreme, mask.data(), "extreme masked");
+    // A shared grid on which the extremes would decode beyond float32: the brick takes a grid of its own.
+    extreme[0] = std::numeric_limits<float>::max();
+    b = encode_brick(enc, r, extreme.data(), nullptr, 1.1e34, 0.0);  // FLT_MAX / step rounds up
+    expect_decoded(b, e, r, extreme, nullptr, "float32 limit");
+    EXPECT_FALSE(b.shared_grid);
   }
 }
 
@@ -260,7 +282,7 @@ TEST(BrickCodec, CorruptBlocksAreReported) {
   expect_error(bytes, "zstd");
   bytes = b.bytes;
   bytes.resize(10);
-  expect_error(bytes, "shorter than its 24-byte header");
+  expect_error(bytes, "shorter than its 48-byte header");
   // A mask whose population disagrees with the header.
   std::vector<uint8_t> mask(cube(r), 1);
   mask[3] = 0;
@@ -269,6 +291,50 @@ TEST(BrickCodec, CorruptBlocksAreReported) {
   bytes = m.bytes;
   bytes[kBlockHeaderSize] ^= std::byte{0x08};  // sample 3 marked valid
   expect_error(bytes, "mask marks");
+}
+
+// The Quant16 grid fields, each at its documented offset, damaged so that decoding would overflow or produce
+// non-numbers: every one is refused before decoding, naming its byte.
+TEST(BrickCodec, CorruptGridFieldsAreReported) {
+  const uint32_t r = 8;
+  const std::vector<float> v = sample_node(Bounds{{0.0, 0.0, 0.0}, {1.0, 1.0, 1.0}}, r,
+                                           [](const Vec3d& p) { return smooth_field(p.x, p.y, p.z); });
+  const EncodedBlock b = encode_brick({}, r, v.data(), nullptr, 2 * kQuant16Tolerance * 4.0, -2.0);
+  ASSERT_TRUE(b.shared_grid);
+  const BlockHeader good = parse_block_header(b.bytes, r, "mem", 0);
+  EXPECT_EQ(good.origin, -2.0);
+  EXPECT_EQ(good.step, 2 * kQuant16Tolerance * 4.0);
+  EXPECT_GT(good.qmax, 1000u);
+  std::vector<float> out(cube(r));
+  auto expect_error = [&](size_t at, auto value, const std::string& needle, uint64_t byte) {
+    std::vector<std::byte> bytes = b.bytes;
+    std::memcpy(bytes.data() + at, &value, sizeof value);
+    try {
+      decode_brick(bytes, r, out.data(), nullptr, "x.ugvr", 1000);
+      ADD_FAILURE() << "no error for " << needle;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("x.ugvr: byte " + std::to_string(1000 + byte)), std::string::npos)
+          << e.what();
+    }
+  };
+  expect_error(20, uint32_t(65536), "largest code 65536", 20);
+  expect_error(24, std::numeric_limits<int64_t>::max(), "grid index base", 24);  // base + q would overflow
+  expect_error(24, std::numeric_limits<int64_t>::min(), "grid index base", 24);
+  expect_error(24, int64_t(1) << 52, "grid index base", 24);  // base + q inexact in double
+  expect_error(32, double(NAN), "origin", 32);
+  expect_error(32, double(INFINITY), "origin", 32);
+  expect_error(32, 1e300, "beyond float32", 24);  // finite, but not as a float
+  expect_error(40, double(NAN), "quantization step", 40);
+  expect_error(40, -1.0, "quantization step", 40);
+  expect_error(40, 0.0, "quantization step", 40);  // codes up to qmax > 0 need a step
+  expect_error(40, 1e300, "beyond float32", 24);
+  // Float32 blocks carry no grid.
+  const EncodedBlock f = encode_brick({SampleEncoding::Float32}, r, v.data(), nullptr, 0.0);
+  std::vector<std::byte> bytes = f.bytes;
+  const double origin = 1.0;
+  std::memcpy(bytes.data() + 32, &origin, 8);
+  EXPECT_THROW(decode_brick(bytes, r, out.data(), nullptr, "x.ugvr", 1000), Error);
 }
 
 // Damage that a checksum would catch, fed straight to the decoder (as a cache holding bad bytes would): every outcome
@@ -317,8 +383,9 @@ TEST(BrickCodec, Quant16AccuracyBound) {
     }
     v[0] = lo;  // the extremes are present
     v[1] = lo + width;
-    const EncodedBlock b = encode_brick({}, r, v.data(), nullptr, step);
-    EXPECT_LE(b.step, step * (1 + 1e-6));
+    const EncodedBlock b = encode_brick({}, r, v.data(), nullptr, step, field_min);
+    EXPECT_TRUE(b.shared_grid);
+    EXPECT_EQ(b.step, step);
     std::vector<float> out(cube(r));
     decode_brick(b.bytes, r, out.data(), nullptr, "mem", 0);
     for (size_t s = 0; s < out.size(); ++s) worst = std::max(worst, std::abs(double(out[s]) - double(v[s])));
@@ -466,11 +533,14 @@ void check_store(const TestStore& t, const BrickStoreReader& s) {
       const FieldStats& st = s.stats(id, f);
       EXPECT_EQ(st.error_max, t.errors[id * 3 + f].max);
       EXPECT_EQ(st.error_rms, t.errors[id * 3 + f].rms);
-      // Conservative range: contains the node's own valid samples and its children's ranges.
+      // Conservative range: contains the node's own valid samples, exact and decoded, and its children's ranges.
       float lo = INFINITY, hi = -INFINITY;
       if (n.has_brick()) {
+        s.read_brick(id, f, out.data(), nullptr);
         for (size_t q = 0; q < cube(r); ++q) {
-          if (t.masks[id][q]) lo = std::min(lo, t.samples[id][f][q]), hi = std::max(hi, t.samples[id][f][q]);
+          if (!t.masks[id][q]) continue;
+          lo = std::min({lo, t.samples[id][f][q], out[q]});
+          hi = std::max({hi, t.samples[id][f][q], out[q]});
         }
       }
       for (int o = 0; o < 8; ++o) {
@@ -504,16 +574,147 @@ TEST(BrickStore, RoundTrip) {
   ScratchDir dir;
   for (uint32_t r : {8u, 32u}) {
     TestStore t = make_test_store(r, r == 8 ? 4 : 3);
-    for (const BrickEncoding& enc :
-         {BrickEncoding{}, BrickEncoding{SampleEncoding::Float32, Predictor::Lorenzo, true, BrickCodec::Lz4, 0}}) {
+    // The default, each brick on its own 16-bit grid (tolerance 0), and lossless.
+    const std::pair<BrickEncoding, double> variants[] = {
+        {BrickEncoding{}, kQuant16Tolerance},
+        {BrickEncoding{}, 0.0},
+        {BrickEncoding{SampleEncoding::Float32, Predictor::Lorenzo, true, BrickCodec::Lz4, 0}, kQuant16Tolerance}};
+    for (const auto& [enc, tolerance] : variants) {
       t.layout.encoding = enc;
+      t.layout.tolerance = tolerance;
       const std::string path = dir.file("r" + std::to_string(r) + ".ugvr");
       write_test_store(t, path);
       BrickStoreReader s(path);
-      SCOPED_TRACE("r=" + std::to_string(r) + " " + std::string(sample_encoding_name(enc.samples)));
+      SCOPED_TRACE("r=" + std::to_string(r) + " " + std::string(sample_encoding_name(enc.samples)) + " tolerance " +
+                   std::to_string(tolerance));
       check_store(t, s);
       EXPECT_EQ(count_entries(dir.file("")), 1u);  // no temporary left behind
       std::filesystem::remove(path);
+    }
+  }
+}
+
+// The requirement: samples shared by neighbouring bricks of one level are identical, for what the renderer
+// reads. Every node of a complete two-level tree samples three fields at its lattice points, each value a function
+// of the point's global lattice coordinates (so shared samples are bit-identical inputs), with ranges that differ
+// from brick to brick: a linear field (a brick's maximum lies on faces it shares with neighbours whose maximum is
+// elsewhere), a wave, and hashed noise. Written with the default encoding (Quant16, default tolerance), every shared
+// valid sample decodes to the same bits in every brick holding it, and every sample stays within tolerance × range
+// (+ float rounding) of its input.
+TEST(BrickStore, SharedSamplesDecodeIdentically) {
+  ScratchDir dir;
+  const uint32_t r = 8;
+  const int levels = 2;
+  BrickStoreLayout layout;
+  layout.resolution = r;
+  layout.root = Bounds{{0.0, 0.0, 0.0}, {1.0, 1.0, 1.0}};
+  layout.data = layout.root;
+  // The fields' extremes over the cube (the linear field's corners are exact floats).
+  layout.fields = {{"linear", Association::Vertex, -3.0, 2.25},
+                   {"wave", Association::Vertex, -1.0, 1.0},
+                   {"noise", Association::Vertex, -7.0, 5.0}};
+  auto field = [](int f, int level, uint64_t gx, uint64_t gy, uint64_t gz) -> float {
+    const double scale = std::ldexp(1.0, -level) / (r - 1);
+    const double x = double(gx) * scale, y = double(gy) * scale, z = double(gz) * scale;
+    if (f == 0) return float(1.75 * x - 1.5 * y + 2.0 * z - 1.5);
+    if (f == 1) return float(std::sin(5.0 * x + 1.0) * std::cos(4.0 * y - 2.0 * z));
+    uint64_t h = (uint64_t(level) << 60) ^ (gx * 0x9E3779B97F4A7C15ull) ^ (gy * 0xC2B2AE3D27D4EB4Full) ^
+                 (gz * 0x165667B19E3779F9ull);
+    h ^= h >> 29;
+    h *= 0xBF58476D1CE4E5B9ull;
+    h ^= h >> 32;
+    return float(-7.0 + 12.0 * double(h >> 11) * 0x1.0p-53);
+  };
+  // A complete tree: the root, 8 children, 64 grandchildren, breadth first.
+  std::vector<OctreeNode> nodes(1);
+  for (size_t id = 0; id < nodes.size(); ++id) {
+    if (nodes[id].level >= levels) continue;
+    nodes[id].first_child = nodes.size();
+    nodes[id].child_mask = 0xff;
+    for (int o = 0; o < 8; ++o) {
+      OctreeNode c;
+      c.parent = id;
+      c.level = uint8_t(nodes[id].level + 1);
+      c.i = 2 * nodes[id].i + (o & 1);
+      c.j = 2 * nodes[id].j + (o >> 1 & 1);
+      c.k = 2 * nodes[id].k + (o >> 2 & 1);
+      nodes.push_back(c);
+    }
+  }
+  const size_t n = cube(r);
+  std::vector<std::vector<std::vector<float>>> in(nodes.size(), std::vector<std::vector<float>>(3));
+  std::vector<std::vector<uint8_t>> masks(nodes.size());
+  auto global = [&](const OctreeNode& node, size_t s) {
+    return std::array<uint64_t, 3>{uint64_t(node.i) * (r - 1) + s % r, uint64_t(node.j) * (r - 1) + s / r % r,
+                                   uint64_t(node.k) * (r - 1) + s / (size_t(r) * r)};
+  };
+  for (size_t id = 0; id < nodes.size(); ++id) {
+    masks[id].resize(n);
+    for (int f = 0; f < 3; ++f) in[id][size_t(f)].resize(n);
+    for (size_t s = 0; s < n; ++s) {
+      const auto g = global(nodes[id], s);
+      for (int f = 0; f < 3; ++f) in[id][size_t(f)][s] = field(f, nodes[id].level, g[0], g[1], g[2]);
+      // A hole, so that some bricks are partial (a function of the point too, so shared samples agree on it).
+      const double span = double(uint64_t(r - 1) << nodes[id].level);
+      masks[id][s] = length(Vec3d{g[0] / span, g[1] / span, g[2] / span} - kSphereCentre) >= kSphereRadius;
+    }
+  }
+  for (double tolerance : {kQuant16Tolerance, 0.0}) {
+    layout.tolerance = tolerance;
+    const std::string path = dir.file("shared.ugvr");
+    {
+      BrickStoreWriter w(path, layout);
+      for (size_t id = 0; id < nodes.size(); ++id) {
+        const float* fields[3] = {in[id][0].data(), in[id][1].data(), in[id][2].data()};
+        w.add_brick(id, fields, masks[id].data());
+      }
+      w.commit(nodes);
+    }
+    const BrickStoreReader store(path);
+    // (field, level, global lattice point) -> decoded bits of the first brick holding it, and whether the sample is
+    // that brick's maximum.
+    std::map<std::array<uint64_t, 5>, std::pair<uint32_t, bool>> first;
+    size_t shared = 0, mismatches = 0, max_and_not = 0;
+    double worst = 0;
+    std::vector<float> out(n);
+    std::vector<uint8_t> mask(n);
+    for (size_t id = 0; id < nodes.size(); ++id) {
+      if (!store.node(id).has_brick()) continue;
+      for (uint32_t f = 0; f < 3; ++f) {
+        store.read_brick(id, f, out.data(), mask.data());
+        ASSERT_EQ(mask, masks[id]);
+        const double range = layout.fields[f].max - layout.fields[f].min;
+        float brick_max = -INFINITY;
+        for (size_t s = 0; s < n; ++s) {
+          if (mask[s]) brick_max = std::max(brick_max, in[id][f][s]);
+        }
+        const FieldStats& st = store.stats(id, f);
+        for (size_t s = 0; s < n; ++s) {
+          if (!mask[s]) continue;
+          const float v = in[id][f][s];
+          EXPECT_GE(out[s], st.min);  // the node's range bounds what is decoded
+          EXPECT_LE(out[s], st.max);
+          if (tolerance > 0) worst = std::max(worst, (std::abs(double(out[s]) - v) - std::abs(v) * 6e-8) / range);
+          const size_t x = s % r, y = s / r % r, z = s / (size_t(r) * r);
+          if (x != 0 && y != 0 && z != 0 && x != r - 1 && y != r - 1 && z != r - 1) continue;
+          const auto g = global(nodes[id], s);
+          const uint32_t bits = std::bit_cast<uint32_t>(out[s]);
+          const auto [it, fresh] = first.try_emplace({f, nodes[id].level, g[0], g[1], g[2]}, bits, v == brick_max);
+          if (fresh) continue;
+          ++shared;
+          mismatches += it->second.first != bits;
+          max_and_not += f == 0 && it->second.second != (v == brick_max);
+        }
+      }
+    }
+    std::printf("tolerance %g: %zu of %zu shared samples differ after decoding\n", tolerance, mismatches, shared);
+    EXPECT_GT(shared, 1000u);
+    if (tolerance > 0) {
+      EXPECT_EQ(mismatches, 0u);
+      EXPECT_LE(worst, tolerance * (1 + 1e-9));
+      EXPECT_GT(max_and_not, 0u);  // the case where capping at a brick's maximum broke the identity
+    } else {
+      EXPECT_GT(mismatches, 0u);  // per-brick grids promise no identity: the check above has teeth
     }
   }
 }
@@ -560,7 +761,7 @@ TEST(BrickStore, DocumentedLayout) {
     return v;
   };
   EXPECT_EQ(f.substr(0, 8), std::string("\x89UBS\r\n\x1a\n", 8));
-  EXPECT_EQ(u32(8), 1u);
+  EXPECT_EQ(u32(8), 2u);
   const uint32_t header_size = u32(12);
   EXPECT_EQ(u32(16), 8u);
   EXPECT_EQ(u32(20), 3u);
@@ -595,6 +796,18 @@ TEST(BrickStore, DocumentedLayout) {
   const uint32_t size0 = u32(rec + 48 + 16);
   EXPECT_EQ(u32(rec + 48 + 20), uint32_t(crc32(0, reinterpret_cast<const Bytef*>(f.data() + brick), size0)));
   EXPECT_EQ(f[brick], 1);  // block header: quant16
+  // Its grid: the field's minimum and 2 × tolerance × range, both f64, the base code and the largest code.
+  EXPECT_EQ(f64(brick + 32), -3.0);
+  EXPECT_EQ(f64(brick + 40), 2 * kQuant16Tolerance * 6.0);
+  int64_t base;
+  std::memcpy(&base, f.data() + brick + 24, 8);
+  EXPECT_GE(base, 0);
+  EXPECT_LE(base + int64_t(u32(brick + 20)), 65535);  // the field's range is 65535 steps
+  float lo, hi;
+  std::memcpy(&lo, f.data() + brick + 12, 4);
+  std::memcpy(&hi, f.data() + brick + 16, 4);
+  EXPECT_NEAR(-3.0 + double(base) * f64(brick + 40), lo, f64(brick + 40) / 2 * 1.001);
+  EXPECT_NEAR(-3.0 + double(base + u32(brick + 20)) * f64(brick + 40), hi, f64(brick + 40) / 2 * 1.001);
 }
 
 TEST(BrickStore, ConcurrentReads) {
@@ -749,9 +962,13 @@ TEST_F(BrickStoreCorruption, WrongMagicOrVersion) {
   write_file(bad_, f);
   expect_open_error(bad_, {"byte 0", "wrong magic"});
   f = good_;
-  patch_u32(f, 8, 2);
+  patch_u32(f, 8, 1);  // a store of the previous format: its blocks quantize each brick on a grid of its own
   write_file(bad_, f);
-  expect_open_error(bad_, {"byte 8", "version 2", "reads version 1"});
+  expect_open_error(bad_, {"byte 8", "version 1", "reads version 2", "rebuild"});
+  f = good_;
+  patch_u32(f, 8, 3);
+  write_file(bad_, f);
+  expect_open_error(bad_, {"byte 8", "version 3", "newer"});
 }
 
 TEST_F(BrickStoreCorruption, FlippedHeaderOrNodeTableByte) {

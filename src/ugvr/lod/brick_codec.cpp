@@ -8,6 +8,7 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -95,12 +96,22 @@ inline uint32_t float_ord(float f) {
 }
 inline float ord_float(uint32_t o) { return std::bit_cast<float>((o & 0x80000000u) ? (o & 0x7FFFFFFFu) : ~o); }
 
-// The largest code of a Quant16 block; encoder and decoder both derive it from the stored lo, hi and step.
-inline int32_t quant_max(float lo, float hi, float step) {
-  if (!(step > 0)) return 0;
-  const double q = std::round((double(hi) - double(lo)) / double(step));
-  return q > 65535.0 ? 65536 : int32_t(q);  // 65536 flags "does not fit" to the checks
-}
+// Quant16 grid indices stay within +-2^52 so that base + q is exact in double (and in the decoder's sum).
+constexpr double kMaxGridIndex = 4503599627370496.0;  // 2^52
+
+// The value of grid index i, as the format defines it (brick_codec.h): encoder (for the decoded range) and decoder
+// must compute it the same way, bit for bit.
+inline double grid_value(double origin, double index, double step) { return origin + index * step; }
+
+inline bool in_float_range(double v) { return std::abs(v) <= double(std::numeric_limits<float>::max()); }
+
+// A Quant16 block's grid: code q stands for index base + q.
+struct Grid {
+  double origin = 0, step = 0;
+  int64_t base = 0;
+  int32_t qmax = 0;
+  bool shared = false;
+};
 
 inline float clamp_float(float p, float lo, float hi) {
   if (!(p >= lo)) return lo;  // also NaN (inf - inf in the predictor)
@@ -196,8 +207,11 @@ void dispatch(Predictor p, bool shuffled, bool has_mask, F&& f) {
 // codes of traverse() (valid samples only need p mod 2^16), with one add per sample left serial: 2-3x faster. Rows
 // with invalid samples run the scalar recurrence, which needs the exact prediction to clamp the fill.
 template <Predictor P, bool Shuffled>
-void decode_quant16(uint32_t r, const std::byte* bits, const std::byte* values, size_t valid, int32_t qmax, double lo,
-                    double hi, double step, float* samples, Scratch& scratch) {
+void decode_quant16(uint32_t r, const std::byte* bits, const std::byte* values, size_t valid, const Grid& grid,
+                    float* samples, Scratch& scratch) {
+  const int32_t qmax = grid.qmax;
+  const uint16_t qcap = uint16_t(qmax);
+  const double origin = grid.origin, base = double(grid.base), step = grid.step;
   const size_t w = size_t(r) + 1, plane = w * w;
   scratch.code_planes.assign(2 * plane, 0);
   scratch.row.resize(r);
@@ -257,8 +271,11 @@ void decode_quant16(uint32_t r, const std::byte* bits, const std::byte* values, 
           row[x] = uint16_t(left);
         }
       }
-      // Capped at hi: the top code may lie up to step / 2 above it, and no exact value does.
-      for (uint32_t x = 0; x < r; ++x) samples[s + x] = float(std::min(lo + double(row[x]) * step, hi));
+      // The value depends on the grid index alone (no cap at the brick's hi), so that blocks on one grid agree. Codes
+      // above qmax come only from a corrupt payload: clamped, they still decode to finite floats.
+      for (uint32_t x = 0; x < r; ++x) {
+        samples[s + x] = float(grid_value(origin, base + double(std::min(row[x], qcap)), step));
+      }
     }
     std::swap(prev, cur);
   }
@@ -330,12 +347,54 @@ T get_le(const std::byte* at) {
   return v;
 }
 
+// A sample's grid index: the encoder's one map from values to codes, for the block's range and for every sample.
+inline int64_t grid_index(float v, double origin, double inv_step) {
+  return std::llround((double(v) - origin) * inv_step);
+}
+
+// The grid of a Quant16 block whose valid samples span [lo, hi] (see encode_brick in brick_codec.h). Indices are
+// monotone in the value, so every valid sample's code lies in [0, qmax].
+Grid choose_grid(float lo, float hi, double quant_step, double quant_origin) {
+  if (quant_step > 0 && std::isfinite(quant_step) && std::isfinite(quant_origin)) {
+    const double inv = 1.0 / quant_step;
+    const double first = (double(lo) - quant_origin) * inv, last = (double(hi) - quant_origin) * inv;
+    if (std::abs(first) <= kMaxGridIndex / 2 && std::abs(last) <= kMaxGridIndex / 2) {
+      const int64_t base = grid_index(lo, quant_origin, inv), top = grid_index(hi, quant_origin, inv);
+      if (top - base <= 65535 && in_float_range(grid_value(quant_origin, double(base), quant_step)) &&
+          in_float_range(grid_value(quant_origin, double(top), quant_step))) {
+        return Grid{quant_origin, quant_step, base, int32_t(top - base), true};
+      }
+    }
+  }
+  // The brick's own grid from its minimum: code 0 decodes to lo exactly, and a constant brick is exact.
+  Grid g{double(lo), 0.0, 0, 0, false};
+  const double range = double(hi) - double(lo);
+  if (!(range > 0)) return g;
+  const double fit = range / 65535.0;
+  g.step = quant_step >= fit && std::isfinite(quant_step) ? quant_step : fit;
+  // Rounding may leave the step a hair too small for 16 bits, or the top code a hair beyond float32 (hi near its
+  // limit): nudge it, a few ulps at most.
+  for (int tries = 0; tries < 1000; ++tries) {
+    const int64_t top = grid_index(hi, g.origin, 1.0 / g.step);
+    if (top > 65535) {
+      g.step = std::nextafter(g.step, INFINITY);
+    } else if (!in_float_range(grid_value(g.origin, double(top), g.step))) {
+      g.step = g.step > fit ? fit : std::nextafter(g.step, 0.0);
+    } else {
+      g.qmax = int32_t(top);
+      return g;
+    }
+  }
+  throw Error("brick encode: no 16-bit quantization grid found for the range [" + std::to_string(lo) + ", " +
+              std::to_string(hi) + "]");
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------------------
 
 EncodedBlock encode_brick(const BrickEncoding& enc, uint32_t r, const float* samples, const uint8_t* mask,
-                          double quant_step) {
+                          double quant_step, double quant_origin) {
   if (r < kMinBrickResolution || r > kMaxBrickResolution) {
     throw Error("brick encode: resolution " + std::to_string(r) + " outside [2, 512]");
   }
@@ -360,18 +419,9 @@ EncodedBlock encode_brick(const BrickEncoding& enc, uint32_t r, const float* sam
   if (valid == 0) throw Error("brick encode: no valid sample (an empty node is stored without a brick)");
   const bool has_mask = valid != n;
 
-  float step = 0;
-  int32_t qmax = 0;
-  if (quant) {
-    const double range = double(hi) - double(lo);  // 0 for a constant brick: every code is 0, step stays 0
-    double want = quant_step > 0 ? quant_step : range / 65535.0;
-    if (range > 0 && !(want >= range / 65535.0)) want = range / 65535.0;
-    step = range > 0 ? float(want) : 0.0f;
-    if (range > 0 && !(step > 0 && std::isfinite(step))) step = float(range / 65535.0);
-    // Rounding the step to float may have made it a hair too small for 16 bits.
-    while (quant_max(lo, hi, step) > 65535) step = std::nextafter(step, INFINITY);
-    qmax = quant_max(lo, hi, step);
-  }
+  Grid grid;
+  if (quant) grid = choose_grid(lo, hi, quant_step, quant_origin);
+  const int32_t qmax = grid.qmax;
 
   Scratch& scratch = thread_scratch();
   const size_t value_bytes = quant ? 2 : 4;
@@ -383,14 +433,16 @@ EncodedBlock encode_brick(const BrickEncoding& enc, uint32_t r, const float* sam
   }
   std::byte* values = raw.data() + mbytes;
 
-  const double inv_step = step > 0 ? 1.0 / double(step) : 0.0;
+  const double origin = grid.origin, inv_step = grid.step > 0 ? 1.0 / grid.step : 0.0;
+  const int64_t base = grid.base;
   dispatch(enc.predictor, enc.shuffle, has_mask, [&]<Predictor P, bool Shuffled, bool HasMask>() {
     size_t k = 0;
     if (quant) {
       const ResidualLayout<2, Shuffled> io{valid};
       traverse<int32_t, P>(r, scratch.int_planes, [&](size_t s, int32_t p) -> int32_t {
         if (HasMask && !mask[s]) return std::clamp(p, 0, qmax);
-        const int32_t q = std::clamp(int32_t(std::lround((double(samples[s]) - double(lo)) * inv_step)), 0, qmax);
+        // choose_grid's arithmetic: the codes of lo and hi are 0 and qmax, and the clamp a mere safeguard.
+        const int32_t q = int32_t(std::clamp<int64_t>(grid_index(samples[s], origin, inv_step) - base, 0, qmax));
         io.put(values, k++, P == Predictor::None ? uint32_t(q) : zigzag16(uint16_t(q - p)));
         return q;
       });
@@ -426,18 +478,29 @@ EncodedBlock encode_brick(const BrickEncoding& enc, uint32_t r, const float* sam
   put_le<uint32_t>(h + 8, uint32_t(valid));
   put_le<float>(h + 12, lo);
   put_le<float>(h + 16, hi);
-  put_le<float>(h + 20, step);
+  put_le<uint32_t>(h + 20, uint32_t(grid.qmax));
+  put_le<int64_t>(h + 24, grid.base);
+  put_le<double>(h + 32, grid.origin);
+  put_le<double>(h + 40, grid.step);
   out.valid = uint32_t(valid);
   out.lo = lo;
   out.hi = hi;
-  out.step = step;
+  out.decoded_lo = lo;
+  out.decoded_hi = hi;
+  if (quant) {
+    out.decoded_lo = float(grid_value(grid.origin, double(grid.base), grid.step));
+    out.decoded_hi = float(grid_value(grid.origin, double(grid.base) + double(grid.qmax), grid.step));
+  }
+  out.step = grid.step;
+  out.shared_grid = grid.shared;
   return out;
 }
 
 BlockHeader parse_block_header(std::span<const std::byte> block, uint32_t r, std::string_view file, uint64_t offset) {
   if (block.size() < kBlockHeaderSize) {
     fail_at_offset(file, offset,
-                   "brick block of " + std::to_string(block.size()) + " bytes is shorter than its 24-byte header");
+                   "brick block of " + std::to_string(block.size()) + " bytes is shorter than its " +
+                       std::to_string(kBlockHeaderSize) + "-byte header");
   }
   const std::byte* p = block.data();
   BlockHeader h;
@@ -462,7 +525,10 @@ BlockHeader parse_block_header(std::span<const std::byte> block, uint32_t r, std
   h.valid = get_le<uint32_t>(p + 8);
   h.lo = get_le<float>(p + 12);
   h.hi = get_le<float>(p + 16);
-  h.step = get_le<float>(p + 20);
+  h.qmax = get_le<uint32_t>(p + 20);
+  h.base = get_le<int64_t>(p + 24);
+  h.origin = get_le<double>(p + 32);
+  h.step = get_le<double>(p + 40);
 
   const uint64_t n = uint64_t(r) * r * r;
   if (h.valid == 0 || h.valid > n || (!h.has_mask && h.valid != n)) {
@@ -487,14 +553,30 @@ BlockHeader parse_block_header(std::span<const std::byte> block, uint32_t r, std
                    "invalid brick range [" + std::to_string(h.lo) + ", " + std::to_string(h.hi) + "]");
   }
   if (h.samples == SampleEncoding::Quant16) {
-    if (!std::isfinite(h.step) || h.step < 0 || (h.hi > h.lo && !(h.step > 0)) ||
-        quant_max(h.lo, h.hi, h.step) > 65535) {
-      fail_at_offset(file, offset + 20,
-                     "invalid quantization step " + std::to_string(h.step) + " for the range [" + std::to_string(h.lo) +
-                         ", " + std::to_string(h.hi) + "]");
+    if (h.qmax > 65535) fail_at_offset(file, offset + 20, "largest code " + std::to_string(h.qmax) + " above 65535");
+    // Written so that no extreme base overflows: base + q must stay exact in double.
+    if (h.base < -int64_t(kMaxGridIndex) || h.base > int64_t(kMaxGridIndex) - int64_t(h.qmax)) {
+      fail_at_offset(
+          file, offset + 24,
+          "grid index base " + std::to_string(h.base) + " + codes up to " + std::to_string(h.qmax) + " outside +-2^52");
     }
-  } else if (h.step != 0) {
-    fail_at_offset(file, offset + 20, "float32 block with a quantization step");
+    if (!std::isfinite(h.origin)) {
+      fail_at_offset(file, offset + 32, "quantization grid origin " + std::to_string(h.origin) + " is not finite");
+    }
+    if (!std::isfinite(h.step) || h.step < 0 || (h.qmax > 0 && !(h.step > 0))) {
+      fail_at_offset(
+          file, offset + 40,
+          "invalid quantization step " + std::to_string(h.step) + " for codes up to " + std::to_string(h.qmax));
+    }
+    const double first = grid_value(h.origin, double(h.base), h.step),
+                 last = grid_value(h.origin, double(h.base) + double(h.qmax), h.step);
+    if (!in_float_range(first) || !in_float_range(last)) {
+      fail_at_offset(
+          file, offset + 24,
+          "quantization grid decodes to [" + std::to_string(first) + ", " + std::to_string(last) + "], beyond float32");
+    }
+  } else if (h.qmax != 0 || h.base != 0 || h.origin != 0 || h.step != 0) {
+    fail_at_offset(file, offset + 20, "float32 block with quantization grid fields");
   }
   return h;
 }
@@ -541,12 +623,10 @@ void decode_brick(std::span<const std::byte> block, uint32_t r, float* samples, 
   const std::byte* values = raw + mbytes;
 
   const bool quant = h.samples == SampleEncoding::Quant16;
-  const int32_t qmax = quant_max(h.lo, h.hi, h.step);
-  const double lo = h.lo, step = h.step;
   if (quant) {
+    const Grid grid{h.origin, h.step, h.base, int32_t(h.qmax), false};
     dispatch(h.predictor, h.shuffled, false, [&]<Predictor P, bool Shuffled, bool>() {
-      decode_quant16<P, Shuffled>(r, h.has_mask ? bits : nullptr, values, h.valid, qmax, lo, h.hi, step, samples,
-                                  scratch);
+      decode_quant16<P, Shuffled>(r, h.has_mask ? bits : nullptr, values, h.valid, grid, samples, scratch);
     });
   } else {
     dispatch(h.predictor, h.shuffled, h.has_mask, [&]<Predictor P, bool Shuffled, bool HasMask>() {

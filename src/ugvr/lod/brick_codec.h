@@ -12,10 +12,13 @@
 //   3      1     u8  flags      bit 0: a mask follows (else every sample is valid); bit 1: values are byte-shuffled
 //   4      4     u32 raw_size   bytes of the payload once decompressed
 //   8      4     u32 valid      number of valid samples (1..R³)
-//   12     4     f32 lo         smallest valid sample
+//   12     4     f32 lo         smallest valid sample (as given to the encoder)
 //   16     4     f32 hi         largest valid sample
-//   20     4     f32 step       Quant16: the quantization step; Float32: 0
-//   24     ...   payload, compressed by `codec`
+//   20     4     u32 qmax       Quant16: the largest code, 0..65535; Float32: 0
+//   24     8     i64 base       Quant16: grid index of code 0, -2^52 <= base, base + qmax <= 2^52; Float32: 0
+//   32     8     f64 origin     Quant16: value of grid index 0; Float32: 0
+//   40     8     f64 step       Quant16: grid step (> 0 unless qmax = 0); Float32: 0
+//   48     ...   payload, compressed by `codec`
 //
 // The decompressed payload is
 //   [mask]   ceil(R³/8) bytes when flag bit 0 is set: bit (s & 7) of byte s / 8 is 1 where sample s has data
@@ -23,8 +26,8 @@
 //            u32 for Float32; with flag bit 1 the residuals are split into byte planes (all low bytes first).
 // Invalid samples cost nothing: they have no residual. Both sides give them the prediction clamped into the brick's
 // range, so prediction runs over them without a discontinuity; decoding therefore returns, at invalid samples, a
-// deterministic extrapolation of the valid ones within [lo, hi]: a usable pad for linear interpolation at the data
-// boundary, but only the mask says what is data.
+// deterministic extrapolation of the valid ones within the decoded range: a usable pad for linear interpolation at
+// the data boundary, but only the mask says what is data.
 //
 // Prediction p of sample (x, y, z) from the samples before it, as reconstructed (invalid ones as filled), with
 // neighbours outside the brick taken as 0. Naming the neighbours
@@ -33,10 +36,16 @@
 //   Lorenzo  p = a + ((b + c + abc) - (ab + ac + bc)), sums left to right (the grouping fixes float rounding)
 //   DeltaX   p = a
 //   None     p = 0
-// Quant16: codes q = round((v - lo) / step), 0 <= q <= qmax = round((hi - lo) / step) <= 65535, decoded as
-// v' = min(lo + q·step, hi) in double, rounded to float32, so |v' - v| <= step / 2 plus half a float32 ulp of v. p is
-// computed on codes in exact integers; residual = zigzag16((q - p) mod 2^16) (None: q itself); an invalid sample takes
-// clamp(p, 0, qmax).
+// Quant16: the values lie on a grid origin + i·step, i an integer. A valid sample v has grid index
+// i = round((v - origin) · (1 / step)) (double arithmetic, halves away from zero) and code q = i - base in
+// [0, qmax]; code q decodes to v' = float32(origin + double(base + q) · step), double arithmetic (base + q is exact),
+// rounded to nearest. v' is a function of the grid index alone, so blocks that share origin and step (every block
+// of a store field, see brick_store.h) decode equal input samples to bit-identical values, whatever their own range.
+// |v' - v| <= step / 2 plus half a float32 ulp of v (and double rounding, ~1e-16 relative). Decoded values lie in
+// [v'(0), v'(qmax)], which may reach step / 2 beyond [lo, hi]: there is no cap at hi, as a cap would depend on the
+// block and break the identity. A reader clamps codes to qmax, so that a corrupt payload still decodes within that
+// range. p is computed on codes in exact integers; residual = zigzag16((q - p) mod 2^16) (None: q itself); an invalid
+// sample takes clamp(p, 0, qmax).
 // Float32 (lossless, bit exact): p is computed in float32; pc = clamp(p, lo, hi) (NaN -> lo); residual =
 // zigzag32((ord(v) - ord(pc)) mod 2^32), ord mapping a float's bits to an unsigned integer of the same order so that
 // nearby values give small residuals (None: the float's bits); an invalid sample takes pc.
@@ -69,7 +78,7 @@ struct BrickEncoding {
   int level = 0;
 };
 
-inline constexpr size_t kBlockHeaderSize = 24;
+inline constexpr size_t kBlockHeaderSize = 48;
 inline constexpr uint32_t kMinBrickResolution = 2, kMaxBrickResolution = 512;  // a Float32 block stays < 4 GiB
 
 // Bytes of a packed mask of r³ samples.
@@ -82,22 +91,34 @@ struct BlockHeader {
   bool has_mask = false, shuffled = false;
   uint32_t raw_size = 0;
   uint32_t valid = 0;
-  float lo = 0, hi = 0, step = 0;
+  float lo = 0, hi = 0;
+  uint32_t qmax = 0;  // Quant16 grid (see the layout above); all 0 for Float32
+  int64_t base = 0;
+  double origin = 0, step = 0;
 };
 
 struct EncodedBlock {
   std::vector<std::byte> bytes;  // header + compressed payload
   uint32_t valid = 0;            // valid samples
-  float lo = 0, hi = 0;          // range of the valid samples
-  float step = 0;                // Quant16 step used (max error step / 2), 0 for Float32
+  float lo = 0, hi = 0;          // range of the valid samples as given
+  // Range of every value decode_brick returns (valid and filled samples): Float32 [lo, hi]; Quant16 within step / 2
+  // of it, and not always containing it.
+  float decoded_lo = 0, decoded_hi = 0;
+  double step = 0;           // Quant16 step used (max error step / 2), 0 for Float32 and for exact constant bricks
+  bool shared_grid = false;  // Quant16: on the caller's grid (quant_origin, quant_step)
 };
 
 // Encodes `samples` (r³ floats, x fastest) under `mask` (r³ bytes, nonzero = data; nullptr = all data).
-// quant_step (Quant16 only): the coarsest step allowed, e.g. 2 × tolerance × field range; it is raised where the
-// brick's range would need more than 65536 codes, and <= 0 means "the brick's own range over 65535 codes".
+// Quant16 only: quant_step > 0 puts the block on the grid quant_origin + i·quant_step, the same for every block
+// encoded with the same two numbers, so that equal samples decode to equal values in all of them (neighbouring
+// bricks share their border samples). A store passes 2 × tolerance × field range and the field's minimum. A brick
+// that does not fit that grid in 16 bits (its valid samples span more than 65535 steps: values beyond the range the
+// step was made for) or whose grid indices or decoded values would be out of range gets a grid of its own instead:
+// origin its minimum, step max(quant_step, range / 65535); identity with its neighbours is then not promised.
+// quant_step <= 0 always means a grid of the brick's own: its range over 65535 codes (exact for a constant brick).
 // Throws ugvr::Error if no sample is valid (store no brick instead) or a valid sample is not finite (mask it).
 EncodedBlock encode_brick(const BrickEncoding& encoding, uint32_t r, const float* samples, const uint8_t* mask,
-                          double quant_step);
+                          double quant_step, double quant_origin = 0.0);
 
 // Parses and checks a block header against r and the block's size. `file` and `offset` (of the block) name a bad
 // block in the error.

@@ -204,14 +204,16 @@ EncodedBrick BrickStoreWriter::encode(std::span<const float* const> fields, cons
   for (size_t f = 0; f < nf; ++f) {
     EncodedBlock block;
     try {
-      block = encode_brick(layout_.encoding, r, fields[f], valid == n ? nullptr : mask, steps_[f]);
+      block =
+          encode_brick(layout_.encoding, r, fields[f], valid == n ? nullptr : mask, steps_[f], layout_.fields[f].min);
     } catch (const Error& e) {
       fail_in(path_, "field '" + layout_.fields[f].name + "': " + e.what());
     }
     out.sizes.push_back(uint32_t(block.bytes.size()));
     out.crcs.push_back(crc32_of(block.bytes.data(), block.bytes.size()));
-    out.lo.push_back(block.lo);
-    out.hi.push_back(block.hi);
+    // Both ranges: culling by the node range must hold for what the renderer decodes, and for the exact samples.
+    out.lo.push_back(std::min(block.lo, block.decoded_lo));
+    out.hi.push_back(std::max(block.hi, block.decoded_hi));
     out.bytes.insert(out.bytes.end(), block.bytes.begin(), block.bytes.end());
   }
   return out;
@@ -392,7 +394,10 @@ BrickStoreReader::BrickStoreReader(std::string path) : file_(std::move(path)) {
   if (version != kBrickStoreVersion) {
     fail_at_offset(name, 8,
                    "brick store format version " + std::to_string(version) + "; this build reads version " +
-                       std::to_string(kBrickStoreVersion));
+                       std::to_string(kBrickStoreVersion) +
+                       (version < kBrickStoreVersion
+                            ? " only (older stores quantize each brick on its own grid): rebuild it with `ugvr build`"
+                            : " (written by a newer ugvr)"));
   }
   if (got < kFixedHeaderSize) {
     fail_at_offset(name, got, "truncated brick store: " + std::to_string(size) + " bytes, shorter than its header");

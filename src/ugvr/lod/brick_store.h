@@ -19,7 +19,8 @@
 // Header, fixed part (176 bytes):
 //   offset size  field
 //   0      8     magic 89 55 42 53 0D 0A 1A 0A ("\x89UBS\r\n\x1a\n": a binary, newline- and EOF-sensitive tag)
-//   8      4     u32 format version (kBrickStoreVersion)
+//   8      4     u32 format version (kBrickStoreVersion, 2; version 1 quantized each brick on a grid of its own and
+//                    is not read)
 //   12     4     u32 header_size: bytes of the fixed part plus the field records, a multiple of 8; blocks follow
 //   16     4     u32 brick resolution R (samples per axis, 2..512)
 //   20     4     u32 field count F (1..1024)
@@ -40,7 +41,7 @@
 //   168    4     u32 crc32 (zlib) of the node table
 //   172    4     u32 crc32 (zlib) of bytes [0, header_size) with these 4 bytes read as zero
 // Field record (one per field, in field order, each padded with zeros to a multiple of 8 bytes):
-//   0      8     f64 global min of the field (the range tolerances are relative to)
+//   0      8     f64 global min of the field (the range tolerances are relative to; the origin of its Quant16 grid)
 //   8      8     f64 global max
 //   16     1     u8  association: 0 vertex, 1 cell (of the source mesh)
 //   17     1     u8  reserved, 0
@@ -49,6 +50,11 @@
 //
 // Blocks: the bricks of one node are its F blocks back to back (field 0 first) from brick_offset; each block is
 // self-describing and compressed on its own (layout in brick_codec.h) and has its own crc32 in the node table.
+// With tolerance > 0, every Quant16 block of field f lies on one grid, origin = field min, step = 2 × tolerance ×
+// (field max - field min) (both stored in each block), so samples that neighbouring bricks share decode to
+// bit-identical values (the renderer's seams stay closed). Only a brick whose values exceed the field's declared range
+// so far that 16 bits cannot cover it on that grid gets a grid of its own. With tolerance 0 (or a field of range 0)
+// each brick has its own grid, and shared samples may differ by up to a step of either brick.
 //
 // Node table: N records of 48 + 24·F bytes, node id order:
 //   0      8     u64 parent id (kNoNode = 2^64-1 for the root)
@@ -61,7 +67,9 @@
 //   40     4     f32 valid fraction: valid samples / R³ of the node's brick
 //   44     4     u32 reserved, 0
 //   48     24·F  per field:
-//                  0  f32 min   smallest sample of the node's brick and its descendants' (+inf: none), by the writer
+//                  0  f32 min   smallest sample of the node's brick and its descendants' (+inf: none), by the writer,
+//                               over both the samples as given and as decoded: a Quant16 sample may decode up to
+//                               step / 2 beyond the exact range, and the range bounds what the renderer reads
 //                  4  f32 max   largest, likewise (-inf: no data): culling a node by value range culls its subtree
 //                  8  f32 error_max  max |sample - finest data| over the node's cell (the builder's figure)
 //                  12 f32 error_rms  root mean square of the same
@@ -90,7 +98,7 @@
 
 namespace ugvr {
 
-inline constexpr uint32_t kBrickStoreVersion = 1;
+inline constexpr uint32_t kBrickStoreVersion = 2;
 inline constexpr uint64_t kNoNode = ~uint64_t(0);
 inline constexpr int kMaxOctreeLevel = 31;
 inline constexpr uint32_t kMaxStoreFields = 1024;
@@ -142,7 +150,8 @@ struct FieldError {
 };
 
 struct FieldStats {
-  float min = 0, max = 0;  // conservative over the subtree; +inf / -inf where the subtree has no data
+  // Conservative over the subtree, for the samples as given and as decoded; +inf / -inf where it has no data.
+  float min = 0, max = 0;
   float error_max = 0, error_rms = 0;
 };
 
@@ -160,7 +169,7 @@ Bounds node_bounds(const Bounds& root, const OctreeNode& node);
 struct EncodedBrick {
   std::vector<std::byte> bytes;  // the F blocks back to back; empty: the node has no valid sample, so no brick
   std::vector<uint32_t> sizes, crcs;
-  std::vector<float> lo, hi;  // per field: range of the valid samples
+  std::vector<float> lo, hi;  // per field: range of the valid samples, exact and decoded
   uint32_t valid = 0;         // valid samples
 
   bool empty() const { return bytes.empty(); }
@@ -202,7 +211,7 @@ class BrickStoreWriter {
 
   std::string path_;
   BrickStoreLayout layout_;
-  std::vector<double> steps_;  // per field, for encode_brick
+  std::vector<double> steps_;  // per field, for encode_brick: the Quant16 grid's step (0: per brick)
   uint32_t header_size_ = 0;
   std::unique_ptr<AtomicOutputFile> out_;
   mutable std::mutex mutex_;
