@@ -214,7 +214,7 @@ Result run(const Candidate& c, const Set& set, uint32_t r, double field_min, dou
   const double enc_s = time_passes([&] {
     for (size_t b = 0; b < set.bricks.size(); ++b) {
       const Brick& br = set.bricks[b];
-      blocks[b] = encode_brick(c.enc, r, br.samples.data(), br.mask.empty() ? nullptr : br.mask.data(), step);
+      blocks[b] = encode_brick(c.enc, r, br.samples.data(), br.mask.empty() ? nullptr : br.mask.data(), step, field_min);
     }
   });
   std::vector<float> out(n);
@@ -231,7 +231,6 @@ Result run(const Candidate& c, const Set& set, uint32_t r, double field_min, dou
       if (br.mask.empty() || br.mask[s]) worst = std::max(worst, std::abs(double(out[s]) - br.samples[s]));
     }
   }
-  (void)field_min;
   const double raw = double(n) * 4 * double(blocks.size());
   return {raw / bytes, bytes / double(blocks.size()), raw / enc_s / 1e6, raw / dec_s / 1e6, worst / field_range};
 }
