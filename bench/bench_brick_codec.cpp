@@ -214,7 +214,8 @@ Result run(const Candidate& c, const Set& set, uint32_t r, double field_min, dou
   const double enc_s = time_passes([&] {
     for (size_t b = 0; b < set.bricks.size(); ++b) {
       const Brick& br = set.bricks[b];
-      blocks[b] = encode_brick(c.enc, r, br.samples.data(), br.mask.empty() ? nullptr : br.mask.data(), step, field_min);
+      blocks[b] =
+          encode_brick(c.enc, r, br.samples.data(), br.mask.empty() ? nullptr : br.mask.data(), step, field_min);
     }
   });
   std::vector<float> out(n);
