@@ -117,7 +117,6 @@ GlContext::GlContext(const std::string& device) : impl_(std::make_unique<Impl>()
   I.context = eglCreateContext(I.display, config, EGL_NO_CONTEXT, context_attribs);
   if (I.context == EGL_NO_CONTEXT) {
     const EGLint e = eglGetError();
-    eglTerminate(I.display);
     fail_gl("could not create an OpenGL 4.5 core context (" + egl_error_name(e) + ")");
   }
   make_current();
@@ -134,11 +133,14 @@ GlContext::GlContext(const std::string& device) : impl_(std::make_unique<Impl>()
   if (epoxy_gl_version() < 45) fail_gl("the context is OpenGL " + I.version + ", 4.5 is needed");
 }
 
+// The display is not terminated: EGL hands every caller asking for the same device the same display, so terminating
+// it would pull it from under any other context of the process; it lives as long as the process (and the driver
+// stays loaded, which also lets LeakSanitizer attribute the driver's own lifetime allocations to it).
 GlContext::~GlContext() {
-  if (impl_->display != EGL_NO_DISPLAY) {
-    eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
-    if (impl_->context != EGL_NO_CONTEXT) eglDestroyContext(impl_->display, impl_->context);
-    eglTerminate(impl_->display);
+  if (impl_->display != EGL_NO_DISPLAY && impl_->context != EGL_NO_CONTEXT) {
+    if (eglGetCurrentContext() == impl_->context)
+      eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    eglDestroyContext(impl_->display, impl_->context);
   }
 }
 
