@@ -218,5 +218,39 @@ TEST_F(CliRender, EngineModesAndUnknownField) {
   EXPECT_NE(r.out.find("nosuch"), std::string::npos) << r.out;
 }
 
+// The level-of-detail engine end to end: `ugvr build` then `ugvr render STORE` (the engine chosen by the extension),
+// against the exact engine's image of the same mesh with the same camera and transfer function.
+TEST_F(CliRender, LodEngineRendersABrickStore) {
+  const std::string store = file("mixed.ugvr");
+  const CommandResult b = run_ugvr("build " + data() + " --fields pressure --brick 8 --max-depth 3 -o " + store);
+  ASSERT_EQ(b.status, 0) << b.out;
+  const std::string view = " --size 48 --view iso --save-camera " + file("cam.json");
+  const CommandResult r = run_ugvr("render " + store + " -o " + file("lod.pfm") + view + " --cut leaves --stats " +
+                                   file("s.json") + " --save-tf " + file("tf.json"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  const json s = json::parse(read_bytes(file("s.json")));
+  EXPECT_EQ(s["engine"], "lod");
+  EXPECT_EQ(s["cut"], "leaves");
+  EXPECT_GT(s["cut_nodes"].get<uint64_t>(), 1u);
+  EXPECT_GT(s["samples"].get<uint64_t>(), 0u);
+  EXPECT_FALSE(s["renderer"].get<std::string>().empty());
+  EXPECT_EQ(s["field"], "pressure");
+  render_ok("-o " + file("exact.pfm") + " --size 48 --camera " + file("cam.json") + " --tf " + file("tf.json"));
+  EXPECT_GE(compare_images(read_pfm(file("lod.pfm")), read_pfm(file("exact.pfm"))).psnr_db, 30.0);
+
+  const std::pair<std::string, std::string> bad[] = {
+      {"--cut nodes:3", "--cut"}, {"--cut pixels:0", "--cut"}, {"--engine exact", "--engine"},
+      {"--gpu 99", "--gpu"},      {"--field nope", "--field"}, {"--step-voxels 0", "--step-voxels"}};
+  for (const auto& [flags, name] : bad) {
+    const CommandResult e = run_ugvr("render " + store + " -o " + file("x.png") + " " + flags);
+    EXPECT_EQ(e.status, 1) << flags << "\n" << e.out;
+    EXPECT_NE(e.out.find(name), std::string::npos) << flags << "\n" << e.out;
+  }
+  // A mesh is not a brick store.
+  const CommandResult m = render("-o " + file("x.png") + " --engine lod");
+  EXPECT_EQ(m.status, 1);
+  EXPECT_NE(m.out.find(".ugvr"), std::string::npos) << m.out;
+}
+
 }  // namespace
 }  // namespace ugvr
