@@ -25,7 +25,18 @@ layout(std430, binding = 5) buffer Counters { uint counters[]; };
 
 const uint DESCEND = 0xFFFFFFFEu;
 const uint SKIP = 0xFFFFFFFFu;
-const int MODE_EA = 0, MODE_MIP = 1, MODE_ISO = 2;
+// Modes, as preprocessor values so that #if can test them (an undefined name would read as 0 there).
+#define MODE_EA 0
+#define MODE_MIP 1
+#define MODE_ISO 2
+// Compile-time choices (the engine compiles one program per combination it meets): on llvmpipe every branch of the
+// sample loop costs its full price whatever a uniform says, so code a frame does not need must not be there.
+#ifndef MODE
+#define MODE MODE_EA
+#endif
+#ifndef VOLUME_LIGHTING
+#define VOLUME_LIGHTING 0
+#endif
 const int MAX_ISO = 16;
 
 uniform ivec2 u_size;
@@ -42,12 +53,10 @@ uniform bool u_fixed_step;          // one world step at every level
 uniform vec2 u_tf_map;              // TF coordinate = value · x + y (value normalised to the field range)
 uniform float u_tf_texels;
 uniform float u_unit_distance;
-uniform int u_mode;
 uniform int u_iso_count;
 uniform float u_iso[MAX_ISO];       // normalised values, ascending
 uniform float u_iso_opacity;
 uniform bool u_lighting;
-uniform bool u_volume_lighting;
 uniform float u_min_transmittance;  // 1 - early termination opacity
 uniform bool u_clip;
 uniform vec4 u_clip_plane;          // keep dot(xyz, p) + w >= 0, normalised coordinates
@@ -167,21 +176,26 @@ void main() {
         have_prev = false;
         continue;
       }
-      if (u_mode == MODE_EA) {
+#if MODE == MODE_EA
+      {
         vec4 tf = tf_at(v.r);
         float a = 1.0 - exp(-tf.a * len);
         float shade = 1.0;
-        if (u_volume_lighting && a > 0.0) {
+#if VOLUME_LIGHTING
+        if (a > 0.0) {
           vec3 g = gradient_at(c, voxel);
           float gl = length(g);
           if (gl > 0.0) shade = AMBIENT + DIFFUSE * abs(dot(g, dir_world)) / gl;
         }
+#endif
         radiance += transmittance * a * shade * tf.rgb;
         transmittance *= 1.0 - a;
         if (transmittance <= u_min_transmittance) break;
-      } else if (u_mode == MODE_MIP) {
-        mip_max = max(mip_max, v.r);
-      } else {
+      }
+#elif MODE == MODE_MIP
+      mip_max = max(mip_max, v.r);
+#else
+      {
         if (have_prev && v.r != prev_value) {
           bool up = v.r > prev_value;
           for (int i = 0; i < u_iso_count; ++i) {
@@ -199,19 +213,20 @@ void main() {
         prev_t = tm;
         if (transmittance <= u_min_transmittance) break;
       }
+#endif
     }
     t = t_exit;
   }
 
   vec4 result = vec4(radiance, transmittance);
-  if (u_mode == MODE_MIP) {
-    result = vec4(0.0, 0.0, 0.0, 1.0);
-    if (mip_max >= 0.0) {
-      vec4 tf = tf_at(mip_max);
-      float a = 1.0 - exp(-tf.a * u_unit_distance);
-      result = vec4(tf.rgb * a, 1.0 - a);
-    }
+#if MODE == MODE_MIP
+  result = vec4(0.0, 0.0, 0.0, 1.0);
+  if (mip_max >= 0.0) {
+    vec4 tf = tf_at(mip_max);
+    float a = 1.0 - exp(-tf.a * u_unit_distance);
+    result = vec4(tf.rgb * a, 1.0 - a);
   }
+#endif
   imageStore(u_out, pix, result);
   atomicAdd(counters[0], samples);
   atomicAdd(counters[1], bricks);

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <unordered_map>
 
 #include "ugvr/core/error.h"
@@ -36,7 +37,8 @@ struct LodEngine::Impl {
   const GlContext& gl;
   LodOptions options;
   uint32_t field = 0;
-  ComputeProgram program;
+  std::map<std::pair<int, bool>, ComputeProgram> programs;  // by (mode, volume lighting): compile-time variants
+  ComputeProgram& program_for(int mode, bool volume_lighting);
   GlBuffer tree, state, counters;
   GlTexture tf_texture, out_texture;
   int out_w = 0, out_h = 0;
@@ -50,6 +52,16 @@ struct LodEngine::Impl {
   void ensure_atlas(uint64_t needed);
   uint64_t load(const std::vector<uint64_t>& nodes);
 };
+
+ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting) {
+  auto it = programs.find({mode, volume_lighting});
+  if (it == programs.end()) {
+    ComputeProgram p("lod_raycast.comp",
+                     {{"MODE", std::to_string(mode)}, {"VOLUME_LIGHTING", volume_lighting ? "1" : "0"}});
+    it = programs.emplace(std::make_pair(mode, volume_lighting), std::move(p)).first;
+  }
+  return it->second;
+}
 
 uint64_t LodEngine::Impl::budget_slots() const {
   const uint64_t side = store.resolution() + 2;
@@ -121,7 +133,7 @@ LodEngine::LodEngine(const std::string& store_path, const GlContext& gl, LodOpti
   if (I.store.resolution() < 2) fail_in(store_path, "brick resolution below 2");
   if (I.store.node_count() >= kDescend) fail_in(store_path, "too many nodes for the GPU node table (2^32 - 2)");
   gl.make_current();
-  I.program = ComputeProgram("lod_raycast.comp");
+  I.program_for(0, false);  // compile errors surface here, not at the first frame
   // The octree, static: first child and child mask | level << 8 per node.
   std::vector<uint32_t> tree(I.store.node_count() * 2);
   for (uint64_t n = 0; n < I.store.node_count(); ++n) {
@@ -228,56 +240,54 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   const Bounds& root = I.store.layout().root;
   const Vec3d root_size = root.size();
   const CameraRays rays(camera, w, h);
-  const GLuint p = I.program.id();
-  glUseProgram(p);
+  const int mode = settings.mode == RenderMode::Mip ? 1 : settings.mode == RenderMode::Isosurface ? 2 : 0;
+  const ComputeProgram& program = I.program_for(mode, mode == 0 && settings.volume_lighting);
+  glUseProgram(program.id());
   auto vec3f = [&](const char* name, Vec3d v) {
-    glUniform3f(I.program.uniform(name), float(v.x), float(v.y), float(v.z));
+    glUniform3f(program.uniform(name), float(v.x), float(v.y), float(v.z));
   };
-  glUniform2i(I.program.uniform("u_size"), w, h);
+  glUniform2i(program.uniform("u_size"), w, h);
   const Vec3d eye = camera.position - root.lo;
   vec3f("u_eye", {eye.x / root_size.x, eye.y / root_size.y, eye.z / root_size.z});
   vec3f("u_forward", rays.forward());
   vec3f("u_right", rays.right());
   vec3f("u_up", rays.up());
-  glUniform2f(I.program.uniform("u_half"), float(rays.half_width()), float(rays.half_height()));
-  glUniform1i(I.program.uniform("u_parallel"), camera.parallel_projection ? 1 : 0);
+  glUniform2f(program.uniform("u_half"), float(rays.half_width()), float(rays.half_height()));
+  glUniform1i(program.uniform("u_parallel"), camera.parallel_projection ? 1 : 0);
   vec3f("u_root_size", root_size);
-  glUniform1i(I.program.uniform("u_resolution"), int(I.store.resolution()));
+  glUniform1i(program.uniform("u_resolution"), int(I.store.resolution()));
   const int* slots = I.atlas.slots_per_axis();
   const int* texels = I.atlas.texels_per_axis();
-  glUniform3i(I.program.uniform("u_slots"), slots[0], slots[1], slots[2]);
-  glUniform3f(I.program.uniform("u_atlas_inv"), 1.0f / float(texels[0]), 1.0f / float(texels[1]),
+  glUniform3i(program.uniform("u_slots"), slots[0], slots[1], slots[2]);
+  glUniform3f(program.uniform("u_atlas_inv"), 1.0f / float(texels[0]), 1.0f / float(texels[1]),
               1.0f / float(texels[2]));
   const double min_side = std::min({root_size.x, root_size.y, root_size.z});
   const bool fixed_step = settings.sample_step > 0;
   const double step0 =
       fixed_step ? settings.sample_step : I.options.step_voxels * min_side / double(I.store.resolution() - 1);
-  glUniform1f(I.program.uniform("u_step0"), float(step0));
-  glUniform1i(I.program.uniform("u_fixed_step"), fixed_step ? 1 : 0);
-  glUniform2f(I.program.uniform("u_tf_map"), map_x, map_y);
-  glUniform1f(I.program.uniform("u_tf_texels"), float(kTfTexels));
-  glUniform1f(I.program.uniform("u_unit_distance"), float(tf.opacity_unit_distance));
-  const int mode = settings.mode == RenderMode::Mip ? 1 : settings.mode == RenderMode::Isosurface ? 2 : 0;
-  glUniform1i(I.program.uniform("u_mode"), mode);
+  glUniform1f(program.uniform("u_step0"), float(step0));
+  glUniform1i(program.uniform("u_fixed_step"), fixed_step ? 1 : 0);
+  glUniform2f(program.uniform("u_tf_map"), map_x, map_y);
+  glUniform1f(program.uniform("u_tf_texels"), float(kTfTexels));
+  glUniform1f(program.uniform("u_unit_distance"), float(tf.opacity_unit_distance));
   std::vector<float> iso;
   for (double v : settings.iso_values) iso.push_back(f_hi > f_lo ? float((v - f_lo) / (f_hi - f_lo)) : 0.0f);
   std::sort(iso.begin(), iso.end());
-  glUniform1i(I.program.uniform("u_iso_count"), int(iso.size()));
-  if (!iso.empty()) glUniform1fv(I.program.uniform("u_iso"), GLsizei(iso.size()), iso.data());
-  glUniform1f(I.program.uniform("u_iso_opacity"), float(settings.iso_opacity));
-  glUniform1i(I.program.uniform("u_lighting"), settings.lighting ? 1 : 0);
-  glUniform1i(I.program.uniform("u_volume_lighting"), settings.volume_lighting ? 1 : 0);
-  glUniform1f(I.program.uniform("u_min_transmittance"), float(1 - settings.early_termination_opacity));
-  glUniform1i(I.program.uniform("u_clip"), settings.clip_plane ? 1 : 0);
+  glUniform1i(program.uniform("u_iso_count"), int(iso.size()));
+  if (!iso.empty()) glUniform1fv(program.uniform("u_iso"), GLsizei(iso.size()), iso.data());
+  glUniform1f(program.uniform("u_iso_opacity"), float(settings.iso_opacity));
+  glUniform1i(program.uniform("u_lighting"), settings.lighting ? 1 : 0);
+  glUniform1f(program.uniform("u_min_transmittance"), float(1 - settings.early_termination_opacity));
+  glUniform1i(program.uniform("u_clip"), settings.clip_plane ? 1 : 0);
   if (settings.clip_plane) {
     const Vec3d n = settings.clip_plane->normal;
     const Vec3d np{n.x * root_size.x, n.y * root_size.y, n.z * root_size.z};
     const double w0 = dot(root.lo - settings.clip_plane->point, n);
     const double scale = 1 / length(np);
-    glUniform4f(I.program.uniform("u_clip_plane"), float(np.x * scale), float(np.y * scale), float(np.z * scale),
+    glUniform4f(program.uniform("u_clip_plane"), float(np.x * scale), float(np.y * scale), float(np.z * scale),
                 float(w0 * scale));
   }
-  glUniform1f(I.program.uniform("u_nudge"), float(2e-6 * std::max({root_size.x, root_size.y, root_size.z})));
+  glUniform1f(program.uniform("u_nudge"), float(2e-6 * std::max({root_size.x, root_size.y, root_size.z})));
 
   glBindImageTexture(0, I.out_texture.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
   glBindTextureUnit(1, I.atlas.texture());
@@ -287,8 +297,8 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   const uint32_t zero[2] = {0, 0};
   I.counters.upload(zero, sizeof zero);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, I.counters.id());
-  glUniform1i(I.program.uniform("u_atlas"), 1);
-  glUniform1i(I.program.uniform("u_tf"), 2);
+  glUniform1i(program.uniform("u_atlas"), 1);
+  glUniform1i(program.uniform("u_tf"), 2);
   glFinish();
   const auto t2 = std::chrono::steady_clock::now();
   glDispatchCompute(GLuint((w + kWorkgroup - 1) / kWorkgroup), GLuint((h + kWorkgroup - 1) / kWorkgroup), 1);
