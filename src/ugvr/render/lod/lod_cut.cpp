@@ -1,99 +1,21 @@
 #include "ugvr/render/lod/lod_cut.h"
 
 #include <algorithm>
-#include <array>
 #include <bit>
 #include <charconv>
 #include <cmath>
-#include <numbers>
 #include <queue>
 #include <system_error>
 
 #include "ugvr/core/error.h"
+#include "ugvr/render/lod/view_metrics.h"
 
 namespace ugvr {
 namespace {
 
-constexpr double kDegree = std::numbers::pi / 180.0;
-
 [[noreturn]] void fail_spec(std::string_view text, std::string_view message) {
   fail_in("cut spec \"" + std::string(text) + "\"", message);
 }
-
-// max over the box of dot(p - origin, n): the corner furthest along n.
-double max_over_box(const Bounds& b, Vec3d origin, Vec3d n) {
-  double s = 0;
-  for (int a = 0; a < 3; ++a) s += n[a] * ((n[a] >= 0 ? b.hi[a] : b.lo[a]) - origin[a]);
-  return s;
-}
-
-// min over the box of dot(p - origin, n).
-double min_over_box(const Bounds& b, Vec3d origin, Vec3d n) {
-  double s = 0;
-  for (int a = 0; a < 3; ++a) s += n[a] * ((n[a] >= 0 ? b.lo[a] : b.hi[a]) - origin[a]);
-  return s;
-}
-
-// The view as the culling and the pixel criterion need it.
-struct View {
-  bool parallel = false;
-  Vec3d eye, forward;
-  double half_height = 1;  // tan(view_angle / 2) (perspective) or parallel_scale (parallel)
-  double height = 1;       // pixels
-  double min_depth = 0;    // clamp of the perspective distance
-  // Half-spaces dot(p - eye, normal) + offset >= 0 whose intersection is the frustum.
-  struct Plane {
-    Vec3d normal;
-    double offset = 0;
-  };
-  std::array<Plane, 5> planes;
-
-  View(const Camera& camera, int width, int h, const Bounds& root) {
-    if (!(length(camera.focal_point - camera.position) > 0)) fail_in("lod cut", "camera position equals focal point");
-    if (camera.parallel_projection) {
-      if (!(camera.parallel_scale > 0 && std::isfinite(camera.parallel_scale)))
-        fail_in("lod cut", "parallel scale must be positive");
-    } else if (!(camera.view_angle > 0 && camera.view_angle < 180)) {
-      fail_in("lod cut", "view angle must be in (0, 180) degrees");
-    }
-    const CameraRays rays(camera, width, h);  // checks the image size; the frame the renderer uses
-    const Vec3d right = rays.right(), up = rays.up();
-    if (!(std::abs(length(right) - 1) < 1e-6)) fail_in("lod cut", "view up is parallel to the view direction");
-    parallel = camera.parallel_projection;
-    eye = camera.position;
-    forward = rays.forward();
-    half_height = parallel ? camera.parallel_scale : std::tan(0.5 * camera.view_angle * kDegree);
-    const double half_width = half_height * double(width) / double(h);
-    height = h;
-    const Vec3d s = root.size();
-    min_depth = 1e-9 * std::max(length(s), 1e-300);
-    planes[0] = {forward, 0};  // nothing behind the camera plane is drawn, in either projection
-    if (parallel) {
-      planes[1] = {right * -1.0, half_width};
-      planes[2] = {right, half_width};
-      planes[3] = {up * -1.0, half_height};
-      planes[4] = {up, half_height};
-    } else {
-      planes[1] = {forward * half_width - right, 0};
-      planes[2] = {forward * half_width + right, 0};
-      planes[3] = {forward * half_height - up, 0};
-      planes[4] = {forward * half_height + up, 0};
-    }
-  }
-
-  bool outside(const Bounds& box) const {
-    for (const Plane& p : planes)
-      if (max_over_box(box, eye, p.normal) + p.offset < 0) return true;
-    return false;
-  }
-
-  // Pixels covered by a length h at the node's nearest depth.
-  double pixels(const Bounds& box, double h) const {
-    if (parallel) return h / (2 * half_height) * height;
-    const double d = std::max(min_depth, min_over_box(box, eye, forward));
-    return h / (2 * d * half_height) * height;
-  }
-};
 
 enum class Verdict { Empty, FrustumCulled, TfCulled, Forced, Keep };
 
@@ -105,12 +27,11 @@ struct Expansion {
 
 class Selector {
  public:
-  Selector(const BrickStoreReader& store, const CutSpec& spec, const View& view, const TransferFunction& tf,
+  Selector(const BrickStoreReader& store, const CutSpec& spec, const ViewMetrics& view, const TransferFunction& tf,
            const CutOptions& options)
       : store_(store), spec_(spec), view_(view), tf_(tf), options_(options) {
     const BrickStoreField& f = store.layout().fields[options.field];
     error_threshold_ = spec.value * (f.max - f.min);
-    voxel_ = 1.0 / double(store.resolution() - 1);
   }
 
   Verdict classify(uint64_t id) const {
@@ -149,9 +70,7 @@ class Selector {
     if (spec_.kind == CutSpec::Kind::Error) {
       p = store_.stats(id, options_.field).error_max;
     } else {
-      const Bounds box = store_.bounds(id);
-      const Vec3d s = box.size();
-      p = view_.pixels(box, std::max({s.x, s.y, s.z}) * voxel_);
+      p = view_.texel_pixels(store_.bounds(id), store_.resolution());
     }
     if (std::isnan(p)) p = std::numeric_limits<double>::infinity();  // unknown: refine, first
     switch (spec_.kind) {
@@ -165,11 +84,10 @@ class Selector {
  private:
   const BrickStoreReader& store_;
   const CutSpec& spec_;
-  const View& view_;
+  const ViewMetrics& view_;
   const TransferFunction& tf_;
   const CutOptions& options_;
   double error_threshold_ = 0;
-  double voxel_ = 1;
 };
 
 struct Entry {
@@ -237,7 +155,7 @@ Cut select_cut(const BrickStoreReader& store, const CutSpec& spec, const Camera&
     fail_in("lod cut", "cut spec " + cut_spec_name(spec) + ": the error must be finite and >= 0");
   if (spec.kind == CutSpec::Kind::Pixels && !(spec.value > 0 && std::isfinite(spec.value)))
     fail_in("lod cut", "cut spec " + cut_spec_name(spec) + ": the pixel size must be finite and > 0");
-  const View view(camera, width, height, store.layout().root);
+  const ViewMetrics view(camera, width, height, store.layout().root);
   const Selector selector(store, spec, view, tf, options);
 
   Cut cut;
