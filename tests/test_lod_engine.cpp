@@ -23,6 +23,7 @@
 #include "ugvr/lod/octree_builder.h"
 #include "ugvr/render/exact/exact_engine.h"
 #include "ugvr/render/image.h"
+#include "ugvr/render/lod/brick_cache.h"
 #include "ugvr/render/lod/lod_cut.h"
 #include "ugvr/render/lod/lod_engine.h"
 
@@ -298,6 +299,38 @@ TEST(LodEngine, CorruptBrickIsAnErrorNotAnImage) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("corrupt.ugvr"), std::string::npos) << e.what();
   }
+}
+
+// The time-critical path: the caller's cut, bricks from the RAM cache (background loads), the same image as the
+// engine's own cut with bricks read synchronously.
+TEST(LodEngine, CallersCutWithCachedBricksMatchesItsOwnCut) {
+  REQUIRE_GL();
+  const Shared& s = shared();
+  const InsideView v = inside_view(false);
+  const TransferFunction tf = linear_tf(-1, 1, 0.4);
+  LodEngine a(s.store, *s.gl);
+  a.set_field("wave");
+  LodRenderStats st;
+  const Image own = a.render(v.camera, tf, v.settings, CutSpec{CutSpec::Kind::Leaves, 0}, &st);
+
+  const BrickStoreReader store(s.store);
+  const uint32_t field = uint32_t(store.field_index("wave"));
+  const Cut cut = select_cut(store, CutSpec{CutSpec::Kind::Leaves, 0}, v.camera, v.settings.width, v.settings.height,
+                             tf, CutOptions{field});
+  BrickCache cache(store, field, uint64_t(64) << 20, 2);
+  std::vector<std::pair<uint64_t, float>> wanted;
+  for (uint64_t n : cut.nodes) wanted.push_back({n, 1.0f});
+  cache.request(wanted);
+  ASSERT_TRUE(cache.wait_all(30));
+  LodEngine b(s.store, *s.gl);
+  b.set_field("wave");
+  const Image theirs = b.render_nodes(v.camera, tf, v.settings, cut.nodes, [&](uint64_t n) { return cache.get(n); });
+  EXPECT_EQ(compare_images(own, theirs).max_abs, 0.0);
+  EXPECT_TRUE(b.in_atlas(cut.nodes[0]));
+  // A brick the source cannot give is the caller's error, not a hole in the image.
+  LodEngine c(s.store, *s.gl);
+  c.set_field("wave");
+  EXPECT_THROW(c.render_nodes(v.camera, tf, v.settings, cut.nodes, [](uint64_t) { return nullptr; }), Error);
 }
 
 TEST(GlPrograms, DriverLogsNameTheFileAndLine) {

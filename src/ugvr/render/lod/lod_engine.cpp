@@ -46,11 +46,13 @@ struct LodEngine::Impl {
   bool have_atlas = false;
   std::unordered_map<uint64_t, uint64_t> resident;  // node -> slot
   std::vector<uint64_t> slot_owner;                 // slot -> node (kNoNode: free)
+  std::vector<uint64_t> slot_frame;                 // slot -> last frame that drew it (LRU eviction)
+  uint64_t frame = 0;
 
   Impl(const std::string& path, const GlContext& g, LodOptions o) : store(path), gl(g), options(o) {}
   uint64_t budget_slots() const;
   void ensure_atlas(uint64_t needed);
-  uint64_t load(const std::vector<uint64_t>& nodes);
+  uint64_t load(std::span<const uint64_t> nodes, const TexelSource& source);
 };
 
 ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting) {
@@ -79,47 +81,60 @@ void LodEngine::Impl::ensure_atlas(uint64_t needed) {
   have_atlas = true;
   resident.clear();
   slot_owner.assign(atlas.capacity(), kNoNode);
+  slot_frame.assign(atlas.capacity(), 0);
 }
 
-// Gives every cut node a slot, keeping resident ones where they are, and loads the missing bricks.
-uint64_t LodEngine::Impl::load(const std::vector<uint64_t>& nodes) {
-  std::vector<uint8_t> used(atlas.capacity(), 0);
+// Gives every cut node a slot, keeping resident ones where they are, and loads the missing bricks: free slots first,
+// then those of the bricks drawn least recently.
+uint64_t LodEngine::Impl::load(std::span<const uint64_t> nodes, const TexelSource& source) {
+  ++frame;
   std::vector<uint64_t> missing;
   for (uint64_t n : nodes) {
     auto it = resident.find(n);
     if (it != resident.end())
-      used[it->second] = 1;
+      slot_frame[it->second] = frame;
     else
       missing.push_back(n);
   }
   if (missing.empty()) return 0;
-  // Free slots first, then those of bricks the cut no longer needs.
   std::vector<uint64_t> slots;
-  for (uint64_t s = 0; s < used.size() && slots.size() < missing.size(); ++s)
-    if (!used[s] && slot_owner[s] == kNoNode) slots.push_back(s);
-  for (uint64_t s = 0; s < used.size() && slots.size() < missing.size(); ++s)
-    if (!used[s] && slot_owner[s] != kNoNode) slots.push_back(s);
+  for (uint64_t s = 0; s < slot_owner.size(); ++s)
+    if (slot_frame[s] != frame) slots.push_back(s);
   if (slots.size() < missing.size()) fail_in("lod engine", "internal: the atlas is smaller than the cut");
+  // Never-used slots have frame 0 and come first.
+  std::partial_sort(
+      slots.begin(), slots.begin() + std::ptrdiff_t(missing.size()), slots.end(),
+      [&](uint64_t a, uint64_t b) { return slot_frame[a] != slot_frame[b] ? slot_frame[a] < slot_frame[b] : a < b; });
 
   const uint32_t r = store.resolution();
   const size_t n3 = size_t(r) * r * r;
   const double lo = store.layout().fields[field].min, hi = store.layout().fields[field].max;
   std::vector<std::vector<uint16_t>> texels(kLoadBatch);
+  std::vector<std::shared_ptr<const std::vector<uint16_t>>> given(kLoadBatch);
   for (size_t b = 0; b < missing.size(); b += kLoadBatch) {
     const size_t count = std::min(kLoadBatch, missing.size() - b);
-    tbb::parallel_for(size_t(0), count, [&](size_t i) {
-      thread_local std::vector<float> samples;
-      thread_local std::vector<uint8_t> mask;
-      samples.resize(n3);
-      mask.resize(n3);
-      store.read_brick(missing[b + i], field, samples.data(), mask.data());
-      make_atlas_slot(r, samples.data(), mask.data(), lo, hi, texels[i]);
-    });
+    if (source) {
+      for (size_t i = 0; i < count; ++i) {
+        given[i] = source(missing[b + i]);
+        if (!given[i])
+          fail_in("lod engine", "the brick of node " + std::to_string(missing[b + i]) + " is not available");
+      }
+    } else {
+      tbb::parallel_for(size_t(0), count, [&](size_t i) {
+        thread_local std::vector<float> samples;
+        thread_local std::vector<uint8_t> mask;
+        samples.resize(n3);
+        mask.resize(n3);
+        store.read_brick(missing[b + i], field, samples.data(), mask.data());
+        make_atlas_slot(r, samples.data(), mask.data(), lo, hi, texels[i]);
+      });
+    }
     for (size_t i = 0; i < count; ++i) {
       const uint64_t slot = slots[b + i], node = missing[b + i];
       if (slot_owner[slot] != kNoNode) resident.erase(slot_owner[slot]);
-      atlas.upload(slot, texels[i].data());
+      atlas.upload(slot, source ? given[i]->data() : texels[i].data());
       slot_owner[slot] = node;
+      slot_frame[slot] = frame;
       resident[node] = slot;
     }
   }
@@ -164,6 +179,7 @@ void LodEngine::set_field(std::string_view name) {
     I.field = uint32_t(f);
     I.resident.clear();
     std::fill(I.slot_owner.begin(), I.slot_owner.end(), kNoNode);
+    std::fill(I.slot_frame.begin(), I.slot_frame.end(), 0);
   }
 }
 
@@ -177,32 +193,53 @@ uint32_t LodEngine::resolution() const { return impl_->store.resolution(); }
 Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
                         const CutSpec& cut_spec, LodRenderStats* stats) {
   Impl& I = *impl_;
-  settings.validate("render settings");
-  tf.validate("transfer function");
-  if (settings.iso_values.size() > size_t(kMaxIso))
-    fail_in("lod engine", "at most " + std::to_string(kMaxIso) + " isosurface values");
   const auto t0 = std::chrono::steady_clock::now();
   LodRenderStats st;
-  I.gl.make_current();
-
   // The cut, within what the atlas may hold.
   CutOptions co;
   co.field = I.field;
   co.max_nodes = I.budget_slots();
   const Cut cut = select_cut(I.store, cut_spec, camera, settings.width, settings.height, tf, co);
   st.cut_seconds = seconds_since(t0);
+  const Image image = render_nodes(camera, tf, settings, cut.nodes, {}, &st);
   st.cut_nodes = cut.nodes.size();
   st.culled_frustum = cut.culled_frustum;
   st.culled_tf = cut.culled_tf;
   st.budget_limited = cut.budget_limited;
   st.max_level = cut.max_level;
   st.mean_level = cut.mean_level;
+  st.render_seconds = seconds_since(t0);
+  if (stats) *stats = st;
+  return image;
+}
+
+bool LodEngine::in_atlas(uint64_t node) const { return impl_->resident.count(node) != 0; }
+uint64_t LodEngine::atlas_budget_bricks() const { return impl_->budget_slots(); }
+
+Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
+                              std::span<const uint64_t> nodes, const TexelSource& source, LodRenderStats* stats) {
+  Impl& I = *impl_;
+  settings.validate("render settings");
+  tf.validate("transfer function");
+  if (settings.iso_values.size() > size_t(kMaxIso))
+    fail_in("lod engine", "at most " + std::to_string(kMaxIso) + " isosurface values");
+  if (nodes.size() > I.budget_slots())
+    fail_in("lod engine", "a cut of " + std::to_string(nodes.size()) + " bricks exceeds the atlas budget of " +
+                              std::to_string(I.budget_slots()) + " (--gpu-memory)");
+  const auto t0 = std::chrono::steady_clock::now();
+  LodRenderStats st;
+  if (stats) st = *stats;  // render() passes its cut figures through
+  I.gl.make_current();
+  for (uint64_t n : nodes)
+    if (n >= I.store.node_count() || !I.store.node(n).has_brick())
+      fail_in("lod engine", "node " + std::to_string(n) + " is not a node with a brick");
+  st.cut_nodes = nodes.size();
 
   const auto t1 = std::chrono::steady_clock::now();
-  I.ensure_atlas(cut.nodes.size());
-  st.bricks_loaded = I.load(cut.nodes);
+  I.ensure_atlas(nodes.size());
+  st.bricks_loaded = I.load(nodes, source);
   std::vector<uint32_t> state(I.store.node_count(), kSkip);
-  for (uint64_t n : cut.nodes) {
+  for (uint64_t n : nodes) {
     state[n] = uint32_t(I.resident.at(n));
     for (uint64_t p = I.store.node(n).parent; p != kNoNode && state[p] != kDescend; p = I.store.node(p).parent)
       state[p] = kDescend;
@@ -321,7 +358,7 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
     composite_pixel(image.rgba.data() + 4 * i, radiance, raw[4 * i + 3], settings.background);
   }
   st.readback_seconds = seconds_since(t3);
-  st.render_seconds = seconds_since(t0);
+  st.render_seconds = seconds_since(t0) + st.cut_seconds;
   if (stats) *stats = st;
   return image;
 }

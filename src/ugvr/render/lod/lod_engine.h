@@ -11,9 +11,12 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "ugvr/core/vec.h"
 #include "ugvr/gpu/gl_context.h"
@@ -67,6 +70,20 @@ class LodEngine {
   // world step at every level, 0 the options' step_voxels per node; boundary_overlay_opacity is not supported.
   Image render(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings, const CutSpec& cut,
                LodRenderStats* stats = nullptr);
+
+  // Where the bricks of nodes not yet in the atlas come from: the texels make_atlas_slot builds (brick_atlas.h), or
+  // null when the brick is not available (an error: the caller's cut must only name available bricks).
+  using TexelSource = std::function<std::shared_ptr<const std::vector<uint16_t>>(uint64_t node)>;
+  // Renders exactly `nodes`, a cut chosen by the caller (the time-critical controller): they must cover the data at
+  // most once. Bricks not in the atlas come from `source`, or are read from the store here when `source` is empty.
+  // The atlas keeps bricks across frames and evicts the least recently drawn first. Throws ugvr::Error when the cut
+  // does not fit the atlas budget.
+  Image render_nodes(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
+                     std::span<const uint64_t> nodes, const TexelSource& source = {}, LodRenderStats* stats = nullptr);
+  // Whether node's brick is in the atlas now (for the controller: drawing it costs no upload).
+  bool in_atlas(uint64_t node) const;
+  // Bricks the atlas may hold within the options' budget.
+  uint64_t atlas_budget_bricks() const;
 
   Bounds bounds() const;  // the dataset's bounds
   uint64_t node_count() const;
