@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -250,6 +251,33 @@ TEST_F(CliRender, LodEngineRendersABrickStore) {
   const CommandResult m = render("-o " + file("x.png") + " --engine lod");
   EXPECT_EQ(m.status, 1);
   EXPECT_NE(m.out.find(".ugvr"), std::string::npos) << m.out;
+}
+
+// Time-critical rendering along a path: one stats line per frame; once the camera rests the image converges to the
+// full-quality single image of the same view.
+TEST_F(CliRender, LodPathConvergesWhenTheCameraRests) {
+  const std::string store = file("mixed.ugvr");
+  ASSERT_EQ(run_ugvr("build " + data() + " --fields pressure --brick 8 --max-depth 3 -o " + store).status, 0);
+  const std::string view = " --size 48 --view iso";
+  const CommandResult r =
+      run_ugvr("render " + store + view + " --fps 1000 --path orbit:6,rest:30 --uploads-per-frame 4 -o " +
+               file("path.pfm") + " --stats " + file("path.jsonl") + " --out " + file("frames"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  std::ifstream in(file("path.jsonl"));
+  std::vector<json> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(json::parse(line));
+  ASSERT_EQ(lines.size(), 36u);
+  EXPECT_TRUE(std::filesystem::exists(file("frames/frame_00035.png")));
+  EXPECT_FALSE(lines[3]["resting"].get<bool>());
+  EXPECT_TRUE(lines.back()["resting"].get<bool>());
+  EXPECT_TRUE(lines.back()["converged"].get<bool>()) << lines.back().dump();
+  for (const json& l : lines) EXPECT_LE(l["uploads"].get<uint64_t>(), 64u);  // a split's children at most (R 8: 8)
+  ASSERT_EQ(run_ugvr("render " + store + view + " --cut pixels:1 -o " + file("still.pfm")).status, 0);
+  EXPECT_GE(compare_images(read_pfm(file("path.pfm")), read_pfm(file("still.pfm"))).psnr_db, 40.0);
+  // The path needs the lod engine.
+  const CommandResult e = render("-o " + file("x.png") + " --path orbit:3");
+  EXPECT_EQ(e.status, 1);
+  EXPECT_NE(e.out.find("--path"), std::string::npos) << e.out;
 }
 
 }  // namespace

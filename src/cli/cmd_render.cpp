@@ -11,6 +11,7 @@
 #include <ctime>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <optional>
 
 #include "cli/commands.h"
@@ -25,6 +26,7 @@
 #include "ugvr/render/exact/exact_engine.h"
 #include "ugvr/render/image.h"
 #include "ugvr/render/lod/lod_engine.h"
+#include "ugvr/render/lod/time_critical.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/transfer_function.h"
 
@@ -38,8 +40,9 @@ struct Options {
   ReadOptions read;
   std::string output, size, engine = "auto", camera, view, view_angle, tf, tf_name, range, unit_distance, field, mode,
                             iso, iso_opacity, clip, boundary_opacity, background, settings, float_output, stats,
-                            save_camera, save_tf, threads, frames, cut = "pixels:1", gpu = "auto", step_voxels;
-  uint64_t gpu_memory = uint64_t(2) << 30;
+                            save_camera, save_tf, threads, frames, cut = "pixels:1", gpu = "auto", step_voxels, fps,
+                            path, out_dir, uploads_per_frame, reads_per_frame;
+  uint64_t gpu_memory = uint64_t(2) << 30, ram_memory = uint64_t(1) << 30;
   bool keep_range = false, no_lighting = false, volume_lighting = false;
 };
 
@@ -209,7 +212,42 @@ struct EngineRun {
   std::function<Image(const Camera&, const TransferFunction&, const RenderSettings&, double&)> render;
   std::function<void(nlohmann::json&)> add_stats;  // engine-specific --stats keys
   std::function<std::string()> summary;            // engine-specific part of the progress line
+  // Time-critical rendering along a camera path (lod only; empty otherwise).
+  std::function<void(const Camera&, const TransferFunction&, const RenderSettings&)> run_path;
 };
+
+// "orbit:N[,rest:M]": N frames around the focal point about view_up (a full turn), then M frames back at the start; or
+// a JSON file holding a list of cameras (camera.h's form), one frame each.
+std::vector<Camera> camera_path(const std::string& spec, const Camera& start) {
+  std::vector<Camera> path;
+  if (spec.rfind("orbit:", 0) == 0) {
+    std::string n_text = spec.substr(6), rest_text;
+    if (const size_t comma = n_text.find(','); comma != std::string::npos) {
+      rest_text = n_text.substr(comma + 1);
+      n_text = n_text.substr(0, comma);
+      if (rest_text.rfind("rest:", 0) != 0) fail_flag("--path", "expected orbit:N or orbit:N,rest:M");
+      rest_text = rest_text.substr(5);
+    }
+    const int n = parse_positive_int(n_text, "--path");
+    const int rest = rest_text.empty() ? 0 : parse_positive_int(rest_text, "--path");
+    const Vec3d axis = normalized(start.view_up);
+    for (int i = 0; i < n; ++i) {
+      const double a = 2 * 3.14159265358979323846 * double(i) / double(n);
+      const Vec3d v = start.position - start.focal_point;
+      // Rodrigues: v cos a + (k x v) sin a + k (k . v)(1 - cos a)
+      const Vec3d r = v * std::cos(a) + cross(axis, v) * std::sin(a) + axis * (dot(axis, v) * (1 - std::cos(a)));
+      Camera c = start;
+      c.position = start.focal_point + r;
+      path.push_back(c);
+    }
+    for (int i = 0; i < rest; ++i) path.push_back(start);  // the turn completed: back where it began
+    return path;
+  }
+  const nlohmann::json j = with_flag("--path", [&] { return read_json_file(spec); });
+  if (!j.is_array() || j.empty()) fail_in(spec, "expected a non-empty list of cameras");
+  for (size_t i = 0; i < j.size(); ++i) path.push_back(camera_from_json(j[i], spec + " [" + std::to_string(i) + "]"));
+  return path;
+}
 
 EngineRun exact_run(const Options& o, RenderSettings& settings, std::shared_ptr<void>& keep) {
   auto ds = std::make_shared<Dataset>(read_dataset(o.inputs, o.read));
@@ -320,6 +358,85 @@ EngineRun lod_run(const Options& o, RenderSettings& settings, std::shared_ptr<vo
                   format_bytes(st.atlas_bytes).c_str(), h->gl->renderer().c_str());
     return std::string(buf);
   };
+  run.run_path = [h, o](const Camera& start, const TransferFunction& tf, const RenderSettings& rs) {
+    TimeCriticalOptions tc;
+    if (!o.fps.empty()) {
+      tc.target_fps = parse_number(o.fps, "--fps");
+      if (!(tc.target_fps > 0) || tc.target_fps > 1000) fail_flag("--fps", "must be in (0, 1000]");
+    }
+    tc.ram_budget_bytes = o.ram_memory;
+    if (!o.uploads_per_frame.empty())
+      tc.uploads_per_frame = uint64_t(parse_positive_int(o.uploads_per_frame, "--uploads-per-frame"));
+    if (!o.reads_per_frame.empty())
+      tc.reads_per_frame = uint64_t(parse_positive_int(o.reads_per_frame, "--reads-per-frame"));
+    if (!o.step_voxels.empty()) tc.resting_step_voxels = parse_number(o.step_voxels, "--step-voxels");
+    const std::vector<Camera> path = camera_path(o.path.empty() ? "orbit:1" : o.path, start);
+    if (!o.out_dir.empty()) std::filesystem::create_directories(o.out_dir);
+    TimeCriticalRenderer renderer(*h->engine, tc);
+    std::string lines;
+    std::vector<double> seconds;
+    double error_sum = 0;
+    Image image;
+    Progress progress("frames", path.size());
+    for (size_t i = 0; i < path.size(); ++i) {
+      TimeCriticalFrame f;
+      image = renderer.frame(path[i], tf, rs, &f);
+      seconds.push_back(f.seconds);
+      error_sum += f.mean_error;
+      if (!o.out_dir.empty()) {
+        char name[32];
+        std::snprintf(name, sizeof name, "/frame_%05zu.png", i);
+        write_png(o.out_dir + name, image);
+      }
+      const nlohmann::json line = {
+          {"frame", i},
+          {"seconds", f.seconds},
+          {"resting", f.resting},
+          {"converged", f.converged},
+          {"budget_nodes", f.budget_nodes == std::numeric_limits<uint64_t>::max() ? nlohmann::json(nullptr)
+                                                                                  : nlohmann::json(f.budget_nodes)},
+          {"cut_nodes", f.cut_nodes},
+          {"visible_nodes", f.visible_nodes},
+          {"splits", f.splits},
+          {"merges", f.merges},
+          {"max_texel_error", f.max_error},
+          {"mean_texel_error", f.mean_error},
+          {"uploads", f.uploads},
+          {"uploaded_bytes", f.uploads * uint64_t(std::pow(h->engine->resolution() + 2, 3)) * 4},
+          {"sync_reads", f.sync_reads},
+          {"requested", f.requested},
+          {"ram_hits", f.cache.hits},
+          {"ram_misses", f.cache.misses},
+          {"disk_reads", f.cache.loads_completed},
+          {"disk_bytes", f.cache.bytes_read},
+          {"ram_evictions", f.cache.evictions},
+          {"ram_over_budget", f.cache.over_budget},
+          {"ram_resident_bytes", f.cache.resident_bytes},
+          {"gpu_seconds", f.render.gpu_seconds},
+          {"samples", f.render.samples},
+      };
+      lines += line.dump() + "\n";
+      progress.set(i + 1);
+    }
+    write_image(o.output, image);
+    if (!o.stats.empty()) {
+      AtomicOutputFile out(o.stats);
+      out.write(lines);
+      out.commit();
+    }
+    if (Progress::enabled()) {
+      size_t within = 0, counted = 0;
+      for (size_t i = std::min<size_t>(10, seconds.size()); i < seconds.size(); ++i, ++counted)
+        if (tc.target_fps > 0 && seconds[i] <= 1.2 / tc.target_fps) ++within;
+      std::fprintf(stderr, "rendered %zu frames along %s: median %.3f s%s, mean texel error %.3f, %s\n", path.size(),
+                   o.path.empty() ? "the view" : o.path.c_str(), median(seconds),
+                   tc.target_fps > 0 ? (", " + std::to_string(counted ? 100 * within / counted : 0) +
+                                        "% of frames after the 10th within 1.2x the target")
+                                           .c_str()
+                                     : "",
+                   path.empty() ? 0.0 : error_sum / double(path.size()), h->gl->renderer().c_str());
+    }
+  };
   return run;
 }
 void run_render(const Options& o) {
@@ -400,6 +517,12 @@ void run_render(const Options& o) {
 
   if (!o.save_camera.empty()) write_camera(o.save_camera, camera);
   if (!o.save_tf.empty()) write_paraview_preset(o.save_tf, tf);
+
+  if (!o.path.empty() || !o.fps.empty()) {
+    if (!engine.run_path) fail_flag(o.path.empty() ? "--fps" : "--path", "needs the lod engine (a .ugvr store)");
+    engine.run_path(camera, tf, settings);
+    return;
+  }
 
   Image image;
   std::vector<double> frame_seconds, frame_cpu_seconds;
@@ -486,6 +609,20 @@ void register_render(CLI::App& app) {
       ->default_str("2GiB");
   cmd->add_option("--step-voxels", opts->step_voxels, "lod: sample step in voxels of each node (default 0.5)")
       ->type_name("F");
+  cmd->add_option("--fps", opts->fps, "lod: target frame rate held along --path (time-critical level of detail)")
+      ->type_name("F");
+  cmd->add_option("--path", opts->path,
+                  "lod: camera path: orbit:N[,rest:M] (a turn about view up in N frames, then M still frames at the start) or a "
+                  "JSON list of cameras; --stats then writes one JSON line per frame")
+      ->type_name("SPEC|FILE");
+  cmd->add_option("--out", opts->out_dir, "lod: write every frame of --path as DIR/frame_NNNNN.png")->type_name("DIR");
+  cmd->add_option("--ram-memory", opts->ram_memory, "lod: RAM cache for decoded bricks along --path")
+      ->transform(CLI::AsSizeValue(true))
+      ->default_str("1GiB");
+  cmd->add_option("--uploads-per-frame", opts->uploads_per_frame, "lod: bricks uploaded to the GPU per frame (64)")
+      ->type_name("N");
+  cmd->add_option("--reads-per-frame", opts->reads_per_frame, "lod: brick reads requested per frame (256)")
+      ->type_name("N");
   cmd->add_option("--camera", opts->camera, "Camera JSON file (as written by --save-camera)")->type_name("FILE");
   cmd->add_option("--view", opts->view,
                   "View preset framed on the data: +x -x +y -y +z -z iso; default: ParaView's default view, looking "

@@ -48,6 +48,7 @@ struct LodEngine::Impl {
   std::vector<uint64_t> slot_owner;                 // slot -> node (kNoNode: free)
   std::vector<uint64_t> slot_frame;                 // slot -> last frame that drew it (LRU eviction)
   uint64_t frame = 0;
+  uint64_t sync_reads = 0;  // bricks the last frame read itself (no source, or the source lacked them)
 
   Impl(const std::string& path, const GlContext& g, LodOptions o) : store(path), gl(g), options(o) {}
   uint64_t budget_slots() const;
@@ -88,6 +89,7 @@ void LodEngine::Impl::ensure_atlas(uint64_t needed) {
 // then those of the bricks drawn least recently.
 uint64_t LodEngine::Impl::load(std::span<const uint64_t> nodes, const TexelSource& source) {
   ++frame;
+  sync_reads = 0;
   std::vector<uint64_t> missing;
   for (uint64_t n : nodes) {
     auto it = resident.find(n);
@@ -113,26 +115,23 @@ uint64_t LodEngine::Impl::load(std::span<const uint64_t> nodes, const TexelSourc
   std::vector<std::shared_ptr<const std::vector<uint16_t>>> given(kLoadBatch);
   for (size_t b = 0; b < missing.size(); b += kLoadBatch) {
     const size_t count = std::min(kLoadBatch, missing.size() - b);
-    if (source) {
-      for (size_t i = 0; i < count; ++i) {
-        given[i] = source(missing[b + i]);
-        if (!given[i])
-          fail_in("lod engine", "the brick of node " + std::to_string(missing[b + i]) + " is not available");
-      }
-    } else {
-      tbb::parallel_for(size_t(0), count, [&](size_t i) {
-        thread_local std::vector<float> samples;
-        thread_local std::vector<uint8_t> mask;
-        samples.resize(n3);
-        mask.resize(n3);
-        store.read_brick(missing[b + i], field, samples.data(), mask.data());
-        make_atlas_slot(r, samples.data(), mask.data(), lo, hi, texels[i]);
-      });
-    }
+    // From the source where it has the brick; read here otherwise (a RAM cache may have evicted a brick between the
+    // controller's choice and this frame: late, not wrong).
+    for (size_t i = 0; i < count; ++i) given[i] = source ? source(missing[b + i]) : nullptr;
+    tbb::parallel_for(size_t(0), count, [&](size_t i) {
+      if (given[i]) return;
+      thread_local std::vector<float> samples;
+      thread_local std::vector<uint8_t> mask;
+      samples.resize(n3);
+      mask.resize(n3);
+      store.read_brick(missing[b + i], field, samples.data(), mask.data());
+      make_atlas_slot(r, samples.data(), mask.data(), lo, hi, texels[i]);
+    });
     for (size_t i = 0; i < count; ++i) {
       const uint64_t slot = slots[b + i], node = missing[b + i];
       if (slot_owner[slot] != kNoNode) resident.erase(slot_owner[slot]);
-      atlas.upload(slot, source ? given[i]->data() : texels[i].data());
+      if (!given[i]) ++sync_reads;
+      atlas.upload(slot, given[i] ? given[i]->data() : texels[i].data());
       slot_owner[slot] = node;
       slot_frame[slot] = frame;
       resident[node] = slot;
@@ -215,6 +214,12 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
 
 bool LodEngine::in_atlas(uint64_t node) const { return impl_->resident.count(node) != 0; }
 uint64_t LodEngine::atlas_budget_bricks() const { return impl_->budget_slots(); }
+const BrickStoreReader& LodEngine::store() const { return impl_->store; }
+uint32_t LodEngine::field() const { return impl_->field; }
+void LodEngine::set_step_voxels(double step) {
+  if (!(step > 0) || !std::isfinite(step)) fail_in("lod engine", "step must be > 0 voxels");
+  impl_->options.step_voxels = step;
+}
 
 Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
                               std::span<const uint64_t> nodes, const TexelSource& source, LodRenderStats* stats) {
@@ -238,6 +243,7 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   const auto t1 = std::chrono::steady_clock::now();
   I.ensure_atlas(nodes.size());
   st.bricks_loaded = I.load(nodes, source);
+  st.bricks_read_sync = I.sync_reads;
   std::vector<uint32_t> state(I.store.node_count(), kSkip);
   for (uint64_t n : nodes) {
     state[n] = uint32_t(I.resident.at(n));

@@ -20,6 +20,7 @@
 
 #include "ugvr/core/vec.h"
 #include "ugvr/gpu/gl_context.h"
+#include "ugvr/lod/brick_store.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/image.h"
 #include "ugvr/render/lod/lod_cut.h"
@@ -37,7 +38,8 @@ struct LodRenderStats {
   uint64_t samples = 0;         // texture samples of the volume taken by all rays
   uint64_t bricks_entered = 0;  // node traversals, summed over rays
   uint64_t cut_nodes = 0;
-  uint64_t bricks_loaded = 0;  // this frame
+  uint64_t bricks_loaded = 0;     // uploaded to the atlas this frame
+  uint64_t bricks_read_sync = 0;  // of those, read from the store on the render thread (not from a texel source)
   uint64_t culled_frustum = 0, culled_tf = 0;
   bool budget_limited = false;
   int max_level = 0;
@@ -72,7 +74,7 @@ class LodEngine {
                LodRenderStats* stats = nullptr);
 
   // Where the bricks of nodes not yet in the atlas come from: the texels make_atlas_slot builds (brick_atlas.h), or
-  // null when the brick is not available (an error: the caller's cut must only name available bricks).
+  // null when the source does not have it (the engine then reads it from the store itself, on this thread).
   using TexelSource = std::function<std::shared_ptr<const std::vector<uint16_t>>(uint64_t node)>;
   // Renders exactly `nodes`, a cut chosen by the caller (the time-critical controller): they must cover the data at
   // most once. Bricks not in the atlas come from `source`, or are read from the store here when `source` is empty.
@@ -84,6 +86,10 @@ class LodEngine {
   bool in_atlas(uint64_t node) const;
   // Bricks the atlas may hold within the options' budget.
   uint64_t atlas_budget_bricks() const;
+  const BrickStoreReader& store() const;
+  uint32_t field() const;  // the bound field's index in the store
+  // Sample step in voxels of each node when RenderSettings.sample_step is 0 (progressive refinement refines it).
+  void set_step_voxels(double step);
 
   Bounds bounds() const;  // the dataset's bounds
   uint64_t node_count() const;

@@ -1,0 +1,76 @@
+// Time-critical level of detail (Leven et al. 2002 §5.1-5.2) with progressive refinement when the view rests
+// (Callahan et al. 2006): one object per interactive session that, frame after frame, keeps an active cut
+// (active_cut.h), keeps its bricks coming through the RAM cache (brick_cache.h, background reads) into the GPU atlas
+// (lod_engine.h), and sizes the cut from measured frame times (frame_controller.h).
+//
+// A frame:
+//  1. the controller's budget (cut nodes), capped by the atlas, bounds the cut; while the view moves the budget comes
+//     from the target frame time, once it rests the cap is lifted and the cut refines until it converges;
+//  2. the active cut merges and splits (§5.1): splits only into bricks already in RAM or in the atlas, at most
+//     `uploads_per_frame` new bricks a frame; what it would split next goes to the RAM cache as read requests
+//     (`reads_per_frame`, by error), together with the bricks the cut itself must keep;
+//  3. the engine draws the visible cut nodes, uploading new bricks from the cache;
+//  4. the frame's wall time (to the image in host memory) goes back to the controller.
+// The sample step follows the same rule: `moving_step_voxels` while the view moves, `resting_step_voxels` once the
+// cut has converged at rest. A single image with no target (`target_fps` 0) renders at full quality: the cut is
+// refined to convergence (waiting for bricks) before the one frame is drawn.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+
+#include "ugvr/render/camera.h"
+#include "ugvr/render/image.h"
+#include "ugvr/render/lod/brick_cache.h"
+#include "ugvr/render/lod/lod_engine.h"
+#include "ugvr/render/render_settings.h"
+#include "ugvr/render/transfer_function.h"
+
+namespace ugvr {
+
+struct TimeCriticalOptions {
+  double target_fps = 0;                          // 0: no target: every frame at full quality
+  uint64_t ram_budget_bytes = uint64_t(1) << 30;  // RAM cache of decoded bricks
+  uint64_t uploads_per_frame = 64;                // bricks RAM -> GPU per frame
+  uint64_t reads_per_frame = 256;                 // brick read requests (disk -> RAM) per frame
+  double pixels = 1;                              // split threshold: texels per pixel
+  double moving_step_voxels = 1.0;                // sample step while the view moves
+  double resting_step_voxels = 0.5;               // and once it rests and the cut has converged
+  int loader_threads = 0;                         // RAM cache workers (0: hardware concurrency)
+};
+
+struct TimeCriticalFrame {
+  double seconds = 0;          // wall time of the frame (cut update + draw + read back)
+  bool resting = false;        // camera, transfer function and settings as in the previous frame
+  bool converged = false;      // the cut cannot improve and the step is the resting one: full quality
+  uint64_t budget_nodes = 0;   // the cut size the controller allowed (max = unlimited)
+  uint64_t cut_nodes = 0;      // active cut, culled nodes included
+  uint64_t visible_nodes = 0;  // drawn
+  uint64_t splits = 0, merges = 0;
+  double max_error = 0, mean_error = 0;  // texels per pixel of the visible nodes
+  uint64_t uploads = 0;                  // bricks uploaded to the atlas
+  uint64_t sync_reads = 0;               // of those, read on the render thread (the cache did not have them)
+  uint64_t requested = 0;                // read requests sent to the RAM cache
+  BrickCacheStats cache;                 // counters of this frame (gauges: now)
+  LodRenderStats render;                 // the engine's figures for the draw
+};
+
+class TimeCriticalRenderer {
+ public:
+  // The engine (its field bound) must outlive this object.
+  TimeCriticalRenderer(LodEngine& engine, TimeCriticalOptions options);
+  ~TimeCriticalRenderer();
+
+  Image frame(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
+              TimeCriticalFrame* report = nullptr);
+  // Full quality for one view: refines (waiting for bricks) until the cut converges, then draws at the resting step.
+  Image full_quality(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
+                     TimeCriticalFrame* report = nullptr);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace ugvr
