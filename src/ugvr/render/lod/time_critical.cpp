@@ -123,7 +123,8 @@ Image TimeCriticalRenderer::full_quality(const Camera& camera, const TransferFun
                                      [&](uint64_t n) { return I.engine.in_atlas(n) || I.cache.resident(n); });
     if (u.converged || (u.splits == 0 && u.merges == 0 && u.wanted.empty())) break;
     std::vector<std::pair<uint64_t, float>> requests;
-    for (uint64_t n : u.visible) requests.push_back({n, 1e30f});
+    for (uint64_t n : u.visible)
+      if (!I.engine.in_atlas(n)) requests.push_back({n, 1e30f});
     for (size_t i = 0; i < u.wanted.size(); ++i) requests.push_back({u.wanted[i], float(u.wanted_priority[i])});
     I.cache.request(requests);
     I.cache.wait_all(60);
