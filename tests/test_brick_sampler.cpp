@@ -187,6 +187,87 @@ TEST(CellBoxOverlapLists, AgreeWithTheTestOnEveryPair) {
       }
 }
 
+// ---- the sampler's inverse map: corrected Newton steps ------------------------------------------------------------
+
+using Lanes = double __attribute__((vector_size(16)));  // as the sampler's first steps
+
+// inverse_map_corrected ends within its accuracy of a solution (plain Newton to 1e-12 stays there; warped cells can
+// map two points of parameter space to one point, so which solution depends on the guess), from the centre and from
+// guesses off by up to 0.05, on warped cells of every Newton type, points outside them too; and on a cell as smooth
+// as a real grid's, a guess as close as a neighbouring sample's prediction mostly takes one step.
+TEST(SamplerInverseMap, CorrectedNewtonIsAccurate) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> off(-0.05, 0.05), out(-0.3, 1.3);
+  for (CellType type : {CellType::Hexahedron, CellType::Wedge, CellType::Pyramid}) {
+    int converged = 0, tries = 0, one_step = 0;
+    for (int trial = 0; trial < 400; ++trial) {
+      const std::vector<Vec3d> v = random_cell(type, rng, 0.2);
+      const MonomialForm<Vec3d> m =
+          with_cell_type(type, [&](auto tag) { return to_monomial<decltype(tag)::value>(v.data()); });
+      const double nonlinearity = monomial_nonlinearity(m);
+      const Vec3d rst = trial % 2 ? random_rst(type, rng) : Vec3d{out(rng), out(rng), out(rng) * 0.7};
+      const Vec3d p = forward(type, v.data(), rst);
+      for (const Vec3d guess : {parametric_center(type), rst + Vec3d{off(rng), off(rng), off(rng)}}) {
+        ++tries;
+        InverseMapResult r;
+        if (!inverse_map_corrected(m, nonlinearity, 0.0, p - m.c[0], guess, 1e-12, r)) continue;
+        ++converged;
+        Vec3d exact;
+        ASSERT_TRUE(inverse_map_newton(type, v.data(), p, r.rst, exact));
+        const double err =
+            std::max({std::abs(r.rst.x - exact.x), std::abs(r.rst.y - exact.y), std::abs(r.rst.z - exact.z)});
+        ASSERT_LE(err, 1e-11) << cell_name(type) << " trial " << trial;
+      }
+      // A cell as smooth as a real grid's (nonlinearity a few percent of its size).
+      const std::vector<Vec3d> w = random_cell(type, rng, 0.02);
+      const MonomialForm<Vec3d> mw =
+          with_cell_type(type, [&](auto tag) { return to_monomial<decltype(tag)::value>(w.data()); });
+      const Vec3d target = forward(type, w.data(), rst) - mw.c[0];
+      const InverseMapStep<double> st =
+          inverse_map_step(mw, monomial_nonlinearity(mw), target, rst + Vec3d{1e-5, -1e-5, 1e-5});
+      one_step += st.error2 <= 1e-24;
+    }
+    EXPECT_GT(converged, tries * 9 / 10) << cell_name(type);
+    EXPECT_GT(one_step, 400 * 3 / 4) << cell_name(type);
+  }
+}
+
+// Two points as the two lanes of one step round exactly as each alone: a shared border sample gets the same bits
+// whether the sampler takes it in a pair or alone.
+TEST(SamplerInverseMap, LanesRoundAsTheScalarStep) {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-0.2, 1.2);
+  auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  for (int trial = 0; trial < 2000; ++trial) {
+    const CellType type =
+        trial % 3 == 0 ? CellType::Hexahedron : (trial % 3 == 1 ? CellType::Wedge : CellType::Pyramid);
+    MonomialForm<Vec3d> m[2];
+    Vec3d target[2], guess[2];
+    for (int l = 0; l < 2; ++l) {
+      const std::vector<Vec3d> v = random_cell(type, rng, 0.3);
+      m[l] = with_cell_type(type, [&](auto tag) { return to_monomial<decltype(tag)::value>(v.data()); });
+      target[l] = forward(type, v.data(), {u(rng), u(rng), u(rng)}) - m[l].c[0];
+      guess[l] = {u(rng), u(rng), u(rng)};
+    }
+    auto lanes = [](Vec3d a, Vec3d b) { return Vec3<Lanes>{Lanes{a.x, b.x}, Lanes{a.y, b.y}, Lanes{a.z, b.z}}; };
+    MonomialForm<Vec3<Lanes>> ml;
+    for (size_t k = 0; k < 8; ++k) ml.c[k] = lanes(m[0].c[k], m[1].c[k]);
+    const InverseMapStep<Lanes> both =
+        inverse_map_step(ml, Lanes{monomial_nonlinearity(m[0]), monomial_nonlinearity(m[1])},
+                         lanes(target[0], target[1]), lanes(guess[0], guess[1]));
+    for (int l = 0; l < 2; ++l) {
+      const InverseMapStep<double> one = inverse_map_step(m[l], monomial_nonlinearity(m[l]), target[l], guess[l]);
+      ASSERT_TRUE(same(one.rst.x, both.rst.x[l]) && same(one.rst.y, both.rst.y[l]) && same(one.rst.z, both.rst.z[l]))
+          << "trial " << trial << " lane " << l;
+      ASSERT_TRUE(same(one.error2, both.error2[l]) && same(one.step2, both.step2[l]) && same(one.det2, both.det2[l]));
+      for (size_t k = 0; k < 3; ++k) {
+        ASSERT_TRUE(same(one.inverse[k].x, both.inverse[k].x[l]) && same(one.inverse[k].y, both.inverse[k].y[l]) &&
+                    same(one.inverse[k].z, both.inverse[k].z[l]));
+      }
+    }
+  }
+}
+
 // ---- lattice ------------------------------------------------------------------------------------------------------
 
 TEST(BrickLattice, SharedSamplesAreBitIdentical) {
@@ -403,6 +484,44 @@ INSTANTIATE_TEST_SUITE_P(Shapes, BrickSamplerSynthetic,
                            }
                            return std::string("six_tets");
                          });
+
+// A hexahedral mesh's cells split into two wedges each (by the same diagonal everywhere, so neighbours still share
+// their faces) or into six pyramids over its faces with the apex at its centroid.
+UnstructuredMesh split_hexahedra(const UnstructuredMesh& hexes, CellType to) {
+  UnstructuredMesh out;
+  out.points = hexes.points;
+  for (uint64_t c = 0; c < hexes.cell_count(); ++c) {
+    const std::span<const uint32_t> h = hexes.cell(c);
+    if (to == CellType::Wedge) {
+      const uint32_t a[6] = {h[0], h[1], h[2], h[4], h[5], h[6]}, b[6] = {h[0], h[2], h[3], h[4], h[6], h[7]};
+      out.add_cell(CellType::Wedge, a);
+      out.add_cell(CellType::Wedge, b);
+    } else {
+      Vec3d centroid{};
+      for (uint32_t i : h) centroid = centroid + to_double(hexes.points[i]) * 0.125;
+      const uint32_t apex = uint32_t(out.points.size());
+      out.points.push_back({float(centroid.x), float(centroid.y), float(centroid.z)});
+      const int faces[6][4] = {{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 5, 4}, {3, 2, 6, 7}, {0, 3, 7, 4}, {1, 2, 6, 5}};
+      for (const auto& f : faces) {
+        const uint32_t pyramid[5] = {h[size_t(f[0])], h[size_t(f[1])], h[size_t(f[2])], h[size_t(f[3])], apex};
+        out.add_cell(CellType::Pyramid, pyramid);
+      }
+    }
+  }
+  return out;
+}
+
+TEST(BrickSampler, WedgesAndPyramidsMatchBruteForce) {
+  const UnstructuredMesh hexes = jittered_grid(5, StructuredCellShape::Hexahedra, 13, 0.3);
+  for (CellType type : {CellType::Wedge, CellType::Pyramid}) {
+    const UnstructuredMesh mesh = split_hexahedra(hexes, type);
+    const SyntheticFields s = synthetic_fields(mesh);
+    for (int level : {0, 1, 2}) {
+      expect_exact(sample_and_compare(mesh, s.refs, level, 9),
+                   std::string(cell_name(type)) + " level " + std::to_string(level), 0.2);
+    }
+  }
+}
 
 TEST(BrickSampler, AxisAlignedGridPutsSamplesOnFacesEdgesAndVertices) {
   // Lattice points coincide with grid vertices, edges and faces everywhere: the tolerance rule is exercised at

@@ -9,12 +9,17 @@
 // evaluated in that order in double. A point shared by two bricks (a common face, or a coarser and a finer level,
 // where m and the divisor both double) gets the same m / divisor quotient, exactly, hence the same bits.
 //
-// Method: samples are visited in voxel order (x fastest); the node's cells are bucketed in a coarse uniform grid over
-// the node (cell_box_overlap.h); the cells that held the previous sample and the neighbours at y - 1 and z - 1 are
-// tried first (the paper's one-cell cache, extended to the other two axes), then the sample's bucket. Point in cell:
-// barycentric coordinates for tetrahedra, Newton on the monomial form for the other types, then the parametric
-// margin (cell_interpolation.h). Vertex scalars are interpolated with the cell's shape functions (in monomial form),
-// cell scalars are constant over the cell.
+// Method: a row of samples (x fastest) at a time. First each sample of the row is tried in the cell that holds its
+// neighbour at y - 1 (else z - 1), starting from that neighbour's first-order prediction rst + J^-1 (p - p_neighbour),
+// off by O(spacing² x the cell's nonlinearity): one Newton step with a second-order correction then puts it within
+// 1e-12 (cell_interpolation.h's inverse_map_step). These tests depend on the previous row or plane only, not on each
+// other, so they run two at a time in SIMD lanes. Then, in order along the row, a sample not found that way is tried
+// in the cells of the previous sample and of the neighbours at y - 1 and z - 1 (the paper's one-cell cache, extended
+// to the other two axes), then in its bucket of a coarse uniform grid over the node (cell_box_overlap.h), where a
+// bound on the cell's affine approximation rules out most cells without Newton. Point in cell: the closed-form
+// inverse where the map is affine (tetrahedra, parallelepipeds), corrected Newton steps on the monomial form
+// otherwise, then the parametric margin (cell_interpolation.h). Vertex scalars are interpolated with the cell's shape
+// functions (in monomial form), cell scalars are constant over the cell.
 //
 // Points on or near faces. A sample on a face shared by two cells, or on the mesh boundary, must get a value and the
 // same one from every brick that holds it. So a point counts as inside a cell when it is within `tolerance` of the
@@ -22,8 +27,8 @@
 // hold it (in a mesh whose cells do not overlap) and is taken at once; otherwise every cell of the bucket is tried,
 // each started from the point's image under the affine map of the cell's centre, and the lowest cell id holding the
 // point wins. Both outcomes depend only on the point and the mesh, never on the brick or the visiting order, so
-// shared samples are bit-identical (the caches warm-start Newton only away from brick borders, where no other brick
-// reads the result).
+// shared samples are bit-identical: predictions warm-start Newton only away from brick borders, where no other brick
+// reads the result, and a sample's steps round the same in a SIMD lane as alone.
 #pragma once
 
 #include <array>
@@ -60,9 +65,10 @@ struct BrickSamplerOptions {
   // Parametric depth inside a cell beyond which no other cell is looked for. Another cell can only reach it if it
   // is over interior_margin / tolerance = 1000 times larger than this one across their common face.
   double interior_margin = 1e-5;
-  // Newton's stopping step in the sampler (cell_interpolation.h's inverse_map_monomial): convergence is quadratic,
-  // so the coordinates are then accurate to about 1e-16 times the cell's nonlinearity.
-  double newton_tolerance = 1e-8;
+  // Newton stops once its error bound (cell_interpolation.h's inverse_map_step) is below this: parametric
+  // coordinates within 1e-12 of the cell's size put a sample within 1e-12 of the cell's value range of the exact
+  // value, far below float32's rounding.
+  double newton_accuracy = 1e-12;
   // Axes of the overlap test that buckets the cells (any subset is conservative; fewer axes, more bucket entries).
   // Bounding boxes alone win here: the separating-axis test cost more than the entries it saved (bench_brick_sampler,
   // oxygen post as 5 tets: 21.3 M samples per CPU second with BoxNormals, 18.3 with FaceNormals).
@@ -90,15 +96,17 @@ struct BrickSamples {
 // How the samples were found (for benchmarks and tuning).
 struct BrickSamplerStats {
   uint64_t samples = 0;
-  uint64_t cache_hits = 0;  // taken from the previous sample's cell
-  uint64_t searches = 0;    // bucket searches
-  uint64_t cell_tests = 0;  // point-in-cell tests (inverse maps) in all
-  uint64_t candidates = 0;  // cells prepared
+  uint64_t predicted = 0;       // tried first in the cell of the neighbour at y - 1 or z - 1, a row at a time
+  uint64_t predicted_hits = 0;  // ... and found there
+  uint64_t cache_hits = 0;      // found in a neighbour's cell (these included)
+  uint64_t searches = 0;        // bucket searches
+  uint64_t cell_tests = 0;      // point-in-cell tests (inverse maps) in all
+  uint64_t candidates = 0;      // cells prepared
   uint64_t bucket_entries = 0;
 
   BrickSamplerStats& operator+=(const BrickSamplerStats& o) {
-    samples += o.samples, cache_hits += o.cache_hits, searches += o.searches, cell_tests += o.cell_tests;
-    candidates += o.candidates, bucket_entries += o.bucket_entries;
+    samples += o.samples, predicted += o.predicted, predicted_hits += o.predicted_hits, cache_hits += o.cache_hits;
+    searches += o.searches, cell_tests += o.cell_tests, candidates += o.candidates, bucket_entries += o.bucket_entries;
     return *this;
   }
 };

@@ -28,9 +28,29 @@ void downsample_children(uint32_t R, uint32_t F, const std::array<const BrickSam
   }
 
   for (uint32_t z = 0; z < R; ++z)
-    for (uint32_t y = 0; y < R; ++y)
+    for (uint32_t y = 0; y < R; ++y) {
+      const Source &sy = sources[y], &sz = sources[z];
+      if (sy.count == 1 && sz.count == 1) {
+        // The common case (every sample when R - 1 is odd): one child row per half along x.
+        const size_t row = size_t(R) * (y + size_t(R) * z);
+        const size_t from_row = size_t(R) * (sy.local[0] + size_t(R) * sz.local[0]);
+        for (uint32_t x = 0; x < R; ++x) {
+          const Source& sx = sources[x];
+          if (sx.count != 1) continue;  // on the face the x halves share: below
+          const BrickSamples* child = children[sx.half[0] | sy.half[0] << 1 | sz.half[0] << 2];
+          if (!child) continue;
+          const size_t from = from_row + sx.local[0];
+          if (!child->mask[from]) continue;
+          const size_t to = row + x;
+          parent.mask[to] = 1;
+          ++parent.valid;
+          for (uint32_t f = 0; f < F; ++f) parent.values[f * n + to] = child->values[f * n + from];
+        }
+        if ((R - 1) % 2 == 1) continue;  // no shared face along x: the row is done
+      }
       for (uint32_t x = 0; x < R; ++x) {
-        const Source &sx = sources[x], &sy = sources[y], &sz = sources[z];
+        const Source& sx = sources[x];
+        if (sx.count == 1 && sy.count == 1 && sz.count == 1) continue;  // done above
         const BrickSamples* child = nullptr;
         size_t from = 0;
         for (int c = 0; c < sz.count && !child; ++c)
@@ -47,6 +67,7 @@ void downsample_children(uint32_t R, uint32_t F, const std::array<const BrickSam
         ++parent.valid;
         for (uint32_t f = 0; f < F; ++f) parent.values[f * n + to] = child->values[f * n + from];
       }
+    }
 }
 
 }  // namespace ugvr
