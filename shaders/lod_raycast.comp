@@ -146,7 +146,10 @@ void main() {
       node = tn.x + uint(bitCount(mask & ((1u << octant) - 1u)));
       state = node_state[node];
     }
-    vec3 tx = ((lo + mix(vec3(0.0), vec3(size), greaterThan(dir, vec3(0.0)))) - base) * inv_dir;
+    // The exit face on each axis is the one safe_dir moves towards: for a zero component (safe_dir +1e-30) the
+    // upper face, so that axis's exit is far ahead; choosing by dir would put it far behind, and the ray would creep
+    // on by u_nudge per step (the middle column or row of an odd-sized image).
+    vec3 tx = ((lo + mix(vec3(0.0), vec3(size), greaterThan(safe_dir, vec3(0.0)))) - base) * inv_dir;
     float t_exit = min(min(tx.x, tx.y), min(tx.z, t_end));
     t_exit = max(t_exit, t + u_nudge);
     if (state == SKIP || state == DESCEND) {
