@@ -27,6 +27,7 @@
 #include "ugvr/render/lod/active_cut.h"
 #include "ugvr/render/lod/frame_controller.h"
 #include "ugvr/render/lod/lod_cut.h"
+#include "ugvr/render/lod/quality_policy.h"
 #include "ugvr/render/transfer_function.h"
 
 namespace ugvr {
@@ -875,6 +876,107 @@ TEST(FrameController, DrivesAnActiveCut) {
     }
   }
   EXPECT_GE(within, counted * 9 / 10) << within << " of " << counted;
+}
+
+// ---- quality policy: the frame controller's sample budget -> node budget and image scale ----------------------------
+
+// A renderer whose cut refines like an octree's (8 × the nodes, 2 × the samples per ray) and whose samples follow the
+// image's pixels: samples = root_samples · scale² · nodes^(1/3), at most `demand` nodes (where the cut converges);
+// seconds = a + b · samples, times (1 + noise). The cut is at its coarsest with one node.
+struct SimulatedCutRenderer {
+  double root_samples = 5e6, a = 0.002, b = 1e-8, noise = 0.05;
+  uint64_t demand = 100000;
+};
+
+struct PolicyRun {
+  std::vector<double> seconds, scale;
+  std::vector<uint64_t> nodes;
+};
+
+PolicyRun run_policy(const SimulatedCutRenderer& sim0, double target, int frames,
+                     const std::function<void(int, SimulatedCutRenderer&)>& change = {}) {
+  SimulatedCutRenderer sim = sim0;
+  FrameController fc({.target_seconds = target, .initial_budget = 1e18, .max_budget = 1e18});
+  QualityPolicy policy;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> noise(-1, 1);
+  PolicyRun run;
+  for (int f = 0; f < frames; ++f) {
+    if (change) change(f, sim);
+    const QualityChoice c = policy.current();
+    EXPECT_GE(c.max_nodes, 1u);
+    EXPECT_GE(c.scale, 0.25);
+    EXPECT_LE(c.scale, 1.0);
+    const uint64_t nodes = std::min(c.max_nodes, sim.demand);
+    const double samples = sim.root_samples * c.scale * c.scale * std::cbrt(double(nodes));
+    const double seconds = (sim.a + sim.b * samples) * (1 + sim.noise * noise(rng));
+    run.seconds.push_back(seconds);
+    run.scale.push_back(c.scale);
+    run.nodes.push_back(nodes);
+    policy.next(fc.frame(seconds, uint64_t(samples)), uint64_t(samples), nodes, nodes == 1);
+  }
+  return run;
+}
+
+double share_within(const PolicyRun& r, double target, int from, int to) {
+  int within = 0;
+  for (int f = from; f < to; ++f) within += r.seconds[size_t(f)] <= 1.2 * target;
+  return double(within) / double(to - from);
+}
+
+TEST(QualityPolicy, RefinesTheCutWhenTheCoarsestIsCheap) {
+  // The root alone takes 0.052 s of a 0.1 s target: about (0.098 / 0.05)³ ≈ 7.5 nodes fit, at full scale.
+  const double target = 0.1;
+  const PolicyRun r = run_policy({}, target, 200);
+  EXPECT_GE(share_within(r, target, 10, 200), 0.9);
+  for (int f = 10; f < 200; ++f) EXPECT_EQ(r.scale[size_t(f)], 1.0) << f;
+  double mean_nodes = 0;
+  for (int f = 100; f < 200; ++f) mean_nodes += double(r.nodes[size_t(f)]) / 100;
+  EXPECT_GT(mean_nodes, 4);
+  EXPECT_LT(mean_nodes, 12);
+}
+
+TEST(QualityPolicy, ScalesTheImageOnlyWhenTheCoarsestCutIsTooSlow) {
+  // 30 fps: the root alone costs 0.052 s at full size; scale² ≈ 0.031 / 0.05 → scale ≈ 0.79 with one node.
+  const double target = 1.0 / 30;
+  const PolicyRun r = run_policy({}, target, 300, [](int f, SimulatedCutRenderer& sim) {
+    if (f == 150) sim.b *= 0.2;  // a lighter view: now the root fits at full size and the cut can refine
+  });
+  EXPECT_GE(share_within(r, target, 10, 150), 0.9);
+  EXPECT_GE(share_within(r, target, 160, 300), 0.9);
+  for (int f = 30; f < 150; ++f) {
+    EXPECT_EQ(r.nodes[size_t(f)], 1u) << f;  // scale is the lever only at the coarsest cut
+    EXPECT_NEAR(r.scale[size_t(f)], std::sqrt((target - 0.002) / 0.05), 0.12) << f;
+  }
+  // After the change the scale comes back first, then the cut grows.
+  int back = -1;
+  for (int f = 150; f < 300 && back < 0; ++f)
+    if (r.scale[size_t(f)] == 1.0) back = f;
+  ASSERT_GE(back, 0);
+  EXPECT_LT(back, 165);
+  for (int f = 150; f < back; ++f) EXPECT_EQ(r.nodes[size_t(f)], 1u) << f;
+  EXPECT_GT(r.nodes[299], 8u);
+}
+
+TEST(QualityPolicy, ScaleStopsAtItsFloor) {
+  SimulatedCutRenderer slow;
+  slow.b = 1e-6;  // the root at a quarter scale still takes 0.3 s
+  const PolicyRun r = run_policy(slow, 0.1, 60);
+  for (int f = 20; f < 60; ++f) {
+    EXPECT_EQ(r.scale[size_t(f)], 0.25) << f;
+    EXPECT_EQ(r.nodes[size_t(f)], 1u) << f;
+  }
+}
+
+TEST(QualityPolicy, InvalidOptions) {
+  EXPECT_THROW(QualityPolicy({.min_scale = 0}), Error);
+  EXPECT_THROW(QualityPolicy({.min_scale = 1.5}), Error);
+  EXPECT_THROW(QualityPolicy({.max_sample_growth = 0.9}), Error);
+  EXPECT_THROW(QualityPolicy({.max_scale_growth = 0.5}), Error);
+  EXPECT_THROW(QualityPolicy({.initial_nodes = 0}), Error);
+  QualityPolicy p;
+  // No samples (nothing visible): the cut may grow, by a split at least.
+  EXPECT_GE(p.next(1000, 0, 1, true).max_nodes, 8u);
 }
 
 }  // namespace

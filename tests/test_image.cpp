@@ -1,6 +1,7 @@
 // Image files and image comparison: PNG (libpng) and PFM round trips, malformed files, RMS / PSNR / SSIM.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -185,6 +186,37 @@ TEST(Image, WriteImageByExtension) {
   const std::string e = error_of([&] { write_image(dir.file("a.jpg"), im); });
   EXPECT_NE(e.find("a.jpg"), std::string::npos) << e;
   EXPECT_NE(e.find(".png"), std::string::npos) << e;
+}
+
+// Bilinear between pixel centres: a 2x1 ramp magnified to 4x1 gives the centres' values at 1/4 and 3/4 of the way
+// and clamps at the edges; a linear ramp stays linear inside; a constant stays constant; same size is a copy.
+TEST(Image, ResizeBilinear) {
+  Image two(2, 1);
+  two.pixel(0, 0)[0] = 0.0f;
+  two.pixel(1, 0)[0] = 1.0f;
+  const Image four = resize_bilinear(two, 4, 1);
+  const float expected[4] = {0.0f, 0.25f, 0.75f, 1.0f};
+  for (int x = 0; x < 4; ++x) EXPECT_FLOAT_EQ(four.pixel(x, 0)[0], expected[x]) << x;
+  Image ramp(8, 8);
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 8; ++x) {
+      float* p = ramp.pixel(x, y);
+      p[0] = float(x) / 7, p[1] = float(y) / 7, p[2] = 0.5f, p[3] = 1;
+    }
+  const Image big = resize_bilinear(ramp, 16, 12);
+  ASSERT_EQ(big.width, 16);
+  ASSERT_EQ(big.height, 12);
+  for (int y = 0; y < 12; ++y)
+    for (int x = 0; x < 16; ++x) {
+      const double sx = std::clamp((x + 0.5) * 8 / 16 - 0.5, 0.0, 7.0), sy = std::clamp((y + 0.5) * 8 / 12 - 0.5, 0.0, 7.0);
+      EXPECT_NEAR(big.pixel(x, y)[0], sx / 7, 1e-6);
+      EXPECT_NEAR(big.pixel(x, y)[1], sy / 7, 1e-6);
+      EXPECT_FLOAT_EQ(big.pixel(x, y)[2], 0.5f);
+      EXPECT_FLOAT_EQ(big.pixel(x, y)[3], 1.0f);
+    }
+  EXPECT_EQ(resize_bilinear(ramp, 8, 8), ramp);
+  EXPECT_THROW(resize_bilinear(ramp, 0, 4), Error);
+  EXPECT_THROW(resize_bilinear(Image(), 4, 4), Error);
 }
 
 TEST(Image, CompareIdenticalImages) {

@@ -393,6 +393,9 @@ EngineRun lod_run(const Options& o, RenderSettings& settings, std::shared_ptr<vo
           {"seconds", f.seconds},
           {"resting", f.resting},
           {"converged", f.converged},
+          {"scale", f.scale},
+          {"budget_samples", f.budget_samples == std::numeric_limits<uint64_t>::max() ? nlohmann::json(nullptr)
+                                                                                      : nlohmann::json(f.budget_samples)},
           {"budget_nodes", f.budget_nodes == std::numeric_limits<uint64_t>::max() ? nlohmann::json(nullptr)
                                                                                   : nlohmann::json(f.budget_nodes)},
           {"cut_nodes", f.cut_nodes},

@@ -404,3 +404,45 @@ void composite_pixel(float* px, const double radiance[3], double transmittance, 
 }
 
 }  // namespace ugvr
+
+namespace ugvr {
+
+Image resize_bilinear(const Image& src, int width, int height) {
+  if (src.width < 1 || src.height < 1 || width < 1 || height < 1)
+    fail_in("resize", "image sizes must be >= 1 (from " + std::to_string(src.width) + "x" + std::to_string(src.height) +
+                          " to " + std::to_string(width) + "x" + std::to_string(height) + ")");
+  if (src.width == width && src.height == height) return src;
+  // Per output column: the two source columns and the weight of the second (the same for every row).
+  struct Tap {
+    int i0, i1;
+    float w;
+  };
+  auto taps = [](int from, int to) {
+    std::vector<Tap> t(static_cast<size_t>(to));
+    const double ratio = double(from) / double(to);
+    for (int i = 0; i < to; ++i) {
+      const double x = std::clamp((i + 0.5) * ratio - 0.5, 0.0, double(from - 1));
+      const int i0 = int(x);
+      t[size_t(i)] = {i0, std::min(i0 + 1, from - 1), float(x - i0)};
+    }
+    return t;
+  };
+  const std::vector<Tap> tx = taps(src.width, width), ty = taps(src.height, height);
+  Image out(width, height);
+  for (int y = 0; y < height; ++y) {
+    const Tap& v = ty[size_t(y)];
+    for (int x = 0; x < width; ++x) {
+      const Tap& h = tx[size_t(x)];
+      const float *a = src.pixel(h.i0, v.i0), *b = src.pixel(h.i1, v.i0);
+      const float *c = src.pixel(h.i0, v.i1), *d = src.pixel(h.i1, v.i1);
+      float* o = out.pixel(x, y);
+      for (int k = 0; k < 4; ++k) {
+        const float top = a[k] + h.w * (b[k] - a[k]), bottom = c[k] + h.w * (d[k] - c[k]);
+        o[k] = top + v.w * (bottom - top);
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace ugvr

@@ -54,4 +54,8 @@ ImageDifference compare_images(const Image& a, const Image& b);
 // 2004 for a dynamic range of 1. 1 for identical images.
 double ssim(const Image& a, const Image& b);
 
+// `src` magnified or minified to width × height by bilinear interpolation between pixel centres (edges clamped):
+// how the time-critical renderer shows a frame it ray cast at a reduced scale. Throws for an empty source or size.
+Image resize_bilinear(const Image& src, int width, int height);
+
 }  // namespace ugvr

@@ -144,6 +144,8 @@ class ActiveCut {
 
   std::span<const uint64_t> nodes() const;  // ascending ids
   uint64_t size() const { return cut_.size(); }
+  // Size of the coarsest cut (the brick tree's roots): no merge can take the cut below it.
+  uint64_t coarsest_size() const { return roots_.size(); }
   bool contains(uint64_t node) const { return node < on_cut_.size() && on_cut_[node]; }
   void reset();  // back to the coarsest cut
 

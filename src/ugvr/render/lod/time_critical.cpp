@@ -6,6 +6,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/render/lod/active_cut.h"
 #include "ugvr/render/lod/frame_controller.h"
+#include "ugvr/render/lod/quality_policy.h"
 
 namespace ugvr {
 
@@ -20,7 +21,8 @@ struct TimeCriticalRenderer::Impl {
   TimeCriticalOptions options;
   ActiveCut cut;
   BrickCache cache;
-  FrameController controller;
+  FrameController controller;  // budgets ray samples
+  QualityPolicy policy;
   std::optional<Camera> last_camera;
   std::optional<TransferFunction> last_tf;
   std::optional<RenderSettings> last_settings;
@@ -30,22 +32,28 @@ struct TimeCriticalRenderer::Impl {
       : engine(e),
         options(o),
         cut(e.store(), ActiveCutOptions{e.field(), o.pixels}),
-        cache(e.store(), e.field(), o.ram_budget_bytes, o.loader_threads) {
+        cache(e.store(), e.field(), o.ram_budget_bytes, o.loader_threads),
+        policy(QualityPolicyOptions{.min_scale = o.min_scale}) {
     FrameControllerOptions fc;
     fc.target_seconds = o.target_fps > 0 ? 1.0 / o.target_fps : 0.0;
-    fc.initial_budget = 64;
+    // Samples. No cap before the first measurement (its growth limit would hold the second frame to a guess); the
+    // policy's first node budget decides the first frame.
+    fc.initial_budget = fc.max_budget;
     controller = FrameController(fc);
   }
 
-  // One update of the cut and one draw. `unlimited`: no frame-time budget (resting or no target).
+  // One update of the cut and one draw at `choice` (max_nodes, scale); `unlimited`: no node budget (resting or no
+  // target; the scale is then 1).
   Image step(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings, bool unlimited,
-             TimeCriticalFrame& f);
+             const QualityChoice& choice, TimeCriticalFrame& f);
 };
 
 TimeCriticalRenderer::TimeCriticalRenderer(LodEngine& engine, TimeCriticalOptions options)
     : impl_(std::make_unique<Impl>(engine, options)) {
   if (!(options.pixels > 0) || !(options.moving_step_voxels > 0) || !(options.resting_step_voxels > 0))
     fail_in("time-critical renderer", "pixels and steps must be > 0");
+  if (!(options.min_scale > 0 && options.min_scale <= 1))
+    fail_in("time-critical renderer", "min_scale must be in (0, 1]");
   if (options.uploads_per_frame < 1 || options.reads_per_frame < 1)
     fail_in("time-critical renderer", "uploads and reads per frame must be >= 1");
 }
@@ -53,15 +61,21 @@ TimeCriticalRenderer::TimeCriticalRenderer(LodEngine& engine, TimeCriticalOption
 TimeCriticalRenderer::~TimeCriticalRenderer() = default;
 
 Image TimeCriticalRenderer::Impl::step(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
-                                       bool unlimited, TimeCriticalFrame& f) {
+                                       bool unlimited, const QualityChoice& choice, TimeCriticalFrame& f) {
   const BrickCacheStats before = cache.stats();
   CutBudget budget;
   const uint64_t atlas = engine.atlas_budget_bricks();
-  f.budget_nodes = unlimited ? CutBudget::kUnlimited : controller.budget();
+  f.budget_nodes = unlimited ? CutBudget::kUnlimited : choice.max_nodes;
   budget.max_nodes = std::max<uint64_t>(1, std::min(atlas, f.budget_nodes));
   budget.max_new_nodes_per_frame = options.uploads_per_frame;
   budget.max_reads_per_frame = options.reads_per_frame;
-  const CutUpdate u = cut.update(camera, settings.width, settings.height, tf, budget,
+  // The cut measures texels in pixels of the image it is drawn into: the scaled one.
+  f.scale = unlimited ? 1.0 : choice.scale;
+  RenderSettings scaled = settings;
+  scaled.width = std::max(1, int(std::lround(settings.width * f.scale)));
+  scaled.height = std::max(1, int(std::lround(settings.height * f.scale)));
+  if (scaled.width == settings.width && scaled.height == settings.height) f.scale = 1;
+  const CutUpdate u = cut.update(camera, scaled.width, scaled.height, tf, budget,
                                  [&](uint64_t n) { return engine.in_atlas(n) || cache.resident(n); });
   // The cache keeps what the cut draws and has not uploaded yet (most important), then what it wants next.
   std::vector<std::pair<uint64_t, float>> requests;
@@ -71,14 +85,16 @@ Image TimeCriticalRenderer::Impl::step(const Camera& camera, const TransferFunct
   cache.request(requests);
   f.requested = requests.size();
   Image image = engine.render_nodes(
-      camera, tf, settings, u.visible, [&](uint64_t n) { return cache.get(n); }, &f.render);
+      camera, tf, scaled, u.visible, [&](uint64_t n) { return cache.get(n); }, &f.render);
   cache.rethrow_load_error();
+  if (f.scale != 1) image = resize_bilinear(image, settings.width, settings.height);
   f.cut_nodes = cut.size();
   f.visible_nodes = u.visible.size();
   f.splits = u.splits;
   f.merges = u.merges;
-  f.max_error = u.max_error;
-  f.mean_error = u.mean_error;
+  const double to_output = double(settings.width) / double(scaled.width);  // output pixels per rendered pixel
+  f.max_error = u.max_error * to_output;
+  f.mean_error = u.mean_error * to_output;
   f.uploads = f.render.bricks_loaded;
   f.sync_reads = f.render.bricks_read_sync;
   f.converged = u.converged && u.wanted.empty();
@@ -98,12 +114,17 @@ Image TimeCriticalRenderer::frame(const Camera& camera, const TransferFunction& 
   // once it has converged, one more frame at the fine step is full quality (and stays so while the view rests).
   const bool fine = f.resting && I.rest_converged;
   I.engine.set_step_voxels(fine ? I.options.resting_step_voxels : I.options.moving_step_voxels);
-  Image image = I.step(camera, tf, settings, f.resting, f);
+  f.budget_samples = f.resting ? FrameController::kUnlimited : I.controller.budget();
+  Image image = I.step(camera, tf, settings, f.resting, I.policy.current(), f);
   I.rest_converged = f.resting && f.converged;
   f.converged = fine && f.converged;
   f.seconds = seconds_since(t0);
-  // Only frames under the controller's budget teach it what work costs.
-  if (!f.resting) I.controller.frame(f.seconds, std::max<uint64_t>(1, f.cut_nodes));
+  // Only frames under the budget teach the controller what a sample costs.
+  if (!f.resting) {
+    const uint64_t samples = I.controller.frame(f.seconds, f.render.samples);
+    const bool coarsest = f.cut_nodes <= I.cut.coarsest_size() || f.cut_nodes > f.budget_nodes;
+    I.policy.next(samples, f.render.samples, f.cut_nodes, coarsest);
+  }
   I.last_camera = camera, I.last_tf = tf, I.last_settings = settings;
   if (report) *report = f;
   return image;
@@ -131,7 +152,8 @@ Image TimeCriticalRenderer::full_quality(const Camera& camera, const TransferFun
     I.cache.rethrow_load_error();
     if (u.splits == 0 && u.merges == 0 && !u.wanted.empty() && !I.cache.wait_all(0)) break;  // over the RAM budget
   }
-  Image image = I.step(camera, tf, settings, true, f);
+  f.budget_samples = FrameController::kUnlimited;
+  Image image = I.step(camera, tf, settings, true, QualityChoice{}, f);
   I.rest_converged = f.converged;
   f.seconds = seconds_since(t0);
   f.resting = true;

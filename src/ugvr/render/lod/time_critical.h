@@ -1,19 +1,22 @@
 // Time-critical level of detail (Leven et al. 2002 §5.1-5.2) with progressive refinement when the view rests
 // (Callahan et al. 2006): one object per interactive session that, frame after frame, keeps an active cut
 // (active_cut.h), keeps its bricks coming through the RAM cache (brick_cache.h, background reads) into the GPU atlas
-// (lod_engine.h), and sizes the cut from measured frame times (frame_controller.h).
+// (lod_engine.h), and sizes the work of each frame from measured frame times.
 //
-// A frame:
-//  1. the controller's budget (cut nodes), capped by the atlas, bounds the cut; while the view moves the budget comes
-//     from the target frame time, once it rests the cap is lifted and the cut refines until it converges;
-//  2. the active cut merges and splits (§5.1): splits only into bricks already in RAM or in the atlas, at most
-//     `uploads_per_frame` new bricks a frame; what it would split next goes to the RAM cache as read requests
-//     (`reads_per_frame`, by error), together with the bricks the cut itself must keep;
-//  3. the engine draws the visible cut nodes, uploading new bricks from the cache;
-//  4. the frame's wall time (to the image in host memory) goes back to the controller.
-// The sample step follows the same rule: `moving_step_voxels` while the view moves, `resting_step_voxels` once the
-// cut has converged at rest. A single image with no target (`target_fps` 0) renders at full quality: the cut is
-// refined to convergence (waiting for bricks) before the one frame is drawn.
+// A moving frame:
+//  1. the frame controller (frame_controller.h) gives a budget of ray samples from the measured seconds per sample,
+//     and the quality policy (quality_policy.h) turns it into the two levers: the cut's node budget (capped by the
+//     atlas) and the image scale (< 1 only when the coarsest cut is still too slow at full size);
+//  2. the active cut merges and splits (§5.1) for the image at that scale: splits only into bricks already in RAM or
+//     in the atlas, at most `uploads_per_frame` new bricks a frame; what it would split next goes to the RAM cache as
+//     read requests (`reads_per_frame`, by error), together with the bricks the cut itself must keep;
+//  3. the engine draws the visible cut nodes at the scaled size, uploading new bricks from the cache; a scaled frame
+//     is magnified to the output size (bilinear);
+//  4. the frame's wall time (to the image in host memory) and its sample count go back to the controller.
+// Once the view rests the budget is lifted and the scale returns to 1: the cut refines until it converges, then one
+// frame at `resting_step_voxels` (instead of `moving_step_voxels`) is full quality, and stays so while the view rests.
+// A single image with no target (`target_fps` 0) renders at full quality: the cut is refined to convergence (waiting
+// for bricks) before the one frame is drawn.
 #pragma once
 
 #include <cstdint>
@@ -38,17 +41,20 @@ struct TimeCriticalOptions {
   double moving_step_voxels = 1.0;                // sample step while the view moves
   double resting_step_voxels = 0.5;               // and once it rests and the cut has converged
   int loader_threads = 0;                         // RAM cache workers (0: hardware concurrency)
+  double min_scale = 0.25;                        // smallest image scale while moving (quality_policy.h)
 };
 
 struct TimeCriticalFrame {
   double seconds = 0;          // wall time of the frame (cut update + draw + read back)
   bool resting = false;        // camera, transfer function and settings as in the previous frame
   bool converged = false;      // the cut cannot improve and the step is the resting one: full quality
-  uint64_t budget_nodes = 0;   // the cut size the controller allowed (max = unlimited)
+  uint64_t budget_samples = 0;  // the controller's sample budget for this frame (max = unlimited)
+  uint64_t budget_nodes = 0;   // the cut size the policy allowed (max = unlimited)
+  double scale = 1;            // the image was ray cast at scale × the output size
   uint64_t cut_nodes = 0;      // active cut, culled nodes included
   uint64_t visible_nodes = 0;  // drawn
   uint64_t splits = 0, merges = 0;
-  double max_error = 0, mean_error = 0;  // texels per pixel of the visible nodes
+  double max_error = 0, mean_error = 0;  // screen size of the visible nodes' texels, in output pixels
   uint64_t uploads = 0;                  // bricks uploaded to the atlas
   uint64_t sync_reads = 0;               // of those, read on the render thread (the cache did not have them)
   uint64_t requested = 0;                // read requests sent to the RAM cache

@@ -1,0 +1,56 @@
+#include "ugvr/render/lod/quality_policy.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "ugvr/core/error.h"
+
+namespace ugvr {
+
+namespace {
+// Headroom (budget / samples) above which one more split is allowed whatever the growth law says.
+constexpr double kSplitMargin = 1.1;
+}  // namespace
+
+QualityPolicy::QualityPolicy(QualityPolicyOptions options) : options_(options) {
+  const QualityPolicyOptions& o = options_;
+  if (!(o.min_scale > 0 && o.min_scale <= 1)) fail_in("quality policy", "min_scale must be in (0, 1]");
+  if (!(o.max_sample_growth >= 1 && std::isfinite(o.max_sample_growth)))
+    fail_in("quality policy", "max_sample_growth must be finite and >= 1");
+  if (!(o.max_scale_growth >= 1 && std::isfinite(o.max_scale_growth)))
+    fail_in("quality policy", "max_scale_growth must be finite and >= 1");
+  if (o.initial_nodes < 1) fail_in("quality policy", "initial_nodes must be >= 1");
+  reset();
+}
+
+void QualityPolicy::reset() { current_ = {options_.initial_nodes, 1.0}; }
+
+QualityChoice QualityPolicy::next(uint64_t sample_budget, uint64_t samples, uint64_t cut_nodes, bool coarsest) {
+  const QualityPolicyOptions& o = options_;
+  cut_nodes = std::max<uint64_t>(cut_nodes, 1);
+  // No samples (nothing visible): nothing to learn about the cost; let the cut grow as far as a frame allows.
+  const double ratio = samples > 0 ? double(sample_budget) / double(samples) : o.max_sample_growth;
+  QualityChoice c = current_;
+  auto nodes_for = [&](double r) {
+    const double n = double(cut_nodes) * std::pow(std::clamp(r, 0.5, o.max_sample_growth), 3.0);
+    return uint64_t(std::clamp(std::floor(n), 1.0, 1e18));
+  };
+  if (ratio < 1) {
+    if (!coarsest) {
+      c.max_nodes = std::min(nodes_for(ratio), cut_nodes);
+    } else {
+      c.max_nodes = cut_nodes;
+      c.scale = std::max(o.min_scale, c.scale * std::sqrt(std::max(ratio, 0.25)));
+    }
+  } else if (c.scale < 1) {
+    c.max_nodes = cut_nodes;
+    c.scale = std::min({1.0, c.scale * std::sqrt(ratio), c.scale * o.max_scale_growth});
+  } else {
+    // Growth comes in splits: one adds up to 7 nodes, so a small cut (the root alone) could never grow by a factor.
+    c.max_nodes = std::max(nodes_for(ratio), ratio > kSplitMargin ? cut_nodes + 7 : cut_nodes);
+  }
+  current_ = c;
+  return c;
+}
+
+}  // namespace ugvr
