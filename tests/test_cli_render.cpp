@@ -44,6 +44,11 @@ std::string read_bytes(const std::string& path) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
+void write_bytes(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out << bytes;
+}
+
 TEST_F(CliRender, BadFlagsNameTheFlag) {
   const std::string out = "-o " + file("a.png") + " ";
   const std::pair<std::string, std::string> cases[] = {
@@ -274,6 +279,32 @@ TEST_F(CliRender, LodPathConvergesWhenTheCameraRests) {
   for (const json& l : lines) EXPECT_LE(l["uploads"].get<uint64_t>(), 64u);  // a split's children at most (R 8: 8)
   ASSERT_EQ(run_ugvr("render " + store + view + " --cut pixels:1 -o " + file("still.pfm")).status, 0);
   EXPECT_GE(compare_images(read_pfm(file("path.pfm")), read_pfm(file("still.pfm"))).psnr_db, 40.0);
+  // Keyframes resampled to --frames frames; `orbit` takes its count from --frames; orbit:N and --frames conflict.
+  ASSERT_EQ(run_ugvr("render " + store + " --size 16 --view iso --cut pixels:8 -o " + file("k.png") +
+                     " --save-camera " + file("k0.json"))
+                .status,
+            0);
+  const json k0 = json::parse(read_bytes(file("k0.json")));
+  json k1 = k0;
+  k1["position"][0] = k0["position"][0].get<double>() * 1.5;
+  write_bytes(file("keys.json"), json::array({k0, k1}).dump());
+  auto path_lines = [&](const std::string& flags) {
+    const CommandResult p = run_ugvr("render " + store + " --size 16 --fps 1000 -o " + file("p.png") + " --stats " +
+                                     file("p.jsonl") + " " + flags);
+    EXPECT_EQ(p.status, 0) << flags << "\n" << p.out;
+    std::ifstream f(file("p.jsonl"));
+    size_t n = 0;
+    for (std::string line; std::getline(f, line);) ++n;
+    return n;
+  };
+  EXPECT_EQ(path_lines("--path " + file("keys.json")), 2u);
+  EXPECT_EQ(path_lines("--path " + file("keys.json") + " --frames 7"), 7u);
+  EXPECT_EQ(path_lines("--path orbit --frames 5"), 5u);
+  EXPECT_EQ(path_lines("--path orbit,rest:2 --frames 4"), 6u);
+  const CommandResult both =
+      run_ugvr("render " + store + " --size 16 --fps 10 --path orbit:3 --frames 5 -o " + file("x.png"));
+  EXPECT_EQ(both.status, 1);
+  EXPECT_NE(both.out.find("--frames"), std::string::npos) << both.out;
   // The path needs the lod engine.
   const CommandResult e = render("-o " + file("x.png") + " --path orbit:3");
   EXPECT_EQ(e.status, 1);

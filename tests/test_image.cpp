@@ -208,7 +208,8 @@ TEST(Image, ResizeBilinear) {
   ASSERT_EQ(big.height, 12);
   for (int y = 0; y < 12; ++y)
     for (int x = 0; x < 16; ++x) {
-      const double sx = std::clamp((x + 0.5) * 8 / 16 - 0.5, 0.0, 7.0), sy = std::clamp((y + 0.5) * 8 / 12 - 0.5, 0.0, 7.0);
+      const double sx = std::clamp((x + 0.5) * 8 / 16 - 0.5, 0.0, 7.0),
+                   sy = std::clamp((y + 0.5) * 8 / 12 - 0.5, 0.0, 7.0);
       EXPECT_NEAR(big.pixel(x, y)[0], sx / 7, 1e-6);
       EXPECT_NEAR(big.pixel(x, y)[1], sy / 7, 1e-6);
       EXPECT_FLOAT_EQ(big.pixel(x, y)[2], 0.5f);

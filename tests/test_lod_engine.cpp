@@ -356,7 +356,8 @@ TEST(LodEngine, CallersCutWithCachedBricksMatchesItsOwnCut) {
   LodEngine c(s.store, *s.gl);
   c.set_field("wave");
   LodRenderStats sc;
-  const Image late = c.render_nodes(v.camera, tf, v.settings, cut.nodes, [](uint64_t) { return nullptr; }, &sc);
+  const Image late = c.render_nodes(
+      v.camera, tf, v.settings, cut.nodes, [](uint64_t) { return nullptr; }, &sc);
   EXPECT_EQ(compare_images(own, late).max_abs, 0.0);
   EXPECT_EQ(sc.bricks_read_sync, cut.nodes.size());
 }

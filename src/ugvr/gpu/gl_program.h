@@ -66,6 +66,29 @@ class GlBuffer {
   size_t size_ = 0;
 };
 
+// A GL_TIME_ELAPSED query: the GPU's own time for the commands between begin() and end(), without the CPU's
+// submission and synchronisation overheads (ARB_timer_query, core since OpenGL 3.3; llvmpipe implements it too).
+class GlTimerQuery {
+ public:
+  GlTimerQuery() { glCreateQueries(GL_TIME_ELAPSED, 1, &id_); }
+  ~GlTimerQuery() {
+    if (id_) glDeleteQueries(1, &id_);
+  }
+  GlTimerQuery(const GlTimerQuery&) = delete;
+  GlTimerQuery& operator=(const GlTimerQuery&) = delete;
+  void begin() { glBeginQuery(GL_TIME_ELAPSED, id_); }
+  void end() { glEndQuery(GL_TIME_ELAPSED); }
+  // Waits for the result.
+  double seconds() const {
+    GLuint64 ns = 0;
+    glGetQueryObjectui64v(id_, GL_QUERY_RESULT, &ns);
+    return double(ns) * 1e-9;
+  }
+
+ private:
+  GLuint id_ = 0;
+};
+
 class GlTexture {
  public:
   GlTexture() = default;

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <unordered_map>
 
 #include "ugvr/core/error.h"
@@ -41,6 +42,7 @@ struct LodEngine::Impl {
   ComputeProgram& program_for(int mode, bool volume_lighting);
   GlBuffer tree, state, counters;
   GlTexture tf_texture, out_texture;
+  std::unique_ptr<GlTimerQuery> timer;  // created on first use (the context is current then)
   int out_w = 0, out_h = 0;
   BrickAtlas atlas;
   bool have_atlas = false;
@@ -344,10 +346,14 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   glUniform1i(program.uniform("u_tf"), 2);
   glFinish();
   const auto t2 = std::chrono::steady_clock::now();
+  if (!I.timer) I.timer = std::make_unique<GlTimerQuery>();
+  I.timer->begin();
   glDispatchCompute(GLuint((w + kWorkgroup - 1) / kWorkgroup), GLuint((h + kWorkgroup - 1) / kWorkgroup), 1);
+  I.timer->end();
   glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
   glFinish();
   st.gpu_seconds = seconds_since(t2);
+  st.gpu_timer_seconds = I.timer->seconds();
   check_gl("ray casting");
   uint32_t counted[2] = {0, 0};
   glGetNamedBufferSubData(I.counters.id(), 0, sizeof counted, counted);

@@ -30,10 +30,11 @@
 namespace ugvr {
 
 struct LodRenderStats {
-  double render_seconds = 0;  // wall time of render()
-  double cut_seconds = 0;     // choosing the cut
-  double load_seconds = 0;    // reading, decoding, padding and uploading bricks not yet resident
-  double gpu_seconds = 0;     // the ray-casting dispatch, to completion (glFinish)
+  double render_seconds = 0;     // wall time of render()
+  double cut_seconds = 0;        // choosing the cut
+  double load_seconds = 0;       // reading, decoding, padding and uploading bricks not yet resident
+  double gpu_seconds = 0;        // the ray-casting dispatch, to completion (glFinish), by the CPU's clock
+  double gpu_timer_seconds = 0;  // the same dispatch by a GL timer query (the device's own clock)
   double readback_seconds = 0;
   uint64_t samples = 0;         // texture samples of the volume taken by all rays
   uint64_t bricks_entered = 0;  // node traversals, summed over rays

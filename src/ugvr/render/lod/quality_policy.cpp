@@ -10,6 +10,10 @@ namespace ugvr {
 namespace {
 // Headroom (budget / samples) above which one more split is allowed whatever the growth law says.
 constexpr double kSplitMargin = 1.1;
+// Shortfall below which the levers move down. Between it and 1 they hold: a cut is quantised (merging the root's
+// children takes 7 nodes to 1), so following every few percent of timing noise would make the cut, and the image
+// quality, jump back and forth around the fixed point. Frames then run at most ~1/0.9 of the target.
+constexpr double kShrinkMargin = 0.9;
 }  // namespace
 
 QualityPolicy::QualityPolicy(QualityPolicyOptions options) : options_(options) {
@@ -35,7 +39,9 @@ QualityChoice QualityPolicy::next(uint64_t sample_budget, uint64_t samples, uint
     const double n = double(cut_nodes) * std::pow(std::clamp(r, 0.5, o.max_sample_growth), 3.0);
     return uint64_t(std::clamp(std::floor(n), 1.0, 1e18));
   };
-  if (ratio < 1) {
+  if (ratio >= kShrinkMargin && ratio < 1) {
+    c.max_nodes = cut_nodes;
+  } else if (ratio < 1) {
     if (!coarsest) {
       c.max_nodes = std::min(nodes_for(ratio), cut_nodes);
     } else {

@@ -45,14 +45,14 @@ struct TimeCriticalOptions {
 };
 
 struct TimeCriticalFrame {
-  double seconds = 0;          // wall time of the frame (cut update + draw + read back)
-  bool resting = false;        // camera, transfer function and settings as in the previous frame
-  bool converged = false;      // the cut cannot improve and the step is the resting one: full quality
+  double seconds = 0;           // wall time of the frame (cut update + draw + read back)
+  bool resting = false;         // camera, transfer function and settings as in the previous frame
+  bool converged = false;       // the cut cannot improve and the step is the resting one: full quality
   uint64_t budget_samples = 0;  // the controller's sample budget for this frame (max = unlimited)
-  uint64_t budget_nodes = 0;   // the cut size the policy allowed (max = unlimited)
-  double scale = 1;            // the image was ray cast at scale × the output size
-  uint64_t cut_nodes = 0;      // active cut, culled nodes included
-  uint64_t visible_nodes = 0;  // drawn
+  uint64_t budget_nodes = 0;    // the cut size the policy allowed (max = unlimited)
+  double scale = 1;             // the image was ray cast at scale × the output size
+  uint64_t cut_nodes = 0;       // active cut, culled nodes included
+  uint64_t visible_nodes = 0;   // drawn
   uint64_t splits = 0, merges = 0;
   double max_error = 0, mean_error = 0;  // screen size of the visible nodes' texels, in output pixels
   uint64_t uploads = 0;                  // bricks uploaded to the atlas
