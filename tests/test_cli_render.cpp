@@ -305,6 +305,23 @@ TEST_F(CliRender, LodPathConvergesWhenTheCameraRests) {
       run_ugvr("render " + store + " --size 16 --fps 10 --path orbit:3 --frames 5 -o " + file("x.png"));
   EXPECT_EQ(both.status, 1);
   EXPECT_NE(both.out.find("--frames"), std::string::npos) << both.out;
+  // Error weighting: a node's texel size is scaled by (its data error / range)^W, so with a large W the cut at rest
+  // stops where the data are held well enough, with fewer nodes than by texel size alone.
+  auto rest_cut = [&](const std::string& flags) {
+    EXPECT_EQ(path_lines("--path orbit,rest:20 --frames 2 " + flags), 22u);
+    std::ifstream f(file("p.jsonl"));
+    std::string line, last;
+    while (std::getline(f, line)) last = line;
+    return json::parse(last)["cut_nodes"].get<uint64_t>();
+  };
+  const uint64_t plain = rest_cut(""), weighted = rest_cut("--error-weight 4");
+  std::fprintf(stderr, "cut at rest: %llu nodes, %llu with --error-weight 4\n", (unsigned long long)plain,
+               (unsigned long long)weighted);
+  EXPECT_GT(plain, 1u);
+  EXPECT_LT(weighted, plain);
+  const CommandResult w = run_ugvr("render " + store + " --size 16 --fps 10 --error-weight -1 -o " + file("x.png"));
+  EXPECT_EQ(w.status, 1);
+  EXPECT_NE(w.out.find("--error-weight"), std::string::npos) << w.out;
   // The path needs the lod engine.
   const CommandResult e = render("-o " + file("x.png") + " --path orbit:3");
   EXPECT_EQ(e.status, 1);

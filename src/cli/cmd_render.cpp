@@ -41,7 +41,7 @@ struct Options {
   std::string output, size, engine = "auto", camera, view, view_angle, tf, tf_name, range, unit_distance, field, mode,
                             iso, iso_opacity, clip, boundary_opacity, background, settings, float_output, stats,
                             save_camera, save_tf, threads, frames, cut = "pixels:1", gpu = "auto", step_voxels, fps,
-                            path, out_dir, uploads_per_frame, reads_per_frame;
+                            path, out_dir, uploads_per_frame, reads_per_frame, error_weight;
   uint64_t gpu_memory = uint64_t(2) << 30, ram_memory = uint64_t(1) << 30;
   bool keep_range = false, no_lighting = false, volume_lighting = false;
 };
@@ -399,6 +399,10 @@ EngineRun lod_run(const Options& o, RenderSettings& settings, std::shared_ptr<vo
       tc.uploads_per_frame = uint64_t(parse_positive_int(o.uploads_per_frame, "--uploads-per-frame"));
     if (!o.reads_per_frame.empty())
       tc.reads_per_frame = uint64_t(parse_positive_int(o.reads_per_frame, "--reads-per-frame"));
+    if (!o.error_weight.empty()) {
+      tc.error_weight = parse_number(o.error_weight, "--error-weight");
+      if (!(tc.error_weight >= 0) || tc.error_weight > 16) fail_flag("--error-weight", "must be in [0, 16]");
+    }
     if (!o.step_voxels.empty()) tc.resting_step_voxels = parse_number(o.step_voxels, "--step-voxels");
     const int frames = o.frames.empty() ? 0 : parse_positive_int(o.frames, "--frames");
     // No path: the one view, --frames times.
@@ -666,6 +670,10 @@ void register_render(CLI::App& app) {
       ->default_str("1GiB");
   cmd->add_option("--uploads-per-frame", opts->uploads_per_frame, "lod: bricks uploaded to the GPU per frame (64)")
       ->type_name("N");
+  cmd->add_option("--error-weight", opts->error_weight,
+                  "lod, along --path: split by texel size x (node error / field range)^W, so nodes that hold their "
+                  "data exactly are not split (default 0: texel size alone)")
+      ->type_name("W");
   cmd->add_option("--reads-per-frame", opts->reads_per_frame, "lod: brick reads requested per frame (256)")
       ->type_name("N");
   cmd->add_option("--camera", opts->camera, "Camera JSON file (as written by --save-camera)")->type_name("FILE");

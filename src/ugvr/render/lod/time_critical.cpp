@@ -31,7 +31,7 @@ struct TimeCriticalRenderer::Impl {
   Impl(LodEngine& e, TimeCriticalOptions o)
       : engine(e),
         options(o),
-        cut(e.store(), ActiveCutOptions{e.field(), o.pixels}),
+        cut(e.store(), ActiveCutOptions{e.field(), o.pixels, o.error_weight}),
         cache(e.store(), e.field(), o.ram_budget_bytes, o.loader_threads),
         policy(QualityPolicyOptions{.min_scale = o.min_scale}) {
     FrameControllerOptions fc;

@@ -38,6 +38,7 @@ struct TimeCriticalOptions {
   uint64_t uploads_per_frame = 64;                // bricks RAM -> GPU per frame
   uint64_t reads_per_frame = 256;                 // brick read requests (disk -> RAM) per frame
   double pixels = 1;                              // split threshold: texels per pixel
+  double error_weight = 0;                        // texel size × (node error / range)^w (active_cut.h)
   double moving_step_voxels = 1.0;                // sample step while the view moves
   double resting_step_voxels = 0.5;               // and once it rests and the cut has converged
   int loader_threads = 0;                         // RAM cache workers (0: hardware concurrency)
