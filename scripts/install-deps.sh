@@ -13,6 +13,8 @@ PACKAGES=(
   libcli11-dev nlohmann-json3-dev     # command line; JSON output and settings files
   libnetcdf-dev                       # Exodus II files are netCDF
   libpng-dev                          # rendered images
+  libboost-dev                        # Beast + Asio: the browser viewer's HTTP / WebSocket server (`ugvr view`)
+  libturbojpeg0-dev                   # JPEG frames streamed to the browser viewer
   libepoxy-dev libegl-dev             # OpenGL 4.5 through headless EGL (GPU engines)
   libegl1 libegl-mesa0 libgl1-mesa-dri  # Mesa's EGL and llvmpipe: the GPU engines run without a GPU (CI)
   python3 python3-matplotlib          # benchmark plots

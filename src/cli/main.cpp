@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   ugvr::cli::register_render(app);
   ugvr::cli::register_build(app);
   ugvr::cli::register_compare(app);
+  ugvr::cli::register_view(app);
 
   try {
     app.parse(argc, argv);

@@ -19,7 +19,7 @@ namespace ugvr {
 namespace {
 
 // Catches images whose pixel vector disagrees with their size before anything indexes it.
-void check_image(const std::string& path, const Image& image) {
+void check_image(std::string_view path, const Image& image) {
   if (image.width < 1 || image.height < 1 || image.rgba.size() != size_t(image.width) * size_t(image.height) * 4)
     fail_in(path, "cannot write an image of " + std::to_string(image.width) + " x " + std::to_string(image.height) +
                       " pixels holding " + std::to_string(image.rgba.size()) + " floats");
@@ -192,8 +192,8 @@ int pfm_side(PfmHeader& h, const std::string& path, std::string_view what) {
 
 }  // namespace
 
-void write_png(const std::string& path, const Image& image) {
-  check_image(path, image);
+std::vector<unsigned char> png_bytes(const Image& image, std::string_view source) {
+  check_image(source, image);
   const size_t pixels = size_t(image.width) * size_t(image.height);
   // Decided on the stored 8-bit alpha: an alpha that rounds to 255 is lost in either layout, so RGB is lossless then.
   bool opaque = true;
@@ -218,8 +218,12 @@ void write_png(const std::string& path, const Image& image) {
   png_set_write_fn(guard.png, &io, on_png_write, on_png_flush);
   if (!encode_png(guard.png, guard.info, image.width, image.height,
                   opaque ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_RGB_ALPHA, rows.data()))
-    fail_in(path, std::string("cannot encode PNG: ") + io.message);
+    fail_in(source, std::string("cannot encode PNG: ") + io.message);
+  return encoded;
+}
 
+void write_png(const std::string& path, const Image& image) {
+  const std::vector<unsigned char> encoded = png_bytes(image, path);
   AtomicOutputFile out(path);
   out.write(encoded.data(), encoded.size());
   out.commit();

@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace ugvr {
@@ -30,6 +31,8 @@ void composite_pixel(float* px, const double radiance[3], double transmittance,
 // 8-bit PNG (libpng): RGB when every alpha is 1, RGBA otherwise; values clamped to [0, 1] and rounded. Written to a
 // temporary file and renamed. Throws ugvr::Error naming the path.
 void write_png(const std::string& path, const Image& image);
+// The same PNG in memory (the browser viewer streams it); `source` names the image in errors.
+std::vector<unsigned char> png_bytes(const Image& image, std::string_view source = "image");
 // Reads an 8-bit RGB/RGBA/gray PNG into an Image (values / 255, alpha 1 when absent). Throws ugvr::Error.
 Image read_png(const std::string& path);
 

@@ -1,0 +1,175 @@
+#include "ugvr/view/view_protocol.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "ugvr/core/error.h"
+
+namespace ugvr::view {
+namespace {
+
+using nlohmann::json;
+
+[[noreturn]] void fail_field(std::string_view field, const std::string& message) { fail_in(field, message); }
+
+// Only `allowed` keys (and "type") may appear.
+void check_keys(const json& j, std::initializer_list<std::string_view> allowed) {
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    if (it.key() == "type") continue;
+    if (std::find(allowed.begin(), allowed.end(), it.key()) == allowed.end())
+      fail_field(it.key(), "unknown key for a \"" + j["type"].get<std::string>() + "\" message");
+  }
+}
+
+double number(const json& j, std::string_view key, double lo, double hi) {
+  const json& v = j[std::string(key)];
+  if (!v.is_number()) fail_field(key, "expected a number, found " + std::string(v.type_name()));
+  const double d = v.get<double>();
+  if (!std::isfinite(d)) fail_field(key, "expected a finite number");
+  if (d < lo || d > hi)
+    fail_field(key, "must be in [" + json(lo).dump() + ", " + json(hi).dump() + "], found " + json(d).dump());
+  return d;
+}
+
+int side(const json& j, std::string_view key) {
+  if (!j.contains(key)) fail_field(key, "missing");
+  const json& v = j[std::string(key)];
+  if (!v.is_number_integer()) fail_field(key, "expected an integer, found " + json(v).dump());
+  const int64_t n = v.get<int64_t>();
+  if (n < kMinViewSide || n > kMaxViewSide)
+    fail_field(key, "must be in [" + std::to_string(kMinViewSide) + ", " + std::to_string(kMaxViewSide) + "], found " +
+                        std::to_string(n));
+  return int(n);
+}
+
+// A flat list of numbers, `stride` per point, at most kMaxTfPoints points.
+std::vector<double> flat_points(const json& j, std::string_view key, size_t stride) {
+  const json& v = j[std::string(key)];
+  if (!v.is_array()) fail_field(key, "expected an array of numbers");
+  if (v.empty() || v.size() % stride != 0)
+    fail_field(key, "expected a non-empty multiple of " + std::to_string(stride) + " numbers, found " +
+                        std::to_string(v.size()));
+  if (v.size() / stride > kMaxTfPoints)
+    fail_field(key, "at most " + std::to_string(kMaxTfPoints) + " points, found " + std::to_string(v.size() / stride));
+  std::vector<double> out;
+  for (const json& e : v) {
+    if (!e.is_number() || !std::isfinite(e.get<double>())) fail_field(key, "expected finite numbers");
+    out.push_back(e.get<double>());
+  }
+  for (size_t i = stride; i < out.size(); i += stride)
+    if (!(out[i] > out[i - stride])) fail_field(key, "point x values must be strictly increasing");
+  return out;
+}
+
+double unit(double v, std::string_view key) {
+  if (v < 0 || v > 1) fail_field(key, "values must be in [0, 1]");
+  return v;
+}
+
+TfMessage parse_tf(const json& j) {
+  check_keys(j, {"preset", "opacity", "rgb_points", "opacity_points"});
+  TfMessage m;
+  if (j.contains("preset")) {
+    if (!j["preset"].is_string()) fail_field("preset", "expected a string");
+    const std::string name = j["preset"].get<std::string>();
+    const std::vector<std::string> names = builtin_preset_names();
+    if (std::find(names.begin(), names.end(), name) == names.end()) {
+      std::string list;
+      for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
+      fail_field("preset", "unknown preset (valid: " + list + ")");
+    }
+    m.preset = name;
+  }
+  if (j.contains("opacity")) m.opacity = number(j, "opacity", 0, 1);
+  if (j.contains("rgb_points")) {
+    const std::vector<double> p = flat_points(j, "rgb_points", 4);
+    for (size_t i = 0; i < p.size(); i += 4)
+      m.color_points.push_back(
+          {p[i], {unit(p[i + 1], "rgb_points"), unit(p[i + 2], "rgb_points"), unit(p[i + 3], "rgb_points")}});
+  }
+  if (j.contains("opacity_points")) {
+    const std::vector<double> p = flat_points(j, "opacity_points", 2);
+    for (size_t i = 0; i < p.size(); i += 2) m.opacity_points.push_back({p[i], unit(p[i + 1], "opacity_points")});
+  }
+  return m;
+}
+
+SettingsMessage parse_settings(const json& j) {
+  check_keys(j, {"mode", "iso_value", "step_voxels", "fps", "full_quality"});
+  SettingsMessage m;
+  if (j.contains("mode")) {
+    const json& v = j["mode"];
+    const std::string s = v.is_string() ? v.get<std::string>() : "";
+    if (s == "ea")
+      m.mode = RenderMode::EmissionAbsorption;
+    else if (s == "mip")
+      m.mode = RenderMode::Mip;
+    else if (s == "iso")
+      m.mode = RenderMode::Isosurface;
+    else
+      fail_field("mode", "expected \"ea\", \"mip\" or \"iso\", found " + v.dump());
+  }
+  if (j.contains("iso_value")) m.iso_value = number(j, "iso_value", -1e300, 1e300);
+  if (j.contains("step_voxels")) {
+    m.step_voxels = number(j, "step_voxels", 0, 8);
+    if (*m.step_voxels <= 0) fail_field("step_voxels", "must be > 0");
+  }
+  if (j.contains("fps")) m.fps = number(j, "fps", 0, kMaxFps);
+  if (j.contains("full_quality")) {
+    if (!j["full_quality"].is_boolean()) fail_field("full_quality", "expected true or false");
+    m.full_quality = j["full_quality"].get<bool>();
+  }
+  return m;
+}
+
+}  // namespace
+
+ClientMessage parse_client_message(std::string_view text) {
+  if (text.size() > kMaxClientMessageBytes)
+    fail_field("message", "too large: " + std::to_string(text.size()) + " bytes (at most " +
+                              std::to_string(kMaxClientMessageBytes) + ")");
+  const json j = json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded()) fail_field("message", "not valid JSON");
+  if (!j.is_object()) fail_field("message", "expected a JSON object");
+  if (!j.contains("type") || !j["type"].is_string()) fail_field("type", "missing or not a string");
+  const std::string type = j["type"].get<std::string>();
+  if (type == "hello" || type == "resize") {
+    check_keys(j, {"width", "height"});
+    return SizeMessage{type == "hello", side(j, "width"), side(j, "height")};
+  }
+  if (type == "camera") {
+    json c = j;
+    c.erase("type");
+    // camera.h validates (finite, non-degenerate, angle range, unknown keys) and names the key in its message.
+    return CameraMessage{camera_from_json(c, "camera")};
+  }
+  if (type == "tf") return parse_tf(j);
+  if (type == "settings") return parse_settings(j);
+  fail_field("type", "unknown message type \"" + type + "\" (expected hello, resize, camera, tf or settings)");
+}
+
+std::string error_message(std::string_view message) {
+  // error_handler_t::replace: a message quoting invalid UTF-8 from the client must not throw while being reported.
+  return json{{"type", "error"}, {"message", std::string(message)}}.dump(-1, ' ', false,
+                                                                         json::error_handler_t::replace);
+}
+
+std::string status_message(const FrameStatus& s) {
+  return json{{"type", "status"},
+              {"seq", s.seq},
+              {"request", s.request},
+              {"format", s.png ? "png" : "jpeg"},
+              {"width", s.width},
+              {"height", s.height},
+              {"fps", s.fps},
+              {"frame_seconds", s.frame_seconds},
+              {"cut_nodes", s.cut_nodes},
+              {"visible_nodes", s.visible_nodes},
+              {"texel_error", s.texel_error},
+              {"max_texel_error", s.max_texel_error},
+              {"scale", s.scale},
+              {"converged", s.converged}}
+      .dump();
+}
+
+}  // namespace ugvr::view

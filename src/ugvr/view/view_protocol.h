@@ -1,0 +1,95 @@
+// The browser viewer's WebSocket protocol (`ugvr view`, view_server.h). Every client message is one JSON object in a
+// text frame, at most kMaxClientMessageBytes, with a "type" and only the keys listed for it (unknown keys are typos
+// and rejected, like everywhere else in ugvr). Numbers must be finite and in range.
+//
+// Client -> server:
+//   {"type":"hello",  "width":W, "height":H}          first message: the canvas size, W and H in [16, 4096]
+//   {"type":"resize", "width":W, "height":H}
+//   {"type":"camera", "position":[x,y,z], "focal_point":[x,y,z], "view_up":[x,y,z], "view_angle":A,
+//                     "parallel_projection":B, "parallel_scale":S}           camera.h's JSON form (validated there)
+//   {"type":"tf", "preset":NAME, "opacity":A, "rgb_points":[x,r,g,b,...], "opacity_points":[x,a,...]}
+//       every key optional: a built-in preset (rescaled to the field's range), and/or explicit points in data
+//       values (ParaView's flat layout, at most kMaxTfPoints points each); "opacity" in [0, 1] scales the opacity
+//   {"type":"settings", "mode":"ea"|"mip"|"iso", "iso_value":V, "step_voxels":S, "fps":F, "full_quality":true}
+//       every key optional: step in (0, 8] voxels (the resting step), fps in [0, 240] (0: every frame at full
+//       quality), full_quality asks for one converged frame of the current view now
+//
+// Server -> client:
+//   text {"type":"scene", ...}   once after hello: field, range, bounds, the initial camera, presets, limits
+//   text {"type":"status", "seq", "request", "format":"jpeg"|"png", "width", "height", "fps", "frame_seconds",
+//         "cut_nodes", "visible_nodes", "texel_error", "max_texel_error", "scale", "converged"}   describes the
+//         binary frame that follows it; "request" counts the client messages accepted (not rejected) before the
+//         frame's view was taken, so a client knows when frames reflect its latest request (earlier ones may still be
+//         on the wire)
+//   binary: the frame, JPEG while moving or refining, PNG once converged (lossless)
+//   text {"type":"error", "message":"FIELD: what is wrong"}   a rejected message; the session goes on
+#pragma once
+
+#include <cstddef>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include "ugvr/core/vec.h"
+#include "ugvr/render/camera.h"
+#include "ugvr/render/render_settings.h"
+#include "ugvr/render/transfer_function.h"
+
+namespace ugvr::view {
+
+inline constexpr size_t kMaxClientMessageBytes = 64 * 1024;
+inline constexpr int kMinViewSide = 16, kMaxViewSide = 4096;
+inline constexpr size_t kMaxTfPoints = 1024;
+inline constexpr double kMaxFps = 240;
+
+struct SizeMessage {
+  bool hello = false;  // hello (first message) or resize
+  int width = 0, height = 0;
+};
+
+struct CameraMessage {
+  Camera camera;
+};
+
+struct TfMessage {
+  std::optional<std::string> preset;
+  std::optional<double> opacity;
+  std::vector<ColorPoint> color_points;  // empty: keep the preset's (or the current) colours
+  std::vector<OpacityPoint> opacity_points;
+};
+
+struct SettingsMessage {
+  std::optional<RenderMode> mode;
+  std::optional<double> iso_value;
+  std::optional<double> step_voxels;
+  std::optional<double> fps;
+  bool full_quality = false;
+};
+
+using ClientMessage = std::variant<SizeMessage, CameraMessage, TfMessage, SettingsMessage>;
+
+// Parses and validates one client message. Throws ugvr::Error "FIELD: what is wrong" (FIELD is "message" for the
+// whole text, "type" for the type, else the key).
+ClientMessage parse_client_message(std::string_view text);
+
+// {"type":"error","message":...}
+std::string error_message(std::string_view message);
+
+struct FrameStatus {
+  uint64_t seq = 0;      // frames sent to this session
+  uint64_t request = 0;  // accepted client messages reflected in the frame
+  bool png = false;
+  int width = 0, height = 0;
+  double fps = 0;            // frames per second this session has been getting (moving average)
+  double frame_seconds = 0;  // render time of this frame
+  uint64_t cut_nodes = 0, visible_nodes = 0;
+  double texel_error = 0, max_texel_error = 0;  // screen size of a texel, mean and max, in pixels
+  double scale = 1;
+  bool converged = false;
+};
+std::string status_message(const FrameStatus& s);
+
+}  // namespace ugvr::view

@@ -1,0 +1,633 @@
+#include "ugvr/view/view_server.h"
+
+// clang-format off
+// Boost 1.74's asio/awaitable.hpp uses std::exchange without including <utility> (fixed in later Boost).
+#include <utility>
+#include <boost/asio.hpp>
+// clang-format on
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/websocket.hpp>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <deque>
+#include <future>
+#include <map>
+#include <mutex>
+#include <random>
+#include <thread>
+#include <vector>
+
+#include "ugvr/core/error.h"
+#include "ugvr/gpu/gl_context.h"
+#include "ugvr/render/lod/lod_engine.h"
+#include "ugvr/render/lod/time_critical.h"
+#include "ugvr/view/jpeg.h"
+#include "ugvr/view/view_protocol.h"
+#include "ugvr/view/web_assets.h"
+
+namespace ugvr::view {
+namespace {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+// Past the protocol's 64 KiB limit a message still gets an error reply; this one closes the socket (no unbounded
+// buffering of what a client sends).
+constexpr size_t kHardMessageLimit = 1 << 20;
+// Error replies a client has not read yet: past this, further ones are dropped (a client flooding bad messages
+// without reading must not grow the server's memory).
+constexpr size_t kMaxQueuedReplies = 64;
+
+std::string random_token() {
+  std::random_device rd;
+  std::string t;
+  char buf[9];
+  for (int i = 0; i < 4; ++i) {
+    std::snprintf(buf, sizeof buf, "%08x", unsigned(rd()));
+    t += buf;
+  }
+  return t;
+}
+
+// Value of `key` in the query of `target` ("/ws?token=abc"), empty when absent.
+std::string query_param(std::string_view target, std::string_view key) {
+  const size_t q = target.find('?');
+  if (q == std::string_view::npos) return {};
+  std::string_view query = target.substr(q + 1);
+  while (!query.empty()) {
+    const size_t amp = query.find('&');
+    const std::string_view kv = query.substr(0, amp);
+    const size_t eq = kv.find('=');
+    if (kv.substr(0, eq) == key && eq != std::string_view::npos) return std::string(kv.substr(eq + 1));
+    if (amp == std::string_view::npos) break;
+    query = query.substr(amp + 1);
+  }
+  return {};
+}
+
+std::string str(beast::string_view s) { return std::string(s.data(), s.size()); }
+
+std::string_view target_path(std::string_view target) { return target.substr(0, target.find('?')); }
+
+// Constant-time comparison: the token is a secret.
+bool same_token(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  unsigned char d = 0;
+  for (size_t i = 0; i < a.size(); ++i) d |= static_cast<unsigned char>(a[i] ^ b[i]);
+  return d == 0;
+}
+
+// What a session wants rendered: always its latest request.
+struct ViewRequest {
+  int width = 512, height = 512;
+  Camera camera;
+  TransferFunction tf;
+  RenderSettings settings;
+  double fps = 10;
+  double step_voxels = 0.5;
+};
+
+class WsSession;
+
+// Shared between the I/O thread and the render thread, under Impl::mutex.
+struct SessionState {
+  uint64_t id = 0;
+  bool ready = false, closed = false, in_flight = false, converged = false, full_quality = false;
+  uint64_t generation = 0, rendered_generation = 0;
+  ViewRequest request;
+  std::weak_ptr<WsSession> socket;
+  // Transfer-function edits compose (I/O thread only): a preset, then explicit points, then the opacity scale.
+  std::string tf_preset = "viridis";
+  double tf_opacity = 1;
+  std::vector<ColorPoint> tf_colors;
+  std::vector<OpacityPoint> tf_opacities;
+};
+
+}  // namespace
+
+struct ViewServer::Impl {
+  ViewServerOptions options;
+  std::string token;
+  bool loopback = true;
+  uint16_t port = 0;
+
+  // Published by the render thread before it accepts work.
+  std::string field_name, renderer;
+  double field_min = 0, field_max = 1;
+  Bounds bounds;
+  std::string scene;  // the scene message (JSON text)
+
+  std::mutex mutex;
+  std::condition_variable wake;
+  std::vector<std::shared_ptr<SessionState>> sessions;
+  size_t next_session = 0;
+  uint64_t next_id = 1;
+  bool stopping = false;
+
+  net::io_context ioc;
+  tcp::acceptor acceptor{ioc};
+  std::thread io_thread, render_thread;
+  bool stopped = false;
+
+  void render_loop(std::promise<void>& started);
+  void accept();
+  ViewRequest initial_request() const;
+  TransferFunction compose_tf(const SessionState& s) const;
+  void apply(SessionState& s, const ClientMessage& m);
+  void frame_delivered(const std::shared_ptr<SessionState>& s) {
+    std::lock_guard lock(mutex);
+    s->in_flight = false;
+    wake.notify_all();
+  }
+  void session_closed(const std::shared_ptr<SessionState>& s) {
+    std::lock_guard lock(mutex);
+    s->closed = true;
+    wake.notify_all();
+  }
+};
+
+namespace {
+
+struct Outgoing {
+  bool binary = false;
+  bool ends_frame = false;  // the last message of a frame: delivering it frees the session for the next one
+  std::shared_ptr<const std::string> data;
+};
+
+class WsSession : public std::enable_shared_from_this<WsSession> {
+ public:
+  WsSession(tcp::socket socket, ViewServer::Impl& server, std::shared_ptr<SessionState> state)
+      : ws_(std::move(socket)), server_(server), state_(std::move(state)) {}
+
+  void run(http::request<http::string_body> request) {
+    ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
+    ws_.read_message_max(kHardMessageLimit);
+    ws_.async_accept(request, beast::bind_front_handler(&WsSession::on_accept, shared_from_this()));
+  }
+
+  void send_text(std::string text, bool ends_frame = false) {
+    send({false, ends_frame, std::make_shared<const std::string>(std::move(text))});
+  }
+  void send(Outgoing o) {
+    out_.push_back(std::move(o));
+    if (out_.size() == 1) write_next();
+  }
+
+ private:
+  void on_accept(beast::error_code ec) {
+    if (ec) return;
+    {
+      std::lock_guard lock(server_.mutex);
+      state_->socket = weak_from_this();
+      server_.sessions.push_back(state_);
+    }
+    read_next();
+  }
+
+  void read_next() { ws_.async_read(buffer_, beast::bind_front_handler(&WsSession::on_read, shared_from_this())); }
+
+  void on_read(beast::error_code ec, size_t) {
+    if (ec) {
+      server_.session_closed(state_);
+      return;
+    }
+    if (!ws_.got_text()) {
+      reply_error("message: binary messages are not accepted");
+    } else {
+      const std::string text = beast::buffers_to_string(buffer_.data());
+      try {
+        const ClientMessage m = parse_client_message(text);
+        bool hello = false;
+        {
+          std::lock_guard lock(server_.mutex);
+          server_.apply(*state_, m);
+          hello = std::holds_alternative<SizeMessage>(m) && std::get<SizeMessage>(m).hello;
+          server_.wake.notify_all();
+        }
+        if (hello) send_text(server_.scene);
+      } catch (const Error& e) {
+        reply_error(e.what());
+      }
+    }
+    buffer_.consume(buffer_.size());
+    read_next();
+  }
+
+  void reply_error(const std::string& message) {
+    if (out_.size() < kMaxQueuedReplies) send_text(error_message(message));
+  }
+
+  void write_next() {
+    const Outgoing& o = out_.front();
+    ws_.binary(o.binary);
+    ws_.async_write(net::buffer(*o.data), beast::bind_front_handler(&WsSession::on_write, shared_from_this()));
+  }
+
+  void on_write(beast::error_code ec, size_t) {
+    if (ec) {
+      server_.session_closed(state_);
+      return;
+    }
+    const bool frame_done = out_.front().ends_frame;
+    out_.pop_front();
+    if (frame_done) server_.frame_delivered(state_);
+    if (!out_.empty()) write_next();
+  }
+
+  websocket::stream<beast::tcp_stream> ws_;
+  beast::flat_buffer buffer_;
+  std::deque<Outgoing> out_;
+  ViewServer::Impl& server_;
+  std::shared_ptr<SessionState> state_;
+};
+
+class HttpSession : public std::enable_shared_from_this<HttpSession> {
+ public:
+  HttpSession(tcp::socket socket, ViewServer::Impl& server) : stream_(std::move(socket)), server_(server) {}
+
+  void run() { read_next(); }
+
+ private:
+  void read_next() {
+    parser_.emplace();
+    parser_->body_limit(8 * 1024);  // the page only GETs
+    stream_.expires_after(std::chrono::seconds(30));
+    http::async_read(stream_, buffer_, *parser_, beast::bind_front_handler(&HttpSession::on_read, shared_from_this()));
+  }
+
+  void on_read(beast::error_code ec, size_t) {
+    if (ec) {
+      beast::error_code ignored;
+      stream_.socket().shutdown(tcp::socket::shutdown_both, ignored);
+      return;
+    }
+    http::request<http::string_body> req = parser_->release();
+    const std::string target = str(req.target());
+    const std::string_view path = target_path(target);
+    if (websocket::is_upgrade(req)) {
+      if (path != "/ws") return respond(req, http::status::not_found, "text/plain", "not found\n");
+      if (const std::string why = refused(req, target); !why.empty())
+        return respond(req, http::status::forbidden, "text/plain", why + "\n");
+      auto state = std::make_shared<SessionState>();
+      {
+        std::lock_guard lock(server_.mutex);
+        state->id = server_.next_id++;
+        state->request = server_.initial_request();
+      }
+      stream_.expires_never();  // the WebSocket has its own timeouts
+      std::make_shared<WsSession>(stream_.release_socket(), server_, std::move(state))->run(std::move(req));
+      return;
+    }
+    if (req.method() != http::verb::get && req.method() != http::verb::head)
+      return respond(req, http::status::method_not_allowed, "text/plain", "only GET\n");
+    const std::string_view asset_path = path == "/" ? std::string_view("/index.html") : path;
+    for (const WebAsset& a : web_assets()) {
+      if (a.path != asset_path) continue;
+      // The page itself needs the token; its scripts and style are the same for everyone and hold no data.
+      if (a.path == "/index.html")
+        if (const std::string why = refused(req, target); !why.empty())
+          return respond(req, http::status::forbidden, "text/plain", why + "\n");
+      return respond(req, http::status::ok, a.content_type, std::string(a.body));
+    }
+    respond(req, http::status::not_found, "text/plain", "not found\n");
+  }
+
+  // Why a request for the page or the socket is refused (empty: allowed).
+  std::string refused(const http::request<http::string_body>& req, const std::string& target) const {
+    if (!server_.token.empty() && !same_token(query_param(target, "token"), server_.token))
+      return "forbidden: the URL needs the token that `ugvr view` printed";
+    // A page from another origin may open a WebSocket to localhost (browsers allow it): only our own page may.
+    const auto origin = req.find(http::field::origin);
+    if (origin != req.end()) {
+      const auto host = req.find(http::field::host);
+      if (host == req.end() || str(origin->value()) != "http://" + str(host->value()))
+        return "forbidden: cross-origin WebSocket";
+    }
+    return {};
+  }
+
+  void respond(const http::request<http::string_body>& req, http::status status, std::string_view type,
+               std::string body) {
+    auto res = std::make_shared<http::response<http::string_body>>(status, req.version());
+    res->set(http::field::server, "ugvr view");
+    res->set(http::field::content_type, beast::string_view(type.data(), type.size()));
+    res->set(http::field::cache_control, "no-store");
+    res->set("X-Content-Type-Options", "nosniff");
+    res->keep_alive(req.keep_alive());
+    const bool head = req.method() == http::verb::head;
+    res->body() = std::move(body);
+    res->prepare_payload();
+    if (head) res->body().clear();
+    http::async_write(stream_, *res, [self = shared_from_this(), res](beast::error_code ec, size_t) {
+      if (ec || !res->keep_alive()) {
+        beast::error_code ignored;
+        self->stream_.socket().shutdown(tcp::socket::shutdown_send, ignored);
+        return;
+      }
+      self->read_next();
+    });
+  }
+
+  beast::tcp_stream stream_;
+  beast::flat_buffer buffer_;
+  std::optional<http::request_parser<http::string_body>> parser_;
+  ViewServer::Impl& server_;
+};
+
+}  // namespace
+
+ViewRequest ViewServer::Impl::initial_request() const {
+  ViewRequest r;
+  r.width = options.width;
+  r.height = options.height;
+  r.camera = reset_camera(bounds, 30);
+  r.fps = options.fps;
+  SessionState defaults;
+  r.tf = compose_tf(defaults);
+  return r;
+}
+
+TransferFunction ViewServer::Impl::compose_tf(const SessionState& s) const {
+  TransferFunction tf = builtin_preset(s.tf_preset);
+  if (std::isfinite(field_min) && std::isfinite(field_max)) tf.rescale(field_min, field_max);
+  if (!s.tf_colors.empty()) tf.color_points = s.tf_colors;
+  if (!s.tf_opacities.empty()) tf.opacity_points = s.tf_opacities;
+  for (OpacityPoint& p : tf.opacity_points) p.opacity *= s.tf_opacity;
+  const double diagonal = length(bounds.size());
+  tf.opacity_unit_distance = diagonal > 0 ? diagonal / 100 : 1.0;
+  return tf;
+}
+
+// Under the mutex. Throws ugvr::Error (the session then keeps its previous request).
+void ViewServer::Impl::apply(SessionState& s, const ClientMessage& m) {
+  ViewRequest& r = s.request;
+  if (const auto* size = std::get_if<SizeMessage>(&m)) {
+    r.width = size->width, r.height = size->height;
+    if (size->hello) s.ready = true;
+  } else if (const auto* cam = std::get_if<CameraMessage>(&m)) {
+    r.camera = cam->camera;
+  } else if (const auto* tf = std::get_if<TfMessage>(&m)) {
+    SessionState next = s;
+    if (tf->preset) {
+      // A preset replaces any explicit points: picking one starts from it.
+      next.tf_preset = *tf->preset;
+      next.tf_colors.clear(), next.tf_opacities.clear();
+    }
+    if (tf->opacity) next.tf_opacity = *tf->opacity;
+    if (!tf->color_points.empty()) next.tf_colors = tf->color_points;
+    if (!tf->opacity_points.empty()) next.tf_opacities = tf->opacity_points;
+    const TransferFunction composed = compose_tf(next);
+    composed.validate("tf");
+    s.tf_preset = next.tf_preset, s.tf_opacity = next.tf_opacity;
+    s.tf_colors = next.tf_colors, s.tf_opacities = next.tf_opacities;
+    r.tf = composed;
+  } else if (const auto* set = std::get_if<SettingsMessage>(&m)) {
+    RenderSettings rs = r.settings;
+    if (set->iso_value) rs.iso_values = {*set->iso_value};
+    if (set->mode) {
+      rs.mode = *set->mode;
+      // Isosurface mode needs a value: the middle of the range until the client sends one.
+      if (rs.mode == RenderMode::Isosurface && rs.iso_values.empty()) rs.iso_values = {0.5 * (field_min + field_max)};
+    }
+    rs.validate("settings");
+    r.settings = rs;
+    if (set->step_voxels) r.step_voxels = *set->step_voxels;
+    if (set->fps) r.fps = *set->fps;
+    if (set->full_quality) s.full_quality = true;
+  }
+  ++s.generation;
+}
+
+void ViewServer::Impl::accept() {
+  acceptor.async_accept(net::make_strand(ioc), [this](beast::error_code ec, tcp::socket socket) {
+    if (ec) {
+      if (ec == net::error::operation_aborted) return;
+    } else {
+      std::make_shared<HttpSession>(std::move(socket), *this)->run();
+    }
+    accept();
+  });
+}
+
+void ViewServer::Impl::render_loop(std::promise<void>& started) {
+  // The GL context is current on the thread that created it: everything GL lives and dies on this thread.
+  std::unique_ptr<GlContext> gl;
+  std::unique_ptr<LodEngine> engine;
+  try {
+    gl = std::make_unique<GlContext>(options.gpu);
+    LodOptions lo;
+    lo.atlas_budget_bytes = options.gpu_memory;
+    engine = std::make_unique<LodEngine>(options.store, *gl, lo);
+    engine->set_field("");
+    field_name = engine->field_name();
+    field_min = engine->field_min(), field_max = engine->field_max();
+    bounds = engine->bounds();
+    renderer = gl->renderer();
+    const Camera camera = reset_camera(bounds, 30);
+    scene = json{{"type", "scene"},
+                 {"field", field_name},
+                 {"range", {field_min, field_max}},
+                 {"bounds",
+                  {{"min", {bounds.lo.x, bounds.lo.y, bounds.lo.z}}, {"max", {bounds.hi.x, bounds.hi.y, bounds.hi.z}}}},
+                 {"camera", camera_to_json(camera)},
+                 {"presets", builtin_preset_names()},
+                 {"preset", "viridis"},
+                 {"fps", options.fps},
+                 {"width", options.width},
+                 {"height", options.height},
+                 {"renderer", renderer},
+                 {"limits", {{"min_side", kMinViewSide}, {"max_side", kMaxViewSide}, {"max_fps", kMaxFps}}}}
+                .dump(-1, ' ', false, json::error_handler_t::replace);
+  } catch (...) {
+    started.set_exception(std::current_exception());
+    return;
+  }
+  started.set_value();
+
+  struct Slot {
+    std::unique_ptr<TimeCriticalRenderer> renderer;
+    double fps = -1, step = -1;
+    uint64_t seq = 0;
+    double shown_fps = 0;
+    Clock::time_point last;
+    bool counting = false;  // the previous frame was part of an interaction (not converged): fps is measured
+  };
+  std::map<uint64_t, Slot> slots;
+
+  std::unique_lock lock(mutex);
+  while (!stopping) {
+    // Sessions that closed: their renderers go (outside the lock: a renderer joins its cache's threads).
+    std::vector<uint64_t> gone;
+    std::erase_if(sessions, [&](const std::shared_ptr<SessionState>& s) {
+      if (s->closed) gone.push_back(s->id);
+      return s->closed;
+    });
+    if (!gone.empty()) {
+      lock.unlock();
+      for (uint64_t id : gone) slots.erase(id);
+      lock.lock();
+      continue;
+    }
+    std::shared_ptr<SessionState> chosen;
+    for (size_t k = 0; k < sessions.size(); ++k) {
+      const size_t i = (next_session + k) % sessions.size();
+      const SessionState& s = *sessions[i];
+      if (!s.ready || s.in_flight) continue;
+      if (s.generation == s.rendered_generation && s.converged && !s.full_quality) continue;
+      chosen = sessions[i];
+      next_session = i + 1;  // round-robin: the next turn starts after this session
+      break;
+    }
+    if (!chosen) {
+      wake.wait(lock);
+      continue;
+    }
+    const ViewRequest request = chosen->request;
+    const uint64_t generation = chosen->generation;
+    const bool full_quality = chosen->full_quality;
+    chosen->full_quality = false;
+    chosen->in_flight = true;
+    lock.unlock();
+
+    std::string status, error;
+    std::shared_ptr<std::string> bytes;
+    bool converged = false;
+    try {
+      Slot& slot = slots[chosen->id];
+      if (!slot.renderer || slot.fps != request.fps || slot.step != request.step_voxels) {
+        TimeCriticalOptions tc;
+        tc.target_fps = request.fps;
+        tc.resting_step_voxels = request.step_voxels;
+        tc.moving_step_voxels = std::max(1.0, request.step_voxels);
+        tc.ram_budget_bytes = options.ram_per_session;
+        tc.loader_threads = 2;
+        slot.renderer.reset();
+        slot.renderer = std::make_unique<TimeCriticalRenderer>(*engine, tc);
+        slot.fps = request.fps, slot.step = request.step_voxels;
+      }
+      RenderSettings rs = request.settings;
+      rs.width = request.width, rs.height = request.height;
+      TimeCriticalFrame f;
+      const Image image = full_quality ? slot.renderer->full_quality(request.camera, request.tf, rs, &f)
+                                       : slot.renderer->frame(request.camera, request.tf, rs, &f);
+      converged = f.converged || full_quality;
+      bytes = std::make_shared<std::string>();
+      const std::vector<unsigned char> encoded = converged ? png_bytes(image) : jpeg_bytes(image);
+      bytes->assign(encoded.begin(), encoded.end());
+      const Clock::time_point now = Clock::now();
+      if (slot.counting) {
+        const double dt = std::chrono::duration<double>(now - slot.last).count();
+        if (dt > 0) slot.shown_fps = slot.shown_fps > 0 ? 0.8 * slot.shown_fps + 0.2 / dt : 1 / dt;
+      }
+      slot.counting = !converged;
+      slot.last = now;
+      FrameStatus st;
+      st.seq = ++slot.seq;
+      st.request = generation;
+      st.png = converged;
+      st.width = image.width, st.height = image.height;
+      st.fps = slot.shown_fps;
+      st.frame_seconds = f.seconds;
+      st.cut_nodes = f.cut_nodes, st.visible_nodes = f.visible_nodes;
+      st.texel_error = f.mean_error, st.max_texel_error = f.max_error;
+      st.scale = f.scale;
+      st.converged = converged;
+      status = status_message(st);
+    } catch (const std::exception& e) {
+      error = std::string("render: ") + e.what();
+    }
+
+    lock.lock();
+    chosen->rendered_generation = generation;
+    // A failed view is not retried until the client changes it.
+    chosen->converged = converged || !error.empty();
+    const std::weak_ptr<WsSession> socket = chosen->socket;
+    if (!error.empty()) chosen->in_flight = false;
+    net::post(ioc, [socket, status = std::move(status), bytes, error] {
+      const std::shared_ptr<WsSession> ws = socket.lock();
+      if (!ws) return;
+      if (!error.empty()) {
+        ws->send_text(error_message(error));
+        return;
+      }
+      ws->send_text(status);
+      ws->send({true, true, bytes});
+    });
+  }
+  lock.unlock();
+  slots.clear();
+  engine.reset();
+  gl.reset();
+}
+
+ViewServer::ViewServer(ViewServerOptions options) : impl_(std::make_unique<Impl>()) {
+  Impl& I = *impl_;
+  I.options = std::move(options);
+  beast::error_code ec;
+  const net::ip::address address = net::ip::make_address(I.options.host, ec);
+  if (ec) fail_in("--host", "\"" + I.options.host + "\" is not an IP address");
+  I.loopback = address.is_loopback();
+  I.token = I.options.token.empty() && !I.loopback ? random_token() : I.options.token;
+
+  std::promise<void> started;
+  std::future<void> ready = started.get_future();
+  I.render_thread = std::thread([&I, &started] { I.render_loop(started); });
+  try {
+    ready.get();
+  } catch (...) {
+    I.render_thread.join();
+    throw;
+  }
+
+  const tcp::endpoint endpoint(address, I.options.port);
+  I.acceptor.open(endpoint.protocol(), ec);
+  if (!ec) I.acceptor.set_option(net::socket_base::reuse_address(true), ec);
+  if (!ec) I.acceptor.bind(endpoint, ec);
+  if (!ec) I.acceptor.listen(net::socket_base::max_listen_connections, ec);
+  if (ec) {
+    stop();
+    fail_in("--port",
+            "cannot listen on " + I.options.host + ":" + std::to_string(I.options.port) + ": " + ec.message());
+  }
+  I.port = I.acceptor.local_endpoint().port();
+  I.accept();
+  I.io_thread = std::thread([&I] { I.ioc.run(); });
+}
+
+ViewServer::~ViewServer() { stop(); }
+
+void ViewServer::stop() {
+  Impl& I = *impl_;
+  if (I.stopped) return;
+  I.stopped = true;
+  {
+    std::lock_guard lock(I.mutex);
+    I.stopping = true;
+    I.wake.notify_all();
+  }
+  if (I.render_thread.joinable()) I.render_thread.join();
+  I.ioc.stop();
+  if (I.io_thread.joinable()) I.io_thread.join();
+}
+
+uint16_t ViewServer::port() const { return impl_->port; }
+const std::string& ViewServer::token() const { return impl_->token; }
+std::string ViewServer::renderer() const { return impl_->renderer; }
+
+std::string ViewServer::url() const {
+  const bool v6 = impl_->options.host.find(':') != std::string::npos;
+  std::string u = "http://" + (v6 ? "[" + impl_->options.host + "]" : impl_->options.host) + ":" +
+                  std::to_string(impl_->port) + "/";
+  if (!impl_->token.empty()) u += "?token=" + impl_->token;
+  return u;
+}
+
+}  // namespace ugvr::view

@@ -1,0 +1,57 @@
+// `ugvr view`'s server: HTTP + WebSocket (Boost.Beast) on one I/O thread, and one render thread that owns the OpenGL
+// context, the level-of-detail engine and one time-critical renderer per browser tab.
+//
+// HTTP: GET / (index.html), /app.js, /style.css from the embedded page (web_assets.h); GET /ws upgrades to the
+// WebSocket of view_protocol.h. Loopback by default; when bound to another address every request for the page and
+// the socket must carry ?token=TOKEN (random, 128 bits), which url() includes. A WebSocket upgrade whose Origin is not
+// this server's own page is refused (another web site open in the same browser must not drive the viewer).
+//
+// Scheduling. Each session (tab) holds only its LATEST requested view: a camera, size, transfer function or settings
+// message overwrites the previous request, so stale requests are dropped, never queued. The render thread visits the
+// sessions round-robin and renders one frame per turn for a session that (a) has said hello, (b) has no frame still
+// on its way to the client, and (c) wants one: its view changed since its last frame, or the last frame was not yet
+// converged (progressive refinement), or it asked for full quality. (b) is the back-pressure: a slow client gets
+// fewer frames, never a queue, and cannot hold up the others. Frames are JPEG while moving or refining, PNG once the
+// cut has converged at the resting step; each is preceded by a status text message.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace ugvr::view {
+
+struct ViewServerOptions {
+  std::string store;                               // the .ugvr brick store to show
+  std::string host = "127.0.0.1";                  // address to listen on
+  uint16_t port = 0;                               // 0: a free port
+  std::string gpu = "auto";                        // GlContext device
+  uint64_t gpu_memory = uint64_t(2) << 30;         // atlas budget (shared by the sessions)
+  uint64_t ram_per_session = uint64_t(256) << 20;  // each session's RAM brick cache
+  int width = 512, height = 512;                   // the page's initial canvas size (scene message)
+  double fps = 10;                                 // initial frame-rate target of each session
+  std::string token;                               // forced token (tests); empty: random when not loopback
+};
+
+class ViewServer {
+ public:
+  // Opens the store on the render thread, then listens. Throws ugvr::Error (store, GPU, address in use).
+  explicit ViewServer(ViewServerOptions options);
+  ~ViewServer();  // stop()
+  ViewServer(const ViewServer&) = delete;
+  ViewServer& operator=(const ViewServer&) = delete;
+
+  uint16_t port() const;
+  const std::string& token() const;  // empty when none is required
+  std::string url() const;           // http://HOST:PORT/[?token=TOKEN]
+  std::string renderer() const;      // GL_RENDERER of the render thread's context
+  // Stops serving: closes the listener and the sessions and joins the threads. Idempotent.
+  void stop();
+
+  struct Impl;  // public only so that the .cpp's session classes can name it
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace ugvr::view

@@ -1,0 +1,141 @@
+// The browser viewer's client messages (src/ugvr/view/view_protocol.h): what is accepted, and that every rejection
+// names the field at fault.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <utility>
+
+#include "ugvr/core/error.h"
+#include "ugvr/view/view_protocol.h"
+
+namespace ugvr::view {
+namespace {
+
+TEST(ViewProtocol, GoodMessages) {
+  const ClientMessage hello = parse_client_message(R"({"type":"hello","width":64,"height":4096})");
+  ASSERT_TRUE(std::holds_alternative<SizeMessage>(hello));
+  EXPECT_TRUE(std::get<SizeMessage>(hello).hello);
+  EXPECT_EQ(std::get<SizeMessage>(hello).width, 64);
+  EXPECT_EQ(std::get<SizeMessage>(hello).height, 4096);
+  const ClientMessage resize = parse_client_message(R"({"type":"resize","width":16,"height":17})");
+  EXPECT_FALSE(std::get<SizeMessage>(resize).hello);
+
+  const ClientMessage cam = parse_client_message(
+      R"({"type":"camera","position":[0,0,5],"focal_point":[0,0,0],"view_up":[0,1,0],"view_angle":40})");
+  ASSERT_TRUE(std::holds_alternative<CameraMessage>(cam));
+  EXPECT_EQ(std::get<CameraMessage>(cam).camera.position.z, 5);
+  EXPECT_EQ(std::get<CameraMessage>(cam).camera.view_angle, 40);
+
+  const ClientMessage tf = parse_client_message(
+      R"({"type":"tf","preset":"inferno","opacity":0.5,"rgb_points":[0,0,0,0,1,1,1,1],"opacity_points":[0,0,2,1]})");
+  ASSERT_TRUE(std::holds_alternative<TfMessage>(tf));
+  const TfMessage& t = std::get<TfMessage>(tf);
+  EXPECT_EQ(t.preset, "inferno");
+  EXPECT_EQ(t.opacity, 0.5);
+  ASSERT_EQ(t.color_points.size(), 2u);
+  EXPECT_EQ(t.color_points[1].rgb.y, 1);
+  ASSERT_EQ(t.opacity_points.size(), 2u);
+  EXPECT_EQ(t.opacity_points[1].x, 2);
+
+  const ClientMessage set = parse_client_message(
+      R"({"type":"settings","mode":"iso","iso_value":0.25,"step_voxels":0.5,"fps":0,"full_quality":true})");
+  ASSERT_TRUE(std::holds_alternative<SettingsMessage>(set));
+  const SettingsMessage& s = std::get<SettingsMessage>(set);
+  EXPECT_EQ(s.mode, RenderMode::Isosurface);
+  EXPECT_EQ(s.iso_value, 0.25);
+  EXPECT_EQ(s.step_voxels, 0.5);
+  EXPECT_EQ(s.fps, 0);
+  EXPECT_TRUE(s.full_quality);
+  // Every key of tf and settings is optional.
+  EXPECT_TRUE(std::holds_alternative<TfMessage>(parse_client_message(R"({"type":"tf"})")));
+  EXPECT_FALSE(std::get<SettingsMessage>(parse_client_message(R"({"type":"settings"})")).mode);
+}
+
+TEST(ViewProtocol, MalformedMessagesNameTheField) {
+  const std::string cam = R"("focal_point":[0,0,0],"view_up":[0,1,0])";
+  const std::pair<std::string, std::string> cases[] = {
+      {"", "message"},
+      {"not json", "message"},
+      {"[1,2]", "message"},
+      {R"({"type":"hello","width":64,"height":64)", "message"},                   // truncated
+      {"{\"type\":\"camera\",\"position\":[0,0,1e999]," + cam + "}", "message"},  // not finite: not JSON either
+      {R"({"width":64,"height":64})", "type"},
+      {R"({"type":7})", "type"},
+      {R"({"type":"frobnicate"})", "type"},
+      {R"({"type":"hello","height":64})", "width"},
+      {R"({"type":"hello","width":64})", "height"},
+      {R"({"type":"hello","width":15,"height":64})", "width"},
+      {R"({"type":"hello","width":64,"height":4097})", "height"},
+      {R"({"type":"hello","width":"64","height":64})", "width"},
+      {R"({"type":"hello","width":64.5,"height":64})", "width"},
+      {R"({"type":"resize","width":-64,"height":64})", "width"},
+      {R"({"type":"hello","width":64,"height":64,"depth":3})", "depth"},
+      {"{\"type\":\"camera\",\"position\":[0,0]," + cam + "}", "position"},
+      {"{\"type\":\"camera\",\"position\":[0,0,\"x\"]," + cam + "}", "position"},
+      {"{\"type\":\"camera\",\"position\":[0,0,1]," + cam + ",\"view_angle\":200}", "view_angle"},
+      {"{\"type\":\"camera\",\"position\":[0,0,1]," + cam + ",\"zoom\":2}", "zoom"},
+      {R"({"type":"camera","position":[0,0,1],"focal_point":[0,0,0]})", "view_up"},
+      {R"({"type":"tf","preset":"nope"})", "preset"},
+      {R"({"type":"tf","preset":3})", "preset"},
+      {R"({"type":"tf","opacity":1.5})", "opacity"},
+      {R"({"type":"tf","opacity":"half"})", "opacity"},
+      {R"({"type":"tf","rgb_points":[0,1,1]})", "rgb_points"},
+      {R"({"type":"tf","rgb_points":[0,1,1,2]})", "rgb_points"},
+      {R"({"type":"tf","rgb_points":[1,1,1,1,0,0,0,0]})", "rgb_points"},
+      {R"({"type":"tf","opacity_points":[0,0.5,0,1]})", "opacity_points"},
+      {R"({"type":"tf","opacity_points":{"x":1}})", "opacity_points"},
+      {R"({"type":"tf","colour":"red"})", "colour"},
+      {R"({"type":"settings","mode":"xray"})", "mode"},
+      {R"({"type":"settings","iso_value":null})", "iso_value"},
+      {R"({"type":"settings","step_voxels":0})", "step_voxels"},
+      {R"({"type":"settings","step_voxels":9})", "step_voxels"},
+      {R"({"type":"settings","fps":-1})", "fps"},
+      {R"({"type":"settings","fps":1000})", "fps"},
+      {R"({"type":"settings","full_quality":"yes"})", "full_quality"},
+  };
+  for (const auto& [text, field] : cases) {
+    try {
+      parse_client_message(text);
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos)
+          << text << "\n  message: " << e.what() << "\n  should name: " << field;
+    }
+  }
+}
+
+TEST(ViewProtocol, SizeAndPointLimits) {
+  // Over 64 KiB is rejected before parsing, whatever it holds.
+  const std::string big = R"({"type":"tf","rgb_points":[)" + std::string(70000, ' ') + "0,0,0,0]}";
+  try {
+    parse_client_message(big);
+    ADD_FAILURE() << "accepted a message of " << big.size() << " bytes";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("too large"), std::string::npos) << e.what();
+  }
+  std::string points;
+  for (size_t i = 0; i <= kMaxTfPoints; ++i) points += (i ? "," : "") + std::to_string(i) + ",0.5";
+  EXPECT_THROW(parse_client_message(R"({"type":"tf","opacity_points":[)" + points + "]}"), Error);
+}
+
+TEST(ViewProtocol, ServerMessages) {
+  const nlohmann::json e = nlohmann::json::parse(error_message("width: must be in [16, 4096]"));
+  EXPECT_EQ(e["type"], "error");
+  EXPECT_EQ(e["message"], "width: must be in [16, 4096]");
+  // Invalid UTF-8 quoted back from a client is replaced, not thrown.
+  EXPECT_NO_THROW(nlohmann::json::parse(error_message("type: \xff\xfe")));
+  FrameStatus s;
+  s.seq = 3, s.png = true, s.width = 64, s.height = 32, s.cut_nodes = 12, s.converged = true, s.texel_error = 0.5;
+  const nlohmann::json j = nlohmann::json::parse(status_message(s));
+  EXPECT_EQ(j["type"], "status");
+  EXPECT_EQ(j["format"], "png");
+  EXPECT_EQ(j["seq"], 3);
+  EXPECT_EQ(j["width"], 64);
+  EXPECT_EQ(j["cut_nodes"], 12);
+  EXPECT_EQ(j["texel_error"], 0.5);
+  EXPECT_EQ(j["converged"], true);
+}
+
+}  // namespace
+}  // namespace ugvr::view

@@ -1,0 +1,416 @@
+// `ugvr view`'s server end to end, in process: a small brick store, the server on a free loopback port, and Beast
+// clients speaking HTTP and the WebSocket protocol of view_protocol.h. Needs an OpenGL 4.5 context (llvmpipe in CI),
+// like test_lod_engine.cpp; UGVR_NO_GL_TESTS=1 skips instead of failing where EGL is known to be missing.
+#include <gtest/gtest.h>
+#include <sys/socket.h>
+
+// clang-format off
+#include <utility>  // Boost 1.74's asio needs it first (view_server.cpp says why)
+#include <boost/asio.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/websocket.hpp>
+// clang-format on
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "test_data.h"
+#include "ugvr/core/error.h"
+#include "ugvr/grid/dataset.h"
+#include "ugvr/grid/structured_cells.h"
+#include "ugvr/grid/structured_grid.h"
+#include "ugvr/lod/octree_builder.h"
+#include "ugvr/view/view_server.h"
+
+namespace ugvr::view {
+namespace {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using nlohmann::json;
+
+// A box of tetrahedra, 1 x 0.75 x 0.5, with a field that varies along x so that views differ.
+std::string make_store(const std::filesystem::path& dir) {
+  StructuredGrid g;
+  const uint32_t nx = 9, ny = 7, nz = 5;
+  g.dims = GridDims{{nx, ny, nz}};
+  std::vector<float> wave;
+  for (uint32_t k = 0; k < nz; ++k)
+    for (uint32_t j = 0; j < ny; ++j)
+      for (uint32_t i = 0; i < nx; ++i) {
+        const Vec3f p{float(i) / 8.0f, float(j) / 8.0f, float(k) / 8.0f};
+        g.points.push_back(p);
+        wave.push_back(float(std::tanh(6.0 * (p.x - 0.5)) + 0.3 * p.y));
+      }
+  Block b;
+  b.name = "box";
+  b.grid = std::move(g);
+  b.fields.add(Field("wave", Association::Vertex, DataArray::from(std::move(wave), 1)));
+  Dataset ds;
+  ds.sources = {"box"};
+  ds.blocks.push_back(to_unstructured_block(b, StructuredCellShape::SixTetrahedra));
+  const std::string store = (dir / "box.ugvr").string();
+  OctreeBuildOptions o;
+  o.resolution = 8;
+  o.max_depth = 3;
+  o.error = 0;
+  const std::vector<std::string> fields = {"wave"};
+  build_octree(prepare_octree_input(ds, fields), o, store);
+  return store;
+}
+
+struct Shared {
+  std::filesystem::path dir;
+  std::string store;
+};
+
+const Shared& shared() {
+  static Shared s = [] {
+    Shared r;
+    r.dir = std::filesystem::temp_directory_path() / ("ugvr-test-view-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(r.dir);
+    r.store = make_store(r.dir);
+    return r;
+  }();
+  return s;
+}
+
+// A server on a free loopback port (the extra arguments set options o_), or a failure (a skip with UGVR_NO_GL_TESTS)
+// when there is no OpenGL 4.5.
+#define START_SERVER(server, ...)                                    \
+  std::unique_ptr<ViewServer> server;                                \
+  do {                                                               \
+    ViewServerOptions o_;                                            \
+    __VA_ARGS__;                                                     \
+    o_.store = shared().store;                                       \
+    o_.ram_per_session = 16 << 20;                                   \
+    try {                                                            \
+      server = std::make_unique<ViewServer>(o_);                     \
+    } catch (const Error& e) {                                       \
+      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what(); \
+      FAIL() << "cannot start the server: " << e.what();             \
+    }                                                                \
+  } while (0)
+
+void set_receive_timeout(tcp::socket& s, int seconds) {
+  timeval tv{seconds, 0};
+  ::setsockopt(s.native_handle(), SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+}
+
+struct HttpReply {
+  int status = 0;
+  std::string body;
+};
+
+HttpReply http_get(uint16_t port, const std::string& target) {
+  net::io_context ioc;
+  tcp::socket socket(ioc);
+  socket.connect({net::ip::make_address("127.0.0.1"), port});
+  set_receive_timeout(socket, 30);
+  http::request<http::empty_body> req(http::verb::get, target, 11);
+  req.set(http::field::host, "127.0.0.1:" + std::to_string(port));
+  http::write(socket, req);
+  beast::flat_buffer buffer;
+  http::response<http::string_body> res;
+  http::read(socket, buffer, res);
+  return {int(res.result_int()), res.body()};
+}
+
+struct Message {
+  bool binary = false;
+  std::string data;
+};
+
+class Client {
+ public:
+  // Throws beast::system_error when the handshake is refused.
+  explicit Client(uint16_t port, const std::string& target = "/ws", const std::string& origin = "") : ws_(ioc_) {
+    ws_.next_layer().connect({net::ip::make_address("127.0.0.1"), port});
+    set_receive_timeout(ws_.next_layer(), 60);  // a server that stops answering fails the test, not hangs it
+    if (!origin.empty())
+      ws_.set_option(websocket::stream_base::decorator(
+          [origin](websocket::request_type& req) { req.set(http::field::origin, origin); }));
+    ws_.handshake("127.0.0.1:" + std::to_string(port), target);
+  }
+  void send(const std::string& text) {
+    ws_.text(true);
+    ws_.write(net::buffer(text));
+  }
+  Message read() {
+    beast::flat_buffer buffer;
+    ws_.read(buffer);
+    return {ws_.got_binary(), beast::buffers_to_string(buffer.data())};
+  }
+
+ private:
+  net::io_context ioc_;
+  websocket::stream<tcp::socket> ws_;
+};
+
+// Everything up to and including the next binary frame.
+struct Frame {
+  std::optional<json> scene, status;
+  std::vector<std::string> errors;
+  std::string bytes;
+};
+
+Frame read_frame(Client& c) {
+  Frame f;
+  for (int i = 0; i < 100; ++i) {
+    Message m = c.read();
+    if (m.binary) {
+      f.bytes = std::move(m.data);
+      return f;
+    }
+    const json j = json::parse(m.data);
+    if (j["type"] == "scene") f.scene = j;
+    if (j["type"] == "status") f.status = j;
+    if (j["type"] == "error") f.errors.push_back(j["message"].get<std::string>());
+  }
+  ADD_FAILURE() << "no frame in 100 messages";
+  return f;
+}
+
+// The next error reply (frames of an earlier request may come first).
+std::string read_error(Client& c) {
+  for (int i = 0; i < 100; ++i) {
+    const Message m = c.read();
+    if (m.binary) continue;
+    const json j = json::parse(m.data);
+    if (j["type"] == "error") return j["message"];
+  }
+  return "(no error reply)";
+}
+
+bool is_jpeg(const std::string& b) {
+  return b.size() > 4 && uint8_t(b[0]) == 0xFF && uint8_t(b[1]) == 0xD8 && uint8_t(b[b.size() - 2]) == 0xFF &&
+         uint8_t(b[b.size() - 1]) == 0xD9;
+}
+bool is_png(const std::string& b) { return b.size() > 8 && std::memcmp(b.data(), "\x89PNG\r\n\x1a\n", 8) == 0; }
+
+// Width and height from the JPEG's SOF marker, or from the PNG's IHDR.
+std::pair<int, int> image_size(const std::string& b) {
+  auto be16 = [&](size_t i) { return int(uint8_t(b[i])) << 8 | int(uint8_t(b[i + 1])); };
+  if (is_png(b)) return {be16(18), be16(22)};
+  for (size_t i = 2; i + 9 < b.size();) {
+    if (uint8_t(b[i]) != 0xFF) break;
+    const int marker = uint8_t(b[i + 1]);
+    if (marker >= 0xC0 && marker <= 0xC2) return {be16(i + 7), be16(i + 5)};
+    i += 2 + size_t(be16(i + 2));
+  }
+  return {0, 0};
+}
+
+// The first frame that reflects the client's first `request` accepted messages (frames of earlier requests may still
+// be on the wire).
+Frame read_frame_for(Client& c, uint64_t request) {
+  for (int i = 0; i < 200; ++i) {
+    Frame f = read_frame(c);
+    if (f.status && (*f.status)["request"].get<uint64_t>() >= request) return f;
+  }
+  ADD_FAILURE() << "no frame for request " << request << " in 200";
+  return {};
+}
+
+// Frames until a converged (PNG) one of that request.
+Frame read_until_converged(Client& c, uint64_t request) {
+  for (int i = 0; i < 200; ++i) {
+    Frame f = read_frame_for(c, request);
+    if (f.status && (*f.status)["converged"] == true) return f;
+  }
+  ADD_FAILURE() << "no converged frame in 200";
+  return {};
+}
+
+json camera_message(const json& scene, double angle) {
+  const json& c = scene["camera"];
+  const double fx = c["focal_point"][0], fy = c["focal_point"][1], fz = c["focal_point"][2];
+  const double d =
+      std::hypot(double(c["position"][0]) - fx, double(c["position"][1]) - fy, double(c["position"][2]) - fz);
+  return {{"type", "camera"},
+          {"position", {fx + d * std::sin(angle), fy, fz + d * std::cos(angle)}},
+          {"focal_point", c["focal_point"]},
+          {"view_up", {0, 1, 0}},
+          {"view_angle", 30}};
+}
+
+TEST(ViewServer, ServesThePageAndItsAssets) {
+  START_SERVER(server);
+  EXPECT_EQ(server->url(), "http://127.0.0.1:" + std::to_string(server->port()) + "/");
+  EXPECT_TRUE(server->token().empty());
+  const HttpReply page = http_get(server->port(), "/");
+  EXPECT_EQ(page.status, 200);
+  EXPECT_NE(page.body.find("<canvas"), std::string::npos);
+  EXPECT_NE(page.body.find("app.js"), std::string::npos);
+  const HttpReply js = http_get(server->port(), "/app.js");
+  EXPECT_EQ(js.status, 200);
+  EXPECT_NE(js.body.find("WebSocket"), std::string::npos);
+  EXPECT_EQ(http_get(server->port(), "/style.css").status, 200);
+  EXPECT_EQ(http_get(server->port(), "/nope").status, 404);
+}
+
+TEST(ViewServer, StreamsJpegWhileMovingThenPngWhenConverged) {
+  START_SERVER(server, o_.fps = 30);
+  Client c(server->port());
+  c.send(R"({"type":"hello","width":64,"height":48})");
+  const Frame first = read_frame(c);
+  ASSERT_TRUE(first.scene) << "no scene message before the first frame";
+  EXPECT_EQ((*first.scene)["field"], "wave");
+  ASSERT_TRUE(first.status);
+  EXPECT_TRUE(first.errors.empty()) << first.errors.front();
+  const json& st = *first.status;
+  for (const char* key : {"fps", "cut_nodes", "texel_error", "converged", "seq", "format"})
+    EXPECT_TRUE(st.contains(key)) << key;
+  EXPECT_EQ(st["format"], is_png(first.bytes) ? "png" : "jpeg");
+  EXPECT_TRUE(is_jpeg(first.bytes) || is_png(first.bytes));
+  EXPECT_EQ(image_size(first.bytes), std::make_pair(64, 48));
+
+  EXPECT_EQ(st["request"], 1);  // the hello
+
+  // A camera move: the first frame of a new view is an interactive (JPEG) one.
+  c.send(camera_message(*first.scene, 0.5).dump());
+  const Frame moved = read_frame_for(c, 2);
+  ASSERT_TRUE(moved.status);
+  EXPECT_EQ((*moved.status)["converged"], false);
+  EXPECT_TRUE(is_jpeg(moved.bytes)) << "first bytes " << int(uint8_t(moved.bytes[0]));
+  EXPECT_GT(moved.bytes.size(), 100u);
+  EXPECT_EQ(image_size(moved.bytes), std::make_pair(64, 48));
+  EXPECT_GT((*moved.status)["seq"].get<int>(), st["seq"].get<int>());
+  EXPECT_GT((*moved.status)["cut_nodes"].get<int>(), 0);
+
+  // The view rests: refinement ends with a lossless frame, and then nothing more is sent until the view changes.
+  const Frame still = read_until_converged(c, 2);
+  EXPECT_TRUE(is_png(still.bytes));
+  EXPECT_EQ(image_size(still.bytes), std::make_pair(64, 48));
+  c.send(R"({"type":"resize","width":32,"height":40})");
+  const Frame resized = read_frame_for(c, 3);
+  EXPECT_EQ(image_size(resized.bytes), std::make_pair(32, 40));
+}
+
+TEST(ViewServer, MalformedMessagesGetAnErrorAndServingGoesOn) {
+  START_SERVER(server, o_.fps = 30);
+  Client c(server->port());
+  c.send(R"({"type":"hello","width":8,"height":64})");
+  EXPECT_NE(read_error(c).find("width"), std::string::npos);
+  c.send("{not json");
+  EXPECT_NE(read_error(c).find("message"), std::string::npos);
+  c.send(R"({"type":"dance"})");
+  EXPECT_NE(read_error(c).find("type"), std::string::npos);
+  c.send(R"({"type":"tf","preset":"nope"})");
+  EXPECT_NE(read_error(c).find("preset"), std::string::npos);
+  c.send(std::string(70 * 1024, ' '));
+  EXPECT_NE(read_error(c).find("too large"), std::string::npos);
+
+  c.send(R"({"type":"hello","width":64,"height":64})");
+  const Frame f = read_frame(c);
+  ASSERT_TRUE(f.status);
+  EXPECT_EQ(image_size(f.bytes), std::make_pair(64, 64));
+  // A bad message while frames flow: an error reply, then frames again for the next valid request.
+  c.send(camera_message(*f.scene, 0.3).dump().replace(0, 1, "{\"zoom\":2,"));
+  EXPECT_NE(read_error(c).find("zoom"), std::string::npos);
+  c.send(R"({"type":"tf","preset":"grayscale","opacity":0.5})");
+  const Frame g = read_frame_for(c, 2);  // hello and tf accepted, the rest rejected
+  EXPECT_TRUE(g.status);
+  EXPECT_TRUE(is_jpeg(g.bytes) || is_png(g.bytes));
+}
+
+TEST(ViewServer, TwoClientsEachGetTheirOwnView) {
+  START_SERVER(server, o_.fps = 30);
+  Client a(server->port()), b(server->port());
+  a.send(R"({"type":"hello","width":64,"height":64})");
+  b.send(R"({"type":"hello","width":48,"height":32})");
+  const Frame fa = read_frame(a), fb = read_frame(b);
+  ASSERT_TRUE(fa.scene && fb.scene);
+  EXPECT_EQ(image_size(fa.bytes), std::make_pair(64, 64));
+  EXPECT_EQ(image_size(fb.bytes), std::make_pair(48, 32));
+  // Different cameras, same size: both converge, to different images.
+  a.send(camera_message(*fa.scene, 0.0).dump());
+  b.send(R"({"type":"resize","width":64,"height":64})");
+  b.send(camera_message(*fb.scene, 1.2).dump());
+  const Frame ca = read_until_converged(a, 2), cb = read_until_converged(b, 3);
+  EXPECT_EQ(image_size(ca.bytes), std::make_pair(64, 64));
+  EXPECT_EQ(image_size(cb.bytes), std::make_pair(64, 64));
+  EXPECT_NE(ca.bytes, cb.bytes);
+  // A client that goes away does not stop the other.
+  {
+    Client gone(server->port());
+    gone.send(R"({"type":"hello","width":64,"height":64})");
+  }
+  a.send(camera_message(*fa.scene, 0.7).dump());
+  EXPECT_TRUE(read_frame_for(a, 3).status);
+}
+
+TEST(ViewServer, TokenAndOriginAreChecked) {
+  START_SERVER(server, o_.token = "s3cret");
+  EXPECT_EQ(server->url(), "http://127.0.0.1:" + std::to_string(server->port()) + "/?token=s3cret");
+  EXPECT_EQ(http_get(server->port(), "/").status, 403);
+  EXPECT_EQ(http_get(server->port(), "/?token=wrong").status, 403);
+  EXPECT_EQ(http_get(server->port(), "/?token=s3cret").status, 200);
+  EXPECT_THROW(Client(server->port(), "/ws"), beast::system_error);
+  EXPECT_THROW(Client(server->port(), "/ws?token=s3cre"), beast::system_error);
+  const std::string own = "http://127.0.0.1:" + std::to_string(server->port());
+  EXPECT_THROW(Client(server->port(), "/ws?token=s3cret", "http://evil.example"), beast::system_error);
+  Client c(server->port(), "/ws?token=s3cret", own);
+  c.send(R"({"type":"hello","width":32,"height":32})");
+  EXPECT_TRUE(read_frame(c).status);
+}
+
+TEST(ViewServer, BadStoreIsAnError) {
+  ViewServerOptions o;
+  o.store = (shared().dir / "missing.ugvr").string();
+  EXPECT_THROW(ViewServer{o}, Error);
+  o.store = shared().store;
+  o.host = "not-an-address";
+  EXPECT_THROW(ViewServer{o}, Error);
+}
+
+TEST(CliView, BadFlagsNameTheFlag) {
+  const std::string store = shared().store;
+  const std::pair<std::string, std::string> cases[] = {
+      {"view " + (shared().dir / "box.vtu").string(), ".ugvr"},
+      {"view " + store + " --size 8", "--size"},
+      {"view " + store + " --size 5000x64", "--size"},
+      {"view " + store + " --fps -1", "--fps"},
+      {"view " + store + " --fps fast", "--fps"},
+      {"view " + store + " --port 70000", "--port"},
+      {"view " + store + " --host nowhere", "--host"},
+  };
+  for (const auto& [args, flag] : cases) {
+    const test::CommandResult r = test::run_ugvr(args);
+    EXPECT_EQ(r.status, 1) << args << "\n" << r.out;
+    EXPECT_NE(r.out.find(flag), std::string::npos) << args << "\n" << r.out;
+  }
+}
+
+// The binary prints its URL, serves it, and exits cleanly on SIGTERM.
+TEST(CliView, PrintsTheUrlAndStopsOnSigterm) {
+  const std::string out = (shared().dir / "view-out.txt").string();
+  const std::string script = "timeout 120 " + std::string(UGVR_BINARY) + " view " + shared().store + " --size 64 > " +
+                             out + " 2>&1 & pid=$!; for i in $(seq 600); do grep -q serving " + out +
+                             " && break; sleep 0.1; done; kill -TERM $pid; wait $pid; echo rc=$?";
+  FILE* p = popen(script.c_str(), "r");
+  ASSERT_TRUE(p);
+  std::string rc;
+  char buf[256];
+  while (fgets(buf, sizeof buf, p)) rc += buf;
+  pclose(p);
+  std::string printed;
+  if (FILE* f = std::fopen(out.c_str(), "r")) {
+    while (fgets(buf, sizeof buf, f)) printed += buf;
+    std::fclose(f);
+  }
+  if (printed.find("OpenGL") != std::string::npos && std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << printed;
+  EXPECT_NE(printed.find("ugvr view: serving http://127.0.0.1:"), std::string::npos) << printed;
+  EXPECT_EQ(rc, "rc=0\n") << printed;
+}
+
+}  // namespace
+}  // namespace ugvr::view
