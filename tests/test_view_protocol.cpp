@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "ugvr/core/error.h"
+#include "ugvr/view/jpeg.h"
 #include "ugvr/view/view_protocol.h"
 
 namespace ugvr::view {
@@ -135,6 +136,23 @@ TEST(ViewProtocol, ServerMessages) {
   EXPECT_EQ(j["cut_nodes"], 12);
   EXPECT_EQ(j["texel_error"], 0.5);
   EXPECT_EQ(j["converged"], true);
+}
+
+TEST(ViewJpeg, EncodesAnyImageSize) {
+  Image im(17, 5);  // odd sizes: chroma subsampling pads internally
+  for (int y = 0; y < im.height; ++y)
+    for (int x = 0; x < im.width; ++x) {
+      float* p = im.pixel(x, y);
+      p[0] = float(x) / 16, p[1] = float(y) / 4, p[2] = 2.0f, p[3] = 1;  // 2: clamped
+    }
+  const std::vector<unsigned char> j = jpeg_bytes(im);
+  ASSERT_GT(j.size(), 100u);
+  EXPECT_EQ(j[0], 0xFF);
+  EXPECT_EQ(j[1], 0xD8);
+  EXPECT_EQ(j[j.size() - 2], 0xFF);
+  EXPECT_EQ(j[j.size() - 1], 0xD9);
+  EXPECT_LT(jpeg_bytes(im, 20).size(), jpeg_bytes(im, 95).size());
+  EXPECT_THROW(jpeg_bytes(Image{}), Error);
 }
 
 }  // namespace

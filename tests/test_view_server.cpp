@@ -110,13 +110,13 @@ struct HttpReply {
   std::string body;
 };
 
-HttpReply http_get(uint16_t port, const std::string& target) {
+HttpReply http_get(uint16_t port, const std::string& target, std::string host = "") {
   net::io_context ioc;
   tcp::socket socket(ioc);
   socket.connect({net::ip::make_address("127.0.0.1"), port});
   set_receive_timeout(socket, 30);
   http::request<http::empty_body> req(http::verb::get, target, 11);
-  req.set(http::field::host, "127.0.0.1:" + std::to_string(port));
+  req.set(http::field::host, host.empty() ? "127.0.0.1:" + std::to_string(port) : host);
   http::write(socket, req);
   beast::flat_buffer buffer;
   http::response<http::string_body> res;
@@ -255,6 +255,14 @@ TEST(ViewServer, ServesThePageAndItsAssets) {
   EXPECT_NE(js.body.find("WebSocket"), std::string::npos);
   EXPECT_EQ(http_get(server->port(), "/style.css").status, 200);
   EXPECT_EQ(http_get(server->port(), "/nope").status, 404);
+  // Loopback names only (DNS rebinding): another host name is refused.
+  EXPECT_EQ(http_get(server->port(), "/", "localhost:" + std::to_string(server->port())).status, 200);
+  EXPECT_EQ(http_get(server->port(), "/", "[::1]:" + std::to_string(server->port())).status, 200);
+  EXPECT_EQ(http_get(server->port(), "/", "evil.example:" + std::to_string(server->port())).status, 403);
+  // The socket: from our own page (or a non-browser client), not from another origin.
+  EXPECT_NO_THROW(Client(server->port(), "/ws", "http://127.0.0.1:" + std::to_string(server->port())));
+  EXPECT_THROW(Client(server->port(), "/ws", "http://evil.example"), beast::system_error);
+  EXPECT_THROW(Client(server->port(), "/elsewhere"), beast::system_error);
 }
 
 TEST(ViewServer, StreamsJpegWhileMovingThenPngWhenConverged) {
@@ -348,6 +356,28 @@ TEST(ViewServer, TwoClientsEachGetTheirOwnView) {
   EXPECT_TRUE(read_frame_for(a, 3).status);
 }
 
+TEST(ViewServer, LatestRequestWinsAndAFloodDoesNotStarveOthers) {
+  START_SERVER(server, o_.fps = 30);
+  Client a(server->port()), b(server->port());
+  a.send(R"({"type":"hello","width":64,"height":64})");
+  b.send(R"({"type":"hello","width":64,"height":64})");
+  const Frame fa = read_frame(a);
+  ASSERT_TRUE(fa.scene);
+  // A burst of camera moves: frames follow the latest, the stale ones are dropped rather than rendered in turn.
+  const int moves = 200;
+  for (int i = 0; i < moves; ++i) a.send(camera_message(*fa.scene, 0.01 * i).dump());
+  // Meanwhile the other tab still gets its frames through to full quality.
+  const Frame cb = read_until_converged(b, 1);
+  EXPECT_TRUE(is_png(cb.bytes));
+  int frames = 0;
+  for (; frames < 2 * moves; ++frames) {
+    const Frame f = read_frame(a);
+    ASSERT_TRUE(f.status);
+    if ((*f.status)["request"] == moves + 1) break;
+  }
+  EXPECT_LT(frames, moves / 2) << "frames rendered for stale requests";
+}
+
 TEST(ViewServer, TokenAndOriginAreChecked) {
   START_SERVER(server, o_.token = "s3cret");
   EXPECT_EQ(server->url(), "http://127.0.0.1:" + std::to_string(server->port()) + "/?token=s3cret");
@@ -357,6 +387,7 @@ TEST(ViewServer, TokenAndOriginAreChecked) {
   EXPECT_THROW(Client(server->port(), "/ws"), beast::system_error);
   EXPECT_THROW(Client(server->port(), "/ws?token=s3cre"), beast::system_error);
   const std::string own = "http://127.0.0.1:" + std::to_string(server->port());
+  // A page from another origin may not open the socket, even with the token.
   EXPECT_THROW(Client(server->port(), "/ws?token=s3cret", "http://evil.example"), beast::system_error);
   Client c(server->port(), "/ws?token=s3cret", own);
   c.send(R"({"type":"hello","width":32,"height":32})");

@@ -47,7 +47,9 @@ function showStatus() {
   statusBar.className = "";
   if (!lastStatus) return;
   const s = lastStatus;
-  statusBar.textContent = `${s.width}×${s.height}  ${s.fps.toFixed(1)} fps  frame ${(s.frame_seconds * 1000).toFixed(0)} ms  ` +
+  // The frame rate means something while frames stream; once converged the server sends nothing until the view changes.
+  const rate = s.converged ? "" : `${s.fps.toFixed(1)} fps  `;
+  statusBar.textContent = `${s.width}×${s.height}  ${rate}frame ${(s.frame_seconds * 1000).toFixed(0)} ms  ` +
       `cut ${s.cut_nodes} nodes (${s.visible_nodes} visible)  texel error ${s.texel_error.toFixed(2)} px  ` +
       (s.converged ? "full quality" : `scale ${s.scale.toFixed(2)}  refining…`);
 }

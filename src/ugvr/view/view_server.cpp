@@ -77,6 +77,13 @@ std::string str(beast::string_view s) { return std::string(s.data(), s.size()); 
 
 std::string_view target_path(std::string_view target) { return target.substr(0, target.find('?')); }
 
+// "127.0.0.1:PORT", "localhost:PORT", "[::1]:PORT" (the port is not checked: it is ours, whatever the client typed).
+bool loopback_host(std::string_view host) {
+  if (host.starts_with("[::1]")) return host.size() == 5 || host[5] == ':';
+  const std::string_view name = host.substr(0, host.find(':'));
+  return name == "localhost" || name == "127.0.0.1";
+}
+
 // Constant-time comparison: the token is a secret.
 bool same_token(std::string_view a, std::string_view b) {
   if (a.size() != b.size()) return false;
@@ -304,10 +311,14 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   std::string refused(const http::request<http::string_body>& req, const std::string& target) const {
     if (!server_.token.empty() && !same_token(query_param(target, "token"), server_.token))
       return "forbidden: the URL needs the token that `ugvr view` printed";
+    const auto host = req.find(http::field::host);
+    // Without a token, only a loopback name may address us: a web page whose own host name is made to resolve to
+    // 127.0.0.1 (DNS rebinding) would otherwise count as same-origin below.
+    if (server_.token.empty() && (host == req.end() || !loopback_host(str(host->value()))))
+      return "forbidden: address the viewer as 127.0.0.1, localhost or [::1]";
     // A page from another origin may open a WebSocket to localhost (browsers allow it): only our own page may.
     const auto origin = req.find(http::field::origin);
     if (origin != req.end()) {
-      const auto host = req.find(http::field::host);
       if (host == req.end() || str(origin->value()) != "http://" + str(host->value()))
         return "forbidden: cross-origin WebSocket";
     }
