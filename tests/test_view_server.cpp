@@ -72,6 +72,15 @@ struct Shared {
   std::string store;
 };
 
+// Removes the scratch directory at exit.
+struct RemoveAtExit {
+  std::filesystem::path dir;
+  ~RemoveAtExit() {
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+  }
+};
+
 const Shared& shared() {
   static Shared s = [] {
     Shared r;
@@ -80,6 +89,7 @@ const Shared& shared() {
     r.store = make_store(r.dir);
     return r;
   }();
+  static const RemoveAtExit cleanup{s.dir};
   return s;
 }
 

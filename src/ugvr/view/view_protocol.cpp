@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "ugvr/core/error.h"
 
@@ -109,7 +110,8 @@ SettingsMessage parse_settings(const json& j) {
     else
       fail_field("mode", "expected \"ea\", \"mip\" or \"iso\", found " + v.dump());
   }
-  if (j.contains("iso_value")) m.iso_value = number(j, "iso_value", -1e300, 1e300);
+  if (j.contains("iso_value"))
+    m.iso_value = number(j, "iso_value", std::numeric_limits<double>::lowest(), std::numeric_limits<double>::max());
   if (j.contains("step_voxels")) {
     m.step_voxels = number(j, "step_voxels", 0, 8);
     if (*m.step_voxels <= 0) fail_field("step_voxels", "must be > 0");

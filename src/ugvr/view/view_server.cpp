@@ -222,6 +222,9 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
         if (hello) send_text(server_.scene);
       } catch (const Error& e) {
         reply_error(e.what());
+      } catch (const std::exception& e) {
+        // Nothing a client sends may end the server (an exception escaping a handler would end the I/O thread).
+        reply_error(std::string("message: ") + e.what());
       }
     }
     buffer_.consume(buffer_.size());
