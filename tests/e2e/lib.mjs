@@ -9,6 +9,9 @@ export const chromiumPath = process.env.UGVR_CHROMIUM || "/usr/bin/chromium";
 export function startViewer(ugvr, store, extraArgs = [], timeoutMs = 60_000) {
   return new Promise((resolve, reject) => {
     const child = spawn(ugvr, ["view", store, "--port", "0", ...extraArgs], { stdio: ["ignore", "pipe", "pipe"] });
+    // Never left behind: killed when node exits, also on SIGINT / SIGTERM (a timeout), which then exit.
+    process.once("exit", () => child.kill("SIGKILL"));
+    for (const sig of ["SIGINT", "SIGTERM"]) process.once(sig, () => process.exit(1));
     let out = "", err = "";
     const log = () => `ugvr view stdout:\n${out}\nugvr view stderr:\n${err}`;
     const timer = setTimeout(() => {

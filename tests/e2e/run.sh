@@ -25,4 +25,6 @@ tmp=$(mktemp -d "${TMPDIR:-/tmp}/ugvr-e2e.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT
 "$ugvr" --quiet generate --cells 20000 --kind mixed -o "$tmp/mixed.vtu" >/dev/null
 "$ugvr" --quiet build "$tmp/mixed.vtu" -o "$tmp/mixed.ugvr" --brick 8 --max-depth 4 >/dev/null
-UGVR="$ugvr" UGVR_STORE="$tmp/mixed.ugvr" node --test --test-reporter=spec "$here/viewer.test.mjs"
+# Run in this process (not under `node --test`, which runs the file in a child) and stopped before ctest's TIMEOUT, so
+# that the signal reaches node, which then stops `ugvr view` and Chromium.
+UGVR="$ugvr" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 10 160 node --test-reporter=spec "$here/viewer.test.mjs"
