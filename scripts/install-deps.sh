@@ -18,6 +18,7 @@ PACKAGES=(
   libepoxy-dev libegl-dev             # OpenGL 4.5 through headless EGL (GPU engines)
   libegl1 libegl-mesa0 libgl1-mesa-dri  # Mesa's EGL and llvmpipe: the GPU engines run without a GPU (CI)
   python3 python3-matplotlib          # benchmark plots
+  chromium                            # headless browser for the viewer's end-to-end tests (tests/e2e; node + npm too)
 )
 
 missing=()

@@ -7,6 +7,11 @@ cd "$(dirname "$0")/.."
 
 bash scripts/install-deps.sh
 
+# The viewer's browser tests (tests/e2e) use playwright-core from npm, pinned by its package-lock.json.
+if command -v npm >/dev/null && [ ! -d tests/e2e/node_modules/playwright-core ]; then
+  npm ci --prefix tests/e2e --no-audit --no-fund
+fi
+
 jobs=$(nproc)
 run_suite() {  # build-dir, extra cmake args...
   local dir=$1

@@ -15,6 +15,19 @@ let camera = null;       // camera.h's JSON form, as the server sent it and we m
 let lastStatus = null;   // the status that describes the next binary frame
 let cameraDirty = false; // a camera message is owed at the next animation frame (one per frame: latest wins)
 let lastError = "";
+let framesDrawn = 0;     // binary frames drawn so far
+let drawnStatus = null;  // the status of the frame on the canvas
+let messagesSent = 0;    // client messages sent (status.request counts those the server accepted)
+
+// Read-only test hook for tests/e2e/viewer.test.mjs (headless Chromium): the current camera, the status of the frame
+// on the canvas, frames drawn, messages sent and the error shown, if any. Nothing on the page uses it.
+window.ugvrViewer = {
+  get camera() { return camera && structuredClone(camera); },
+  get status() { return drawnStatus && { ...drawnStatus }; },
+  get frames() { return framesDrawn; },
+  get sent() { return messagesSent; },
+  get error() { return lastError; },
+};
 
 const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
 const add = (a, b) => [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
@@ -29,7 +42,9 @@ const rotate = (v, k, angle) => {
 };
 
 function send(message) {
-  if (ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(message));
+  if (ws.readyState !== WebSocket.OPEN) return;
+  ws.send(JSON.stringify(message));
+  messagesSent++;
 }
 
 function canvasSize() {
@@ -58,6 +73,7 @@ ws.onopen = () => send({ type: "hello", ...canvasSize() });
 ws.onclose = () => { lastError = "disconnected"; showStatus(); };
 ws.onmessage = async (event) => {
   if (typeof event.data !== "string") {
+    const status = lastStatus;
     const bitmap = await createImageBitmap(event.data);
     if (canvas.width !== bitmap.width || canvas.height !== bitmap.height) {
       canvas.width = bitmap.width;
@@ -65,6 +81,8 @@ ws.onmessage = async (event) => {
     }
     ctx.drawImage(bitmap, 0, 0);
     bitmap.close();
+    drawnStatus = status;
+    framesDrawn++;
     showStatus();
     return;
   }

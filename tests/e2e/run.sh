@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# End-to-end tests of the `ugvr view` browser viewer in headless Chromium (ctest ViewerE2E, tests/CMakeLists.txt).
+# Usage: run.sh UGVR_BINARY
+# Builds a small store in a temporary directory, installs playwright-core (package-lock.json) when node_modules is
+# missing, then runs viewer.test.mjs, which starts `ugvr view` itself. Exit 77 (ctest: skipped) only when node or
+# Chromium is absent; any other problem fails.
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+ugvr=${1:?usage: run.sh UGVR_BINARY}
+export UGVR_CHROMIUM=${UGVR_CHROMIUM:-/usr/bin/chromium}
+
+if ! command -v node >/dev/null; then
+  echo "SKIP: node is not installed"
+  exit 77
+fi
+if [ ! -x "$UGVR_CHROMIUM" ]; then
+  echo "SKIP: no Chromium at $UGVR_CHROMIUM (apt-get install chromium, or set UGVR_CHROMIUM)"
+  exit 77
+fi
+if [ ! -d "$here/node_modules/playwright-core" ]; then
+  npm ci --prefix "$here" --no-audit --no-fund
+fi
+
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/ugvr-e2e.XXXXXX")
+trap 'rm -rf "$tmp"' EXIT
+"$ugvr" --quiet generate --cells 20000 --kind mixed -o "$tmp/mixed.vtu" >/dev/null
+"$ugvr" --quiet build "$tmp/mixed.vtu" -o "$tmp/mixed.ugvr" --brick 8 --max-depth 4 >/dev/null
+# Run in this process (not under `node --test`, which runs the file in a child) and stopped before ctest's TIMEOUT, so
+# that the signal reaches node, which then stops `ugvr view` and Chromium.
+UGVR="$ugvr" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 10 160 node --test-reporter=spec "$here/viewer.test.mjs"
