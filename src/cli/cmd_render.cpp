@@ -14,6 +14,7 @@
 #include <limits>
 #include <optional>
 
+#include "cli/cli_numbers.h"
 #include "cli/commands.h"
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
@@ -60,18 +61,6 @@ auto with_flag(std::string_view flag, F&& f) {
   } catch (const Error& e) {
     fail_flag(flag, e.what());
   }
-}
-
-double parse_number(std::string_view text, std::string_view flag) {
-  double v = 0;
-  const char* first = text.data();
-  const char* last = first + text.size();
-  // from_chars rejects a leading '+', which people type for positive values.
-  if (first != last && *first == '+') ++first;
-  const auto [end, ec] = std::from_chars(first, last, v);
-  if (first == last || ec != std::errc() || end != last || !std::isfinite(v))
-    fail_flag(flag, "expected a finite number, found \"" + std::string(text) + "\"");
-  return v;
 }
 
 int parse_positive_int(std::string_view text, std::string_view flag) {

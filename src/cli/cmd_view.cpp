@@ -1,9 +1,9 @@
 // `ugvr view STORE.ugvr`: serves the browser viewer (src/ugvr/view/view_server.h) until SIGINT or SIGTERM.
 #include <csignal>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 
+#include "cli/cli_numbers.h"
 #include "cli/commands.h"
 #include "ugvr/core/error.h"
 #include "ugvr/render/render_settings.h"
@@ -36,10 +36,9 @@ void run_view(const Options& o) {
     fail_in("--size", "each side must be in [" + std::to_string(view::kMinViewSide) + ", " +
                           std::to_string(view::kMaxViewSide) + "]");
   vo.width = size.width, vo.height = size.height;
-  char* end = nullptr;
-  vo.fps = std::strtod(o.fps.c_str(), &end);
-  if (o.fps.empty() || *end != '\0' || !(vo.fps >= 0) || vo.fps > view::kMaxFps)
-    fail_in("--fps", "must be a number in [0, " + std::to_string(int(view::kMaxFps)) + "]");
+  vo.fps = parse_number(o.fps, "--fps");
+  if (!(vo.fps >= 0) || vo.fps > view::kMaxFps)
+    fail_in("--fps", "must be in [0, " + std::to_string(int(view::kMaxFps)) + "]");
 
   // Blocked before any thread starts, so that every thread inherits the mask and only sigwait below sees them.
   sigset_t signals;
