@@ -174,4 +174,34 @@ std::string status_message(const FrameStatus& s) {
       .dump();
 }
 
+const FieldInfo* SceneInfo::find_field(std::string_view name) const {
+  const std::string_view wanted = name.empty() ? std::string_view(field) : name;
+  for (const FieldInfo& f : fields)
+    if (f.name == wanted) return &f;
+  return nullptr;
+}
+
+std::string scene_message(const SceneInfo& scene) {
+  json fields = json::array();
+  for (const FieldInfo& f : scene.fields)
+    fields.push_back({{"name", f.name}, {"range", {f.min, f.max}}, {"histogram", f.histogram}});
+  const FieldInfo* current = scene.find_field("");
+  const Bounds& b = scene.bounds;
+  return json{{"type", "scene"},
+              {"field", scene.field},
+              {"range", {current ? current->min : 0.0, current ? current->max : 1.0}},
+              {"fields", fields},
+              {"bounds", {{"min", {b.lo.x, b.lo.y, b.lo.z}}, {"max", {b.hi.x, b.hi.y, b.hi.z}}}},
+              {"camera", camera_to_json(scene.camera)},
+              {"presets", builtin_preset_names()},
+              {"preset", scene.preset},
+              {"fps", scene.fps},
+              {"width", scene.width},
+              {"height", scene.height},
+              {"renderer", scene.renderer},
+              {"engine", scene.engine},
+              {"limits", {{"min_side", kMinViewSide}, {"max_side", kMaxViewSide}, {"max_fps", kMaxFps}}}}
+      .dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
 }  // namespace ugvr::view

@@ -71,6 +71,32 @@ struct SettingsMessage {
 
 using ClientMessage = std::variant<SizeMessage, CameraMessage, TfMessage, SettingsMessage>;
 
+// What the scene message tells a page about the data, and what new tabs start from.
+struct FieldInfo {
+  std::string name;
+  double min = 0, max = 1;          // range over the data (NaN excluded)
+  std::vector<uint64_t> histogram;  // counts over [min, max] in equal bins; empty when unknown
+};
+
+struct SceneInfo {
+  std::vector<FieldInfo> fields;
+  std::string field;  // the field new tabs show
+  Bounds bounds;
+  Camera camera;  // the reset view
+  std::string preset = "viridis";
+  double fps = 10;
+  int width = 512, height = 512;
+  std::string renderer;  // GL_RENDERER, or the CPU engine's name
+  std::string engine;    // "lod" (the brick store on the GPU) or "exact" (CPU, while a store is being built)
+
+  // The field called `name` (empty: `field`), or null.
+  const FieldInfo* find_field(std::string_view name) const;
+};
+
+// {"type":"scene", "field", "range", "fields":[{"name","range","histogram"}...], "bounds", "camera", "presets",
+//  "preset", "fps", "width", "height", "renderer", "engine", "limits"}
+std::string scene_message(const SceneInfo& scene);
+
 // Parses and validates one client message. Throws ugvr::Error "FIELD: what is wrong" (FIELD is "message" for the
 // whole text, "type" for the type, else the key).
 ClientMessage parse_client_message(std::string_view text);

@@ -26,6 +26,7 @@
 #include "ugvr/render/lod/time_critical.h"
 #include "ugvr/view/jpeg.h"
 #include "ugvr/view/view_protocol.h"
+#include "ugvr/view/view_request.h"
 #include "ugvr/view/web_assets.h"
 
 namespace ugvr::view {
@@ -92,30 +93,15 @@ bool same_token(std::string_view a, std::string_view b) {
   return d == 0;
 }
 
-// What a session wants rendered: always its latest request.
-struct ViewRequest {
-  int width = 512, height = 512;
-  Camera camera;
-  TransferFunction tf;
-  RenderSettings settings;
-  double fps = 10;
-  double step_voxels = 0.5;
-};
-
 class WsSession;
 
 // Shared between the I/O thread and the render thread, under Impl::mutex.
 struct SessionState {
   uint64_t id = 0;
-  bool ready = false, closed = false, in_flight = false, converged = false, full_quality = false;
-  uint64_t generation = 0, rendered_generation = 0;
-  ViewRequest request;
+  bool closed = false, in_flight = false, converged = false;
+  uint64_t rendered_generation = 0;
+  ViewState view;
   std::weak_ptr<WsSession> socket;
-  // Transfer-function edits compose (I/O thread only): a preset, then explicit points, then the opacity scale.
-  std::string tf_preset = "viridis";
-  double tf_opacity = 1;
-  std::vector<ColorPoint> tf_colors;
-  std::vector<OpacityPoint> tf_opacities;
 };
 
 }  // namespace
@@ -127,10 +113,8 @@ struct ViewServer::Impl {
   uint16_t port = 0;
 
   // Published by the render thread before it accepts work.
-  std::string field_name, renderer;
-  double field_min = 0, field_max = 1;
-  Bounds bounds;
-  std::string scene;  // the scene message (JSON text)
+  SceneInfo scene;
+  std::string scene_text;  // scene_message(scene)
 
   std::mutex mutex;
   std::condition_variable wake;
@@ -146,9 +130,6 @@ struct ViewServer::Impl {
 
   void render_loop(std::promise<void>& started);
   void accept();
-  ViewRequest initial_request() const;
-  TransferFunction compose_tf(const SessionState& s) const;
-  void apply(SessionState& s, const ClientMessage& m);
   void frame_delivered(const std::shared_ptr<SessionState>& s) {
     std::lock_guard lock(mutex);
     s->in_flight = false;
@@ -215,11 +196,11 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
         bool hello = false;
         {
           std::lock_guard lock(server_.mutex);
-          server_.apply(*state_, m);
+          apply_message(state_->view, m, server_.scene);
           hello = std::holds_alternative<SizeMessage>(m) && std::get<SizeMessage>(m).hello;
           server_.wake.notify_all();
         }
-        if (hello) send_text(server_.scene);
+        if (hello) send_text(server_.scene_text);
       } catch (const Error& e) {
         reply_error(e.what());
       } catch (const std::exception& e) {
@@ -290,7 +271,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       {
         std::lock_guard lock(server_.mutex);
         state->id = server_.next_id++;
-        state->request = server_.initial_request();
+        state->view = initial_view(server_.scene);
       }
       stream_.expires_never();  // the WebSocket has its own timeouts
       std::make_shared<WsSession>(stream_.release_socket(), server_, std::move(state))->run(std::move(req));
@@ -358,68 +339,6 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 
 }  // namespace
 
-ViewRequest ViewServer::Impl::initial_request() const {
-  ViewRequest r;
-  r.width = options.width;
-  r.height = options.height;
-  r.camera = reset_camera(bounds, 30);
-  r.fps = options.fps;
-  SessionState defaults;
-  r.tf = compose_tf(defaults);
-  return r;
-}
-
-TransferFunction ViewServer::Impl::compose_tf(const SessionState& s) const {
-  TransferFunction tf = builtin_preset(s.tf_preset);
-  if (std::isfinite(field_min) && std::isfinite(field_max)) tf.rescale(field_min, field_max);
-  if (!s.tf_colors.empty()) tf.color_points = s.tf_colors;
-  if (!s.tf_opacities.empty()) tf.opacity_points = s.tf_opacities;
-  for (OpacityPoint& p : tf.opacity_points) p.opacity *= s.tf_opacity;
-  const double diagonal = length(bounds.size());
-  tf.opacity_unit_distance = diagonal > 0 ? diagonal / 100 : 1.0;
-  return tf;
-}
-
-// Under the mutex. Throws ugvr::Error (the session then keeps its previous request).
-void ViewServer::Impl::apply(SessionState& s, const ClientMessage& m) {
-  ViewRequest& r = s.request;
-  if (const auto* size = std::get_if<SizeMessage>(&m)) {
-    r.width = size->width, r.height = size->height;
-    if (size->hello) s.ready = true;
-  } else if (const auto* cam = std::get_if<CameraMessage>(&m)) {
-    r.camera = cam->camera;
-  } else if (const auto* tf = std::get_if<TfMessage>(&m)) {
-    SessionState next = s;
-    if (tf->preset) {
-      // A preset replaces any explicit points: picking one starts from it.
-      next.tf_preset = *tf->preset;
-      next.tf_colors.clear(), next.tf_opacities.clear();
-    }
-    if (tf->opacity) next.tf_opacity = *tf->opacity;
-    if (!tf->color_points.empty()) next.tf_colors = tf->color_points;
-    if (!tf->opacity_points.empty()) next.tf_opacities = tf->opacity_points;
-    const TransferFunction composed = compose_tf(next);
-    composed.validate("tf");
-    s.tf_preset = next.tf_preset, s.tf_opacity = next.tf_opacity;
-    s.tf_colors = next.tf_colors, s.tf_opacities = next.tf_opacities;
-    r.tf = composed;
-  } else if (const auto* set = std::get_if<SettingsMessage>(&m)) {
-    RenderSettings rs = r.settings;
-    if (set->iso_value) rs.iso_values = {*set->iso_value};
-    if (set->mode) {
-      rs.mode = *set->mode;
-      // Isosurface mode needs a value: the middle of the range until the client sends one.
-      if (rs.mode == RenderMode::Isosurface && rs.iso_values.empty()) rs.iso_values = {0.5 * (field_min + field_max)};
-    }
-    rs.validate("settings");
-    r.settings = rs;
-    if (set->step_voxels) r.step_voxels = *set->step_voxels;
-    if (set->fps) r.fps = *set->fps;
-    if (set->full_quality) s.full_quality = true;
-  }
-  ++s.generation;
-}
-
 void ViewServer::Impl::accept() {
   acceptor.async_accept(net::make_strand(ioc), [this](beast::error_code ec, tcp::socket socket) {
     if (ec) {
@@ -441,25 +360,16 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
     lo.atlas_budget_bytes = options.gpu_memory;
     engine = std::make_unique<LodEngine>(options.store, *gl, lo);
     engine->set_field("");
-    field_name = engine->field_name();
-    field_min = engine->field_min(), field_max = engine->field_max();
-    bounds = engine->bounds();
-    renderer = gl->renderer();
-    const Camera camera = reset_camera(bounds, 30);
-    scene = json{{"type", "scene"},
-                 {"field", field_name},
-                 {"range", {field_min, field_max}},
-                 {"bounds",
-                  {{"min", {bounds.lo.x, bounds.lo.y, bounds.lo.z}}, {"max", {bounds.hi.x, bounds.hi.y, bounds.hi.z}}}},
-                 {"camera", camera_to_json(camera)},
-                 {"presets", builtin_preset_names()},
-                 {"preset", "viridis"},
-                 {"fps", options.fps},
-                 {"width", options.width},
-                 {"height", options.height},
-                 {"renderer", renderer},
-                 {"limits", {{"min_side", kMinViewSide}, {"max_side", kMaxViewSide}, {"max_fps", kMaxFps}}}}
-                .dump(-1, ' ', false, json::error_handler_t::replace);
+    const Bounds bounds = engine->bounds();
+    scene.fields = {{engine->field_name(), engine->field_min(), engine->field_max(), {}}};
+    scene.field = engine->field_name();
+    scene.bounds = bounds;
+    scene.camera = reset_camera(bounds, 30);
+    scene.fps = options.fps;
+    scene.width = options.width, scene.height = options.height;
+    scene.renderer = gl->renderer();
+    scene.engine = "lod";
+    scene_text = scene_message(scene);
   } catch (...) {
     started.set_exception(std::current_exception());
     return;
@@ -494,8 +404,8 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
     for (size_t k = 0; k < sessions.size(); ++k) {
       const size_t i = (next_session + k) % sessions.size();
       const SessionState& s = *sessions[i];
-      if (!s.ready || s.in_flight) continue;
-      if (s.generation == s.rendered_generation && s.converged && !s.full_quality) continue;
+      if (!s.view.ready || s.in_flight) continue;
+      if (s.view.generation == s.rendered_generation && s.converged && !s.view.full_quality) continue;
       chosen = sessions[i];
       next_session = i + 1;  // round-robin: the next turn starts after this session
       break;
@@ -504,10 +414,10 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
       wake.wait(lock);
       continue;
     }
-    const ViewRequest request = chosen->request;
-    const uint64_t generation = chosen->generation;
-    const bool full_quality = chosen->full_quality;
-    chosen->full_quality = false;
+    const ViewRequest request = chosen->view.request;
+    const uint64_t generation = chosen->view.generation;
+    const bool full_quality = chosen->view.full_quality;
+    chosen->view.full_quality = false;
     chosen->in_flight = true;
     lock.unlock();
 
@@ -634,7 +544,7 @@ void ViewServer::stop() {
 
 uint16_t ViewServer::port() const { return impl_->port; }
 const std::string& ViewServer::token() const { return impl_->token; }
-std::string ViewServer::renderer() const { return impl_->renderer; }
+std::string ViewServer::renderer() const { return impl_->scene.renderer; }
 
 std::string ViewServer::url() const {
   const bool v6 = impl_->options.host.find(':') != std::string::npos;

@@ -1,0 +1,69 @@
+#include "ugvr/view/view_request.h"
+
+#include <cmath>
+
+namespace ugvr::view {
+
+ViewState initial_view(const SceneInfo& scene) {
+  ViewState s;
+  s.request.width = scene.width;
+  s.request.height = scene.height;
+  s.request.camera = scene.camera;
+  s.request.fps = scene.fps;
+  s.request.settings.field = scene.field;
+  s.tf_preset = scene.preset;
+  s.request.tf = compose_tf(s, scene);
+  return s;
+}
+
+TransferFunction compose_tf(const ViewState& s, const SceneInfo& scene) {
+  TransferFunction tf = builtin_preset(s.tf_preset);
+  const FieldInfo* f = scene.find_field(s.request.settings.field);
+  if (f && std::isfinite(f->min) && std::isfinite(f->max)) tf.rescale(f->min, f->max);
+  if (!s.tf_colors.empty()) tf.color_points = s.tf_colors;
+  if (!s.tf_opacities.empty()) tf.opacity_points = s.tf_opacities;
+  for (OpacityPoint& p : tf.opacity_points) p.opacity *= s.tf_opacity;
+  const double diagonal = length(scene.bounds.size());
+  tf.opacity_unit_distance = diagonal > 0 ? diagonal / 100 : 1.0;
+  return tf;
+}
+
+void apply_message(ViewState& state, const ClientMessage& m, const SceneInfo& scene) {
+  ViewState s = state;
+  ViewRequest& r = s.request;
+  if (const auto* size = std::get_if<SizeMessage>(&m)) {
+    r.width = size->width, r.height = size->height;
+    if (size->hello) s.ready = true;
+  } else if (const auto* cam = std::get_if<CameraMessage>(&m)) {
+    r.camera = cam->camera;
+  } else if (const auto* tf = std::get_if<TfMessage>(&m)) {
+    if (tf->preset) {
+      // A preset replaces any explicit points: picking one starts from it.
+      s.tf_preset = *tf->preset;
+      s.tf_colors.clear(), s.tf_opacities.clear();
+    }
+    if (tf->opacity) s.tf_opacity = *tf->opacity;
+    if (!tf->color_points.empty()) s.tf_colors = tf->color_points;
+    if (!tf->opacity_points.empty()) s.tf_opacities = tf->opacity_points;
+    r.tf = compose_tf(s, scene);
+    r.tf.validate("tf");
+  } else if (const auto* set = std::get_if<SettingsMessage>(&m)) {
+    RenderSettings& rs = r.settings;
+    if (set->iso_value) rs.iso_values = {*set->iso_value};
+    if (set->mode) {
+      rs.mode = *set->mode;
+      // Isosurface mode needs a value: the middle of the range until the client sends one.
+      const FieldInfo* f = scene.find_field(rs.field);
+      if (rs.mode == RenderMode::Isosurface && rs.iso_values.empty())
+        rs.iso_values = {f ? 0.5 * (f->min + f->max) : 0.0};
+    }
+    rs.validate("settings");
+    if (set->step_voxels) r.step_voxels = *set->step_voxels;
+    if (set->fps) r.fps = *set->fps;
+    if (set->full_quality) s.full_quality = true;
+  }
+  ++s.generation;
+  state = std::move(s);
+}
+
+}  // namespace ugvr::view

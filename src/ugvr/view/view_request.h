@@ -1,0 +1,46 @@
+// One browser tab's requested view, built up from its client messages (view_protocol.h): always the LATEST request,
+// never a queue. The I/O thread applies messages (under the server's lock); the render thread copies `request` when
+// it renders a frame.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "ugvr/render/camera.h"
+#include "ugvr/render/render_settings.h"
+#include "ugvr/render/transfer_function.h"
+#include "ugvr/view/view_protocol.h"
+
+namespace ugvr::view {
+
+// What the render thread draws for a tab. settings.field names the field (empty: the scene's current one).
+struct ViewRequest {
+  int width = 512, height = 512;
+  Camera camera;
+  TransferFunction tf;
+  RenderSettings settings;
+  double fps = 10;
+  double step_voxels = 0.5;
+};
+
+struct ViewState {
+  ViewRequest request;
+  bool ready = false;         // said hello
+  bool full_quality = false;  // asked for one converged frame now
+  uint64_t generation = 0;    // accepted messages so far (FrameStatus.request)
+  // Transfer-function edits compose: a preset, then explicit points, then the opacity scale.
+  std::string tf_preset = "viridis";
+  double tf_opacity = 1;
+  std::vector<ColorPoint> tf_colors;
+  std::vector<OpacityPoint> tf_opacities;
+};
+
+// The state of a new tab: the scene's camera, field, preset and fps target.
+ViewState initial_view(const SceneInfo& scene);
+// The transfer function `state` asks for, over the field's range.
+TransferFunction compose_tf(const ViewState& state, const SceneInfo& scene);
+// Applies one message. Throws ugvr::Error "FIELD: ..." and leaves `state` unchanged when the result is invalid.
+void apply_message(ViewState& state, const ClientMessage& message, const SceneInfo& scene);
+
+}  // namespace ugvr::view
