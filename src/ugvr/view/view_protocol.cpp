@@ -170,8 +170,20 @@ std::string status_message(const FrameStatus& s) {
               {"texel_error", s.texel_error},
               {"max_texel_error", s.max_texel_error},
               {"scale", s.scale},
-              {"converged", s.converged}}
+              {"converged", s.converged},
+              {"engine", s.engine},
+              {"ram_bytes", s.ram_bytes},
+              {"ram_budget", s.ram_budget},
+              {"atlas_bytes", s.atlas_bytes},
+              {"atlas_budget", s.atlas_budget},
+              {"pending_bricks", s.pending_bricks}}
       .dump();
+}
+
+std::string progress_message(const ProgressInfo& p) {
+  return json{
+      {"type", "progress"}, {"stage", p.stage}, {"label", p.label}, {"fraction", p.fraction}, {"message", p.message}}
+      .dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
 const FieldInfo* SceneInfo::find_field(std::string_view name) const {

@@ -23,6 +23,8 @@
 //         on the wire)
 //   binary: the frame, JPEG while moving or refining, PNG once converged (lossless)
 //   text {"type":"error", "message":"FIELD: what is wrong"}   a rejected message; the session goes on
+//   text {"type":"progress", ...}  the background build of a store (ProgressInfo); a new "scene" follows "ready"
+//   status also carries "engine", "ram_bytes", "ram_budget", "atlas_bytes", "atlas_budget", "pending_bricks"
 #pragma once
 
 #include <cstddef>
@@ -115,7 +117,21 @@ struct FrameStatus {
   double texel_error = 0, max_texel_error = 0;  // screen size of a texel, mean and max, in pixels
   double scale = 1;
   bool converged = false;
+  std::string engine = "lod";                  // "lod" or "exact" (the CPU engine, while a store is being built)
+  uint64_t ram_bytes = 0, ram_budget = 0;      // this tab's RAM brick cache: resident decoded bricks, and its budget
+  uint64_t atlas_bytes = 0, atlas_budget = 0;  // the GPU atlas (shared by all tabs)
+  uint64_t pending_bricks = 0;                 // bricks the refinement waits for (queued or loading from disk)
 };
 std::string status_message(const FrameStatus& s);
+
+// {"type":"progress", "stage":"read"|"build"|"ready"|"failed", "label", "fraction", "message"}: building the brick
+// store of a grid file in the background (`ugvr view MESH`); "ready" comes just before the new scene message.
+struct ProgressInfo {
+  std::string stage;
+  std::string label;  // the step now under way ("subdivide", "bricks", ...)
+  double fraction = 0;
+  std::string message;
+};
+std::string progress_message(const ProgressInfo& p);
 
 }  // namespace ugvr::view

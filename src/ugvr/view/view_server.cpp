@@ -464,6 +464,10 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
       st.texel_error = f.mean_error, st.max_texel_error = f.max_error;
       st.scale = f.scale;
       st.converged = converged;
+      st.engine = "lod";
+      st.ram_bytes = f.cache.resident_bytes, st.ram_budget = options.ram_per_session;
+      st.atlas_bytes = f.render.atlas_bytes, st.atlas_budget = options.gpu_memory;
+      st.pending_bricks = f.cache.queued + f.cache.loading;
       status = status_message(st);
     } catch (const std::exception& e) {
       error = std::string("render: ") + e.what();
