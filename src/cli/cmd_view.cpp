@@ -1,31 +1,62 @@
-// `ugvr view STORE.ugvr`: serves the browser viewer (src/ugvr/view/view_server.h) until SIGINT or SIGTERM.
+// `ugvr view FILE | STORE.ugvr | --demo`: serves the browser viewer (src/ugvr/view/view_server.h) until SIGINT or
+// SIGTERM. A grid file that is not a brick store gets one built in the background (kept in the cache directory,
+// view_store.h, so the next `ugvr view` of the same file starts from it), shown meanwhile by the exact engine.
+#include <unistd.h>
+
+#include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <thread>
 
 #include "cli/cli_numbers.h"
 #include "cli/commands.h"
 #include "ugvr/core/error.h"
+#include "ugvr/gen/generator.h"
+#include "ugvr/io/reader.h"
+#include "ugvr/lod/brick_store.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/view/view_protocol.h"
 #include "ugvr/view/view_server.h"
+#include "ugvr/view/view_store.h"
 
 namespace ugvr::cli {
 namespace {
 
+// The built-in demo: the generated mixed-cell wing (`ugvr generate --kind mixed`), small enough to build in seconds.
+constexpr uint64_t kDemoCells = 200'000;
+
 struct Options {
-  std::string store;
+  std::vector<std::string> inputs, fields;
+  std::string store_path;
+  bool demo = false;
+  ReadOptions read;
+  OctreeBuildOptions build;
   std::string host = "127.0.0.1", size = "512", gpu = "auto", fps = "10";
   int port = 0;
   uint64_t gpu_memory = uint64_t(2) << 30;
 };
 
+bool is_store(const std::vector<std::string>& inputs) {
+  return inputs.size() == 1 && std::filesystem::path(inputs[0]).extension() == ".ugvr";
+}
+
+// Whether `path` is a brick store that opens (header, node table and field records check out).
+bool store_opens(const std::string& path) {
+  if (!std::filesystem::exists(path)) return false;
+  try {
+    BrickStoreReader reader(path);
+    return true;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "ugvr view: rebuilding %s (%s)\n", path.c_str(), e.what());
+    return false;
+  }
+}
+
 void run_view(const Options& o) {
-  if (std::filesystem::path(o.store).extension() != ".ugvr")
-    fail_in(o.store, "not a brick store: `ugvr view` shows a .ugvr file made by `ugvr build`");
   if (o.port < 0 || o.port > 65535) fail_in("--port", "must be in [0, 65535] (0: a free port)");
+  if (o.demo == !o.inputs.empty()) fail_in("INPUT", "give a grid file, a .ugvr store or --demo (one of them)");
   view::ViewServerOptions vo;
-  vo.store = o.store;
   vo.host = o.host;
   vo.port = uint16_t(o.port);
   vo.gpu = o.gpu;
@@ -39,6 +70,32 @@ void run_view(const Options& o) {
   vo.fps = parse_number(o.fps, "--fps");
   if (!(vo.fps >= 0) || vo.fps > view::kMaxFps)
     fail_in("--fps", "must be in [0, " + std::to_string(int(view::kMaxFps)) + "]");
+  validate_build_options(o.build);
+
+  if (is_store(o.inputs)) {
+    vo.store = o.inputs[0];
+  } else {
+    vo.build = o.build;
+    // Leave a core to the exact engine's preview frames while the store is built.
+    vo.build.threads = std::max(1, int(std::thread::hardware_concurrency()) - 1);
+    GenerateOptions demo;
+    demo.cells = kDemoCells, demo.kind = GenCellKind::Mixed;
+    // The demo shows the wing's wake by its speed (as scripts/demo.sh renders it).
+    const std::vector<std::string> fields =
+        o.demo && o.fields.empty() ? std::vector<std::string>{"velocity"} : o.fields;
+    vo.store = !o.store_path.empty() ? o.store_path
+               : o.demo
+                   ? view::cached_store_path("demo", "generate mixed " + std::to_string(demo.cells), fields, vo.build)
+                   : view::cached_store_path(o.inputs, fields, vo.build);
+    if (store_opens(vo.store)) {
+      std::fprintf(stderr, "ugvr view: showing the brick store built earlier, %s\n", vo.store.c_str());
+    } else {
+      auto dataset = std::make_shared<Dataset>(o.demo ? generate_in_memory(demo) : read_dataset(o.inputs, o.read));
+      vo.fields = fields.empty() ? view::default_view_fields(*dataset) : fields;
+      vo.dataset = std::move(dataset);
+      std::fprintf(stderr, "ugvr view: building the brick store %s in the background\n", vo.store.c_str());
+    }
+  }
 
   // Blocked before any thread starts, so that every thread inherits the mask and only sigwait below sees them.
   sigset_t signals;
@@ -47,7 +104,7 @@ void run_view(const Options& o) {
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
-  view::ViewServer server(vo);
+  view::ViewServer server(std::move(vo));
   // Printed even with --quiet: it is the command's output (scripts read the URL from it).
   std::printf("ugvr view: serving %s (%s)\n", server.url().c_str(), server.renderer().c_str());
   std::fflush(stdout);
@@ -62,8 +119,30 @@ void run_view(const Options& o) {
 void register_view(CLI::App& app) {
   auto opts = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
-      "view", "Serve an interactive browser viewer of a brick store at http://127.0.0.1:PORT/ until interrupted");
-  cmd->add_option("STORE", opts->store, "Brick store (.ugvr, made by `ugvr build`)")->required();
+      "view",
+      "Serve an interactive browser viewer at http://127.0.0.1:PORT/ until interrupted: of a brick store, or of any "
+      "readable grid (its store is built in the background and kept in the cache directory; the exact engine shows "
+      "the grid meanwhile), or of the built-in demo");
+  cmd->add_option("INPUT", opts->inputs,
+                  "A brick store (.ugvr), a grid file (.vtu .vtk .vts .msh .ugrid .e ...), or a PLOT3D grid file then "
+                  "its solution file")
+      ->expected(0, 2)
+      ->check(CLI::ExistingFile);
+  add_read_options(*cmd, opts->read);
+  cmd->add_flag("--demo", opts->demo, "Show the built-in demo dataset (a generated mixed-cell wing, 200k cells)");
+  cmd->add_option("--fields", opts->fields,
+                  "Fields to build, comma-separated: NAME, NAME:x|y|z|k or NAME:magnitude (default: every field that "
+                  "is not constant, at most 4)")
+      ->delimiter(',');
+  cmd->add_option("--store", opts->store_path,
+                  "Where to build the grid's brick store (default: the cache directory, $UGVR_CACHE_DIR or "
+                  "~/.cache/ugvr, reused while the input is unchanged)");
+  cmd->add_option("--error", opts->build.error, "Build: split threshold relative to each field's range")
+      ->check(CLI::Range(0.0, 1.0))
+      ->default_val(opts->build.error);
+  cmd->add_option("--max-depth", opts->build.max_depth, "Build: deepest octree level")
+      ->check(CLI::Range(0, kMaxOctreeLevel))
+      ->default_val(opts->build.max_depth);
   cmd->add_option("--port", opts->port, "TCP port (default 0: a free port)");
   cmd->add_option("--host", opts->host,
                   "Address to listen on (default 127.0.0.1); any other needs the printed URL's random token")

@@ -3,11 +3,25 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <exception>
+#include <memory>
 
 namespace ugvr {
 
 namespace {
 std::atomic<bool> g_enabled{true};
+std::mutex g_observer_mutex;
+std::shared_ptr<const Progress::Observer> g_observer;  // read under the mutex, called outside it
+
+std::shared_ptr<const Progress::Observer> observer() {
+  std::lock_guard lock(g_observer_mutex);
+  return g_observer;
+}
+}  // namespace
+
+void Progress::set_observer(Observer o) {
+  std::lock_guard lock(g_observer_mutex);
+  g_observer = o ? std::make_shared<const Observer>(std::move(o)) : nullptr;
 }
 
 void Progress::set_enabled(bool enabled) { g_enabled = enabled; }
@@ -20,7 +34,10 @@ Progress::Progress(std::string label, uint64_t total)
       last_report_(start_),
       tty_(isatty(STDERR_FILENO) != 0) {}
 
-Progress::~Progress() { finish(); }
+Progress::~Progress() {
+  // Unwinding (a failed or cancelled step): the work did not finish, so no "100%".
+  if (std::uncaught_exceptions() == 0) finish();
+}
 
 void Progress::add(uint64_t amount) {
   done_ += amount;
@@ -40,12 +57,16 @@ void Progress::finish() {
 }
 
 void Progress::report(bool final) {
-  if (!g_enabled) return;
   const auto now = std::chrono::steady_clock::now();
   std::unique_lock lock(mutex_, std::try_to_lock);
   if (!lock.owns_lock() && !final) return;  // another thread is reporting; skip rather than wait
   if (!lock.owns_lock()) lock.lock();
   const double fraction = total_ ? std::min(1.0, double(done_) / double(total_)) : 1.0;
+  if (final || now - last_observed_ > std::chrono::milliseconds(100)) {
+    if (const auto o = observer()) (*o)(label_, fraction);
+    last_observed_ = now;
+  }
+  if (!g_enabled) return;
   const double seconds = std::chrono::duration<double>(now - start_).count();
   const double since = std::chrono::duration<double>(now - last_report_).count();
   if (tty_) {

@@ -40,17 +40,19 @@ class BrickPass {
   };
 
   BrickPass(OctreeShape& shape, const BrickLattice& lattice, const BrickSampler& sampler, const OctreeDataPoints& data,
-            BrickStoreWriter& writer, Progress& progress)
+            BrickStoreWriter& writer, Progress& progress, const std::atomic<bool>* cancel)
       : shape_(shape),
         lattice_(lattice),
         sampler_(sampler),
         data_(data),
         writer_(writer),
+        cancel_(cancel),
         progress_(progress),
         F_(uint32_t(data.field_count())),
         errors_(shape.nodes.size() * F_) {}
 
   std::unique_ptr<Result> process(uint64_t id) {
+    if (cancel_ && cancel_->load(std::memory_order_relaxed)) throw Error("octree build cancelled");
     const OctreeNode node = shape_.nodes[id];
     const std::array<uint32_t, 3> ijk{node.i, node.j, node.k};
     const Bounds box = lattice_.node_box(node.level, ijk);
@@ -129,6 +131,7 @@ class BrickPass {
   const BrickSampler& sampler_;
   const OctreeDataPoints& data_;
   BrickStoreWriter& writer_;
+  const std::atomic<bool>* cancel_;
   Progress& progress_;
   uint32_t F_;
   std::vector<FieldError> errors_;  // node x field; each node writes its own entries
@@ -207,7 +210,8 @@ OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions
   const auto bricks_start = std::chrono::steady_clock::now();
   {
     Progress progress("bricks", stats.nodes);
-    BrickPass pass(shape, lattice, sampler, data, writer, progress);
+    if (options.cancel && options.cancel->load()) throw Error("octree build cancelled");
+    BrickPass pass(shape, lattice, sampler, data, writer, progress, options.cancel);
     pass.process(0);
     stats.leaf_samples = pass.leaf_samples();
     stats.valid_samples = pass.valid_samples();

@@ -15,6 +15,7 @@
 // stored them, tripling the store for what costs a renderer a few loads per sample).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -37,6 +38,8 @@ struct OctreeBuildOptions {
   double tolerance = kQuant16Tolerance;  // quant16 tolerance (brick_store.h)
   int threads = 0;                       // worker threads; 0: all
   BrickSamplerOptions sampler;
+  // Set from another thread to stop the build early (build_octree then throws ugvr::Error and writes nothing).
+  const std::atomic<bool>* cancel = nullptr;
 };
 
 struct OctreeBuildStats {

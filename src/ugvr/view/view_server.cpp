@@ -22,8 +22,11 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/gpu/gl_context.h"
+#include "ugvr/lod/octree_input.h"
 #include "ugvr/render/lod/lod_engine.h"
 #include "ugvr/render/lod/time_critical.h"
+#include "ugvr/view/background_build.h"
+#include "ugvr/view/exact_preview.h"
 #include "ugvr/view/jpeg.h"
 #include "ugvr/view/view_protocol.h"
 #include "ugvr/view/view_request.h"
@@ -128,7 +131,13 @@ struct ViewServer::Impl {
   std::thread io_thread, render_thread;
   bool stopped = false;
 
+  std::string progress_text;  // the latest progress message of a background build (empty: none)
+  Clock::time_point last_progress;
+
   void render_loop(std::promise<void>& started);
+  SceneInfo lod_scene(const LodEngine& engine, const std::string& renderer) const;
+  void publish_scene(SceneInfo next, bool announce);
+  void broadcast(const std::shared_ptr<SessionState>& s, std::vector<std::string> texts);
   void accept();
   void frame_delivered(const std::shared_ptr<SessionState>& s) {
     std::lock_guard lock(mutex);
@@ -193,14 +202,16 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       const std::string text = beast::buffers_to_string(buffer_.data());
       try {
         const ClientMessage m = parse_client_message(text);
-        bool hello = false;
+        std::string scene, progress;
         {
           std::lock_guard lock(server_.mutex);
           apply_message(state_->view, m, server_.scene);
-          hello = std::holds_alternative<SizeMessage>(m) && std::get<SizeMessage>(m).hello;
+          if (std::holds_alternative<SizeMessage>(m) && std::get<SizeMessage>(m).hello)
+            scene = server_.scene_text, progress = server_.progress_text;
           server_.wake.notify_all();
         }
-        if (hello) send_text(server_.scene_text);
+        if (!scene.empty()) send_text(scene);
+        if (!progress.empty()) send_text(progress);
       } catch (const Error& e) {
         reply_error(e.what());
       } catch (const std::exception& e) {
@@ -270,6 +281,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       auto state = std::make_shared<SessionState>();
       {
         std::lock_guard lock(server_.mutex);
+        if (server_.sessions.size() >= server_.options.max_sessions)
+          return respond(req, http::status::service_unavailable, "text/plain",
+                         "too many viewer tabs are open (" + std::to_string(server_.options.max_sessions) + ")\n");
         state->id = server_.next_id++;
         state->view = initial_view(server_.scene);
       }
@@ -316,6 +330,11 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     res->set(http::field::content_type, beast::string_view(type.data(), type.size()));
     res->set(http::field::cache_control, "no-store");
     res->set("X-Content-Type-Options", "nosniff");
+    // The page runs only its own code and talks only to this server; no other site may frame it.
+    res->set("Content-Security-Policy",
+             "default-src 'self'; img-src 'self' blob: data:; connect-src 'self'; style-src 'self'; "
+             "script-src 'self'; frame-ancestors 'none'");
+    res->set("Referrer-Policy", "no-referrer");  // the token in the URL goes nowhere else
     res->keep_alive(req.keep_alive());
     const bool head = req.method() == http::verb::head;
     res->body() = std::move(body);
@@ -350,26 +369,93 @@ void ViewServer::Impl::accept() {
   });
 }
 
+// Fields of a store: names, ranges, histograms of the coarse levels.
+std::vector<FieldInfo> store_fields(const LodEngine& engine) {
+  std::vector<FieldInfo> out;
+  for (const BrickStoreField& f : engine.store().layout().fields) out.push_back({f.name, f.min, f.max, {}});
+  return out;
+}
+
+SceneInfo ViewServer::Impl::lod_scene(const LodEngine& engine, const std::string& renderer) const {
+  SceneInfo sc;
+  sc.fields = store_fields(engine);
+  sc.field = engine.field_name();
+  sc.bounds = engine.bounds();
+  sc.camera = reset_camera(sc.bounds, 30);
+  sc.fps = options.fps;
+  sc.width = options.width, sc.height = options.height;
+  sc.renderer = renderer;
+  sc.engine = "lod";
+  return sc;
+}
+
+void ViewServer::Impl::publish_scene(SceneInfo next, bool announce) {
+  // Under the lock: the I/O thread reads the scene when a tab says hello and when it applies a message.
+  const SceneInfo previous = scene;
+  scene = std::move(next);
+  scene.camera = previous.fields.empty() ? scene.camera : previous.camera;  // the reset view stays the same
+  scene_text = scene_message(scene);
+  if (!announce) return;
+  for (const auto& s : sessions) {
+    // Ranges may differ (store vs dataset): the tab's transfer function is composed again over the new ones.
+    s->view.request.tf = compose_tf(s->view, scene);
+    s->rendered_generation = ~uint64_t(0);  // draw again with the new engine
+    s->converged = false;
+    broadcast(s, {progress_text, scene_text});
+  }
+  wake.notify_all();
+}
+
+void ViewServer::Impl::broadcast(const std::shared_ptr<SessionState>& s, std::vector<std::string> texts) {
+  if (!s->view.ready) return;
+  net::post(ioc, [socket = s->socket, texts = std::move(texts)] {
+    if (const std::shared_ptr<WsSession> ws = socket.lock())
+      for (const std::string& t : texts)
+        if (!t.empty()) ws->send_text(t);
+  });
+}
+
 void ViewServer::Impl::render_loop(std::promise<void>& started) {
   // The GL context is current on the thread that created it: everything GL lives and dies on this thread.
   std::unique_ptr<GlContext> gl;
   std::unique_ptr<LodEngine> engine;
+  std::unique_ptr<ExactPreview> preview;
+  std::unique_ptr<BackgroundBuild> build;
+  std::string renderer;
   try {
     gl = std::make_unique<GlContext>(options.gpu);
-    LodOptions lo;
-    lo.atlas_budget_bytes = options.gpu_memory;
-    engine = std::make_unique<LodEngine>(options.store, *gl, lo);
-    engine->set_field("");
-    const Bounds bounds = engine->bounds();
-    scene.fields = {{engine->field_name(), engine->field_min(), engine->field_max(), {}}};
-    scene.field = engine->field_name();
-    scene.bounds = bounds;
-    scene.camera = reset_camera(bounds, 30);
-    scene.fps = options.fps;
-    scene.width = options.width, scene.height = options.height;
-    scene.renderer = gl->renderer();
-    scene.engine = "lod";
-    scene_text = scene_message(scene);
+    renderer = gl->renderer();
+    if (options.dataset) {
+      SceneInfo sc;
+      // The fields as the store will name them ("velocity:magnitude"), with their ranges; also validates them (NaN,
+      // missing) before anything is served.
+      std::vector<std::string> names;
+      {
+        const OctreeInput input = prepare_octree_input(*options.dataset, options.fields);
+        for (const BrickStoreField& f : input.fields) {
+          sc.fields.push_back({f.name, f.min, f.max, {}});
+          names.push_back(f.name);
+        }
+        sc.bounds = input.bounds;
+      }
+      preview = std::make_unique<ExactPreview>(options.dataset);
+      sc.field = sc.fields.front().name;
+      sc.camera = reset_camera(sc.bounds, 30);
+      sc.fps = options.fps;
+      sc.width = options.width, sc.height = options.height;
+      sc.renderer = "exact engine (CPU)";
+      sc.engine = "exact";
+      progress_text = progress_message({"build", "", 0, "building the brick store " + options.store});
+      publish_scene(std::move(sc), false);
+      build =
+          std::make_unique<BackgroundBuild>(options.dataset, names, options.build, options.store, options.before_build);
+    } else {
+      LodOptions lo;
+      lo.atlas_budget_bytes = options.gpu_memory;
+      engine = std::make_unique<LodEngine>(options.store, *gl, lo);
+      engine->set_field("");
+      publish_scene(lod_scene(*engine, renderer), false);
+    }
   } catch (...) {
     started.set_exception(std::current_exception());
     return;
@@ -378,13 +464,24 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
 
   struct Slot {
     std::unique_ptr<TimeCriticalRenderer> renderer;
+    std::string field;
     double fps = -1, step = -1;
+    ExactPreview::Tab exact;
     uint64_t seq = 0;
     double shown_fps = 0;
     Clock::time_point last;
     bool counting = false;  // the previous frame was part of an interaction (not converged): fps is measured
   };
   std::map<uint64_t, Slot> slots;
+  // A session wants a frame: it said hello, has none on the wire, and its view changed, or is still refining, or it
+  // asked for full quality.
+  const auto wants_frame = [](const SessionState& s) {
+    if (!s.view.ready || s.in_flight) return false;
+    return !(s.view.generation == s.rendered_generation && s.converged && !s.view.full_quality);
+  };
+  const auto streaming = [](const SessionState& s) {
+    return s.view.ready && !(s.view.generation == s.rendered_generation && s.converged && !s.view.full_quality);
+  };
 
   std::unique_lock lock(mutex);
   while (!stopping) {
@@ -400,23 +497,71 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
       lock.lock();
       continue;
     }
+    if (build) {
+      const BackgroundBuild::State st = build->state();
+      if (st.stage == BackgroundBuild::Stage::Running) {
+        const std::string text =
+            progress_message({"build", st.label, st.fraction, "building the brick store " + options.store});
+        if (text != progress_text && Clock::now() - last_progress > std::chrono::milliseconds(250)) {
+          progress_text = text;
+          last_progress = Clock::now();
+          for (const auto& s : sessions) broadcast(s, {progress_text});
+        }
+      } else if (st.stage == BackgroundBuild::Stage::Failed) {
+        progress_text = progress_message({"failed", st.label, st.fraction, "building the store failed: " + st.error});
+        for (const auto& s : sessions) broadcast(s, {progress_text});
+        build.reset();  // the exact engine goes on showing the grid
+      } else {
+        // Done: open the store and move every tab to it (outside the lock: opening reads the store's header).
+        lock.unlock();
+        std::string error;
+        try {
+          LodOptions lo;
+          lo.atlas_budget_bytes = options.gpu_memory;
+          engine = std::make_unique<LodEngine>(options.store, *gl, lo);
+          engine->set_field("");
+        } catch (const std::exception& e) {
+          error = e.what();
+        }
+        lock.lock();
+        build.reset();
+        if (engine) {
+          progress_text = progress_message({"ready", "", 1, "showing the brick store " + options.store});
+          publish_scene(lod_scene(*engine, renderer), true);
+          progress_text.clear();
+          lock.unlock();
+          for (auto& [id, slot] : slots) slot = Slot{};
+          preview.reset();  // frees the walk mesh; the dataset goes with the options below
+          lock.lock();
+          options.dataset.reset();
+        } else {
+          progress_text = progress_message({"failed", "", 1, "cannot open the new store: " + error});
+          for (const auto& s : sessions) broadcast(s, {progress_text});
+        }
+      }
+    }
     std::shared_ptr<SessionState> chosen;
+    size_t active = 0;
+    for (const auto& s : sessions) active += streaming(*s) ? 1 : 0;
     for (size_t k = 0; k < sessions.size(); ++k) {
       const size_t i = (next_session + k) % sessions.size();
-      const SessionState& s = *sessions[i];
-      if (!s.view.ready || s.in_flight) continue;
-      if (s.view.generation == s.rendered_generation && s.converged && !s.view.full_quality) continue;
+      if (!wants_frame(*sessions[i])) continue;
       chosen = sessions[i];
       next_session = i + 1;  // round-robin: the next turn starts after this session
       break;
     }
     if (!chosen) {
-      wake.wait(lock);
+      if (build)
+        wake.wait_for(lock, std::chrono::milliseconds(250));  // the build's progress is polled
+      else
+        wake.wait(lock);
       continue;
     }
     const ViewRequest request = chosen->view.request;
     const uint64_t generation = chosen->view.generation;
     const bool full_quality = chosen->view.full_quality;
+    const bool resting = generation == chosen->rendered_generation;
+    const std::string default_field = scene.field;
     chosen->view.full_quality = false;
     chosen->in_flight = true;
     lock.unlock();
@@ -426,23 +571,48 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
     bool converged = false;
     try {
       Slot& slot = slots[chosen->id];
-      if (!slot.renderer || slot.fps != request.fps || slot.step != request.step_voxels) {
-        TimeCriticalOptions tc;
-        tc.target_fps = request.fps;
-        tc.resting_step_voxels = request.step_voxels;
-        tc.moving_step_voxels = std::max(1.0, request.step_voxels);
-        tc.ram_budget_bytes = options.ram_per_session;
-        tc.loader_threads = 2;
-        slot.renderer.reset();
-        slot.renderer = std::make_unique<TimeCriticalRenderer>(*engine, tc);
-        slot.fps = request.fps, slot.step = request.step_voxels;
+      FrameStatus st;
+      Image image;
+      if (engine) {
+        const std::string field = request.settings.field.empty() ? default_field : request.settings.field;
+        if (engine->field_name() != field) engine->set_field(field);
+        if (!slot.renderer || slot.field != field || slot.step != request.step_voxels) {
+          TimeCriticalOptions tc;
+          tc.target_fps = request.fps;
+          tc.resting_step_voxels = request.step_voxels;
+          tc.moving_step_voxels = std::max(1.0, request.step_voxels);
+          tc.ram_budget_bytes = options.ram_per_session;
+          tc.loader_threads = 2;
+          slot.renderer.reset();
+          slot.renderer = std::make_unique<TimeCriticalRenderer>(*engine, tc);
+          slot.field = field, slot.step = request.step_voxels;
+        }
+        // The tabs streaming now share the frame time: each targets its rate × their number.
+        const double fps = request.fps * double(std::max<size_t>(active, 1));
+        if (fps != slot.fps) slot.renderer->set_target_fps(fps);
+        slot.fps = fps;
+        RenderSettings rs = request.settings;
+        rs.width = request.width, rs.height = request.height;
+        TimeCriticalFrame f;
+        image = full_quality ? slot.renderer->full_quality(request.camera, request.tf, rs, &f)
+                             : slot.renderer->frame(request.camera, request.tf, rs, &f);
+        converged = f.converged || full_quality;
+        st.frame_seconds = f.seconds;
+        st.cut_nodes = f.cut_nodes, st.visible_nodes = f.visible_nodes;
+        st.texel_error = f.mean_error, st.max_texel_error = f.max_error;
+        st.scale = f.scale;
+        st.engine = "lod";
+        st.ram_bytes = f.cache.resident_bytes, st.ram_budget = options.ram_per_session;
+        st.atlas_bytes = f.render.atlas_bytes, st.atlas_budget = options.gpu_memory;
+        st.pending_bricks = f.cache.queued + f.cache.loading;
+      } else {
+        const ExactPreview::Frame f = preview->render(slot.exact, request, resting || full_quality);
+        image = std::move(f.image);
+        converged = f.converged;
+        st.frame_seconds = f.seconds;
+        st.scale = f.scale;
+        st.engine = "exact";
       }
-      RenderSettings rs = request.settings;
-      rs.width = request.width, rs.height = request.height;
-      TimeCriticalFrame f;
-      const Image image = full_quality ? slot.renderer->full_quality(request.camera, request.tf, rs, &f)
-                                       : slot.renderer->frame(request.camera, request.tf, rs, &f);
-      converged = f.converged || full_quality;
       bytes = std::make_shared<std::string>();
       const std::vector<unsigned char> encoded = converged ? png_bytes(image) : jpeg_bytes(image);
       bytes->assign(encoded.begin(), encoded.end());
@@ -453,21 +623,12 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
       }
       slot.counting = !converged;
       slot.last = now;
-      FrameStatus st;
       st.seq = ++slot.seq;
       st.request = generation;
       st.png = converged;
       st.width = image.width, st.height = image.height;
       st.fps = slot.shown_fps;
-      st.frame_seconds = f.seconds;
-      st.cut_nodes = f.cut_nodes, st.visible_nodes = f.visible_nodes;
-      st.texel_error = f.mean_error, st.max_texel_error = f.max_error;
-      st.scale = f.scale;
       st.converged = converged;
-      st.engine = "lod";
-      st.ram_bytes = f.cache.resident_bytes, st.ram_budget = options.ram_per_session;
-      st.atlas_bytes = f.render.atlas_bytes, st.atlas_budget = options.gpu_memory;
-      st.pending_bricks = f.cache.queued + f.cache.loading;
       status = status_message(st);
     } catch (const std::exception& e) {
       error = std::string("render: ") + e.what();
@@ -491,7 +652,9 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
     });
   }
   lock.unlock();
+  build.reset();  // cancels a build still running
   slots.clear();
+  preview.reset();
   engine.reset();
   gl.reset();
 }

@@ -13,16 +13,34 @@
 // converged (progressive refinement), or it asked for full quality. (b) is the back-pressure: a slow client gets
 // fewer frames, never a queue, and cannot hold up the others. Frames are JPEG while moving or refining, PNG once the
 // cut has converged at the resting step; each is preceded by a status text message.
+// Frame budgets are shared: while N tabs stream frames, each tab's controller targets N × its frame rate, so that
+// every tab gets about the rate it asked for instead of each measuring only its own frames and all falling behind.
+//
+// Every HTTP response carries a Content-Security-Policy allowing only the page's own scripts, styles, images and
+// socket.
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
+#include <vector>
+
+#include "ugvr/grid/dataset.h"
+#include "ugvr/lod/octree_builder.h"
 
 namespace ugvr::view {
 
 struct ViewServerOptions {
-  std::string store;                               // the .ugvr brick store to show
+  // The .ugvr brick store to show. With `dataset` set, the store does not exist yet: it is built there in the
+  // background (background_build.h) from `fields` with `build`, and the exact engine shows the dataset meanwhile
+  // (exact_preview.h); when the build is done every tab switches to the store, keeping its view.
+  std::string store;
+  std::shared_ptr<const Dataset> dataset;
+  std::vector<std::string> fields;  // with `dataset`: field selectors to build (empty: default_view_fields)
+  OctreeBuildOptions build;
+  std::function<void()> before_build;              // tests: runs on the build's thread before the build starts
+  size_t max_sessions = 16;                        // WebSocket connections at once; more are refused (HTTP 503)
   std::string host = "127.0.0.1";                  // address to listen on
   uint16_t port = 0;                               // 0: a free port
   std::string gpu = "auto";                        // GlContext device

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "ugvr/core/error.h"
 #include "ugvr/render/lod/active_cut.h"
@@ -47,6 +48,12 @@ struct TimeCriticalRenderer::Impl {
   Image step(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings, bool unlimited,
              const QualityChoice& choice, TimeCriticalFrame& f);
 };
+
+void TimeCriticalRenderer::set_target_fps(double fps) {
+  if (!(fps >= 0) || !std::isfinite(fps)) fail_in("time-critical renderer", "target fps must be finite and >= 0");
+  impl_->options.target_fps = fps;
+  impl_->controller.set_target_fps(fps);
+}
 
 TimeCriticalRenderer::TimeCriticalRenderer(LodEngine& engine, TimeCriticalOptions options)
     : impl_(std::make_unique<Impl>(engine, options)) {

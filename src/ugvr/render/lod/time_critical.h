@@ -74,6 +74,8 @@ class TimeCriticalRenderer {
   // Full quality for one view: refines (waiting for bricks) until the cut converges, then draws at the resting step.
   Image full_quality(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
                      TimeCriticalFrame* report = nullptr);
+  // A new frame-rate target (0: none) from the next frame on; the cut, the caches and the cost estimate stay.
+  void set_target_fps(double fps);
 
  private:
   struct Impl;

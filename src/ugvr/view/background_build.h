@@ -1,0 +1,52 @@
+// Builds a brick store on a thread of its own while the viewer shows the grid with the exact engine
+// (`ugvr view MESH`): the octree build of octree_builder.h, reporting its progress for the page and cancellable.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "ugvr/grid/dataset.h"
+#include "ugvr/lod/octree_builder.h"
+
+namespace ugvr::view {
+
+class BackgroundBuild {
+ public:
+  enum class Stage { Running, Done, Failed };
+  struct State {
+    Stage stage = Stage::Running;
+    std::string label;  // the builder's step now ("subdivide", "bricks")
+    double fraction = 0;
+    std::string error;  // when Failed
+  };
+
+  // Starts building `fields` of `dataset` into `path` (atomically: a valid store appears there only when done). The
+  // dataset must not change while this runs. Only one BackgroundBuild may run at a time (it observes the process's
+  // Progress reports).
+  // `before` (tests) runs on the build's thread before it starts.
+  BackgroundBuild(std::shared_ptr<const Dataset> dataset, std::vector<std::string> fields, OctreeBuildOptions options,
+                  std::string path, std::function<void()> before = {});
+  // Cancels the build if it is still running and waits for its thread (a cancelled build writes nothing).
+  ~BackgroundBuild();
+  BackgroundBuild(const BackgroundBuild&) = delete;
+  BackgroundBuild& operator=(const BackgroundBuild&) = delete;
+
+  State state() const;
+  const std::string& path() const { return path_; }
+
+ private:
+  void run(std::shared_ptr<const Dataset> dataset, std::vector<std::string> fields, OctreeBuildOptions options);
+
+  std::string path_;
+  std::atomic<bool> cancel_{false};
+  mutable std::mutex mutex_;
+  State state_;
+  std::thread thread_;
+};
+
+}  // namespace ugvr::view

@@ -1,0 +1,77 @@
+#include "ugvr/view/view_store.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <system_error>
+
+#include "ugvr/lod/brick_store.h"
+
+namespace ugvr::view {
+namespace {
+
+uint64_t fnv1a(std::string_view text) {
+  uint64_t h = 0xcbf29ce484222325ull;
+  for (const char c : text) h = (h ^ uint8_t(c)) * 0x100000001b3ull;
+  return h;
+}
+
+std::string env(const char* name) {
+  const char* v = std::getenv(name);
+  return v ? std::string(v) : std::string();
+}
+
+}  // namespace
+
+std::string view_cache_dir() {
+  if (const std::string d = env("UGVR_CACHE_DIR"); !d.empty()) return d;
+  if (const std::string d = env("XDG_CACHE_HOME"); !d.empty()) return d + "/ugvr";
+  if (const std::string d = env("HOME"); !d.empty()) return d + "/.cache/ugvr";
+  return (std::filesystem::temp_directory_path() / "ugvr-cache").string();
+}
+
+std::string cached_store_path(const std::string& stem, const std::string& key, std::span<const std::string> fields,
+                              const OctreeBuildOptions& build) {
+  nlohmann::json k;
+  k["data"] = key;
+  k["fields"] = std::vector<std::string>(fields.begin(), fields.end());
+  k["build"] = {build.resolution, build.max_depth, build.error, int(build.encoding.samples), build.tolerance};
+  k["store_version"] = kBrickStoreVersion;
+  char hash[17];
+  std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(fnv1a(k.dump())));
+  return view_cache_dir() + "/" + stem + "-" + hash + ".ugvr";
+}
+
+std::string cached_store_path(std::span<const std::string> inputs, std::span<const std::string> fields,
+                              const OctreeBuildOptions& build) {
+  namespace fs = std::filesystem;
+  nlohmann::json key = nlohmann::json::array();
+  for (const std::string& in : inputs) {
+    std::error_code ec;
+    const fs::path p = fs::weakly_canonical(in, ec);
+    const auto size = fs::file_size(in, ec);
+    const auto time = fs::last_write_time(in, ec).time_since_epoch().count();
+    key.push_back({p.string(), ec ? 0 : uint64_t(size), int64_t(time)});
+  }
+  const std::string stem = inputs.empty() ? "store" : fs::path(inputs[0]).stem().string();
+  return cached_store_path(stem, key.dump(), fields, build);
+}
+
+std::vector<std::string> default_view_fields(const Dataset& dataset, size_t max_fields) {
+  std::vector<std::string> out;
+  if (dataset.blocks.empty()) return out;
+  for (const Field& f : dataset.blocks[0].fields) {
+    if (f.name() == "IBLANK" && f.association() == Association::Vertex) continue;
+    if (out.size() == max_fields) break;
+    const Range r = f.range(kMagnitude);
+    if (r.max > r.min && std::find(out.begin(), out.end(), f.name()) == out.end()) out.push_back(f.name());
+  }
+  if (out.empty())
+    for (const Field& f : dataset.blocks[0].fields)
+      if (!(f.name() == "IBLANK" && f.association() == Association::Vertex)) return {f.name()};
+  return out;
+}
+
+}  // namespace ugvr::view

@@ -1,0 +1,33 @@
+// Where `ugvr view MESH` keeps the brick store it builds for a grid file, and which fields it builds.
+//
+// A store is built once per (input files, their sizes and modification times, fields, build options) and kept in the
+// cache directory: $UGVR_CACHE_DIR, else $XDG_CACHE_HOME/ugvr, else $HOME/.cache/ugvr. Its name is the first input's
+// stem and a 64-bit hash of that key ("blunt-fin-3f2a....ugvr"), so opening the same file again shows the store at
+// once; editing the file (new size or time) or choosing other fields or options builds a new one.
+#pragma once
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include "ugvr/grid/dataset.h"
+#include "ugvr/lod/octree_builder.h"
+
+namespace ugvr::view {
+
+std::string view_cache_dir();
+
+// The cached store's path for these input files (their canonical paths, sizes and modification times), the fields
+// asked for (empty: the default ones) and build settings. The directory is not created here.
+std::string cached_store_path(std::span<const std::string> inputs, std::span<const std::string> fields,
+                              const OctreeBuildOptions& build);
+// The same for data that is not a file (the built-in demo): `stem` names it, `key` says what it is.
+std::string cached_store_path(const std::string& stem, const std::string& key, std::span<const std::string> fields,
+                              const OctreeBuildOptions& build);
+
+// The fields the viewer builds when none are named: every field of the first block that is not constant (vectors by
+// magnitude), without the IBLANK of structured grids, at most `max_fields`, in the dataset's order. A dataset whose
+// fields are all constant gets its first one.
+std::vector<std::string> default_view_fields(const Dataset& dataset, size_t max_fields = 4);
+
+}  // namespace ugvr::view

@@ -1,0 +1,138 @@
+// The viewer's store cache (view_store.h), its background build (background_build.h) and the exact engine's preview
+// frames (exact_preview.h).
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "ugvr/core/error.h"
+#include "ugvr/gen/generator.h"
+#include "ugvr/lod/brick_store.h"
+#include "ugvr/render/camera.h"
+#include "ugvr/view/background_build.h"
+#include "ugvr/view/exact_preview.h"
+#include "ugvr/view/view_store.h"
+
+namespace ugvr::view {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path scratch(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("ugvr-test-view-store-" + std::to_string(::getpid())) / name;
+  fs::create_directories(d);
+  return d;
+}
+
+std::shared_ptr<const Dataset> wing(uint64_t cells) {
+  GenerateOptions g;
+  g.cells = cells, g.kind = GenCellKind::Mixed;
+  return std::make_shared<Dataset>(generate_in_memory(g));
+}
+
+TEST(ViewStore, CachePathFollowsInputsFieldsAndOptions) {
+  const fs::path dir = scratch("key");
+  const std::string a = (dir / "a.vtu").string(), b = (dir / "b.vtu").string();
+  std::ofstream(a) << "one";
+  std::ofstream(b) << "two";
+  ::setenv("UGVR_CACHE_DIR", (dir / "cache").c_str(), 1);
+  const OctreeBuildOptions o;
+  const std::vector<std::string> none, p = {"pressure"};
+  const std::string pa = cached_store_path(std::vector{a}, none, o);
+  EXPECT_EQ(pa, cached_store_path(std::vector{a}, none, o)) << "stable";
+  EXPECT_EQ(fs::path(pa).parent_path(), dir / "cache");
+  EXPECT_TRUE(fs::path(pa).filename().string().starts_with("a-"));
+  EXPECT_EQ(fs::path(pa).extension(), ".ugvr");
+  EXPECT_NE(pa, cached_store_path(std::vector{b}, none, o)) << "another file";
+  EXPECT_NE(pa, cached_store_path(std::vector{a}, p, o)) << "other fields";
+  OctreeBuildOptions deeper = o;
+  deeper.max_depth = o.max_depth + 1;
+  EXPECT_NE(pa, cached_store_path(std::vector{a}, none, deeper)) << "other build options";
+  std::ofstream(a) << "one, edited";  // a new size
+  EXPECT_NE(pa, cached_store_path(std::vector{a}, none, o)) << "an edited file";
+  ::unsetenv("UGVR_CACHE_DIR");
+}
+
+TEST(ViewStore, DefaultFieldsSkipConstantOnes) {
+  Dataset ds = *wing(2000);
+  // The generated wing: pressure, velocity (vector) per vertex, wall_distance per cell, all varying.
+  EXPECT_EQ(default_view_fields(ds), (std::vector<std::string>{"pressure", "velocity", "wall_distance"}));
+  EXPECT_EQ(default_view_fields(ds, 1), (std::vector<std::string>{"pressure"}));
+  const uint64_t n = ds.blocks[0].fields.find("pressure")->tuples();
+  ds.blocks[0].fields.add(Field("flat", Association::Vertex, DataArray::from(std::vector<float>(n, 2.0f), 1)));
+  EXPECT_EQ(default_view_fields(ds).size(), 3u) << "a constant field is not offered";
+}
+
+TEST(BackgroundBuild, BuildsTheStoreAndReportsProgress) {
+  const fs::path path = scratch("build") / "wing.ugvr";
+  OctreeBuildOptions o;
+  o.resolution = 8, o.max_depth = 3;
+  BackgroundBuild build(wing(3000), {"pressure"}, o, path.string());
+  BackgroundBuild::State st;
+  for (int i = 0; i < 1200; ++i) {
+    st = build.state();
+    if (st.stage != BackgroundBuild::Stage::Running) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_EQ(st.stage, BackgroundBuild::Stage::Done) << st.error;
+  EXPECT_EQ(st.fraction, 1.0);
+  const BrickStoreReader reader(path.string());
+  EXPECT_EQ(reader.layout().fields.at(0).name, "pressure");
+}
+
+TEST(BackgroundBuild, CancelledWhenDestroyedLeavingNothing) {
+  const fs::path path = scratch("cancel") / "wing.ugvr";
+  OctreeBuildOptions o;
+  o.max_depth = 8, o.error = 0;  // far more work than the moment before the destructor cancels it
+  const auto dataset = wing(100'000);
+  const auto start = std::chrono::steady_clock::now();
+  {
+    BackgroundBuild build(dataset, {"velocity"}, o, path.string());
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    EXPECT_EQ(build.state().stage, BackgroundBuild::Stage::Running);
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_FALSE(fs::exists(path));
+  for (const auto& e : fs::directory_iterator(path.parent_path())) ADD_FAILURE() << "left behind: " << e.path();
+  // Not a timing target: a destructor that waited for the whole build would take minutes here.
+  EXPECT_LT(seconds, 60.0);
+}
+
+TEST(BackgroundBuild, AFailureIsReported) {
+  BackgroundBuild build(wing(2000), {"no_such_field"}, OctreeBuildOptions{}, (scratch("fail") / "x.ugvr").string());
+  BackgroundBuild::State st;
+  for (int i = 0; i < 600 && (st = build.state()).stage == BackgroundBuild::Stage::Running; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_EQ(st.stage, BackgroundBuild::Stage::Failed);
+  EXPECT_NE(st.error.find("no_such_field"), std::string::npos) << st.error;
+}
+
+TEST(ExactPreview, ScaledWhileMovingAndFullSizeAtRest) {
+  ExactPreview preview(wing(3000));
+  ViewRequest r;
+  r.width = 96, r.height = 64;
+  r.camera = reset_camera(preview.bounds(), 30);
+  r.tf = builtin_preset("viridis");
+  r.tf.rescale(0, 1.2);
+  r.settings.field = "velocity";
+  r.fps = 1000;  // a target no frame meets: the scale goes down
+  ExactPreview::Tab tab;
+  const ExactPreview::Frame moving = preview.render(tab, r, false);
+  EXPECT_FALSE(moving.converged);
+  EXPECT_EQ(moving.image.width, 96);
+  EXPECT_EQ(moving.image.height, 64);
+  EXPECT_LT(moving.scale, 1.0);
+  EXPECT_LT(tab.scale, moving.scale) << "too slow for the target: the next frame is smaller";
+  const ExactPreview::Frame rest = preview.render(tab, r, true);
+  EXPECT_TRUE(rest.converged);
+  EXPECT_EQ(rest.scale, 1.0);
+  EXPECT_EQ(rest.image.width, 96);
+  r.settings.field = "nope";
+  EXPECT_THROW(preview.render(tab, r, true), Error);
+}
+
+}  // namespace
+}  // namespace ugvr::view
