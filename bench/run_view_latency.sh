@@ -4,7 +4,8 @@
 # bench/results/view_latency.jsonl after a `session` line.
 # Usage: bench/run_view_latency.sh [SCRATCH=/tmp/ugvr-bench]
 #   UGVR (default build/ugvr), UGVR_DATA (default ../shared/data), SIZE (800x600), FPS (10), RUN_SECONDS (15),
-#   DATASETS (default "lox-post blunt-fin"), GPU (auto). Needs node >= 20.
+#   DATASETS (default "lox-post blunt-fin"), GPU (auto), TABS (1: clients dragging at once, each its own view;
+#   one result line per client, with "tab" and "tabs"). Needs node >= 20.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -16,6 +17,7 @@ fps=${FPS:-10}
 seconds=${RUN_SECONDS:-15}
 datasets=${DATASETS:-lox-post blunt-fin}
 gpu=${GPU:-auto}
+tabs=${TABS:-1}
 jsonl=bench/results/view_latency.jsonl
 mkdir -p "$scratch" bench/results
 commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
@@ -40,9 +42,14 @@ for name in $datasets; do
   [ -n "$url" ] || { cat "$log" >&2; exit 1; }
   ws=$(echo "$url" | sed 's|^http://\([^/]*\)/\(.*\)$|ws://\1/ws\2|')
   w=${size%x*} h=${size#*x}
-  line=$(node --experimental-websocket --no-warnings bench/view_latency.mjs "$ws" "$w" "$h" "$seconds")
+  for t in $(seq "$tabs"); do
+    node --experimental-websocket --no-warnings bench/view_latency.mjs "$ws" "$w" "$h" "$seconds" >"$scratch/tab$t.json" &
+  done
+  wait $(jobs -p | grep -v "^$pid\$") 2>/dev/null || true
   kill $pid
   wait $pid 2>/dev/null || true
-  echo "$line" | /usr/bin/python3 -c "import json,sys; j=json.loads(sys.stdin.read()); j.update(dataset='$name', fps_target=$fps, renderer='$renderer'); print(json.dumps(j, separators=(',', ':')))" |
-    tee -a "$jsonl"
+  for t in $(seq "$tabs"); do
+    /usr/bin/python3 -c "import json,sys; j=json.loads(open('$scratch/tab$t.json').read()); j.update(dataset='$name', fps_target=$fps, renderer='$renderer', tab=$t, tabs=$tabs); print(json.dumps(j, separators=(',', ':')))" <&- |
+      tee -a "$jsonl"
+  done
 done

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# README Quick start command 1: install dependencies, build, make the built-in demo dataset, describe it and render
-# it with the exact engine. (Later this ends in the interactive viewer.)
+# README Quick start command 1: install dependencies, build, make the built-in demo dataset, describe it, render it
+# with the exact engine, then open it in the interactive viewer (`ugvr view --demo`: open the URL it prints in a
+# browser; Ctrl-C stops it). UGVR_DEMO_NO_VIEW=1 stops after the still image.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
@@ -23,3 +24,9 @@ JSON
 ./build/ugvr render out/demo.vtu --field velocity --camera out/demo-camera.json --tf out/demo-tf.json --keep-range \
   --boundary-opacity 0.1 -o out/demo.png --stats out/demo-stats.json
 echo "demo: wrote out/demo.png"
+[ "${UGVR_DEMO_NO_VIEW:-0}" = 1 ] && exit 0
+# The viewer: the first run builds the demo's brick store in the background (the page shows the exact engine's image
+# and the build's progress meanwhile); later runs start from the store kept in ~/.cache/ugvr. Over SSH, forward the
+# port: `ssh -L 8080:127.0.0.1:8080 host` and add `--port 8080`.
+echo "demo: starting the viewer; open the URL below in a browser (Ctrl-C to stop)"
+exec ./build/ugvr view --demo --camera out/demo-camera.json --tf out/demo-tf.json
