@@ -2,6 +2,10 @@
 # Bytes are written as hex so that no file content can break a string literal; a trailing 0 is not part of the body.
 set(assets "index.html|/index.html|text/html\; charset=utf-8"
            "app.js|/app.js|text/javascript\; charset=utf-8"
+           "vec.js|/vec.js|text/javascript\; charset=utf-8"
+           "camera_controls.js|/camera_controls.js|text/javascript\; charset=utf-8"
+           "tf_editor.js|/tf_editor.js|text/javascript\; charset=utf-8"
+           "files.js|/files.js|text/javascript\; charset=utf-8"
            "style.css|/style.css|text/css\; charset=utf-8")
 set(arrays "")
 set(table "")

@@ -9,6 +9,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/view/jpeg.h"
 #include "ugvr/view/view_protocol.h"
+#include "ugvr/view/view_request.h"
 
 namespace ugvr::view {
 namespace {
@@ -48,6 +49,20 @@ TEST(ViewProtocol, GoodMessages) {
   EXPECT_EQ(s.step_voxels, 0.5);
   EXPECT_EQ(s.fps, 0);
   EXPECT_TRUE(s.full_quality);
+  const SettingsMessage s2 = std::get<SettingsMessage>(parse_client_message(
+      R"({"type":"settings","field":"velocity","boundary_opacity":0.25,"clip":{"point":[1,2,3],"normal":[0,0,-2]}})"));
+  EXPECT_EQ(s2.field, "velocity");
+  EXPECT_EQ(s2.boundary_opacity, 0.25);
+  ASSERT_TRUE(s2.clip && *s2.clip);
+  EXPECT_EQ((**s2.clip).point.y, 2);
+  EXPECT_EQ((**s2.clip).normal.z, -2);
+  // "clip": null turns clipping off; no "clip" leaves it as it is.
+  const SettingsMessage off = std::get<SettingsMessage>(parse_client_message(R"({"type":"settings","clip":null})"));
+  ASSERT_TRUE(off.clip);
+  EXPECT_FALSE(*off.clip);
+  EXPECT_FALSE(s.clip);
+  EXPECT_FALSE(s.field);
+  EXPECT_FALSE(s.boundary_opacity);
   // Every key of tf and settings is optional.
   EXPECT_TRUE(std::holds_alternative<TfMessage>(parse_client_message(R"({"type":"tf"})")));
   EXPECT_FALSE(std::get<SettingsMessage>(parse_client_message(R"({"type":"settings"})")).mode);
@@ -94,6 +109,21 @@ TEST(ViewProtocol, MalformedMessagesNameTheField) {
       {R"({"type":"settings","fps":-1})", "fps"},
       {R"({"type":"settings","fps":1000})", "fps"},
       {R"({"type":"settings","full_quality":"yes"})", "full_quality"},
+      {R"({"type":"settings","field":""})", "field"},
+      {R"({"type":"settings","field":3})", "field"},
+      {R"({"type":"settings","field":null})", "field"},
+      {R"({"type":"settings","field":")" + std::string(kMaxFieldName + 1, 'f') + "\"}", "field"},
+      {R"({"type":"settings","boundary_opacity":1.5})", "boundary_opacity"},
+      {R"({"type":"settings","boundary_opacity":"on"})", "boundary_opacity"},
+      {R"({"type":"settings","boundary_opacity":-0.1})", "boundary_opacity"},
+      {R"({"type":"settings","clip":true})", "clip"},
+      {R"({"type":"settings","clip":{"point":[0,0,0]}})", "clip"},
+      {R"({"type":"settings","clip":{"point":[0,0,0],"normal":[0,0,0]}})", "clip.normal"},
+      {R"({"type":"settings","clip":{"point":[0,0],"normal":[0,0,1]}})", "clip.point"},
+      {R"({"type":"settings","clip":{"point":[0,0,"x"],"normal":[0,0,1]}})", "clip.point"},
+      {R"({"type":"settings","clip":{"point":[0,0,0],"normal":[0,1e400,1]}})", "message"},  // not finite: not JSON
+      {R"({"type":"settings","clip":{"point":[0,0,0],"normal":[0,0,1],"side":1}})", "clip"},
+      {R"({"type":"settings","clipping":null})", "clipping"},
   };
   for (const auto& [text, field] : cases) {
     try {
@@ -136,6 +166,102 @@ TEST(ViewProtocol, ServerMessages) {
   EXPECT_EQ(j["cut_nodes"], 12);
   EXPECT_EQ(j["texel_error"], 0.5);
   EXPECT_EQ(j["converged"], true);
+}
+
+TEST(ViewProtocol, SceneMessageCarriesFieldsAndPresetColours) {
+  SceneInfo scene;
+  scene.fields = {{"pressure", -1, 2, {1, 2, 3}}, {"velocity", 0, 5, {}}};
+  scene.field = "pressure";
+  const nlohmann::json j = nlohmann::json::parse(scene_message(scene));
+  EXPECT_EQ(j["type"], "scene");
+  EXPECT_EQ(j["range"], nlohmann::json({-1.0, 2.0}));
+  ASSERT_EQ(j["fields"].size(), 2u);
+  EXPECT_EQ(j["fields"][0]["histogram"], nlohmann::json({1, 2, 3}));
+  EXPECT_EQ(j["fields"][1]["name"], "velocity");
+  for (const std::string& name : builtin_preset_names()) {
+    const nlohmann::json& p = j["preset_points"][name];
+    const TransferFunction tf = builtin_preset(name);
+    ASSERT_EQ(p.size(), 4 * tf.color_points.size()) << name;
+    EXPECT_EQ(p[0], 0.0) << name;
+    EXPECT_EQ(p[p.size() - 4], 1.0) << name;
+    EXPECT_EQ(p[1], tf.color_points[0].rgb.x) << name;
+  }
+}
+
+SceneInfo two_field_scene() {
+  SceneInfo scene;
+  scene.fields = {{"pressure", 0, 10, {}}, {"velocity", 100, 200, {}}};
+  scene.field = "pressure";
+  scene.bounds = {{0, 0, 0}, {1, 1, 1}};
+  return scene;
+}
+
+TEST(ViewRequest, FieldSwitchResetsTfPointsAndIsoValue) {
+  const SceneInfo scene = two_field_scene();
+  ViewState s = initial_view(scene);
+  EXPECT_EQ(s.request.settings.field, "pressure");
+  EXPECT_EQ(s.request.tf.range_min(), 0);
+  EXPECT_EQ(s.request.tf.range_max(), 10);
+  apply_message(s, parse_client_message(R"({"type":"tf","opacity_points":[0,0,5,0.5,10,0]})"), scene);
+  apply_message(s, parse_client_message(R"({"type":"settings","mode":"iso","iso_value":3})"), scene);
+  ASSERT_EQ(s.request.tf.opacity_points.size(), 3u);
+  const uint64_t generation = s.generation;
+
+  apply_message(s, parse_client_message(R"({"type":"settings","field":"velocity"})"), scene);
+  EXPECT_EQ(s.request.settings.field, "velocity");
+  EXPECT_TRUE(s.tf_opacities.empty());
+  EXPECT_TRUE(s.tf_colors.empty());
+  // The preset over the new range, its linear opacity ramp back.
+  EXPECT_EQ(s.request.tf.range_min(), 100);
+  EXPECT_EQ(s.request.tf.range_max(), 200);
+  ASSERT_EQ(s.request.tf.opacity_points.size(), 2u);
+  EXPECT_EQ(s.request.tf.opacity_points[1].x, 200);
+  EXPECT_EQ(s.request.settings.iso_values, std::vector<double>{150}) << "3 is outside [100, 200]: the middle";
+  EXPECT_EQ(s.generation, generation + 1);
+
+  // An iso value sent with the field is kept; switching to the field already shown changes nothing.
+  apply_message(s, parse_client_message(R"({"type":"settings","field":"pressure","iso_value":9})"), scene);
+  EXPECT_EQ(s.request.settings.iso_values, std::vector<double>{9});
+  apply_message(s, parse_client_message(R"({"type":"tf","opacity_points":[0,1,10,1]})"), scene);
+  apply_message(s, parse_client_message(R"({"type":"settings","field":"pressure"})"), scene);
+  EXPECT_EQ(s.tf_opacities.size(), 2u);
+}
+
+TEST(ViewRequest, UnknownFieldIsRejectedAndStateUnchanged) {
+  const SceneInfo scene = two_field_scene();
+  ViewState s = initial_view(scene);
+  apply_message(s, parse_client_message(R"({"type":"tf","opacity_points":[0,0,10,1]})"), scene);
+  const ViewState before = s;
+  try {
+    apply_message(s, parse_client_message(R"({"type":"settings","field":"temperature","fps":3})"), scene);
+    ADD_FAILURE() << "accepted an unknown field";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("field: no field \"temperature\" (fields: pressure, velocity)"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(s.request.settings, before.request.settings);
+  EXPECT_EQ(s.request.tf, before.request.tf);
+  EXPECT_EQ(s.request.fps, before.request.fps);
+  EXPECT_EQ(s.generation, before.generation);
+}
+
+TEST(ViewRequest, ClipAndBoundaryOverlay) {
+  const SceneInfo scene = two_field_scene();
+  ViewState s = initial_view(scene);
+  EXPECT_FALSE(s.request.settings.clip_plane);
+  apply_message(
+      s,
+      parse_client_message(R"({"type":"settings","boundary_opacity":0.4,"clip":{"point":[0.5,0,0],"normal":[1,0,0]}})"),
+      scene);
+  EXPECT_EQ(s.request.settings.boundary_overlay_opacity, 0.4);
+  ASSERT_TRUE(s.request.settings.clip_plane);
+  EXPECT_EQ(s.request.settings.clip_plane->point.x, 0.5);
+  apply_message(s, parse_client_message(R"({"type":"settings","fps":5})"), scene);
+  EXPECT_TRUE(s.request.settings.clip_plane) << "absent: unchanged";
+  apply_message(s, parse_client_message(R"({"type":"settings","clip":null})"), scene);
+  EXPECT_FALSE(s.request.settings.clip_plane);
+  EXPECT_EQ(s.request.settings.boundary_overlay_opacity, 0.4);
 }
 
 TEST(ViewJpeg, EncodesAnyImageSize) {

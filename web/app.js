@@ -1,16 +1,19 @@
 // ugvr view: the browser side. Frames are rendered on the server (view_protocol.h describes the messages); this page
-// only turns mouse input into camera messages and shows what comes back. Plain JS, no build step, nothing loaded
-// from elsewhere.
+// turns input into camera, transfer-function and settings messages and shows what comes back. Plain JS, no build
+// step, nothing loaded from elsewhere. vec.js, camera_controls.js, tf_editor.js and files.js are loaded before it.
 "use strict";
 
-const canvas = document.getElementById("canvas");
+const $ = (id) => document.getElementById(id);
+const canvas = $("canvas");
 const ctx = canvas.getContext("2d");
-const statusBar = document.getElementById("status");
+const statusBar = $("status");
 const token = new URLSearchParams(location.search).get("token");
 const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws` +
                          (token ? `?token=${encodeURIComponent(token)}` : ""));
 ws.binaryType = "blob";
 
+let scene = null;        // the latest scene message
+let scenes = 0;          // scene messages received (a second one: the server switched engine)
 let camera = null;       // camera.h's JSON form, as the server sent it and we move it
 let lastStatus = null;   // the status that describes the next binary frame
 let cameraDirty = false; // a camera message is owed at the next animation frame (one per frame: latest wins)
@@ -18,33 +21,80 @@ let lastError = "";
 let framesDrawn = 0;     // binary frames drawn so far
 let drawnStatus = null;  // the status of the frame on the canvas
 let messagesSent = 0;    // client messages sent (status.request counts those the server accepted)
+let progress = null;     // the latest progress message (a store being built), null when none or done
+let pngWanted = false;   // "save PNG" waits for a converged frame
+let pngSaved = 0;
+const sentLog = [];      // the last messages sent (for the test hook)
+const drawnLog = [];     // the statuses of the last frames drawn (for the test hook)
+const queued = [];       // tf and settings messages owed at the next animation frame, in order
 
-// Read-only test hook for tests/e2e/viewer.test.mjs (headless Chromium): the current camera, the status of the frame
-// on the canvas, frames drawn, messages sent and the error shown, if any. Nothing on the page uses it.
-window.ugvrViewer = {
-  get camera() { return camera && structuredClone(camera); },
-  get status() { return drawnStatus && { ...drawnStatus }; },
-  get frames() { return framesDrawn; },
-  get sent() { return messagesSent; },
-  get error() { return lastError; },
+// What the page shows and asks for (the server's ViewState mirrors it).
+const view = {
+  field: "",
+  preset: "viridis",
+  opacity: 1,
+  colors: null,        // explicit colour points (a loaded TF file), flat [x, r, g, b, ...]; null: the preset's
+  pointsEdited: false, // the opacity points were edited (sent); false: the preset's ramp
+  mode: "ea",
+  boundary: 0,
+  clip: { on: false, axis: "x", position: 0.5, flip: false },
+  fps: 10,
+  fullQuality: false,  // every frame at full quality (fps 0)
 };
 
-const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-const add = (a, b) => [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
-const mul = (a, s) => [a[0] * s, a[1] * s, a[2] * s];
-const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
-const norm = (a) => mul(a, 1 / Math.hypot(a[0], a[1], a[2]));
-// Rodrigues: v rotated by angle about the unit axis k.
-const rotate = (v, k, angle) => {
-  const c = Math.cos(angle), s = Math.sin(angle);
-  return add(add(mul(v, c), mul(cross(k, v), s)), mul(k, dot(k, v) * (1 - c)));
+const tfEditor = new TfEditor($("tf"), () => {
+  view.pointsEdited = true;
+  queue({ type: "tf", opacity_points: tfEditor.flatPoints() });
+});
+
+// Read-only test hook for tests/e2e (headless Chromium). Nothing on the page uses it.
+window.ugvrViewer = {
+  get camera() { return camera && structuredClone(camera); },
+  get sceneCamera() { return scene && structuredClone(scene.camera); },
+  get status() { return drawnStatus && { ...drawnStatus }; },
+  get frames() { return framesDrawn; },
+  // Messages sent, and those owed at the next animation frame (a test waiting for `sent` to be reflected waits for them).
+  get sent() { return messagesSent + queued.length + (cameraDirty ? 1 : 0); },
+  get error() { return lastError; },
+  get scenes() { return scenes; },
+  get fields() { return scene ? scene.fields.map((f) => ({ name: f.name, range: f.range.slice(), bins: f.histogram.length })) : []; },
+  get field() { return view.field; },
+  get range() { return [tfEditor.lo, tfEditor.hi]; },
+  get tf() {
+    return { preset: view.preset, opacity: view.opacity, opacity_points: tfEditor.flatPoints(), rgb_points: currentColors(),
+             edited: view.pointsEdited, explicitColors: view.colors !== null };
+  },
+  get mode() { return view.mode; },
+  get iso() { return isoValue(); },
+  get clip() { return clipPlane(); },
+  get boundary() { return view.boundary; },
+  get fps() { return view.fullQuality ? 0 : view.fps; },
+  get progress() { return progress && { ...progress }; },
+  get log() { return structuredClone(sentLog); },
+  get frameLog() { return structuredClone(drawnLog); },
+  get scene() { return scene && structuredClone(scene); },
+  get pngSaved() { return pngSaved; },
+  // Where an opacity point is drawn, in page coordinates (for tests that drag it).
+  tfPointPage(i) {
+    const c = $("tf"), b = c.getBoundingClientRect(), [px, py] = tfEditor.toPx(...tfEditor.points[i]);
+    return { x: b.left + (px * b.width) / c.width, y: b.top + (py * b.height) / c.height };
+  },
 };
 
 function send(message) {
   if (ws.readyState !== WebSocket.OPEN) return;
   ws.send(JSON.stringify(message));
   messagesSent++;
+  sentLog.push(message);
+  if (sentLog.length > 200) sentLog.shift();
+}
+
+// Owes a message at the next animation frame. Consecutive messages of one type merge (latest wins per key), except
+// that a preset or field change, which resets the points before it, starts a new message.
+function queue(message) {
+  const last = queued[queued.length - 1];
+  if (last && last.type === message.type && !("preset" in message) && !("field" in message)) Object.assign(last, message);
+  else queued.push({ ...message });
 }
 
 function canvasSize() {
@@ -53,6 +103,77 @@ function canvasSize() {
   return { width: clamp(r.width), height: clamp(r.height) };
 }
 
+// ---- the field, its range and the transfer function ----
+
+const fieldInfo = (name) => scene && scene.fields.find((f) => f.name === name);
+function fieldRange() {
+  const f = fieldInfo(view.field);
+  const [lo, hi] = f ? f.range : scene ? scene.range : [0, 1];
+  return hi > lo ? [lo, hi] : [lo - 0.5, lo + 0.5];  // a constant field widened, as the server does
+}
+// The preset's colours over the field's range (the server rescales the preset likewise).
+function presetColors(name) {
+  const p = (scene && scene.preset_points && scene.preset_points[name]) || [0, 0, 0, 0, 1, 1, 1, 1];
+  const [lo, hi] = fieldRange();
+  return p.map((v, i) => (i % 4 === 0 ? lo + v * (hi - lo) : v));
+}
+const currentColors = () => (view.colors ? view.colors.slice() : presetColors(view.preset));
+function resetTfPoints() {
+  const [lo, hi] = fieldRange();
+  view.colors = null;
+  view.pointsEdited = false;
+  tfEditor.setPoints([[lo, 0], [hi, 1]]);  // the presets' linear ramp over the range
+}
+function showField() {
+  const f = fieldInfo(view.field);
+  const [lo, hi] = fieldRange();
+  tfEditor.setField(lo, hi, f ? f.histogram : []);
+  tfEditor.setColors(currentColors());
+  $("field").value = view.field;
+  document.title = `ugvr view: ${view.field}`;
+  showIso();
+}
+
+function isoValue() {
+  const [lo, hi] = fieldRange();
+  return lo + (Number($("iso").value) / Number($("iso").max)) * (hi - lo);
+}
+function showIso() {
+  $("iso-row").hidden = view.mode !== "iso";
+  $("iso-value").textContent = Number(isoValue().toPrecision(4)).toString();
+}
+
+// ---- the clip plane ----
+
+function clipPlane() {
+  const c = view.clip;
+  if (!c.on || !scene || !camera) return null;
+  const lo = scene.bounds.min, hi = scene.bounds.max;
+  const center = mul(add(lo, hi), 0.5);
+  let normal, point;
+  if (c.axis === "view") {
+    normal = norm(sub(camera.focal_point, camera.position));
+    // Over the extent of the bounds along the view direction.
+    let a = Infinity, b = -Infinity;
+    for (let k = 0; k < 8; ++k) {
+      const d = dot([k & 1 ? hi[0] : lo[0], k & 2 ? hi[1] : lo[1], k & 4 ? hi[2] : lo[2]], normal);
+      a = Math.min(a, d), b = Math.max(b, d);
+    }
+    point = add(center, mul(normal, a + c.position * (b - a) - dot(center, normal)));
+  } else {
+    const i = "xyz".indexOf(c.axis);
+    normal = [0, 0, 0];
+    normal[i] = 1;
+    point = center.slice();
+    point[i] = lo[i] + c.position * (hi[i] - lo[i]);
+  }
+  return { point, normal: c.flip ? mul(normal, -1) : normal };
+}
+const queueClip = () => queue({ type: "settings", clip: clipPlane() });
+
+// ---- the status bar and the build progress line ----
+
+const mib = (bytes) => (bytes / (1024 * 1024)).toFixed(0);
 function showStatus() {
   if (lastError) {
     statusBar.textContent = lastError;
@@ -64,9 +185,81 @@ function showStatus() {
   const s = lastStatus;
   // The frame rate means something while frames stream; once converged the server sends nothing until the view changes.
   const rate = s.converged ? "" : `${s.fps.toFixed(1)} fps  `;
-  statusBar.textContent = `${s.width}×${s.height}  ${rate}frame ${(s.frame_seconds * 1000).toFixed(0)} ms  ` +
-      `cut ${s.cut_nodes} nodes (${s.visible_nodes} visible)  texel error ${s.texel_error.toFixed(2)} px  ` +
-      (s.converged ? "full quality" : `scale ${s.scale.toFixed(2)}  refining…`);
+  const cache = s.ram_budget !== undefined
+    ? `RAM ${mib(s.ram_bytes)}/${mib(s.ram_budget)} MiB  GPU ${mib(s.atlas_bytes)}/${mib(s.atlas_budget)} MiB  ` : "";
+  const refining = s.pending_bricks ? `refining… ${s.pending_bricks} bricks pending` : "refining…";
+  statusBar.textContent = `${s.engine ?? "lod"}  ${s.width}×${s.height}  ${rate}frame ${(s.frame_seconds * 1000).toFixed(0)} ms  ` +
+      `cut ${s.cut_nodes} nodes (${s.visible_nodes} visible)  texel error ${s.texel_error.toFixed(2)} px  ${cache}` +
+      (s.converged ? "full quality" : `${refining}  scale ${s.scale.toFixed(2)}`);
+}
+
+function showProgress(m) {
+  const line = $("progress");
+  if (m.stage === "ready") {
+    progress = null;
+    line.hidden = true;
+    return;
+  }
+  progress = { stage: m.stage, label: m.label, fraction: m.fraction, message: m.message };
+  line.hidden = false;
+  if (m.stage === "failed") {
+    line.className = "error";
+    $("progress-bar").hidden = true;
+    $("progress-text").textContent = `building store failed: ${m.message}`;
+    lastError = `error: building store failed: ${m.message}`;
+    showStatus();
+    return;
+  }
+  line.className = "";
+  $("progress-bar").hidden = false;
+  $("progress-bar").value = Math.min(1, Math.max(0, m.fraction || 0));
+  $("progress-text").textContent = `building store: ${m.label} ${Math.round(100 * (m.fraction || 0))}%` +
+      (m.message ? `  ${m.message}` : "");
+}
+
+// ---- messages from the server ----
+
+function fullCameraMessage() {
+  return { type: "camera", position: camera.position, focal_point: camera.focal_point, view_up: camera.view_up,
+           view_angle: camera.view_angle, parallel_projection: camera.parallel_projection ?? false,
+           parallel_scale: camera.parallel_scale ?? 1 };
+}
+
+// After a new scene (the server switched engine): everything the page shows, so that the new engine draws it.
+function resendState() {
+  send(fullCameraMessage());
+  const tf = { type: "tf", preset: view.preset, opacity: view.opacity };
+  if (view.colors) tf.rgb_points = view.colors;
+  if (view.pointsEdited) tf.opacity_points = tfEditor.flatPoints();
+  const settings = { type: "settings", field: view.field, mode: view.mode, boundary_opacity: view.boundary,
+                     clip: clipPlane(), fps: view.fullQuality ? 0 : view.fps };
+  if (view.mode === "iso") settings.iso_value = isoValue();
+  send(settings);  // first: a field change resets explicit points
+  send(tf);
+}
+
+function onScene(m) {
+  const first = scene === null;
+  scene = m;
+  scenes++;
+  if (first) {
+    camera = structuredClone(m.camera);
+    view.field = m.field;
+    view.preset = m.preset;
+    view.fps = Math.min(60, Math.max(1, Math.round(m.fps || 10)));
+    $("fps").value = String(view.fps);
+    $("fps-value").textContent = String(view.fps);
+  }
+  if (!m.presets.includes(view.preset)) view.preset = m.preset;
+  $("preset").replaceChildren(...m.presets.map((p) => new Option(p, p, p === view.preset, p === view.preset)));
+  $("field").replaceChildren(...m.fields.map((f) => new Option(f.name, f.name, false, false)));
+  const keep = !first && fieldInfo(view.field);
+  if (!keep) {
+    view.field = m.field;
+    resetTfPoints();
+  }
+  showField();
+  if (!first) resendState();
 }
 
 ws.onopen = () => send({ type: "hello", ...canvasSize() });
@@ -83,66 +276,159 @@ ws.onmessage = async (event) => {
     bitmap.close();
     drawnStatus = status;
     framesDrawn++;
+    if (status) drawnLog.push({ n: framesDrawn, converged: status.converged, request: status.request, format: status.format });
+    if (drawnLog.length > 200) drawnLog.shift();
     showStatus();
+    if (pngWanted && status && status.converged && status.request >= messagesSent) savePng();
     return;
   }
   const m = JSON.parse(event.data);
   if (m.type === "scene") {
-    camera = m.camera;
-    const select = document.getElementById("preset");
-    select.replaceChildren(...m.presets.map((p) => new Option(p, p, p === m.preset, p === m.preset)));
-    document.title = `ugvr view: ${m.field}`;
+    onScene(m);
   } else if (m.type === "status") {
     lastStatus = m;
-    lastError = "";
+    if (!(progress && progress.stage === "failed")) lastError = "";
   } else if (m.type === "error") {
     lastError = `error: ${m.message}`;
     showStatus();
+  } else if (m.type === "progress") {
+    showProgress(m);
   }
 };
 
-// Orbit: horizontal drag turns about view up through the focal point, vertical drag about the camera's right axis.
-let drag = null;
-canvas.addEventListener("pointerdown", (e) => {
-  drag = { x: e.clientX, y: e.clientY };
-  canvas.setPointerCapture(e.pointerId);
-});
-canvas.addEventListener("pointerup", () => { drag = null; });
-canvas.addEventListener("pointermove", (e) => {
-  if (!drag || !camera) return;
-  const dx = e.clientX - drag.x, dy = e.clientY - drag.y;
-  drag = { x: e.clientX, y: e.clientY };
-  const up = norm(camera.view_up);
-  let offset = sub(camera.position, camera.focal_point);
-  offset = rotate(offset, up, -dx * 0.01);
-  const right = norm(cross(mul(offset, -1), up));
-  const turned = rotate(offset, right, -dy * 0.01);
-  // Stop short of the poles, where view up would become parallel to the view direction.
-  if (Math.abs(dot(norm(turned), up)) < 0.99) offset = turned;
-  camera.position = add(camera.focal_point, offset);
-  camera.view_up = norm(cross(right, mul(offset, -1)));
-  cameraDirty = true;
-});
-canvas.addEventListener("wheel", (e) => {
-  e.preventDefault();
-  if (!camera) return;
-  const offset = sub(camera.position, camera.focal_point);
-  camera.position = add(camera.focal_point, mul(offset, Math.pow(1.1, Math.sign(e.deltaY))));
-  cameraDirty = true;
-}, { passive: false });
+// ---- input ----
+
+installCameraControls(canvas, () => camera, () => { cameraDirty = true; });
 
 function tick() {
   if (cameraDirty && camera) {
     send({ type: "camera", position: camera.position, focal_point: camera.focal_point, view_up: camera.view_up,
            view_angle: camera.view_angle });
     cameraDirty = false;
+    if (view.clip.on && view.clip.axis === "view") queueClip();  // the plane faces the viewer
   }
+  for (const m of queued.splice(0)) send(m);
   requestAnimationFrame(tick);
 }
 requestAnimationFrame(tick);
 
 new ResizeObserver(() => send({ type: "resize", ...canvasSize() })).observe(canvas);
-document.getElementById("preset").addEventListener("change", (e) => send({ type: "tf", preset: e.target.value }));
-document.getElementById("opacity").addEventListener("input", (e) => send({ type: "tf", opacity: Number(e.target.value) }));
-document.getElementById("mode").addEventListener("change", (e) => send({ type: "settings", mode: e.target.value }));
-document.getElementById("full").addEventListener("click", () => send({ type: "settings", full_quality: true }));
+
+$("field").addEventListener("change", (e) => {
+  view.field = e.target.value;
+  resetTfPoints();
+  $("iso").value = String(Number($("iso").max) / 2);  // an iso value in the new range: its middle
+  showField();
+  const m = { type: "settings", field: view.field };
+  if (view.mode === "iso") m.iso_value = isoValue();
+  queue(m);
+});
+$("preset").addEventListener("change", (e) => {
+  view.preset = e.target.value;
+  resetTfPoints();  // the server drops explicit points when a preset is picked
+  tfEditor.setColors(currentColors());
+  queue({ type: "tf", preset: view.preset });
+});
+$("opacity").addEventListener("input", (e) => {
+  view.opacity = Number(e.target.value);
+  queue({ type: "tf", opacity: view.opacity });
+});
+$("mode").addEventListener("change", (e) => {
+  view.mode = e.target.value;
+  showIso();
+  const m = { type: "settings", mode: view.mode };
+  if (view.mode === "iso") m.iso_value = isoValue();
+  queue(m);
+});
+$("iso").addEventListener("input", () => {
+  showIso();
+  queue({ type: "settings", iso_value: isoValue() });
+});
+$("boundary").addEventListener("input", (e) => {
+  view.boundary = Number(e.target.value);
+  queue({ type: "settings", boundary_opacity: view.boundary });
+});
+$("clip").addEventListener("change", (e) => { view.clip.on = e.target.checked; queueClip(); });
+$("clip-axis").addEventListener("change", (e) => { view.clip.axis = e.target.value; if (view.clip.on) queueClip(); });
+$("clip-pos").addEventListener("input", (e) => { view.clip.position = Number(e.target.value); if (view.clip.on) queueClip(); });
+$("clip-flip").addEventListener("click", () => { view.clip.flip = !view.clip.flip; if (view.clip.on) queueClip(); });
+$("fps").addEventListener("input", (e) => {
+  view.fps = Number(e.target.value);
+  $("fps-value").textContent = String(view.fps);
+  if (!view.fullQuality) queue({ type: "settings", fps: view.fps });
+});
+$("full-toggle").addEventListener("change", (e) => {
+  view.fullQuality = e.target.checked;
+  $("fps").disabled = view.fullQuality;
+  queue({ type: "settings", fps: view.fullQuality ? 0 : view.fps });
+});
+$("full").addEventListener("click", () => queue({ type: "settings", full_quality: true }));
+$("reset").addEventListener("click", () => {
+  if (!scene) return;
+  camera = structuredClone(scene.camera);
+  cameraDirty = true;
+});
+
+// ---- files ----
+
+function savePng() {
+  pngWanted = false;
+  canvas.toBlob((blob) => {
+    if (!blob) return;
+    downloadBlob(blob, `ugvr-${view.field || "view"}.png`);
+    pngSaved++;
+  }, "image/png");
+}
+$("save-png").addEventListener("click", () => {
+  const s = drawnStatus;
+  if (s && s.converged && s.request >= messagesSent && queued.length === 0 && !cameraDirty) {
+    savePng();
+  } else {
+    pngWanted = true;  // saved when the converged frame arrives
+    queue({ type: "settings", full_quality: true });
+  }
+});
+$("save-camera").addEventListener("click", () => { if (camera) downloadJson(camera, "camera.json"); });
+$("save-tf").addEventListener("click", () => {
+  // What is shown: the colours over the field's range and the opacity points times the opacity scale.
+  const points = tfEditor.points.map(([x, a]) => [x, Math.min(1, a * view.opacity)]);
+  downloadJson(tfFileJson(view.colors ? "ugvr" : view.preset, currentColors(), points), "transfer_function.json");
+});
+$("load-camera").addEventListener("click", () => $("load-camera-file").click());
+$("load-tf").addEventListener("click", () => $("load-tf-file").click());
+function fileError(message) {
+  lastError = `error: ${message}`;
+  showStatus();
+}
+$("load-camera-file").addEventListener("change", async (e) => {
+  if (!e.target.files.length) return;
+  try {
+    const c = parseCameraFile(await readFileText(e.target));
+    camera = { view_angle: 30, parallel_projection: false, parallel_scale: 1, ...c };
+    lastError = "";
+    cameraDirty = false;
+    send(fullCameraMessage());
+  } catch (err) {
+    fileError(err.message);
+  } finally {
+    e.target.value = "";
+  }
+});
+$("load-tf-file").addEventListener("change", async (e) => {
+  if (!e.target.files.length) return;
+  try {
+    const tf = parseTfFile(await readFileText(e.target));
+    lastError = "";
+    view.colors = tf.rgb;
+    view.pointsEdited = true;
+    view.opacity = 1;  // the file's opacities are what is shown
+    $("opacity").value = "1";
+    tfEditor.setColors(tf.rgb);
+    tfEditor.setPoints(tf.opacity);
+    queue({ type: "tf", opacity: 1, rgb_points: tf.rgb, opacity_points: tfEditor.flatPoints() });
+  } catch (err) {
+    fileError(err.message);
+  } finally {
+    e.target.value = "";
+  }
+});

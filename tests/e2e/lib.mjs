@@ -1,6 +1,7 @@
 // Helpers shared by viewer.test.mjs and screenshot.mjs: start `ugvr view`, launch headless Chromium, wait for the
 // page's state through its test hook (window.ugvrViewer in web/app.js).
 import { spawn } from "node:child_process";
+import assert from "node:assert/strict";
 import { chromium } from "playwright-core";
 
 export const chromiumPath = process.env.UGVR_CHROMIUM || "/usr/bin/chromium";
@@ -85,3 +86,49 @@ export function waitConverged(page, timeoutMs) {
     return s && s.status && s.status.converged && s.status.request >= s.sent ? s : null;
   }, timeoutMs);
 }
+
+// The canvas pixels, every `step`-th pixel in both directions, as a flat RGB array.
+export const canvasPixels = (p, step = 4) =>
+  p.evaluate((step) => {
+    const c = document.getElementById("canvas");
+    const data = c.getContext("2d").getImageData(0, 0, c.width, c.height).data;
+    const out = [];
+    for (let y = 0; y < c.height; y += step)
+      for (let x = 0; x < c.width; x += step) {
+        const i = (y * c.width + x) * 4;
+        out.push(data[i], data[i + 1], data[i + 2]);
+      }
+    return out;
+  }, step);
+
+// Fraction of sampled pixels differing by more than 2 levels in some channel. The images compared are converged
+// frames (PNG, lossless), so any difference is real.
+export function changedFraction(a, b) {
+  assert.equal(a.length, b.length, "image size changed");
+  let changed = 0;
+  for (let i = 0; i < a.length; i += 3)
+    if (Math.abs(a[i] - b[i]) > 2 || Math.abs(a[i + 1] - b[i + 1]) > 2 || Math.abs(a[i + 2] - b[i + 2]) > 2) ++changed;
+  return changed / (a.length / 3);
+}
+
+// Fraction of sampled pixels that differ from the background (the top-left pixel, outside the volume).
+export function foregroundFraction(px) {
+  let fg = 0;
+  for (let i = 0; i < px.length; i += 3)
+    if (Math.abs(px[i] - px[0]) > 8 || Math.abs(px[i + 1] - px[1]) > 8 || Math.abs(px[i + 2] - px[2]) > 8) ++fg;
+  return fg / (px.length / 3);
+}
+
+// Drags across the middle of the canvas by (dx, dy) in 10 steps; button "left" | "right" | "middle", shift held or not.
+export async function drag(p, dx, dy, { button = "left", shift = false } = {}) {
+  const box = await p.locator("#canvas").boundingBox();
+  const x = box.x + box.width / 2, y = box.y + box.height / 2;
+  await p.mouse.move(x, y);
+  if (shift) await p.keyboard.down("Shift");
+  await p.mouse.down({ button });
+  for (let i = 1; i <= 10; ++i) await p.mouse.move(x + (dx * i) / 10, y + (dy * i) / 10);
+  await p.mouse.up({ button });
+  if (shift) await p.keyboard.up("Shift");
+}
+
+export const cameraMoved = (a, b) => a.position.some((v, i) => Math.abs(v - b.position[i]) > 1e-6 * (1 + Math.abs(v)));

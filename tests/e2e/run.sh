@@ -2,7 +2,7 @@
 # End-to-end tests of the `ugvr view` browser viewer in headless Chromium (ctest ViewerE2E, tests/CMakeLists.txt).
 # Usage: run.sh UGVR_BINARY
 # Builds a small store in a temporary directory, installs playwright-core (package-lock.json) when node_modules is
-# missing, then runs viewer.test.mjs, which starts `ugvr view` itself. Exit 77 (ctest: skipped) only when node or
+# missing, then runs viewer.test.mjs and controls.test.mjs, each of which starts `ugvr view` itself. Exit 77 (ctest: skipped) only when node or
 # Chromium is absent; any other problem fails.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
@@ -24,7 +24,9 @@ fi
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/ugvr-e2e.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT
 "$ugvr" --quiet generate --cells 20000 --kind mixed -o "$tmp/mixed.vtu" >/dev/null
-"$ugvr" --quiet build "$tmp/mixed.vtu" -o "$tmp/mixed.ugvr" --brick 8 --max-depth 4 >/dev/null
+"$ugvr" --quiet build "$tmp/mixed.vtu" -o "$tmp/mixed.ugvr" --fields pressure,velocity --brick 8 --max-depth 4 >/dev/null
 # Run in this process (not under `node --test`, which runs the file in a child) and stopped before ctest's TIMEOUT, so
 # that the signal reaches node, which then stops `ugvr view` and Chromium.
-UGVR="$ugvr" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 10 160 node --test-reporter=spec "$here/viewer.test.mjs"
+UGVR="$ugvr" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 5 85 node --test-reporter=spec "$here/viewer.test.mjs"
+# The page's controls (TF editor, field picker, clip, files, ...), against a viewer of their own.
+UGVR="$ugvr" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 5 85 node --test-reporter=spec "$here/controls.test.mjs"

@@ -4,7 +4,8 @@
 // on a loaded 2-core CI machine) but bounded, and every wait polls for its condition.
 import assert from "node:assert/strict";
 import { after, before, test } from "node:test";
-import { launchBrowser, startViewer, stopViewer, viewerState, waitConverged, waitFor } from "./lib.mjs";
+import { canvasPixels, cameraMoved, changedFraction, drag, foregroundFraction, launchBrowser, startViewer, stopViewer,
+         viewerState, waitConverged, waitFor } from "./lib.mjs";
 
 const UGVR = process.env.UGVR, STORE = process.env.UGVR_STORE;
 if (!UGVR || !STORE) throw new Error("set UGVR (the ugvr binary) and UGVR_STORE (a .ugvr store); run.sh does");
@@ -15,48 +16,6 @@ const VIEWPORT = { width: 1000, height: 700 };
 
 let viewer, browser, context, page;
 
-// The canvas pixels, every `step`-th pixel in both directions, as a flat RGB array.
-const canvasPixels = (p, step = 4) =>
-  p.evaluate((step) => {
-    const c = document.getElementById("canvas");
-    const data = c.getContext("2d").getImageData(0, 0, c.width, c.height).data;
-    const out = [];
-    for (let y = 0; y < c.height; y += step)
-      for (let x = 0; x < c.width; x += step) {
-        const i = (y * c.width + x) * 4;
-        out.push(data[i], data[i + 1], data[i + 2]);
-      }
-    return out;
-  }, step);
-
-// Fraction of sampled pixels differing by more than 2 levels in some channel. The images compared are converged
-// frames (PNG, lossless), so any difference is real.
-function changedFraction(a, b) {
-  assert.equal(a.length, b.length, "image size changed");
-  let changed = 0;
-  for (let i = 0; i < a.length; i += 3)
-    if (Math.abs(a[i] - b[i]) > 2 || Math.abs(a[i + 1] - b[i + 1]) > 2 || Math.abs(a[i + 2] - b[i + 2]) > 2) ++changed;
-  return changed / (a.length / 3);
-}
-
-// Fraction of sampled pixels that differ from the background (the top-left pixel, outside the volume).
-function foregroundFraction(px) {
-  let fg = 0;
-  for (let i = 0; i < px.length; i += 3)
-    if (Math.abs(px[i] - px[0]) > 8 || Math.abs(px[i + 1] - px[1]) > 8 || Math.abs(px[i + 2] - px[2]) > 8) ++fg;
-  return fg / (px.length / 3);
-}
-
-async function drag(p, dx, dy) {
-  const box = await p.locator("#canvas").boundingBox();
-  const x = box.x + box.width / 2, y = box.y + box.height / 2;
-  await p.mouse.move(x, y);
-  await p.mouse.down();
-  for (let i = 1; i <= 10; ++i) await p.mouse.move(x + (dx * i) / 10, y + (dy * i) / 10);
-  await p.mouse.up();
-}
-
-const cameraMoved = (a, b) => a.position.some((v, i) => Math.abs(v - b.position[i]) > 1e-6 * (1 + Math.abs(v)));
 
 async function openViewerPage() {
   const p = await context.newPage();

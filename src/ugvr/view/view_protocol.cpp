@@ -95,8 +95,27 @@ TfMessage parse_tf(const json& j) {
   return m;
 }
 
+Vec3d vec3(const json& j, std::string_view key) {
+  if (!j.is_array() || j.size() != 3) fail_field(key, "expected [x, y, z]");
+  for (const json& e : j)
+    if (!e.is_number() || !std::isfinite(e.get<double>())) fail_field(key, "expected 3 finite numbers");
+  return {j[0].get<double>(), j[1].get<double>(), j[2].get<double>()};
+}
+
+// {"point":[x,y,z],"normal":[x,y,z]} or null (off). Errors name "clip" and the sub-key.
+std::optional<ClipPlane> parse_clip(const json& v) {
+  if (v.is_null()) return std::nullopt;
+  if (!v.is_object()) fail_field("clip", "expected {\"point\":[x,y,z],\"normal\":[x,y,z]} or null");
+  for (auto it = v.begin(); it != v.end(); ++it)
+    if (it.key() != "point" && it.key() != "normal") fail_field("clip", "unknown key \"" + it.key() + "\"");
+  if (!v.contains("point") || !v.contains("normal")) fail_field("clip", "needs \"point\" and \"normal\"");
+  ClipPlane c{vec3(v["point"], "clip.point"), vec3(v["normal"], "clip.normal")};
+  if (!(length(c.normal) > 0)) fail_field("clip.normal", "must not be zero");
+  return c;
+}
+
 SettingsMessage parse_settings(const json& j) {
-  check_keys(j, {"mode", "iso_value", "step_voxels", "fps", "full_quality"});
+  check_keys(j, {"mode", "iso_value", "step_voxels", "fps", "full_quality", "field", "boundary_opacity", "clip"});
   SettingsMessage m;
   if (j.contains("mode")) {
     const json& v = j["mode"];
@@ -121,6 +140,17 @@ SettingsMessage parse_settings(const json& j) {
     if (!j["full_quality"].is_boolean()) fail_field("full_quality", "expected true or false");
     m.full_quality = j["full_quality"].get<bool>();
   }
+  if (j.contains("field")) {
+    const json& v = j["field"];
+    if (!v.is_string()) fail_field("field", "expected a field name, found " + std::string(v.type_name()));
+    const std::string name = v.get<std::string>();
+    if (name.empty() || name.size() > kMaxFieldName)
+      fail_field("field", "expected a name of 1 to " + std::to_string(kMaxFieldName) + " bytes, found " +
+                              std::to_string(name.size()));
+    m.field = name;
+  }
+  if (j.contains("boundary_opacity")) m.boundary_opacity = number(j, "boundary_opacity", 0, 1);
+  if (j.contains("clip")) m.clip = parse_clip(j["clip"]);
   return m;
 }
 
@@ -198,6 +228,14 @@ std::string scene_message(const SceneInfo& scene) {
   for (const FieldInfo& f : scene.fields)
     fields.push_back({{"name", f.name}, {"range", {f.min, f.max}}, {"histogram", f.histogram}});
   const FieldInfo* current = scene.find_field("");
+  // The presets' colours over [0, 1], so that a page can draw the colour map it asks for.
+  json preset_points = json::object();
+  for (const std::string& name : builtin_preset_names()) {
+    json flat = json::array();
+    for (const ColorPoint& p : builtin_preset(name).color_points)
+      flat.insert(flat.end(), {p.x, p.rgb.x, p.rgb.y, p.rgb.z});
+    preset_points[name] = flat;
+  }
   const Bounds& b = scene.bounds;
   return json{{"type", "scene"},
               {"field", scene.field},
@@ -206,6 +244,7 @@ std::string scene_message(const SceneInfo& scene) {
               {"bounds", {{"min", {b.lo.x, b.lo.y, b.lo.z}}, {"max", {b.hi.x, b.hi.y, b.hi.z}}}},
               {"camera", camera_to_json(scene.camera)},
               {"presets", builtin_preset_names()},
+              {"preset_points", preset_points},
               {"preset", scene.preset},
               {"fps", scene.fps},
               {"width", scene.width},

@@ -10,12 +10,17 @@
 //   {"type":"tf", "preset":NAME, "opacity":A, "rgb_points":[x,r,g,b,...], "opacity_points":[x,a,...]}
 //       every key optional: a built-in preset (rescaled to the field's range), and/or explicit points in data
 //       values (ParaView's flat layout, at most kMaxTfPoints points each); "opacity" in [0, 1] scales the opacity
-//   {"type":"settings", "mode":"ea"|"mip"|"iso", "iso_value":V, "step_voxels":S, "fps":F, "full_quality":true}
+//   {"type":"settings", "mode":"ea"|"mip"|"iso", "iso_value":V, "step_voxels":S, "fps":F, "full_quality":true,
+//    "field":NAME, "boundary_opacity":A, "clip":{"point":[x,y,z],"normal":[x,y,z]}|null}
 //       every key optional: step in (0, 8] voxels (the resting step), fps in [0, 240] (0: every frame at full
-//       quality), full_quality asks for one converged frame of the current view now
+//       quality), full_quality asks for one converged frame of the current view now; field one of the scene's
+//       fields (a non-empty name of at most kMaxFieldName bytes; switching resets explicit transfer-function
+//       points, so the preset is rescaled to the new range); boundary_opacity in [0, 1] (the dataset's outer
+//       boundary drawn over the image, 0: off); clip keeps the half-space the non-zero normal points to, null: off
 //
 // Server -> client:
-//   text {"type":"scene", ...}   once after hello: field, range, bounds, the initial camera, presets, limits
+//   text {"type":"scene", ...}   after hello: field, range, fields (with histograms), bounds, the initial camera,
+//         presets and their colours, limits; again when the server switches engine (a background build finished)
 //   text {"type":"status", "seq", "request", "format":"jpeg"|"png", "width", "height", "fps", "frame_seconds",
 //         "cut_nodes", "visible_nodes", "texel_error", "max_texel_error", "scale", "converged"}   describes the
 //         binary frame that follows it; "request" counts the client messages accepted (not rejected) before the
@@ -46,6 +51,7 @@ inline constexpr size_t kMaxClientMessageBytes = 64 * 1024;
 inline constexpr int kMinViewSide = 16, kMaxViewSide = 4096;
 inline constexpr size_t kMaxTfPoints = 1024;
 inline constexpr double kMaxFps = 240;
+inline constexpr size_t kMaxFieldName = 256;
 
 struct SizeMessage {
   bool hello = false;  // hello (first message) or resize
@@ -69,6 +75,9 @@ struct SettingsMessage {
   std::optional<double> step_voxels;
   std::optional<double> fps;
   bool full_quality = false;
+  std::optional<std::string> field;
+  std::optional<double> boundary_opacity;
+  std::optional<std::optional<ClipPlane>> clip;  // absent: unchanged; holds nullopt: clipping off
 };
 
 using ClientMessage = std::variant<SizeMessage, CameraMessage, TfMessage, SettingsMessage>;
@@ -96,7 +105,8 @@ struct SceneInfo {
 };
 
 // {"type":"scene", "field", "range", "fields":[{"name","range","histogram"}...], "bounds", "camera", "presets",
-//  "preset", "fps", "width", "height", "renderer", "engine", "limits"}
+//  "preset_points":{NAME:[x,r,g,b,...] over [0, 1]}, "preset", "fps", "width", "height", "renderer", "engine",
+//  "limits"}
 std::string scene_message(const SceneInfo& scene);
 
 // Parses and validates one client message. Throws ugvr::Error "FIELD: what is wrong" (FIELD is "message" for the

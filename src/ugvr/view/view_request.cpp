@@ -1,6 +1,9 @@
 #include "ugvr/view/view_request.h"
 
 #include <cmath>
+#include <string>
+
+#include "ugvr/core/error.h"
 
 namespace ugvr::view {
 
@@ -49,6 +52,22 @@ void apply_message(ViewState& state, const ClientMessage& m, const SceneInfo& sc
     r.tf.validate("tf");
   } else if (const auto* set = std::get_if<SettingsMessage>(&m)) {
     RenderSettings& rs = r.settings;
+    if (set->field) {
+      const FieldInfo* f = scene.find_field(*set->field);
+      if (!f) {
+        std::string names;
+        for (const FieldInfo& i : scene.fields) names += (names.empty() ? "" : ", ") + i.name;
+        fail_in("field", "no field \"" + *set->field + "\" (fields: " + names + ")");
+      }
+      if (f->name != (rs.field.empty() ? scene.field : rs.field)) {
+        rs.field = f->name;
+        // Explicit points were in the old field's values: start again from the preset over the new range.
+        s.tf_colors.clear(), s.tf_opacities.clear();
+        r.tf = compose_tf(s, scene);
+        for (double& v : rs.iso_values)
+          if (!(v >= f->min && v <= f->max)) v = 0.5 * (f->min + f->max);
+      }
+    }
     if (set->iso_value) rs.iso_values = {*set->iso_value};
     if (set->mode) {
       rs.mode = *set->mode;
@@ -57,6 +76,8 @@ void apply_message(ViewState& state, const ClientMessage& m, const SceneInfo& sc
       if (rs.mode == RenderMode::Isosurface && rs.iso_values.empty())
         rs.iso_values = {f ? 0.5 * (f->min + f->max) : 0.0};
     }
+    if (set->boundary_opacity) rs.boundary_overlay_opacity = *set->boundary_opacity;
+    if (set->clip) rs.clip_plane = *set->clip;
     rs.validate("settings");
     if (set->step_voxels) r.step_voxels = *set->step_voxels;
     if (set->fps) r.fps = *set->fps;

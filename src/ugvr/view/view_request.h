@@ -40,7 +40,9 @@ struct ViewState {
 ViewState initial_view(const SceneInfo& scene);
 // The transfer function `state` asks for, over the field's range.
 TransferFunction compose_tf(const ViewState& state, const SceneInfo& scene);
-// Applies one message. Throws ugvr::Error "FIELD: ..." and leaves `state` unchanged when the result is invalid.
+// Applies one message. A settings "field" must name one of scene.fields; switching to another field drops explicit
+// transfer-function points (the preset is rescaled to the new range) and moves iso values outside the new range to
+// its middle. Throws ugvr::Error "FIELD: ..." and leaves `state` unchanged when the result is invalid.
 void apply_message(ViewState& state, const ClientMessage& message, const SceneInfo& scene);
 
 }  // namespace ugvr::view
