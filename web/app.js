@@ -258,6 +258,14 @@ function onScene(m) {
     view.field = m.field;
     resetTfPoints();
   }
+  if (first && m.tf) {
+    // The server started with a transfer function of its own (`ugvr view --tf FILE`): the editor shows it.
+    view.colors = m.tf.rgb_points.slice();
+    const pts = [];
+    for (let i = 0; i + 1 < m.tf.opacity_points.length; i += 2) pts.push([m.tf.opacity_points[i], m.tf.opacity_points[i + 1]]);
+    tfEditor.setPoints(pts);
+    view.pointsEdited = true;
+  }
   showField();
   if (!first) resendState();
 }

@@ -153,25 +153,6 @@ RenderSettings settings_from_flags(const Options& o) {
   return s;
 }
 
-// A preset file's own "ScalarOpacityUnitDistance", if it has one: it then wins over the bounds-based default.
-std::optional<double> file_unit_distance(const std::string& path, std::string_view name) {
-  const nlohmann::json j = read_json_file(path);
-  const nlohmann::json* preset = nullptr;
-  if (j.is_object()) {
-    preset = &j;
-  } else if (j.is_array()) {
-    for (const nlohmann::json& p : j) {
-      if (!p.is_object()) continue;
-      if (name.empty() || (p.contains("Name") && p["Name"].is_string() && p["Name"].get<std::string>() == name)) {
-        preset = &p;
-        break;
-      }
-    }
-  }
-  if (!preset || !preset->contains("ScalarOpacityUnitDistance")) return std::nullopt;
-  return (*preset)["ScalarOpacityUnitDistance"].get<double>();
-}
-
 bool is_tf_file(const std::string& tf) {
   std::error_code ec;
   return extension_lower(tf) == ".json" || std::filesystem::is_regular_file(tf, ec);
@@ -497,7 +478,7 @@ void run_render(const Options& o) {
   std::optional<double> unit_distance;
   if (tf_from_file) {
     tf = with_flag("--tf", [&] { return read_paraview_preset(o.tf, o.tf_name); });
-    unit_distance = with_flag("--tf", [&] { return file_unit_distance(o.tf, o.tf_name); });
+    unit_distance = with_flag("--tf", [&] { return read_preset_unit_distance(o.tf, o.tf_name); });
   } else {
     tf = with_flag("--tf", [&] { return builtin_preset(o.tf.empty() ? "viridis" : o.tf); });
   }

@@ -15,7 +15,9 @@
 #include "ugvr/gen/generator.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/lod/brick_store.h"
+#include "ugvr/render/camera.h"
 #include "ugvr/render/render_settings.h"
+#include "ugvr/render/transfer_function.h"
 #include "ugvr/view/view_protocol.h"
 #include "ugvr/view/view_server.h"
 #include "ugvr/view/view_store.h"
@@ -28,7 +30,7 @@ constexpr uint64_t kDemoCells = 200'000;
 
 struct Options {
   std::vector<std::string> inputs, fields;
-  std::string store_path;
+  std::string store_path, camera, tf;
   bool demo = false;
   ReadOptions read;
   OctreeBuildOptions build;
@@ -71,6 +73,20 @@ void run_view(const Options& o) {
   if (!(vo.fps >= 0) || vo.fps > view::kMaxFps)
     fail_in("--fps", "must be in [0, " + std::to_string(int(view::kMaxFps)) + "]");
   validate_build_options(o.build);
+  if (!o.camera.empty()) vo.camera = read_camera(o.camera);
+  if (!o.tf.empty()) {
+    if (std::filesystem::is_regular_file(o.tf)) {
+      vo.tf = read_paraview_preset(o.tf);
+      vo.tf->opacity_unit_distance = read_preset_unit_distance(o.tf).value_or(0);  // 0: the viewer's default
+    } else {
+      try {
+        builtin_preset(o.tf);
+      } catch (const Error& e) {
+        fail_in("--tf", std::string("neither a file nor a preset: ") + e.what());
+      }
+      vo.preset = o.tf;  // rescaled to the field's range by the viewer
+    }
+  }
 
   if (is_store(o.inputs)) {
     vo.store = o.inputs[0];
@@ -143,6 +159,10 @@ void register_view(CLI::App& app) {
   cmd->add_option("--max-depth", opts->build.max_depth, "Build: deepest octree level")
       ->check(CLI::Range(0, kMaxOctreeLevel))
       ->default_val(opts->build.max_depth);
+  cmd->add_option("--camera", opts->camera, "Initial view: a camera JSON file as `ugvr render --camera` reads");
+  cmd->add_option("--tf", opts->tf,
+                  "Initial transfer function: a ParaView preset JSON file (points in data values, as `ugvr render --tf "
+                  "FILE --keep-range`), or a built-in preset name");
   cmd->add_option("--port", opts->port, "TCP port (default 0: a free port)");
   cmd->add_option("--host", opts->host,
                   "Address to listen on (default 127.0.0.1); any other needs the printed URL's random token")

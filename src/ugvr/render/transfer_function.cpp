@@ -6,6 +6,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
+#include "ugvr/core/json_file.h"
 
 namespace ugvr {
 namespace {
@@ -269,5 +270,23 @@ TransferFunction builtin_preset(std::string_view name) {
 }
 
 std::vector<std::string> builtin_preset_names() { return {"viridis", "inferno", "cool-warm", "grayscale", "rainbow"}; }
+
+std::optional<double> read_preset_unit_distance(const std::string& path, std::string_view name) {
+  const nlohmann::json j = read_json_file(path);
+  const nlohmann::json* preset = nullptr;
+  if (j.is_object()) {
+    preset = &j;
+  } else if (j.is_array()) {
+    for (const nlohmann::json& p : j) {
+      if (!p.is_object()) continue;
+      if (name.empty() || (p.contains("Name") && p["Name"].is_string() && p["Name"].get<std::string>() == name)) {
+        preset = &p;
+        break;
+      }
+    }
+  }
+  if (!preset || !preset->contains("ScalarOpacityUnitDistance")) return std::nullopt;
+  return (*preset)["ScalarOpacityUnitDistance"].get<double>();
+}
 
 }  // namespace ugvr

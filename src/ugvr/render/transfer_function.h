@@ -21,6 +21,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -86,6 +87,9 @@ TransferFunction read_paraview_preset(const std::string& path, std::string_view 
 // ParaView's form: an array holding one object.
 std::string paraview_preset_json(const TransferFunction& tf);
 void write_paraview_preset(const std::string& path, const TransferFunction& tf);
+// The preset's own "ScalarOpacityUnitDistance" in a preset file (the preset `name`, or the first), if it has one: it
+// then wins over a renderer's bounds-based default.
+std::optional<double> read_preset_unit_distance(const std::string& path, std::string_view name = "");
 
 // Built-in presets over [0, 1] with a linear opacity ramp: "viridis", "inferno" (matplotlib's tables sampled at 16
 // points), "cool-warm" (ParaView's Cool to Warm), "grayscale", "rainbow" (jet-like). Throws listing the names.

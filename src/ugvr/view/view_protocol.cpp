@@ -237,22 +237,30 @@ std::string scene_message(const SceneInfo& scene) {
     preset_points[name] = flat;
   }
   const Bounds& b = scene.bounds;
-  return json{{"type", "scene"},
-              {"field", scene.field},
-              {"range", {current ? current->min : 0.0, current ? current->max : 1.0}},
-              {"fields", fields},
-              {"bounds", {{"min", {b.lo.x, b.lo.y, b.lo.z}}, {"max", {b.hi.x, b.hi.y, b.hi.z}}}},
-              {"camera", camera_to_json(scene.camera)},
-              {"presets", builtin_preset_names()},
-              {"preset_points", preset_points},
-              {"preset", scene.preset},
-              {"fps", scene.fps},
-              {"width", scene.width},
-              {"height", scene.height},
-              {"renderer", scene.renderer},
-              {"engine", scene.engine},
-              {"limits", {{"min_side", kMinViewSide}, {"max_side", kMaxViewSide}, {"max_fps", kMaxFps}}}}
-      .dump(-1, ' ', false, json::error_handler_t::replace);
+  json j{{"type", "scene"},
+         {"field", scene.field},
+         {"range", {current ? current->min : 0.0, current ? current->max : 1.0}},
+         {"fields", fields},
+         {"bounds", {{"min", {b.lo.x, b.lo.y, b.lo.z}}, {"max", {b.hi.x, b.hi.y, b.hi.z}}}},
+         {"camera", camera_to_json(scene.camera)},
+         {"presets", builtin_preset_names()},
+         {"preset_points", preset_points},
+         {"preset", scene.preset},
+         {"fps", scene.fps},
+         {"width", scene.width},
+         {"height", scene.height},
+         {"renderer", scene.renderer},
+         {"engine", scene.engine},
+         {"limits", {{"min_side", kMinViewSide}, {"max_side", kMaxViewSide}, {"max_fps", kMaxFps}}}};
+  if (scene.tf) {
+    json rgb = json::array(), opacity = json::array();
+    for (const ColorPoint& p : scene.tf->color_points)
+      for (const double v : {p.x, p.rgb.x, p.rgb.y, p.rgb.z}) rgb.push_back(v);
+    for (const OpacityPoint& p : scene.tf->opacity_points)
+      for (const double v : {p.x, p.opacity}) opacity.push_back(v);
+    j["tf"] = {{"rgb_points", rgb}, {"opacity_points", opacity}};
+  }
+  return j.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
 }  // namespace ugvr::view

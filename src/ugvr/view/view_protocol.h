@@ -99,6 +99,9 @@ struct SceneInfo {
   int width = 512, height = 512;
   std::string renderer;  // GL_RENDERER, or the CPU engine's name
   std::string engine;    // "lod" (the brick store on the GPU) or "exact" (CPU, while a store is being built)
+  // The transfer function new tabs start from (`ugvr view --tf FILE`: points in data values; an
+  // opacity_unit_distance <= 0 means the viewer's default); none: `preset` over the field's range.
+  std::optional<TransferFunction> tf;
 
   // The field called `name` (empty: `field`), or null.
   const FieldInfo* find_field(std::string_view name) const;
@@ -106,7 +109,7 @@ struct SceneInfo {
 
 // {"type":"scene", "field", "range", "fields":[{"name","range","histogram"}...], "bounds", "camera", "presets",
 //  "preset_points":{NAME:[x,r,g,b,...] over [0, 1]}, "preset", "fps", "width", "height", "renderer", "engine",
-//  "limits"}
+//  "limits", "tf":{"rgb_points":[x,r,g,b,...], "opacity_points":[x,a,...]} (only with SceneInfo::tf)}
 std::string scene_message(const SceneInfo& scene);
 
 // Parses and validates one client message. Throws ugvr::Error "FIELD: what is wrong" (FIELD is "message" for the

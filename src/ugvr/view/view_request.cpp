@@ -15,6 +15,11 @@ ViewState initial_view(const SceneInfo& scene) {
   s.request.fps = scene.fps;
   s.request.settings.field = scene.field;
   s.tf_preset = scene.preset;
+  if (scene.tf) {
+    s.tf_colors = scene.tf->color_points;
+    s.tf_opacities = scene.tf->opacity_points;
+    s.unit_distance = scene.tf->opacity_unit_distance;
+  }
   s.request.tf = compose_tf(s, scene);
   return s;
 }
@@ -27,7 +32,7 @@ TransferFunction compose_tf(const ViewState& s, const SceneInfo& scene) {
   if (!s.tf_opacities.empty()) tf.opacity_points = s.tf_opacities;
   for (OpacityPoint& p : tf.opacity_points) p.opacity *= s.tf_opacity;
   const double diagonal = length(scene.bounds.size());
-  tf.opacity_unit_distance = diagonal > 0 ? diagonal / 100 : 1.0;
+  tf.opacity_unit_distance = s.unit_distance > 0 ? s.unit_distance : diagonal > 0 ? diagonal / 100 : 1.0;
   return tf;
 }
 

@@ -34,6 +34,7 @@ struct ViewState {
   double tf_opacity = 1;
   std::vector<ColorPoint> tf_colors;
   std::vector<OpacityPoint> tf_opacities;
+  double unit_distance = 0;  // opacity unit distance; <= 0: a hundredth of the bounds' diagonal
 };
 
 // The state of a new tab: the scene's camera, field, preset and fps target.

@@ -27,6 +27,7 @@
 #include "ugvr/render/lod/time_critical.h"
 #include "ugvr/view/background_build.h"
 #include "ugvr/view/exact_preview.h"
+#include "ugvr/view/field_histogram.h"
 #include "ugvr/view/jpeg.h"
 #include "ugvr/view/view_protocol.h"
 #include "ugvr/view/view_request.h"
@@ -369,10 +370,18 @@ void ViewServer::Impl::accept() {
   });
 }
 
+// Bins of the transfer-function editor's histograms, and the octree levels a store's histogram is taken from (up to
+// 585 bricks: the shape of the distribution, read in a fraction of a second).
+constexpr int kHistogramBins = 128, kHistogramMaxLevel = 3;
+
 // Fields of a store: names, ranges, histograms of the coarse levels.
 std::vector<FieldInfo> store_fields(const LodEngine& engine) {
   std::vector<FieldInfo> out;
-  for (const BrickStoreField& f : engine.store().layout().fields) out.push_back({f.name, f.min, f.max, {}});
+  const BrickStoreReader& store = engine.store();
+  for (uint32_t i = 0; i < store.field_count(); ++i) {
+    const BrickStoreField& f = store.layout().fields[i];
+    out.push_back({f.name, f.min, f.max, store_histogram(store, i, kHistogramBins, kHistogramMaxLevel)});
+  }
   return out;
 }
 
@@ -381,7 +390,9 @@ SceneInfo ViewServer::Impl::lod_scene(const LodEngine& engine, const std::string
   sc.fields = store_fields(engine);
   sc.field = engine.field_name();
   sc.bounds = engine.bounds();
-  sc.camera = reset_camera(sc.bounds, 30);
+  sc.camera = options.camera.value_or(reset_camera(sc.bounds, 30));
+  sc.tf = options.tf;
+  sc.preset = options.preset;
   sc.fps = options.fps;
   sc.width = options.width, sc.height = options.height;
   sc.renderer = renderer;
@@ -432,15 +443,19 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
       std::vector<std::string> names;
       {
         const OctreeInput input = prepare_octree_input(*options.dataset, options.fields);
-        for (const BrickStoreField& f : input.fields) {
-          sc.fields.push_back({f.name, f.min, f.max, {}});
+        for (size_t i = 0; i < input.fields.size(); ++i) {
+          const BrickStoreField& f = input.fields[i];
+          const ScalarRef& ref = input.scalars[i];
+          sc.fields.push_back({f.name, f.min, f.max, field_histogram(*ref.field, ref.component, kHistogramBins)});
           names.push_back(f.name);
         }
         sc.bounds = input.bounds;
       }
       preview = std::make_unique<ExactPreview>(options.dataset);
       sc.field = sc.fields.front().name;
-      sc.camera = reset_camera(sc.bounds, 30);
+      sc.camera = options.camera.value_or(reset_camera(sc.bounds, 30));
+      sc.tf = options.tf;
+      sc.preset = options.preset;
       sc.fps = options.fps;
       sc.width = options.width, sc.height = options.height;
       sc.renderer = "exact engine (CPU)";

@@ -23,11 +23,14 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "ugvr/grid/dataset.h"
 #include "ugvr/lod/octree_builder.h"
+#include "ugvr/render/camera.h"
+#include "ugvr/render/transfer_function.h"
 
 namespace ugvr::view {
 
@@ -39,6 +42,9 @@ struct ViewServerOptions {
   std::shared_ptr<const Dataset> dataset;
   std::vector<std::string> fields;  // with `dataset`: field selectors to build (empty: default_view_fields)
   OctreeBuildOptions build;
+  std::optional<Camera> camera;                    // the initial (and reset) view; none: the whole data from +z
+  std::optional<TransferFunction> tf;              // the initial transfer function (SceneInfo::tf)
+  std::string preset = "viridis";                  // the initial colour map when there is no `tf`
   std::function<void()> before_build;              // tests: runs on the build's thread before the build starts
   size_t max_sessions = 16;                        // WebSocket connections at once; more are refused (HTTP 503)
   std::string host = "127.0.0.1";                  // address to listen on
