@@ -1,7 +1,9 @@
 // Saves a PNG of the `ugvr view` page for the docs: starts the viewer on a store, opens it in headless Chromium at
 // 1000x700, waits for the full-quality frame and takes a screenshot of the whole page.
-//   node tests/e2e/screenshot.mjs UGVR_BINARY STORE.ugvr OUT.png [--preset NAME] [--turn DX,DY]
-// (npm ci --prefix tests/e2e first; --turn drags the view by DX, DY pixels before the shot.)
+//   node tests/e2e/screenshot.mjs UGVR_BINARY STORE.ugvr|MESH|--demo OUT.png [--preset NAME] [--turn DX,DY]
+//        [-- VIEW_ARGS...]
+// (npm ci --prefix tests/e2e first; --turn drags the view by DX, DY pixels before the shot; arguments after -- go to
+// `ugvr view`. A grid whose store is still being built is shot once the store is shown.)
 import { launchBrowser, startViewer, stopViewer, waitConverged } from "./lib.mjs";
 
 const [ugvr, store, out, ...rest] = process.argv.slice(2);
@@ -9,13 +11,18 @@ if (!ugvr || !store || !out) {
   console.error("usage: node screenshot.mjs UGVR_BINARY STORE.ugvr OUT.png [--preset NAME] [--turn DX,DY]");
   process.exit(2);
 }
-const opt = (name) => { const i = rest.indexOf(name); return i >= 0 ? rest[i + 1] : undefined; };
+const dashes = rest.indexOf("--");
+const viewArgs = dashes >= 0 ? rest.slice(dashes + 1) : [];
+const opt = (name) => { const i = rest.indexOf(name); return i >= 0 && (dashes < 0 || i < dashes) ? rest[i + 1] : undefined; };
 
-const viewer = await startViewer(ugvr, store);
+const viewer = await startViewer(ugvr, store, viewArgs);
 const browser = await launchBrowser();
 try {
   const page = await browser.newPage({ viewport: { width: 1000, height: 700 } });
   await page.goto(viewer.url);
+  // A store built in the background: wait until the page shows it (the level-of-detail engine).
+  await page.waitForFunction(() => window.ugvrViewer.status && window.ugvrViewer.status.engine === "lod", null,
+                             { timeout: 600_000, polling: 250 });
   await waitConverged(page, 120_000);
   if (opt("--preset")) await page.selectOption("#preset", opt("--preset"));
   if (opt("--turn")) {
