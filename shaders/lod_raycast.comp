@@ -135,34 +135,50 @@ float validity(vec3 p) {
 }
 
 // The crossing between ta, on the side `a_inside`, and tb, on the other: bisection on V (12 halvings: the interval is
-// usually one sample step, so the error is well below a voxel's thousandth).
-float boundary_crossing(float ta, float tb, bool a_inside) {
+// usually one sample step, so the error is well below a voxel's thousandth). Returns the crossing and the last point
+// known to be on its valid side (V >= 1/2 there: a node with a brick, next to the crossing).
+vec2 boundary_crossing(float ta, float tb, bool a_inside) {
   for (int i = 0; i < 12; ++i) {
     float tm = 0.5 * (ta + tb);
     if ((validity(g_base + g_dir * tm) >= 0.5) == a_inside) ta = tm;
     else tb = tm;
   }
-  return 0.5 * (ta + tb);
+  return vec2(0.5 * (ta + tb), a_inside ? ta : tb);
 }
 
-// Composites the overlay at the crossing tc; t_inside is a point on the valid side of it (a sample or the start or
-// end of the ray), whose node gives the scale h: a quarter of a voxel of that node. The normal is the world gradient
-// of V by central differences ±h (V is 0 outside the cut, so a boundary on a node face or the root's face, where G itself is
-// 1 right up to the face, has one too). They are taken about a point h/2 inside along the ray: about the crossing
-// itself, the differences along a boundary lying on a node face would fall on that face, in either node by rounding
-// (noise). Where the gradient vanishes, the view direction; shade_surface is two-sided, so orientation is moot.
-void composite_overlay(float tc, float t_inside, vec3 dir_world, inout vec3 radiance, inout float transmittance) {
+// V for the normal at q: 0 where the cut has no data there, else the stencil of one node's brick (slot, box lo,
+// size), read up to 3/8 voxel outside the node (the apron repeats its border). Reading a neighbour's brick
+// instead would put the step between the boundaries of two levels (half of either's voxel out) into the normal.
+float validity_near(vec3 q, uint slot, vec3 lo, float size) {
+  vec3 lo2;
+  float size2;
+  if (locate(q, lo2, size2) == SKIP) return 0.0;
+  return texture(u_atlas, (slot_origin(slot) + 1.5 + (q - lo) * (float(u_resolution - 1) / size)) * u_atlas_inv).g;
+}
+
+// Composites the overlay at the crossing x.x; x.y is a point on its valid side, whose node gives the brick and the
+// scale h: a quarter of its voxel (the stencil then reaches at most 3/8 voxel outside the node: its apron). The
+// normal is the world gradient of V (validity_near) by central differences ±h. V is 0 outside the cut, so a boundary
+// on a node face or the root's face, where G itself is 1 right up to the face, has one too. The differences are
+// taken about a point h/2 inside along the ray: about the crossing itself, those along a boundary lying on a node
+// face would fall on that face, in either node by rounding (noise). Where the gradient vanishes, the view direction;
+// shade_surface is two-sided, so orientation is moot.
+void composite_overlay(vec2 x, vec3 dir_world, inout vec3 radiance, inout float transmittance) {
+  float tc = x.x, side = x.y >= x.x ? 1.0 : -1.0;
   vec3 lo;
   float size;
-  locate(g_base + g_dir * t_inside, lo, size);
-  float h = 0.25 * size / float(u_resolution - 1);
-  float shift = 0.5 * h * min(u_root_size.x, min(u_root_size.y, u_root_size.z));
-  vec3 p = g_base + g_dir * (t_inside >= tc ? tc + shift : tc - shift);
-  vec3 g = vec3(validity(p + vec3(h, 0, 0)) - validity(p - vec3(h, 0, 0)),
-                validity(p + vec3(0, h, 0)) - validity(p - vec3(0, h, 0)),
-                validity(p + vec3(0, 0, h)) - validity(p - vec3(0, 0, h))) /
-           (2.0 * h * u_root_size);
-  if (!(length(g) > 0.0)) g = dir_world;
+  uint slot = locate(g_base + g_dir * x.y, lo, size);
+  vec3 g = dir_world;
+  if (slot != SKIP) {
+    float h = 0.25 * size / float(u_resolution - 1);
+    float shift = 0.5 * h * min(u_root_size.x, min(u_root_size.y, u_root_size.z));
+    vec3 p = g_base + g_dir * (tc + side * shift);
+    vec3 d = vec3(validity_near(p + vec3(h, 0, 0), slot, lo, size) - validity_near(p - vec3(h, 0, 0), slot, lo, size),
+                  validity_near(p + vec3(0, h, 0), slot, lo, size) - validity_near(p - vec3(0, h, 0), slot, lo, size),
+                  validity_near(p + vec3(0, 0, h), slot, lo, size) - validity_near(p - vec3(0, 0, h), slot, lo, size)) /
+             (2.0 * h * u_root_size);
+    if (length(d) > 0.0) g = d;
+  }
   vec3 color = shade_surface(OVERLAY_COLOR, g, dir_world);
   radiance += transmittance * u_overlay_opacity * color;
   transmittance *= 1.0 - u_overlay_opacity;
@@ -247,10 +263,10 @@ void main() {
       have_prev = false;
 #if OVERLAY
       if (ov_inside) {  // leaving the data for an empty octant: the crossing lies before t
-        composite_overlay(boundary_crossing(ov_t, t, true), ov_t, dir_world, radiance, transmittance);
+        composite_overlay(boundary_crossing(ov_t, t, true), dir_world, radiance, transmittance);
         ov_inside = false;
       }
-      ov_t = t_exit;
+      ov_t = min(t_exit, t_end);
 #endif
       t = t_exit;
       continue;
@@ -274,13 +290,13 @@ void main() {
       vec2 v = texture(u_atlas, c).rg;
       ++samples;
 #if OVERLAY
-      if ((v.g >= 0.5) != ov_inside) {
-        composite_overlay(boundary_crossing(ov_t, tm, ov_inside), ov_inside ? ov_t : tm, dir_world, radiance,
-                          transmittance);
+      // (Past t_end only where the last node's exit passes it by rounding: outside the ray, no state.)
+      if (tm < t_end && (v.g >= 0.5) != ov_inside) {
+        composite_overlay(boundary_crossing(ov_t, tm, ov_inside), dir_world, radiance, transmittance);
         ov_inside = !ov_inside;
         if (transmittance <= u_min_transmittance) break;
       }
-      ov_t = tm;
+      if (tm < t_end) ov_t = tm;
 #endif
       if (v.g < 0.5) {
         have_prev = false;
@@ -328,14 +344,12 @@ void main() {
     t = t_exit;
   }
 #if OVERLAY
-  // The end: the root cell's exit is outside the data; at the clip plane the state is V's there.
-  // (The last node's exit may pass t_end by rounding, and its samples with it: the crossing is then at t_end, where V
-  // drops to 0 outside the root cell.)
+  // The end: the root cell's exit is outside the data; at the clip plane the state is V's there. (The last node's
+  // exit may pass t_end by rounding, and a sample with it: the state ignores samples past t_end.)
   if (ov_ran && transmittance > u_min_transmittance) {
     bool end_inside = clip_end && validity(base + dir * (t_end - u_nudge)) >= 0.5;
     if (end_inside != ov_inside)
-      composite_overlay(boundary_crossing(ov_t, max(t_end, ov_t), ov_inside), ov_inside ? ov_t : t_end - u_nudge,
-                        dir_world, radiance, transmittance);
+      composite_overlay(boundary_crossing(min(ov_t, t_end), t_end, ov_inside), dir_world, radiance, transmittance);
   }
 #endif
 
