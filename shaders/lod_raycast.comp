@@ -37,6 +37,9 @@ const uint SKIP = 0xFFFFFFFFu;
 #ifndef VOLUME_LIGHTING
 #define VOLUME_LIGHTING 0
 #endif
+#ifndef OVERLAY
+#define OVERLAY 0  // the boundary overlay (never with MODE_MIP)
+#endif
 const int MAX_ISO = 16;
 
 uniform ivec2 u_size;
@@ -61,8 +64,10 @@ uniform float u_min_transmittance;  // 1 - early termination opacity
 uniform bool u_clip;
 uniform vec4 u_clip_plane;          // keep dot(xyz, p) + w >= 0, normalised coordinates
 uniform float u_nudge;              // world distance past a node's exit where the next node is looked up
+uniform float u_overlay_opacity;    // the boundary overlay's alpha (OVERLAY)
 
 const float AMBIENT = 0.2, DIFFUSE = 0.8, SPECULAR = 0.25, SHININESS = 32.0;
+const vec3 OVERLAY_COLOR = vec3(0.85);  // kOverlayColor of the exact engine
 
 vec4 tf_at(float value) {
   float u = clamp(value * u_tf_map.x + u_tf_map.y, 0.0, 1.0);
@@ -89,6 +94,96 @@ vec3 shade_surface(vec3 color, vec3 g, vec3 view) {
   float c = abs(dot(g, view)) / len;
   return min(color * (AMBIENT + DIFFUSE * c) + vec3(SPECULAR * pow(c, SHININESS)), vec3(1.0));
 }
+
+#if OVERLAY
+// The boundary overlay: the boundary of the valid region as the samples see it. The validity V(p) of a point is the
+// filtered stencil of the cut node containing it, 0 outside the root cell and in empty (or culled) octants; the ray is
+// inside the data where V >= 1/2, and wherever that changes between two samples the crossing is located by bisection
+// on V and the overlay composited there, shaded by the gradient of V (docs/lod-engine.md, "Boundary overlay").
+vec3 g_base, g_dir;  // the ray: point base + dir · t, normalised coordinates
+
+// The cut node at normalised point p (descent from the root as in main): its atlas slot or SKIP; its box lo, size.
+uint locate(vec3 p, out vec3 lo, out float size) {
+  lo = vec3(0.0);
+  size = 1.0;
+  if (any(lessThan(p, vec3(0.0))) || any(greaterThan(p, vec3(1.0)))) return SKIP;
+  uint node = 0u;
+  int level = 0;
+  uint state = node_state[0];
+  while (state == DESCEND && level < 31) {
+    vec3 centre = lo + 0.5 * size;
+    uvec3 o = uvec3(greaterThanEqual(p, centre));
+    uint octant = o.x | (o.y << 1) | (o.z << 2);
+    size *= 0.5;
+    lo += vec3(o) * size;
+    ++level;
+    uvec2 tn = tree[node];
+    uint mask = tn.y & 0xFFu;
+    if ((mask & (1u << octant)) == 0u) return SKIP;
+    node = tn.x + uint(bitCount(mask & ((1u << octant) - 1u)));
+    state = node_state[node];
+  }
+  return state == DESCEND ? SKIP : state;
+}
+
+float validity(vec3 p) {
+  vec3 lo;
+  float size;
+  uint slot = locate(p, lo, size);
+  if (slot == SKIP) return 0.0;
+  return texture(u_atlas, (slot_origin(slot) + 1.5 + (p - lo) * (float(u_resolution - 1) / size)) * u_atlas_inv).g;
+}
+
+// The crossing between ta, on the side `a_inside`, and tb, on the other: bisection on V (12 halvings: the interval is
+// usually one sample step, so the error is well below a voxel's thousandth). Returns the crossing and the last point
+// known to be on its valid side (V >= 1/2 there: a node with a brick, next to the crossing).
+vec2 boundary_crossing(float ta, float tb, bool a_inside) {
+  for (int i = 0; i < 12; ++i) {
+    float tm = 0.5 * (ta + tb);
+    if ((validity(g_base + g_dir * tm) >= 0.5) == a_inside) ta = tm;
+    else tb = tm;
+  }
+  return vec2(0.5 * (ta + tb), a_inside ? ta : tb);
+}
+
+// V for the normal at q: 0 where the cut has no data there, else the stencil of one node's brick (slot, box lo,
+// size), read up to 3/8 voxel outside the node (the apron repeats its border). Reading a neighbour's brick
+// instead would put the step between the boundaries of two levels (half of either's voxel out) into the normal.
+float validity_near(vec3 q, uint slot, vec3 lo, float size) {
+  vec3 lo2;
+  float size2;
+  if (locate(q, lo2, size2) == SKIP) return 0.0;
+  return texture(u_atlas, (slot_origin(slot) + 1.5 + (q - lo) * (float(u_resolution - 1) / size)) * u_atlas_inv).g;
+}
+
+// Composites the overlay at the crossing x.x; x.y is a point on its valid side, whose node gives the brick and the
+// scale h: a quarter of its voxel (the stencil then reaches at most 3/8 voxel outside the node: its apron). The
+// normal is the world gradient of V (validity_near) by central differences ±h. V is 0 outside the cut, so a boundary
+// on a node face or the root's face, where G itself is 1 right up to the face, has one too. The differences are
+// taken about a point h/2 inside along the ray: about the crossing itself, those along a boundary lying on a node
+// face would fall on that face, in either node by rounding (noise). Where the gradient vanishes, the view direction;
+// shade_surface is two-sided, so orientation is moot.
+void composite_overlay(vec2 x, vec3 dir_world, inout vec3 radiance, inout float transmittance) {
+  float tc = x.x, side = x.y >= x.x ? 1.0 : -1.0;
+  vec3 lo;
+  float size;
+  uint slot = locate(g_base + g_dir * x.y, lo, size);
+  vec3 g = dir_world;
+  if (slot != SKIP) {
+    float h = 0.25 * size / float(u_resolution - 1);
+    float shift = 0.5 * h * min(u_root_size.x, min(u_root_size.y, u_root_size.z));
+    vec3 p = g_base + g_dir * (tc + side * shift);
+    vec3 d = vec3(validity_near(p + vec3(h, 0, 0), slot, lo, size) - validity_near(p - vec3(h, 0, 0), slot, lo, size),
+                  validity_near(p + vec3(0, h, 0), slot, lo, size) - validity_near(p - vec3(0, h, 0), slot, lo, size),
+                  validity_near(p + vec3(0, 0, h), slot, lo, size) - validity_near(p - vec3(0, 0, h), slot, lo, size)) /
+             (2.0 * h * u_root_size);
+    if (length(d) > 0.0) g = d;
+  }
+  vec3 color = shade_surface(OVERLAY_COLOR, g, dir_world);
+  radiance += transmittance * u_overlay_opacity * color;
+  transmittance *= 1.0 - u_overlay_opacity;
+}
+#endif
 
 void main() {
   ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
@@ -118,6 +213,18 @@ void main() {
     else if (df < 0.0) t_end = min(t_end, -f0 / df);
     else if (f0 < 0.0) t_end = -1.0;
   }
+#if OVERLAY
+  // Like the exact engine's faces: crossings between the ray's start and end only. A ray that starts at the root
+  // cell's entry starts outside the data; one that starts at the eye or the clip plane starts in whatever state V has
+  // there (the clip plane's cut and the eye are no boundary). ov_t: the last point whose state (ov_inside) is known.
+  g_base = base;
+  g_dir = dir;
+  bool ov_inside = false;
+  float ov_t = t;
+  bool clip_end = t_end < t_out - t_base;
+  bool ov_ran = t < t_end;  // the ray has a stretch to walk at all
+  if (ov_ran && (t > 0.0 || t_in < 0.0)) ov_inside = validity(base + dir * (t + u_nudge)) >= 0.5;
+#endif
 
   bool have_prev = false;
   float prev_value = 0.0, prev_t = 0.0;
@@ -154,6 +261,13 @@ void main() {
     t_exit = max(t_exit, t + u_nudge);
     if (state == SKIP || state == DESCEND) {
       have_prev = false;
+#if OVERLAY
+      if (ov_inside) {  // leaving the data for an empty octant: the crossing lies before t
+        composite_overlay(boundary_crossing(ov_t, t, true), dir_world, radiance, transmittance);
+        ov_inside = false;
+      }
+      ov_t = min(t_exit, t_end);
+#endif
       t = t_exit;
       continue;
     }
@@ -175,6 +289,15 @@ void main() {
       vec3 c = c0 + c1 * tm;
       vec2 v = texture(u_atlas, c).rg;
       ++samples;
+#if OVERLAY
+      // (Past t_end only where the last node's exit passes it by rounding: outside the ray, no state.)
+      if (tm < t_end && (v.g >= 0.5) != ov_inside) {
+        composite_overlay(boundary_crossing(ov_t, tm, ov_inside), dir_world, radiance, transmittance);
+        ov_inside = !ov_inside;
+        if (transmittance <= u_min_transmittance) break;
+      }
+      if (tm < t_end) ov_t = tm;
+#endif
       if (v.g < 0.5) {
         have_prev = false;
         continue;
@@ -220,6 +343,15 @@ void main() {
     }
     t = t_exit;
   }
+#if OVERLAY
+  // The end: the root cell's exit is outside the data; at the clip plane the state is V's there. (The last node's
+  // exit may pass t_end by rounding, and a sample with it: the state ignores samples past t_end.)
+  if (ov_ran && transmittance > u_min_transmittance) {
+    bool end_inside = clip_end && validity(base + dir * (t_end - u_nudge)) >= 0.5;
+    if (end_inside != ov_inside)
+      composite_overlay(boundary_crossing(min(ov_t, t_end), t_end, ov_inside), dir_world, radiance, transmittance);
+  }
+#endif
 
   vec4 result = vec4(radiance, transmittance);
 #if MODE == MODE_MIP

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <tuple>
 #include <unordered_map>
 
 #include "ugvr/core/error.h"
@@ -33,13 +34,18 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
+bool boundary_overlay_on(const RenderSettings& settings) {
+  return settings.boundary_overlay_opacity > 0 && settings.mode != RenderMode::Mip;
+}
+
 struct LodEngine::Impl {
   BrickStoreReader store;
   const GlContext& gl;
   LodOptions options;
   uint32_t field = 0;
-  std::map<std::pair<int, bool>, ComputeProgram> programs;  // by (mode, volume lighting): compile-time variants
-  ComputeProgram& program_for(int mode, bool volume_lighting);
+  // By (mode, volume lighting, boundary overlay): compile-time variants.
+  std::map<std::tuple<int, bool, bool>, ComputeProgram> programs;
+  ComputeProgram& program_for(int mode, bool volume_lighting, bool overlay);
   GlBuffer tree, state, counters;
   GlTexture tf_texture, out_texture;
   std::unique_ptr<GlTimerQuery> timer;  // created on first use (the context is current then)
@@ -58,12 +64,13 @@ struct LodEngine::Impl {
   uint64_t load(std::span<const uint64_t> nodes, const TexelSource& source);
 };
 
-ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting) {
-  auto it = programs.find({mode, volume_lighting});
+ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, bool overlay) {
+  auto it = programs.find({mode, volume_lighting, overlay});
   if (it == programs.end()) {
-    ComputeProgram p("lod_raycast.comp",
-                     {{"MODE", std::to_string(mode)}, {"VOLUME_LIGHTING", volume_lighting ? "1" : "0"}});
-    it = programs.emplace(std::make_pair(mode, volume_lighting), std::move(p)).first;
+    ComputeProgram p("lod_raycast.comp", {{"MODE", std::to_string(mode)},
+                                          {"VOLUME_LIGHTING", volume_lighting ? "1" : "0"},
+                                          {"OVERLAY", overlay ? "1" : "0"}});
+    it = programs.emplace(std::make_tuple(mode, volume_lighting, overlay), std::move(p)).first;
   }
   return it->second;
 }
@@ -149,7 +156,7 @@ LodEngine::LodEngine(const std::string& store_path, const GlContext& gl, LodOpti
   if (I.store.resolution() < 2) fail_in(store_path, "brick resolution below 2");
   if (I.store.node_count() >= kDescend) fail_in(store_path, "too many nodes for the GPU node table (2^32 - 2)");
   gl.make_current();
-  I.program_for(0, false);  // compile errors surface here, not at the first frame
+  I.program_for(0, false, false);  // compile errors surface here, not at the first frame
   // The octree, static: first child and child mask | level << 8 per node.
   std::vector<uint32_t> tree(I.store.node_count() * 2);
   for (uint64_t n = 0; n < I.store.node_count(); ++n) {
@@ -200,6 +207,9 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   CutOptions co;
   co.field = I.field;
   co.max_nodes = I.budget_slots();
+  // The overlay draws the boundary of the drawn nodes' data: a node transparent under the transfer function still
+  // holds data, and dropping it would put a false boundary around it.
+  co.tf_cull = !boundary_overlay_on(settings);
   const Cut cut = select_cut(I.store, cut_spec, camera, settings.width, settings.height, tf, co);
   st.cut_seconds = seconds_since(t0);
   const Image image = render_nodes(camera, tf, settings, cut.nodes, {}, &st);
@@ -286,7 +296,8 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   const Vec3d root_size = root.size();
   const CameraRays rays(camera, w, h);
   const int mode = settings.mode == RenderMode::Mip ? 1 : settings.mode == RenderMode::Isosurface ? 2 : 0;
-  const ComputeProgram& program = I.program_for(mode, mode == 0 && settings.volume_lighting);
+  const bool overlay = boundary_overlay_on(settings);
+  const ComputeProgram& program = I.program_for(mode, mode == 0 && settings.volume_lighting, overlay);
   glUseProgram(program.id());
   auto vec3f = [&](const char* name, Vec3d v) {
     glUniform3f(program.uniform(name), float(v.x), float(v.y), float(v.z));
@@ -332,6 +343,7 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
     glUniform4f(program.uniform("u_clip_plane"), float(np.x * scale), float(np.y * scale), float(np.z * scale),
                 float(w0 * scale));
   }
+  glUniform1f(program.uniform("u_overlay_opacity"), overlay ? float(settings.boundary_overlay_opacity) : 0.0f);
   glUniform1f(program.uniform("u_nudge"), float(2e-6 * std::max({root_size.x, root_size.y, root_size.z})));
 
   glBindImageTexture(0, I.out_texture.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);

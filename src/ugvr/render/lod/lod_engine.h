@@ -49,6 +49,10 @@ struct LodRenderStats {
   uint64_t atlas_slots = 0;
 };
 
+// Whether settings draw the boundary overlay: opacity > 0, and not in MIP mode (as the exact engine). The cut must
+// then keep nodes that are transparent under the transfer function (CutOptions / ActiveCutOptions::tf_cull false).
+bool boundary_overlay_on(const RenderSettings& settings);
+
 struct LodOptions {
   uint64_t atlas_budget_bytes = uint64_t(2) << 30;  // GPU memory for bricks
   double step_voxels = 0.5;  // sample step in voxels of each node (RenderSettings.sample_step = 0)
@@ -70,7 +74,9 @@ class LodEngine {
   double field_max() const;
 
   // Renders settings.width × settings.height. settings.field is ignored (set_field); settings.sample_step > 0 is one
-  // world step at every level, 0 the options' step_voxels per node; boundary_overlay_opacity is not supported.
+  // world step at every level, 0 the options' step_voxels per node. boundary_overlay_opacity draws the boundary of
+  // the valid region the bricks' stencils describe (voxel resolution; docs/lod-engine.md), with transfer-function
+  // culling off (boundary_overlay_on) so that transparent data still bounds it.
   Image render(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings, const CutSpec& cut,
                LodRenderStats* stats = nullptr);
 

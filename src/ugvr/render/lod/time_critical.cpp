@@ -47,6 +47,15 @@ struct TimeCriticalRenderer::Impl {
   // target; the scale is then 1).
   Image step(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings, bool unlimited,
              const QualityChoice& choice, TimeCriticalFrame& f);
+
+  // The boundary overlay bounds the data the cut draws: then nothing may be dropped for being transparent under the
+  // transfer function (lod_engine.h).
+  void cull_for(const RenderSettings& settings) {
+    if (cut.options().tf_cull != boundary_overlay_on(settings)) return;
+    ActiveCutOptions co = cut.options();
+    co.tf_cull = !boundary_overlay_on(settings);
+    cut.set_options(co);
+  }
 };
 
 void TimeCriticalRenderer::set_target_fps(double fps) {
@@ -82,6 +91,7 @@ Image TimeCriticalRenderer::Impl::step(const Camera& camera, const TransferFunct
   scaled.width = std::max(1, int(std::lround(settings.width * f.scale)));
   scaled.height = std::max(1, int(std::lround(settings.height * f.scale)));
   if (scaled.width == settings.width && scaled.height == settings.height) f.scale = 1;
+  cull_for(settings);
   const CutUpdate u = cut.update(camera, scaled.width, scaled.height, tf, budget,
                                  [&](uint64_t n) { return engine.in_atlas(n) || cache.resident(n); });
   // The cache keeps what the cut draws and has not uploaded yet (most important), then what it wants next.
@@ -143,6 +153,7 @@ Image TimeCriticalRenderer::full_quality(const Camera& camera, const TransferFun
   const auto t0 = std::chrono::steady_clock::now();
   TimeCriticalFrame f;
   I.engine.set_step_voxels(I.options.resting_step_voxels);
+  I.cull_for(settings);
   // Refine without drawing until nothing improves: each round asks for the bricks the next splits need and waits.
   for (int round = 0; round < 10000; ++round) {
     CutBudget budget;
