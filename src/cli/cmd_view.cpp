@@ -37,6 +37,7 @@ struct Options {
   std::string host = "127.0.0.1", size = "512", gpu = "auto", fps = "10";
   int port = 0;
   uint64_t gpu_memory = uint64_t(2) << 30;
+  uint64_t ram_memory = uint64_t(1) << 30;
 };
 
 bool is_store(const std::vector<std::string>& inputs) {
@@ -63,6 +64,7 @@ void run_view(const Options& o) {
   vo.port = uint16_t(o.port);
   vo.gpu = o.gpu;
   vo.gpu_memory = o.gpu_memory;
+  vo.ram_per_session = o.ram_memory;
   const ImageSize size = parse_size(o.size, "--size");
   if (size.width < view::kMinViewSide || size.width > view::kMaxViewSide || size.height < view::kMinViewSide ||
       size.height > view::kMaxViewSide)
@@ -174,6 +176,10 @@ void register_view(CLI::App& app) {
   cmd->add_option("--gpu-memory", opts->gpu_memory, "GPU memory for bricks (e.g. 512MiB, 4GiB)")
       ->transform(CLI::AsSizeValue(true))
       ->default_str("2GiB");
+  cmd->add_option("--ram-memory", opts->ram_memory,
+                  "RAM for decoded bricks, per browser tab (e.g. 256MiB, 4GiB): what a resting view can refine to")
+      ->transform(CLI::AsSizeValue(true))
+      ->default_str("1GiB");
   cmd->add_option("--fps", opts->fps, "Frame-rate target while interacting (0: every frame at full quality)")
       ->default_str("10");
   cmd->callback([opts] { run_view(*opts); });

@@ -28,6 +28,7 @@ struct TimeCriticalRenderer::Impl {
   std::optional<TransferFunction> last_tf;
   std::optional<RenderSettings> last_settings;
   bool rest_converged = false;  // the cut converged in the last frame, at rest
+  int stalled_frames = 0;       // resting frames in a row in which the cut could not refine for lack of memory
 
   Impl(LodEngine& e, TimeCriticalOptions o)
       : engine(e),
@@ -70,7 +71,8 @@ TimeCriticalRenderer::TimeCriticalRenderer(LodEngine& engine, TimeCriticalOption
     fail_in("time-critical renderer", "pixels and steps must be > 0");
   if (!(options.min_scale > 0 && options.min_scale <= 1))
     fail_in("time-critical renderer", "min_scale must be in (0, 1]");
-  if (options.uploads_per_frame < 1 || options.reads_per_frame < 1)
+  if (options.uploads_per_frame < 1 || options.reads_per_frame < 1 || options.resting_uploads_per_frame < 1 ||
+      options.resting_reads_per_frame < 1)
     fail_in("time-critical renderer", "uploads and reads per frame must be >= 1");
 }
 
@@ -83,8 +85,8 @@ Image TimeCriticalRenderer::Impl::step(const Camera& camera, const TransferFunct
   const uint64_t atlas = engine.atlas_budget_bricks();
   f.budget_nodes = unlimited ? CutBudget::kUnlimited : choice.max_nodes;
   budget.max_nodes = std::max<uint64_t>(1, std::min(atlas, f.budget_nodes));
-  budget.max_new_nodes_per_frame = options.uploads_per_frame;
-  budget.max_reads_per_frame = options.reads_per_frame;
+  budget.max_new_nodes_per_frame = unlimited ? options.resting_uploads_per_frame : options.uploads_per_frame;
+  budget.max_reads_per_frame = unlimited ? options.resting_reads_per_frame : options.reads_per_frame;
   // The cut measures texels in pixels of the image it is drawn into: the scaled one.
   f.scale = unlimited ? 1.0 : choice.scale;
   RenderSettings scaled = settings;
@@ -116,6 +118,14 @@ Image TimeCriticalRenderer::Impl::step(const Camera& camera, const TransferFunct
   f.sync_reads = f.render.bricks_read_sync;
   f.converged = u.converged && u.wanted.empty();
   f.cache = stats_since(cache.stats(), before);
+  // At rest the cut may want bricks the RAM cache cannot admit (its budget is full of the cut's own): nothing splits,
+  // merges or loads. Twice in a row (a load that finished during this frame is used by the next one) means the
+  // budgets allow no better: full quality within them, rather than refining frames forever.
+  const bool stalled =
+      unlimited && u.splits == 0 && u.merges == 0 && !u.wanted.empty() && f.cache.queued == 0 && f.cache.loading == 0;
+  stalled_frames = stalled ? stalled_frames + 1 : 0;
+  f.memory_limited = stalled_frames >= 2;
+  f.converged = f.converged || f.memory_limited;
   return image;
 }
 

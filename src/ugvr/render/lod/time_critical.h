@@ -37,18 +37,23 @@ struct TimeCriticalOptions {
   uint64_t ram_budget_bytes = uint64_t(1) << 30;  // RAM cache of decoded bricks
   uint64_t uploads_per_frame = 64;                // bricks RAM -> GPU per frame
   uint64_t reads_per_frame = 256;                 // brick read requests (disk -> RAM) per frame
-  double pixels = 1;                              // split threshold: texels per pixel
-  double error_weight = 0;                        // texel size × (node error / range)^w (active_cut.h)
-  double moving_step_voxels = 1.0;                // sample step while the view moves
-  double resting_step_voxels = 0.5;               // and once it rests and the cut has converged
-  int loader_threads = 0;                         // RAM cache workers (0: hardware concurrency)
-  double min_scale = 0.25;                        // smallest image scale while moving (quality_policy.h)
+  // The same once the view rests: no frame rate to hold then, so refinement takes bigger steps (fewer, slower frames
+  // to full quality; on llvmpipe a resting frame of a large view costs seconds whatever it uploads).
+  uint64_t resting_uploads_per_frame = 512;
+  uint64_t resting_reads_per_frame = 1024;
+  double pixels = 1;                 // split threshold: texels per pixel
+  double error_weight = 0;           // texel size × (node error / range)^w (active_cut.h)
+  double moving_step_voxels = 1.0;   // sample step while the view moves
+  double resting_step_voxels = 0.5;  // and once it rests and the cut has converged
+  int loader_threads = 0;            // RAM cache workers (0: hardware concurrency)
+  double min_scale = 0.25;           // smallest image scale while moving (quality_policy.h)
 };
 
 struct TimeCriticalFrame {
   double seconds = 0;           // wall time of the frame (cut update + draw + read back)
   bool resting = false;         // camera, transfer function and settings as in the previous frame
   bool converged = false;       // the cut cannot improve and the step is the resting one: full quality
+  bool memory_limited = false;  // ... because the RAM cache cannot hold the bricks a finer cut needs
   uint64_t budget_samples = 0;  // the controller's sample budget for this frame (max = unlimited)
   uint64_t budget_nodes = 0;    // the cut size the policy allowed (max = unlimited)
   double scale = 1;             // the image was ray cast at scale × the output size
