@@ -322,6 +322,20 @@ TEST_F(CliRender, LodPathConvergesWhenTheCameraRests) {
   const CommandResult w = run_ugvr("render " + store + " --size 16 --fps 10 --error-weight -1 -o " + file("x.png"));
   EXPECT_EQ(w.status, 1);
   EXPECT_NE(w.out.find("--error-weight"), std::string::npos) << w.out;
+  // A RAM cache too small for the cut the view wants: at rest the cut stops refining, and the frames say full quality
+  // within the memory (instead of refining frames forever).
+  const CommandResult small =
+      run_ugvr("render " + store + view + " --fps 1000 --path orbit:2,rest:30 --ram-memory 20KiB" + " -o " +
+               file("small.png") + " --stats " + file("small.jsonl"));
+  ASSERT_EQ(small.status, 0) << small.out;
+  std::ifstream sin(file("small.jsonl"));
+  json last;
+  for (std::string line; std::getline(sin, line);) last = json::parse(line);
+  EXPECT_TRUE(last["resting"].get<bool>());
+  EXPECT_TRUE(last["memory_limited"].get<bool>()) << last.dump();
+  EXPECT_TRUE(last["converged"].get<bool>()) << last.dump();
+  EXPECT_LT(last["cut_nodes"].get<uint64_t>(), lines.back()["cut_nodes"].get<uint64_t>())
+      << "a coarser cut than with RAM";
   // The path needs the lod engine.
   const CommandResult e = render("-o " + file("x.png") + " --path orbit:3");
   EXPECT_EQ(e.status, 1);

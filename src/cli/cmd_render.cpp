@@ -402,6 +402,7 @@ EngineRun lod_run(const Options& o, RenderSettings& settings, std::shared_ptr<vo
           {"seconds", f.seconds},
           {"resting", f.resting},
           {"converged", f.converged},
+          {"memory_limited", f.memory_limited},
           {"scale", f.scale},
           {"budget_samples", f.budget_samples == std::numeric_limits<uint64_t>::max()
                                  ? nlohmann::json(nullptr)

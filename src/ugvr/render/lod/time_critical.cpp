@@ -118,9 +118,10 @@ Image TimeCriticalRenderer::Impl::step(const Camera& camera, const TransferFunct
   f.sync_reads = f.render.bricks_read_sync;
   f.converged = u.converged && u.wanted.empty();
   f.cache = stats_since(cache.stats(), before);
-  // At rest the cut may want bricks the RAM cache cannot admit (its budget is full of the cut's own): nothing splits,
-  // merges or loads. Twice in a row (a load that finished during this frame is used by the next one) means the
-  // budgets allow no better: full quality within them, rather than refining frames forever.
+  // At rest the cut may want bricks the RAM cache does not admit (its budget is full of bricks of higher priority):
+  // nothing splits, merges or loads, so the next frame would be this one again. Twice in a row (a load that finished
+  // during this frame is used by the next one) means the budgets allow no better: full quality within them, rather
+  // than refining frames forever.
   const bool stalled =
       unlimited && u.splits == 0 && u.merges == 0 && !u.wanted.empty() && f.cache.queued == 0 && f.cache.loading == 0;
   stalled_frames = stalled ? stalled_frames + 1 : 0;
