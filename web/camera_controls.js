@@ -51,7 +51,9 @@ function installCameraControls(canvas, getCamera, onChange) {
 
   canvas.addEventListener("contextmenu", (e) => e.preventDefault());
   canvas.addEventListener("pointerdown", (e) => {
-    canvas.setPointerCapture(e.pointerId);
+    // Capture keeps the drag when the pointer leaves the canvas; it throws for a pointer that is no longer active
+    // (lifted between the event and this handler), which must not lose the touch.
+    try { canvas.setPointerCapture(e.pointerId); } catch { /* not active: no capture */ }
     pointers.set(e.pointerId, { x: e.clientX, y: e.clientY });
     if (pointers.size === 2) {
       mode = null;

@@ -130,6 +130,80 @@ test("a clip plane changes the image and turning it off restores it", async () =
   assert.ok(restored < 0.002, `clip off restored the image (${restored} of pixels differ)`);
 });
 
+test("isosurface mode and its value slider change the image", async () => {
+  // The speed: its isosurfaces are the wing's wake, large in the initial view (the pressure's hug the small wing).
+  await page.selectOption("#field", "velocity:magnitude");
+  await waitConverged(page, CONVERGE_MS);
+  const volume = await canvasPixels(page);
+  await page.selectOption("#mode", "iso");
+  await waitConverged(page, CONVERGE_MS);
+  assert.equal((await lastSent("settings", "mode")).mode, "iso");
+  const iso = await canvasPixels(page);
+  const surface = changedFraction(volume, iso);
+  console.log(`isosurface mode: ${(surface * 100).toFixed(1)} % of pixels changed`);
+  assert.ok(surface > 0.01, `the isosurface differs from the volume (${surface})`);
+  const v0 = await hook("iso");
+  await setRange("#iso", 250);  // a quarter of the way up the field's range
+  const s = await waitConverged(page, CONVERGE_MS);
+  const sent = (await lastSent("settings", "iso_value")).iso_value;
+  assert.ok(Math.abs(sent - (await hook("iso"))) < 1e-9 && sent < v0, `a lower iso value was sent (${sent} < ${v0})`);
+  assert.equal(s.error, "");
+  const moved = changedFraction(iso, await canvasPixels(page));
+  console.log(`iso value ${v0.toPrecision(4)} -> ${sent.toPrecision(4)}: ${(moved * 100).toFixed(1)} % of pixels changed`);
+  assert.ok(moved > 0.01, `another iso value, another surface (${moved})`);
+  await page.selectOption("#mode", "ea");
+  await waitConverged(page, CONVERGE_MS);
+  assert.ok(changedFraction(volume, await canvasPixels(page)) < 0.002, "back to the volume");
+  await page.selectOption("#field", "pressure");
+  await waitConverged(page, CONVERGE_MS);
+});
+
+test("the boundary overlay slider draws the mesh boundary; 0 removes it", async () => {
+  await waitConverged(page, CONVERGE_MS);
+  const plain = await canvasPixels(page);
+  await setRange("#boundary", 0.6);
+  let s = await waitConverged(page, CONVERGE_MS);
+  assert.equal((await lastSent("settings", "boundary_opacity")).boundary_opacity, 0.6);
+  assert.equal(s.error, "");
+  const drawn = changedFraction(plain, await canvasPixels(page));
+  console.log(`boundary overlay 0.6: ${(drawn * 100).toFixed(1)} % of pixels changed`);
+  assert.ok(drawn > 0.05, `the boundary covers the mesh's silhouette (${drawn})`);
+  await setRange("#boundary", 0);
+  s = await waitConverged(page, CONVERGE_MS);
+  assert.ok(changedFraction(plain, await canvasPixels(page)) < 0.002, "overlay 0 restores the image");
+});
+
+test("touch: one finger orbits, two fingers pinch to zoom", async () => {
+  const c0 = (await waitConverged(page, CONVERGE_MS)).camera;
+  const box = await page.locator("#canvas").boundingBox();
+  const cx = box.x + box.width / 2, cy = box.y + box.height / 2;
+  // Touch pointer events as a touch screen delivers them (pointerType "touch", one pointerId per finger).
+  const touch = (type, id, x, y) =>
+    page.locator("#canvas").dispatchEvent(type, { pointerId: id, pointerType: "touch", isPrimary: id === 1,
+                                                 clientX: x, clientY: y, button: 0, buttons: type === "pointerup" ? 0 : 1,
+                                                 bubbles: true });
+  await touch("pointerdown", 1, cx, cy);
+  for (let i = 1; i <= 6; ++i) await touch("pointermove", 1, cx + i * 15, cy);
+  await touch("pointerup", 1, cx + 90, cy);
+  const c1 = (await waitConverged(page, CONVERGE_MS)).camera;
+  assert.ok(cameraMoved(c0, c1), "one finger turned the camera");
+  const dist = (c) => Math.hypot(...c.position.map((v, i) => v - c.focal_point[i]));
+  assert.ok(Math.abs(dist(c1) - dist(c0)) < 1e-6 * dist(c0), "orbiting keeps the distance");
+  // Two fingers moving apart: zoom in (the camera comes closer to the focal point).
+  await touch("pointerdown", 1, cx - 20, cy);
+  await touch("pointerdown", 2, cx + 20, cy);
+  for (let i = 1; i <= 6; ++i) {
+    await touch("pointermove", 1, cx - 20 - i * 15, cy);
+    await touch("pointermove", 2, cx + 20 + i * 15, cy);
+  }
+  await touch("pointerup", 1, cx - 110, cy);
+  await touch("pointerup", 2, cx + 110, cy);
+  const c2 = (await waitConverged(page, CONVERGE_MS)).camera;
+  assert.ok(dist(c2) < 0.8 * dist(c1), `the pinch zoomed in (${dist(c1).toFixed(3)} -> ${dist(c2).toFixed(3)})`);
+  await page.click("#reset");
+  await waitConverged(page, CONVERGE_MS);
+});
+
 test("pan moves the focal point; reset view restores the scene's camera", async () => {
   const c0 = (await waitConverged(page, CONVERGE_MS)).camera;
   await drag(page, 80, 0, { shift: true });
