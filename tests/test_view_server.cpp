@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "test_data.h"
@@ -591,6 +592,34 @@ TEST(ViewServer, ShowsAGridWithTheExactEngineWhileItsStoreIsBuilt) {
   EXPECT_EQ((*lod.status)["engine"], "lod");
   EXPECT_EQ((*lod.status)["request"], 2) << "the tab's view is kept";
   EXPECT_EQ(image_size(lod.bytes), std::make_pair(48, 40));
+}
+
+// stop() while the render thread moves to a store that has just been built (it opens the store with the lock
+// released): the stop must not be lost. It once was: the loop went on to wait for work, and stop() waited for it.
+TEST(ViewServer, StopsWhileSwitchingToTheBuiltStore) {
+  std::promise<void> opening;
+  std::future<void> opened = opening.get_future();
+  ViewServerOptions o;
+  o.store = (shared().dir / "stop-while-opening.ugvr").string();
+  std::filesystem::remove(o.store);
+  o.dataset = std::make_shared<Dataset>(make_box());
+  o.build = small_build();
+  // The render thread is held just before it opens the store, long enough for stop() to come in meanwhile.
+  o.opening_store = [&opening] {
+    opening.set_value();
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  };
+  std::unique_ptr<ViewServer> server;
+  try {
+    server = std::make_unique<ViewServer>(o);
+  } catch (const Error& e) {
+    if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
+    FAIL() << "cannot start the server: " << e.what();
+  }
+  ASSERT_EQ(opened.wait_for(std::chrono::seconds(60)), std::future_status::ready) << "the store was never opened";
+  auto stopped = std::async(std::launch::async, [&] { server->stop(); });
+  // A lost stop would hang here: fail instead (the test binary then cannot end cleanly, which CI also sees).
+  ASSERT_EQ(stopped.wait_for(std::chrono::seconds(30)), std::future_status::ready) << "stop() hung";
 }
 
 TEST(ViewServer, AFailedBuildIsReportedAndTheExactEngineGoesOn) {

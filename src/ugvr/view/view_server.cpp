@@ -529,6 +529,7 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
       } else {
         // Done: open the store and move every tab to it (outside the lock: opening reads the store's header).
         lock.unlock();
+        if (options.opening_store) options.opening_store();
         std::string error;
         try {
           LodOptions lo;
@@ -553,6 +554,7 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
           progress_text = progress_message({"failed", "", 1, "cannot open the new store: " + error});
           for (const auto& s : sessions) broadcast(s, {progress_text});
         }
+        continue;  // the lock was released above: `stopping` may have been set meanwhile
       }
     }
     std::shared_ptr<SessionState> chosen;
@@ -566,6 +568,7 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
       break;
     }
     if (!chosen) {
+      // Every path here holds the lock since `stopping` was last read, so stop()'s notification cannot be lost.
       if (build)
         wake.wait_for(lock, std::chrono::milliseconds(250));  // the build's progress is polled
       else

@@ -42,14 +42,15 @@ struct ViewServerOptions {
   std::shared_ptr<const Dataset> dataset;
   std::vector<std::string> fields;  // with `dataset`: field selectors to build (empty: default_view_fields)
   OctreeBuildOptions build;
-  std::optional<Camera> camera;                  // the initial (and reset) view; none: the whole data from +z
-  std::optional<TransferFunction> tf;            // the initial transfer function (SceneInfo::tf)
-  std::string preset = "viridis";                // the initial colour map when there is no `tf`
-  std::function<void()> before_build;            // tests: runs on the build's thread before the build starts
-  size_t max_sessions = 16;                      // WebSocket connections at once; more are refused (HTTP 503)
-  std::string host = "127.0.0.1";                // address to listen on
-  uint16_t port = 0;                             // 0: a free port
-  std::string gpu = "auto";                      // GlContext device
+  std::optional<Camera> camera;         // the initial (and reset) view; none: the whole data from +z
+  std::optional<TransferFunction> tf;   // the initial transfer function (SceneInfo::tf)
+  std::string preset = "viridis";       // the initial colour map when there is no `tf`
+  std::function<void()> before_build;   // tests: runs on the build's thread before the build starts
+  std::function<void()> opening_store;  // tests: runs on the render thread, unlocked, before it opens the built store
+  size_t max_sessions = 16;             // WebSocket connections at once; more are refused (HTTP 503)
+  std::string host = "127.0.0.1";       // address to listen on
+  uint16_t port = 0;                    // 0: a free port
+  std::string gpu = "auto";             // GlContext device
   uint64_t gpu_memory = uint64_t(2) << 30;       // atlas budget (shared by the sessions)
   uint64_t ram_per_session = uint64_t(1) << 30;  // each session's RAM brick cache
   int width = 512, height = 512;                 // the page's initial canvas size (scene message)
