@@ -13,6 +13,7 @@
 // clang-format on
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <future>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -198,6 +199,18 @@ Frame read_frame(Client& c) {
   }
   ADD_FAILURE() << "no frame in 100 messages";
   return f;
+}
+
+// The first text message (frames skipped) for which `done` is true, within 400 messages; every text message read is
+// shown to `done` first.
+std::optional<json> read_text_until(Client& c, const std::function<bool(const json&)>& done) {
+  for (int i = 0; i < 400; ++i) {
+    const Message m = c.read();
+    if (m.binary) continue;
+    json j = json::parse(m.data);
+    if (done(j)) return j;
+  }
+  return std::nullopt;
 }
 
 // The next error reply (frames of an earlier request may come first).
@@ -572,17 +585,13 @@ TEST(ViewServer, ShowsAGridWithTheExactEngineWhileItsStoreIsBuilt) {
   open_gate();
   // Progress ("ready"), then the store's scene; the next frames come from the store, for the same request.
   bool ready = false;
-  std::optional<json> scene;
-  for (int i = 0; i < 400 && !scene; ++i) {
-    const Message m = c.read();
-    if (m.binary) continue;
-    const json j = json::parse(m.data);
+  const std::optional<json> scene = read_text_until(c, [&](const json& j) {
     if (j["type"] == "progress" && j["stage"] == "ready") ready = true;
     if (j["type"] == "progress") {
       EXPECT_NE(j["stage"], "failed") << j.dump();
     }
-    if (j["type"] == "scene") scene = j;
-  }
+    return j["type"] == "scene";
+  });
   ASSERT_TRUE(scene) << "no new scene after the build";
   EXPECT_TRUE(ready);
   EXPECT_EQ((*scene)["engine"], "lod");
@@ -639,13 +648,8 @@ TEST(ViewServer, AFailedBuildIsReportedAndTheExactEngineGoesOn) {
   }
   Client c(server->port());
   c.send(R"({"type":"hello","width":32,"height":32})");
-  std::optional<json> failed;
-  for (int i = 0; i < 400 && !failed; ++i) {
-    const Message m = c.read();
-    if (m.binary) continue;
-    const json j = json::parse(m.data);
-    if (j["type"] == "progress" && j["stage"] == "failed") failed = j;
-  }
+  const std::optional<json> failed =
+      read_text_until(c, [](const json& j) { return j["type"] == "progress" && j["stage"] == "failed"; });
   ASSERT_TRUE(failed);
   EXPECT_NE((*failed)["message"].get<std::string>().find("ugvr-cannot-write"), std::string::npos) << failed->dump();
   c.send(R"({"type":"resize","width":40,"height":24})");

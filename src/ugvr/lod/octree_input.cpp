@@ -1,5 +1,6 @@
 #include "ugvr/lod/octree_input.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <variant>
@@ -21,18 +22,11 @@ ScalarRef resolve(const Dataset& ds, const Block& block, const std::string& sele
   }
 }
 
-// The selector of the default: the first field that is not constant (a constant field, such as the oxygen post's
-// density or spx's material, gives a one-node tree), else the first; never the IBLANK a conversion appended.
+// The selector of the default: the first field that is not constant (default_field_names).
 std::vector<std::string> default_selectors(const Dataset& ds, const Block& block) {
-  const Field* first = nullptr;
-  for (const Field& f : block.fields) {
-    if (f.name() == "IBLANK" && f.association() == Association::Vertex) continue;
-    if (!first) first = &f;
-    const Range r = f.range(kMagnitude);
-    if (r.max > r.min) return {f.name()};
-  }
-  if (!first) fail_in(source_of(ds), "the dataset has no fields to voxelize");
-  return {first->name()};
+  std::vector<std::string> names = default_field_names(block, 1);
+  if (names.empty()) fail_in(source_of(ds), "the dataset has no fields to voxelize");
+  return names;
 }
 
 // Blocks concatenated into one mesh; each selected scalar becomes a 1-component float64 field of the merged block.
@@ -87,6 +81,21 @@ std::string octree_field_name(const ScalarRef& scalar) {
   if (scalar.component == kMagnitude) return f.name() + ":magnitude";
   if (f.components() <= 3) return f.name() + ":" + "xyz"[scalar.component];
   return f.name() + ":" + std::to_string(scalar.component);
+}
+
+std::vector<std::string> default_field_names(const Block& block, size_t max_fields) {
+  std::vector<std::string> varying;
+  const Field* first = nullptr;
+  for (const Field& f : block.fields) {
+    if (f.name() == "IBLANK" && f.association() == Association::Vertex) continue;
+    if (!first) first = &f;
+    if (varying.size() == max_fields) break;
+    const Range r = f.range(kMagnitude);
+    if (r.max > r.min && std::find(varying.begin(), varying.end(), f.name()) == varying.end())
+      varying.push_back(f.name());
+  }
+  if (varying.empty() && first) varying.push_back(first->name());
+  return varying;
 }
 
 OctreeInput prepare_octree_input(const Dataset& ds, std::span<const std::string> selectors) {

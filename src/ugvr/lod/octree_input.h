@@ -35,6 +35,11 @@ struct OctreeInput {
 // one without volume.
 OctreeInput prepare_octree_input(const Dataset& dataset, std::span<const std::string> selectors);
 
+// The fields voxelized when none are named: those of `block` that are not constant (vectors by magnitude; a constant
+// field, such as the oxygen post's density or spx's material, gives a one-node tree), in the block's order, at most
+// `max_fields`, without the IBLANK a structured conversion appends; all constant: the first. Empty: no fields.
+std::vector<std::string> default_field_names(const Block& block, size_t max_fields);
+
 // The name a scalar gets in the store: the field's own name for a 1-component field, else "NAME:x|y|z|k" or
 // "NAME:magnitude" (docs/brick-store.md).
 std::string octree_field_name(const ScalarRef& scalar);

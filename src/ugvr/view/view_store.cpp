@@ -8,6 +8,7 @@
 #include <system_error>
 
 #include "ugvr/lod/brick_store.h"
+#include "ugvr/lod/octree_input.h"
 
 namespace ugvr::view {
 namespace {
@@ -60,18 +61,7 @@ std::string cached_store_path(std::span<const std::string> inputs, std::span<con
 }
 
 std::vector<std::string> default_view_fields(const Dataset& dataset, size_t max_fields) {
-  std::vector<std::string> out;
-  if (dataset.blocks.empty()) return out;
-  for (const Field& f : dataset.blocks[0].fields) {
-    if (f.name() == "IBLANK" && f.association() == Association::Vertex) continue;
-    if (out.size() == max_fields) break;
-    const Range r = f.range(kMagnitude);
-    if (r.max > r.min && std::find(out.begin(), out.end(), f.name()) == out.end()) out.push_back(f.name());
-  }
-  if (out.empty())
-    for (const Field& f : dataset.blocks[0].fields)
-      if (!(f.name() == "IBLANK" && f.association() == Association::Vertex)) return {f.name()};
-  return out;
+  return dataset.blocks.empty() ? std::vector<std::string>{} : default_field_names(dataset.blocks[0], max_fields);
 }
 
 }  // namespace ugvr::view
