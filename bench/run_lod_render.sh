@@ -45,7 +45,7 @@ for name in $datasets; do
       --frames "$frames" -o "$outdir/$tag.png" --float "$outdir/$tag.pfm" --stats "$scratch/stats.json"
     "$ugvr" compare "$ref" "$outdir/$tag.pfm" --json "$scratch/cmp.json" >/dev/null
     echo "{\"bench\":\"lod_render\",\"dataset\":\"$name\",\"store_error\":$error,\"cut\":\"$cut\",\"step_voxels\":$step,\"vs_exact\":$(cat "$scratch/cmp.json"),\"stats\":$(cat "$scratch/stats.json")}" |
-      /usr/bin/python3 -c "import json,sys; print(json.dumps(json.loads(sys.stdin.read()), separators=(',', ':')))" |
-      tee -a "$jsonl" | /usr/bin/python3 -c "import json,sys; j=json.loads(sys.stdin.read()); s=j['stats']; c=j['vs_exact']; print('%-10s %-9s nodes %6d  frame %.3f s wall, %.3f s CPU (GPU %.3f s)  %.3g samples  PSNR %.2f dB  SSIM %.4f  %s' % (j['dataset'], j['cut'], s['cut_nodes'], s['median_frame_seconds'], s['median_frame_cpu_seconds'], s['gpu_seconds'], s['samples'], c['psnr_db'], c['ssim'], s['renderer']))"
+      "${PYTHON:-/usr/bin/python3}" -c "import json,sys; print(json.dumps(json.loads(sys.stdin.read()), separators=(',', ':')))" |
+      tee -a "$jsonl" | "${PYTHON:-/usr/bin/python3}" -c "import json,sys; j=json.loads(sys.stdin.read()); s=j['stats']; c=j['vs_exact']; print('%-10s %-9s nodes %6d  frame %.3f s wall, %.3f s CPU (GPU %.3f s)  %.3g samples  PSNR %.2f dB  SSIM %.4f  %s' % (j['dataset'], j['cut'], s['cut_nodes'], s['median_frame_seconds'], s['median_frame_cpu_seconds'], s['gpu_seconds'], s['samples'], c['psnr_db'], c['ssim'], s['renderer']))"
   done
 done

@@ -36,7 +36,7 @@ render_path() {  # ugvr render arguments...: runs it, keeps its summary line (th
 }
 
 summarize() {  # NAME FPS(0 = none) STATS.jsonl
-  /usr/bin/python3 - "$1" "$2" "$3" "$frames" "$(grep '^rendered' "$scratch/render.log" | sed 's/.*mean texel error [0-9.]*, //')" <<'EOF' | tee -a "$jsonl"
+  "${PYTHON:-/usr/bin/python3}" - "$1" "$2" "$3" "$frames" "$(grep '^rendered' "$scratch/render.log" | sed 's/.*mean texel error [0-9.]*, //')" <<'EOF' | tee -a "$jsonl"
 import json, statistics, sys
 name, fps, path, orbit, renderer = sys.argv[1], float(sys.argv[2]), sys.argv[3], int(sys.argv[4]), sys.argv[5]
 rows = [json.loads(l) for l in open(path)]
