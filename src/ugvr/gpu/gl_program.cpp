@@ -178,6 +178,15 @@ void GlBuffer::upload(const void* data, size_t bytes) {
   if (bytes) glNamedBufferSubData(id_, 0, GLsizeiptr(bytes), data);
 }
 
+void GlBuffer::reserve_readback(size_t bytes) {
+  if (id_ && bytes <= size_) return;
+  reset();
+  glCreateBuffers(1, &id_);
+  size_ = std::max<size_t>(bytes, 16);
+  glNamedBufferStorage(id_, GLsizeiptr(size_), nullptr, GL_MAP_READ_BIT | GL_CLIENT_STORAGE_BIT);
+  check_gl("allocating a readback buffer");
+}
+
 void GlBuffer::reset() {
   if (id_) glDeleteBuffers(1, &id_);
   id_ = 0;

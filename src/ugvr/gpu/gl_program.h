@@ -58,6 +58,9 @@ class GlBuffer {
   }
   // (Re)allocates when `bytes` exceeds the current size, then uploads.
   void upload(const void* data, size_t bytes);
+  // (Re)allocates, when `bytes` exceeds the current size, a buffer the CPU maps for reading (a pixel-pack target:
+  // the driver fills it by DMA, where a read into client memory goes through a slow staging copy).
+  void reserve_readback(size_t bytes);
   GLuint id() const { return id_; }
   void reset();
 
