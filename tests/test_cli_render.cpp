@@ -336,10 +336,36 @@ TEST_F(CliRender, LodPathConvergesWhenTheCameraRests) {
   EXPECT_TRUE(last["converged"].get<bool>()) << last.dump();
   EXPECT_LT(last["cut_nodes"].get<uint64_t>(), lines.back()["cut_nodes"].get<uint64_t>())
       << "a coarser cut than with RAM";
-  // The path needs the lod engine.
-  const CommandResult e = render("-o " + file("x.png") + " --path orbit:3");
-  EXPECT_EQ(e.status, 1);
-  EXPECT_NE(e.out.find("--path"), std::string::npos) << e.out;
+}
+
+// Every engine draws along a path through the renderer interface: the exact engine at full quality without a target,
+// and with one at a reduced scale while the camera moves, converged (full size) once it rests.
+TEST_F(CliRender, ExactPathHoldsATargetAndConvergesAtRest) {
+  auto lines_of = [&](const std::string& flags) {
+    const CommandResult r = render("--size 24 --view iso -o " + file("x.png") + " --stats " + file("x.jsonl") + flags);
+    EXPECT_EQ(r.status, 0) << r.out;
+    std::ifstream in(file("x.jsonl"));
+    std::vector<json> lines;
+    for (std::string line; std::getline(in, line);) lines.push_back(json::parse(line));
+    return lines;
+  };
+  const std::vector<json> full = lines_of(" --path orbit:3");
+  ASSERT_EQ(full.size(), 3u);
+  for (const json& l : full) {
+    EXPECT_EQ(l["engine"], "exact");
+    EXPECT_TRUE(l["converged"].get<bool>());
+    EXPECT_EQ(l["scale"].get<double>(), 1.0);
+    EXPECT_GT(l["cell_steps"].get<uint64_t>(), 0u);
+  }
+  const std::vector<json> held = lines_of(" --path orbit:3,rest:2 --fps 1000");
+  ASSERT_EQ(held.size(), 5u);
+  for (size_t i = 0; i < 3; ++i) {
+    EXPECT_FALSE(held[i]["converged"].get<bool>()) << i;
+    EXPECT_LT(held[i]["scale"].get<double>(), 1.0) << i;
+  }
+  EXPECT_TRUE(held[4]["resting"].get<bool>());
+  EXPECT_TRUE(held[4]["converged"].get<bool>());
+  EXPECT_EQ(read_png(file("x.png")).width, 24);
 }
 
 }  // namespace

@@ -1,0 +1,205 @@
+#include "cli/render_flags.h"
+
+#include <algorithm>
+#include <charconv>
+#include <filesystem>
+
+#include "cli/cli_numbers.h"
+#include "cli/commands.h"
+#include "ugvr/core/file.h"
+#include "ugvr/render/transfer_function.h"
+
+namespace ugvr::cli {
+
+const std::vector<std::string> kViews = {"+x", "-x", "+y", "-y", "+z", "-z", "iso"};
+
+int parse_positive_int(std::string_view text, std::string_view flag) {
+  int v = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (text.empty() || ec != std::errc() || end != text.data() + text.size() || v < 1)
+    fail_flag(flag, "expected a positive integer, found \"" + std::string(text) + "\"");
+  return v;
+}
+
+std::vector<double> parse_list(std::string_view text, std::string_view flag, size_t min_count, size_t max_count,
+                               std::string_view form) {
+  std::vector<double> v;
+  size_t start = 0;
+  while (true) {
+    const size_t comma = text.find(',', start);
+    const std::string_view item = text.substr(start, comma == std::string_view::npos ? comma : comma - start);
+    v.push_back(parse_number(item, flag));
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+  if (v.size() < min_count || v.size() > max_count)
+    fail_flag(flag, "expected " + std::string(form) + ", found " + std::to_string(v.size()) + " value" +
+                        (v.size() == 1 ? "" : "s"));
+  return v;
+}
+
+double parse_fraction(std::string_view text, std::string_view flag) {
+  const double v = parse_number(text, flag);
+  if (v < 0 || v > 1) fail_flag(flag, "must be in [0, 1], found " + std::string(text));
+  return v;
+}
+
+std::string join(const std::vector<std::string>& names, std::string_view sep) {
+  std::string s;
+  for (const std::string& n : names) s += (s.empty() ? "" : std::string(sep)) + n;
+  return s;
+}
+
+RenderMode parse_mode(std::string_view text) {
+  if (text == "ea" || text == "emission_absorption") return RenderMode::EmissionAbsorption;
+  if (text == "mip") return RenderMode::Mip;
+  if (text == "iso" || text == "isosurface") return RenderMode::Isosurface;
+  fail_flag("--mode", "unknown mode \"" + std::string(text) + "\" (expected ea, mip or iso)");
+}
+
+void check_extension(const std::string& path, std::string_view flag, const std::vector<std::string>& allowed) {
+  const std::string ext = extension_lower(path);
+  if (std::find(allowed.begin(), allowed.end(), ext) == allowed.end())
+    fail_flag(flag, "\"" + path + "\" must end in " + join(allowed, " or "));
+}
+
+RenderSettings settings_from_flags(const RenderOptions& o) {
+  RenderSettings s =
+      o.settings.empty() ? RenderSettings{} : with_flag("--settings", [&] { return read_render_settings(o.settings); });
+  if (!o.size.empty()) {
+    const ImageSize size = parse_size(o.size, "--size");
+    s.width = size.width;
+    s.height = size.height;
+  }
+  if (!o.field.empty()) s.field = o.field;
+  if (!o.iso.empty()) {
+    s.iso_values = parse_list(o.iso, "--iso", 1, 4096, "one or more comma-separated values");
+    // Iso values only mean something in isosurface mode, so giving them picks it unless --mode says otherwise.
+    if (o.mode.empty()) s.mode = RenderMode::Isosurface;
+  }
+  if (!o.mode.empty()) s.mode = parse_mode(o.mode);
+  if (s.mode == RenderMode::Isosurface && s.iso_values.empty())
+    fail_flag("--mode", "isosurface mode needs --iso V1,V2,...");
+  if (!o.iso_opacity.empty()) s.iso_opacity = parse_fraction(o.iso_opacity, "--iso-opacity");
+  if (!o.clip.empty()) {
+    const std::vector<double> c = parse_list(o.clip, "--clip", 6, 6, "PX,PY,PZ,NX,NY,NZ");
+    const ClipPlane plane{{c[0], c[1], c[2]}, {c[3], c[4], c[5]}};
+    if (length(plane.normal) == 0) fail_flag("--clip", "the normal NX,NY,NZ must be non-zero");
+    s.clip_plane = plane;
+  }
+  if (!o.boundary_opacity.empty())
+    s.boundary_overlay_opacity = parse_fraction(o.boundary_opacity, "--boundary-opacity");
+  if (o.no_lighting) s.lighting = false;
+  if (o.volume_lighting) s.volume_lighting = true;
+  if (!o.background.empty()) {
+    const std::vector<double> b = parse_list(o.background, "--background", 3, 4, "R,G,B or R,G,B,A");
+    for (double c : b)
+      if (c < 0 || c > 1) fail_flag("--background", "components must be in [0, 1]");
+    s.background = {b[0], b[1], b[2], b.size() == 4 ? b[3] : 1.0};
+  }
+  with_flag("--settings", [&] { s.validate(o.settings.empty() ? "render settings" : o.settings); });
+  return s;
+}
+
+bool is_tf_file(const std::string& tf) {
+  std::error_code ec;
+  return extension_lower(tf) == ".json" || std::filesystem::is_regular_file(tf, ec);
+}
+
+void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
+  CLI::App* cmd = &cmd_ref;
+  RenderOptions* opts = &o;
+  add_input(*cmd, opts->inputs);
+  add_read_options(*cmd, opts->read);
+  cmd->add_option("-o,--output", opts->output, "Output image (.png or .pfm)")->required()->type_name("FILE");
+  cmd->add_option("--size", opts->size, "Image size: N (square) or WxH (default 512, or from --settings)")
+      ->type_name("N|WxH");
+  cmd->add_option("--engine", opts->engine,
+                  "Rendering engine: exact (CPU, a mesh), lod (GPU, a .ugvr brick store) or auto (lod for a .ugvr "
+                  "input, else exact)")
+      ->default_str("auto")
+      ->type_name("NAME");
+  cmd->add_option("--cut", opts->cut,
+                  "lod: which octree nodes to render: leaves, error:E (node error <= E of the field range) or "
+                  "pixels:P (one voxel <= P pixels on screen)")
+      ->default_str("pixels:1")
+      ->type_name("SPEC");
+  cmd->add_option("--gpu", opts->gpu, "lod: EGL device index, or auto (first GPU, else Mesa's llvmpipe)")
+      ->default_str("auto")
+      ->type_name("DEVICE");
+  cmd->add_option("--gpu-memory", opts->gpu_memory, "lod: GPU memory for bricks (e.g. 512MiB, 4GiB)")
+      ->transform(CLI::AsSizeValue(true))
+      ->default_str("2GiB");
+  cmd->add_option("--step-voxels", opts->step_voxels, "lod: sample step in voxels of each node (default 0.5)")
+      ->type_name("F");
+  cmd->add_option("--fps", opts->fps, "lod: target frame rate held along --path (time-critical level of detail)")
+      ->type_name("F");
+  cmd->add_option("--path", opts->path,
+                  "lod: camera path: orbit[:N][,rest:M] (a turn about view up in N frames, default --frames or 300, "
+                  "then M still "
+                  "frames at the start) or a JSON list of cameras (one frame each, or keyframes resampled to --frames "
+                  "frames); --stats then writes one JSON line per frame")
+      ->type_name("SPEC|FILE");
+  cmd->add_option("--out", opts->out_dir, "lod: write every frame of --path as DIR/frame_NNNNN.png")->type_name("DIR");
+  cmd->add_option("--ram-memory", opts->ram_memory, "lod: RAM cache for decoded bricks along --path")
+      ->transform(CLI::AsSizeValue(true))
+      ->default_str("1GiB");
+  cmd->add_option("--uploads-per-frame", opts->uploads_per_frame, "lod: bricks uploaded to the GPU per frame (64)")
+      ->type_name("N");
+  cmd->add_option("--error-weight", opts->error_weight,
+                  "lod, along --path: split by texel size x (node error / field range)^W, so nodes that hold their "
+                  "data exactly are not split (default 0: texel size alone)")
+      ->type_name("W");
+  cmd->add_option("--reads-per-frame", opts->reads_per_frame, "lod: brick reads requested per frame (256)")
+      ->type_name("N");
+  cmd->add_option("--camera", opts->camera, "Camera JSON file (as written by --save-camera)")->type_name("FILE");
+  cmd->add_option("--view", opts->view,
+                  "View preset framed on the data: +x -x +y -y +z -z iso; default: ParaView's default view, looking "
+                  "along -z with +y up")
+      ->type_name("NAME");
+  cmd->add_option("--view-angle", opts->view_angle, "Vertical view angle in degrees (default 30)")->type_name("DEG");
+  cmd->add_option("--tf", opts->tf,
+                  "Transfer function: a ParaView preset .json file, or a built-in preset: " +
+                      join(builtin_preset_names()) + " (default viridis)")
+      ->type_name("FILE|NAME");
+  cmd->add_option("--tf-name", opts->tf_name, "Preset to take from the --tf file (default: its first)")
+      ->type_name("NAME");
+  cmd->add_flag("--keep-range", opts->keep_range,
+                "Keep the transfer function's own scalar range instead of rescaling it to the field's range");
+  cmd->add_option("--range", opts->range, "Rescale the transfer function to MIN,MAX (default: the field's range)")
+      ->type_name("MIN,MAX");
+  cmd->add_option("--unit-distance", opts->unit_distance,
+                  "Scalar opacity unit distance (default: the --tf file's ScalarOpacityUnitDistance, else the "
+                  "bounds diagonal / 100; ParaView uses the mean cell size)")
+      ->type_name("D");
+  cmd->add_option("--field", opts->field, "Scalar to render: NAME, NAME:x|y|z|k or NAME:magnitude (default: first)")
+      ->type_name("NAME");
+  cmd->add_option("--mode", opts->mode, "ea (emission-absorption, default), mip or iso (isosurfaces)")
+      ->type_name("ea|mip|iso");
+  cmd->add_option("--iso", opts->iso, "Isosurface values V1,V2,... (implies --mode iso)")->type_name("V1,V2,...");
+  cmd->add_option("--iso-opacity", opts->iso_opacity, "Opacity of each isosurface in [0, 1] (default 1)")
+      ->type_name("A");
+  cmd->add_option("--clip", opts->clip, "Clip plane PX,PY,PZ,NX,NY,NZ: keeps the side the normal points to")
+      ->type_name("PX,PY,PZ,NX,NY,NZ");
+  cmd->add_option("--boundary-opacity", opts->boundary_opacity,
+                  "Opacity of the dataset's outer boundary drawn over the image (default 0: off)")
+      ->type_name("A");
+  cmd->add_flag("--no-lighting", opts->no_lighting, "No headlight shading of isosurfaces and the boundary");
+  cmd->add_flag("--volume-lighting", opts->volume_lighting, "Shade emission-absorption by the field gradient");
+  cmd->add_option("--background", opts->background, "Background R,G,B[,A] in [0, 1] (default ParaView's)")
+      ->type_name("R,G,B[,A]");
+  cmd->add_option("--settings", opts->settings, "Render settings JSON; the flags above override it")->type_name("FILE");
+  cmd->add_option("--float", opts->float_output, "Also write the image as a float .pfm")->type_name("FILE");
+  cmd->add_option("--stats", opts->stats, "Write timings, counters and the camera and settings used as JSON")
+      ->type_name("FILE");
+  cmd->add_option("--save-camera", opts->save_camera, "Write the camera used as JSON")->type_name("FILE");
+  cmd->add_option("--save-tf", opts->save_tf, "Write the transfer function used as a ParaView preset")
+      ->type_name("FILE");
+  cmd->add_option("--threads", opts->threads, "Limit the worker threads (default: all cores)")->type_name("N");
+  cmd->add_option("--frames", opts->frames,
+                  "Render N times (benchmarks): --stats lists every frame time and the median after the first; with "
+                  "--path: the number of frames along it")
+      ->type_name("N");
+}
+
+}  // namespace ugvr::cli

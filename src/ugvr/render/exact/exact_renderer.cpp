@@ -1,0 +1,126 @@
+#include "ugvr/render/exact/exact_renderer.h"
+
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "ugvr/core/error.h"
+#include "ugvr/core/memory.h"
+
+namespace ugvr {
+
+namespace {
+// Smallest scale while moving: below this the picture says too little to steer by.
+constexpr double kMinScale = 0.1;
+
+ExactEngine build_engine(const Dataset& dataset, const ProgressCallback& progress) {
+  if (progress && !progress("walk mesh", 0)) fail_in("exact engine", "cancelled");
+  ExactEngine engine(dataset);
+  if (progress && !progress("walk mesh", 1)) fail_in("exact engine", "cancelled");
+  return engine;
+}
+}  // namespace
+
+ExactScene::ExactScene(std::shared_ptr<const Dataset> data, const ProgressCallback& progress)
+    : dataset(std::move(data)), engine(build_engine(*dataset, progress)) {}
+
+void ExactScene::bind(const std::string& selector) {
+  if (bound && *bound == selector) return;
+  engine.set_field(*dataset, selector);
+  bound = selector;
+}
+
+void ExactFrameStats::to_json(nlohmann::json& j) const {
+  j["rays"] = render.rays;
+  j["rays_hit"] = render.rays_hit;
+  j["cell_steps"] = render.cell_steps;
+  j["reentries"] = render.reentries;
+  j["nonlinear_samples"] = render.nonlinear_samples;
+  j["lost_rays"] = render.lost_rays;
+}
+
+ExactRenderer::ExactRenderer(std::shared_ptr<ExactScene> scene) : scene_(std::move(scene)) { scene_->bind(field_); }
+
+std::string ExactRenderer::device() const {
+  return "CPU, " + std::to_string(tbb::this_task_arena::max_concurrency()) + " threads";
+}
+
+void ExactRenderer::set_field(std::string_view name) {
+  scene_->bind(std::string(name));
+  field_ = name;
+}
+
+const std::string& ExactRenderer::field_name() const {
+  scene_->bind(field_);
+  return scene_->engine.field_name();
+}
+
+FieldRange ExactRenderer::field_range() const {
+  scene_->bind(field_);
+  return {scene_->engine.field_min(), scene_->engine.field_max()};
+}
+
+Bounds ExactRenderer::bounds() const { return scene_->engine.bounds(); }
+
+Frame ExactRenderer::render(const FrameRequest& request) {
+  check_supported(request, "exact");
+  if (request.settings.field != field_) set_field(request.settings.field);
+  scene_->bind(field_);
+  const bool resting =
+      last_ && last_->camera == request.camera && last_->tf == request.tf && last_->settings == request.settings;
+  last_ = request;
+  const bool full = request.target_fps <= 0 || resting || request.full_quality;
+  const int w = request.settings.width, h = request.settings.height;
+  auto detail = std::make_shared<ExactFrameStats>();
+  Frame f;
+  f.stats.engine = "exact";
+  f.stats.resting = resting;
+  f.stats.scale = full ? 1.0 : scale_;
+  RenderSettings rs = request.settings;
+  rs.width = std::max(1, int(std::lround(w * f.stats.scale)));
+  rs.height = std::max(1, int(std::lround(h * f.stats.scale)));
+  Image image = scene_->engine.render(request.camera, request.tf, rs, &detail->render);
+  f.stats.seconds = detail->render.render_seconds;
+  if (full) {
+    f.image = std::move(image);
+  } else {
+    f.image = resize_bilinear(image, w, h);
+    if (f.stats.seconds > 0) {
+      // Time grows with the pixel count: scale by the square root of the ratio, damped against timing noise.
+      const double ideal = f.stats.scale * std::sqrt((1.0 / request.target_fps) / f.stats.seconds);
+      scale_ = std::clamp(0.5 * (scale_ + ideal), kMinScale, 1.0);
+    }
+  }
+  f.stats.converged = full;
+  f.stats.samples = detail->render.cell_steps;
+  f.stats.detail = std::move(detail);
+  return f;
+}
+
+void ExactRenderer::describe(nlohmann::json& j) const {
+  const ExactEngine& e = scene_->engine;
+  const uint64_t cells = e.cell_count();
+  j["cells"] = cells;
+  j["points"] = e.point_count();
+  j["build_seconds"] = e.build_seconds();
+  j["engine_bytes"] = e.memory_bytes();
+  j["engine_bytes_per_cell"] = cells ? double(e.memory_bytes()) / double(cells) : 0.0;
+}
+
+std::string ExactRenderer::summary(const FrameStats& last) const {
+  const ExactEngine& e = scene_->engine;
+  const auto* d = dynamic_cast<const ExactFrameStats*>(last.detail.get());
+  const ExactRenderStats st = d ? d->render : ExactRenderStats{};
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "%llu cells, build %.3f s, %llu of %llu rays hit, engine %s",
+                (unsigned long long)e.cell_count(), e.build_seconds(), (unsigned long long)st.rays_hit,
+                (unsigned long long)st.rays, format_bytes(e.memory_bytes()).c_str());
+  std::string s = buf;
+  if (st.lost_rays > 0) s += "\nwarning: " + std::to_string(st.lost_rays) + " rays were abandoned on a degenerate walk";
+  return s;
+}
+
+}  // namespace ugvr

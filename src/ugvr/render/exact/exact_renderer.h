@@ -1,0 +1,56 @@
+// The exact engine (exact_engine.h) behind the renderer interface (render/renderer.h).
+//
+// One ExactScene (a dataset and its walk mesh, built once) can serve several renderers: the viewer gives every tab its
+// own, with its own adaptive image scale, over one walk mesh. The scene's engine binds one field at a time; a
+// renderer binds the field its request names before drawing, so tabs on different fields take turns.
+//
+// Interactive (a request with target_fps > 0): while the view moves, frames are drawn at a reduced scale that follows
+// the frame-rate target (sqrt(target time / measured time), damped, in [0.1, 1]) and magnified; the frame after the
+// view comes to rest, or one asked for at full quality, is the full-size exact image (converged).
+#pragma once
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "ugvr/grid/dataset.h"
+#include "ugvr/render/exact/exact_engine.h"
+#include "ugvr/render/renderer.h"
+
+namespace ugvr {
+
+struct ExactScene {
+  // Builds the walk mesh (seconds for millions of cells); `progress` sees the stage and may cancel.
+  explicit ExactScene(std::shared_ptr<const Dataset> dataset, const ProgressCallback& progress = {});
+  std::shared_ptr<const Dataset> dataset;
+  ExactEngine engine;
+  std::optional<std::string> bound;  // the selector bound now
+  void bind(const std::string& selector);
+};
+
+// The exact engine's own figures for --stats.
+struct ExactFrameStats : EngineFrameStats {
+  ExactRenderStats render;
+  void to_json(nlohmann::json& j) const override;
+};
+
+class ExactRenderer final : public Renderer {
+ public:
+  explicit ExactRenderer(std::shared_ptr<ExactScene> scene);
+  std::string_view engine() const override { return "exact"; }
+  std::string device() const override;
+  void set_field(std::string_view name) override;
+  const std::string& field_name() const override;
+  FieldRange field_range() const override;
+  Bounds bounds() const override;
+  Frame render(const FrameRequest& request) override;
+  void describe(nlohmann::json& j) const override;
+  std::string summary(const FrameStats& last) const override;
+
+ private:
+  std::shared_ptr<ExactScene> scene_;
+  std::string field_;                 // this renderer's selector ("" until set: the dataset's first field)
+  double scale_ = 0.5;                // interactive image scale while moving
+  std::optional<FrameRequest> last_;  // the request the previous frame showed (resting = the same again)
+};
+
+}  // namespace ugvr

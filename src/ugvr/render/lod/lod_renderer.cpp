@@ -1,0 +1,222 @@
+#include "ugvr/render/lod/lod_renderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <nlohmann/json.hpp>
+
+#include "ugvr/core/memory.h"
+
+namespace ugvr {
+
+namespace {
+
+// A store field name, "" meaning the store's first.
+std::string resolve_field(const LodEngine& engine, const std::string& name) {
+  return name.empty() ? engine.store().layout().fields.front().name : name;
+}
+
+void bind_field(LodEngine& engine, const std::string& name) {
+  if (engine.field_name() != resolve_field(engine, name)) engine.set_field(name);
+}
+
+nlohmann::json unlimited_or(uint64_t v) {
+  return v == std::numeric_limits<uint64_t>::max() ? nlohmann::json(nullptr) : nlohmann::json(v);
+}
+
+void describe_store(const LodScene& scene, nlohmann::json& j) {
+  j["renderer"] = scene.gl->renderer();
+  j["gl_version"] = scene.gl->version();
+  j["nodes"] = scene.engine.node_count();
+  j["brick_resolution"] = scene.engine.resolution();
+}
+
+}  // namespace
+
+LodScene::LodScene(const std::string& store_path, std::shared_ptr<const GlContext> context, LodOptions lod_options)
+    : gl(std::move(context)), options(lod_options), engine(store_path, *gl, lod_options) {}
+
+void LodFrameStats::to_json(nlohmann::json& j) const {
+  const LodRenderStats& st = render;
+  j["cut"] = cut_spec_name(cut);
+  j["cut_nodes"] = st.cut_nodes;
+  j["cut_max_level"] = st.max_level;
+  j["cut_mean_level"] = st.mean_level;
+  j["culled_frustum"] = st.culled_frustum;
+  j["culled_tf"] = st.culled_tf;
+  j["budget_limited"] = st.budget_limited;
+  j["bricks_loaded_last_frame"] = st.bricks_loaded;
+  j["cut_seconds"] = st.cut_seconds;
+  j["load_seconds"] = st.load_seconds;
+  j["gpu_seconds"] = st.gpu_seconds;
+  j["gpu_timer_seconds"] = st.gpu_timer_seconds;
+  j["samples"] = st.samples;
+  j["samples_per_second"] = st.gpu_seconds > 0 ? double(st.samples) / st.gpu_seconds : 0.0;
+  j["bricks_entered"] = st.bricks_entered;
+  j["readback_seconds"] = st.readback_seconds;
+  j["atlas_bytes"] = st.atlas_bytes;
+  j["atlas_slots"] = st.atlas_slots;
+}
+
+void InteractiveLodFrameStats::to_json(nlohmann::json& j) const {
+  const TimeCriticalFrame& f = frame;
+  j["seconds"] = f.seconds;
+  j["resting"] = f.resting;
+  j["converged"] = f.converged;
+  j["memory_limited"] = f.memory_limited;
+  j["scale"] = f.scale;
+  j["budget_samples"] = unlimited_or(f.budget_samples);
+  j["budget_nodes"] = unlimited_or(f.budget_nodes);
+  j["cut_nodes"] = f.cut_nodes;
+  j["visible_nodes"] = f.visible_nodes;
+  j["splits"] = f.splits;
+  j["merges"] = f.merges;
+  j["max_texel_error"] = f.max_error;
+  j["mean_texel_error"] = f.mean_error;
+  j["uploads"] = f.uploads;
+  j["uploaded_bytes"] = f.uploads * uint64_t(std::pow(brick_resolution + 2, 3)) * 4;
+  j["sync_reads"] = f.sync_reads;
+  j["requested"] = f.requested;
+  j["ram_hits"] = f.cache.hits;
+  j["ram_misses"] = f.cache.misses;
+  j["disk_reads"] = f.cache.loads_completed;
+  j["disk_bytes"] = f.cache.bytes_read;
+  j["ram_evictions"] = f.cache.evictions;
+  j["ram_over_budget"] = f.cache.over_budget;
+  j["ram_resident_bytes"] = f.cache.resident_bytes;
+  j["gpu_seconds"] = f.render.gpu_seconds;
+  j["gpu_timer_seconds"] = f.render.gpu_timer_seconds;
+  j["samples"] = f.render.samples;
+}
+
+// --- one cut per frame
+
+LodRenderer::LodRenderer(std::shared_ptr<LodScene> scene, CutSpec cut) : scene_(std::move(scene)), cut_(cut) {}
+
+void LodRenderer::set_field(std::string_view name) {
+  bind_field(scene_->engine, std::string(name));
+  field_ = name;
+}
+
+const std::string& LodRenderer::field_name() const {
+  bind_field(scene_->engine, field_);
+  return scene_->engine.field_name();
+}
+
+FieldRange LodRenderer::field_range() const {
+  bind_field(scene_->engine, field_);
+  return {scene_->engine.field_min(), scene_->engine.field_max()};
+}
+
+Frame LodRenderer::render(const FrameRequest& request) {
+  check_supported(request, "lod");
+  if (request.settings.field != field_) set_field(request.settings.field);
+  LodEngine& engine = scene_->engine;
+  bind_field(engine, field_);
+  // The scene may be shared with a renderer that changed the step.
+  engine.set_step_voxels(request.step_voxels > 0 ? request.step_voxels : scene_->options.step_voxels);
+  auto detail = std::make_shared<LodFrameStats>();
+  detail->cut = cut_;
+  Frame f;
+  f.image = engine.render(request.camera, request.tf, request.settings, cut_, &detail->render);
+  const LodRenderStats& st = detail->render;
+  f.stats.engine = "lod";
+  f.stats.seconds = st.render_seconds;
+  f.stats.samples = st.samples;
+  f.stats.cut_nodes = st.cut_nodes;
+  f.stats.visible_nodes = st.cut_nodes;
+  f.stats.gpu_bytes = st.atlas_bytes;
+  f.stats.gpu_budget = scene_->options.atlas_budget_bytes;
+  f.stats.detail = std::move(detail);
+  return f;
+}
+
+void LodRenderer::describe(nlohmann::json& j) const { describe_store(*scene_, j); }
+
+std::string LodRenderer::summary(const FrameStats& last) const {
+  const auto* d = dynamic_cast<const LodFrameStats*>(last.detail.get());
+  const LodRenderStats st = d ? d->render : LodRenderStats{};
+  char buf[512];
+  std::snprintf(buf, sizeof buf, "cut %s: %llu nodes (levels <= %d, mean %.2f%s), GPU %.3f s, atlas %s, %s",
+                cut_spec_name(cut_).c_str(), (unsigned long long)st.cut_nodes, st.max_level, st.mean_level,
+                st.budget_limited ? ", limited by --gpu-memory" : "", st.gpu_seconds,
+                format_bytes(st.atlas_bytes).c_str(), scene_->gl->renderer().c_str());
+  return buf;
+}
+
+// --- time-critical session
+
+InteractiveLodRenderer::InteractiveLodRenderer(std::shared_ptr<LodScene> scene, TimeCriticalOptions options)
+    : scene_(std::move(scene)), options_(options) {}
+
+InteractiveLodRenderer::~InteractiveLodRenderer() = default;
+
+void InteractiveLodRenderer::set_field(std::string_view name) {
+  bind_field(scene_->engine, std::string(name));
+  field_ = name;
+}
+
+const std::string& InteractiveLodRenderer::field_name() const {
+  bind_field(scene_->engine, field_);
+  return scene_->engine.field_name();
+}
+
+FieldRange InteractiveLodRenderer::field_range() const {
+  bind_field(scene_->engine, field_);
+  return {scene_->engine.field_min(), scene_->engine.field_max()};
+}
+
+Frame InteractiveLodRenderer::render(const FrameRequest& request) {
+  check_supported(request, "lod");
+  if (request.settings.field != field_) set_field(request.settings.field);
+  LodEngine& engine = scene_->engine;
+  bind_field(engine, field_);
+  const std::string field = engine.field_name();
+  const double step = request.step_voxels > 0 ? request.step_voxels : options_.resting_step_voxels;
+  if (!session_ || session_field_ != field || session_step_ != step) {
+    TimeCriticalOptions tc = options_;
+    tc.target_fps = request.target_fps;
+    if (request.step_voxels > 0) {
+      tc.resting_step_voxels = step;
+      tc.moving_step_voxels = std::max(options_.moving_step_voxels, step);
+    }
+    session_.reset();  // its cache's threads end before the next one starts
+    session_ = std::make_unique<TimeCriticalRenderer>(engine, tc);
+    session_field_ = field, session_step_ = step, session_fps_ = request.target_fps;
+  }
+  if (request.target_fps != session_fps_) session_->set_target_fps(request.target_fps);
+  session_fps_ = request.target_fps;
+
+  auto detail = std::make_shared<InteractiveLodFrameStats>();
+  detail->brick_resolution = engine.resolution();
+  TimeCriticalFrame& tf = detail->frame;
+  Frame f;
+  f.image = request.full_quality ? session_->full_quality(request.camera, request.tf, request.settings, &tf)
+                                 : session_->frame(request.camera, request.tf, request.settings, &tf);
+  FrameStats& s = f.stats;
+  s.engine = "lod";
+  s.seconds = tf.seconds;
+  s.converged = tf.converged || request.full_quality;
+  s.resting = tf.resting;
+  s.scale = tf.scale;
+  s.samples = tf.render.samples;
+  s.cut_nodes = tf.cut_nodes, s.visible_nodes = tf.visible_nodes;
+  s.texel_error = tf.mean_error, s.max_texel_error = tf.max_error;
+  s.ram_bytes = tf.cache.resident_bytes, s.ram_budget = options_.ram_budget_bytes;
+  s.gpu_bytes = tf.render.atlas_bytes, s.gpu_budget = scene_->options.atlas_budget_bytes;
+  s.pending = tf.cache.queued + tf.cache.loading;
+  s.detail = std::move(detail);
+  return f;
+}
+
+void InteractiveLodRenderer::describe(nlohmann::json& j) const { describe_store(*scene_, j); }
+
+std::string InteractiveLodRenderer::summary(const FrameStats& last) const {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "cut %llu nodes, texel error %.3f, %s", (unsigned long long)last.cut_nodes,
+                last.texel_error, scene_->gl->renderer().c_str());
+  return buf;
+}
+
+}  // namespace ugvr

@@ -1,0 +1,87 @@
+// The level-of-detail engine (lod_engine.h) behind the renderer interface (render/renderer.h), in two forms:
+//  - LodRenderer: every frame draws the cut a CutSpec chooses ("leaves", "error:E", "pixels:P"): `ugvr render STORE`;
+//  - InteractiveLodRenderer: a time-critical session (time_critical.h) that holds the request's target frame rate
+//    while the view moves and refines to full quality when it rests: `ugvr render --path`, the viewer's tabs.
+// Both draw from a LodScene, a store opened on a GL context; several renderers may share one (the viewer's tabs share
+// its atlas). The scene's engine binds one field at a time: a renderer binds the field its request names first.
+#pragma once
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "ugvr/gpu/gl_context.h"
+#include "ugvr/render/lod/lod_cut.h"
+#include "ugvr/render/lod/lod_engine.h"
+#include "ugvr/render/lod/time_critical.h"
+#include "ugvr/render/renderer.h"
+
+namespace ugvr {
+
+struct LodScene {
+  // Opens the store (validated) on `gl`, which must be current on the calling thread. Throws ugvr::Error.
+  LodScene(const std::string& store_path, std::shared_ptr<const GlContext> gl, LodOptions options = {});
+  std::shared_ptr<const GlContext> gl;
+  LodOptions options;
+  LodEngine engine;
+};
+
+// One cut per frame: the engine's figures.
+struct LodFrameStats : EngineFrameStats {
+  LodRenderStats render;
+  CutSpec cut;
+  void to_json(nlohmann::json& j) const override;
+};
+
+// A time-critical frame: the controller's and the caches' figures.
+struct InteractiveLodFrameStats : EngineFrameStats {
+  TimeCriticalFrame frame;
+  uint32_t brick_resolution = 0;  // samples per brick axis (uploaded bricks carry one more on each side)
+  void to_json(nlohmann::json& j) const override;
+};
+
+class LodRenderer final : public Renderer {
+ public:
+  LodRenderer(std::shared_ptr<LodScene> scene, CutSpec cut);
+  std::string_view engine() const override { return "lod"; }
+  std::string device() const override { return scene_->gl->renderer(); }
+  void set_field(std::string_view name) override;
+  const std::string& field_name() const override;
+  FieldRange field_range() const override;
+  Bounds bounds() const override { return scene_->engine.bounds(); }
+  Frame render(const FrameRequest& request) override;
+  void describe(nlohmann::json& j) const override;
+  std::string summary(const FrameStats& last) const override;
+
+ private:
+  std::shared_ptr<LodScene> scene_;
+  CutSpec cut_;
+  std::string field_;  // as bound by set_field (a store field name; "" = the first)
+};
+
+class InteractiveLodRenderer final : public Renderer {
+ public:
+  // options.target_fps is replaced by each request's target_fps.
+  InteractiveLodRenderer(std::shared_ptr<LodScene> scene, TimeCriticalOptions options);
+  ~InteractiveLodRenderer() override;
+  std::string_view engine() const override { return "lod"; }
+  std::string device() const override { return scene_->gl->renderer(); }
+  void set_field(std::string_view name) override;
+  const std::string& field_name() const override;
+  FieldRange field_range() const override;
+  Bounds bounds() const override { return scene_->engine.bounds(); }
+  Frame render(const FrameRequest& request) override;
+  void describe(nlohmann::json& j) const override;
+  std::string summary(const FrameStats& last) const override;
+
+ private:
+  std::shared_ptr<LodScene> scene_;
+  TimeCriticalOptions options_;
+  std::string field_;
+  // The session: its active cut, RAM cache and cost estimate belong to one field and step; a new one starts when
+  // either changes.
+  std::unique_ptr<TimeCriticalRenderer> session_;
+  std::string session_field_;
+  double session_step_ = -1, session_fps_ = -1;
+};
+
+}  // namespace ugvr

@@ -1,0 +1,68 @@
+#include "ugvr/render/renderer_factory.h"
+
+#include <algorithm>
+#include <filesystem>
+
+namespace ugvr {
+
+namespace {
+
+// Runs f; an ugvr::Error it throws becomes an OptionError naming `option`.
+template <class F>
+auto for_option(const std::string& option, F&& f) {
+  try {
+    return f();
+  } catch (const OptionError&) {
+    throw;
+  } catch (const Error& e) {
+    throw OptionError(option, e.what());
+  }
+}
+
+template <class R>
+std::unique_ptr<Renderer> bound(std::unique_ptr<R> r, const RendererOptions& options) {
+  if (!options.field.empty()) for_option("field", [&] { r->set_field(options.field); });
+  return r;
+}
+
+}  // namespace
+
+const std::vector<std::string>& engine_names() {
+  static const std::vector<std::string> names = {"auto", "exact", "lod"};
+  return names;
+}
+
+bool is_brick_store(const std::string& path) { return std::filesystem::path(path).extension() == ".ugvr"; }
+
+std::unique_ptr<Renderer> make_renderer(std::shared_ptr<ExactScene> scene, const RendererOptions& options) {
+  return bound(std::make_unique<ExactRenderer>(std::move(scene)), options);
+}
+
+std::unique_ptr<Renderer> make_renderer(std::shared_ptr<LodScene> scene, const RendererOptions& options) {
+  if (options.interactive)
+    return bound(std::make_unique<InteractiveLodRenderer>(std::move(scene), options.time_critical), options);
+  return bound(std::make_unique<LodRenderer>(std::move(scene), options.cut), options);
+}
+
+std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, const ReadOptions& read,
+                                        const RendererOptions& options, OpenedInput* opened) {
+  const std::vector<std::string>& names = engine_names();
+  if (std::find(names.begin(), names.end(), options.engine) == names.end()) {
+    std::string valid;
+    for (const std::string& n : names) valid += (valid.empty() ? "" : ", ") + n;
+    throw OptionError("engine", "unknown engine \"" + options.engine + "\" (valid: " + valid + ")");
+  }
+  const bool store = inputs.size() == 1 && is_brick_store(inputs[0]);
+  const bool lod = options.engine == "lod" || (options.engine == "auto" && store);
+  if (!lod && store) throw OptionError("engine", "a brick store (.ugvr) renders with the lod engine");
+  if (lod) {
+    if (!store) throw OptionError("engine", "the lod engine renders one brick store (.ugvr, made by `ugvr build`)");
+    auto gl = for_option("gpu", [&] { return std::make_shared<GlContext>(options.gpu); });
+    return make_renderer(std::make_shared<LodScene>(inputs[0], std::move(gl), options.lod), options);
+  }
+  auto dataset = std::make_shared<Dataset>(read_dataset(inputs, read));
+  if (opened) opened->warnings = dataset->warnings;
+  return make_renderer(std::make_shared<ExactScene>(std::move(dataset), options.progress), options);
+}
+
+}  // namespace ugvr
