@@ -2,6 +2,8 @@
 // ParaView preset JSON, and render settings.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 #include <functional>
 #include <numbers>

@@ -8,7 +8,7 @@
 //    "parallel_projection": false, "parallel_scale": 1}
 #pragma once
 
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <string_view>
 
