@@ -73,9 +73,8 @@ class ViewServer {
   // Stops serving: closes the listener and the sessions and joins the threads. Idempotent.
   void stop();
 
-  struct Impl;  // public only so that the .cpp's session classes can name it
-
  private:
+  struct Impl;
   std::unique_ptr<Impl> impl_;
 };
 

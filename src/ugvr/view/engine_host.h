@@ -1,0 +1,87 @@
+// What the viewer's render thread owns (view_server.h): the OpenGL context, the engine that draws, and each tab's
+// renderer. The engine is the level-of-detail engine over the brick store (render/lod, one time-critical renderer per
+// tab), or, while the store of a grid is built in the background (background_build.h), the exact CPU engine
+// (exact_preview.h) until the build is done and every tab moves to the store.
+//
+// Everything here lives and dies on the render thread (the GL context is current on the thread that created it) and
+// takes no lock: the server calls it with or without its own lock, as each call's cost allows.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "ugvr/view/background_build.h"
+#include "ugvr/view/frame_scheduler.h"
+#include "ugvr/view/view_protocol.h"
+#include "ugvr/view/view_server.h"
+
+namespace ugvr {
+class GlContext;
+class LodEngine;
+}  // namespace ugvr
+
+namespace ugvr::view {
+
+class ExactPreview;
+
+class EngineHost {
+ public:
+  // Creates the GL context; opens options.store, or, with options.dataset, reads the grid's fields (validating them)
+  // and starts building its store. Throws ugvr::Error.
+  explicit EngineHost(ViewServerOptions options);
+  ~EngineHost();  // cancels a build still running; then the tabs' renderers, the engines, the GL context
+  EngineHost(const EngineHost&) = delete;
+  EngineHost& operator=(const EngineHost&) = delete;
+
+  // The scene the tabs are shown now (fields, bounds, the reset camera, the engine).
+  const SceneInfo& scene() const { return scene_; }
+
+  // The background build: while one runs its progress is polled.
+  bool building() const { return build_ != nullptr; }
+  struct BuildReport {
+    BackgroundBuild::Stage stage = BackgroundBuild::Stage::Running;
+    ProgressInfo progress;  // for the page: "build" while running, "failed"; nothing to say when done
+  };
+  // What the build is doing; nullopt when there is none (the store was given, or the build is over).
+  std::optional<BuildReport> build_report() const;
+  // The progress a tab is shown before the build's first report; nullopt when there is no build.
+  std::optional<ProgressInfo> initial_progress() const;
+  // Forgets a failed build: the exact engine goes on showing the grid.
+  void drop_build();
+  // The build is done: opens its store and moves every tab to it, its renderer started afresh (the exact preview and
+  // the grid are freed). Slow: reads the store. `opened` false: the store cannot be opened, the exact engine goes on.
+  struct Switch {
+    bool opened = false;
+    ProgressInfo progress;  // "ready" (a new scene() follows), or "failed"
+  };
+  Switch switch_to_store();
+
+  // A tab's frame: FrameStatus, and the image, JPEG while moving or refining, PNG once converged (status.png).
+  struct Frame {
+    FrameStatus status;
+    std::shared_ptr<const std::string> image;
+  };
+  // Draws `job`'s frame with its tab's renderer (made on the tab's first frame). Throws (ugvr::Error and others).
+  Frame render(const FrameJob& job);
+  // A tab has closed: its renderer goes (it joins its brick cache's threads).
+  void forget(uint64_t tab);
+
+ private:
+  struct Tab;
+  SceneInfo lod_scene() const;
+
+  ViewServerOptions options_;
+  std::string renderer_;  // GL_RENDERER
+  SceneInfo scene_;
+  // Declared in the order they are made; destroyed in reverse (as ~EngineHost spells out).
+  std::unique_ptr<GlContext> gl_;
+  std::unique_ptr<LodEngine> engine_;
+  std::unique_ptr<ExactPreview> preview_;
+  std::map<uint64_t, std::unique_ptr<Tab>> tabs_;  // each tab's renderer and frame counters
+  std::unique_ptr<BackgroundBuild> build_;
+};
+
+}  // namespace ugvr::view

@@ -1,0 +1,84 @@
+#include "ugvr/view/frame_scheduler.h"
+
+#include <algorithm>
+
+namespace ugvr::view {
+namespace {
+
+bool wants_more(const TabState& t) {
+  return !(t.view.generation == t.rendered_generation && t.converged && !t.view.full_quality);
+}
+
+}  // namespace
+
+bool wants_frame(const TabState& tab) { return tab.view.ready && !tab.closed && !tab.in_flight && wants_more(tab); }
+
+bool is_streaming(const TabState& tab) { return tab.view.ready && !tab.closed && wants_more(tab); }
+
+void FrameScheduler::add(TabState tab) { tabs_.push_back(std::move(tab)); }
+
+TabState* FrameScheduler::find(uint64_t id) {
+  for (TabState& t : tabs_)
+    if (t.id == id) return &t;
+  return nullptr;
+}
+
+void FrameScheduler::close(uint64_t id) {
+  if (TabState* t = find(id)) t->closed = true;
+}
+
+std::vector<uint64_t> FrameScheduler::remove_closed() {
+  std::vector<uint64_t> gone;
+  std::erase_if(tabs_, [&](const TabState& t) {
+    if (t.closed) gone.push_back(t.id);
+    return t.closed;
+  });
+  return gone;
+}
+
+std::optional<FrameJob> FrameScheduler::next() {
+  size_t streaming = 0;
+  for (const TabState& t : tabs_) streaming += is_streaming(t) ? 1 : 0;
+  for (size_t k = 0; k < tabs_.size(); ++k) {
+    const size_t i = (next_ + k) % tabs_.size();
+    TabState& t = tabs_[i];
+    if (!wants_frame(t)) continue;
+    next_ = i + 1;  // round-robin: the next turn starts after this tab
+    FrameJob job;
+    job.tab = t.id;
+    job.request = t.view.request;
+    job.generation = t.view.generation;
+    job.full_quality = t.view.full_quality;
+    job.resting = t.view.generation == t.rendered_generation;
+    job.streaming = std::max<size_t>(streaming, 1);
+    // Frame budgets are shared: while N tabs stream, each tab's controller targets N x its rate, so that every tab
+    // gets about the rate it asked for instead of each measuring only its own frames and all falling behind.
+    job.target_fps = job.request.fps * double(job.streaming);
+    t.view.full_quality = false;
+    t.in_flight = true;
+    return job;
+  }
+  return std::nullopt;
+}
+
+void FrameScheduler::rendered(const FrameJob& job, bool converged, bool failed) {
+  TabState* t = find(job.tab);
+  if (!t) return;
+  t->rendered_generation = job.generation;
+  // A failed view is not retried until the client changes it.
+  t->converged = converged || failed;
+  if (failed) t->in_flight = false;
+}
+
+void FrameScheduler::delivered(uint64_t id) {
+  if (TabState* t = find(id)) t->in_flight = false;
+}
+
+void FrameScheduler::redraw_all() {
+  for (TabState& t : tabs_) {
+    t.rendered_generation = ~uint64_t(0);
+    t.converged = false;
+  }
+}
+
+}  // namespace ugvr::view

@@ -1,0 +1,79 @@
+// Which browser tab the viewer's render thread draws next (view_server.h, "Scheduling"). Pure bookkeeping: no
+// sockets, no GL, no threads; the server keeps one FrameScheduler under its lock, the I/O thread updates the tabs'
+// views and the render thread asks next().
+//
+// Latest wins: a tab holds only its latest requested view (view_request.h), so stale requests are dropped, never
+// queued. Turns go round-robin, one frame per turn, to a tab that has said hello, has no frame still on its way to
+// the client, and wants one (wants_frame). The frame on the wire is the back-pressure: a slow client gets fewer
+// frames, never a queue, and cannot hold up the others.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "ugvr/view/view_request.h"
+
+namespace ugvr::view {
+
+// One tab as the scheduler sees it.
+struct TabState {
+  uint64_t id = 0;
+  ViewState view;                    // the latest request (ready: said hello; generation: messages accepted)
+  bool in_flight = false;            // a frame of this tab is on its way to the client
+  bool converged = false;            // its last frame was converged (or failed: not retried until the view changes)
+  uint64_t rendered_generation = 0;  // view.generation its last frame showed
+  bool closed = false;               // its socket has gone; remove_closed() drops it
+};
+
+// A tab wants a frame: it said hello, has none on the wire, and its view changed, or is still refining, or it asked
+// for full quality.
+bool wants_frame(const TabState& tab);
+// A tab streams frames: as wants_frame, a frame on the wire or not. These tabs share the frame budget.
+bool is_streaming(const TabState& tab);
+
+// One frame to draw: a copy of the tab's request, taken under the lock.
+struct FrameJob {
+  uint64_t tab = 0;
+  ViewRequest request;
+  uint64_t generation = 0;    // the request's view.generation (FrameStatus.request)
+  bool full_quality = false;  // the tab asked for a converged frame now
+  bool resting = false;       // the view is the one the tab's previous frame showed
+  size_t streaming = 1;       // tabs streaming now (at least 1, this one)
+  double target_fps = 0;      // the frame-rate target of the tab's controller: request.fps x streaming
+};
+
+class FrameScheduler {
+ public:
+  // A tab whose socket is open joins the round (at its end).
+  void add(TabState tab);
+  // The tab `id`, or null when it has been removed.
+  TabState* find(uint64_t id);
+  // Every tab, in round order (closed ones not yet removed included).
+  std::vector<TabState>& tabs() { return tabs_; }
+  const std::vector<TabState>& tabs() const { return tabs_; }
+  size_t size() const { return tabs_.size(); }
+
+  // Its socket has gone: it gets no more frames; remove_closed() drops it.
+  void close(uint64_t id);
+  // Drops the closed tabs and returns their ids (their renderers go too).
+  std::vector<uint64_t> remove_closed();
+
+  // The next frame: for the first tab after the previous turn's that wants one. Marks the tab in flight and takes its
+  // full-quality request. nullopt: no tab wants a frame.
+  std::optional<FrameJob> next();
+  // `job`'s frame was drawn: `converged`, or `failed` (then nothing goes on the wire, and the view is not drawn again
+  // until the client changes it).
+  void rendered(const FrameJob& job, bool converged, bool failed);
+  // The last message of the tab's frame has been written: it may get the next one.
+  void delivered(uint64_t id);
+  // Every tab draws again, as if its view had changed (the engine has changed).
+  void redraw_all();
+
+ private:
+  std::vector<TabState> tabs_;
+  size_t next_ = 0;  // where the next turn starts looking
+};
+
+}  // namespace ugvr::view
