@@ -1,5 +1,5 @@
 // The viewer's store cache (view_store.h), its background build (background_build.h) and the exact engine's preview
-// frames (exact_preview.h).
+// frames (render/exact/exact_renderer.h).
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -12,8 +12,8 @@
 #include "ugvr/gen/generator.h"
 #include "ugvr/lod/brick_store.h"
 #include "ugvr/render/camera.h"
+#include "ugvr/render/renderer_factory.h"
 #include "ugvr/view/background_build.h"
-#include "ugvr/view/exact_preview.h"
 #include "ugvr/view/view_store.h"
 
 namespace ugvr::view {
@@ -110,28 +110,41 @@ TEST(BackgroundBuild, AFailureIsReported) {
   EXPECT_NE(st.error.find("no_such_field"), std::string::npos) << st.error;
 }
 
+// The viewer's picture of a grid while its store is built: the exact engine as an interactive renderer.
 TEST(ExactPreview, ScaledWhileMovingAndFullSizeAtRest) {
-  ExactPreview preview(wing(3000));
-  ViewRequest r;
-  r.width = 96, r.height = 64;
-  r.camera = reset_camera(preview.bounds(), 30);
+  RendererOptions ro;
+  ro.interactive = true;
+  auto scene = std::make_shared<ExactScene>(wing(3000));
+  auto preview = make_renderer(scene, ro);
+  auto other_tab = make_renderer(scene, ro);  // one walk mesh, a scale per tab
+  FrameRequest r;
+  r.settings.width = 96, r.settings.height = 64;
+  r.camera = reset_camera(preview->bounds(), 30);
   r.tf = builtin_preset("viridis");
   r.tf.rescale(0, 1.2);
   r.settings.field = "velocity";
-  r.fps = 1000;  // a target no frame meets: the scale goes down
-  ExactPreview::Tab tab;
-  const ExactPreview::Frame moving = preview.render(tab, r, false);
-  EXPECT_FALSE(moving.converged);
+  r.target_fps = 1000;  // a target no frame meets: the scale goes down
+  const Frame moving = preview->render(r);
+  EXPECT_FALSE(moving.stats.converged);
   EXPECT_EQ(moving.image.width, 96);
   EXPECT_EQ(moving.image.height, 64);
-  EXPECT_LT(moving.scale, 1.0);
-  EXPECT_LT(tab.scale, moving.scale) << "too slow for the target: the next frame is smaller";
-  const ExactPreview::Frame rest = preview.render(tab, r, true);
-  EXPECT_TRUE(rest.converged);
-  EXPECT_EQ(rest.scale, 1.0);
+  EXPECT_LT(moving.stats.scale, 1.0);
+  r.camera.position.x += 1;
+  const Frame smaller = preview->render(r);
+  EXPECT_LT(smaller.stats.scale, moving.stats.scale) << "too slow for the target: the next frame is smaller";
+  r.settings.field = "pressure";
+  EXPECT_EQ(other_tab->render(r).stats.scale, 0.5) << "the other tab starts at its own scale, on its own field";
+  r.settings.field = "velocity";
+  const Frame rest = preview->render(r);  // the same view again: at rest
+  EXPECT_TRUE(rest.stats.converged);
+  EXPECT_TRUE(rest.stats.resting);
+  EXPECT_EQ(rest.stats.scale, 1.0);
   EXPECT_EQ(rest.image.width, 96);
+  r.full_quality = true;
+  r.camera.position.x += 1;
+  EXPECT_TRUE(preview->render(r).stats.converged) << "full quality asked for: converged while moving";
   r.settings.field = "nope";
-  EXPECT_THROW(preview.render(tab, r, true), Error);
+  EXPECT_THROW(preview->render(r), Error);
 }
 
 }  // namespace

@@ -6,9 +6,7 @@
 
 #include "ugvr/gpu/gl_context.h"
 #include "ugvr/lod/octree_input.h"
-#include "ugvr/render/lod/lod_engine.h"
-#include "ugvr/render/lod/time_critical.h"
-#include "ugvr/view/exact_preview.h"
+#include "ugvr/render/renderer_factory.h"
 #include "ugvr/view/field_histogram.h"
 #include "ugvr/view/jpeg.h"
 
@@ -32,22 +30,19 @@ std::vector<FieldInfo> store_fields(const LodEngine& engine) {
   return out;
 }
 
-std::unique_ptr<LodEngine> open_store(const ViewServerOptions& options, const GlContext& gl) {
+std::shared_ptr<LodScene> open_store(const ViewServerOptions& options, std::shared_ptr<GlContext> gl) {
   LodOptions lo;
   lo.atlas_budget_bytes = options.gpu_memory;
-  auto engine = std::make_unique<LodEngine>(options.store, gl, lo);
-  engine->set_field("");
-  return engine;
+  auto scene = std::make_shared<LodScene>(options.store, std::move(gl), lo);
+  scene->engine.set_field("");
+  return scene;
 }
 
 }  // namespace
 
 // What the render thread keeps for one tab.
 struct EngineHost::Tab {
-  std::unique_ptr<TimeCriticalRenderer> renderer;  // with the store: made for a field and a step
-  std::string field;
-  double fps = -1, step = -1;
-  ExactPreview::Tab exact;  // while the grid is shown by the exact engine
+  std::unique_ptr<Renderer> renderer;  // interactive, over the store or (while it is built) the grid
   uint64_t seq = 0;
   double shown_fps = 0;
   Clock::time_point last;
@@ -55,10 +50,10 @@ struct EngineHost::Tab {
 };
 
 EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options)) {
-  gl_ = std::make_unique<GlContext>(options_.gpu);
+  gl_ = std::make_shared<GlContext>(options_.gpu);
   renderer_ = gl_->renderer();
   if (!options_.dataset) {
-    engine_ = open_store(options_, *gl_);
+    lod_ = open_store(options_, gl_);
     scene_ = lod_scene();
     return;
   }
@@ -76,7 +71,7 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
     }
     sc.bounds = input.bounds;
   }
-  preview_ = std::make_unique<ExactPreview>(options_.dataset);
+  exact_ = std::make_shared<ExactScene>(options_.dataset);
   sc.field = sc.fields.front().name;
   sc.camera = options_.camera.value_or(reset_camera(sc.bounds, 30));
   sc.tf = options_.tf;
@@ -93,16 +88,16 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
 EngineHost::~EngineHost() {
   build_.reset();  // cancels a build still running
   tabs_.clear();
-  preview_.reset();
-  engine_.reset();
+  exact_.reset();
+  lod_.reset();
   gl_.reset();
 }
 
 SceneInfo EngineHost::lod_scene() const {
   SceneInfo sc;
-  sc.fields = store_fields(*engine_);
-  sc.field = engine_->field_name();
-  sc.bounds = engine_->bounds();
+  sc.fields = store_fields(lod_->engine);
+  sc.field = lod_->engine.field_name();
+  sc.bounds = lod_->engine.bounds();
   sc.camera = options_.camera.value_or(reset_camera(sc.bounds, 30));
   sc.tf = options_.tf;
   sc.preset = options_.preset;
@@ -136,17 +131,17 @@ EngineHost::Switch EngineHost::switch_to_store() {
   if (options_.opening_store) options_.opening_store();
   std::string error;
   try {
-    engine_ = open_store(options_, *gl_);
+    lod_ = open_store(options_, gl_);
   } catch (const std::exception& e) {
     error = e.what();
   }
   build_.reset();
-  if (!engine_) return {false, {"failed", "", 1, "cannot open the new store: " + error}};
+  if (!lod_) return {false, {"failed", "", 1, "cannot open the new store: " + error}};
   const Camera camera = scene_.camera;
   scene_ = lod_scene();
   scene_.camera = camera;  // the reset view stays the same
   for (auto& [id, tab] : tabs_) *tab = Tab{};
-  preview_.reset();          // frees the walk mesh
+  exact_.reset();            // frees the walk mesh
   options_.dataset.reset();  // and the grid
   return {true, {"ready", "", 1, "showing the brick store " + options_.store}};
 }
@@ -158,48 +153,34 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   std::unique_ptr<Tab>& slot = tabs_[job.tab];
   if (!slot) slot = std::make_unique<Tab>();
   Tab& tab = *slot;
-  FrameStatus st;
-  Image image;
-  bool converged = false;
-  if (engine_) {
-    const std::string field = request.settings.field.empty() ? scene_.field : request.settings.field;
-    if (engine_->field_name() != field) engine_->set_field(field);
-    if (!tab.renderer || tab.field != field || tab.step != request.step_voxels) {
-      TimeCriticalOptions tc;
-      tc.target_fps = request.fps;
-      tc.resting_step_voxels = request.step_voxels;
-      tc.moving_step_voxels = std::max(1.0, request.step_voxels);
-      tc.ram_budget_bytes = options_.ram_per_session;
-      tc.loader_threads = 2;
-      tab.renderer.reset();
-      tab.renderer = std::make_unique<TimeCriticalRenderer>(*engine_, tc);
-      tab.field = field, tab.step = request.step_voxels;
-    }
-    // The tabs streaming now share the frame time: each targets its rate x their number (FrameJob::target_fps).
-    if (job.target_fps != tab.fps) tab.renderer->set_target_fps(job.target_fps);
-    tab.fps = job.target_fps;
-    RenderSettings rs = request.settings;
-    rs.width = request.width, rs.height = request.height;
-    TimeCriticalFrame f;
-    image = job.full_quality ? tab.renderer->full_quality(request.camera, request.tf, rs, &f)
-                             : tab.renderer->frame(request.camera, request.tf, rs, &f);
-    converged = f.converged || job.full_quality;
-    st.frame_seconds = f.seconds;
-    st.cut_nodes = f.cut_nodes, st.visible_nodes = f.visible_nodes;
-    st.texel_error = f.mean_error, st.max_texel_error = f.max_error;
-    st.scale = f.scale;
-    st.engine = "lod";
-    st.ram_bytes = f.cache.resident_bytes, st.ram_budget = options_.ram_per_session;
-    st.atlas_bytes = f.render.atlas_bytes, st.atlas_budget = options_.gpu_memory;
-    st.pending_bricks = f.cache.queued + f.cache.loading;
-  } else {
-    ExactPreview::Frame f = preview_->render(tab.exact, request, job.resting || job.full_quality);
-    image = std::move(f.image);
-    converged = f.converged;
-    st.frame_seconds = f.seconds;
-    st.scale = f.scale;
-    st.engine = "exact";
+  if (!tab.renderer) {
+    RendererOptions ro;
+    ro.interactive = true;
+    ro.time_critical.ram_budget_bytes = options_.ram_per_session;
+    ro.time_critical.loader_threads = 2;
+    tab.renderer = lod_ ? make_renderer(lod_, ro) : make_renderer(exact_, ro);
   }
+  FrameRequest fr;
+  fr.camera = request.camera;
+  fr.tf = request.tf;
+  fr.settings = request.settings;
+  fr.settings.width = request.width, fr.settings.height = request.height;
+  // The tabs streaming now share the frame time: each targets its rate x their number (FrameJob::target_fps).
+  fr.target_fps = job.target_fps;
+  fr.full_quality = job.full_quality;
+  fr.step_voxels = request.step_voxels;
+  ugvr::Frame f = tab.renderer->render(fr);
+  const Image& image = f.image;
+  const bool converged = f.stats.converged;
+  FrameStatus st;
+  st.frame_seconds = f.stats.seconds;
+  st.cut_nodes = f.stats.cut_nodes, st.visible_nodes = f.stats.visible_nodes;
+  st.texel_error = f.stats.texel_error, st.max_texel_error = f.stats.max_texel_error;
+  st.scale = f.stats.scale;
+  st.engine = f.stats.engine;
+  st.ram_bytes = f.stats.ram_bytes, st.ram_budget = f.stats.ram_budget;
+  st.atlas_bytes = f.stats.gpu_bytes, st.atlas_budget = f.stats.gpu_budget;
+  st.pending_bricks = f.stats.pending;
   const std::vector<unsigned char> encoded = converged ? png_bytes(image) : jpeg_bytes(image);
   auto bytes = std::make_shared<const std::string>(encoded.begin(), encoded.end());
   const Clock::time_point now = Clock::now();

@@ -1,7 +1,8 @@
-// What the viewer's render thread owns (view_server.h): the OpenGL context, the engine that draws, and each tab's
-// renderer. The engine is the level-of-detail engine over the brick store (render/lod, one time-critical renderer per
-// tab), or, while the store of a grid is built in the background (background_build.h), the exact CPU engine
-// (exact_preview.h) until the build is done and every tab moves to the store.
+// What the viewer's render thread owns (view_server.h): the OpenGL context, the scene that draws, and each tab's
+// renderer (render/renderer.h, interactive: it holds the tab's frame-rate target). The scene is the brick store for
+// the level-of-detail engine (a time-critical session per tab over one shared atlas), or, while the store of a grid is
+// built in the background (background_build.h), the grid for the exact CPU engine (an adaptive image scale per tab)
+// until the build is done and every tab moves to the store.
 //
 // Everything here lives and dies on the render thread (the GL context is current on the thread that created it) and
 // takes no lock: the server calls it with or without its own lock, as each call's cost allows.
@@ -20,12 +21,11 @@
 
 namespace ugvr {
 class GlContext;
-class LodEngine;
+struct LodScene;
+struct ExactScene;
 }  // namespace ugvr
 
 namespace ugvr::view {
-
-class ExactPreview;
 
 class EngineHost {
  public:
@@ -64,7 +64,8 @@ class EngineHost {
     FrameStatus status;
     std::shared_ptr<const std::string> image;
   };
-  // Draws `job`'s frame with its tab's renderer (made on the tab's first frame). Throws (ugvr::Error and others).
+  // Draws `job`'s frame with its tab's renderer (made on the tab's first frame, over the scene there is then).
+  // Throws (ugvr::Error and others).
   Frame render(const FrameJob& job);
   // A tab has closed: its renderer goes (it joins its brick cache's threads).
   void forget(uint64_t tab);
@@ -77,9 +78,9 @@ class EngineHost {
   std::string renderer_;  // GL_RENDERER
   SceneInfo scene_;
   // Declared in the order they are made; destroyed in reverse (as ~EngineHost spells out).
-  std::unique_ptr<GlContext> gl_;
-  std::unique_ptr<LodEngine> engine_;
-  std::unique_ptr<ExactPreview> preview_;
+  std::shared_ptr<GlContext> gl_;
+  std::shared_ptr<LodScene> lod_;                  // the store, once there is one
+  std::shared_ptr<ExactScene> exact_;              // the grid, while its store is built
   std::map<uint64_t, std::unique_ptr<Tab>> tabs_;  // each tab's renderer and frame counters
   std::unique_ptr<BackgroundBuild> build_;
 };

@@ -37,7 +37,7 @@ namespace ugvr::view {
 struct ViewServerOptions {
   // The .ugvr brick store to show. With `dataset` set, the store does not exist yet: it is built there in the
   // background (background_build.h) from `fields` with `build`, and the exact engine shows the dataset meanwhile
-  // (exact_preview.h); when the build is done every tab switches to the store, keeping its view.
+  // (render/exact/exact_renderer.h); when the build is done every tab switches to the store, keeping its view.
   std::string store;
   std::shared_ptr<const Dataset> dataset;
   std::vector<std::string> fields;  // with `dataset`: field selectors to build (empty: default_view_fields)
