@@ -25,13 +25,6 @@ nlohmann::json unlimited_or(uint64_t v) {
   return v == std::numeric_limits<uint64_t>::max() ? nlohmann::json(nullptr) : nlohmann::json(v);
 }
 
-void describe_store(const LodScene& scene, nlohmann::json& j) {
-  j["renderer"] = scene.gl->renderer();
-  j["gl_version"] = scene.gl->version();
-  j["nodes"] = scene.engine.node_count();
-  j["brick_resolution"] = scene.engine.resolution();
-}
-
 }  // namespace
 
 LodScene::LodScene(const std::string& store_path, std::shared_ptr<const GlContext> context, LodOptions lod_options)
@@ -90,30 +83,43 @@ void InteractiveLodFrameStats::to_json(nlohmann::json& j) const {
   j["samples"] = f.render.samples;
 }
 
-// --- one cut per frame
+// --- shared by both forms
 
-LodRenderer::LodRenderer(std::shared_ptr<LodScene> scene, CutSpec cut) : scene_(std::move(scene)), cut_(cut) {}
-
-void LodRenderer::set_field(std::string_view name) {
+void LodRendererBase::set_field(std::string_view name) {
   bind_field(scene_->engine, std::string(name));
   field_ = name;
 }
 
-const std::string& LodRenderer::field_name() const {
+const std::string& LodRendererBase::field_name() const {
   bind_field(scene_->engine, field_);
   return scene_->engine.field_name();
 }
 
-FieldRange LodRenderer::field_range() const {
+FieldRange LodRendererBase::field_range() const {
   bind_field(scene_->engine, field_);
   return {scene_->engine.field_min(), scene_->engine.field_max()};
 }
 
-Frame LodRenderer::render(const FrameRequest& request) {
+void LodRendererBase::describe(nlohmann::json& j) const {
+  j["renderer"] = scene_->gl->renderer();
+  j["gl_version"] = scene_->gl->version();
+  j["nodes"] = scene_->engine.node_count();
+  j["brick_resolution"] = scene_->engine.resolution();
+}
+
+LodEngine& LodRendererBase::bind_request(const FrameRequest& request) {
   check_supported(request, "lod");
   if (request.settings.field != field_) set_field(request.settings.field);
-  LodEngine& engine = scene_->engine;
-  bind_field(engine, field_);
+  bind_field(scene_->engine, field_);  // another renderer of the scene may have bound another
+  return scene_->engine;
+}
+
+// --- one cut per frame
+
+LodRenderer::LodRenderer(std::shared_ptr<LodScene> scene, CutSpec cut) : LodRendererBase(std::move(scene)), cut_(cut) {}
+
+Frame LodRenderer::render(const FrameRequest& request) {
+  LodEngine& engine = bind_request(request);
   // The scene may be shared with a renderer that changed the step.
   engine.set_step_voxels(request.step_voxels > 0 ? request.step_voxels : scene_->options.step_voxels);
   auto detail = std::make_shared<LodFrameStats>();
@@ -132,8 +138,6 @@ Frame LodRenderer::render(const FrameRequest& request) {
   return f;
 }
 
-void LodRenderer::describe(nlohmann::json& j) const { describe_store(*scene_, j); }
-
 std::string LodRenderer::summary(const FrameStats& last) const {
   const auto* d = dynamic_cast<const LodFrameStats*>(last.detail.get());
   const LodRenderStats st = d ? d->render : LodRenderStats{};
@@ -148,30 +152,12 @@ std::string LodRenderer::summary(const FrameStats& last) const {
 // --- time-critical session
 
 InteractiveLodRenderer::InteractiveLodRenderer(std::shared_ptr<LodScene> scene, TimeCriticalOptions options)
-    : scene_(std::move(scene)), options_(options) {}
+    : LodRendererBase(std::move(scene)), options_(options) {}
 
 InteractiveLodRenderer::~InteractiveLodRenderer() = default;
 
-void InteractiveLodRenderer::set_field(std::string_view name) {
-  bind_field(scene_->engine, std::string(name));
-  field_ = name;
-}
-
-const std::string& InteractiveLodRenderer::field_name() const {
-  bind_field(scene_->engine, field_);
-  return scene_->engine.field_name();
-}
-
-FieldRange InteractiveLodRenderer::field_range() const {
-  bind_field(scene_->engine, field_);
-  return {scene_->engine.field_min(), scene_->engine.field_max()};
-}
-
 Frame InteractiveLodRenderer::render(const FrameRequest& request) {
-  check_supported(request, "lod");
-  if (request.settings.field != field_) set_field(request.settings.field);
-  LodEngine& engine = scene_->engine;
-  bind_field(engine, field_);
+  LodEngine& engine = bind_request(request);
   const std::string field = engine.field_name();
   const double step = request.step_voxels > 0 ? request.step_voxels : options_.resting_step_voxels;
   if (!session_ || session_field_ != field || session_step_ != step) {
@@ -209,8 +195,6 @@ Frame InteractiveLodRenderer::render(const FrameRequest& request) {
   s.detail = std::move(detail);
   return f;
 }
-
-void InteractiveLodRenderer::describe(nlohmann::json& j) const { describe_store(*scene_, j); }
 
 std::string InteractiveLodRenderer::summary(const FrameStats& last) const {
   char buf[256];

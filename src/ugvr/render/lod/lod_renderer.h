@@ -39,44 +39,45 @@ struct InteractiveLodFrameStats : EngineFrameStats {
   void to_json(nlohmann::json& j) const override;
 };
 
-class LodRenderer final : public Renderer {
+// What both forms share: the scene, the field this renderer draws, and binding it on the shared engine.
+class LodRendererBase : public Renderer {
  public:
-  LodRenderer(std::shared_ptr<LodScene> scene, CutSpec cut);
+  explicit LodRendererBase(std::shared_ptr<LodScene> scene) : scene_(std::move(scene)) {}
   std::string_view engine() const override { return "lod"; }
   std::string device() const override { return scene_->gl->renderer(); }
   void set_field(std::string_view name) override;
   const std::string& field_name() const override;
   FieldRange field_range() const override;
   Bounds bounds() const override { return scene_->engine.bounds(); }
-  Frame render(const FrameRequest& request) override;
   void describe(nlohmann::json& j) const override;
+
+ protected:
+  // Binds request.settings.field (this renderer's field from now on) on the shared engine; returns the engine.
+  LodEngine& bind_request(const FrameRequest& request);
+  std::shared_ptr<LodScene> scene_;
+  std::string field_;  // a store field name; "" = the first
+};
+
+class LodRenderer final : public LodRendererBase {
+ public:
+  LodRenderer(std::shared_ptr<LodScene> scene, CutSpec cut);
+  Frame render(const FrameRequest& request) override;
   std::string summary(const FrameStats& last) const override;
 
  private:
-  std::shared_ptr<LodScene> scene_;
   CutSpec cut_;
-  std::string field_;  // as bound by set_field (a store field name; "" = the first)
 };
 
-class InteractiveLodRenderer final : public Renderer {
+class InteractiveLodRenderer final : public LodRendererBase {
  public:
   // options.target_fps is replaced by each request's target_fps.
   InteractiveLodRenderer(std::shared_ptr<LodScene> scene, TimeCriticalOptions options);
   ~InteractiveLodRenderer() override;
-  std::string_view engine() const override { return "lod"; }
-  std::string device() const override { return scene_->gl->renderer(); }
-  void set_field(std::string_view name) override;
-  const std::string& field_name() const override;
-  FieldRange field_range() const override;
-  Bounds bounds() const override { return scene_->engine.bounds(); }
   Frame render(const FrameRequest& request) override;
-  void describe(nlohmann::json& j) const override;
   std::string summary(const FrameStats& last) const override;
 
  private:
-  std::shared_ptr<LodScene> scene_;
   TimeCriticalOptions options_;
-  std::string field_;
   // The session: its active cut, RAM cache and cost estimate belong to one field and step; a new one starts when
   // either changes.
   std::unique_ptr<TimeCriticalRenderer> session_;
