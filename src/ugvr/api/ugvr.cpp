@@ -2,6 +2,7 @@
 #include "ugvr/ugvr.h"
 
 #include <filesystem>
+#include <tuple>
 
 #include "ugvr/core/file.h"
 #include "ugvr/lod/brick_store.h"
@@ -16,12 +17,9 @@ namespace {
 
 OctreeBuildOptions octree_options(const StoreOptions& o) {
   OctreeBuildOptions b;
-  b.resolution = o.brick;
-  b.max_depth = o.max_depth;
-  b.error = o.error;
-  b.threads = o.threads;
+  std::tie(b.resolution, b.max_depth, b.error, b.threads, b.cancel) =
+      std::tuple(o.brick, o.max_depth, o.error, o.threads, o.cancel);
   if (o.float32) b.encoding.samples = SampleEncoding::Float32;
-  b.cancel = o.cancel;
   validate_build_options(b);
   return b;
 }
@@ -52,8 +50,8 @@ StoreSummary build_store_from_dataset(const Dataset& dataset, const std::string&
   return summary_of(build_octree(input, b, output), std::move(names), false);
 }
 
-StoreSummary build_store(const std::vector<std::string>& inputs, const std::string& output,
-                         const StoreOptions& options, const ReadOptions& read) {
+StoreSummary build_store(const std::vector<std::string>& inputs, const std::string& output, const StoreOptions& options,
+                         const ReadOptions& read) {
   check_store_path(output);
   const bool vtu = inputs.size() == 1 && extension_lower(inputs[0]) == ".vtu";
   if (options.out_of_core && !vtu) throw Error(inputs.at(0) + ": out of core reads a single .vtu file");

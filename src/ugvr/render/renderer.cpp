@@ -7,23 +7,23 @@
 namespace ugvr {
 
 void FrameStats::to_json(nlohmann::json& j) const {
-  j["engine"] = engine;
-  j["seconds"] = seconds;
-  j["converged"] = converged;
-  j["resting"] = resting;
-  j["scale"] = scale;
-  j["samples"] = samples;
-  if (engine == "lod") {
-    j["cut_nodes"] = cut_nodes;
-    j["visible_nodes"] = visible_nodes;
-    j["mean_texel_error"] = texel_error;
-    j["max_texel_error"] = max_texel_error;
-    j["ram_resident_bytes"] = ram_bytes;
-    j["ram_budget_bytes"] = ram_budget;
-    j["atlas_bytes"] = gpu_bytes;
-    j["atlas_budget_bytes"] = gpu_budget;
-    j["pending_bricks"] = pending;
-  }
+  // The level-of-detail figures are written for every engine (zero for the exact one), so that every --stats line has
+  // the same keys; the engine's own follow and may refine them.
+  j.update({{"engine", engine},
+            {"seconds", seconds},
+            {"converged", converged},
+            {"resting", resting},
+            {"scale", scale},
+            {"samples", samples},
+            {"cut_nodes", cut_nodes},
+            {"visible_nodes", visible_nodes},
+            {"mean_texel_error", texel_error},
+            {"max_texel_error", max_texel_error},
+            {"ram_resident_bytes", ram_bytes},
+            {"ram_budget_bytes", ram_budget},
+            {"atlas_bytes", gpu_bytes},
+            {"atlas_budget_bytes", gpu_budget},
+            {"pending_bricks", pending}});
   if (detail) detail->to_json(j);
 }
 
