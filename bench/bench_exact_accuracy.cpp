@@ -10,9 +10,7 @@
 #include <vector>
 
 #include "oracle/reference_renderer.h"
-#include "ugvr/core/error.h"
-#include "ugvr/io/reader.h"
-#include "ugvr/render/exact/exact_engine.h"
+#include "ugvr/ugvr.h"
 
 using namespace ugvr;
 
@@ -32,26 +30,30 @@ int main(int argc, char** argv) try {
     std::fprintf(stderr, "usage: %s MESH FIELD CAMERA.json TF.json OUT_DIR [PEER.pfm ...]\n", argv[0]);
     return 2;
   }
-  const Dataset ds = read_dataset(std::vector<std::string>{argv[1]});
+  const auto ds = std::make_shared<const Dataset>(read_dataset(std::vector<std::string>{argv[1]}));
   const std::string field = argv[2];
   const Camera camera = read_camera(argv[3]);
   const TransferFunction tf = read_paraview_preset(argv[4]);
   const std::string out = argv[5];
-  RenderSettings settings;
-  settings.width = settings.height = 256;
+  FrameRequest request;
+  request.camera = camera;
+  request.tf = tf;
+  request.settings.width = request.settings.height = 256;
+  request.settings.field = field;
 
-  oracle::ReferenceRenderer reference(ds, field);
-  const Image oracle_image = reference.render(camera, tf, settings);
+  oracle::ReferenceRenderer reference(*ds, field);
+  const Image oracle_image = reference.render(camera, tf, request.settings);
   write_pfm(out + "/oracle.pfm", oracle_image);
   write_png(out + "/oracle.png", oracle_image);
 
-  ExactEngine engine(ds);
-  engine.set_field(ds, field);
-  const Image exact = engine.render(camera, tf, settings);
+  RendererConfig config;
+  config.engine = "exact";
+  const std::unique_ptr<Renderer> exact_engine = make_renderer(ds, config);
+  const Image exact = exact_engine->render(request).image;
   write_pfm(out + "/exact-256.pfm", exact);
   report("ugvr exact (early termination 0.99)", exact, oracle_image);
-  settings.early_termination_opacity = 1;
-  report("ugvr exact (no early termination)", engine.render(camera, tf, settings), oracle_image);
+  request.settings.early_termination_opacity = 1;
+  report("ugvr exact (no early termination)", exact_engine->render(request).image, oracle_image);
   for (int i = 6; i < argc; ++i) report(argv[i], read_pfm(argv[i]), oracle_image);
   return 0;
 } catch (const std::exception& e) {
