@@ -4,9 +4,12 @@
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "test_data.h"
+#include "ugvr/lod/brick_store.h"
 
 namespace ugvr {
 namespace {
@@ -218,6 +221,183 @@ TEST(CliInfo, RawVolumeLayoutFromTheCommandLine) {
   const test::CommandResult wrong = run("info --raw-dims 4 5 7 --raw-type uint16 " + path);
   EXPECT_EQ(wrong.status, 1);
   EXPECT_NE(wrong.out.find("v.raw"), std::string::npos) << wrong.out;
+}
+
+}  // namespace
+}  // namespace ugvr
+
+// `ugvr info STORE.ugvr`: a brick store built by `ugvr build` from a real mesh, described and verified.
+namespace ugvr {
+namespace {
+
+std::string build_store(const test::ScratchDir& dir) {
+  const std::string path = dir.file("spx.ugvr");
+  const test::CommandResult r =
+      test::run_ugvr("build " + test::data_path("spx/spx.inp") + " -o " + path + " --brick 8 --max-depth 3");
+  EXPECT_EQ(r.status, 0) << r.out;
+  return path;
+}
+
+std::string read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+void write_bytes(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
+}
+
+void expect_contains(const std::string& out, std::initializer_list<std::string> needles) {
+  for (const std::string& n : needles) EXPECT_NE(out.find(n), std::string::npos) << "no '" << n << "' in:\n" << out;
+}
+
+uint64_t sum(const json& array) {
+  uint64_t t = 0;
+  for (const json& v : array) t += v.get<uint64_t>();
+  return t;
+}
+
+TEST(CliInfo, BrickStoreText) {
+  UGVR_REQUIRE_DATA("spx/spx.inp");
+  test::ScratchDir dir;
+  const std::string path = build_store(dir);
+  const test::CommandResult r = run("info " + path);
+  EXPECT_EQ(r.status, 0) << r.out;
+  expect_contains(r.out, {"format:   ugvr brick store, version 2", "bounds:   [", "root:     [",
+                          "bricks:   8 x 8 x 8 samples, quant16",
+                          "octree:   ", "  level 0: 1 node, 0 leaves, 1 with a brick", "bytes:    file ", "node table ",
+                          "smaller than the bricks as float32", "fields:", "  vertex density (quant16): [0.2, 1]",
+                          "build:    --brick 8 --fields density", "does not record its input"});
+}
+
+TEST(CliInfo, BrickStoreJson) {
+  UGVR_REQUIRE_DATA("spx/spx.inp");
+  test::ScratchDir dir;
+  const std::string path = build_store(dir);
+  const json r = info(path);
+  EXPECT_EQ(r["format"], "ugvr brick store");
+  EXPECT_EQ(r["version"], 2);
+  EXPECT_EQ(r["sources"], json({path}));
+  EXPECT_EQ(r["brick"], 8);
+  EXPECT_EQ(r["encoding"]["samples"], "quant16");
+  EXPECT_EQ(r["encoding"]["codec"], "zstd");
+  ASSERT_EQ(r["fields"].size(), 1u);
+  const json& f = r["fields"][0];
+  EXPECT_EQ(f["name"], "density");
+  EXPECT_EQ(f["location"], "vertex");
+  EXPECT_EQ(f["encoding"], "quant16");
+  EXPECT_NEAR(f["range"][0].get<double>(), 0.2, 1e-6);
+  EXPECT_NEAR(f["range"][1].get<double>(), 1.0, 1e-6);
+  // The store's bounds are the mesh's.
+  EXPECT_EQ(r["bounds"], info(relative_data_path)["bounds"]);
+  // Per level, adding up.
+  EXPECT_EQ(r["nodes_per_level"][0], 1);
+  EXPECT_EQ(r["nodes"].get<uint64_t>(), sum(r["nodes_per_level"]));
+  EXPECT_EQ(r["leaves"].get<uint64_t>(), sum(r["leaves_per_level"]));
+  EXPECT_EQ(r["nodes_with_data"].get<uint64_t>(), sum(r["nodes_with_data_per_level"]));
+  EXPECT_GT(r["nodes"].get<uint64_t>(), 1u);
+  EXPECT_EQ(r["depth_max"].get<size_t>() + 1, r["nodes_per_level"].size());
+  EXPECT_LE(r["depth_max"], 3);
+  // Bytes: the parts make the file; compressed smaller than float32.
+  const json& b = r["bytes"];
+  EXPECT_EQ(b["file"].get<uint64_t>(), std::filesystem::file_size(path));
+  EXPECT_EQ(b["header"].get<uint64_t>() + b["blocks"].get<uint64_t>() + b["node_table"].get<uint64_t>(),
+            b["file"].get<uint64_t>());
+  EXPECT_EQ(b["unreferenced"], 0);
+  EXPECT_EQ(b["blocks"], f["block_bytes"]);
+  EXPECT_EQ(b["float32"].get<uint64_t>(), r["nodes_with_data"].get<uint64_t>() * 8 * 8 * 8 * 4);
+  EXPECT_GT(b["ratio"].get<double>(), 1.0);
+  // What the store records of its build, and what it does not.
+  EXPECT_EQ(r["build"]["brick"], 8);
+  EXPECT_EQ(r["build"]["fields"], json({"density"}));
+  EXPECT_TRUE(r["build"]["input"].is_null());
+  EXPECT_TRUE(r["build"]["error"].is_null());
+  EXPECT_FALSE(r.contains("verify"));
+}
+
+TEST(CliInfo, BrickStoreVerify) {
+  UGVR_REQUIRE_DATA("spx/spx.inp");
+  test::ScratchDir dir;
+  const std::string path = build_store(dir);
+  const uint64_t bricks = info(path)["nodes_with_data"];
+  const test::CommandResult good = run("info --verify " + path);
+  EXPECT_EQ(good.status, 0) << good.out;
+  expect_contains(good.out, {"verify:   all " + std::to_string(bricks) + " bricks verified"});
+  const json v = info("--verify " + path)["verify"];
+  EXPECT_EQ(v["ok"], true);
+  EXPECT_EQ(v["bricks"], bricks);
+  EXPECT_EQ(v["bad_blocks"], 0);
+  EXPECT_EQ(v["bytes"], info(path)["bytes"]["blocks"]);
+}
+
+TEST(CliInfo, BrickStoreVerifyFindsAFlippedPayloadByte) {
+  UGVR_REQUIRE_DATA("spx/spx.inp");
+  test::ScratchDir dir;
+  const std::string path = build_store(dir);
+  // The last node's brick, one byte in the middle of its payload.
+  uint64_t node = 0;
+  BlockRef block;
+  {
+    const BrickStoreReader s(path);
+    for (uint64_t id = 0; id < s.node_count(); ++id) {
+      if (s.node(id).has_brick()) node = id;
+    }
+    block = s.block(node, 0);
+  }
+  ASSERT_GT(node, 0u);
+  std::string bytes = read_bytes(path);
+  bytes[block.offset + kBlockHeaderSize + (block.size - kBlockHeaderSize) / 2] ^= 0x20;
+  const std::string bad = dir.file("bad.ugvr");
+  write_bytes(bad, bytes);
+  // Opening checks only the header and the node table: the store still describes itself.
+  EXPECT_EQ(run("info " + bad).status, 0);
+  const test::CommandResult r = run("info --verify " + bad);
+  EXPECT_EQ(r.status, 1) << r.out;
+  expect_contains(r.out, {"verification failed", "1 of ", bad + ": byte " + std::to_string(block.offset),
+                          "node " + std::to_string(node) + " field 'density'", "checksum mismatch"});
+  // With --json, stdout is still one JSON object, saying what failed (the error line, on stderr, has no braces).
+  const test::CommandResult j = run("info --json --verify " + bad);
+  EXPECT_EQ(j.status, 1);
+  const size_t open = j.out.find('{'), close = j.out.rfind('}');
+  ASSERT_TRUE(open != std::string::npos && close != std::string::npos) << j.out;
+  const json v = json::parse(j.out.substr(open, close - open + 1))["verify"];
+  EXPECT_EQ(v["ok"], false);
+  EXPECT_EQ(v["bad_bricks"], 1);
+  ASSERT_EQ(v["errors"].size(), 1u);
+  EXPECT_NE(v["errors"][0].get<std::string>().find("node " + std::to_string(node)), std::string::npos);
+}
+
+TEST(CliInfo, BrickStoreVerifyFindsAFlippedHeaderByte) {
+  UGVR_REQUIRE_DATA("spx/spx.inp");
+  test::ScratchDir dir;
+  const std::string path = build_store(dir);
+  std::string bytes = read_bytes(path);
+  bytes[60] ^= 0x01;  // inside the root cell's bounds
+  const std::string bad = dir.file("bad.ugvr");
+  write_bytes(bad, bytes);
+  for (const char* verify : {"", "--verify "}) {
+    const test::CommandResult r = run(std::string("info ") + verify + bad);
+    EXPECT_EQ(r.status, 1) << r.out;
+    expect_contains(r.out, {bad + ": byte 172", "header checksum mismatch"});
+  }
+}
+
+TEST(CliInfo, BrickStoreOptionsThatDoNotApply) {
+  UGVR_REQUIRE_DATA("spx/spx.inp");
+  test::ScratchDir dir;
+  const std::string path = build_store(dir);
+  const test::CommandResult topology = run("info --topology " + path);
+  EXPECT_EQ(topology.status, 1);
+  expect_contains(topology.out, {"--topology"});
+  const test::CommandResult verify = run("info --verify " + relative_data_path);
+  EXPECT_EQ(verify.status, 1);
+  expect_contains(verify.out, {"--verify", "brick store"});
+  // A file named .ugvr that is not a store is reported as a bad store, not as an unknown format.
+  const std::string fake = dir.file("fake.ugvr");
+  write_bytes(fake, "not a store at all");
+  const test::CommandResult r = run("info " + fake);
+  EXPECT_EQ(r.status, 1);
+  expect_contains(r.out, {"not a ugvr brick store"});
 }
 
 }  // namespace

@@ -1,9 +1,13 @@
 #include <chrono>
 #include <cstdio>
+#include <optional>
 
 #include "cli/commands.h"
+#include "ugvr/core/error.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/lod/brick_store.h"
 #include "ugvr/report/dataset_report.h"
+#include "ugvr/report/store_report.h"
 
 namespace ugvr::cli {
 
@@ -28,20 +32,59 @@ void add_read_options(CLI::App& cmd, ReadOptions& o) {
   cmd.add_option("--raw-header", o.raw.header_bytes, "Raw volume: bytes to skip before the values");
 }
 
+namespace {
+
+// `ugvr info STORE.ugvr [--verify]`: the store's header and node table (opening validates both), then, with
+// --verify, every block against its checksum. A corrupt store fails after the report, naming the first bad block.
+void store_info(const std::string& path, bool json, bool verify) {
+  const BrickStoreReader store(path);
+  nlohmann::json report = store_report(store);
+  std::optional<StoreVerification> v;
+  if (verify) {
+    v = verify_store(store);
+    report["verify"] = verification_json(*v);
+  }
+  if (json) {
+    std::printf("%s\n", report.dump(2).c_str());
+  } else {
+    std::fputs(format_store_report_text(report).c_str(), stdout);
+    if (v) std::fputs(format_verification_text(*v).c_str(), stdout);
+  }
+  std::fflush(stdout);  // the report whole before the error, where both go to one pipe
+  if (v && !v->ok()) {
+    throw Error("verification failed: " + std::to_string(v->bad_bricks) + " of " + std::to_string(v->bricks) +
+                " bricks corrupt; first: " + v->errors.front());
+  }
+}
+
+}  // namespace
+
 void register_info(CLI::App& app) {
   struct Options {
     std::vector<std::string> inputs;
     bool json = false;
     bool topology = false;
+    bool verify = false;
     ReadOptions read;
   };
   auto opts = std::make_shared<Options>();
-  CLI::App* cmd = app.add_subcommand("info", "Describe a dataset: format, grid, cell counts, bounds, fields, memory");
+  CLI::App* cmd = app.add_subcommand(
+      "info",
+      "Describe a dataset (format, grid, cell counts, bounds, fields, memory) or a .ugvr brick store (fields, octree "
+      "levels, bytes, encoding; --verify checks every brick)");
   add_input(*cmd, opts->inputs);
   add_read_options(*cmd, opts->read);
   cmd->add_flag("--json", opts->json, "Print the report as JSON");
   cmd->add_flag("--topology", opts->topology, "Also build face connectivity (boundary and non-manifold faces)");
+  cmd->add_flag("--verify", opts->verify,
+                "Brick store: read every brick, check its checksum and decode it; fails naming the first bad one");
   cmd->callback([opts] {
+    if (opts->inputs.size() == 1 && is_brick_store_path(opts->inputs[0])) {
+      if (opts->topology) throw Error(opts->inputs[0] + ": --topology describes a mesh, not a brick store");
+      store_info(opts->inputs[0], opts->json, opts->verify);
+      return;
+    }
+    if (opts->verify) throw Error(opts->inputs[0] + ": --verify checks a brick store (.ugvr), not a mesh");
     const auto t0 = std::chrono::steady_clock::now();
     const Dataset ds = read_dataset(opts->inputs, opts->read);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -13,10 +13,12 @@
 #include <string>
 
 #include "ugvr/core/error.h"
+#include "ugvr/lod/brick_store_format.h"
 
 namespace ugvr {
 
-static_assert(std::endian::native == std::endian::little, "the brick store is read and written as little-endian");
+using store_format::BlockRecord;
+static_assert(sizeof(BlockRecord) == kBlockHeaderSize);
 
 std::string_view sample_encoding_name(SampleEncoding e) {
   switch (e) {
@@ -46,7 +48,8 @@ std::string_view brick_codec_name(BrickCodec c) {
 
 namespace {
 
-constexpr uint8_t kFlagMask = 1, kFlagShuffled = 2;
+using store_format::kBlockFlagMask;
+using store_format::kBlockFlagShuffled;
 
 // ---------------------------------------------------------------------------------------------------------------
 // Per-thread state: encode and decode run on many threads at once, and a zstd context costs ~100 KiB to create,
@@ -336,17 +339,6 @@ void decompress_payload(BrickCodec codec, std::span<const std::byte> src, std::b
   }
 }
 
-template <class T>
-void put_le(std::byte* at, T v) {
-  std::memcpy(at, &v, sizeof v);
-}
-template <class T>
-T get_le(const std::byte* at) {
-  T v;
-  std::memcpy(&v, at, sizeof v);
-  return v;
-}
-
 // A sample's grid index: the encoder's one map from values to codes, for the block's range and for every sample.
 inline int64_t grid_index(float v, double origin, double inv_step) {
   return std::llround((double(v) - origin) * inv_step);
@@ -469,19 +461,20 @@ EncodedBlock encode_brick(const BrickEncoding& enc, uint32_t r, const float* sam
   if (codec == BrickCodec::Stored && !raw.empty())
     std::memcpy(out.bytes.data() + kBlockHeaderSize, raw.data(), payload);
 
-  std::byte* h = out.bytes.data();
-  h[0] = std::byte(enc.samples);
-  h[1] = std::byte(enc.predictor);
-  h[2] = std::byte(codec);
-  h[3] = std::byte((has_mask ? kFlagMask : 0) | (enc.shuffle ? kFlagShuffled : 0));
-  put_le<uint32_t>(h + 4, uint32_t(raw.size()));
-  put_le<uint32_t>(h + 8, uint32_t(valid));
-  put_le<float>(h + 12, lo);
-  put_le<float>(h + 16, hi);
-  put_le<uint32_t>(h + 20, uint32_t(grid.qmax));
-  put_le<int64_t>(h + 24, grid.base);
-  put_le<double>(h + 32, grid.origin);
-  put_le<double>(h + 40, grid.step);
+  BlockRecord h;
+  h.samples = uint8_t(enc.samples);
+  h.predictor = uint8_t(enc.predictor);
+  h.codec = uint8_t(codec);
+  h.flags = uint8_t((has_mask ? kBlockFlagMask : 0) | (enc.shuffle ? kBlockFlagShuffled : 0));
+  h.raw_size = uint32_t(raw.size());
+  h.valid = uint32_t(valid);
+  h.lo = lo;
+  h.hi = hi;
+  h.qmax = uint32_t(grid.qmax);
+  h.base = grid.base;
+  h.origin = grid.origin;
+  h.step = grid.step;
+  store_format::write_record(out.bytes.data(), h);
   out.valid = uint32_t(valid);
   out.lo = lo;
   out.hi = hi;
@@ -502,44 +495,49 @@ BlockHeader parse_block_header(std::span<const std::byte> block, uint32_t r, std
                    "brick block of " + std::to_string(block.size()) + " bytes is shorter than its " +
                        std::to_string(kBlockHeaderSize) + "-byte header");
   }
-  const std::byte* p = block.data();
+  const BlockRecord rec = store_format::read_record<BlockRecord>(block.data());
+  // Where a member of the record lies in the file, for messages.
+  auto at = [offset](size_t member_offset) { return offset + member_offset; };
+  if (rec.samples != 1 && rec.samples != 2) {
+    fail_at_offset(file, at(offsetof(BlockRecord, samples)),
+                   "unknown sample encoding " + std::to_string(rec.samples) + " (1 quant16, 2 float32)");
+  }
+  if (rec.predictor > 2) {
+    fail_at_offset(file, at(offsetof(BlockRecord, predictor)),
+                   "unknown predictor " + std::to_string(rec.predictor) + " (0 none, 1 delta-x, 2 lorenzo)");
+  }
+  if (rec.codec > 2) {
+    fail_at_offset(file, at(offsetof(BlockRecord, codec)),
+                   "unknown codec " + std::to_string(rec.codec) + " (0 stored, 1 lz4, 2 zstd)");
+  }
+  if (rec.flags & ~(kBlockFlagMask | kBlockFlagShuffled)) {
+    fail_at_offset(file, at(offsetof(BlockRecord, flags)), "unknown block flags " + std::to_string(rec.flags));
+  }
   BlockHeader h;
-  const uint8_t samples = uint8_t(p[0]), predictor = uint8_t(p[1]), codec = uint8_t(p[2]), flags = uint8_t(p[3]);
-  if (samples != 1 && samples != 2) {
-    fail_at_offset(file, offset, "unknown sample encoding " + std::to_string(samples) + " (1 quant16, 2 float32)");
-  }
-  if (predictor > 2) {
-    fail_at_offset(file, offset + 1,
-                   "unknown predictor " + std::to_string(predictor) + " (0 none, 1 delta-x, 2 lorenzo)");
-  }
-  if (codec > 2)
-    fail_at_offset(file, offset + 2, "unknown codec " + std::to_string(codec) + " (0 stored, 1 lz4, 2 zstd)");
-  if (flags & ~(kFlagMask | kFlagShuffled))
-    fail_at_offset(file, offset + 3, "unknown block flags " + std::to_string(flags));
-  h.samples = SampleEncoding(samples);
-  h.predictor = Predictor(predictor);
-  h.codec = BrickCodec(codec);
-  h.has_mask = flags & kFlagMask;
-  h.shuffled = flags & kFlagShuffled;
-  h.raw_size = get_le<uint32_t>(p + 4);
-  h.valid = get_le<uint32_t>(p + 8);
-  h.lo = get_le<float>(p + 12);
-  h.hi = get_le<float>(p + 16);
-  h.qmax = get_le<uint32_t>(p + 20);
-  h.base = get_le<int64_t>(p + 24);
-  h.origin = get_le<double>(p + 32);
-  h.step = get_le<double>(p + 40);
+  h.samples = SampleEncoding(rec.samples);
+  h.predictor = Predictor(rec.predictor);
+  h.codec = BrickCodec(rec.codec);
+  h.has_mask = rec.flags & kBlockFlagMask;
+  h.shuffled = rec.flags & kBlockFlagShuffled;
+  h.raw_size = rec.raw_size;
+  h.valid = rec.valid;
+  h.lo = rec.lo;
+  h.hi = rec.hi;
+  h.qmax = rec.qmax;
+  h.base = rec.base;
+  h.origin = rec.origin;
+  h.step = rec.step;
 
   const uint64_t n = uint64_t(r) * r * r;
   if (h.valid == 0 || h.valid > n || (!h.has_mask && h.valid != n)) {
-    fail_at_offset(file, offset + 8,
+    fail_at_offset(file, at(offsetof(BlockRecord, valid)),
                    "valid sample count " + std::to_string(h.valid) + " impossible for a " + std::to_string(r) +
                        "³ brick" + (h.has_mask ? "" : " without a mask"));
   }
   const uint64_t expect =
       (h.has_mask ? mask_bytes(r) : 0) + uint64_t(h.valid) * (h.samples == SampleEncoding::Quant16 ? 2 : 4);
   if (h.raw_size != expect) {
-    fail_at_offset(file, offset + 4,
+    fail_at_offset(file, at(offsetof(BlockRecord, raw_size)),
                    "payload size " + std::to_string(h.raw_size) + " does not match " + std::to_string(h.valid) +
                        " valid samples (expected " + std::to_string(expect) + ")");
   }
@@ -549,34 +547,36 @@ BlockHeader parse_block_header(std::span<const std::byte> block, uint32_t r, std
                        std::to_string(h.raw_size));
   }
   if (!std::isfinite(h.lo) || !std::isfinite(h.hi) || !(h.lo <= h.hi)) {
-    fail_at_offset(file, offset + 12,
+    fail_at_offset(file, at(offsetof(BlockRecord, lo)),
                    "invalid brick range [" + std::to_string(h.lo) + ", " + std::to_string(h.hi) + "]");
   }
   if (h.samples == SampleEncoding::Quant16) {
-    if (h.qmax > 65535) fail_at_offset(file, offset + 20, "largest code " + std::to_string(h.qmax) + " above 65535");
+    if (h.qmax > 65535)
+      fail_at_offset(file, at(offsetof(BlockRecord, qmax)), "largest code " + std::to_string(h.qmax) + " above 65535");
     // Written so that no extreme base overflows: base + q must stay exact in double.
     if (h.base < -int64_t(kMaxGridIndex) || h.base > int64_t(kMaxGridIndex) - int64_t(h.qmax)) {
       fail_at_offset(
-          file, offset + 24,
+          file, at(offsetof(BlockRecord, base)),
           "grid index base " + std::to_string(h.base) + " + codes up to " + std::to_string(h.qmax) + " outside +-2^52");
     }
     if (!std::isfinite(h.origin)) {
-      fail_at_offset(file, offset + 32, "quantization grid origin " + std::to_string(h.origin) + " is not finite");
+      fail_at_offset(file, at(offsetof(BlockRecord, origin)),
+                     "quantization grid origin " + std::to_string(h.origin) + " is not finite");
     }
     if (!std::isfinite(h.step) || h.step < 0 || (h.qmax > 0 && !(h.step > 0))) {
       fail_at_offset(
-          file, offset + 40,
+          file, at(offsetof(BlockRecord, step)),
           "invalid quantization step " + std::to_string(h.step) + " for codes up to " + std::to_string(h.qmax));
     }
     const double first = grid_value(h.origin, double(h.base), h.step),
                  last = grid_value(h.origin, double(h.base) + double(h.qmax), h.step);
     if (!in_float_range(first) || !in_float_range(last)) {
       fail_at_offset(
-          file, offset + 24,
+          file, at(offsetof(BlockRecord, base)),
           "quantization grid decodes to [" + std::to_string(first) + ", " + std::to_string(last) + "], beyond float32");
     }
   } else if (h.qmax != 0 || h.base != 0 || h.origin != 0 || h.step != 0) {
-    fail_at_offset(file, offset + 20, "float32 block with quantization grid fields");
+    fail_at_offset(file, at(offsetof(BlockRecord, qmax)), "float32 block with quantization grid fields");
   }
   return h;
 }
@@ -616,7 +616,7 @@ void decode_brick(std::span<const std::byte> block, uint32_t r, float* samples, 
     }
     if (count != h.valid) {
       fail_at_offset(
-          file, offset + 8,
+          file, offset + offsetof(BlockRecord, valid),
           "mask marks " + std::to_string(count) + " valid samples, the header says " + std::to_string(h.valid));
     }
   }

@@ -3,22 +3,8 @@
 // many threads, the reader and a RAM cache decode blocks they fetched themselves. The choices (16-bit quantization,
 // 3-D Lorenzo predictor, byte shuffle, zstd) and the measurements behind them are in docs/brick-store.md.
 //
-// Block layout (little-endian; every offset is from the block's first byte):
-//
-//   offset size  field
-//   0      1     u8  samples    1 = Quant16, 2 = Float32 (SampleEncoding)
-//   1      1     u8  predictor  0 = None, 1 = DeltaX, 2 = Lorenzo (Predictor)
-//   2      1     u8  codec      0 = Stored, 1 = Lz4, 2 = Zstd (BrickCodec)
-//   3      1     u8  flags      bit 0: a mask follows (else every sample is valid); bit 1: values are byte-shuffled
-//   4      4     u32 raw_size   bytes of the payload once decompressed
-//   8      4     u32 valid      number of valid samples (1..R³)
-//   12     4     f32 lo         smallest valid sample (as given to the encoder)
-//   16     4     f32 hi         largest valid sample
-//   20     4     u32 qmax       Quant16: the largest code, 0..65535; Float32: 0
-//   24     8     i64 base       Quant16: grid index of code 0, -2^52 <= base, base + qmax <= 2^52; Float32: 0
-//   32     8     f64 origin     Quant16: value of grid index 0; Float32: 0
-//   40     8     f64 step       Quant16: grid step (> 0 unless qmax = 0); Float32: 0
-//   48     ...   payload, compressed by `codec`
+// Block layout: a 48-byte BlockRecord (brick_store_format.h: encoding, predictor, codec, flags, sizes, the valid
+// samples' range and the Quant16 grid, each member with its offset), then the payload compressed by its codec.
 //
 // The decompressed payload is
 //   [mask]   ceil(R³/8) bytes when flag bit 0 is set: bit (s & 7) of byte s / 8 is 1 where sample s has data

@@ -10,21 +10,28 @@
 #include <optional>
 
 #include "ugvr/core/error.h"
+#include "ugvr/lod/brick_store_format.h"
 
 namespace ugvr {
 
 namespace {
 
-constexpr unsigned char kMagic[8] = {0x89, 'U', 'B', 'S', '\r', '\n', 0x1a, '\n'};
-constexpr uint32_t kFixedHeaderSize = 176;
-constexpr uint32_t kNodeFixedSize = 48, kNodeFieldSize = 24;
+using store_format::field_record_size;
+using store_format::FieldRecord;
+using store_format::HeaderRecord;
+using store_format::node_record_size;
+using store_format::NodeFieldRecord;
+using store_format::NodeRecord;
+using store_format::read_record;
+using store_format::write_record;
+
 constexpr uint32_t kMaxNameLength = 1024;
 constexpr uint32_t kMaxHeaderSize = 2u << 20;          // far above 1024 fields of 1024-byte names
 constexpr uint64_t kMaxNodeId = uint64_t(1) << 40;     // ids index arrays the writer grows
 constexpr size_t kTableChunkBytes = size_t(16) << 20;  // node table I/O in pieces: bounded temporary memory
 
-uint32_t node_record_size(uint64_t fields) { return uint32_t(kNodeFixedSize + kNodeFieldSize * fields); }
-uint32_t field_record_size(size_t name_length) { return uint32_t((20 + name_length + 7) / 8 * 8); }
+// Where field f's entry of a node record starts, from the record's first byte.
+constexpr uint64_t node_field_offset(uint64_t f) { return sizeof(NodeRecord) + sizeof(NodeFieldRecord) * f; }
 
 uint32_t crc32_of(const void* data, size_t n, uint32_t crc = 0) {
   return uint32_t(crc32_z(crc, static_cast<const Bytef*>(data), n));
@@ -36,26 +43,18 @@ std::string hex32(uint32_t v) {
   return buf;
 }
 
-// Little-endian fields of a byte buffer (brick_codec.cpp asserts the host is little-endian).
-template <class T>
-void put(std::vector<std::byte>& b, size_t at, T v) {
-  std::memcpy(b.data() + at, &v, sizeof v);
+void put_corners(const Bounds& box, double (&lo)[3], double (&hi)[3]) {
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = box.lo[a];
+    hi[a] = box.hi[a];
+  }
 }
-template <class T>
-T get(const std::byte* p, size_t at) {
-  T v;
-  std::memcpy(&v, p + at, sizeof v);
-  return v;
-}
-
-void put_bounds(std::vector<std::byte>& b, size_t at, const Bounds& box) {
-  for (int a = 0; a < 3; ++a) put<double>(b, at + 8 * size_t(a), box.lo[a]);
-  for (int a = 0; a < 3; ++a) put<double>(b, at + 24 + 8 * size_t(a), box.hi[a]);
-}
-Bounds get_bounds(const std::byte* p, size_t at) {
+Bounds corners_bounds(const double (&lo)[3], const double (&hi)[3]) {
   Bounds box;
-  for (int a = 0; a < 3; ++a) box.lo[a] = get<double>(p, at + 8 * size_t(a));
-  for (int a = 0; a < 3; ++a) box.hi[a] = get<double>(p, at + 24 + 8 * size_t(a));
+  for (int a = 0; a < 3; ++a) {
+    box.lo[a] = lo[a];
+    box.hi[a] = hi[a];
+  }
   return box;
 }
 
@@ -64,7 +63,7 @@ int octant_of(const OctreeNode& n) { return int((n.i & 1) | (n.j & 1) << 1 | (n.
 // What is wrong with a tree, if anything: the node, the byte of its record that holds the culprit, and a sentence.
 struct TreeIssue {
   uint64_t node;
-  uint32_t record_offset;
+  uint64_t record_offset;
   std::string what;
 };
 
@@ -76,47 +75,50 @@ std::optional<TreeIssue> check_tree(std::span<const Node> nodes) {
   const uint64_t count = nodes.size();
   for (uint64_t id = 0; id < count; ++id) {
     const OctreeNode& n = nodes[id];
-    if (n.level > kMaxOctreeLevel) return TreeIssue{id, 36, "level " + std::to_string(n.level) + " above 31"};
+    if (n.level > kMaxOctreeLevel)
+      return TreeIssue{id, offsetof(NodeRecord, level), "level " + std::to_string(n.level) + " above 31"};
     const uint64_t extent = uint64_t(1) << n.level;
     if (n.i >= extent || n.j >= extent || n.k >= extent) {
-      return TreeIssue{id, 24,
+      return TreeIssue{id, offsetof(NodeRecord, i),
                        "coordinates (" + std::to_string(n.i) + ", " + std::to_string(n.j) + ", " + std::to_string(n.k) +
                            ") outside level " + std::to_string(n.level)};
     }
     if (id == 0) {
-      if (n.parent != kNoNode) return TreeIssue{id, 0, "the root (node 0) has a parent"};
-      if (n.level != 0) return TreeIssue{id, 36, "the root (node 0) is not at level 0"};
+      if (n.parent != kNoNode) return TreeIssue{id, offsetof(NodeRecord, parent), "the root (node 0) has a parent"};
+      if (n.level != 0) return TreeIssue{id, offsetof(NodeRecord, level), "the root (node 0) is not at level 0"};
     } else {
       if (n.parent >= id) {
-        return TreeIssue{id, 0,
+        return TreeIssue{id, offsetof(NodeRecord, parent),
                          n.parent == kNoNode ? std::string("a second root (no parent)")
                                              : "parent " + std::to_string(n.parent) + " does not precede it"};
       }
       const OctreeNode& p = nodes[n.parent];
       const int o = octant_of(n);
       if (n.level != p.level + 1 || n.i >> 1 != p.i || n.j >> 1 != p.j || n.k >> 1 != p.k) {
-        return TreeIssue{id, 24, "level and coordinates are not those of a child of node " + std::to_string(n.parent)};
+        return TreeIssue{id, offsetof(NodeRecord, i),
+                         "level and coordinates are not those of a child of node " + std::to_string(n.parent)};
       }
       const uint64_t rank = uint64_t(std::popcount(unsigned(p.child_mask) & ((1u << o) - 1)));
       if (!(p.child_mask >> o & 1) || p.first_child + rank != id) {
         return TreeIssue{
-            id, 0,
+            id, offsetof(NodeRecord, parent),
             "parent " + std::to_string(n.parent) + " does not list it as its child in octant " + std::to_string(o)};
       }
     }
     if ((n.child_mask == 0) != (n.first_child == kNoNode)) {
-      return TreeIssue{id, 8, "child mask and first child disagree"};
+      return TreeIssue{id, offsetof(NodeRecord, first_child), "child mask and first child disagree"};
     }
     if (n.child_mask) {
       const uint64_t children = uint64_t(std::popcount(unsigned(n.child_mask)));
       if (n.first_child <= id || n.first_child > count || children > count - n.first_child) {
-        return TreeIssue{id, 8,
+        return TreeIssue{id, offsetof(NodeRecord, first_child),
                          "children [" + std::to_string(n.first_child) + ", +" + std::to_string(children) +
                              ") do not follow it inside the " + std::to_string(count) + " nodes"};
       }
       for (uint64_t c = n.first_child; c < n.first_child + children; ++c) {
         if (nodes[c].parent != id) {
-          return TreeIssue{id, 8, "its child " + std::to_string(c) + " names another parent"};
+          return TreeIssue{id, offsetof(NodeRecord, first_child),
+                           "its child " + std::to_string(c) + " names another parent"};
         }
       }
     }
@@ -152,7 +154,7 @@ BrickStoreWriter::BrickStoreWriter(std::string path, BrickStoreLayout layout)
   if (l.fields.empty() || l.fields.size() > kMaxStoreFields) {
     fail_in(path_, std::to_string(l.fields.size()) + " fields; a brick store holds 1 to 1024");
   }
-  uint64_t header = kFixedHeaderSize;
+  uint64_t header = sizeof(HeaderRecord);
   for (const BrickStoreField& f : l.fields) {
     if (f.name.empty() || f.name.size() > kMaxNameLength) {
       fail_in(path_, "field name of " + std::to_string(f.name.size()) + " bytes; 1 to 1024 allowed");
@@ -314,25 +316,29 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
     const uint64_t end = std::min(count, first + chunk_nodes);
     buf.assign(size_t(end - first) * rec, std::byte{0});
     for (uint64_t id = first; id < end; ++id) {
-      const size_t at = size_t(id - first) * rec;
+      std::byte* at = buf.data() + size_t(id - first) * rec;
       const OctreeNode& n = nodes[id];
-      put<uint64_t>(buf, at + 0, n.parent);
-      put<uint64_t>(buf, at + 8, n.first_child);
-      put<uint64_t>(buf, at + 16, placed_[id].offset);
-      put<uint32_t>(buf, at + 24, n.i);
-      put<uint32_t>(buf, at + 28, n.j);
-      put<uint32_t>(buf, at + 32, n.k);
-      put<uint8_t>(buf, at + 36, n.level);
-      put<uint8_t>(buf, at + 37, n.child_mask);
-      put<float>(buf, at + 40, float(double(placed_[id].valid) / samples));
+      NodeRecord r;
+      r.parent = n.parent;
+      r.first_child = n.first_child;
+      r.brick_offset = placed_[id].offset;
+      r.i = n.i;
+      r.j = n.j;
+      r.k = n.k;
+      r.level = n.level;
+      r.child_mask = n.child_mask;
+      r.valid_fraction = float(double(placed_[id].valid) / samples);
+      write_record(at, r);
       for (size_t f = 0; f < nf; ++f) {
-        const size_t fa = at + kNodeFixedSize + kNodeFieldSize * f, e = id * nf + f;
-        put<float>(buf, fa + 0, mins[e]);
-        put<float>(buf, fa + 4, maxs[e]);
-        put<float>(buf, fa + 8, errors.empty() ? 0.0f : errors[e].max);
-        put<float>(buf, fa + 12, errors.empty() ? 0.0f : errors[e].rms);
-        put<uint32_t>(buf, fa + 16, placed_[id].offset ? sizes_[e] : 0);
-        put<uint32_t>(buf, fa + 20, placed_[id].offset ? crcs_[e] : 0);
+        const size_t e = id * nf + f;
+        NodeFieldRecord fr;
+        fr.min = mins[e];
+        fr.max = maxs[e];
+        fr.error_max = errors.empty() ? 0.0f : errors[e].max;
+        fr.error_rms = errors.empty() ? 0.0f : errors[e].rms;
+        fr.block_size = placed_[id].offset ? sizes_[e] : 0;
+        fr.block_crc = placed_[id].offset ? crcs_[e] : 0;
+        write_record(at + node_field_offset(f), fr);
       }
     }
     table_crc = crc32_of(buf.data(), buf.size(), table_crc);
@@ -340,35 +346,41 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
   }
   const uint64_t file_size = out_->position();
 
+  HeaderRecord header;
+  std::memcpy(header.magic, store_format::kMagic, sizeof header.magic);
+  header.version = kBrickStoreVersion;
+  header.header_size = header_size_;
+  header.resolution = layout_.resolution;
+  header.field_count = uint32_t(nf);
+  header.node_record_size = rec;
+  header.samples = uint8_t(layout_.encoding.samples);
+  header.predictor = uint8_t(layout_.encoding.predictor);
+  header.codec = uint8_t(layout_.encoding.codec);
+  header.shuffle = layout_.encoding.shuffle ? 1 : 0;
+  header.codec_level = layout_.encoding.level;
+  header.tolerance = layout_.tolerance;
+  put_corners(layout_.root, header.root_lo, header.root_hi);
+  put_corners(layout_.data, header.data_lo, header.data_hi);
+  header.node_count = count;
+  header.node_table_offset = table_offset;
+  header.file_size = file_size;
+  header.node_table_crc = table_crc;
+  // The checksum covers the field records too, so they go into the buffer first; header_crc is 0 meanwhile.
   std::vector<std::byte> h(header_size_, std::byte{0});
-  std::memcpy(h.data(), kMagic, sizeof kMagic);
-  put<uint32_t>(h, 8, kBrickStoreVersion);
-  put<uint32_t>(h, 12, header_size_);
-  put<uint32_t>(h, 16, layout_.resolution);
-  put<uint32_t>(h, 20, uint32_t(nf));
-  put<uint32_t>(h, 24, rec);
-  put<uint8_t>(h, 28, uint8_t(layout_.encoding.samples));
-  put<uint8_t>(h, 29, uint8_t(layout_.encoding.predictor));
-  put<uint8_t>(h, 30, uint8_t(layout_.encoding.codec));
-  put<uint8_t>(h, 31, layout_.encoding.shuffle ? 1 : 0);
-  put<int32_t>(h, 32, layout_.encoding.level);
-  put<double>(h, 40, layout_.tolerance);
-  put_bounds(h, 48, layout_.root);
-  put_bounds(h, 96, layout_.data);
-  put<uint64_t>(h, 144, count);
-  put<uint64_t>(h, 152, table_offset);
-  put<uint64_t>(h, 160, file_size);
-  put<uint32_t>(h, 168, table_crc);
-  size_t at = kFixedHeaderSize;
+  size_t at = sizeof(HeaderRecord);
   for (const BrickStoreField& f : layout_.fields) {
-    put<double>(h, at + 0, f.min);
-    put<double>(h, at + 8, f.max);
-    put<uint8_t>(h, at + 16, uint8_t(f.association));
-    put<uint16_t>(h, at + 18, uint16_t(f.name.size()));
-    std::memcpy(h.data() + at + 20, f.name.data(), f.name.size());
+    FieldRecord r;
+    r.min = f.min;
+    r.max = f.max;
+    r.association = uint8_t(f.association);
+    r.name_length = uint16_t(f.name.size());
+    write_record(h.data() + at, r);
+    std::memcpy(h.data() + at + sizeof(FieldRecord), f.name.data(), f.name.size());
     at += field_record_size(f.name.size());
   }
-  put<uint32_t>(h, 172, crc32_of(h.data(), h.size()));
+  write_record(h.data(), header);
+  header.header_crc = crc32_of(h.data(), h.size());
+  write_record(h.data(), header);
   out_->write_at(0, h.data(), h.size());
   out_->commit();
 }
@@ -377,110 +389,135 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
 // Reader
 
 BrickStoreReader::BrickStoreReader(std::string path) : file_(std::move(path)) {
+  const std::vector<std::byte> header_bytes = read_header();
+  read_field_records(header_bytes);
+  read_node_table();
+  check_nodes();
+}
+
+// The header record and the field records' bytes, checked: magic, version, header size and checksum, then the fixed
+// fields.
+std::vector<std::byte> BrickStoreReader::read_header() {
   const std::string& name = file_.path();
   const uint64_t size = file_.size();
-
-  std::byte fixed[kFixedHeaderSize] = {};
+  std::byte fixed[sizeof(HeaderRecord)] = {};
   const size_t got = file_.read_some_at(0, fixed, sizeof fixed);
-  if (got < sizeof kMagic || std::memcmp(fixed, kMagic, sizeof kMagic) != 0) {
-    const bool blank = got >= sizeof kMagic &&
-                       std::all_of(fixed, fixed + sizeof kMagic, [](std::byte b) { return b == std::byte{0}; });
-    fail_at_offset(name, 0,
+  const HeaderRecord h = read_record<HeaderRecord>(fixed);
+  if (got < sizeof h.magic || std::memcmp(h.magic, store_format::kMagic, sizeof h.magic) != 0) {
+    const bool blank =
+        got >= sizeof h.magic && std::all_of(std::begin(h.magic), std::end(h.magic), [](uint8_t b) { return b == 0; });
+    fail_at_offset(name, offsetof(HeaderRecord, magic),
                    blank ? "not a ugvr brick store: the header is blank (the temporary file of an unfinished build?)"
                          : "not a ugvr brick store (wrong magic number)");
   }
-  if (got < 12) fail_at_offset(name, got, "truncated brick store header");
-  const uint32_t version = get<uint32_t>(fixed, 8);
-  if (version != kBrickStoreVersion) {
-    fail_at_offset(name, 8,
-                   "brick store format version " + std::to_string(version) + "; this build reads version " +
+  if (got < offsetof(HeaderRecord, version) + sizeof h.version)
+    fail_at_offset(name, got, "truncated brick store header");
+  if (h.version != kBrickStoreVersion) {
+    fail_at_offset(name, offsetof(HeaderRecord, version),
+                   "brick store format version " + std::to_string(h.version) + "; this build reads version " +
                        std::to_string(kBrickStoreVersion) +
-                       (version < kBrickStoreVersion
+                       (h.version < kBrickStoreVersion
                             ? " only (older stores quantize each brick on its own grid): rebuild it with `ugvr build`"
                             : " (written by a newer ugvr)"));
   }
-  if (got < kFixedHeaderSize) {
+  if (got < sizeof(HeaderRecord)) {
     fail_at_offset(name, got, "truncated brick store: " + std::to_string(size) + " bytes, shorter than its header");
   }
-  const uint32_t header_size = get<uint32_t>(fixed, 12);
-  if (header_size < kFixedHeaderSize || header_size % 8 || header_size > kMaxHeaderSize || header_size > size) {
+  if (h.header_size < sizeof(HeaderRecord) || h.header_size % 8 || h.header_size > kMaxHeaderSize ||
+      h.header_size > size) {
     fail_at_offset(
-        name, 12,
-        "header size " + std::to_string(header_size) + " impossible (file of " + std::to_string(size) + " bytes)");
+        name, offsetof(HeaderRecord, header_size),
+        "header size " + std::to_string(h.header_size) + " impossible (file of " + std::to_string(size) + " bytes)");
   }
-  std::vector<std::byte> h(header_size);
-  file_.read_at(0, h.data(), h.size());
-  const uint32_t stored_header_crc = get<uint32_t>(h.data(), 172);
-  std::memset(h.data() + 172, 0, 4);
-  if (const uint32_t crc = crc32_of(h.data(), h.size()); crc != stored_header_crc) {
-    fail_at_offset(name, 172,
-                   "header checksum mismatch (stored " + hex32(stored_header_crc) + ", computed " + hex32(crc) +
+  std::vector<std::byte> bytes(h.header_size);
+  file_.read_at(0, bytes.data(), bytes.size());
+  std::memset(bytes.data() + offsetof(HeaderRecord, header_crc), 0, sizeof h.header_crc);
+  if (const uint32_t crc = crc32_of(bytes.data(), bytes.size()); crc != h.header_crc) {
+    fail_at_offset(name, offsetof(HeaderRecord, header_crc),
+                   "header checksum mismatch (stored " + hex32(h.header_crc) + ", computed " + hex32(crc) +
                        "): the header is corrupt");
   }
+  header_ = h;
 
   // From here on the header is as the writer wrote it; the checks guard against a writer of another make.
   BrickStoreLayout& l = layout_;
-  l.resolution = get<uint32_t>(h.data(), 16);
+  l.resolution = h.resolution;
   if (l.resolution < kMinBrickResolution || l.resolution > kMaxBrickResolution) {
-    fail_at_offset(name, 16, "brick resolution " + std::to_string(l.resolution) + " outside [2, 512]");
+    fail_at_offset(name, offsetof(HeaderRecord, resolution),
+                   "brick resolution " + std::to_string(l.resolution) + " outside [2, 512]");
   }
-  const uint32_t nf = get<uint32_t>(h.data(), 20);
-  if (nf == 0 || nf > kMaxStoreFields) fail_at_offset(name, 20, std::to_string(nf) + " fields (1 to 1024 allowed)");
-  const uint32_t rec = get<uint32_t>(h.data(), 24);
-  if (rec != node_record_size(nf)) {
-    fail_at_offset(name, 24,
-                   "node record size " + std::to_string(rec) + ", expected " + std::to_string(node_record_size(nf)) +
-                       " for " + std::to_string(nf) + " fields");
+  if (h.field_count == 0 || h.field_count > kMaxStoreFields) {
+    fail_at_offset(name, offsetof(HeaderRecord, field_count),
+                   std::to_string(h.field_count) + " fields (1 to 1024 allowed)");
   }
-  const uint8_t samples = get<uint8_t>(h.data(), 28), predictor = get<uint8_t>(h.data(), 29),
-                codec = get<uint8_t>(h.data(), 30), shuffle = get<uint8_t>(h.data(), 31);
-  if (samples < 1 || samples > 2 || predictor > 2 || codec > 2 || shuffle > 1) {
-    fail_at_offset(name, 28, "unknown encoding settings");
+  if (h.node_record_size != node_record_size(h.field_count)) {
+    fail_at_offset(name, offsetof(HeaderRecord, node_record_size),
+                   "node record size " + std::to_string(h.node_record_size) + ", expected " +
+                       std::to_string(node_record_size(h.field_count)) + " for " + std::to_string(h.field_count) +
+                       " fields");
   }
-  l.encoding = {SampleEncoding(samples), Predictor(predictor), shuffle != 0, BrickCodec(codec),
-                get<int32_t>(h.data(), 32)};
-  l.tolerance = get<double>(h.data(), 40);
-  l.root = get_bounds(h.data(), 48);
-  l.data = get_bounds(h.data(), 96);
+  if (h.samples < 1 || h.samples > 2 || h.predictor > 2 || h.codec > 2 || h.shuffle > 1) {
+    fail_at_offset(name, offsetof(HeaderRecord, samples), "unknown encoding settings");
+  }
+  l.encoding = {SampleEncoding(h.samples), Predictor(h.predictor), h.shuffle != 0, BrickCodec(h.codec), h.codec_level};
+  l.tolerance = h.tolerance;
+  l.root = corners_bounds(h.root_lo, h.root_hi);
+  l.data = corners_bounds(h.data_lo, h.data_hi);
   if (l.root.empty() || !(l.root.size().x > 0 && l.root.size().y > 0 && l.root.size().z > 0)) {
-    fail_at_offset(name, 48, "empty octree root cell");
+    fail_at_offset(name, offsetof(HeaderRecord, root_lo), "empty octree root cell");
   }
-  size_t at = kFixedHeaderSize;
-  for (uint32_t f = 0; f < nf; ++f) {
-    if (at + 20 > header_size) fail_at_offset(name, at, "field record " + std::to_string(f) + " past the header");
-    BrickStoreField field;
-    field.min = get<double>(h.data(), at);
-    field.max = get<double>(h.data(), at + 8);
-    const uint8_t assoc = get<uint8_t>(h.data(), at + 16);
-    if (assoc > 1) fail_at_offset(name, at + 16, "unknown field association " + std::to_string(assoc));
-    field.association = Association(assoc);
-    const uint16_t len = get<uint16_t>(h.data(), at + 18);
-    if (len == 0 || len > kMaxNameLength || at + field_record_size(len) > header_size) {
-      fail_at_offset(name, at + 18, "field name length " + std::to_string(len) + " impossible");
-    }
-    field.name.assign(reinterpret_cast<const char*>(h.data() + at + 20), len);
-    l.fields.push_back(std::move(field));
-    at += field_record_size(len);
-  }
+  return bytes;
+}
 
-  const uint64_t count = get<uint64_t>(h.data(), 144);
-  node_table_offset_ = get<uint64_t>(h.data(), 152);
-  const uint64_t stored_size = get<uint64_t>(h.data(), 160);
-  if (stored_size != size) {
-    fail_at_offset(name, stored_size < size ? stored_size : size,
-                   "the file has " + std::to_string(size) + " bytes, its header says " + std::to_string(stored_size) +
-                       (size < stored_size ? ": truncated" : ": data appended after its end"));
+// The field records that follow the header record, into layout_.fields.
+void BrickStoreReader::read_field_records(std::span<const std::byte> bytes) {
+  const std::string& name = file_.path();
+  const uint64_t header_size = bytes.size();
+  uint64_t at = sizeof(HeaderRecord);
+  for (uint32_t f = 0; f < header_.field_count; ++f) {
+    if (at + sizeof(FieldRecord) > header_size) {
+      fail_at_offset(name, at, "field record " + std::to_string(f) + " past the header");
+    }
+    const FieldRecord r = read_record<FieldRecord>(bytes.data() + at);
+    BrickStoreField field;
+    field.min = r.min;
+    field.max = r.max;
+    if (r.association > 1) {
+      fail_at_offset(name, at + offsetof(FieldRecord, association),
+                     "unknown field association " + std::to_string(r.association));
+    }
+    field.association = Association(r.association);
+    if (r.name_length == 0 || r.name_length > kMaxNameLength || at + field_record_size(r.name_length) > header_size) {
+      fail_at_offset(name, at + offsetof(FieldRecord, name_length),
+                     "field name length " + std::to_string(r.name_length) + " impossible");
+    }
+    field.name.assign(reinterpret_cast<const char*>(bytes.data() + at + sizeof(FieldRecord)), r.name_length);
+    layout_.fields.push_back(std::move(field));
+    at += field_record_size(r.name_length);
   }
-  if (count == 0) fail_at_offset(name, 144, "no nodes");
-  if (node_table_offset_ < header_size || node_table_offset_ > size || count > (size - node_table_offset_) / rec ||
-      count * rec != size - node_table_offset_) {
-    fail_at_offset(name, 152,
+}
+
+// The file's size against the header, then the node table, in chunks: the checksum runs over the raw bytes, the
+// records are parsed as they come.
+void BrickStoreReader::read_node_table() {
+  const std::string& name = file_.path();
+  const uint64_t size = file_.size(), count = header_.node_count, rec = header_.node_record_size;
+  const uint32_t nf = header_.field_count;
+  node_table_offset_ = header_.node_table_offset;
+  if (header_.file_size != size) {
+    fail_at_offset(name, std::min(header_.file_size, size),
+                   "the file has " + std::to_string(size) + " bytes, its header says " +
+                       std::to_string(header_.file_size) +
+                       (size < header_.file_size ? ": truncated" : ": data appended after its end"));
+  }
+  if (count == 0) fail_at_offset(name, offsetof(HeaderRecord, node_count), "no nodes");
+  if (node_table_offset_ < header_.header_size || node_table_offset_ > size ||
+      count > (size - node_table_offset_) / rec || count * rec != size - node_table_offset_) {
+    fail_at_offset(name, offsetof(HeaderRecord, node_table_offset),
                    "node table of " + std::to_string(count) + " records of " + std::to_string(rec) +
                        " bytes at offset " + std::to_string(node_table_offset_) + " does not end the " +
                        std::to_string(size) + "-byte file");
   }
-
-  // Node table, in chunks: the checksum runs over the raw bytes, the records are parsed as they come.
   nodes_.resize(count);
   stats_.resize(count * nf);
   blocks_.resize(count * nf);
@@ -494,55 +531,59 @@ BrickStoreReader::BrickStoreReader(std::string path) : file_(std::move(path)) {
     table_crc = crc32_of(buf.data(), buf.size(), table_crc);
     for (uint64_t id = first; id < end; ++id) {
       const std::byte* p = buf.data() + size_t(id - first) * rec;
+      const NodeRecord r = read_record<NodeRecord>(p);
       BrickNode& n = nodes_[id];
-      n.parent = get<uint64_t>(p, 0);
-      n.first_child = get<uint64_t>(p, 8);
-      n.brick_offset = get<uint64_t>(p, 16);
-      n.i = get<uint32_t>(p, 24);
-      n.j = get<uint32_t>(p, 28);
-      n.k = get<uint32_t>(p, 32);
-      n.level = get<uint8_t>(p, 36);
-      n.child_mask = get<uint8_t>(p, 37);
-      n.valid_fraction = get<float>(p, 40);
+      n.parent = r.parent;
+      n.first_child = r.first_child;
+      n.brick_offset = r.brick_offset;
+      n.i = r.i;
+      n.j = r.j;
+      n.k = r.k;
+      n.level = r.level;
+      n.child_mask = r.child_mask;
+      n.valid_fraction = r.valid_fraction;
       for (uint32_t f = 0; f < nf; ++f) {
-        const size_t fa = kNodeFixedSize + kNodeFieldSize * f;
-        stats_[id * nf + f] = {get<float>(p, fa), get<float>(p, fa + 4), get<float>(p, fa + 8), get<float>(p, fa + 12)};
-        blocks_[id * nf + f] = {0, get<uint32_t>(p, fa + 16), get<uint32_t>(p, fa + 20)};
+        const NodeFieldRecord fr = read_record<NodeFieldRecord>(p + node_field_offset(f));
+        stats_[id * nf + f] = {fr.min, fr.max, fr.error_max, fr.error_rms};
+        blocks_[id * nf + f] = {0, fr.block_size, fr.block_crc};
       }
     }
   }
-  if (table_crc != get<uint32_t>(h.data(), 168)) {
+  if (table_crc != header_.node_table_crc) {
     fail_at_offset(name, node_table_offset_,
-                   "node table checksum mismatch (stored " + hex32(get<uint32_t>(h.data(), 168)) + ", computed " +
+                   "node table checksum mismatch (stored " + hex32(header_.node_table_crc) + ", computed " +
                        hex32(table_crc) + "): the node table is corrupt");
   }
+}
 
-  auto record_offset = [&](uint64_t id, uint64_t within) { return node_table_offset_ + id * rec + within; };
+// The tree's structure, each node's valid fraction against its brick, and where its blocks lie.
+void BrickStoreReader::check_nodes() {
+  const std::string& name = file_.path();
+  const uint64_t count = nodes_.size(), header_size = header_.header_size;
+  const uint32_t nf = field_count();
   if (auto issue = check_tree(std::span<const BrickNode>(nodes_))) {
-    fail_at_offset(name, record_offset(issue->node, issue->record_offset),
+    fail_at_offset(name, record_offset(issue->node) + issue->record_offset,
                    "node " + std::to_string(issue->node) + ": " + issue->what);
   }
   for (uint64_t id = 0; id < count; ++id) {
     const BrickNode& n = nodes_[id];
     if (!(n.valid_fraction >= 0 && n.valid_fraction <= 1) || (n.has_brick() != (n.valid_fraction > 0))) {
-      fail_at_offset(name, record_offset(id, 40),
+      fail_at_offset(name, record_offset(id) + offsetof(NodeRecord, valid_fraction),
                      "node " + std::to_string(id) + ": valid fraction " + std::to_string(n.valid_fraction) +
                          (n.has_brick() ? " with a brick" : " without a brick"));
     }
     uint64_t offset = n.brick_offset;
     for (uint32_t f = 0; f < nf; ++f) {
       BlockRef& b = blocks_[id * nf + f];
+      const uint64_t size_at = record_offset(id) + node_field_offset(f) + offsetof(NodeFieldRecord, block_size);
       if (!n.has_brick()) {
-        if (b.size) {
-          fail_at_offset(name, record_offset(id, kNodeFixedSize + kNodeFieldSize * f + 16),
-                         "node " + std::to_string(id) + " has no brick but a block size");
-        }
+        if (b.size) fail_at_offset(name, size_at, "node " + std::to_string(id) + " has no brick but a block size");
         continue;
       }
       if (b.size < kBlockHeaderSize || offset < header_size || offset > node_table_offset_ ||
           b.size > node_table_offset_ - offset) {
-        fail_at_offset(name, record_offset(id, kNodeFixedSize + kNodeFieldSize * f + 16),
-                       "node " + std::to_string(id) + " field '" + l.fields[f].name + "': block of " +
+        fail_at_offset(name, size_at,
+                       "node " + std::to_string(id) + " field '" + layout_.fields[f].name + "': block of " +
                            std::to_string(b.size) + " bytes at offset " + std::to_string(offset) +
                            " outside the block area [" + std::to_string(header_size) + ", " +
                            std::to_string(node_table_offset_) + ")");
@@ -551,6 +592,10 @@ BrickStoreReader::BrickStoreReader(std::string path) : file_(std::move(path)) {
       offset += b.size;
     }
   }
+}
+
+uint64_t BrickStoreReader::record_offset(uint64_t node) const {
+  return node_table_offset_ + node * header_.node_record_size;
 }
 
 int BrickStoreReader::field_index(std::string_view field_name) const {

@@ -12,69 +12,16 @@
 // 2i + dx, ...), bit o of child_mask telling whether that child exists; children always come after their parent.
 // A node whose cell holds no data at all has no brick (brick_offset 0, every block size 0, valid_fraction 0).
 //
-// File layout, little-endian, all offsets and counts 64-bit (sizes of single blocks are 32-bit: R <= 512):
+// File layout: [header record, field records] [blocks, appended as built] [node table], little-endian. A node's
+// brick is its F blocks back to back (field 0 first) from brick_offset, each self-describing and compressed on its
+// own (brick_codec.h), with its size and crc32 in the node's record. The structs of brick_store_format.h define every
+// byte, each member with its offset and meaning; docs/brick-store.md has the same as tables, with the reasons.
 //
-//   [header: fixed part, then field records]  [blocks, appended as built]  [node table]
-//
-// Header, fixed part (176 bytes):
-//   offset size  field
-//   0      8     magic 89 55 42 53 0D 0A 1A 0A ("\x89UBS\r\n\x1a\n": a binary, newline- and EOF-sensitive tag)
-//   8      4     u32 format version (kBrickStoreVersion, 2; version 1 quantized each brick on a grid of its own and
-//                    is not read)
-//   12     4     u32 header_size: bytes of the fixed part plus the field records, a multiple of 8; blocks follow
-//   16     4     u32 brick resolution R (samples per axis, 2..512)
-//   20     4     u32 field count F (1..1024)
-//   24     4     u32 node record size, 48 + 24·F
-//   28     1     u8  sample encoding the writer was set to (each block states its own; see brick_codec.h)
-//   29     1     u8  predictor                    "
-//   30     1     u8  codec                        "
-//   31     1     u8  shuffle (0 or 1)             "
-//   32     4     i32 codec level                  "
-//   36     4     u32 reserved, 0
-//   40     8     f64 tolerance: Quant16 samples are within tolerance × (field max - field min) of the exact ones;
-//                    0 for Float32 (exact) and for "each brick's own range over 65535 codes"
-//   48     48    f64 × 6 root cell: lo.x lo.y lo.z hi.x hi.y hi.z
-//   96     48    f64 × 6 dataset bounds, same order
-//   144    8     u64 node count N (>= 1)
-//   152    8     u64 node table offset
-//   160    8     u64 file size (node table offset + N × record size: the node table ends the file)
-//   168    4     u32 crc32 (zlib) of the node table
-//   172    4     u32 crc32 (zlib) of bytes [0, header_size) with these 4 bytes read as zero
-// Field record (one per field, in field order, each padded with zeros to a multiple of 8 bytes):
-//   0      8     f64 global min of the field (the range tolerances are relative to; the origin of its Quant16 grid)
-//   8      8     f64 global max
-//   16     1     u8  association: 0 vertex, 1 cell (of the source mesh)
-//   17     1     u8  reserved, 0
-//   18     2     u16 name length L (1..1024)
-//   20     L     name, UTF-8, not terminated
-//
-// Blocks: the bricks of one node are its F blocks back to back (field 0 first) from brick_offset; each block is
-// self-describing and compressed on its own (layout in brick_codec.h) and has its own crc32 in the node table.
 // With tolerance > 0, every Quant16 block of field f lies on one grid, origin = field min, step = 2 × tolerance ×
 // (field max - field min) (both stored in each block), so samples that neighbouring bricks share decode to
 // bit-identical values (the renderer's seams stay closed). Only a brick whose values exceed the field's declared range
 // so far that 16 bits cannot cover it on that grid gets a grid of its own. With tolerance 0 (or a field of range 0)
 // each brick has its own grid, and shared samples may differ by up to a step of either brick.
-//
-// Node table: N records of 48 + 24·F bytes, node id order:
-//   0      8     u64 parent id (kNoNode = 2^64-1 for the root)
-//   8      8     u64 first child id (kNoNode for a leaf)
-//   16     8     u64 brick_offset: file offset of the node's first block; 0 = no brick
-//   24     12    u32 × 3 i, j, k: integer coordinates at the node's level
-//   36     1     u8  level (0..31)
-//   37     1     u8  child mask
-//   38     2     u16 reserved, 0
-//   40     4     f32 valid fraction: valid samples / R³ of the node's brick
-//   44     4     u32 reserved, 0
-//   48     24·F  per field:
-//                  0  f32 min   smallest sample of the node's brick and its descendants' (+inf: none), by the writer,
-//                               over both the samples as given and as decoded: a Quant16 sample may decode up to
-//                               step / 2 beyond the exact range, and the range bounds what the renderer reads
-//                  4  f32 max   largest, likewise (-inf: no data): culling a node by value range culls its subtree
-//                  8  f32 error_max  max |sample - finest data| over the node's cell (the builder's figure)
-//                  12 f32 error_rms  root mean square of the same
-//                  16 u32 block size in bytes (0: no brick)
-//                  20 u32 block crc32 (zlib)
 //
 // Atomicity: the writer works on a temporary next to the path (core/file.h) whose header stays all zeros until
 // commit() writes it, then renames; an interrupted or failed build leaves no file at the path, and a temporary left
@@ -95,10 +42,10 @@
 #include "ugvr/core/vec.h"
 #include "ugvr/grid/field.h"
 #include "ugvr/lod/brick_codec.h"
+#include "ugvr/lod/brick_store_format.h"
 
 namespace ugvr {
 
-inline constexpr uint32_t kBrickStoreVersion = 2;
 inline constexpr uint64_t kNoNode = ~uint64_t(0);
 inline constexpr int kMaxOctreeLevel = 31;
 inline constexpr uint32_t kMaxStoreFields = 1024;
@@ -229,6 +176,10 @@ class BrickStoreReader {
 
   const std::string& path() const { return file_.path(); }
   uint64_t file_size() const { return file_.size(); }
+  // The header record as stored (checksum verified); layout() is the same, decoded.
+  const store_format::HeaderRecord& header() const { return header_; }
+  // File offset of node `node`'s record in the node table (it need not exist: for messages).
+  uint64_t record_offset(uint64_t node) const;
   const BrickStoreLayout& layout() const { return layout_; }
   uint32_t resolution() const { return layout_.resolution; }
   uint32_t field_count() const { return uint32_t(layout_.fields.size()); }
@@ -254,9 +205,15 @@ class BrickStoreReader {
                     uint8_t* mask) const;
 
  private:
+  // The steps of opening, in order; each throws ugvr::Error naming the file and offset.
+  std::vector<std::byte> read_header();
+  void read_field_records(std::span<const std::byte> header_bytes);
+  void read_node_table();
+  void check_nodes();
   void check_node_field(uint64_t node, uint32_t field) const;
 
   InputFile file_;
+  store_format::HeaderRecord header_;
   BrickStoreLayout layout_;
   uint64_t node_table_offset_ = 0;
   std::vector<BrickNode> nodes_;

@@ -1,0 +1,275 @@
+#include "ugvr/report/store_report.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstring>
+#include <mutex>
+#include <sstream>
+#include <tuple>
+
+#include "ugvr/core/error.h"
+#include "ugvr/core/file.h"
+#include "ugvr/core/memory.h"
+#include "ugvr/core/progress.h"
+#include "ugvr/report/report_text.h"
+
+namespace ugvr {
+
+namespace {
+
+using nlohmann::json;
+
+// Nodes, leaves and nodes with a brick, per level.
+struct LevelCounts {
+  std::vector<uint64_t> nodes, leaves, bricks;
+};
+
+LevelCounts count_levels(const BrickStoreReader& s) {
+  LevelCounts c;
+  for (const BrickNode& n : s.nodes()) {
+    if (n.level >= c.nodes.size()) {
+      c.nodes.resize(n.level + 1u);
+      c.leaves.resize(n.level + 1u);
+      c.bricks.resize(n.level + 1u);
+    }
+    ++c.nodes[n.level];
+    c.leaves[n.level] += n.is_leaf();
+    c.bricks[n.level] += n.has_brick();
+  }
+  return c;
+}
+
+uint64_t sum(const std::vector<uint64_t>& v) {
+  uint64_t t = 0;
+  for (uint64_t x : v) t += x;
+  return t;
+}
+
+// Per field: the bytes of its blocks, and the largest error the builder measured at a leaf (the store's accuracy at
+// its finest level).
+json field_json(const BrickStoreReader& s, uint32_t f) {
+  const BrickStoreField& field = s.layout().fields[f];
+  uint64_t bytes = 0;
+  float leaf_error = 0;
+  for (uint64_t id = 0; id < s.node_count(); ++id) {
+    bytes += s.block(id, f).size;
+    if (s.node(id).is_leaf() && s.node(id).has_brick()) leaf_error = std::max(leaf_error, s.stats(id, f).error_max);
+  }
+  return {{"name", field.name},
+          {"location", association_name(field.association)},
+          {"encoding", sample_encoding_name(s.layout().encoding.samples)},
+          {"range", {field.min, field.max}},
+          {"block_bytes", bytes},
+          {"leaf_error_max", leaf_error}};
+}
+
+json encoding_json(const BrickStoreLayout& l) {
+  return {{"samples", sample_encoding_name(l.encoding.samples)},
+          {"predictor", predictor_name(l.encoding.predictor)},
+          {"shuffle", l.encoding.shuffle},
+          {"codec", brick_codec_name(l.encoding.codec)},
+          {"level", l.encoding.level},
+          {"tolerance", l.tolerance}};
+}
+
+// Where the file's bytes go. float32: what the bricks' samples would take uncompressed (R³ floats per field and
+// brick), the figure docs/brick-store.md's ratios are against.
+json bytes_json(const BrickStoreReader& s, uint64_t block_bytes, uint64_t bricks) {
+  const store_format::HeaderRecord& h = s.header();
+  const uint64_t r = s.resolution();
+  const uint64_t float32 = bricks * s.field_count() * r * r * r * sizeof(float);
+  const uint64_t table = h.node_count * h.node_record_size;
+  return {{"file", s.file_size()},
+          {"header", h.header_size},
+          {"blocks", block_bytes},
+          {"node_table", table},
+          {"unreferenced", s.file_size() - h.header_size - block_bytes - table},
+          {"float32", float32},
+          {"ratio", block_bytes ? double(float32) / double(block_bytes) : 0.0}};
+}
+
+std::string fmt_ratio(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f", v);
+  return buf;
+}
+
+// "1 node, 0 leaves, 1 with a brick"
+std::string level_line(uint64_t nodes, uint64_t leaves, uint64_t bricks) {
+  return fmt_count(nodes) + (nodes == 1 ? " node, " : " nodes, ") + fmt_count(leaves) +
+         (leaves == 1 ? " leaf, " : " leaves, ") + fmt_count(bricks) + " with a brick";
+}
+
+std::string bytes_text(uint64_t v) { return fmt_count(v) + " bytes (" + format_bytes(v) + ")"; }
+
+}  // namespace
+
+bool is_brick_store_path(const std::string& path) {
+  if (extension_lower(path) == ".ugvr") return true;
+  uint8_t head[sizeof store_format::kMagic] = {};
+  const InputFile f(path);
+  return f.read_some_at(0, head, sizeof head) == sizeof head &&
+         std::memcmp(head, store_format::kMagic, sizeof head) == 0;
+}
+
+nlohmann::json store_report(const BrickStoreReader& s) {
+  const BrickStoreLayout& l = s.layout();
+  const LevelCounts levels = count_levels(s);
+  json fields = json::array();
+  uint64_t block_bytes = 0;
+  std::vector<std::string> names;
+  for (uint32_t f = 0; f < s.field_count(); ++f) {
+    fields.push_back(field_json(s, f));
+    block_bytes += fields.back()["block_bytes"].get<uint64_t>();
+    names.push_back(l.fields[f].name);
+  }
+  const uint64_t bricks = sum(levels.bricks);
+  return {{"format", "ugvr brick store"},
+          {"version", s.header().version},
+          {"sources", {s.path()}},
+          {"bounds", bounds_json(l.data)},
+          {"root", bounds_json(l.root)},
+          {"brick", l.resolution},
+          {"encoding", encoding_json(l)},
+          {"fields", fields},
+          {"nodes", s.node_count()},
+          {"leaves", sum(levels.leaves)},
+          {"nodes_with_data", bricks},
+          {"depth_max", levels.nodes.size() - 1},
+          {"nodes_per_level", levels.nodes},
+          {"leaves_per_level", levels.leaves},
+          {"nodes_with_data_per_level", levels.bricks},
+          {"bytes", bytes_json(s, block_bytes, bricks)},
+          // What `ugvr build` was given, as far as the store tells: the format has no place for the input, --error
+          // or --max-depth (depth_max is the deepest level the build reached, not the limit it was given).
+          {"build",
+           {{"brick", l.resolution},
+            {"encoding", sample_encoding_name(l.encoding.samples)},
+            {"tolerance", l.tolerance},
+            {"fields", names},
+            {"input", nullptr},
+            {"error", nullptr},
+            {"max_depth", nullptr}}}};
+}
+
+std::string format_store_report_text(const nlohmann::json& r) {
+  std::ostringstream o;
+  const json& e = r["encoding"];
+  o << "format:   " << r["format"].get<std::string>() << ", version " << r["version"] << "\n";
+  o << "bounds:   " << fmt_bounds(r["bounds"]) << "\n";
+  o << "root:     " << fmt_bounds(r["root"]) << " (the octree's root cell)\n";
+  const uint32_t res = r["brick"];
+  o << "bricks:   " << res << " x " << res << " x " << res << " samples, " << e["samples"].get<std::string>();
+  if (e["samples"] == "quant16") {
+    const double tol = e["tolerance"];
+    o << (tol > 0 ? " (within " + fmt_num(tol) + " of each field's range)" : " (each brick over its own range)");
+  }
+  o << ", " << e["predictor"].get<std::string>() << " predictor, " << (e["shuffle"].get<bool>() ? "shuffled, " : "")
+    << e["codec"].get<std::string>();
+  if (e["level"].get<int>() > 0) o << " level " << e["level"];
+  o << "\n";
+  o << "octree:   " << level_line(r["nodes"], r["leaves"], r["nodes_with_data"]) << ", depth max " << r["depth_max"]
+    << "\n";
+  for (size_t lv = 0; lv < r["nodes_per_level"].size(); ++lv) {
+    o << "  level " << lv << ": "
+      << level_line(r["nodes_per_level"][lv], r["leaves_per_level"][lv], r["nodes_with_data_per_level"][lv]) << "\n";
+  }
+  const json& b = r["bytes"];
+  o << "bytes:    file " << bytes_text(b["file"]) << ": header " << fmt_count(b["header"]) << " bytes, blocks "
+    << bytes_text(b["blocks"]) << ", node table " << bytes_text(b["node_table"]);
+  if (b["unreferenced"].get<uint64_t>() > 0) o << ", " << fmt_count(b["unreferenced"]) << " unreferenced";
+  o << "\n          blocks " << fmt_ratio(b["ratio"]) << "x smaller than the bricks as float32 ("
+    << format_bytes(b["float32"]) << ")\n";
+  o << "fields:\n";
+  for (const json& f : r["fields"]) {
+    o << "  " << (f["location"] == "vertex" ? "vertex" : "cell  ") << " " << f["name"].get<std::string>() << " ("
+      << f["encoding"].get<std::string>() << "): [" << fmt_num(f["range"][0]) << ", " << fmt_num(f["range"][1])
+      << "], blocks " << format_bytes(f["block_bytes"]) << ", leaf error max " << fmt_num(f["leaf_error_max"]) << "\n";
+  }
+  const json& bd = r["build"];
+  std::string names;
+  for (const json& n : bd["fields"]) names += (names.empty() ? "" : ",") + n.get<std::string>();
+  o << "build:    --brick " << bd["brick"] << (bd["encoding"] == "float32" ? " --float32" : "") << " --fields " << names
+    << "; the store does not record its input, --error or --max-depth\n";
+  return o.str();
+}
+
+StoreVerification verify_store(const BrickStoreReader& s, size_t max_errors) {
+  struct Failure {
+    uint64_t node;
+    uint32_t field;
+    std::string what;
+  };
+  const uint32_t nf = s.field_count();
+  const size_t samples = size_t(s.resolution()) * s.resolution() * s.resolution();
+  uint64_t total = 0;
+  for (uint64_t id = 0; id < s.node_count(); ++id) {
+    for (uint32_t f = 0; f < nf; ++f) total += s.block(id, f).size;
+  }
+  Progress progress("verifying bricks", total);
+  std::atomic<uint64_t> bricks{0}, blocks{0}, bytes{0};
+  std::mutex mutex;
+  std::vector<Failure> failures;
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, s.node_count()), [&](const tbb::blocked_range<uint64_t>& range) {
+    thread_local std::vector<std::byte> block;
+    thread_local std::vector<float> decoded;
+    decoded.resize(samples);
+    for (uint64_t id = range.begin(); id < range.end(); ++id) {
+      if (!s.node(id).has_brick()) continue;
+      ++bricks;
+      for (uint32_t f = 0; f < nf; ++f) {
+        const BlockRef ref = s.block(id, f);
+        block.resize(ref.size);
+        try {
+          s.read_block(id, f, block.data());
+          s.decode_block(id, f, block, decoded.data(), nullptr);
+        } catch (const Error& e) {
+          std::lock_guard lock(mutex);
+          failures.push_back({id, f, e.what()});
+        }
+        ++blocks;
+        bytes += ref.size;
+        progress.add(ref.size);
+      }
+    }
+  });
+  progress.finish();
+
+  StoreVerification v;
+  v.bricks = bricks;
+  v.blocks = blocks;
+  v.bytes = bytes;
+  v.bad_blocks = failures.size();
+  std::sort(failures.begin(), failures.end(),
+            [](const Failure& a, const Failure& b) { return std::tie(a.node, a.field) < std::tie(b.node, b.field); });
+  for (size_t i = 0; i < failures.size(); ++i) {
+    v.bad_bricks += i == 0 || failures[i].node != failures[i - 1].node;
+    if (v.errors.size() < max_errors) v.errors.push_back(failures[i].what);
+  }
+  return v;
+}
+
+nlohmann::json verification_json(const StoreVerification& v) {
+  return {{"ok", v.ok()},      {"bricks", v.bricks},         {"blocks", v.blocks},
+          {"bytes", v.bytes},  {"bad_bricks", v.bad_bricks}, {"bad_blocks", v.bad_blocks},
+          {"errors", v.errors}};
+}
+
+std::string format_verification_text(const StoreVerification& v) {
+  std::ostringstream o;
+  if (v.ok()) {
+    o << "verify:   all " << fmt_count(v.bricks) << " bricks verified: the header's, the node table's and "
+      << fmt_count(v.blocks) << " block checksums match (" << format_bytes(v.bytes) << "), every block decodes\n";
+    return o.str();
+  }
+  o << "verify:   " << fmt_count(v.bad_bricks) << " of " << fmt_count(v.bricks) << " bricks are corrupt ("
+    << fmt_count(v.bad_blocks) << " of " << fmt_count(v.blocks) << " blocks)\n";
+  for (const std::string& e : v.errors) o << "  " << e << "\n";
+  if (v.errors.size() < v.bad_blocks) o << "  ... and " << fmt_count(v.bad_blocks - v.errors.size()) << " more\n";
+  return o.str();
+}
+
+}  // namespace ugvr
