@@ -1,0 +1,151 @@
+// The shader loader's #include (src/ugvr/gpu/gl_program.h): errors in an included file name that file and line. GL
+// tests run wherever EGL gives an OpenGL 4.5 context (llvmpipe in CI).
+// (The loader's first tests, log mapping and #line numbering, are GlPrograms.* in test_lod_engine.cpp.)
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "test_data.h"
+#include "ugvr/core/error.h"
+#include "ugvr/gpu/gl_context.h"
+#include "ugvr/gpu/gl_program.h"
+
+namespace ugvr {
+namespace {
+
+struct Gl {
+  std::unique_ptr<GlContext> context;
+  std::string error;
+};
+
+const Gl& gl() {
+  static const Gl g = [] {
+    Gl r;
+    try {
+      r.context = std::make_unique<GlContext>("auto");
+    } catch (const Error& e) {
+      r.error = e.what();
+    }
+    return r;
+  }();
+  return g;
+}
+
+// As in test_lod_engine.cpp: no OpenGL 4.5 is a failure (CI has llvmpipe); UGVR_NO_GL_TESTS=1 skips.
+#define REQUIRE_GL()                                                   \
+  do {                                                                 \
+    if (!gl().context) {                                               \
+      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << gl().error; \
+      FAIL() << "no OpenGL 4.5 context: " << gl().error;               \
+    }                                                                  \
+    gl().context->make_current();                                      \
+  } while (0)
+
+// Shader files in a scratch directory that the loader reads instead of shaders/ while the object lives.
+class ShaderDir {
+ public:
+  ShaderDir() { setenv("UGVR_SHADER_DIR", dir_.file("").c_str(), 1); }
+  ~ShaderDir() { unsetenv("UGVR_SHADER_DIR"); }
+  void write(const std::string& name, const std::string& text) const { std::ofstream(dir_.file(name)) << text; }
+
+ private:
+  test::ScratchDir dir_;
+};
+
+// The message of the error compiling `name` throws ("" if it compiles).
+std::string compile_error(const std::string& name) {
+  try {
+    ComputeProgram p(name);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+const char* const kMain =
+    "#version 450\n"
+    "layout(local_size_x = 1) in;\n"
+    "#include \"common.h\"\n"
+    "void main() { float y = twice(1.0); %s }\n";
+
+std::string main_with(const std::string& statement) {
+  std::string s = kMain;
+  return s.replace(s.find("%s"), 2, statement);
+}
+
+TEST(GlProgramIncludes, ErrorInAnIncludedFileNamesThatFileAndLine) {
+  REQUIRE_GL();
+  ShaderDir dir;
+  dir.write("main.comp", main_with(""));
+  dir.write("common.h", "// helpers\nfloat twice(float x) { return 2.0 * undeclared_name; }\n");
+  const std::string e = compile_error("main.comp");
+  EXPECT_NE(e.find("common.h:2"), std::string::npos) << e;
+  EXPECT_EQ(e.find("main.comp:2"), std::string::npos) << e;
+}
+
+TEST(GlProgramIncludes, ErrorAfterAnIncludeNamesTheIncludingFileAndLine) {
+  REQUIRE_GL();
+  ShaderDir dir;
+  dir.write("main.comp", main_with("undeclared_name = y;"));
+  dir.write("common.h", "// helpers\n// more\n// and more\nfloat twice(float x) { return 2.0 * x; }\n");
+  const std::string e = compile_error("main.comp");
+  EXPECT_NE(e.find("main.comp:4"), std::string::npos) << e;
+  EXPECT_EQ(e.find("common.h:"), std::string::npos) << e;
+}
+
+TEST(GlProgramIncludes, NestedIncludesExpandOnceWithTheirOwnSourceNumbers) {
+  ShaderDir dir;
+  dir.write("main.comp", "#version 450\n#include \"a.h\"  // a comment after it\n#include \"b.h\"\nvoid main() {}\n");
+  dir.write("a.h", "#include \"b.h\"\nfloat a() { return b(); }\n");
+  dir.write("b.h", "float b() { return 1.0; }\n");
+  std::vector<std::string> files;
+  const std::string src = preprocess_shader("main.comp", {}, files);
+  ASSERT_EQ(files.size(), 3u);
+  EXPECT_NE(files[1].find("a.h"), std::string::npos);
+  EXPECT_NE(files[2].find("b.h"), std::string::npos);
+  // b.h inside a.h (file 2), then back to a.h's line 2 (file 1), then main.comp's line 3 (b.h again: nothing) and 4.
+  // File k's line n is numbered k·100000 + n.
+  EXPECT_NE(src.find("#line 100001 1\n#line 200001 2\nfloat b()"), std::string::npos) << src;
+  EXPECT_NE(src.find("#line 100002 1\nfloat a()"), std::string::npos) << src;
+  EXPECT_NE(src.find("#line 3 0\n#line 4 0\nvoid main()"), std::string::npos) << src;
+  EXPECT_EQ(src.find("float b()"), src.rfind("float b()")) << src;
+}
+
+// Mesa reports source string 0 for errors inside expressions, whatever #line said: the line number tells the file.
+TEST(GlProgramIncludes, LogLineNumbersNameTheIncludedFile) {
+  const std::vector<std::string> files = {"shaders/a.comp", "shaders/b.h", "shaders/c.h"};
+  EXPECT_EQ(map_shader_log("0:100002(37): error: `x' undeclared\n", files),
+            "shaders/b.h:2:37: error: `x' undeclared\n");
+  EXPECT_EQ(map_shader_log("1:100002(5): error: y\n", files), "shaders/b.h:2:5: error: y\n");
+  EXPECT_EQ(map_shader_log("0(200007) : error C1008: z\n", files), "shaders/c.h:7 : error C1008: z\n");
+  EXPECT_EQ(map_shader_log("0:300001(1): error: w\n", files), "source 3:1:1: error: w\n");
+}
+
+TEST(GlProgramIncludes, MissingIncludeOrCycleNamesTheIncludingLine) {
+  ShaderDir dir;
+  dir.write("main.comp", "#version 450\n// one\n#include \"absent.h\"\n");
+  dir.write("cycle.comp", "#version 450\n#include \"x.h\"\n");
+  dir.write("x.h", "// x\n#include \"y.h\"\n");
+  dir.write("y.h", "#include \"x.h\"\n");
+  std::vector<std::string> files;
+  try {
+    preprocess_shader("main.comp", {}, files);
+    ADD_FAILURE() << "no error for a missing include";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("main.comp:3: cannot open the included shader file"), std::string::npos)
+        << e.what();
+  }
+  try {
+    preprocess_shader("cycle.comp", {}, files);
+    ADD_FAILURE() << "no error for an include cycle";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("y.h:1: include cycle"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace ugvr
