@@ -1,14 +1,17 @@
-// The shader loader's #include (src/ugvr/gpu/gl_program.h): errors in an included file name that file and line. GL
-// tests run wherever EGL gives an OpenGL 4.5 context (llvmpipe in CI).
+// The shader loader's #include (src/ugvr/gpu/gl_program.h) and the LOD engine's CPU/GPU contract (shaders/lod_shared.h,
+// included by C++ and GLSL): errors in an included file name that file, and the driver lays out the per-frame uniform
+// block exactly as the C++ struct does. GL tests run wherever EGL gives an OpenGL 4.5 context (llvmpipe in CI).
 // (The loader's first tests, log mapping and #line numbering, are GlPrograms.* in test_lod_engine.cpp.)
 #include <gtest/gtest.h>
 
+#include <cstddef>
 #include <cstdlib>
 #include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "lod_shared.h"
 #include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/gpu/gl_context.h"
@@ -144,6 +147,86 @@ TEST(GlProgramIncludes, MissingIncludeOrCycleNamesTheIncludingLine) {
     ADD_FAILURE() << "no error for an include cycle";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("y.h:1: include cycle"), std::string::npos) << e.what();
+  }
+}
+
+// The real ray caster, with the shared header as its source string 1 (the engine's compile errors name it).
+TEST(LodGpuContract, RayCasterIncludesTheSharedHeader) {
+  std::vector<std::string> files;
+  const std::string src = preprocess_shader("lod_raycast.comp", {{"MODE", "2"}}, files);
+  ASSERT_EQ(files.size(), 2u);
+  EXPECT_NE(files[1].find("lod_shared.h"), std::string::npos) << files[1];
+  EXPECT_NE(src.find("uniform LodFrame {"), std::string::npos);
+}
+
+struct Member {
+  const char* name;  // as the driver lists it
+  size_t offset;     // in the C++ struct
+};
+
+#define UGVR_MEMBER(m) \
+  Member { #m, offsetof(lod_gpu::LodFrame, m) }
+
+// Every member where the C++ struct has it, by the driver's own account of the std140 block, in every shader variant
+// (a member a variant leaves unused stays in the layout: std140).
+TEST(LodGpuContract, DriverLaysOutTheFrameBlockAsTheCppStruct) {
+  REQUIRE_GL();
+  const std::vector<Member> members = {UGVR_MEMBER(u_eye),
+                                       UGVR_MEMBER(u_step0),
+                                       UGVR_MEMBER(u_forward),
+                                       UGVR_MEMBER(u_nudge),
+                                       UGVR_MEMBER(u_right),
+                                       UGVR_MEMBER(u_unit_distance),
+                                       UGVR_MEMBER(u_up),
+                                       UGVR_MEMBER(u_iso_opacity),
+                                       UGVR_MEMBER(u_root_size),
+                                       UGVR_MEMBER(u_min_transmittance),
+                                       UGVR_MEMBER(u_atlas_inv),
+                                       UGVR_MEMBER(u_overlay_opacity),
+                                       UGVR_MEMBER(u_slots),
+                                       UGVR_MEMBER(u_resolution),
+                                       UGVR_MEMBER(u_clip_plane),
+                                       UGVR_MEMBER(u_size),
+                                       UGVR_MEMBER(u_half),
+                                       UGVR_MEMBER(u_tf_map),
+                                       UGVR_MEMBER(u_iso_count),
+                                       UGVR_MEMBER(u_parallel),
+                                       UGVR_MEMBER(u_fixed_step),
+                                       UGVR_MEMBER(u_lighting),
+                                       UGVR_MEMBER(u_clip),
+                                       UGVR_MEMBER(u_unused),
+                                       Member{"u_iso[0]", offsetof(lod_gpu::LodFrame, u_iso)}};
+  const std::vector<std::vector<std::pair<std::string, std::string>>> variants = {
+      {{"MODE", "0"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "0"}},
+      {{"MODE", "0"}, {"VOLUME_LIGHTING", "1"}, {"OVERLAY", "1"}},
+      {{"MODE", "1"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "0"}},
+      {{"MODE", "2"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "1"}}};
+  for (const auto& defines : variants) {
+    SCOPED_TRACE("MODE " + defines[0].second + " OVERLAY " + defines[2].second);
+    const ComputeProgram p("lod_raycast.comp", defines);
+    EXPECT_EQ(p.uniform_block_size("LodFrame"), GLint(sizeof(lod_gpu::LodFrame)));
+    const GLuint block = glGetProgramResourceIndex(p.id(), GL_UNIFORM_BLOCK, "LodFrame");
+    ASSERT_NE(block, GL_INVALID_INDEX);
+    const GLenum binding_property = GL_BUFFER_BINDING;
+    GLint binding = -1;
+    glGetProgramResourceiv(p.id(), GL_UNIFORM_BLOCK, block, 1, &binding_property, 1, nullptr, &binding);
+    EXPECT_EQ(binding, lod_gpu::FRAME_BLOCK_BINDING);
+    GLint local[3] = {0, 0, 0};
+    glGetProgramiv(p.id(), GL_COMPUTE_WORK_GROUP_SIZE, local);
+    EXPECT_EQ(local[0], lod_gpu::WORKGROUP_SIZE);
+    EXPECT_EQ(local[1], lod_gpu::WORKGROUP_SIZE);
+    for (const Member& m : members) {
+      const GLuint index = glGetProgramResourceIndex(p.id(), GL_UNIFORM, m.name);
+      ASSERT_NE(index, GL_INVALID_INDEX) << m.name;
+      const GLenum properties[3] = {GL_OFFSET, GL_BLOCK_INDEX, GL_ARRAY_STRIDE};
+      GLint values[3] = {-1, -1, -1};
+      glGetProgramResourceiv(p.id(), GL_UNIFORM, index, 3, properties, 3, nullptr, values);
+      EXPECT_EQ(values[0], GLint(m.offset)) << m.name;
+      EXPECT_EQ(values[1], GLint(block)) << m.name;
+      if (std::string(m.name) == "u_iso[0]") {
+        EXPECT_EQ(values[2], GLint(sizeof(lod_gpu::vec4)));
+      }
+    }
   }
 }
 

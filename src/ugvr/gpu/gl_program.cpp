@@ -178,6 +178,15 @@ ComputeProgram::ComputeProgram(const std::string& name, const std::vector<std::p
   }
 }
 
+GLint ComputeProgram::uniform_block_size(const char* block) const {
+  const GLuint index = glGetProgramResourceIndex(id_, GL_UNIFORM_BLOCK, block);
+  if (index == GL_INVALID_INDEX) return -1;
+  const GLenum property = GL_BUFFER_DATA_SIZE;
+  GLint size = -1;
+  glGetProgramResourceiv(id_, GL_UNIFORM_BLOCK, index, 1, &property, 1, nullptr, &size);
+  return size;
+}
+
 ComputeProgram::~ComputeProgram() {
   if (id_) glDeleteProgram(id_);
 }
