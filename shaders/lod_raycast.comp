@@ -1,77 +1,48 @@
 #version 450
-// Single-pass ray casting of a cut of the brick octree (engine: src/ugvr/render/lod/lod_engine.cpp, which documents
-// the buffers and uniforms it binds). One invocation per pixel; the ray walks the octree front to back, finds the cut
-// node at its current position by descending from the root, marches that node's brick up to the node's exit, and
-// moves on. Coordinates are the root cell's, normalised to [0, 1]³ per axis; ray parameters t are world distances,
-// measured from where the ray enters the root cell so that they stay small (float precision).
+// Single-pass ray casting of a cut of the brick octree (engine: src/ugvr/render/lod/lod_engine.cpp; the buffers,
+// textures and per-frame parameters it binds are declared once for both in lod_shared.h). One invocation per pixel;
+// the ray walks the octree front to back, finds the cut node at its current position by descending from the root,
+// marches that node's brick up to the node's exit, and moves on. Coordinates are the root cell's, normalised to
+// [0, 1]³ per axis; ray parameters t are world distances, measured from where the ray enters the root cell so that
+// they stay small (float precision).
 //
 // Samples sit on one grid per level along each ray: the ray is cut into intervals [k·step_L, (k+1)·step_L) with
 // step_L = step_0 / 2^L, and each interval (clipped to the node) is integrated with its midpoint sample. A coarse
 // level's interval boundaries are a subset of the finer level's, so where bricks or levels meet no interval is
 // counted twice or skipped and no sample pattern changes abruptly (no seams; gvdb-voxels #99, OSPRay PR 187).
 
-layout(local_size_x = 8, local_size_y = 8) in;
+#include "lod_shared.h"  // constants, bindings and the uniform block LodFrame, shared with the engine
 
-layout(rgba32f, binding = 0) uniform writeonly image2D u_out;  // premultiplied radiance, transmittance
-layout(binding = 1) uniform sampler3D u_atlas;                  // RG16: value in the field range, validity stencil
-layout(binding = 2) uniform sampler1D u_tf;                     // rgb colour, a = extinction per world unit
+layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE) in;
 
-// Octree, one entry per store node: x = first child id, y = child mask | level << 8.
-layout(std430, binding = 3) readonly buffer Tree { uvec2 tree[]; };
-// Per node for this frame: the atlas slot of a cut node, DESCEND for an ancestor of cut nodes, SKIP otherwise.
-layout(std430, binding = 4) readonly buffer State { uint node_state[]; };
-// Counters for --stats: [0] samples taken, [1] bricks entered (summed over rays).
-layout(std430, binding = 5) buffer Counters { uint counters[]; };
+layout(rgba32f, binding = OUT_IMAGE_BINDING) uniform writeonly image2D u_out;
+layout(binding = ATLAS_TEXTURE_BINDING) uniform sampler3D u_atlas;
+layout(binding = TF_TEXTURE_BINDING) uniform sampler1D u_tf;
+layout(std430, binding = TREE_BUFFER_BINDING) readonly buffer Tree { uvec2 tree[]; };
+layout(std430, binding = STATE_BUFFER_BINDING) readonly buffer State { uint node_state[]; };
+layout(std430, binding = COUNTERS_BUFFER_BINDING) buffer Counters { uint counters[]; };
 
-const uint DESCEND = 0xFFFFFFFEu;
-const uint SKIP = 0xFFFFFFFFu;
-// Modes, as preprocessor values so that #if can test them (an undefined name would read as 0 there).
-#define MODE_EA 0
-#define MODE_MIP 1
-#define MODE_ISO 2
 // Compile-time choices (the engine compiles one program per combination it meets): on llvmpipe every branch of the
 // sample loop costs its full price whatever a uniform says, so code a frame does not need must not be there.
 #ifndef MODE
-#define MODE MODE_EA
+#define MODE LOD_MODE_EA
 #endif
 #ifndef VOLUME_LIGHTING
 #define VOLUME_LIGHTING 0
 #endif
 #ifndef OVERLAY
-#define OVERLAY 0  // the boundary overlay (never with MODE_MIP)
+#define OVERLAY 0  // the boundary overlay (never with LOD_MODE_MIP)
 #endif
-const int MAX_ISO = 16;
 
-uniform ivec2 u_size;
-uniform vec3 u_eye;                 // camera position, normalised coordinates
-uniform vec3 u_forward, u_right, u_up;  // camera frame, world
-uniform vec2 u_half;                // half width, half height of the image plane (tan or parallel scale)
-uniform bool u_parallel;
-uniform vec3 u_root_size;           // world size of the root cell per axis
-uniform int u_resolution;           // samples per brick axis
-uniform ivec3 u_slots;              // atlas slots per axis
-uniform vec3 u_atlas_inv;           // 1 / atlas texels per axis
-uniform float u_step0;              // world step at level 0
-uniform bool u_fixed_step;          // one world step at every level
-uniform vec2 u_tf_map;              // TF coordinate = value · x + y (value normalised to the field range)
-uniform float u_tf_texels;
-uniform float u_unit_distance;
-uniform int u_iso_count;
-uniform float u_iso[MAX_ISO];       // normalised values, ascending
-uniform float u_iso_opacity;
-uniform bool u_lighting;
-uniform float u_min_transmittance;  // 1 - early termination opacity
-uniform bool u_clip;
-uniform vec4 u_clip_plane;          // keep dot(xyz, p) + w >= 0, normalised coordinates
-uniform float u_nudge;              // world distance past a node's exit where the next node is looked up
-uniform float u_overlay_opacity;    // the boundary overlay's alpha (OVERLAY)
+const float AMBIENT = LOD_AMBIENT, DIFFUSE = LOD_DIFFUSE, SPECULAR = LOD_SPECULAR, SHININESS = LOD_SHININESS;
+const vec3 OVERLAY_COLOR = vec3(LOD_OVERLAY_GREY);
 
-const float AMBIENT = 0.2, DIFFUSE = 0.8, SPECULAR = 0.25, SHININESS = 32.0;
-const vec3 OVERLAY_COLOR = vec3(0.85);  // kOverlayColor of the exact engine
+// Isovalue i (of u_iso_count), four to a vec4.
+float iso_value(int i) { return u_iso[i >> 2][i & 3]; }
 
 vec4 tf_at(float value) {
   float u = clamp(value * u_tf_map.x + u_tf_map.y, 0.0, 1.0);
-  return texture(u_tf, (u * (u_tf_texels - 1.0) + 0.5) / u_tf_texels);
+  return texture(u_tf, (u * (float(TF_TEXELS) - 1.0) + 0.5) / float(TF_TEXELS));
 }
 
 vec3 slot_origin(uint slot) {
@@ -102,15 +73,16 @@ vec3 shade_surface(vec3 color, vec3 g, vec3 view) {
 // on V and the overlay composited there, shaded by the gradient of V (docs/lod-engine.md, "Boundary overlay").
 vec3 g_base, g_dir;  // the ray: point base + dir · t, normalised coordinates
 
-// The cut node at normalised point p (descent from the root as in main): its atlas slot or SKIP; its box lo, size.
+// The cut node at normalised point p (descent from the root as in main): its atlas slot or NODE_SKIP; its box lo,
+// size.
 uint locate(vec3 p, out vec3 lo, out float size) {
   lo = vec3(0.0);
   size = 1.0;
-  if (any(lessThan(p, vec3(0.0))) || any(greaterThan(p, vec3(1.0)))) return SKIP;
+  if (any(lessThan(p, vec3(0.0))) || any(greaterThan(p, vec3(1.0)))) return NODE_SKIP;
   uint node = 0u;
   int level = 0;
   uint state = node_state[0];
-  while (state == DESCEND && level < 31) {
+  while (state == NODE_DESCEND && level < 31) {
     vec3 centre = lo + 0.5 * size;
     uvec3 o = uvec3(greaterThanEqual(p, centre));
     uint octant = o.x | (o.y << 1) | (o.z << 2);
@@ -118,19 +90,19 @@ uint locate(vec3 p, out vec3 lo, out float size) {
     lo += vec3(o) * size;
     ++level;
     uvec2 tn = tree[node];
-    uint mask = tn.y & 0xFFu;
-    if ((mask & (1u << octant)) == 0u) return SKIP;
+    uint mask = tn.y & TREE_CHILD_MASK;
+    if ((mask & (1u << octant)) == 0u) return NODE_SKIP;
     node = tn.x + uint(bitCount(mask & ((1u << octant) - 1u)));
     state = node_state[node];
   }
-  return state == DESCEND ? SKIP : state;
+  return state == NODE_DESCEND ? NODE_SKIP : state;
 }
 
 float validity(vec3 p) {
   vec3 lo;
   float size;
   uint slot = locate(p, lo, size);
-  if (slot == SKIP) return 0.0;
+  if (slot == NODE_SKIP) return 0.0;
   return texture(u_atlas, (slot_origin(slot) + 1.5 + (p - lo) * (float(u_resolution - 1) / size)) * u_atlas_inv).g;
 }
 
@@ -152,7 +124,7 @@ vec2 boundary_crossing(float ta, float tb, bool a_inside) {
 float validity_near(vec3 q, uint slot, vec3 lo, float size) {
   vec3 lo2;
   float size2;
-  if (locate(q, lo2, size2) == SKIP) return 0.0;
+  if (locate(q, lo2, size2) == NODE_SKIP) return 0.0;
   return texture(u_atlas, (slot_origin(slot) + 1.5 + (q - lo) * (float(u_resolution - 1) / size)) * u_atlas_inv).g;
 }
 
@@ -169,7 +141,7 @@ void composite_overlay(vec2 x, vec3 dir_world, inout vec3 radiance, inout float 
   float size;
   uint slot = locate(g_base + g_dir * x.y, lo, size);
   vec3 g = dir_world;
-  if (slot != SKIP) {
+  if (slot != NODE_SKIP) {
     float h = 0.25 * size / float(u_resolution - 1);
     float shift = 0.5 * h * min(u_root_size.x, min(u_root_size.y, u_root_size.z));
     vec3 p = g_base + g_dir * (tc + side * shift);
@@ -237,7 +209,7 @@ void main() {
     float size = 1.0;
     int level = 0;
     uint state = node_state[0];
-    while (state == DESCEND && level < 31) {
+    while (state == NODE_DESCEND && level < 31) {
       vec3 centre = lo + 0.5 * size;
       uvec3 o = uvec3(greaterThanEqual(p, centre));
       uint octant = o.x | (o.y << 1) | (o.z << 2);
@@ -245,9 +217,9 @@ void main() {
       lo += vec3(o) * size;
       ++level;
       uvec2 tn = tree[node];
-      uint mask = tn.y & 0xFFu;
+      uint mask = tn.y & TREE_CHILD_MASK;
       if ((mask & (1u << octant)) == 0u) {
-        state = SKIP;
+        state = NODE_SKIP;
         break;
       }
       node = tn.x + uint(bitCount(mask & ((1u << octant) - 1u)));
@@ -259,7 +231,7 @@ void main() {
     vec3 tx = ((lo + mix(vec3(0.0), vec3(size), greaterThan(safe_dir, vec3(0.0)))) - base) * inv_dir;
     float t_exit = min(min(tx.x, tx.y), min(tx.z, t_end));
     t_exit = max(t_exit, t + u_nudge);
-    if (state == SKIP || state == DESCEND) {
+    if (state == NODE_SKIP || state == NODE_DESCEND) {
       have_prev = false;
 #if OVERLAY
       if (ov_inside) {  // leaving the data for an empty octant: the crossing lies before t
@@ -302,7 +274,7 @@ void main() {
         have_prev = false;
         continue;
       }
-#if MODE == MODE_EA
+#if MODE == LOD_MODE_EA
       {
         vec4 tf = tf_at(v.r);
         float a = 1.0 - exp(-tf.a * len);
@@ -318,14 +290,14 @@ void main() {
         transmittance *= 1.0 - a;
         if (transmittance <= u_min_transmittance) break;
       }
-#elif MODE == MODE_MIP
+#elif MODE == LOD_MODE_MIP
       mip_max = max(mip_max, v.r);
 #else
       {
         if (have_prev && v.r != prev_value) {
           bool up = v.r > prev_value;
           for (int i = 0; i < u_iso_count; ++i) {
-            float iso = u_iso[up ? i : u_iso_count - 1 - i];
+            float iso = iso_value(up ? i : u_iso_count - 1 - i);
             if ((prev_value < iso) == (v.r < iso)) continue;
             float th = prev_t + (iso - prev_value) / (v.r - prev_value) * (tm - prev_t);
             vec3 ch = c0 + c1 * max(th, t);  // a crossing just before this brick: its entry
@@ -354,7 +326,7 @@ void main() {
 #endif
 
   vec4 result = vec4(radiance, transmittance);
-#if MODE == MODE_MIP
+#if MODE == LOD_MODE_MIP
   result = vec4(0.0, 0.0, 0.0, 1.0);
   if (mip_max >= 0.0) {
     vec4 tf = tf_at(mip_max);
@@ -363,6 +335,6 @@ void main() {
   }
 #endif
   imageStore(u_out, pix, result);
-  atomicAdd(counters[0], samples);
-  atomicAdd(counters[1], bricks);
+  atomicAdd(counters[COUNTER_SAMPLES], samples);
+  atomicAdd(counters[COUNTER_BRICKS], bricks);
 }

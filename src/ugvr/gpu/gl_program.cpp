@@ -1,5 +1,6 @@
 #include "ugvr/gpu/gl_program.h"
 
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -28,7 +29,7 @@ std::string read_text(const std::string& path) {
   return s.str();
 }
 
-// `#include "name"` (spaces allowed around '#' and the name): sets name.
+// `#include "name"` (spaces allowed around '#' and the name, a // comment after it): sets name.
 bool include_target(const std::string& line, std::string& name) {
   size_t i = line.find_first_not_of(" \t");
   if (i == std::string::npos || line[i] != '#') return false;
@@ -37,7 +38,17 @@ bool include_target(const std::string& line, std::string& name) {
   const size_t open = line.find('"', i + 7), close = open == std::string::npos ? open : line.find('"', open + 1);
   if (close == std::string::npos) return false;
   name = line.substr(open + 1, close - open - 1);
-  return !name.empty() && line.find_first_not_of(" \t\r", close + 1) == std::string::npos;
+  const size_t rest = line.find_first_not_of(" \t\r", close + 1);
+  return !name.empty() && (rest == std::string::npos || line.compare(rest, 2, "//") == 0);
+}
+
+// File k's line n is line k·kLinesPerFile + n of the expanded source, besides being line n of source string k: Mesa
+// reports source string 0 for most errors whatever #line said (its parser's YYLLOC_DEFAULT resets the source number
+// for every rule spanning several tokens, i.e. expressions), so the line number alone must say which file it is.
+constexpr uint64_t kLinesPerFile = 100000;
+
+std::string line_directive(int file, int line) {
+  return "#line " + std::to_string(uint64_t(file) * kLinesPerFile + uint64_t(line)) + " " + std::to_string(file) + "\n";
 }
 
 // Digits at `i`; advances i past them.
@@ -48,27 +59,36 @@ bool read_digits(const std::string& s, size_t& i, std::string& out) {
   return i > start && i - start < 9;
 }
 
+// Line `line_no` of `path` includes `name`: an error there names that line (a missing file, a cycle).
+void check_include(const std::string& path, int line_no, const std::string& dir, const std::string& name,
+                   const std::vector<std::string>& stack) {
+  for (const std::string& open : stack)
+    if (open == name) fail_at_line(path, uint64_t(line_no), "include cycle through \"" + name + "\"");
+  if (!std::ifstream(dir + "/" + name))
+    fail_at_line(path, uint64_t(line_no), "cannot open the included shader file " + dir + "/" + name);
+}
+
 void expand(const std::string& dir, const std::string& name, std::vector<std::string>& files,
             std::vector<std::string>& stack, std::string& out) {
-  for (const std::string& open : stack)
-    if (open == name) fail_in(dir + "/" + name, "include cycle");
   for (size_t i = 0; i < files.size(); ++i)
     if (files[i] == dir + "/" + name && !stack.empty()) return;  // included once
   const std::string path = dir + "/" + name;
   const std::string text = read_text(path);
   const int number = int(files.size());
   files.push_back(path);
-  if (!stack.empty()) out += "#line 1 " + std::to_string(number) + "\n";
+  if (!stack.empty()) out += line_directive(number, 1);
   stack.push_back(name);
   std::istringstream lines(text);
   std::string line;
   int line_no = 0;
   while (std::getline(lines, line)) {
-    ++line_no;
+    if (++line_no >= int(kLinesPerFile))
+      fail_in(path, "more than 99999 lines (the loader numbers each file's lines apart)");
     std::string included;
     if (include_target(line, included)) {
+      check_include(path, line_no, dir, included, stack);
       expand(dir, included, files, stack, out);
-      out += "#line " + std::to_string(line_no + 1) + " " + std::to_string(number) + "\n";
+      out += line_directive(number, line_no + 1);
     } else {
       out += line;
       out += '\n';
@@ -92,7 +112,7 @@ std::string preprocess_shader(const std::string& name, const std::vector<std::pa
     fail_at_line(files[0], 1, "a shader must start with #version");
   std::string out = body.substr(0, version_end + 1);
   for (const auto& [k, v] : defines) out += "#define " + k + " " + v + "\n";
-  out += "#line 2 0\n";
+  out += line_directive(0, 2);
   out += body.substr(version_end + 1);
   return out;
 }
@@ -104,16 +124,18 @@ std::string map_shader_log(const std::string& log, const std::vector<std::string
   while (std::getline(in, line)) {
     size_t i = 0;
     std::string source, row, column;
-    auto file_of = [&](const std::string& n) {
-      const size_t k = std::stoul(n);
-      return k < files.size() ? files[k] : "source " + n;
+    // "file:line" of a source string and line number; a line number past kLinesPerFile names the file itself.
+    auto file_of = [&](const std::string& n, const std::string& r) {
+      uint64_t k = std::stoul(n), l = std::stoul(r);
+      if (l >= kLinesPerFile) k = l / kLinesPerFile, l %= kLinesPerFile;
+      return (k < files.size() ? files[k] : "source " + std::to_string(k)) + ":" + std::to_string(l);
     };
     if (read_digits(line, i, source) && i < line.size()) {
       if (line[i] == ':' && read_digits(line, ++i, row) && i < line.size() && line[i] == '(' &&
           read_digits(line, ++i, column) && i < line.size() && line[i] == ')')
-        line = file_of(source) + ":" + row + ":" + column + line.substr(i + 1);
+        line = file_of(source, row) + ":" + column + line.substr(i + 1);
       else if (i = source.size(); line[i] == '(' && read_digits(line, ++i, row) && i < line.size() && line[i] == ')')
-        line = file_of(source) + ":" + row + line.substr(i + 1);
+        line = file_of(source, row) + line.substr(i + 1);
     }
     out += line + "\n";
   }
@@ -154,6 +176,15 @@ ComputeProgram::ComputeProgram(const std::string& name, const std::vector<std::p
     id_ = 0;
     fail_in(files[0], "link error:\n" + log);
   }
+}
+
+GLint ComputeProgram::uniform_block_size(const char* block) const {
+  const GLuint index = glGetProgramResourceIndex(id_, GL_UNIFORM_BLOCK, block);
+  if (index == GL_INVALID_INDEX) return -1;
+  const GLenum property = GL_BUFFER_DATA_SIZE;
+  GLint size = -1;
+  glGetProgramResourceiv(id_, GL_UNIFORM_BLOCK, index, 1, &property, 1, nullptr, &size);
+  return size;
 }
 
 ComputeProgram::~ComputeProgram() {

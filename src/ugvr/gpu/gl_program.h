@@ -2,8 +2,9 @@
 // and a compile error points at the file and line a person can open.
 //
 // Sources may `#include "name.glsl"` (relative to the shader directory, once per file and program). Each file gets
-// its own GLSL source-string number through `#line N S` directives, and the driver's log ("0:12(5): error ..." from
-// Mesa, "0(12) : error ..." from NVIDIA) is rewritten to "shaders/file.comp:12: error ..." before it is thrown.
+// its own GLSL source-string number and its own range of line numbers through `#line N S` directives (file k's line n
+// is line k·100000 + n: Mesa reports source string 0 for most errors), and the driver's log ("0:12(5): error ..."
+// from Mesa, "0(12) : error ..." from NVIDIA) is rewritten to "shaders/file.comp:12: error ..." before it is thrown.
 // `defines` are inserted after the #version line as "#define NAME VALUE".
 #pragma once
 
@@ -19,7 +20,7 @@ namespace ugvr {
 std::string shader_directory();
 
 // Expands includes and adds #line directives; `files` receives the file of each source-string number. Throws
-// ugvr::Error for a missing file or an include cycle.
+// ugvr::Error for a missing file or an include cycle, naming the line that includes it.
 std::string preprocess_shader(const std::string& name, const std::vector<std::pair<std::string, std::string>>& defines,
                               std::vector<std::string>& files);
 // Rewrites source-string numbers in a driver log to file names.
@@ -39,6 +40,8 @@ class ComputeProgram {
   const std::string& name() const { return name_; }
   // Location of a uniform; -1 where the compiler removed it (setting -1 is a no-op in GL).
   GLint uniform(const char* name) const { return glGetUniformLocation(id_, name); }
+  // Size in bytes of a uniform block as the driver lays it out; -1 where the program has no active block of that name.
+  GLint uniform_block_size(const char* block) const;
 
  private:
   GLuint id_ = 0;

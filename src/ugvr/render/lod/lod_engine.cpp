@@ -6,11 +6,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <memory>
 #include <tuple>
 #include <unordered_map>
 
+#include "lod_shared.h"  // shaders/lod_shared.h: what the engine and shaders/lod_raycast.comp agree on
 #include "ugvr/core/error.h"
 #include "ugvr/gpu/gl_program.h"
 #include "ugvr/lod/brick_store.h"
@@ -20,16 +22,53 @@ namespace ugvr {
 
 namespace {
 
-// node_state values besides atlas slots (shaders/lod_raycast.comp).
-constexpr uint32_t kDescend = 0xFFFFFFFEu;
-constexpr uint32_t kSkip = 0xFFFFFFFFu;
-constexpr int kTfTexels = 4096;
-constexpr int kMaxIso = 16;  // MAX_ISO in the shader
-constexpr int kWorkgroup = 8;
 constexpr size_t kLoadBatch = 64;  // bricks decoded in parallel between uploads (bounds staging memory)
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+lod_gpu::vec3 to_float(Vec3d v) { return {float(v.x), float(v.y), float(v.z)}; }
+
+// The camera as the shader takes it: the eye in coordinates normalised to the root cell, the frame and the image
+// plane's half extents in world terms.
+void set_camera(lod_gpu::LodFrame& f, const Camera& camera, int width, int height, const Bounds& root) {
+  const Vec3d root_size = root.size();
+  const CameraRays rays(camera, width, height);
+  f.u_size = {width, height};
+  const Vec3d eye = camera.position - root.lo;
+  f.u_eye = to_float({eye.x / root_size.x, eye.y / root_size.y, eye.z / root_size.z});
+  f.u_forward = to_float(rays.forward());
+  f.u_right = to_float(rays.right());
+  f.u_up = to_float(rays.up());
+  f.u_half = {float(rays.half_width()), float(rays.half_height())};
+  f.u_parallel = camera.parallel_projection ? 1 : 0;
+}
+
+// The clip plane in normalised coordinates, with a unit normal there: keep dot(xyz, p) + w >= 0.
+lod_gpu::vec4 normalised_plane(const ClipPlane& plane, const Bounds& root) {
+  const Vec3d root_size = root.size();
+  const Vec3d n = plane.normal;
+  const Vec3d np{n.x * root_size.x, n.y * root_size.y, n.z * root_size.z};
+  const double w0 = dot(root.lo - plane.point, n);
+  const double scale = 1 / length(np);
+  return {float(np.x * scale), float(np.y * scale), float(np.z * scale), float(w0 * scale)};
+}
+
+// The shader reads lod_shared.h when the engine starts, this binary was compiled with it: after an edit without a
+// rebuild the two would read the per-frame block differently, silently. The driver's block size and work group
+// reveal most such edits.
+void check_contract(const ComputeProgram& program) {
+  const GLint block = program.uniform_block_size("LodFrame");
+  GLint local[3] = {0, 0, 0};
+  glGetProgramiv(program.id(), GL_COMPUTE_WORK_GROUP_SIZE, local);
+  if (block != GLint(sizeof(lod_gpu::LodFrame)) || local[0] != lod_gpu::WORKGROUP_SIZE ||
+      local[1] != lod_gpu::WORKGROUP_SIZE)
+    fail_in(shader_directory() + "/lod_shared.h",
+            "the shader sees a uniform block of " + std::to_string(block) + " bytes and work groups of " +
+                std::to_string(local[0]) + "x" + std::to_string(local[1]) + ", this program was built for " +
+                std::to_string(sizeof(lod_gpu::LodFrame)) + " bytes and " + std::to_string(lod_gpu::WORKGROUP_SIZE) +
+                "x" + std::to_string(lod_gpu::WORKGROUP_SIZE) + " (rebuild after editing the file)");
 }
 
 }  // namespace
@@ -47,6 +86,7 @@ struct LodEngine::Impl {
   std::map<std::tuple<int, bool, bool>, ComputeProgram> programs;
   ComputeProgram& program_for(int mode, bool volume_lighting, bool overlay);
   GlBuffer tree, state, counters, readback;
+  GlBuffer frame_block;  // the uniform block LodFrame
   GlTexture tf_texture, out_texture;
   std::unique_ptr<GlTimerQuery> timer;  // created on first use (the context is current then)
   int out_w = 0, out_h = 0;
@@ -62,6 +102,9 @@ struct LodEngine::Impl {
   uint64_t budget_slots() const;
   void ensure_atlas(uint64_t needed);
   uint64_t load(std::span<const uint64_t> nodes, const TexelSource& source);
+  void upload_transfer_function(const TransferFunction& tf);
+  lod_gpu::LodFrame frame_parameters(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
+                                     bool overlay) const;
 };
 
 ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, bool overlay) {
@@ -70,6 +113,7 @@ ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, boo
     ComputeProgram p("lod_raycast.comp", {{"MODE", std::to_string(mode)},
                                           {"VOLUME_LIGHTING", volume_lighting ? "1" : "0"},
                                           {"OVERLAY", overlay ? "1" : "0"}});
+    check_contract(p);
     it = programs.emplace(std::make_tuple(mode, volume_lighting, overlay), std::move(p)).first;
   }
   return it->second;
@@ -150,23 +194,80 @@ uint64_t LodEngine::Impl::load(std::span<const uint64_t> nodes, const TexelSourc
   return missing.size();
 }
 
+// The transfer function over its own range, TF_TEXELS texels; values reach it through the frame's u_tf_map.
+void LodEngine::Impl::upload_transfer_function(const TransferFunction& tf) {
+  const int n = lod_gpu::TF_TEXELS;
+  const double t_lo = tf.range_min(), t_hi = tf.range_max();
+  std::vector<float> table(size_t(n) * 4);
+  for (int i = 0; i < n; ++i) {
+    const double s = t_lo + (t_hi - t_lo) * double(i) / double(n - 1);
+    const Vec3d c = tf.color(s);
+    table[size_t(i) * 4 + 0] = float(c.x), table[size_t(i) * 4 + 1] = float(c.y);
+    table[size_t(i) * 4 + 2] = float(c.z), table[size_t(i) * 4 + 3] = float(tf.extinction(s));
+  }
+  glTextureSubImage1D(tf_texture.id(), 0, 0, n, GL_RGBA, GL_FLOAT, table.data());
+}
+
+// The shader's per-frame parameters: computed in double, passed as float. Coordinates are normalised to the root cell
+// (lod_shared.h).
+lod_gpu::LodFrame LodEngine::Impl::frame_parameters(const Camera& camera, const TransferFunction& tf,
+                                                    const RenderSettings& settings, bool overlay) const {
+  lod_gpu::LodFrame f{};
+  const Bounds& root = store.layout().root;
+  const Vec3d root_size = root.size();
+  set_camera(f, camera, settings.width, settings.height, root);
+  f.u_root_size = to_float(root_size);
+  f.u_resolution = int(store.resolution());
+  const int* slots = atlas.slots_per_axis();
+  const int* texels = atlas.texels_per_axis();
+  f.u_slots = {slots[0], slots[1], slots[2]};
+  f.u_atlas_inv = {1.0f / float(texels[0]), 1.0f / float(texels[1]), 1.0f / float(texels[2])};
+  const double min_side = std::min({root_size.x, root_size.y, root_size.z});
+  const bool fixed_step = settings.sample_step > 0;
+  const double step0 =
+      fixed_step ? settings.sample_step : options.step_voxels * min_side / double(store.resolution() - 1);
+  f.u_step0 = float(step0);
+  f.u_fixed_step = fixed_step ? 1 : 0;
+  // Values are normalised to the field's range in the atlas; the table spans the transfer function's.
+  const double f_lo = store.layout().fields[field].min, f_hi = store.layout().fields[field].max;
+  const double t_lo = tf.range_min(), tf_width = tf.range_max() - t_lo;
+  f.u_tf_map = {tf_width > 0 ? float((f_hi - f_lo) / tf_width) : 0.0f,
+                tf_width > 0 ? float((f_lo - t_lo) / tf_width) : 0.0f};
+  f.u_unit_distance = float(tf.opacity_unit_distance);
+  std::vector<float> iso;
+  for (double v : settings.iso_values) iso.push_back(f_hi > f_lo ? float((v - f_lo) / (f_hi - f_lo)) : 0.0f);
+  std::sort(iso.begin(), iso.end());
+  f.u_iso_count = int(iso.size());
+  // Four to a vec4 (render_nodes checked the count).
+  if (!iso.empty()) std::memcpy(f.u_iso, iso.data(), iso.size() * sizeof(float));
+  f.u_iso_opacity = float(settings.iso_opacity);
+  f.u_lighting = settings.lighting ? 1 : 0;
+  f.u_min_transmittance = float(1 - settings.early_termination_opacity);
+  f.u_clip = settings.clip_plane ? 1 : 0;
+  if (settings.clip_plane) f.u_clip_plane = normalised_plane(*settings.clip_plane, root);
+  f.u_overlay_opacity = overlay ? float(settings.boundary_overlay_opacity) : 0.0f;
+  f.u_nudge = float(2e-6 * std::max({root_size.x, root_size.y, root_size.z}));
+  return f;
+}
+
 LodEngine::LodEngine(const std::string& store_path, const GlContext& gl, LodOptions options)
     : impl_(std::make_unique<Impl>(store_path, gl, options)) {
   Impl& I = *impl_;
   if (I.store.resolution() < 2) fail_in(store_path, "brick resolution below 2");
-  if (I.store.node_count() >= kDescend) fail_in(store_path, "too many nodes for the GPU node table (2^32 - 2)");
+  if (I.store.node_count() >= lod_gpu::NODE_DESCEND)
+    fail_in(store_path, "too many nodes for the GPU node table (2^32 - 2)");
   gl.make_current();
-  I.program_for(0, false, false);  // compile errors surface here, not at the first frame
+  I.program_for(LOD_MODE_EA, false, false);  // compile errors surface here, not at the first frame
   // The octree, static: first child and child mask | level << 8 per node.
   std::vector<uint32_t> tree(I.store.node_count() * 2);
   for (uint64_t n = 0; n < I.store.node_count(); ++n) {
     const BrickNode& node = I.store.node(n);
     tree[2 * n] = node.first_child == kNoNode ? 0u : uint32_t(node.first_child);
-    tree[2 * n + 1] = uint32_t(node.child_mask) | uint32_t(node.level) << 8;
+    tree[2 * n + 1] = uint32_t(node.child_mask) | uint32_t(node.level) << lod_gpu::TREE_LEVEL_SHIFT;
   }
   I.tree.upload(tree.data(), tree.size() * sizeof(uint32_t));
   I.tf_texture = GlTexture(GL_TEXTURE_1D);
-  glTextureStorage1D(I.tf_texture.id(), 1, GL_RGBA32F, kTfTexels);
+  glTextureStorage1D(I.tf_texture.id(), 1, GL_RGBA32F, lod_gpu::TF_TEXELS);
   glTextureParameteri(I.tf_texture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   glTextureParameteri(I.tf_texture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   glTextureParameteri(I.tf_texture.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
@@ -238,8 +339,8 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   Impl& I = *impl_;
   settings.validate("render settings");
   tf.validate("transfer function");
-  if (settings.iso_values.size() > size_t(kMaxIso))
-    fail_in("lod engine", "at most " + std::to_string(kMaxIso) + " isosurface values");
+  if (settings.iso_values.size() > size_t(lod_gpu::MAX_ISO))
+    fail_in("lod engine", "at most " + std::to_string(lod_gpu::MAX_ISO) + " isosurface values");
   if (nodes.size() > I.budget_slots())
     fail_in("lod engine", "a cut of " + std::to_string(nodes.size()) + " bricks exceeds the atlas budget of " +
                               std::to_string(I.budget_slots()) + " (--gpu-memory)");
@@ -256,34 +357,19 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   I.ensure_atlas(nodes.size());
   st.bricks_loaded = I.load(nodes, source);
   st.bricks_read_sync = I.sync_reads;
-  std::vector<uint32_t> state(I.store.node_count(), kSkip);
+  std::vector<uint32_t> state(I.store.node_count(), lod_gpu::NODE_SKIP);
   for (uint64_t n : nodes) {
     state[n] = uint32_t(I.resident.at(n));
-    for (uint64_t p = I.store.node(n).parent; p != kNoNode && state[p] != kDescend; p = I.store.node(p).parent)
-      state[p] = kDescend;
+    for (uint64_t p = I.store.node(n).parent; p != kNoNode && state[p] != lod_gpu::NODE_DESCEND;
+         p = I.store.node(p).parent)
+      state[p] = lod_gpu::NODE_DESCEND;
   }
   I.state.upload(state.data(), state.size() * sizeof(uint32_t));
   st.load_seconds = seconds_since(t1);
   st.atlas_bytes = I.atlas.bytes();
   st.atlas_slots = I.atlas.capacity();
 
-  // The transfer function over its own range; values reach it through tf_map.
-  const double f_lo = field_min(), f_hi = field_max();
-  const double t_lo = tf.range_min(), t_hi = tf.range_max();
-  {
-    std::vector<float> table(size_t(kTfTexels) * 4);
-    for (int i = 0; i < kTfTexels; ++i) {
-      const double s = t_lo + (t_hi - t_lo) * double(i) / double(kTfTexels - 1);
-      const Vec3d c = tf.color(s);
-      table[size_t(i) * 4 + 0] = float(c.x), table[size_t(i) * 4 + 1] = float(c.y);
-      table[size_t(i) * 4 + 2] = float(c.z), table[size_t(i) * 4 + 3] = float(tf.extinction(s));
-    }
-    glTextureSubImage1D(I.tf_texture.id(), 0, 0, kTfTexels, GL_RGBA, GL_FLOAT, table.data());
-  }
-  const double tf_width = t_hi - t_lo;
-  const float map_x = tf_width > 0 ? float((f_hi - f_lo) / tf_width) : 0.0f;
-  const float map_y = tf_width > 0 ? float((f_lo - t_lo) / tf_width) : 0.0f;
-
+  I.upload_transfer_function(tf);
   const int w = settings.width, h = settings.height;
   if (w != I.out_w || h != I.out_h) {
     I.out_texture = GlTexture(GL_TEXTURE_2D);
@@ -292,85 +378,39 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
     I.out_w = w, I.out_h = h;
   }
 
-  const Bounds& root = I.store.layout().root;
-  const Vec3d root_size = root.size();
-  const CameraRays rays(camera, w, h);
-  const int mode = settings.mode == RenderMode::Mip ? 1 : settings.mode == RenderMode::Isosurface ? 2 : 0;
+  const int mode = settings.mode == RenderMode::Mip          ? LOD_MODE_MIP
+                   : settings.mode == RenderMode::Isosurface ? LOD_MODE_ISO
+                                                             : LOD_MODE_EA;
   const bool overlay = boundary_overlay_on(settings);
-  const ComputeProgram& program = I.program_for(mode, mode == 0 && settings.volume_lighting, overlay);
+  const ComputeProgram& program = I.program_for(mode, mode == LOD_MODE_EA && settings.volume_lighting, overlay);
   glUseProgram(program.id());
-  auto vec3f = [&](const char* name, Vec3d v) {
-    glUniform3f(program.uniform(name), float(v.x), float(v.y), float(v.z));
-  };
-  glUniform2i(program.uniform("u_size"), w, h);
-  const Vec3d eye = camera.position - root.lo;
-  vec3f("u_eye", {eye.x / root_size.x, eye.y / root_size.y, eye.z / root_size.z});
-  vec3f("u_forward", rays.forward());
-  vec3f("u_right", rays.right());
-  vec3f("u_up", rays.up());
-  glUniform2f(program.uniform("u_half"), float(rays.half_width()), float(rays.half_height()));
-  glUniform1i(program.uniform("u_parallel"), camera.parallel_projection ? 1 : 0);
-  vec3f("u_root_size", root_size);
-  glUniform1i(program.uniform("u_resolution"), int(I.store.resolution()));
-  const int* slots = I.atlas.slots_per_axis();
-  const int* texels = I.atlas.texels_per_axis();
-  glUniform3i(program.uniform("u_slots"), slots[0], slots[1], slots[2]);
-  glUniform3f(program.uniform("u_atlas_inv"), 1.0f / float(texels[0]), 1.0f / float(texels[1]),
-              1.0f / float(texels[2]));
-  const double min_side = std::min({root_size.x, root_size.y, root_size.z});
-  const bool fixed_step = settings.sample_step > 0;
-  const double step0 =
-      fixed_step ? settings.sample_step : I.options.step_voxels * min_side / double(I.store.resolution() - 1);
-  glUniform1f(program.uniform("u_step0"), float(step0));
-  glUniform1i(program.uniform("u_fixed_step"), fixed_step ? 1 : 0);
-  glUniform2f(program.uniform("u_tf_map"), map_x, map_y);
-  glUniform1f(program.uniform("u_tf_texels"), float(kTfTexels));
-  glUniform1f(program.uniform("u_unit_distance"), float(tf.opacity_unit_distance));
-  std::vector<float> iso;
-  for (double v : settings.iso_values) iso.push_back(f_hi > f_lo ? float((v - f_lo) / (f_hi - f_lo)) : 0.0f);
-  std::sort(iso.begin(), iso.end());
-  glUniform1i(program.uniform("u_iso_count"), int(iso.size()));
-  if (!iso.empty()) glUniform1fv(program.uniform("u_iso"), GLsizei(iso.size()), iso.data());
-  glUniform1f(program.uniform("u_iso_opacity"), float(settings.iso_opacity));
-  glUniform1i(program.uniform("u_lighting"), settings.lighting ? 1 : 0);
-  glUniform1f(program.uniform("u_min_transmittance"), float(1 - settings.early_termination_opacity));
-  glUniform1i(program.uniform("u_clip"), settings.clip_plane ? 1 : 0);
-  if (settings.clip_plane) {
-    const Vec3d n = settings.clip_plane->normal;
-    const Vec3d np{n.x * root_size.x, n.y * root_size.y, n.z * root_size.z};
-    const double w0 = dot(root.lo - settings.clip_plane->point, n);
-    const double scale = 1 / length(np);
-    glUniform4f(program.uniform("u_clip_plane"), float(np.x * scale), float(np.y * scale), float(np.z * scale),
-                float(w0 * scale));
-  }
-  glUniform1f(program.uniform("u_overlay_opacity"), overlay ? float(settings.boundary_overlay_opacity) : 0.0f);
-  glUniform1f(program.uniform("u_nudge"), float(2e-6 * std::max({root_size.x, root_size.y, root_size.z})));
-
-  glBindImageTexture(0, I.out_texture.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
-  glBindTextureUnit(1, I.atlas.texture());
-  glBindTextureUnit(2, I.tf_texture.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, I.tree.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, I.state.id());
-  const uint32_t zero[2] = {0, 0};
+  const lod_gpu::LodFrame frame = I.frame_parameters(camera, tf, settings, overlay);
+  I.frame_block.upload(&frame, sizeof frame);
+  glBindBufferBase(GL_UNIFORM_BUFFER, lod_gpu::FRAME_BLOCK_BINDING, I.frame_block.id());
+  glBindImageTexture(lod_gpu::OUT_IMAGE_BINDING, I.out_texture.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
+  glBindTextureUnit(lod_gpu::ATLAS_TEXTURE_BINDING, I.atlas.texture());
+  glBindTextureUnit(lod_gpu::TF_TEXTURE_BINDING, I.tf_texture.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::TREE_BUFFER_BINDING, I.tree.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::STATE_BUFFER_BINDING, I.state.id());
+  const uint32_t zero[lod_gpu::COUNTER_COUNT] = {};
   I.counters.upload(zero, sizeof zero);
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, I.counters.id());
-  glUniform1i(program.uniform("u_atlas"), 1);
-  glUniform1i(program.uniform("u_tf"), 2);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::COUNTERS_BUFFER_BINDING, I.counters.id());
   glFinish();
   const auto t2 = std::chrono::steady_clock::now();
   if (!I.timer) I.timer = std::make_unique<GlTimerQuery>();
   I.timer->begin();
-  glDispatchCompute(GLuint((w + kWorkgroup - 1) / kWorkgroup), GLuint((h + kWorkgroup - 1) / kWorkgroup), 1);
+  const int group = lod_gpu::WORKGROUP_SIZE;
+  glDispatchCompute(GLuint((w + group - 1) / group), GLuint((h + group - 1) / group), 1);
   I.timer->end();
   glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
   glFinish();
   st.gpu_seconds = seconds_since(t2);
   st.gpu_timer_seconds = I.timer->seconds();
   check_gl("ray casting");
-  uint32_t counted[2] = {0, 0};
+  uint32_t counted[lod_gpu::COUNTER_COUNT] = {};
   glGetNamedBufferSubData(I.counters.id(), 0, sizeof counted, counted);
-  st.samples = counted[0];
-  st.bricks_entered = counted[1];
+  st.samples = counted[lod_gpu::COUNTER_SAMPLES];
+  st.bricks_entered = counted[lod_gpu::COUNTER_BRICKS];
 
   const auto t3 = std::chrono::steady_clock::now();
   // Through a pixel-pack buffer mapped for reading: glGetTextureImage straight into client memory ran at ~1 GB/s on
