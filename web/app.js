@@ -36,7 +36,13 @@ const view = {
   colors: null,        // explicit colour points (a loaded TF file), flat [x, r, g, b, ...]; null: the preset's
   pointsEdited: false, // the opacity points were edited (sent); false: the preset's ramp
   mode: "ea",
+  isoOpacity: 1,
+  lighting: true,
+  volumeLighting: false,
   boundary: 0,
+  background: null,    // [r, g, b] in [0, 1] once picked; null: the server's default
+  earlyTermination: 0.99,
+  sampleStep: 0,       // world units; 0: the level of detail picks it
   clip: { on: false, axis: "x", position: 0.5, flip: false },
   fps: 10,
   fullQuality: false,  // every frame at full quality (fps 0)
@@ -68,6 +74,7 @@ window.ugvrViewer = {
   get iso() { return isoValue(); },
   get clip() { return clipPlane(); },
   get boundary() { return view.boundary; },
+  get background() { return view.background && view.background.slice(); },
   get fps() { return view.fullQuality ? 0 : view.fps; },
   get progress() { return progress && { ...progress }; },
   get log() { return structuredClone(sentLog); },
@@ -140,6 +147,7 @@ function isoValue() {
 }
 function showIso() {
   $("iso-row").hidden = view.mode !== "iso";
+  $("iso-opacity-row").hidden = view.mode !== "iso";
   $("iso-value").textContent = Number(isoValue().toPrecision(4)).toString();
 }
 
@@ -232,8 +240,11 @@ function resendState() {
   if (view.colors) tf.rgb_points = view.colors;
   if (view.pointsEdited) tf.opacity_points = tfEditor.flatPoints();
   const settings = { type: "settings", field: view.field, mode: view.mode, boundary_opacity: view.boundary,
-                     clip: clipPlane(), fps: view.fullQuality ? 0 : view.fps };
+                     clip: clipPlane(), fps: view.fullQuality ? 0 : view.fps, iso_opacity: view.isoOpacity,
+                     lighting: view.lighting, volume_lighting: view.volumeLighting,
+                     early_termination_opacity: view.earlyTermination, sample_step: view.sampleStep };
   if (view.mode === "iso") settings.iso_value = isoValue();
+  if (view.background) settings.background = view.background;
   send(settings);  // first: a field change resets explicit points
   send(tf);
 }
@@ -352,9 +363,40 @@ $("iso").addEventListener("input", () => {
   showIso();
   queue({ type: "settings", iso_value: isoValue() });
 });
+$("iso-opacity").addEventListener("input", (e) => {
+  view.isoOpacity = Number(e.target.value);
+  queue({ type: "settings", iso_opacity: view.isoOpacity });
+});
+$("lighting").addEventListener("change", (e) => {
+  view.lighting = e.target.checked;
+  queue({ type: "settings", lighting: view.lighting });
+});
+$("volume-lighting").addEventListener("change", (e) => {
+  view.volumeLighting = e.target.checked;
+  queue({ type: "settings", volume_lighting: view.volumeLighting });
+});
 $("boundary").addEventListener("input", (e) => {
   view.boundary = Number(e.target.value);
   queue({ type: "settings", boundary_opacity: view.boundary });
+});
+$("background").addEventListener("input", (e) => {
+  // "#rrggbb" -> [r, g, b] in [0, 1]
+  view.background = [1, 3, 5].map((i) => parseInt(e.target.value.slice(i, i + 2), 16) / 255);
+  queue({ type: "settings", background: view.background });
+});
+$("early-termination").addEventListener("input", (e) => {
+  view.earlyTermination = Number(e.target.value);
+  $("early-termination-value").textContent = String(view.earlyTermination);
+  queue({ type: "settings", early_termination_opacity: view.earlyTermination });
+});
+$("sample-step").addEventListener("change", (e) => {
+  const v = Number(e.target.value);
+  if (e.target.value === "" || !Number.isFinite(v) || v < 0) {
+    e.target.value = String(view.sampleStep);  // not a step: the one in use again
+    return;
+  }
+  view.sampleStep = v;
+  queue({ type: "settings", sample_step: v });
 });
 $("clip").addEventListener("change", (e) => { view.clip.on = e.target.checked; queueClip(); });
 $("clip-axis").addEventListener("change", (e) => { view.clip.axis = e.target.value; if (view.clip.on) queueClip(); });

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <charconv>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 
 #include "cli/cli_numbers.h"
 #include "cli/commands.h"
 #include "ugvr/core/file.h"
+#include "ugvr/render/settings_table.h"
 #include "ugvr/render/transfer_function.h"
 
 namespace ugvr::cli {
@@ -50,6 +52,28 @@ std::string join(const std::vector<std::string>& names, std::string_view sep) {
   return s;
 }
 
+namespace {
+
+// A number in the range of settings_table.h's row `key`.
+double parse_setting(std::string_view text, std::string_view flag, std::string_view key) {
+  const double v = parse_number(text, flag);
+  const SettingInterval& range = *render_setting(key).interval;
+  if (!range.contains(v)) fail_flag(flag, "must be in " + range.text() + ", found " + std::string(text));
+  return v;
+}
+
+// The help of a numeric setting's flag, from settings_table.h: "Description, in [lo, hi][; notes] (default D)".
+std::string setting_help(std::string_view key) {
+  const RenderSettingInfo& row = render_setting(key);
+  const nlohmann::json default_value = settings_to_json(RenderSettings{})[std::string(key)];
+  char buf[32];
+  const auto [end, ec] = std::to_chars(buf, buf + sizeof buf, default_value.get<double>());
+  return std::string(row.description) + ", in " + setting_values_text(row) + " (default " +
+         (ec == std::errc() ? std::string(buf, end) : default_value.dump()) + ")";
+}
+
+}  // namespace
+
 RenderMode parse_mode(std::string_view text) {
   if (text == "ea" || text == "emission_absorption") return RenderMode::EmissionAbsorption;
   if (text == "mip") return RenderMode::Mip;
@@ -89,6 +113,10 @@ RenderSettings settings_from_flags(const RenderOptions& o) {
   }
   if (!o.boundary_opacity.empty())
     s.boundary_overlay_opacity = parse_fraction(o.boundary_opacity, "--boundary-opacity");
+  if (!o.early_termination.empty())
+    s.early_termination_opacity =
+        parse_setting(o.early_termination, "--early-termination", "early_termination_opacity");
+  if (!o.sample_step.empty()) s.sample_step = parse_setting(o.sample_step, "--sample-step", "sample_step");
   if (o.no_lighting) s.lighting = false;
   if (o.volume_lighting) s.volume_lighting = true;
   if (!o.background.empty()) {
@@ -177,17 +205,18 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
   cmd->add_option("--mode", opts->mode, "ea (emission-absorption, default), mip or iso (isosurfaces)")
       ->type_name("ea|mip|iso");
   cmd->add_option("--iso", opts->iso, "Isosurface values V1,V2,... (implies --mode iso)")->type_name("V1,V2,...");
-  cmd->add_option("--iso-opacity", opts->iso_opacity, "Opacity of each isosurface in [0, 1] (default 1)")
-      ->type_name("A");
+  cmd->add_option("--iso-opacity", opts->iso_opacity, setting_help("iso_opacity"))->type_name("A");
   cmd->add_option("--clip", opts->clip, "Clip plane PX,PY,PZ,NX,NY,NZ: keeps the side the normal points to")
       ->type_name("PX,PY,PZ,NX,NY,NZ");
-  cmd->add_option("--boundary-opacity", opts->boundary_opacity,
-                  "Opacity of the dataset's outer boundary drawn over the image (default 0: off)")
+  cmd->add_option("--boundary-opacity", opts->boundary_opacity, setting_help("boundary_overlay_opacity"))
       ->type_name("A");
   cmd->add_flag("--no-lighting", opts->no_lighting, "No headlight shading of isosurfaces and the boundary");
   cmd->add_flag("--volume-lighting", opts->volume_lighting, "Shade emission-absorption by the field gradient");
   cmd->add_option("--background", opts->background, "Background R,G,B[,A] in [0, 1] (default ParaView's)")
       ->type_name("R,G,B[,A]");
+  cmd->add_option("--early-termination", opts->early_termination, setting_help("early_termination_opacity"))
+      ->type_name("A");
+  cmd->add_option("--sample-step", opts->sample_step, setting_help("sample_step"))->type_name("S");
   cmd->add_option("--settings", opts->settings, "Render settings JSON; the flags above override it")->type_name("FILE");
   cmd->add_option("--float", opts->float_output, "Also write the image as a float .pfm")->type_name("FILE");
   cmd->add_option("--stats", opts->stats, "Write timings, counters and the camera and settings used as JSON")

@@ -1,5 +1,5 @@
 // End-to-end tests of the viewer page's controls (web/): the transfer-function editor, field picker, clip plane,
-// camera pan / reset, file save and load, PNG export, frame-rate settings, status and progress. Run by run.sh after
+// background colour, camera pan / reset, file save and load, PNG export, frame-rate settings, status and progress. Run by run.sh after
 // viewer.test.mjs, against its own `ugvr view` of the same store (fields pressure and velocity).
 import assert from "node:assert/strict";
 import { readFile } from "node:fs/promises";
@@ -171,6 +171,28 @@ test("the boundary overlay slider draws the mesh boundary; 0 removes it", async 
   await setRange("#boundary", 0);
   s = await waitConverged(page, CONVERGE_MS);
   assert.ok(changedFraction(plain, await canvasPixels(page)) < 0.002, "overlay 0 restores the image");
+});
+
+test("the background colour picker repaints the background; the default colour restores it", async () => {
+  await waitConverged(page, CONVERGE_MS);
+  const plain = await canvasPixels(page);
+  const setColor = (v) =>
+    page.locator("#background").evaluate((el, v) => {
+      el.value = v;
+      el.dispatchEvent(new Event("input", { bubbles: true }));
+    }, v);
+  await setColor("#ffffff");
+  let s = await waitConverged(page, CONVERGE_MS);
+  assert.deepEqual((await lastSent("settings", "background")).background, [1, 1, 1]);
+  assert.equal(s.error, "");
+  const white = await canvasPixels(page);
+  assert.deepEqual(Array.from(white.slice(0, 3)), [255, 255, 255], "the corner shows the new background");
+  const changed = changedFraction(plain, white);
+  console.log(`background white: ${(changed * 100).toFixed(1)} % of pixels changed`);
+  assert.ok(changed > 0.2, `the background covers much of the view (${changed})`);
+  await setColor("#52576e");  // the default, ParaView's (0.32, 0.34, 0.43), to the picker's 8 bits
+  s = await waitConverged(page, CONVERGE_MS);
+  assert.ok(changedFraction(plain, await canvasPixels(page)) < 0.002, "the default colour restores the image");
 });
 
 test("touch: one finger orbits, two fingers pinch to zoom", async () => {

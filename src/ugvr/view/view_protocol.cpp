@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "ugvr/core/error.h"
+#include "ugvr/render/settings_table.h"
 
 namespace ugvr::view {
 namespace {
@@ -22,11 +23,15 @@ void check_keys(const json& j, std::initializer_list<std::string_view> allowed) 
   }
 }
 
-double number(const json& j, std::string_view key, double lo, double hi) {
-  const json& v = j[std::string(key)];
+double finite_number(const json& v, std::string_view key) {
   if (!v.is_number()) fail_field(key, "expected a number, found " + std::string(v.type_name()));
   const double d = v.get<double>();
   if (!std::isfinite(d)) fail_field(key, "expected a finite number");
+  return d;
+}
+
+double number(const json& j, std::string_view key, double lo, double hi) {
+  const double d = finite_number(j[std::string(key)], key);
   if (d < lo || d > hi)
     fail_field(key, "must be in [" + json(lo).dump() + ", " + json(hi).dump() + "], found " + json(d).dump());
   return d;
@@ -114,8 +119,27 @@ std::optional<ClipPlane> parse_clip(const json& v) {
   return c;
 }
 
+// A RenderSettings number, in the range settings_table.h gives for its message key.
+double setting_number(const json& v, std::string_view key) {
+  const SettingInterval& range = *render_setting_for_message(key)->interval;
+  const double d = finite_number(v, key);
+  if (!range.contains(d)) fail_field(key, "must be in " + range.text() + ", found " + json(d).dump());
+  return d;
+}
+
+bool boolean(const json& v, std::string_view key) {
+  if (!v.is_boolean()) fail_field(key, "expected true or false");
+  return v.get<bool>();
+}
+
+// The settings keys that are the viewer's own; the others are RenderSettings fields (settings_table.h).
+constexpr std::string_view kViewerSettings[] = {"step_voxels", "fps", "full_quality"};
+
 SettingsMessage parse_settings(const json& j) {
-  check_keys(j, {"mode", "iso_value", "step_voxels", "fps", "full_quality", "field", "boundary_opacity", "clip"});
+  for (auto it = j.begin(); it != j.end(); ++it)
+    if (it.key() != "type" && !render_setting_for_message(it.key()) &&
+        std::find(std::begin(kViewerSettings), std::end(kViewerSettings), it.key()) == std::end(kViewerSettings))
+      fail_field(it.key(), "unknown key for a \"settings\" message");
   SettingsMessage m;
   if (j.contains("mode")) {
     const json& v = j["mode"];
@@ -136,10 +160,7 @@ SettingsMessage parse_settings(const json& j) {
     if (*m.step_voxels <= 0) fail_field("step_voxels", "must be > 0");
   }
   if (j.contains("fps")) m.fps = number(j, "fps", 0, kMaxFps);
-  if (j.contains("full_quality")) {
-    if (!j["full_quality"].is_boolean()) fail_field("full_quality", "expected true or false");
-    m.full_quality = j["full_quality"].get<bool>();
-  }
+  if (j.contains("full_quality")) m.full_quality = boolean(j["full_quality"], "full_quality");
   if (j.contains("field")) {
     const json& v = j["field"];
     if (!v.is_string()) fail_field("field", "expected a field name, found " + std::string(v.type_name()));
@@ -149,8 +170,21 @@ SettingsMessage parse_settings(const json& j) {
                               std::to_string(name.size()));
     m.field = name;
   }
-  if (j.contains("boundary_opacity")) m.boundary_opacity = number(j, "boundary_opacity", 0, 1);
+  if (j.contains("boundary_opacity")) m.boundary_opacity = setting_number(j["boundary_opacity"], "boundary_opacity");
   if (j.contains("clip")) m.clip = parse_clip(j["clip"]);
+  if (j.contains("iso_opacity")) m.iso_opacity = setting_number(j["iso_opacity"], "iso_opacity");
+  if (j.contains("lighting")) m.lighting = boolean(j["lighting"], "lighting");
+  if (j.contains("volume_lighting")) m.volume_lighting = boolean(j["volume_lighting"], "volume_lighting");
+  if (j.contains("early_termination_opacity"))
+    m.early_termination_opacity = setting_number(j["early_termination_opacity"], "early_termination_opacity");
+  if (j.contains("sample_step")) m.sample_step = setting_number(j["sample_step"], "sample_step");
+  if (j.contains("background")) {
+    const json& v = j["background"];
+    if (!v.is_array() || v.size() != 3) fail_field("background", "expected [r, g, b]");
+    std::array<double, 4> c{0, 0, 0, 1};
+    for (size_t i = 0; i < 3; ++i) c[i] = setting_number(v[i], "background");
+    m.background = c;
+  }
   return m;
 }
 

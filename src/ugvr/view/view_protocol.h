@@ -11,12 +11,18 @@
 //       every key optional: a built-in preset (rescaled to the field's range), and/or explicit points in data
 //       values (ParaView's flat layout, at most kMaxTfPoints points each); "opacity" in [0, 1] scales the opacity
 //   {"type":"settings", "mode":"ea"|"mip"|"iso", "iso_value":V, "step_voxels":S, "fps":F, "full_quality":true,
-//    "field":NAME, "boundary_opacity":A, "clip":{"point":[x,y,z],"normal":[x,y,z]}|null}
+//    "field":NAME, "boundary_opacity":A, "clip":{"point":[x,y,z],"normal":[x,y,z]}|null, "iso_opacity":A,
+//    "lighting":B, "volume_lighting":B, "early_termination_opacity":A, "sample_step":D, "background":[r,g,b]}
 //       every key optional: step in (0, 8] voxels (the resting step), fps in [0, 240] (0: every frame at full
 //       quality), full_quality asks for one converged frame of the current view now; field one of the scene's
 //       fields (a non-empty name of at most kMaxFieldName bytes; switching resets explicit transfer-function
 //       points, so the preset is rescaled to the new range); boundary_opacity in [0, 1] (the dataset's outer
-//       boundary drawn over the image, 0: off); clip keeps the half-space the non-zero normal points to, null: off
+//       boundary drawn over the image, 0: off); clip keeps the half-space the non-zero normal points to, null: off;
+//       iso_opacity in [0, 1] (each isosurface's); lighting true/false (headlight shading of isosurfaces and the
+//       boundary); volume_lighting true/false (emission-absorption shaded by the gradient); early_termination_opacity
+//       in (0, 1] (a ray stops at this opacity); sample_step in world units, >= 0 (0: the engine's level of detail,
+//       step_voxels); background [r, g, b] in [0, 1] (opaque: frames are JPEG while moving). These are
+//       RenderSettings fields: src/ugvr/render/settings_table.h maps each to its message key and gives the ranges
 //
 // Server -> client:
 //   text {"type":"scene", ...}   after hello: field, range, fields (with histograms), bounds, the initial camera,
@@ -32,6 +38,7 @@
 //   status also carries "engine", "ram_bytes", "ram_budget", "atlas_bytes", "atlas_budget", "pending_bricks"
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -78,6 +85,12 @@ struct SettingsMessage {
   std::optional<std::string> field;
   std::optional<double> boundary_opacity;
   std::optional<std::optional<ClipPlane>> clip;  // absent: unchanged; holds nullopt: clipping off
+  std::optional<double> iso_opacity;
+  std::optional<bool> lighting;
+  std::optional<bool> volume_lighting;
+  std::optional<double> early_termination_opacity;
+  std::optional<double> sample_step;
+  std::optional<std::array<double, 4>> background;  // alpha always 1
 };
 
 using ClientMessage = std::variant<SizeMessage, CameraMessage, TfMessage, SettingsMessage>;

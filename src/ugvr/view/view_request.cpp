@@ -83,6 +83,12 @@ void apply_message(ViewState& state, const ClientMessage& m, const SceneInfo& sc
     }
     if (set->boundary_opacity) rs.boundary_overlay_opacity = *set->boundary_opacity;
     if (set->clip) rs.clip_plane = *set->clip;
+    if (set->iso_opacity) rs.iso_opacity = *set->iso_opacity;
+    if (set->lighting) rs.lighting = *set->lighting;
+    if (set->volume_lighting) rs.volume_lighting = *set->volume_lighting;
+    if (set->early_termination_opacity) rs.early_termination_opacity = *set->early_termination_opacity;
+    if (set->sample_step) rs.sample_step = *set->sample_step;
+    if (set->background) rs.background = *set->background;
     rs.validate("settings");
     if (set->step_voxels) r.step_voxels = *set->step_voxels;
     if (set->fps) r.fps = *set->fps;
