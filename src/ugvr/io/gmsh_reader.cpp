@@ -50,6 +50,7 @@
 #include "ugvr/core/file.h"
 #include "ugvr/core/progress.h"
 #include "ugvr/grid/cell_type.h"
+#include "ugvr/io/file_dataset.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/text_tokenizer.h"
 
@@ -58,7 +59,6 @@ namespace {
 
 constexpr uint64_t kAbsent = std::numeric_limits<uint64_t>::max();
 constexpr uint64_t kDropped = kAbsent - 1;
-constexpr uint64_t kProgressMinBytes = uint64_t(16) << 20;
 constexpr int64_t kMaxComponents = 1024;
 
 // What a Gmsh element type is: its node count, dimension and (for volumes) the cell it becomes.
@@ -296,9 +296,7 @@ struct PendingField {
 
 class GmshReader {
  public:
-  explicit GmshReader(const std::string& path) : file_(path), in_(file_) {
-    if (file_.size() >= kProgressMinBytes) progress_.emplace("reading " + file_.name(), file_.size());
-  }
+  explicit GmshReader(const std::string& path) : file_(path), in_(file_) { start_reading_progress(progress_, file_); }
 
   Dataset read() {
     read_format();
@@ -771,14 +769,9 @@ class GmshReader {
       }
       block.fields.add(Field(f.name, f.association, std::move(f.data)));
     }
-    block.validate_fields(path());
+    Dataset d = single_block_dataset("Gmsh MSH " + version_ + (in_.binary() ? " binary" : " ASCII"), path(),
+                                     std::move(block), std::move(warnings_));
     if (progress_) progress_->finish();
-
-    Dataset d;
-    d.format = "Gmsh MSH " + version_ + (in_.binary() ? " binary" : " ASCII");
-    d.sources = {path()};
-    d.blocks.push_back(std::move(block));
-    d.warnings = std::move(warnings_);
     return d;
   }
 
