@@ -442,6 +442,21 @@ class GmshReader {
     }
   }
 
+  // The start of a v4 $Nodes or $Elements section (`what`: "node" or "element"): the number of entity blocks and of
+  // nodes or elements in all, checked to fit in the file; the minimum and maximum tags that follow are skipped.
+  struct V4SectionHeader {
+    uint64_t blocks, count;
+  };
+  V4SectionHeader read_v4_section_header(const std::string& what) {
+    in_.begin_binary_values();
+    const uint64_t blocks = in_.size_value("the number of entity blocks");
+    const uint64_t count = in_.size_value("the number of " + what + "s");
+    in_.size_value("the minimum " + what + " tag");
+    in_.size_value("the maximum " + what + " tag");
+    in_.check_fits(what + " entity block", blocks, 3 * in_.int_bytes() + in_.size_value_bytes());
+    return {blocks, count};
+  }
+
   // --- $Nodes -------------------------------------------------------------------------------------------------------
 
   void read_nodes_v2() {
@@ -459,12 +474,7 @@ class GmshReader {
   void read_nodes_v4() {
     nodes_line_ = t().token_line();
     nodes_offset_ = t().token_offset();
-    in_.begin_binary_values();
-    const uint64_t blocks = in_.size_value("the number of entity blocks");
-    const uint64_t n = in_.size_value("the number of nodes");
-    in_.size_value("the minimum node tag");
-    in_.size_value("the maximum node tag");
-    in_.check_fits("node entity block", blocks, 3 * in_.int_bytes() + in_.size_value_bytes());
+    const auto [blocks, n] = read_v4_section_header("node");
     reserve_nodes(n, in_.binary() ? uint64_t(in_.size_bytes()) + 24 : 8);
     for (uint64_t b = 0; b < blocks; ++b) {
       const int64_t dim = in_.integer_in("the entity dimension", 0, 3);
@@ -560,12 +570,7 @@ class GmshReader {
   }
 
   void read_elements_v4() {
-    in_.begin_binary_values();
-    const uint64_t blocks = in_.size_value("the number of entity blocks");
-    const uint64_t n = in_.size_value("the number of elements");
-    in_.size_value("the minimum element tag");
-    in_.size_value("the maximum element tag");
-    in_.check_fits("element entity block", blocks, 3 * in_.int_bytes() + in_.size_value_bytes());
+    const auto [blocks, n] = read_v4_section_header("element");
     // An element is at least its tag and one node.
     in_.check_fits("element", n, 2 * in_.size_value_bytes());
     elements_.reserve(size_t(n));
