@@ -22,11 +22,9 @@ XmlEncoding parse_encoding(const XmlDoc& d) {
   else if (!header.empty() && header != "UInt32")
     d.fail(d.root, "header_type=\"" + header.substr(0, 40) + "\" is neither UInt32 nor UInt64");
   const std::string compressor = d.root.attribute("compressor").value();
-  if (compressor == "vtkZLibDataCompressor")
-    e.codec = Codec::Zlib;
-  else if (compressor == "vtkLZ4DataCompressor")
-    e.codec = Codec::Lz4;
-  else if (!compressor.empty())
+  if (const std::optional<Codec> codec = codec_of_vtk_compressor(compressor))
+    e.codec = *codec;
+  else
     d.fail(d.root, "compressor \"" + compressor.substr(0, 60) +
                        "\" is not supported (vtkZLibDataCompressor and vtkLZ4DataCompressor are)");
   if (const pugi::xml_node app = d.root.child("AppendedData")) {

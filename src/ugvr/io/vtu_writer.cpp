@@ -39,15 +39,6 @@ std::string_view section_name(VtuSection s) {
   return "?";
 }
 
-std::string_view compressor_name(Codec c) {
-  switch (c) {
-    case Codec::Zlib: return "vtkZLibDataCompressor";
-    case Codec::Lz4: return "vtkLZ4DataCompressor";
-    case Codec::None: break;
-  }
-  return {};
-}
-
 bool is_integer(ScalarType t) { return t != ScalarType::Float32 && t != ScalarType::Float64; }
 
 std::string xml_escape(std::string_view s) {
@@ -117,7 +108,7 @@ std::string xml_header(uint64_t points, uint64_t cells, const std::vector<VtuArr
                        const std::vector<uint64_t>& offsets, Codec codec) {
   std::string x = "<?xml version=\"1.0\"?>\n";
   x += "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\"";
-  if (codec != Codec::None) x += " compressor=\"" + std::string(compressor_name(codec)) + "\"";
+  if (codec != Codec::None) x += " compressor=\"" + std::string(vtk_compressor_name(codec)) + "\"";
   x += ">\n  <UnstructuredGrid>\n";
   x +=
       "    <Piece NumberOfPoints=\"" + std::to_string(points) + "\" NumberOfCells=\"" + std::to_string(cells) + "\">\n";
