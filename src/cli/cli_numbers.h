@@ -1,8 +1,11 @@
-// Numeric flag values shared by the subcommands: parsed whole (no trailing text), errors naming the flag.
+// Numeric flag values shared by the subcommands: parsed whole (no trailing text), errors naming the flag; byte sizes
+// with their units.
 #pragma once
 
+#include <CLI/CLI.hpp>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <string_view>
 
@@ -20,6 +23,12 @@ inline double parse_number(std::string_view text, std::string_view flag) {
   if (first == last || ec != std::errc() || end != last || !std::isfinite(v))
     fail_in(flag, "expected a finite number, found \"" + std::string(text) + "\"");
   return v;
+}
+
+// A byte-size flag (e.g. 512MiB, 4GiB; binary units), its default shown as written.
+inline CLI::Option* add_byte_size_option(CLI::App& cmd, const std::string& name, uint64_t& bytes,
+                                         const std::string& description, const std::string& default_size) {
+  return cmd.add_option(name, bytes, description)->transform(CLI::AsSizeValue(true))->default_str(default_size);
 }
 
 }  // namespace ugvr::cli

@@ -2,7 +2,9 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "cli/cli_numbers.h"
 #include "cli/commands.h"
+#include "cli/dataset_input.h"
 #include "ugvr/core/error.h"
 #include "ugvr/core/memory.h"
 #include "ugvr/io/reader.h"
@@ -13,20 +15,19 @@ namespace ugvr::cli {
 
 void register_build(CLI::App& app) {
   struct Options {
-    std::vector<std::string> inputs, fields;
+    DatasetInput input;
+    std::vector<std::string> fields;
     std::string output;
     OctreeBuildOptions build;
     uint64_t memory = uint64_t(1) << 30;
     bool float32 = false, json = false, out_of_core = false;
-    ReadOptions read;
   };
   auto opts = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
       "build",
       "Voxelize a mesh into an adaptive octree of bricks (a .ugvr brick store) for level-of-detail rendering: nodes "
       "split until the data points inside them that differ by more than --error get voxels of their own");
-  add_input(*cmd, opts->inputs);
-  add_read_options(*cmd, opts->read);
+  add_dataset_input(*cmd, opts->input);
   cmd->add_option("-o,--output", opts->output, "Output brick store (.ugvr)")->required();
   cmd->add_option("--fields", opts->fields,
                   "Scalars to store, comma-separated: NAME, NAME:x|y|z|k or NAME:magnitude (default: the first field "
@@ -43,11 +44,10 @@ void register_build(CLI::App& app) {
                   "own (0: every data point does)")
       ->check(CLI::Range(0.0, 1.0))
       ->default_val(opts->build.error);
-  cmd->add_option(
-         "--memory", opts->memory,
-         "Memory budget (e.g. 512MiB, 4GiB); the in-core build holds the mesh and only warns when its peak exceeds it")
-      ->transform(CLI::AsSizeValue(true))
-      ->default_str("1GiB");
+  add_byte_size_option(
+      *cmd, "--memory", opts->memory,
+      "Memory budget (e.g. 512MiB, 4GiB); the in-core build holds the mesh and only warns when its peak exceeds it",
+      "1GiB");
   cmd->add_option("--threads", opts->build.threads, "Worker threads (0: all cores)")
       ->check(CLI::NonNegativeNumber)
       ->default_val(0);
@@ -61,20 +61,19 @@ void register_build(CLI::App& app) {
     if (extension_lower(opts->output) != ".ugvr") throw Error(opts->output + ": the output must be a .ugvr file");
     if (opts->float32) opts->build.encoding.samples = SampleEncoding::Float32;
     validate_build_options(opts->build);
-    const bool vtu = opts->inputs.size() == 1 && extension_lower(opts->inputs[0]) == ".vtu";
-    if (opts->out_of_core && !vtu) throw Error(opts->inputs[0] + ": --out-of-core reads a single .vtu file");
+    const bool vtu = opts->input.files.size() == 1 && extension_lower(opts->input.files[0]) == ".vtu";
+    if (opts->out_of_core && !vtu) throw Error(opts->input.files[0] + ": --out-of-core reads a single .vtu file");
     const bool out_of_core =
-        opts->out_of_core || (vtu && std::filesystem::file_size(opts->inputs[0]) > opts->memory / 5 * 2);
+        opts->out_of_core || (vtu && std::filesystem::file_size(opts->input.files[0]) > opts->memory / 5 * 2);
     OctreeBuildStats s;
     std::string names;
     if (out_of_core) {
       if (!opts->out_of_core) std::fprintf(stderr, "note: building out of core (the input is large for --memory)\n");
-      s = build_octree_out_of_core(opts->inputs[0], opts->fields, opts->build, opts->memory, opts->output);
+      s = build_octree_out_of_core(opts->input.files[0], opts->fields, opts->build, opts->memory, opts->output);
       const BrickStoreReader store(opts->output);
       for (const BrickStoreField& f : store.layout().fields) names += (names.empty() ? "" : ",") + f.name;
     } else {
-      const Dataset ds = read_dataset(opts->inputs, opts->read);
-      for (const std::string& w : ds.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+      const Dataset ds = read_dataset_input(opts->input);
       const OctreeInput input = prepare_octree_input(ds, opts->fields);
       s = build_octree(input, opts->build, opts->output);
       for (const BrickStoreField& f : input.fields) names += (names.empty() ? "" : ",") + f.name;

@@ -2,6 +2,7 @@
 
 #include "cli/cli_codec.h"
 #include "cli/commands.h"
+#include "cli/dataset_input.h"
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
 #include "ugvr/core/memory.h"
@@ -12,18 +13,16 @@ namespace ugvr::cli {
 
 void register_refine(CLI::App& app) {
   struct Options {
-    std::vector<std::string> inputs;
+    DatasetInput input;
     std::string output, split = "five", compress;
     RefineOptions refine;
-    ReadOptions read;
   };
   auto opts = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
       "refine",
       "Uniformly refine a mesh N levels (each tet, hex, wedge into 8; pyramid into 6 pyramids + 4 tets), keeping it "
       "conforming and interpolating its fields; structured grids are first cut into tets. Streaming .vtu output");
-  add_input(*cmd, opts->inputs);
-  add_read_options(*cmd, opts->read);
+  add_dataset_input(*cmd, opts->input);
   cmd->add_option("-o,--output", opts->output, "Output .vtu file")->required();
   cmd->add_option("--levels", opts->refine.levels, "Refinement levels: cells x 8^N")
       ->required()
@@ -37,8 +36,7 @@ void register_refine(CLI::App& app) {
     opts->refine.split =
         opts->split == "six" ? StructuredCellShape::SixTetrahedra : StructuredCellShape::FiveTetrahedra;
     opts->refine.codec = parse_codec_name(opts->compress);
-    const Dataset ds = read_dataset(opts->inputs, opts->read);
-    for (const std::string& w : ds.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    const Dataset ds = read_dataset_input(opts->input);
     const RefineStats s = refine_to_vtu(ds, opts->refine, opts->output);
     const RefinePlan& p = s.plan;
     std::printf(

@@ -173,13 +173,10 @@ void register_view(CLI::App& app) {
       ->default_str("512");
   cmd->add_option("--gpu", opts->gpu, "EGL device index, or auto (first GPU, else Mesa's llvmpipe)")
       ->default_str("auto");
-  cmd->add_option("--gpu-memory", opts->gpu_memory, "GPU memory for bricks (e.g. 512MiB, 4GiB)")
-      ->transform(CLI::AsSizeValue(true))
-      ->default_str("2GiB");
-  cmd->add_option("--ram-memory", opts->ram_memory,
-                  "RAM for decoded bricks, per browser tab (e.g. 256MiB, 4GiB): what a resting view can refine to")
-      ->transform(CLI::AsSizeValue(true))
-      ->default_str("1GiB");
+  add_byte_size_option(*cmd, "--gpu-memory", opts->gpu_memory, "GPU memory for bricks (e.g. 512MiB, 4GiB)", "2GiB");
+  add_byte_size_option(*cmd, "--ram-memory", opts->ram_memory,
+                       "RAM for decoded bricks, per browser tab (e.g. 256MiB, 4GiB): what a resting view can refine to",
+                       "1GiB");
   cmd->add_option("--fps", opts->fps, "Frame-rate target while interacting (0: every frame at full quality)")
       ->default_str("10");
   cmd->callback([opts] { run_view(*opts); });

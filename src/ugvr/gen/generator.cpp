@@ -466,69 +466,60 @@ std::array<uint64_t, 8> corner_ids(const GeneratePlan& p, uint32_t i, uint32_t j
   return id;
 }
 
-template <class Index>
-void connectivity_pass(const Context& c) {
+// Runs `hex(i, j, k, lc, out)` for every hexahedron in file order: it writes the values of the lc.count cells the
+// hexahedron is cut into (one per cell, or with `per_id`, one per connectivity entry) and advances `out` past them.
+template <class T, class Hex>
+void hex_pass(const Context& c, size_t array, bool per_id, Hex hex) {
   const GeneratePlan& p = c.plan;
-  row_pass<Index>(
-      c, kConnectivity, [&](uint64_t r) { return c.rows.ids_before(r); },
-      [&](uint64_t r, Index* out) {
+  row_pass<T>(
+      c, array, [&](uint64_t r) { return per_id ? c.rows.ids_before(r) : c.rows.cells_before(r); },
+      [&](uint64_t r, T* out) {
         const uint32_t j = uint32_t(r % p.nj), k = uint32_t(r / p.nj);
         const LayerCells& lc = layer_cells(layer_of(p, j));
-        for (uint32_t i = 0; i < p.ni; ++i) {
-          const auto id = corner_ids(p, i, j, k);
-          for (int cell = 0; cell < lc.count; ++cell) {
-            for (int v = 0; v < lc.size[size_t(cell)]; ++v) *out++ = Index(id[lc.corner[size_t(cell)][size_t(v)]]);
-          }
-        }
+        for (uint32_t i = 0; i < p.ni; ++i) hex(i, j, k, lc, out);
       });
 }
 
+template <class Index>
+void connectivity_pass(const Context& c) {
+  hex_pass<Index>(c, kConnectivity, true, [&](uint32_t i, uint32_t j, uint32_t k, const LayerCells& lc, Index*& out) {
+    const auto id = corner_ids(c.plan, i, j, k);
+    for (int cell = 0; cell < lc.count; ++cell) {
+      for (int v = 0; v < lc.size[size_t(cell)]; ++v) *out++ = Index(id[lc.corner[size_t(cell)][size_t(v)]]);
+    }
+  });
+}
+
+// Each cell's end in the connectivity: the entries of the rows and hexahedra before it, then its own.
 void offsets_pass(const Context& c) {
   const GeneratePlan& p = c.plan;
-  row_pass<int64_t>(
-      c, kOffsets, [&](uint64_t r) { return c.rows.cells_before(r); },
-      [&](uint64_t r, int64_t* out) {
-        const LayerCells& lc = layer_cells(layer_of(p, uint32_t(r % p.nj)));
-        int64_t end = int64_t(c.rows.ids_before(r));
-        for (uint32_t i = 0; i < p.ni; ++i) {
-          for (int cell = 0; cell < lc.count; ++cell) *out++ = (end += lc.size[size_t(cell)]);
-        }
-      });
+  hex_pass<int64_t>(c, kOffsets, false, [&](uint32_t i, uint32_t j, uint32_t k, const LayerCells& lc, int64_t*& out) {
+    int64_t end = int64_t(c.rows.ids_before(uint64_t(k) * p.nj + j) + uint64_t(i) * lc.ids);
+    for (int cell = 0; cell < lc.count; ++cell) *out++ = (end += lc.size[size_t(cell)]);
+  });
 }
 
 void types_pass(const Context& c) {
-  const GeneratePlan& p = c.plan;
-  row_pass<uint8_t>(
-      c, kTypes, [&](uint64_t r) { return c.rows.cells_before(r); },
-      [&](uint64_t r, uint8_t* out) {
-        const LayerCells& lc = layer_cells(layer_of(p, uint32_t(r % p.nj)));
-        for (uint32_t i = 0; i < p.ni; ++i) {
-          for (int cell = 0; cell < lc.count; ++cell) *out++ = uint8_t(lc.type[size_t(cell)]);
-        }
-      });
+  hex_pass<uint8_t>(c, kTypes, false, [&](uint32_t, uint32_t, uint32_t, const LayerCells& lc, uint8_t*& out) {
+    for (int cell = 0; cell < lc.count; ++cell) *out++ = uint8_t(lc.type[size_t(cell)]);
+  });
 }
 
 // Cell wall distance: the mean of its vertices' distances.
 void wall_distance_pass(const Context& c) {
   const GeneratePlan& p = c.plan;
-  row_pass<float>(
-      c, kWallDistance, [&](uint64_t r) { return c.rows.cells_before(r); },
-      [&](uint64_t r, float* out) {
-        const uint32_t j = uint32_t(r % p.nj), k = uint32_t(r / p.nj);
-        const LayerCells& lc = layer_cells(layer_of(p, j));
-        for (uint32_t i = 0; i < p.ni; ++i) {
-          const uint32_t i1 = i + 1 == p.ni ? 0 : i + 1;
-          std::array<double, 8> d{};
-          for (int b = 0; b < 8; ++b) {
-            d[size_t(b)] = c.model.wall_distance((b & 1) ? i1 : i, j + ((b >> 1) & 1), k + ((b >> 2) & 1));
-          }
-          for (int cell = 0; cell < lc.count; ++cell) {
-            double sum = 0;
-            for (int v = 0; v < lc.size[size_t(cell)]; ++v) sum += d[lc.corner[size_t(cell)][size_t(v)]];
-            *out++ = float(sum / lc.size[size_t(cell)]);
-          }
-        }
-      });
+  hex_pass<float>(c, kWallDistance, false, [&](uint32_t i, uint32_t j, uint32_t k, const LayerCells& lc, float*& out) {
+    const uint32_t i1 = i + 1 == p.ni ? 0 : i + 1;
+    std::array<double, 8> d{};
+    for (int b = 0; b < 8; ++b) {
+      d[size_t(b)] = c.model.wall_distance((b & 1) ? i1 : i, j + ((b >> 1) & 1), k + ((b >> 2) & 1));
+    }
+    for (int cell = 0; cell < lc.count; ++cell) {
+      double sum = 0;
+      for (int v = 0; v < lc.size[size_t(cell)]; ++v) sum += d[lc.corner[size_t(cell)][size_t(v)]];
+      *out++ = float(sum / lc.size[size_t(cell)]);
+    }
+  });
 }
 
 void run_passes(const Context& c, ScalarType index_type) {

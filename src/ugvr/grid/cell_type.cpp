@@ -51,22 +51,22 @@ VtkCellMapping compute_mapping(int vtk_type) {
     case 37: return keep(CellType::Pyramid, 5, 19, "VTK_TRIQUADRATIC_PYRAMID");
     case 41: return unsupported("VTK_CONVEX_POINT_SET");
     case 42: return unsupported("VTK_POLYHEDRON");
-    case 68: return drop(-1, "VTK_LAGRANGE_CURVE");
-    case 69: return drop(-1, "VTK_LAGRANGE_TRIANGLE");
-    case 70: return drop(-1, "VTK_LAGRANGE_QUADRILATERAL");
-    case 71: return unsupported("VTK_LAGRANGE_TETRAHEDRON");
-    case 72: return unsupported("VTK_LAGRANGE_HEXAHEDRON");
-    case 73: return unsupported("VTK_LAGRANGE_WEDGE");
-    case 74: return unsupported("VTK_LAGRANGE_PYRAMID");
-    case 75: return drop(-1, "VTK_BEZIER_CURVE");
-    case 76: return drop(-1, "VTK_BEZIER_TRIANGLE");
-    case 77: return drop(-1, "VTK_BEZIER_QUADRILATERAL");
-    case 78: return unsupported("VTK_BEZIER_TETRAHEDRON");
-    case 79: return unsupported("VTK_BEZIER_HEXAHEDRON");
-    case 80: return unsupported("VTK_BEZIER_WEDGE");
-    case 81: return unsupported("VTK_BEZIER_PYRAMID");
-    default: return unsupported("unknown cell type");
+    default: break;
   }
+  // The arbitrary-order families, Lagrange (68..74) then Bezier (75..81), list the same shapes in the same order:
+  // their curves and surfaces are dropped like the other lower-dimensional cells, their volumes are not supported.
+  constexpr int kFirstHighOrder = 68, kHighOrderShapes = 7;
+  constexpr std::array<std::string_view, 2 * kHighOrderShapes> kHighOrderNames = {
+      "VTK_LAGRANGE_CURVE",      "VTK_LAGRANGE_TRIANGLE",    "VTK_LAGRANGE_QUADRILATERAL", "VTK_LAGRANGE_TETRAHEDRON",
+      "VTK_LAGRANGE_HEXAHEDRON", "VTK_LAGRANGE_WEDGE",       "VTK_LAGRANGE_PYRAMID",       "VTK_BEZIER_CURVE",
+      "VTK_BEZIER_TRIANGLE",     "VTK_BEZIER_QUADRILATERAL", "VTK_BEZIER_TETRAHEDRON",     "VTK_BEZIER_HEXAHEDRON",
+      "VTK_BEZIER_WEDGE",        "VTK_BEZIER_PYRAMID"};
+  const int h = vtk_type - kFirstHighOrder;
+  if (h >= 0 && h < int(kHighOrderNames.size())) {
+    const std::string_view name = kHighOrderNames[size_t(h)];
+    return h % kHighOrderShapes < 3 ? drop(-1, name) : unsupported(name);
+  }
+  return unsupported("unknown cell type");
 }
 
 }  // namespace

@@ -20,17 +20,17 @@ CellCorners corners(const GridDims& d, uint64_t i, uint64_t j, uint64_t k) {
   return c;
 }
 
-// The 6 Kuhn tets: each is the path 0 -> e_a -> e_a+e_b -> 7 for a permutation (a, b, c) of the axes, listed so
-// every tet has positive orientation in VTK's convention (vertices 0,1,2 counter-clockwise seen from vertex 3).
-constexpr std::array<std::array<uint8_t, 4>, 6> kSixTets = {{
-    {0, 1, 3, 7},
-    {0, 3, 2, 7},
-    {0, 2, 6, 7},
-    {0, 6, 4, 7},
-    {0, 4, 5, 7},
-    {0, 5, 1, 7},
-}};
-// Five-tet split, even parity: corner tets at 0, 3, 5, 6 around the central tet (1, 2, 4, 7); odd parity mirrors it.
+// The 6 Kuhn tets: each is the path 0 -> e_a -> e_a+e_b -> 7 for a permutation (a, b, c) of the axes. They share the
+// diagonal 0-7, around which the other corners form a ring, each one axis step from the next (1, 3, 2, 6, 4, 5); tet m
+// joins the diagonal to ring corners m and m + 1, which in the ring's order gives every tet positive orientation in
+// VTK's convention (vertices 0,1,2 counter-clockwise seen from vertex 3).
+constexpr std::array<std::array<uint8_t, 4>, 6> kSixTets = [] {
+  constexpr std::array<uint8_t, 6> ring = {1, 3, 2, 6, 4, 5};
+  std::array<std::array<uint8_t, 4>, 6> tets{};
+  for (size_t m = 0; m < ring.size(); ++m) tets[m] = {0, ring[m], ring[(m + 1) % ring.size()], 7};
+  return tets;
+}();
+// Five-tet split, even parity: corner tets at 0, 3, 5, 6 around the central tet (1, 2, 4, 7).
 constexpr std::array<std::array<uint8_t, 4>, 5> kFiveTetsEven = {{
     {0, 1, 2, 4},
     {3, 2, 1, 7},
@@ -38,13 +38,19 @@ constexpr std::array<std::array<uint8_t, 4>, 5> kFiveTetsEven = {{
     {6, 7, 4, 2},
     {1, 2, 4, 7},
 }};
-constexpr std::array<std::array<uint8_t, 4>, 5> kFiveTetsOdd = {{
-    {1, 0, 5, 3},
-    {2, 3, 6, 0},
-    {4, 5, 0, 6},
-    {7, 6, 3, 5},
-    {0, 3, 6, 5},
-}};
+// Odd parity mirrors it across the plane i = 1/2 (corner bit 0 flipped), so that neighbouring cells cut their shared
+// face along the same diagonal; the mirror reverses orientation, which swapping the last two vertices restores.
+constexpr std::array<std::array<uint8_t, 4>, 5> mirrored_in_i(const std::array<std::array<uint8_t, 4>, 5>& tets) {
+  std::array<std::array<uint8_t, 4>, 5> out{};
+  for (size_t t = 0; t < tets.size(); ++t) {
+    const auto& v = tets[t];
+    out[t] = {uint8_t(v[0] ^ 1), uint8_t(v[1] ^ 1), uint8_t(v[3] ^ 1), uint8_t(v[2] ^ 1)};
+  }
+  return out;
+}
+constexpr std::array<std::array<uint8_t, 4>, 5> kFiveTetsOdd = mirrored_in_i(kFiveTetsEven);
+static_assert(kFiveTetsOdd[0] == std::array<uint8_t, 4>{1, 0, 5, 3} &&
+              kFiveTetsOdd[4] == std::array<uint8_t, 4>{0, 3, 6, 5});
 // Hexahedron in VTK order from the corner bits.
 constexpr std::array<uint8_t, 8> kHexOrder = {0, 1, 3, 2, 4, 5, 7, 6};
 

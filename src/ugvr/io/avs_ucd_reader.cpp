@@ -37,6 +37,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
 #include "ugvr/grid/cell_type.h"
+#include "ugvr/io/file_dataset.h"
 #include "ugvr/io/id_map.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/text_tokenizer.h"
@@ -97,13 +98,7 @@ class AvsUcdReader {
     if (node_values_ > 0) read_data(Association::Vertex, block.fields);
     if (cell_values_ > 0) read_data(Association::Cell, block.fields);
     mesh.validate(path());
-    block.validate_fields(path());
-    Dataset d;
-    d.format = "AVS UCD ASCII (.inp)";
-    d.sources = {path()};
-    d.blocks.push_back(std::move(block));
-    d.warnings = std::move(warnings_);
-    return d;
+    return single_block_dataset("AVS UCD ASCII (.inp)", path(), std::move(block), std::move(warnings_));
   }
 
  private:

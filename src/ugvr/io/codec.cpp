@@ -3,13 +3,34 @@
 #include <lz4.h>
 #include <zlib.h>
 
+#include <array>
 #include <climits>
 #include <cstring>
 #include <string>
+#include <utility>
 
 #include "ugvr/core/error.h"
 
 namespace ugvr {
+
+namespace {
+
+constexpr std::array<std::pair<Codec, std::string_view>, 3> kVtkCompressors = {
+    {{Codec::None, ""}, {Codec::Zlib, "vtkZLibDataCompressor"}, {Codec::Lz4, "vtkLZ4DataCompressor"}}};
+
+}  // namespace
+
+std::string_view vtk_compressor_name(Codec codec) {
+  for (const auto& [c, name] : kVtkCompressors)
+    if (c == codec) return name;
+  return {};
+}
+
+std::optional<Codec> codec_of_vtk_compressor(std::string_view name) {
+  for (const auto& [c, n] : kVtkCompressors)
+    if (n == name) return c;
+  return std::nullopt;
+}
 
 void decompress(Codec codec, std::span<const std::byte> src, std::span<std::byte> dst, std::string_view file,
                 uint64_t offset) {

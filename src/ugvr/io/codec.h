@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string_view>
 #include <vector>
@@ -11,6 +12,12 @@
 namespace ugvr {
 
 enum class Codec : uint8_t { None, Zlib, Lz4 };
+
+// The compressor attribute of a VTK XML file naming a codec: "vtkZLibDataCompressor", "vtkLZ4DataCompressor", and ""
+// (no attribute) for None.
+std::string_view vtk_compressor_name(Codec codec);
+// The codec a compressor attribute names; nullopt for a compressor that is not supported.
+std::optional<Codec> codec_of_vtk_compressor(std::string_view name);
 
 // Decompresses `src` into exactly dst.size() bytes. `file` and `offset` (of the block in the file) name a corrupt
 // block in the error.

@@ -50,6 +50,7 @@
 #include "ugvr/core/file.h"
 #include "ugvr/core/progress.h"
 #include "ugvr/grid/cell_type.h"
+#include "ugvr/io/file_dataset.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/text_tokenizer.h"
 
@@ -58,7 +59,6 @@ namespace {
 
 constexpr uint64_t kAbsent = std::numeric_limits<uint64_t>::max();
 constexpr uint64_t kDropped = kAbsent - 1;
-constexpr uint64_t kProgressMinBytes = uint64_t(16) << 20;
 constexpr int64_t kMaxComponents = 1024;
 
 // What a Gmsh element type is: its node count, dimension and (for volumes) the cell it becomes.
@@ -296,9 +296,7 @@ struct PendingField {
 
 class GmshReader {
  public:
-  explicit GmshReader(const std::string& path) : file_(path), in_(file_) {
-    if (file_.size() >= kProgressMinBytes) progress_.emplace("reading " + file_.name(), file_.size());
-  }
+  explicit GmshReader(const std::string& path) : file_(path), in_(file_) { start_reading_progress(progress_, file_); }
 
   Dataset read() {
     read_format();
@@ -444,6 +442,21 @@ class GmshReader {
     }
   }
 
+  // The start of a v4 $Nodes or $Elements section (`what`: "node" or "element"): the number of entity blocks and of
+  // nodes or elements in all, checked to fit in the file; the minimum and maximum tags that follow are skipped.
+  struct V4SectionHeader {
+    uint64_t blocks, count;
+  };
+  V4SectionHeader read_v4_section_header(const std::string& what) {
+    in_.begin_binary_values();
+    const uint64_t blocks = in_.size_value("the number of entity blocks");
+    const uint64_t count = in_.size_value("the number of " + what + "s");
+    in_.size_value("the minimum " + what + " tag");
+    in_.size_value("the maximum " + what + " tag");
+    in_.check_fits(what + " entity block", blocks, 3 * in_.int_bytes() + in_.size_value_bytes());
+    return {blocks, count};
+  }
+
   // --- $Nodes -------------------------------------------------------------------------------------------------------
 
   void read_nodes_v2() {
@@ -461,12 +474,7 @@ class GmshReader {
   void read_nodes_v4() {
     nodes_line_ = t().token_line();
     nodes_offset_ = t().token_offset();
-    in_.begin_binary_values();
-    const uint64_t blocks = in_.size_value("the number of entity blocks");
-    const uint64_t n = in_.size_value("the number of nodes");
-    in_.size_value("the minimum node tag");
-    in_.size_value("the maximum node tag");
-    in_.check_fits("node entity block", blocks, 3 * in_.int_bytes() + in_.size_value_bytes());
+    const auto [blocks, n] = read_v4_section_header("node");
     reserve_nodes(n, in_.binary() ? uint64_t(in_.size_bytes()) + 24 : 8);
     for (uint64_t b = 0; b < blocks; ++b) {
       const int64_t dim = in_.integer_in("the entity dimension", 0, 3);
@@ -562,12 +570,7 @@ class GmshReader {
   }
 
   void read_elements_v4() {
-    in_.begin_binary_values();
-    const uint64_t blocks = in_.size_value("the number of entity blocks");
-    const uint64_t n = in_.size_value("the number of elements");
-    in_.size_value("the minimum element tag");
-    in_.size_value("the maximum element tag");
-    in_.check_fits("element entity block", blocks, 3 * in_.int_bytes() + in_.size_value_bytes());
+    const auto [blocks, n] = read_v4_section_header("element");
     // An element is at least its tag and one node.
     in_.check_fits("element", n, 2 * in_.size_value_bytes());
     elements_.reserve(size_t(n));
@@ -771,14 +774,9 @@ class GmshReader {
       }
       block.fields.add(Field(f.name, f.association, std::move(f.data)));
     }
-    block.validate_fields(path());
+    Dataset d = single_block_dataset("Gmsh MSH " + version_ + (in_.binary() ? " binary" : " ASCII"), path(),
+                                     std::move(block), std::move(warnings_));
     if (progress_) progress_->finish();
-
-    Dataset d;
-    d.format = "Gmsh MSH " + version_ + (in_.binary() ? " binary" : " ASCII");
-    d.sources = {path()};
-    d.blocks.push_back(std::move(block));
-    d.warnings = std::move(warnings_);
     return d;
   }
 

@@ -40,6 +40,7 @@
 #include "ugvr/core/file.h"
 #include "ugvr/core/progress.h"
 #include "ugvr/grid/cell_type.h"
+#include "ugvr/io/file_dataset.h"
 #include "ugvr/io/id_map.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/text_tokenizer.h"
@@ -50,7 +51,6 @@ namespace {
 
 constexpr size_t kMaxCardFields = 256;  // CHEXA20 needs 22, CORD2R 11; longer cards are refused
 constexpr size_t kMaxIgnoredNames = 64;
-constexpr uint64_t kProgressMinBytes = uint64_t(16) << 20;
 
 std::string_view trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
@@ -116,9 +116,7 @@ struct Frame {
 
 class NastranReader {
  public:
-  explicit NastranReader(const std::string& path) : file_(path), t_(file_) {
-    if (file_.size() >= kProgressMinBytes) progress_.emplace("reading " + file_.name(), file_.size());
-  }
+  explicit NastranReader(const std::string& path) : file_(path), t_(file_) { start_reading_progress(progress_, file_); }
 
   Dataset read() {
     read_lines();
@@ -133,13 +131,8 @@ class NastranReader {
     warn_ignored();
     block.fields.add(Field("PID", Association::Cell, DataArray::from(std::move(pids_), 1)));
     mesh.validate(path());
-    block.validate_fields(path());
+    Dataset d = single_block_dataset("NASTRAN bulk data", path(), std::move(block), std::move(warnings_));
     if (progress_) progress_->finish();
-    Dataset d;
-    d.format = "NASTRAN bulk data";
-    d.sources = {path()};
-    d.blocks.push_back(std::move(block));
-    d.warnings = std::move(warnings_);
     return d;
   }
 

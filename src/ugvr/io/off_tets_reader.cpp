@@ -29,6 +29,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
 #include "ugvr/grid/cell_type.h"
+#include "ugvr/io/file_dataset.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/text_tokenizer.h"
 
@@ -51,16 +52,15 @@ class OffTetsReader {
     read_tetrahedra();
     read_trailing_scalars();
 
-    Block block{file_.name(), UnstructuredMesh{}, FieldSet{}};
+    cells_.points = std::move(points_);
+    Block block{file_.name(), std::move(cells_), FieldSet{}};
     auto& mesh = std::get<UnstructuredMesh>(block.grid);
-    mesh = std::move(cells_);
-    mesh.points = std::move(points_);
-    Dataset d;
+    std::vector<std::string> warnings;
     bool flipped = false;
     const uint64_t inverted = orient_tetrahedra_by_majority(mesh, flipped);
     if (inverted > 0) {
-      d.warnings.push_back(path() + ": " + std::to_string(inverted) +
-                           " tetrahedra have negative volume after orientation (inverted in the file)");
+      warnings.push_back(path() + ": " + std::to_string(inverted) +
+                         " tetrahedra have negative volume after orientation (inverted in the file)");
     }
     if (!point_scalars_.empty()) {
       block.fields.add(Field("scalar", Association::Vertex, DataArray::from(std::move(point_scalars_), 1)));
@@ -69,11 +69,8 @@ class OffTetsReader {
       block.fields.add(Field("scalar", Association::Cell, DataArray::from(std::move(tet_scalars_), 1)));
     }
     mesh.validate(path());
-    block.validate_fields(path());
-    d.format = "tetrahedral OFF (" + variant_ + (flipped ? ", reoriented to VTK's convention)" : ")");
-    d.sources = {path()};
-    d.blocks.push_back(std::move(block));
-    return d;
+    return single_block_dataset("tetrahedral OFF (" + variant_ + (flipped ? ", reoriented to VTK's convention)" : ")"),
+                                path(), std::move(block), std::move(warnings));
   }
 
  private:

@@ -40,28 +40,19 @@
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/saturating_size.h"
 
 namespace ugvr {
 namespace {
 
 constexpr double kGamma = 1.4;        // ratio of specific heats, VTK's default
 constexpr double kGasConstant = 1.0;  // R, VTK's default
-constexpr uint64_t kSaturated = std::numeric_limits<uint64_t>::max();
 // A Fortran record longer than this cannot be described by a 4-byte signed marker (compilers then split it into
 // subrecords, which this reader does not follow).
 constexpr uint64_t kMaxRecord = uint64_t(std::numeric_limits<int32_t>::max());
 // More blocks than any real overset system has. Each block costs a few hundred bytes of bookkeeping beyond its data,
 // so without a cap a file of millions of 1-point blocks would cost many times its size in memory.
 constexpr uint64_t kMaxBlocks = uint64_t(1) << 20;
-
-// Sizes derived from file contents are computed saturating, so an absurd header yields "too big" instead of wrapping
-// around to a small number that might happen to equal the file size.
-uint64_t sat_add(uint64_t a, uint64_t b) { return a > kSaturated - b ? kSaturated : a + b; }
-uint64_t sat_mul(uint64_t a, uint64_t b) {
-  uint64_t r;
-  return __builtin_mul_overflow(a, b, &r) ? kSaturated : r;
-}
-std::string size_text(uint64_t n) { return n == kSaturated ? std::string("more than 2^64") : std::to_string(n); }
 
 enum class Order { Big, Little };
 

@@ -11,6 +11,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
+#include "ugvr/io/byte_swap.h"
 #include "ugvr/io/reader.h"
 
 namespace ugvr {
@@ -26,15 +27,6 @@ std::optional<ScalarType> raw_type(const std::string& name) {
   for (const auto& [n, t] : kNames)
     if (name == n) return t;
   return std::nullopt;
-}
-
-// Reverses the bytes of every value in place (values of `size` bytes).
-void swap_bytes(std::byte* data, uint64_t count, size_t size) {
-  if (size == 1) return;
-  for (uint64_t i = 0; i < count; ++i) {
-    std::byte* v = data + i * size;
-    for (size_t a = 0, b = size - 1; a < b; ++a, --b) std::swap(v[a], v[b]);
-  }
 }
 
 }  // namespace

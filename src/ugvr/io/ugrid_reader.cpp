@@ -40,21 +40,15 @@
 #include "ugvr/core/file.h"
 #include "ugvr/core/progress.h"
 #include "ugvr/grid/cell_type.h"
+#include "ugvr/io/file_dataset.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/saturating_size.h"
 #include "ugvr/io/text_tokenizer.h"
 
 namespace ugvr {
 namespace {
 
-constexpr uint64_t kSaturated = std::numeric_limits<uint64_t>::max();
 constexpr uint64_t kMaxRecord = uint64_t(std::numeric_limits<int32_t>::max());
-constexpr uint64_t kProgressMinBytes = uint64_t(16) << 20;
-
-uint64_t sat_add(uint64_t a, uint64_t b) { return a > kSaturated - b ? kSaturated : a + b; }
-uint64_t sat_mul(uint64_t a, uint64_t b) {
-  uint64_t r;
-  return __builtin_mul_overflow(a, b, &r) ? kSaturated : r;
-}
 
 struct Variant {
   const char* suffix;
@@ -196,7 +190,7 @@ Variant detect_by_size(const InputFile& f) {
         matches.push_back(&v);
         continue;
       }
-      why = "header implies " + (want == kSaturated ? std::string("more than 2^64") : std::to_string(want)) + " bytes";
+      why = "header implies " + size_text(want) + " bytes";
     }
     tried += std::string("\n  .") + v.suffix + ": " + why;
   }
@@ -214,7 +208,7 @@ Variant detect_by_size(const InputFile& f) {
 class UgridReader {
  public:
   explicit UgridReader(const std::string& path) : file_(path), t_(file_) {
-    if (file_.size() >= kProgressMinBytes) progress_.emplace("reading " + file_.name(), file_.size());
+    start_reading_progress(progress_, file_);
     if (const std::optional<Variant> v = variant_from_name(path)) {
       v_ = *v;
       named_ = true;
@@ -244,14 +238,9 @@ class UgridReader {
       warnings_.push_back(path() + ": the boundary surface (" + std::to_string(c_[kTri]) + " triangles, " +
                           std::to_string(c_[kQuad]) + " quadrilaterals) is not loaded; only volume cells are");
     }
-    Block block{base_name(path()), std::move(mesh), FieldSet{}};
-    block.validate_fields(path());
+    Dataset d = single_block_dataset("UGRID " + variant_name(v_), path(), Block{base_name(path()), std::move(mesh), {}},
+                                     std::move(warnings_));
     if (progress_) progress_->finish();
-    Dataset d;
-    d.format = "UGRID " + variant_name(v_);
-    d.sources = {path()};
-    d.blocks.push_back(std::move(block));
-    d.warnings = std::move(warnings_);
     return d;
   }
 
@@ -335,8 +324,7 @@ class UgridReader {
         fail_at_offset(path(), t_.offset(),
                        "the header announces " + std::to_string(c_[kNodes]) + " nodes and " +
                            std::to_string(c_[kTet] + c_[kPyr] + c_[kPrism] + c_[kHex]) + " volume elements (" +
-                           (need == kSaturated ? std::string("more than 2^64") : std::to_string(need)) +
-                           " bytes) but only " + std::to_string(t_.bytes_left()) + " bytes follow");
+                           size_text(need) + " bytes) but only " + std::to_string(t_.bytes_left()) + " bytes follow");
       }
     }
     marker(data_bytes(c_, v_), "data");

@@ -6,6 +6,7 @@
 #include <type_traits>
 
 #include "ugvr/core/error.h"
+#include "ugvr/io/byte_swap.h"
 
 namespace ugvr::vtk_legacy {
 
@@ -26,17 +27,8 @@ std::string printable(std::string_view token) {
 // BINARY legacy files are big-endian whatever machine wrote them.
 template <class T>
 void from_big_endian(std::span<T> values) {
-  if constexpr (sizeof(T) > 1 && std::endian::native == std::endian::little) {
-    using U = std::conditional_t<sizeof(T) == 2, uint16_t, std::conditional_t<sizeof(T) == 4, uint32_t, uint64_t>>;
-    for (T& v : values) {
-      U u;
-      std::memcpy(&u, &v, sizeof u);
-      if constexpr (sizeof(T) == 2) u = __builtin_bswap16(u);
-      if constexpr (sizeof(T) == 4) u = __builtin_bswap32(u);
-      if constexpr (sizeof(T) == 8) u = __builtin_bswap64(u);
-      std::memcpy(&v, &u, sizeof u);
-    }
-  }
+  if constexpr (std::endian::native == std::endian::little)
+    swap_bytes(std::as_writable_bytes(values).data(), values.size(), sizeof(T));
 }
 
 // Calls f(T{}) with the C++ type of a ScalarType.
@@ -140,12 +132,17 @@ std::string_view LegacyInput::word(std::string_view what) {
   return token;
 }
 
-uint64_t LegacyInput::count(std::string_view what) {
+template <class T>
+T LegacyInput::number(std::string_view what, std::string_view expected) {
   const std::string_view token = word(what);
-  uint64_t value = 0;
-  if (!parse_number(token, value)) fail("expected a count for " + std::string(what) + ", found " + printable(token));
+  T value{};
+  if (!parse_number(token, value)) {
+    fail("expected " + std::string(expected) + " for " + std::string(what) + ", found " + printable(token));
+  }
   return value;
 }
+
+uint64_t LegacyInput::count(std::string_view what) { return number<uint64_t>(what, "a count"); }
 
 int LegacyInput::components(std::string_view what) {
   const uint64_t n = count(what);
@@ -155,12 +152,7 @@ int LegacyInput::components(std::string_view what) {
   return int(n);
 }
 
-double LegacyInput::real(std::string_view what) {
-  const std::string_view token = word(what);
-  double value = 0;
-  if (!parse_number(token, value)) fail("expected a number for " + std::string(what) + ", found " + printable(token));
-  return value;
-}
+double LegacyInput::real(std::string_view what) { return number<double>(what, "a number"); }
 
 ValueType LegacyInput::value_type(std::string_view what) {
   const std::string_view token = word(what);

@@ -118,6 +118,9 @@ class LegacyInput {
   void read_converted(const ValueType& type, std::span<V> out, std::string_view what, uint64_t first);
 
  private:
+  // The next word parsed as a T; fails saying that `expected` ("a count") was expected for `what`.
+  template <class T>
+  T number(std::string_view what, std::string_view expected);
   template <class T>
   void read_values(const ValueType& type, std::span<T> out, std::string_view what, uint64_t first);
   template <class T>

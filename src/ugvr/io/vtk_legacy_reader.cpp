@@ -58,6 +58,7 @@
 #include "ugvr/core/file.h"
 #include "ugvr/core/progress.h"
 #include "ugvr/grid/cell_type.h"
+#include "ugvr/io/file_dataset.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/text_tokenizer.h"
 #include "ugvr/io/vtk_cell_import.h"
@@ -77,7 +78,6 @@ constexpr std::string_view kVersionPrefix = "# vtk DataFile Version";
 // Structured grids may hold no arrays at all (STRUCTURED_POINTS), so their size is not bounded by the file; this
 // bounds it by what could ever be rendered.
 constexpr uint64_t kMaxStructuredPoints = uint64_t(1) << 42;
-constexpr uint64_t kProgressMinBytes = uint64_t(16) << 20;
 
 enum class Kind { Unstructured, StructuredGrid, StructuredPoints, Rectilinear };
 
@@ -113,8 +113,7 @@ struct CellLists {
 class LegacyReader {
  public:
   explicit LegacyReader(const std::string& path) : file_(path), in_(file_, false) {
-    // Small files load in a blink; a progress bar for them would only be noise.
-    if (file_.size() >= kProgressMinBytes) progress_.emplace("reading " + file_.name(), file_.size());
+    start_reading_progress(progress_, file_);
   }
 
   Dataset read() {
@@ -122,13 +121,10 @@ class LegacyReader {
     read_geometry();
     Block block{title_, std::move(grid_), FieldSet{}};
     for (Field& f : fields_) block.fields.add(std::move(f));
-    block.validate_fields(path());
+    Dataset dataset =
+        single_block_dataset("legacy VTK " + version_ + (in_.binary() ? " BINARY " : " ASCII ") + kind_name_, path(),
+                             std::move(block), std::move(warnings_));
     if (progress_) progress_->finish();
-    Dataset dataset;
-    dataset.format = "legacy VTK " + version_ + (in_.binary() ? " BINARY " : " ASCII ") + kind_name_;
-    dataset.sources = {path()};
-    dataset.blocks.push_back(std::move(block));
-    dataset.warnings = std::move(warnings_);
     return dataset;
   }
 

@@ -10,6 +10,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/io/base64.h"
+#include "ugvr/io/byte_swap.h"
 
 namespace ugvr {
 
@@ -22,36 +23,6 @@ constexpr size_t kMaxToken = 256;                   // longest ascii number acce
 constexpr uint64_t kMaxBlockSize = uint64_t(1) << 30;
 
 std::string describe(const XmlArray& a) { return a.label.empty() ? std::string("DataArray") : a.label; }
-
-void swap_bytes(std::byte* p, uint64_t count, size_t size) {
-  switch (size) {
-    case 2:
-      for (uint64_t i = 0; i < count; ++i) {
-        uint16_t v;
-        std::memcpy(&v, p + i * 2, 2);
-        v = __builtin_bswap16(v);
-        std::memcpy(p + i * 2, &v, 2);
-      }
-      break;
-    case 4:
-      for (uint64_t i = 0; i < count; ++i) {
-        uint32_t v;
-        std::memcpy(&v, p + i * 4, 4);
-        v = __builtin_bswap32(v);
-        std::memcpy(p + i * 4, &v, 4);
-      }
-      break;
-    case 8:
-      for (uint64_t i = 0; i < count; ++i) {
-        uint64_t v;
-        std::memcpy(&v, p + i * 8, 8);
-        v = __builtin_bswap64(v);
-        std::memcpy(p + i * 8, &v, 8);
-      }
-      break;
-    default: break;
-  }
-}
 
 // Largest size a compressed block of `packed` bytes can expand to: deflate encodes at most 258 bytes in 2 bits
 // (1032:1) plus zlib's 6-byte frame; an LZ4 sequence at most 255 bytes per length byte. Anything above is a corrupt

@@ -39,15 +39,6 @@ std::string_view section_name(VtuSection s) {
   return "?";
 }
 
-std::string_view compressor_name(Codec c) {
-  switch (c) {
-    case Codec::Zlib: return "vtkZLibDataCompressor";
-    case Codec::Lz4: return "vtkLZ4DataCompressor";
-    case Codec::None: break;
-  }
-  return {};
-}
-
 bool is_integer(ScalarType t) { return t != ScalarType::Float32 && t != ScalarType::Float64; }
 
 std::string xml_escape(std::string_view s) {
@@ -117,7 +108,7 @@ std::string xml_header(uint64_t points, uint64_t cells, const std::vector<VtuArr
                        const std::vector<uint64_t>& offsets, Codec codec) {
   std::string x = "<?xml version=\"1.0\"?>\n";
   x += "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\"";
-  if (codec != Codec::None) x += " compressor=\"" + std::string(compressor_name(codec)) + "\"";
+  if (codec != Codec::None) x += " compressor=\"" + std::string(vtk_compressor_name(codec)) + "\"";
   x += ">\n  <UnstructuredGrid>\n";
   x +=
       "    <Piece NumberOfPoints=\"" + std::to_string(points) + "\" NumberOfCells=\"" + std::to_string(cells) + "\">\n";
@@ -382,29 +373,16 @@ namespace {
 
 constexpr size_t kConvertChunk = size_t(1) << 16;  // values converted per step (connectivity, offsets)
 
-// Connectivity of one mesh with its point ids shifted by `base`, in the file's index type, a chunk at a time.
-template <class Index, class Put>
-void write_connectivity(Put& put, const UnstructuredMesh& mesh, uint64_t base) {
-  std::vector<Index> buf;
+// `values` shifted by `base` (a block's point ids or connectivity offsets, placed after the blocks before it), in the
+// file's type Out, a chunk at a time.
+template <class Out, class In, class Put>
+void write_shifted(Put& put, std::span<const In> values, uint64_t base) {
+  std::vector<Out> buf;
   buf.reserve(kConvertChunk);
-  const auto& conn = mesh.connectivity;
-  for (size_t at = 0; at < conn.size(); at += kConvertChunk) {
-    const size_t end = std::min(conn.size(), at + kConvertChunk);
+  for (size_t at = 0; at < values.size(); at += kConvertChunk) {
+    const size_t end = std::min(values.size(), at + kConvertChunk);
     buf.clear();
-    for (size_t i = at; i < end; ++i) buf.push_back(Index(base + conn[i]));
-    put(std::as_bytes(std::span(buf)));
-  }
-}
-
-template <class Put>
-void write_offsets(Put& put, const UnstructuredMesh& mesh, uint64_t base) {
-  std::vector<int64_t> buf;
-  buf.reserve(kConvertChunk);
-  const auto& off = mesh.cell_offsets;
-  for (size_t at = 1; at < off.size(); at += kConvertChunk) {
-    const size_t end = std::min(off.size(), at + kConvertChunk);
-    buf.clear();
-    for (size_t i = at; i < end; ++i) buf.push_back(int64_t(base + off[i]));
+    for (size_t i = at; i < end; ++i) buf.push_back(Out(base + values[i]));
     put(std::as_bytes(std::span(buf)));
   }
 }
@@ -476,15 +454,17 @@ uint64_t write_vtu(const Dataset& ds, const std::string& path, const VtuWriteOpt
   for (const Block* b : blocks) put(std::as_bytes(std::span(mesh_of(b).points)));
   uint64_t base = 0;
   for (const Block* b : blocks) {
+    const std::span<const uint32_t> ids(mesh_of(b).connectivity);
     if (index_type == ScalarType::Int32)
-      write_connectivity<int32_t>(put, mesh_of(b), base);
+      write_shifted<int32_t>(put, ids, base);
     else
-      write_connectivity<int64_t>(put, mesh_of(b), base);
+      write_shifted<int64_t>(put, ids, base);
     base += mesh_of(b).point_count();
   }
   base = 0;
   for (const Block* b : blocks) {
-    write_offsets(put, mesh_of(b), base);
+    const std::span<const uint64_t> offsets(mesh_of(b).cell_offsets);  // the file holds where each cell ends
+    write_shifted<int64_t>(put, offsets.subspan(std::min<size_t>(1, offsets.size())), base);
     base += mesh_of(b).connectivity.size();
   }
   for (const Block* b : blocks) put(std::as_bytes(std::span(mesh_of(b).cell_types)));

@@ -15,6 +15,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/progress.h"
+#include "ugvr/lod/octree_build_parts.h"
 #include "ugvr/lod/octree_data_points.h"
 #include "ugvr/lod/octree_downsample.h"
 #include "ugvr/lod/octree_error.h"
@@ -99,20 +100,9 @@ class BrickPass {
       pad_brick(r->brick.resolution, F_, r->brick.values.data(), r->brick.mask.data());
       measure_against_children(r->brick, bricks, sums);
       measure_against_points(r->brick, box, data_, r->points, sums);
-      for (uint32_t f = 0; f < F_; ++f) {
-        FieldError e = sums[f].result();
-        for (const auto& k : kids) {
-          if (!k) continue;
-          e.max = std::max(e.max, k->errors[f].max);
-          e.rms = std::max(e.rms, k->errors[f].rms);
-        }
-        r->errors.push_back(e);
-      }
+      add_interior_node_errors(sums, kids, r->errors);
     }
-    const size_t n = r->brick.mask.size();
-    std::vector<const float*> fields(F_);
-    for (uint32_t f = 0; f < F_; ++f) fields[f] = r->brick.values.data() + f * n;
-    writer_.append(id, writer_.encode(fields, r->brick.mask.data()));
+    write_node_brick(writer_, id, r->brick, F_);
     std::copy(r->errors.begin(), r->errors.end(), errors_.begin() + ptrdiff_t(id * F_));
     bricks_ += r->brick.valid > 0;
     progress_.add(1);
@@ -186,17 +176,7 @@ OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions
     shape = subdivide_octree(mesh, lattice, split, options.max_depth, &progress);
   }
   stats.subdivide_seconds = seconds_since(start);
-  stats.nodes = shape.nodes.size();
-  double level_sum = 0;
-  for (const OctreeNode& n : shape.nodes) {
-    if (stats.nodes_per_level.size() <= n.level) stats.nodes_per_level.resize(n.level + 1u, 0);
-    ++stats.nodes_per_level[n.level];
-    if (!n.is_leaf()) continue;
-    ++stats.leaves;
-    level_sum += n.level;
-    stats.max_level = std::max(stats.max_level, int(n.level));
-  }
-  stats.mean_leaf_level = level_sum / double(stats.leaves);
+  count_tree_shape(shape.nodes, stats);
 
   BrickStoreLayout layout;
   layout.resolution = options.resolution;

@@ -20,6 +20,7 @@
 #include "ugvr/core/progress.h"
 #include "ugvr/grid/cell_interpolation.h"
 #include "ugvr/lod/cell_box_overlap.h"
+#include "ugvr/lod/octree_build_parts.h"
 #include "ugvr/lod/octree_data_points.h"
 #include "ugvr/lod/octree_downsample.h"
 #include "ugvr/lod/octree_error.h"
@@ -137,15 +138,7 @@ class OutOfCoreBuild {
       downsample_children(o_.resolution, F_, bricks, r->brick);
       pad_brick(o_.resolution, F_, r->brick.values.data(), r->brick.mask.data());
       measure_against_children(r->brick, bricks, sums);
-      for (uint32_t f = 0; f < F_; ++f) {
-        FieldError e = sums[f].result();
-        for (const auto& k : kids) {
-          if (!k) continue;
-          e.max = std::max(e.max, k->errors[f].max);
-          e.rms = std::max(e.rms, k->errors[f].rms);
-        }
-        r->errors.push_back(e);
-      }
+      add_interior_node_errors(sums, kids, r->errors);
     } else if (complete || node.level >= kMaxOctreeLevel) {
       if (!complete) kept = load(file);
       std::filesystem::remove(file);
@@ -167,10 +160,7 @@ class OutOfCoreBuild {
       for (const ErrorSum& s : sums) r->errors.push_back(s.result());
       progress_.add(kVolumeUnits >> std::min(3 * int(node.level), 62));
     }
-    const size_t n = r->brick.mask.size();
-    std::vector<const float*> values(F_);
-    for (uint32_t f = 0; f < F_; ++f) values[f] = r->brick.values.data() + f * n;
-    writer_.append(id, writer_.encode(values, r->brick.mask.data()));
+    write_node_brick(writer_, id, r->brick, F_);
     for (uint32_t f = 0; f < F_; ++f) errors_[id * F_ + f] = r->errors[f];
     return r;
   }
@@ -534,17 +524,7 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
     writer.commit(nodes, build.errors());
   }
   stats.brick_seconds = seconds_since(bricks_start);
-  stats.nodes = nodes.size();
-  double level_sum = 0;
-  for (const OctreeNode& n : nodes) {
-    if (stats.nodes_per_level.size() <= n.level) stats.nodes_per_level.resize(n.level + 1u, 0);
-    ++stats.nodes_per_level[n.level];
-    if (!n.is_leaf()) continue;
-    ++stats.leaves;
-    level_sum += n.level;
-    stats.max_level = std::max(stats.max_level, int(n.level));
-  }
-  stats.mean_leaf_level = level_sum / double(stats.leaves);
+  count_tree_shape(nodes, stats);
   stats.store_bytes = std::filesystem::file_size(path);
   stats.seconds = seconds_since(start);
   const BrickStoreReader store(path);

@@ -15,7 +15,7 @@
 #include "ugvr/grid/cell_interpolation.h"
 #include "ugvr/grid/cell_type.h"
 #include "ugvr/io/vtk_xml_array.h"
-#include "ugvr/io/vtk_xml_skeleton.h"
+#include "ugvr/io/vtk_xml_document.h"
 
 namespace ugvr {
 
@@ -63,79 +63,21 @@ void read_scalars(XmlArrayReader& reader, const Selected& s, uint64_t first, siz
 }  // namespace
 
 struct VtuCellSource::Markup {
-  std::string path;
   InputFile file;
-  XmlSkeleton skeleton;
-  pugi::xml_document doc;
-  XmlEncoding encoding;
+  std::unique_ptr<vtk_xml::XmlDoc> xml;
   pugi::xml_node piece;
   std::optional<XmlArray> points, connectivity, offsets, types;
   std::vector<Selected> selected;  // store order
 
-  explicit Markup(std::string p) : path(p), file(std::move(p)) {}
+  explicit Markup(const std::string& path) : file(path), xml(vtk_xml::load_doc(path)) {}
 
-  uint64_t offset(pugi::xml_node n) const {
-    const ptrdiff_t o = n.offset_debug();
-    return o < 0 ? 0 : skeleton.file_offset(uint64_t(o));
-  }
-  [[noreturn]] void fail(pugi::xml_node n, const std::string& message) const {
-    fail_at_offset(path, offset(n), message);
-  }
-
-  uint64_t count(pugi::xml_node n, const char* name) const {
-    const auto v = parse_number<uint64_t>(n.attribute(name).value());
-    if (!v) fail(n, std::string("<") + n.name() + "> has no valid " + name + " attribute");
-    return *v;
-  }
-
-  // The layout of one <DataArray> (vtk_xml_array.h describes the formats).
-  XmlArray describe(pugi::xml_node n, const std::string& label) const {
-    XmlArray a;
-    a.element_offset = offset(n);
-    a.name = n.attribute("Name").value();
-    a.label = label;
-    const std::string type = n.attribute("type").value();
-    const auto st = parse_scalar_type(type);
-    if (!st) fail(n, label + ": unsupported type \"" + type.substr(0, 40) + "\"");
-    a.type = *st;
-    if (const pugi::xml_attribute c = n.attribute("NumberOfComponents")) {
-      const auto v = parse_number<int>(c.value());
-      if (!v || *v < 1 || *v > (1 << 20)) fail(n, label + ": bad NumberOfComponents");
-      a.components = *v;
-    }
-    const std::string format = n.attribute("format").value();
-    if (format == "appended") {
-      if (!encoding.appended_data) fail(n, label + ": format=\"appended\" but the file has no <AppendedData>");
-      a.format = XmlArrayFormat::Appended;
-      const uint64_t off = count(n, "offset");
-      if (off > file.size() - std::min(*encoding.appended_data, file.size())) {
-        fail(n, label + ": offset points past the end of the file");
-      }
-      a.begin = *encoding.appended_data + off;
-      a.end = file.size();
-      return a;
-    }
-    if (format == "ascii")
-      a.format = XmlArrayFormat::Ascii;
-    else if (format == "binary")
-      a.format = XmlArrayFormat::Binary;
-    else
-      fail(n, label + ": format=\"" + format.substr(0, 40) + "\" is not ascii, binary or appended");
-    a.begin = a.end = a.element_offset;
-    for (pugi::xml_node c : n.children()) {
-      if (c.type() != pugi::node_pi || std::string_view(c.name()) != kXmlTextMarker) continue;
-      uint64_t begin = 0, length = 0;
-      if (std::sscanf(c.value(), "%lu %lu", &begin, &length) != 2) fail(n, label + ": malformed text marker");
-      a.begin = begin, a.end = begin + length;
-    }
-    return a;
-  }
-
-  XmlArray required(pugi::xml_node parent, const char* name, const std::string& label) const {
-    for (pugi::xml_node c : parent.children("DataArray")) {
-      if (!name || std::string_view(name) == c.attribute("Name").value()) return describe(c, label);
-    }
-    fail(piece, label + " is missing");
+  const XmlEncoding& encoding() const { return xml->encoding; }
+  [[noreturn]] void fail(pugi::xml_node n, const std::string& message) const { xml->fail(n, message); }
+  uint64_t count(pugi::xml_node n, const char* name) const { return vtk_xml::count_attribute(*xml, n, name); }
+  XmlArray required(pugi::xml_node parent, std::string_view name, const std::string& label) const {
+    const pugi::xml_node n = vtk_xml::data_array(parent, name);
+    if (!n) fail(piece, label + " is missing");
+    return vtk_xml::required_array(*xml, n, label);
   }
 };
 
@@ -144,27 +86,9 @@ VtuCellSource::~VtuCellSource() = default;
 VtuCellSource::VtuCellSource(std::string path, std::span<const std::string> selectors)
     : path_(path), markup_(std::make_unique<Markup>(std::move(path))) {
   Markup& m = *markup_;
-  m.skeleton = scan_xml_skeleton(m.file);
-  const pugi::xml_parse_result r = m.doc.load_buffer(m.skeleton.markup.data(), m.skeleton.markup.size(),
-                                                     pugi::parse_default | pugi::parse_pi, pugi::encoding_utf8);
-  if (!r) fail_in(path_, std::string("malformed XML: ") + r.description());
-  const pugi::xml_node root = m.doc.child("VTKFile");
-  if (!root || std::string_view(root.attribute("type").value()) != "UnstructuredGrid") {
+  const pugi::xml_node root = m.xml->root;
+  if (m.xml->type != "UnstructuredGrid") {
     fail_in(path_, "not a VTK XML UnstructuredGrid (.vtu) file: the out-of-core build reads only those");
-  }
-  const std::string order = root.attribute("byte_order").value();
-  m.encoding.big_endian = order == "BigEndian";
-  m.encoding.header_uint64 = std::string_view(root.attribute("header_type").value()) == "UInt64";
-  const std::string compressor = root.attribute("compressor").value();
-  if (compressor == "vtkZLibDataCompressor")
-    m.encoding.codec = Codec::Zlib;
-  else if (compressor == "vtkLZ4DataCompressor")
-    m.encoding.codec = Codec::Lz4;
-  else if (!compressor.empty())
-    m.fail(root, "compressor \"" + compressor.substr(0, 60) + "\" is not supported");
-  if (const pugi::xml_node app = root.child("AppendedData")) {
-    m.encoding.appended_base64 = std::string_view(app.attribute("encoding").value()) == "base64";
-    m.encoding.appended_data = m.skeleton.appended_data;
   }
   const pugi::xml_node grid = root.child("UnstructuredGrid");
   int pieces = 0;
@@ -173,7 +97,7 @@ VtuCellSource::VtuCellSource(std::string path, std::span<const std::string> sele
   const uint64_t points = m.count(m.piece, "NumberOfPoints");
   cells_ = m.count(m.piece, "NumberOfCells");
   if (points > UINT32_MAX) m.fail(m.piece, "more than 2^32-1 points");
-  m.points = m.required(m.piece.child("Points"), nullptr, "<Points> DataArray");
+  m.points = m.required(m.piece.child("Points"), {}, "<Points> DataArray");
   if (m.points->components != 3) m.fail(m.piece, "<Points> DataArray must have 3 components");
   const pugi::xml_node cells = m.piece.child("Cells");
   m.connectivity = m.required(cells, "connectivity", "<Cells> DataArray 'connectivity'");
@@ -194,7 +118,7 @@ VtuCellSource::VtuCellSource(std::string path, std::span<const std::string> sele
     s.association = a.second;
     s.component = component;
     const std::string kind = a.second == Association::Vertex ? "<PointData>" : "<CellData>";
-    s.array = m.describe(a.first, kind + " DataArray '" + a.first.attribute("Name").value() + "'");
+    s.array = vtk_xml::required_array(*m.xml, a.first, kind + " DataArray '" + a.first.attribute("Name").value() + "'");
     if (s.array.components == 1) s.component = kMagnitude;
     if (s.component >= s.array.components)
       m.fail(a.first, s.array.label + " has no component " + std::to_string(s.component));
@@ -224,7 +148,7 @@ VtuCellSource::VtuCellSource(std::string path, std::span<const std::string> sele
 
   // One streaming pass over the points and the vertex scalars: bounds, ranges, finiteness.
   {
-    XmlArrayReader reader(m.file, m.encoding, *m.points);
+    XmlArrayReader reader(m.file, m.encoding(), *m.points);
     reader.expect_count(3 * points, "NumberOfPoints=" + std::to_string(points) + " x 3 components");
     std::vector<float> buf(3 * kChunk);
     for (uint64_t p0 = 0; p0 < points; p0 += kChunk) {
@@ -243,7 +167,7 @@ VtuCellSource::VtuCellSource(std::string path, std::span<const std::string> sele
     return n + ":" + std::to_string(s.component);
   };
   auto range_of = [&](const Selected& s) {
-    XmlArrayReader reader(m.file, m.encoding, s.array);
+    XmlArrayReader reader(m.file, m.encoding(), s.array);
     reader.expect_count(points * uint64_t(s.array.components), s.array.label);
     std::vector<float> v(kChunk);
     double lo = INFINITY, hi = -INFINITY;
@@ -295,7 +219,7 @@ void read_point_slice(const VtuCellSource::Markup& m, uint64_t first, uint64_t c
                       std::vector<float>& values) {
   positions.resize(count);
   {
-    XmlArrayReader reader(m.file, m.encoding, *m.points);
+    XmlArrayReader reader(m.file, m.encoding(), *m.points);
     reader.skip(3 * first);
     std::vector<float> buf(3 * kChunk);
     for (uint64_t p0 = 0; p0 < count; p0 += kChunk) {
@@ -307,7 +231,7 @@ void read_point_slice(const VtuCellSource::Markup& m, uint64_t first, uint64_t c
   values.clear();
   for (const Selected& s : m.selected) {
     if (s.association != Association::Vertex) continue;
-    XmlArrayReader reader(m.file, m.encoding, s.array);
+    XmlArrayReader reader(m.file, m.encoding(), s.array);
     reader.skip(first * uint64_t(s.array.components));
     const size_t at = values.size();
     values.resize(at + count);
@@ -323,9 +247,9 @@ void read_point_slice(const VtuCellSource::Markup& m, uint64_t first, uint64_t c
 template <class F>
 void stream_cells(const VtuCellSource::Markup& m, uint64_t cells, uint64_t points, bool cell_values, Progress* progress,
                   F&& f) {
-  XmlArrayReader offsets(m.file, m.encoding, *m.offsets);
-  XmlArrayReader types(m.file, m.encoding, *m.types);
-  XmlArrayReader conn(m.file, m.encoding, *m.connectivity);
+  XmlArrayReader offsets(m.file, m.encoding(), *m.offsets);
+  XmlArrayReader types(m.file, m.encoding(), *m.types);
+  XmlArrayReader conn(m.file, m.encoding(), *m.connectivity);
   offsets.expect_count(cells, "NumberOfCells=" + std::to_string(cells));
   types.expect_count(cells, "NumberOfCells=" + std::to_string(cells));
   std::vector<const Selected*> cell_scalars;
@@ -333,7 +257,7 @@ void stream_cells(const VtuCellSource::Markup& m, uint64_t cells, uint64_t point
   for (const Selected& s : m.selected) {
     if (s.association != Association::Cell || !cell_values) continue;
     cell_scalars.push_back(&s);
-    readers.push_back(std::make_unique<XmlArrayReader>(m.file, m.encoding, s.array));
+    readers.push_back(std::make_unique<XmlArrayReader>(m.file, m.encoding(), s.array));
     readers.back()->expect_count(cells * uint64_t(s.array.components), s.array.label);
   }
   std::vector<int64_t> off(kChunk), type(kChunk), ids;

@@ -154,6 +154,10 @@ class RayTracer {
   Vec3d triangle_normal(uint32_t cell, int k, int face, const std::array<uint8_t, 3>& corners) const;
   void overlay(uint32_t cell, int k, int face, const std::array<uint8_t, 3>& corners, double t);
   void face_jump(double s_before, double s_after, double t, uint32_t cell, int k, const Crossing& x);
+  // Composites the isosurface of each iso value the field crosses from a to b (neither NaN, a != b), in the order the
+  // ray meets them, until the ray is opaque; normal_at(v) is the surface normal where the field crosses v.
+  template <class NormalAt>
+  void composite_iso_crossings(double a, double b, NormalAt normal_at);
 
   const Scene& sc_;
   const WalkMesh& m_;
@@ -368,6 +372,19 @@ Vec3d RayTracer::gradient_at(uint32_t cell, int k, double t) const {
   });
 }
 
+template <class NormalAt>
+void RayTracer::composite_iso_crossings(double a, double b, NormalAt normal_at) {
+  const std::vector<double>& iso = sc_.iso_ascending;
+  const int n = int(iso.size());
+  const bool up = b > a;
+  for (int i = 0; i < n && !done(); ++i) {
+    const double v = iso[up ? i : n - 1 - i];
+    if ((a < v) == (b < v)) continue;
+    const Vec3d c = shade_surface(sc_.tf.color(v), normal_at(v), view_dir_, sc_.settings.lighting);
+    composite_surface(acc_, c, sc_.settings.iso_opacity);
+  }
+}
+
 // One linear piece of the field along the ray inside `cell`: s goes from sa at ta to sb at tb.
 void RayTracer::piece(double ta, double tb, double sa, double sb, uint32_t cell, int k) {
   if (tb <= t_lo_ || ta >= t_hi_ || !(tb > ta)) return;
@@ -385,20 +402,11 @@ void RayTracer::piece(double ta, double tb, double sa, double sb, uint32_t cell,
       for (double s : {sa, sb})
         if (!std::isnan(s) && s > mip_max_) mip_max_ = s, mip_hit_ = true;
       break;
-    case RenderMode::Isosurface: {
+    case RenderMode::Isosurface:
       if (sa == sb || std::isnan(sa) || std::isnan(sb)) break;
-      const std::vector<double>& iso = sc_.iso_ascending;
-      const int n = int(iso.size());
-      const bool up = sb > sa;
-      for (int i = 0; i < n && !done(); ++i) {
-        const double v = iso[up ? i : n - 1 - i];
-        if ((sa < v) == (sb < v)) continue;
-        const double t = ta + (v - sa) / (sb - sa) * (tb - ta);
-        const Vec3d c = shade_surface(sc_.tf.color(v), gradient_at(cell, k, t), view_dir_, sc_.settings.lighting);
-        composite_surface(acc_, c, sc_.settings.iso_opacity);
-      }
+      composite_iso_crossings(sa, sb,
+                              [&](double v) { return gradient_at(cell, k, ta + (v - sa) / (sb - sa) * (tb - ta)); });
       break;
-    }
   }
 }
 
@@ -407,16 +415,7 @@ void RayTracer::piece(double ta, double tb, double sa, double sb, uint32_t cell,
 void RayTracer::face_jump(double s_before, double s_after, double t, uint32_t cell, int k, const Crossing& x) {
   if (mode_ != RenderMode::Isosurface || s_before == s_after || t < t_lo_ || t > t_hi_) return;
   if (std::isnan(s_before) || std::isnan(s_after)) return;
-  const std::vector<double>& iso = sc_.iso_ascending;
-  const int n = int(iso.size());
-  const bool up = s_after > s_before;
-  for (int i = 0; i < n && !done(); ++i) {
-    const double v = iso[up ? i : n - 1 - i];
-    if ((s_before < v) == (s_after < v)) continue;
-    const Vec3d c =
-        shade_surface(sc_.tf.color(v), triangle_normal(cell, k, x.face, x.corners), view_dir_, sc_.settings.lighting);
-    composite_surface(acc_, c, sc_.settings.iso_opacity);
-  }
+  composite_iso_crossings(s_before, s_after, [&](double) { return triangle_normal(cell, k, x.face, x.corners); });
 }
 
 // The field inside a cell between two face crossings. Linear in tetrahedra (and constant for cell data); in the
