@@ -31,8 +31,8 @@
 #include <string>
 #include <vector>
 
-#include "ugvr/lod/brick_codec.h"
-#include "ugvr/lod/brick_store.h"
+#include "ugvr/store/brick_codec.h"
+#include "ugvr/store/brick_store.h"
 
 using namespace ugvr;
 

@@ -4,13 +4,13 @@
 #include <algorithm>
 #include <vector>
 
-#include "ugvr/lod/brick_store.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr::test {
 
 // Root [0,1]³. A node exists where its box meets the ball of radius 0.5 around the centre, except in the root's
 // octant 7 (x, y, z > 0.5: a missing child); nodes with x <= 0.25 stop at level 2, the rest at `depth`. Nodes are
-// numbered breadth first (children after their parent, contiguous, in octant order: brick_store.h's convention).
+// numbered breadth first (children after their parent, contiguous, in octant order: store/brick_store.h's convention).
 inline std::vector<OctreeNode> ball_octree(int depth) {
   const Bounds root{{0, 0, 0}, {1, 1, 1}};
   auto exists = [](const Bounds& b) {

@@ -16,9 +16,9 @@
 
 #include "test_data.h"
 #include "ugvr/core/error.h"
-#include "ugvr/lod/brick_store.h"
 #include "ugvr/render/lod/brick_atlas.h"
 #include "ugvr/render/lod/brick_cache.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 namespace {

@@ -14,8 +14,8 @@
 #include "ugvr/grid/cell_interpolation.h"
 #include "ugvr/grid/structured_cells.h"
 #include "ugvr/io/reader.h"
-#include "ugvr/lod/brick_sampler.h"
-#include "ugvr/lod/cell_box_overlap.h"
+#include "ugvr/octree/brick_sampler.h"
+#include "ugvr/octree/cell_box_overlap.h"
 
 namespace ugvr {
 namespace {

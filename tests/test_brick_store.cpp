@@ -23,8 +23,8 @@
 
 #include "test_data.h"
 #include "ugvr/core/error.h"
-#include "ugvr/lod/brick_codec.h"
-#include "ugvr/lod/brick_store.h"
+#include "ugvr/store/brick_codec.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 namespace {

@@ -1,5 +1,5 @@
-// The brick store's byte layout: the structs of brick_store_format.h against the tables of docs/brick-store.md, and
-// a written store read back by hand at the offsets the doc gives, member by member. The static_asserts pin each
+// The brick store's byte layout: the structs of store/brick_store_format.h against the tables of docs/brick-store.md,
+// and a written store read back by hand at the offsets the doc gives, member by member. The static_asserts pin each
 // struct to itself; these tests pin the structs to the documentation and to the bytes, so that reordering a member
 // (and its assert) fails a test, and so does a doc table that no longer says what the code writes.
 #include <gtest/gtest.h>
@@ -17,8 +17,8 @@
 #include <vector>
 
 #include "test_data.h"
-#include "ugvr/lod/brick_store.h"
-#include "ugvr/lod/brick_store_format.h"
+#include "ugvr/store/brick_store.h"
+#include "ugvr/store/brick_store_format.h"
 
 namespace ugvr {
 namespace {
@@ -465,7 +465,7 @@ TEST_P(BrickStoreFormatFile, BlockRecordsAtTheirDocumentedOffsets) {
       EXPECT_MEMBER(d, r, lo, lo);
       EXPECT_MEMBER(d, r, hi, hi);
       if (store_.quant16()) {
-        // The field's grid; the encoder's grid indices are round((v - origin) · (1 / step)) (brick_codec.h).
+        // The field's grid; the encoder's grid indices are round((v - origin) · (1 / step)) (store/brick_codec.h).
         const double origin = store_.layout.fields[size_t(f)].min, step = store_.step(f);
         const int64_t first = std::llround((double(lo) - origin) * (1.0 / step));
         const int64_t last = std::llround((double(hi) - origin) * (1.0 / step));

@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "test_data.h"
-#include "ugvr/lod/brick_store.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 namespace {

@@ -12,9 +12,9 @@
 #include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/gen/generator.h"
-#include "ugvr/lod/brick_store.h"
-#include "ugvr/lod/octree_builder.h"
-#include "ugvr/lod/octree_input.h"
+#include "ugvr/octree/builder.h"
+#include "ugvr/octree/input.h"
+#include "ugvr/store/brick_store.h"
 #include "ugvr/view/field_histogram.h"
 
 namespace ugvr::view {

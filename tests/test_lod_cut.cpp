@@ -18,10 +18,10 @@
 
 #include "octree_shapes.h"
 #include "ugvr/core/error.h"
-#include "ugvr/lod/brick_store.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/lod/lod_cut.h"
 #include "ugvr/render/transfer_function.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 namespace {

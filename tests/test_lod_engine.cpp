@@ -20,13 +20,13 @@
 #include "ugvr/grid/dataset.h"
 #include "ugvr/grid/structured_cells.h"
 #include "ugvr/grid/structured_grid.h"
-#include "ugvr/lod/brick_store.h"
-#include "ugvr/lod/octree_builder.h"
+#include "ugvr/octree/builder.h"
 #include "ugvr/render/exact/exact_engine.h"
 #include "ugvr/render/image.h"
 #include "ugvr/render/lod/brick_cache.h"
 #include "ugvr/render/lod/lod_cut.h"
 #include "ugvr/render/lod/lod_engine.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 namespace {

@@ -21,14 +21,14 @@
 #include "ugvr/grid/structured_cells.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/vtu_writer.h"
-#include "ugvr/lod/brick_store.h"
-#include "ugvr/lod/cell_box_overlap.h"
-#include "ugvr/lod/octree_builder.h"
-#include "ugvr/lod/octree_data_points.h"
-#include "ugvr/lod/octree_out_of_core.h"
-#include "ugvr/lod/octree_pad.h"
-#include "ugvr/lod/octree_split.h"
-#include "ugvr/lod/octree_vtu_cells.h"
+#include "ugvr/octree/builder.h"
+#include "ugvr/octree/cell_box_overlap.h"
+#include "ugvr/octree/data_points.h"
+#include "ugvr/octree/out_of_core.h"
+#include "ugvr/octree/split.h"
+#include "ugvr/octree/vtu_cells.h"
+#include "ugvr/store/brick_pad.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 namespace {
@@ -91,8 +91,8 @@ OctreeBuildOptions small_options(uint32_t resolution, int max_depth, double erro
 
 // The exact field at a node's lattice points, cell by cell: every cell tests the lattice points in its bounding box
 // with the inverse map of cell_interpolation.h (Newton from the parametric centre; the sampler uses its own prepared
-// forms). Points on shared faces follow the sampler's documented rule (brick_sampler.h): a cell holding the point
-// well inside wins, else the lowest cell id within tolerance.
+// forms). Points on shared faces follow the sampler's documented rule (octree/brick_sampler.h): a cell holding the
+// point well inside wins, else the lowest cell id within tolerance.
 struct ExactBrick {
   std::vector<uint8_t> inside;
   std::vector<double> values;  // field-major

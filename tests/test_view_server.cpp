@@ -27,7 +27,7 @@
 #include "ugvr/grid/dataset.h"
 #include "ugvr/grid/structured_cells.h"
 #include "ugvr/grid/structured_grid.h"
-#include "ugvr/lod/octree_builder.h"
+#include "ugvr/octree/builder.h"
 #include "ugvr/view/view_server.h"
 
 namespace ugvr::view {

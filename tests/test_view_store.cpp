@@ -10,9 +10,9 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/gen/generator.h"
-#include "ugvr/lod/brick_store.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/renderer_factory.h"
+#include "ugvr/store/brick_store.h"
 #include "ugvr/view/background_build.h"
 #include "ugvr/view/view_store.h"
 

@@ -8,8 +8,8 @@
 #include "ugvr/core/error.h"
 #include "ugvr/core/memory.h"
 #include "ugvr/io/reader.h"
-#include "ugvr/lod/octree_builder.h"
-#include "ugvr/lod/octree_out_of_core.h"
+#include "ugvr/octree/builder.h"
+#include "ugvr/octree/out_of_core.h"
 
 namespace ugvr::cli {
 

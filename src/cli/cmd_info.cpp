@@ -5,9 +5,9 @@
 #include "cli/commands.h"
 #include "ugvr/core/error.h"
 #include "ugvr/io/reader.h"
-#include "ugvr/lod/brick_store.h"
 #include "ugvr/report/dataset_report.h"
 #include "ugvr/report/store_report.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr::cli {
 

@@ -5,11 +5,11 @@
 #include <tuple>
 
 #include "ugvr/core/file.h"
-#include "ugvr/lod/brick_store.h"
-#include "ugvr/lod/octree_builder.h"
-#include "ugvr/lod/octree_input.h"
-#include "ugvr/lod/octree_out_of_core.h"
+#include "ugvr/octree/builder.h"
+#include "ugvr/octree/input.h"
+#include "ugvr/octree/out_of_core.h"
 #include "ugvr/render/renderer_factory.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "ugvr/lod/brick_store.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 

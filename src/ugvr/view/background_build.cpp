@@ -4,7 +4,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/progress.h"
-#include "ugvr/lod/octree_input.h"
+#include "ugvr/octree/input.h"
 
 namespace ugvr::view {
 

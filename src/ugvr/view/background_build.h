@@ -1,5 +1,5 @@
 // Builds a brick store on a thread of its own while the viewer shows the grid with the exact engine
-// (`ugvr view MESH`): the octree build of octree_builder.h, reporting its progress for the page and cancellable.
+// (`ugvr view MESH`): the octree build of octree/builder.h, reporting its progress for the page and cancellable.
 #pragma once
 
 #include <atomic>
@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "ugvr/grid/dataset.h"
-#include "ugvr/lod/octree_builder.h"
+#include "ugvr/octree/builder.h"
 
 namespace ugvr::view {
 

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "ugvr/gpu/gl_context.h"
-#include "ugvr/lod/octree_input.h"
+#include "ugvr/octree/input.h"
 #include "ugvr/render/renderer_factory.h"
 #include "ugvr/view/field_histogram.h"
 #include "ugvr/view/jpeg.h"

@@ -4,7 +4,7 @@
 #include <string>
 
 #include "ugvr/core/error.h"
-#include "ugvr/lod/brick_store.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr::view {
 namespace {

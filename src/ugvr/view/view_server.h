@@ -28,7 +28,7 @@
 #include <vector>
 
 #include "ugvr/grid/dataset.h"
-#include "ugvr/lod/octree_builder.h"
+#include "ugvr/octree/builder.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/transfer_function.h"
 

@@ -7,8 +7,8 @@
 #include <nlohmann/json.hpp>
 #include <system_error>
 
-#include "ugvr/lod/brick_store.h"
-#include "ugvr/lod/octree_input.h"
+#include "ugvr/octree/input.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr::view {
 namespace {

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "ugvr/grid/dataset.h"
-#include "ugvr/lod/octree_builder.h"
+#include "ugvr/octree/builder.h"
 
 namespace ugvr::view {
 

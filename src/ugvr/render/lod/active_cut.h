@@ -78,10 +78,10 @@
 #include <span>
 #include <vector>
 
-#include "ugvr/lod/brick_store.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/lod/view_metrics.h"
 #include "ugvr/render/transfer_function.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "ugvr/core/error.h"
-#include "ugvr/lod/octree_pad.h"
+#include "ugvr/store/brick_pad.h"
 
 namespace ugvr {
 

@@ -3,16 +3,16 @@
 // Texel layout. Format RG16 (unsigned normalised): R is the sample value mapped linearly from the field's global range
 // [min, max] to [0, 1]; G is the validity stencil, 1 where the sample has data and 0 where it has none. A slot is
 // (R+2)³ texels: the brick's R³ samples at offset (1, 1, 1) and a one-texel apron around them, a copy of the nearest
-// brick sample (clamp). Because neighbouring bricks share their border samples (brick_store.h), trilinear lookups at
-// sample coordinates in [0, R-1] never read the apron; the apron is there for the gradient's central differences at
+// brick sample (clamp). Because neighbouring bricks share their border samples (store/brick_store.h), trilinear lookups
+// at sample coordinates in [0, R-1] never read the apron; the apron is there for the gradient's central differences at
 // the brick border, which then fall back to one-sided differences instead of reading the next slot. Slots are laid
 // out x fastest over a grid of slots_x × slots_y × slots_z; slot s sits at texel origin
 //   (s % slots_x, (s / slots_x) % slots_y, s / (slots_x · slots_y)) · (R + 2).
 //
-// Before upload, a brick's samples without data are padded (octree_pad.h: one layer grown outward by averaging data
-// neighbours), so hardware trilinear filtering next to the mesh boundary mixes data with pad, never with filler; the
-// interpolated stencil then decides per sample (>= 1/2: data), which keeps the boundary free of the striping of Leven
-// et al.'s figure 5. 16 bits keep the value within 1/131070 of the range, the store's own default tolerance.
+// Before upload, a brick's samples without data are padded (store/brick_pad.h: one layer grown outward by averaging
+// data neighbours), so hardware trilinear filtering next to the mesh boundary mixes data with pad, never with filler;
+// the interpolated stencil then decides per sample (>= 1/2: data), which keeps the boundary free of the striping of
+// Leven et al.'s figure 5. 16 bits keep the value within 1/131070 of the range, the store's own default tolerance.
 #pragma once
 
 #include <epoxy/gl.h>

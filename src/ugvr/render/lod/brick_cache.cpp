@@ -7,8 +7,8 @@
 #include <string>
 
 #include "ugvr/core/error.h"
-#include "ugvr/lod/brick_store.h"
 #include "ugvr/render/lod/brick_atlas.h"  // for make_atlas_slot, which is CPU-only: nothing here calls OpenGL
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 

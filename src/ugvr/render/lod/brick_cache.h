@@ -29,7 +29,7 @@
 // bookkeeping). wait_all() blocks by design. Workers sleep on a condition variable when there is nothing to do or
 // no slot to load into (no busy waiting). A brick returned by get() is shared: it stays valid after its eviction, so
 // memory may exceed the budget by the bricks a caller still holds. The store must outlive the cache; its reads are
-// thread-safe (brick_store.h). No OpenGL here: the GPU atlas has its own cache.
+// thread-safe (store/brick_store.h). No OpenGL here: the GPU atlas has its own cache.
 #pragma once
 
 #include <condition_variable>

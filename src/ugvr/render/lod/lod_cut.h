@@ -44,9 +44,9 @@
 #include <string_view>
 #include <vector>
 
-#include "ugvr/lod/brick_store.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/transfer_function.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 

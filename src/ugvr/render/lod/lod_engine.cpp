@@ -15,8 +15,8 @@
 #include "lod_shared.h"  // shaders/lod_shared.h: what the engine and shaders/lod_raycast.comp agree on
 #include "ugvr/core/error.h"
 #include "ugvr/gpu/gl_program.h"
-#include "ugvr/lod/brick_store.h"
 #include "ugvr/render/lod/brick_atlas.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 

@@ -20,12 +20,12 @@
 
 #include "ugvr/core/vec.h"
 #include "ugvr/gpu/gl_context.h"
-#include "ugvr/lod/brick_store.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/image.h"
 #include "ugvr/render/lod/lod_cut.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/transfer_function.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 
@@ -60,8 +60,8 @@ struct LodOptions {
 
 class LodEngine {
  public:
-  // Opens the store (validated, brick_store.h) and prepares GPU state in `gl`, which must stay alive and current on
-  // the calling thread. Throws ugvr::Error.
+  // Opens the store (validated, store/brick_store.h) and prepares GPU state in `gl`, which must stay alive and current
+  // on the calling thread. Throws ugvr::Error.
   LodEngine(const std::string& store_path, const GlContext& gl, LodOptions options = {});
   ~LodEngine();
   LodEngine(const LodEngine&) = delete;

@@ -1,0 +1,28 @@
+#include "ugvr/octree/build_parts.h"
+
+#include <algorithm>
+
+namespace ugvr {
+
+void write_node_brick(BrickStoreWriter& writer, uint64_t node, const BrickSamples& brick, uint32_t fields) {
+  const size_t n = brick.mask.size();
+  std::vector<const float*> values(fields);
+  for (uint32_t f = 0; f < fields; ++f) values[f] = brick.values.data() + f * n;
+  writer.append(node, writer.encode(values, brick.mask.data()));
+}
+
+void count_tree_shape(std::span<const OctreeNode> nodes, OctreeBuildStats& stats) {
+  stats.nodes = nodes.size();
+  double level_sum = 0;
+  for (const OctreeNode& n : nodes) {
+    if (stats.nodes_per_level.size() <= n.level) stats.nodes_per_level.resize(n.level + 1u, 0);
+    ++stats.nodes_per_level[n.level];
+    if (!n.is_leaf()) continue;
+    ++stats.leaves;
+    level_sum += n.level;
+    stats.max_level = std::max(stats.max_level, int(n.level));
+  }
+  stats.mean_leaf_level = level_sum / double(stats.leaves);
+}
+
+}  // namespace ugvr

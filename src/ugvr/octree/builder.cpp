@@ -1,0 +1,208 @@
+#include "ugvr/octree/builder.h"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/global_control.h>
+#include <tbb/task_group.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <optional>
+
+#include "ugvr/core/error.h"
+#include "ugvr/core/progress.h"
+#include "ugvr/octree/build_parts.h"
+#include "ugvr/octree/data_points.h"
+#include "ugvr/octree/downsample.h"
+#include "ugvr/octree/node_error.h"
+#include "ugvr/octree/split.h"
+#include "ugvr/octree/subdivide.h"
+#include "ugvr/store/brick_pad.h"
+
+namespace ugvr {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// Pass 2: the bricks, bottom-up. process(id) returns the node's brick (padded), its data points and its error, for
+// its parent; the node's blocks are in the store by then.
+class BrickPass {
+ public:
+  struct Result {
+    BrickSamples brick;
+    std::vector<uint64_t> points;    // data points inside the node, sorted
+    std::vector<FieldError> errors;  // per field, monotone over the subtree
+  };
+
+  BrickPass(OctreeShape& shape, const BrickLattice& lattice, const BrickSampler& sampler, const OctreeDataPoints& data,
+            BrickStoreWriter& writer, Progress& progress, const std::atomic<bool>* cancel)
+      : shape_(shape),
+        lattice_(lattice),
+        sampler_(sampler),
+        data_(data),
+        writer_(writer),
+        cancel_(cancel),
+        progress_(progress),
+        F_(uint32_t(data.field_count())),
+        errors_(shape.nodes.size() * F_) {}
+
+  std::unique_ptr<Result> process(uint64_t id) {
+    if (cancel_ && cancel_->load(std::memory_order_relaxed)) throw Error("octree build cancelled");
+    const OctreeNode node = shape_.nodes[id];
+    const std::array<uint32_t, 3> ijk{node.i, node.j, node.k};
+    const Bounds box = lattice_.node_box(node.level, ijk);
+    auto r = std::make_unique<Result>();
+    std::vector<ErrorSum> sums(F_);
+    if (node.is_leaf()) {
+      std::vector<uint64_t>& cells = shape_.leaf_cells[id];
+      const auto t0 = std::chrono::steady_clock::now();
+      BrickSamplerStats st;
+      sampler_.sample(lattice_, node.level, ijk, cells, scratch_.local(), r->brick, &st);
+      sampler_ns_ += uint64_t(seconds_since(t0) * 1e9);
+      leaf_samples_ += st.samples;
+      valid_samples_ += r->brick.valid;
+      data_.points_inside(cells, box, r->points);
+      std::vector<uint64_t>().swap(cells);  // no longer needed: keeps memory to the subtrees in progress
+      pad_brick(r->brick.resolution, F_, r->brick.values.data(), r->brick.mask.data());
+      measure_against_points(r->brick, box, data_, r->points, sums);
+      for (const ErrorSum& s : sums) r->errors.push_back(s.result());
+    } else {
+      std::array<std::unique_ptr<Result>, 8> kids;
+      tbb::task_group group;
+      uint64_t child = node.first_child;
+      for (int o = 0; o < 8; ++o) {
+        if (!(node.child_mask >> o & 1)) continue;
+        group.run([this, &kids, o, child] { kids[size_t(o)] = process(child); });
+        ++child;
+      }
+      group.wait();
+      std::array<const BrickSamples*, 8> bricks{};
+      size_t point_count = 0;
+      for (int o = 0; o < 8; ++o) {
+        if (!kids[size_t(o)]) continue;
+        bricks[size_t(o)] = &kids[size_t(o)]->brick;
+        point_count += kids[size_t(o)]->points.size();
+      }
+      downsample_children(lattice_.resolution, F_, bricks, r->brick);
+      // A data point in this node lies in some child's closed box, which its cell overlaps: the union of the
+      // children's points is the node's own set.
+      r->points.reserve(point_count);
+      for (const auto& k : kids)
+        if (k) r->points.insert(r->points.end(), k->points.begin(), k->points.end());
+      std::sort(r->points.begin(), r->points.end());
+      r->points.erase(std::unique(r->points.begin(), r->points.end()), r->points.end());
+      pad_brick(r->brick.resolution, F_, r->brick.values.data(), r->brick.mask.data());
+      measure_against_children(r->brick, bricks, sums);
+      measure_against_points(r->brick, box, data_, r->points, sums);
+      add_interior_node_errors(sums, kids, r->errors);
+    }
+    write_node_brick(writer_, id, r->brick, F_);
+    std::copy(r->errors.begin(), r->errors.end(), errors_.begin() + ptrdiff_t(id * F_));
+    bricks_ += r->brick.valid > 0;
+    progress_.add(1);
+    return r;
+  }
+
+  const std::vector<FieldError>& errors() const { return errors_; }
+  uint64_t leaf_samples() const { return leaf_samples_; }
+  uint64_t valid_samples() const { return valid_samples_; }
+  uint64_t bricks() const { return bricks_; }
+  double sampler_seconds() const { return double(sampler_ns_) * 1e-9; }
+
+ private:
+  OctreeShape& shape_;
+  const BrickLattice& lattice_;
+  const BrickSampler& sampler_;
+  const OctreeDataPoints& data_;
+  BrickStoreWriter& writer_;
+  const std::atomic<bool>* cancel_;
+  Progress& progress_;
+  uint32_t F_;
+  std::vector<FieldError> errors_;  // node x field; each node writes its own entries
+  tbb::enumerable_thread_specific<BrickScratch> scratch_;
+  std::atomic<uint64_t> leaf_samples_{0}, valid_samples_{0}, bricks_{0}, sampler_ns_{0};
+};
+
+}  // namespace
+
+Bounds octree_root(const Bounds& data) {
+  const Vec3d size = data.size();
+  const double side = std::max(size.x, std::max(size.y, size.z));
+  Bounds root;
+  root.lo = data.lo;
+  root.hi = data.lo + Vec3d{side, side, side};
+  return root;
+}
+
+void validate_build_options(const OctreeBuildOptions& o) {
+  if (o.resolution < kMinBrickResolution || o.resolution > kMaxBrickResolution) {
+    throw Error("--brick must be between " + std::to_string(kMinBrickResolution) + " and " +
+                std::to_string(kMaxBrickResolution) + " (got " + std::to_string(o.resolution) + ")");
+  }
+  if (o.max_depth < 0 || o.max_depth > kMaxOctreeLevel) {
+    throw Error("--max-depth must be between 0 and " + std::to_string(kMaxOctreeLevel) + " (got " +
+                std::to_string(o.max_depth) + ")");
+  }
+  if (!(o.error >= 0) || !std::isfinite(o.error)) {
+    throw Error("--error must be a finite number >= 0 (got " + std::to_string(o.error) + ")");
+  }
+  if (o.threads < 0) throw Error("--threads must be >= 0 (got " + std::to_string(o.threads) + ")");
+}
+
+OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions& options, const std::string& path) {
+  validate_build_options(options);
+  const auto start = std::chrono::steady_clock::now();
+  std::optional<tbb::global_control> threads;
+  if (options.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(options.threads));
+
+  const UnstructuredMesh& mesh = *input.mesh;
+  BrickLattice lattice;
+  lattice.root = octree_root(input.bounds);
+  lattice.resolution = options.resolution;
+  const OctreeDataPoints data(mesh, input.scalars);
+  const SplitTest split(data, input.fields, options.error, options.resolution);
+
+  OctreeBuildStats stats;
+  stats.cells = mesh.cell_count();
+  OctreeShape shape;
+  {
+    Progress progress("subdivide", uint64_t(options.max_depth) + 1);
+    shape = subdivide_octree(mesh, lattice, split, options.max_depth, &progress);
+  }
+  stats.subdivide_seconds = seconds_since(start);
+  count_tree_shape(shape.nodes, stats);
+
+  BrickStoreLayout layout;
+  layout.resolution = options.resolution;
+  layout.fields = input.fields;
+  layout.root = lattice.root;
+  layout.data = input.bounds;
+  layout.encoding = options.encoding;
+  layout.tolerance = options.tolerance;
+  BrickStoreWriter writer(path, layout);
+  const BrickSampler sampler(mesh, input.scalars, options.sampler);
+  const auto bricks_start = std::chrono::steady_clock::now();
+  {
+    Progress progress("bricks", stats.nodes);
+    if (options.cancel && options.cancel->load()) throw Error("octree build cancelled");
+    BrickPass pass(shape, lattice, sampler, data, writer, progress, options.cancel);
+    pass.process(0);
+    stats.leaf_samples = pass.leaf_samples();
+    stats.valid_samples = pass.valid_samples();
+    stats.bricks = pass.bricks();
+    stats.sampler_seconds = pass.sampler_seconds();
+    writer.commit(shape.nodes, pass.errors());
+  }
+  stats.brick_seconds = seconds_since(bricks_start);
+  stats.store_bytes = std::filesystem::file_size(path);
+  stats.seconds = seconds_since(start);
+  return stats;
+}
+
+}  // namespace ugvr

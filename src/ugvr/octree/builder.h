@@ -1,0 +1,74 @@
+// The adaptive octree builder (Leven et al. 2002, sections 3-4): a dataset in, a brick store (store/brick_store.h) out.
+// docs/octree-build.md explains the choices and gives the measurements.
+//
+// Two passes over the tree:
+//  1. Shape, top-down (octree/subdivide.h): the root covers a cube around the data; a node splits while two data
+//     points that differ by more than the error threshold share one of its voxels (octree/split.h), up to the
+//     maximum depth; children get the cells that overlap them; empty children are not created.
+//  2. Bricks, bottom-up and depth first, subtrees in parallel: a leaf samples its cells (octree/brick_sampler.h); an
+//     interior node subsamples its children (octree/downsample.h), so every sample of every node is the exact field
+//     at its lattice point and borders shared by neighbours are identical; each brick is padded (store/brick_pad.h),
+//     its error measured (octree/node_error.h), encoded and appended to the store as soon as it exists. Only the bricks
+//     of the nodes whose subtrees are in progress are in memory, never the whole tree's.
+// octree/out_of_core.h builds the same store from a .vtu within a memory budget, streaming the cells through files.
+// Gradients are not stored: a renderer takes central differences on the brick it has (the paper's gradient pass
+// stored them, tripling the store for what costs a renderer a few loads per sample).
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "ugvr/grid/dataset.h"
+#include "ugvr/octree/brick_sampler.h"
+#include "ugvr/octree/input.h"
+#include "ugvr/store/brick_codec.h"
+#include "ugvr/store/brick_store.h"
+
+namespace ugvr {
+
+struct OctreeBuildOptions {
+  uint32_t resolution = 32;  // samples per brick axis (the paper's 32)
+  int max_depth = 8;         // deepest level (root = 0), at most kMaxOctreeLevel
+  // Split threshold relative to each field's range (>= 0); 0: no two data points of one leaf share a voxel.
+  double error = 0.01;
+  BrickEncoding encoding;                // of the store's blocks
+  double tolerance = kQuant16Tolerance;  // quant16 tolerance (store/brick_store.h)
+  int threads = 0;                       // worker threads; 0: all
+  BrickSamplerOptions sampler;
+  // Set from another thread to stop the build early (build_octree then throws ugvr::Error and writes nothing).
+  const std::atomic<bool>* cancel = nullptr;
+};
+
+struct OctreeBuildStats {
+  uint64_t cells = 0;  // of the mesh voxelized
+  uint64_t nodes = 0, leaves = 0;
+  uint64_t bricks = 0;                    // nodes with at least one data sample
+  int max_level = 0;                      // deepest leaf (root = 0)
+  double mean_leaf_level = 0;             // over leaves
+  std::vector<uint64_t> nodes_per_level;  // index = level
+  uint64_t leaf_samples = 0;              // samples of the leaves' lattices (leaves x R³)
+  uint64_t valid_samples = 0;             // of the leaves' samples, in the mesh
+  uint64_t leaves_in_pieces = 0;          // out of core: leaves too large for memory, sampled in pieces
+  uint64_t point_passes = 0;              // out of core: slices of the points the cells were streamed for
+  double sampler_seconds = 0;             // summed over threads
+  // Wall clock. Out of core, "subdivide" is the writing of the cells to disk (the tree is shaped as bricks are made).
+  double subdivide_seconds = 0, brick_seconds = 0, seconds = 0;
+  uint64_t store_bytes = 0;
+};
+
+// The root cell: a cube with the data's lower corner and its largest extent. A cube keeps voxels isotropic, so a
+// split threshold, a gradient and a renderer's texel size mean the same along every axis (the paper's choice, and
+// the brick store's documented convention); the empty part of the cube costs nothing, as empty nodes are not created.
+Bounds octree_root(const Bounds& data);
+
+// Builds the octree of `input` and writes it to `path` (atomically: nothing is left there on failure). Throws
+// ugvr::Error for invalid options or a failed write.
+OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions& options, const std::string& path);
+
+// Checks options for build_octree; throws ugvr::Error naming the bad one.
+void validate_build_options(const OctreeBuildOptions& options);
+
+}  // namespace ugvr

@@ -1,0 +1,136 @@
+#include "ugvr/octree/node_error.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace ugvr {
+
+FieldError ErrorSum::result() const {
+  FieldError e;
+  e.max = float(max);
+  e.rms = count ? float(std::sqrt(sum_sq / double(count))) : 0.0f;
+  return e;
+}
+
+bool interpolate_brick(const BrickSamples& brick, Vec3d u, double* out) {
+  const uint32_t R = brick.resolution;
+  const size_t n = size_t(R) * R * R;
+  uint32_t i0[3];
+  double t[3];
+  for (int a = 0; a < 3; ++a) {
+    const double c = std::clamp(u[a], 0.0, double(R - 1));
+    i0[a] = std::min(uint32_t(c), R - 2);
+    t[a] = c - double(i0[a]);
+  }
+  size_t corner[8];
+  double weight[8];
+  bool any = false;
+  for (int q = 0; q < 8; ++q) {
+    const uint32_t dx = q & 1, dy = (q >> 1) & 1, dz = (q >> 2) & 1;
+    corner[q] = (i0[0] + dx) + size_t(R) * ((i0[1] + dy) + size_t(R) * (i0[2] + dz));
+    weight[q] = (dx ? t[0] : 1 - t[0]) * (dy ? t[1] : 1 - t[1]) * (dz ? t[2] : 1 - t[2]);
+    any = any || brick.mask[corner[q]];
+  }
+  if (!any) return false;
+  for (uint32_t f = 0; f < brick.field_count; ++f) {
+    const float* v = brick.values.data() + f * n;
+    double sum = 0;
+    for (int q = 0; q < 8; ++q) sum += weight[q] * v[corner[q]];
+    out[f] = sum;
+  }
+  return true;
+}
+
+void measure_against_children(const BrickSamples& brick, const std::array<const BrickSamples*, 8>& children,
+                              std::span<ErrorSum> sums) {
+  const uint32_t R = brick.resolution, F = brick.field_count;
+  const size_t n = size_t(R) * R * R;
+  // Child line m of octant half h is parent line (h (R - 1) + m) / 2: a parent line when even, else halfway between
+  // two. So along each axis the lookup has corners lo, hi with weights 1, 0 or 1/2, 1/2, and interpolate_brick's
+  // trilinear sum separates: for each child row (y, z), the bilinear blend in y and z of the parent's samples is
+  // taken once per parent x (`row`, with the "any corner has data" mask in `row_mask`), and each child sample then
+  // reads one or two of them. This runs over 8 R³ samples per interior node. The products are exact (weights are
+  // powers of two), so the sums equal interpolate_brick's whenever the values' magnitudes are within 2^29 of each
+  // other, that is on any real field.
+  struct Axis {
+    std::vector<uint32_t> lo, hi;  // parent sample indices along the axis
+    std::vector<double> w_hi;      // 0 or 0.5
+  };
+  Axis axes[2];  // per half; the same for the three axes
+  for (uint32_t half = 0; half < 2; ++half) {
+    Axis& ax = axes[half];
+    for (uint32_t x = 0; x < R; ++x) {
+      const uint32_t line = half * (R - 1) + x;
+      ax.lo.push_back(line / 2);
+      ax.hi.push_back(line / 2 + line % 2);
+      ax.w_hi.push_back(line % 2 ? 0.5 : 0.0);
+    }
+  }
+  std::vector<double> row(size_t(F) * R);
+  std::vector<uint8_t> row_mask(R);
+  const uint8_t* m = brick.mask.data();
+  for (uint32_t o = 0; o < 8; ++o) {
+    const BrickSamples* child = children[o];
+    if (!child || child->valid == 0) continue;
+    const Axis &X = axes[o & 1], &Y = axes[(o >> 1) & 1], &Z = axes[(o >> 2) & 1];
+    const uint32_t px0 = X.lo[0], px1 = X.hi[R - 1];  // the parent's x range under this child
+    for (uint32_t z = 0; z < R; ++z)
+      for (uint32_t y = 0; y < R; ++y) {
+        const size_t s0 = size_t(R) * (y + size_t(R) * z);
+        const uint8_t* cm = child->mask.data() + s0;
+        if (std::all_of(cm, cm + R, [](uint8_t b) { return b == 0; })) continue;  // no data in this child row
+        const size_t c00 = size_t(R) * (Y.lo[y] + size_t(R) * Z.lo[z]),
+                     c10 = size_t(R) * (Y.hi[y] + size_t(R) * Z.lo[z]),
+                     c01 = size_t(R) * (Y.lo[y] + size_t(R) * Z.hi[z]),
+                     c11 = size_t(R) * (Y.hi[y] + size_t(R) * Z.hi[z]);
+        const double wy = Y.w_hi[y], wz = Z.w_hi[z];
+        const double w00 = (1 - wy) * (1 - wz), w10 = wy * (1 - wz), w01 = (1 - wy) * wz, w11 = wy * wz;
+        for (uint32_t px = px0; px <= px1; ++px) row_mask[px] = m[px + c00] | m[px + c10] | m[px + c01] | m[px + c11];
+        for (uint32_t f = 0; f < F; ++f) {
+          const float* v = brick.values.data() + f * n;
+          double* rf = row.data() + size_t(f) * R;
+          for (uint32_t px = px0; px <= px1; ++px) {
+            rf[px] = w00 * v[px + c00] + w10 * v[px + c10] + w01 * v[px + c01] + w11 * v[px + c11];
+          }
+        }
+        // Field by field (each field's sum sees its samples in the same order), in a local accumulator: through
+        // memory, the sum's dependency chain would cost a store-to-load round trip per sample.
+        for (uint32_t f = 0; f < F; ++f) {
+          const double* rf = row.data() + size_t(f) * R;
+          const float* cv = child->values.data() + f * n + s0;
+          ErrorSum acc = sums[f];
+          for (uint32_t x = 0; x < R; ++x) {
+            if (!cm[x]) continue;
+            const uint32_t lo = X.lo[x], hi = X.hi[x];
+            if (!(row_mask[lo] | row_mask[hi])) continue;
+            const double interpolated = lo == hi ? rf[lo] : 0.5 * (rf[lo] + rf[hi]);
+            acc.add(std::abs(interpolated - cv[x]));
+          }
+          sums[f] = acc;
+        }
+      }
+  }
+}
+
+void measure_against_points(const BrickSamples& brick, const Bounds& box, const OctreeDataPoints& data,
+                            std::span<const uint64_t> points, std::span<ErrorSum> sums) {
+  const uint32_t R = brick.resolution, F = brick.field_count;
+  Vec3d scale;
+  for (int a = 0; a < 3; ++a) {
+    const double extent = box.hi[a] - box.lo[a];
+    scale[a] = extent > 0 ? double(R - 1) / extent : 0.0;
+  }
+  std::vector<double> interpolated(F);
+  for (uint64_t p : points) {
+    const Vec3d pos = data.position(p);
+    const Vec3d u{(pos.x - box.lo.x) * scale.x, (pos.y - box.lo.y) * scale.y, (pos.z - box.lo.z) * scale.z};
+    if (!interpolate_brick(brick, u, interpolated.data())) continue;
+    for (uint32_t f = 0; f < F; ++f) {
+      const float exact = data.value(p, f);
+      if (!std::isnan(exact)) sums[f].add(std::abs(interpolated[f] - double(exact)));
+    }
+  }
+}
+
+}  // namespace ugvr

@@ -1,0 +1,535 @@
+#include "ugvr/octree/out_of_core.h"
+
+#include <tbb/concurrent_vector.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
+#include <tbb/task_group.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <bit>
+#include <chrono>
+#include <filesystem>
+#include <numeric>
+#include <optional>
+
+#include "ugvr/core/error.h"
+#include "ugvr/core/progress.h"
+#include "ugvr/grid/cell_interpolation.h"
+#include "ugvr/octree/build_parts.h"
+#include "ugvr/octree/cell_box_overlap.h"
+#include "ugvr/octree/data_points.h"
+#include "ugvr/octree/downsample.h"
+#include "ugvr/octree/node_error.h"
+#include "ugvr/octree/split.h"
+#include "ugvr/octree/vtu_cells.h"
+#include "ugvr/store/brick_pad.h"
+
+namespace ugvr {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// Removes the build's temporary directory however the build ends.
+struct TempDir {
+  std::filesystem::path path;
+  explicit TempDir(std::filesystem::path p) : path(std::move(p)) {
+    std::filesystem::remove_all(path);
+    std::filesystem::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+};
+
+// Per-thread scratch: the split test's table, the sampler's, and a one-cell mesh for the flatness test.
+struct Scratch {
+  VoxelSpread table;
+  BrickScratch sampler;
+  UnstructuredMesh one_cell;
+  std::vector<float> values;
+};
+
+class OutOfCoreBuild {
+ public:
+  struct Result {
+    BrickSamples brick;
+    std::vector<FieldError> errors;
+  };
+
+  OutOfCoreBuild(const OctreeBuildOptions& options, const VtuCellSource& source, const BrickLattice& lattice,
+                 BrickStoreWriter& writer, const std::filesystem::path& temp, size_t preload_bytes, Progress& progress)
+      : o_(options),
+        layout_(source.layout()),
+        slots_(source.slots()),
+        fields_(source.fields()),
+        lattice_(lattice),
+        writer_(writer),
+        temp_(temp),
+        preload_bytes_(preload_bytes),
+        progress_(progress),
+        F_(uint32_t(fields_.size())) {
+    for (const BrickStoreField& f : fields_) thresholds_.push_back(o_.error * (f.max - f.min));
+    nodes_.push_back(OctreeNode{});
+    errors_.grow_to_at_least(F_);
+  }
+
+  std::unique_ptr<Result> process(uint64_t id, const std::string& file) {
+    const OctreeNode node = nodes_[id];
+    const std::array<uint32_t, 3> ijk{node.i, node.j, node.k};
+    const Bounds box = lattice_.node_box(node.level, ijk);
+    Scratch& scratch = scratch_.local();
+
+    // Stream the file through the split test, keeping the records while they fit (a leaf needs them all).
+    std::vector<std::byte> kept;
+    bool complete = true, split = false;
+    {
+      scratch.table.begin(box, o_.resolution, thresholds_, o_.error == 0);
+      SoupReader reader(file, layout_);
+      const std::byte* rec = nullptr;
+      while (reader.next(rec)) {
+        const SoupCell cell(rec, layout_);
+        if (node.level < o_.max_depth && !is_flat(cell, scratch)) split = feed(cell, scratch);
+        if (split) break;
+        if (complete && kept.size() + cell.bytes() <= preload_bytes_) {
+          kept.insert(kept.end(), rec, rec + cell.bytes());
+        } else {
+          complete = false;
+        }
+      }
+    }
+    auto r = std::make_unique<Result>();
+    std::vector<ErrorSum> sums(F_);
+    if (split) {
+      std::vector<std::byte>().swap(kept);
+      const std::array<std::string, 8> files = route("node-" + std::to_string(id), box, file);
+      std::filesystem::remove(file);
+      uint8_t mask = 0;
+      for (int o = 0; o < 8; ++o) mask |= uint8_t(!files[size_t(o)].empty()) << o;
+      const int count = std::popcount(mask);
+      const uint64_t first = uint64_t(nodes_.grow_by(size_t(count)) - nodes_.begin());
+      errors_.grow_to_at_least((first + uint64_t(count)) * F_);
+      nodes_[id].first_child = first;
+      nodes_[id].child_mask = mask;
+      std::array<std::unique_ptr<Result>, 8> kids;
+      tbb::task_group group;
+      uint64_t child = first;
+      for (int o = 0; o < 8; ++o) {
+        if (!(mask >> o & 1)) continue;
+        OctreeNode& c = nodes_[child];
+        c.parent = id;
+        c.level = uint8_t(node.level + 1);
+        c.i = 2 * node.i + uint32_t(o & 1);
+        c.j = 2 * node.j + uint32_t((o >> 1) & 1);
+        c.k = 2 * node.k + uint32_t((o >> 2) & 1);
+        group.run([this, &kids, &files, o, child] { kids[size_t(o)] = process(child, files[size_t(o)]); });
+        ++child;
+      }
+      group.wait();
+      std::array<const BrickSamples*, 8> bricks{};
+      for (int o = 0; o < 8; ++o)
+        if (kids[size_t(o)]) bricks[size_t(o)] = &kids[size_t(o)]->brick;
+      downsample_children(o_.resolution, F_, bricks, r->brick);
+      pad_brick(o_.resolution, F_, r->brick.values.data(), r->brick.mask.data());
+      measure_against_children(r->brick, bricks, sums);
+      add_interior_node_errors(sums, kids, r->errors);
+    } else if (complete || node.level >= kMaxOctreeLevel) {
+      if (!complete) kept = load(file);
+      std::filesystem::remove(file);
+      sample_leaf(node, box, kept, scratch, *r, sums);
+      for (const ErrorSum& s : sums) r->errors.push_back(s.result());
+      progress_.add(kVolumeUnits >> std::min(3 * int(node.level), 62));
+    } else {
+      // More cells than this worker's share of the budget: the brick in pieces (see sample_in_pieces), its error
+      // from the data points streamed from the file.
+      std::vector<std::byte>().swap(kept);
+      init_brick(r->brick);
+      sample_in_pieces(node, box, file, 0, r->brick);
+      leaf_samples_ += r->brick.mask.size();
+      valid_samples_ += r->brick.valid;
+      ++leaves_in_pieces_;
+      pad_brick(o_.resolution, F_, r->brick.values.data(), r->brick.mask.data());
+      measure_streamed(r->brick, box, file, sums);
+      std::filesystem::remove(file);
+      for (const ErrorSum& s : sums) r->errors.push_back(s.result());
+      progress_.add(kVolumeUnits >> std::min(3 * int(node.level), 62));
+    }
+    write_node_brick(writer_, id, r->brick, F_);
+    for (uint32_t f = 0; f < F_; ++f) errors_[id * F_ + f] = r->errors[f];
+    return r;
+  }
+
+  std::vector<OctreeNode> nodes() const { return {nodes_.begin(), nodes_.end()}; }
+  std::vector<FieldError> errors() const { return {errors_.begin(), errors_.begin() + ptrdiff_t(nodes_.size() * F_)}; }
+  uint64_t leaf_samples() const { return leaf_samples_; }
+  uint64_t valid_samples() const { return valid_samples_; }
+  uint64_t leaves_in_pieces() const { return leaves_in_pieces_; }
+  double sampler_seconds() const { return double(sampler_ns_) * 1e-9; }
+
+  // Progress counts the root's volume in these units; a leaf at level L adds its share.
+  static constexpr uint64_t kVolumeUnits = uint64_t(1) << 62;
+
+ private:
+  bool is_flat(const SoupCell& cell, Scratch& s) const {
+    UnstructuredMesh& m = s.one_cell;
+    const int n = cell.vertex_count();
+    m.points.resize(size_t(n));
+    m.connectivity.resize(size_t(n));
+    for (int i = 0; i < n; ++i) m.points[size_t(i)] = cell.position(i), m.connectivity[size_t(i)] = uint32_t(i);
+    m.cell_types.assign(1, cell.type());
+    m.cell_offsets.assign({0, uint64_t(n)});
+    return is_flat_cell(m, 0);
+  }
+
+  // The cell's data points into the split test (octree/data_points.h: vertices for vertex scalars, the centroid for
+  // cell scalars); true once the node must split.
+  bool feed(const SoupCell& cell, Scratch& s) {
+    s.values.resize(F_);
+    const int n = cell.vertex_count();
+    if (layout_.vertex_fields > 0) {
+      for (int i = 0; i < n; ++i) {
+        for (uint32_t f = 0; f < F_; ++f) {
+          s.values[f] = slots_[f].association == Association::Vertex ? cell.vertex_value(slots_[f].index, i) : NAN;
+        }
+        if (s.table.add(to_double(cell.position(i)), s.values.data())) return true;
+      }
+    }
+    if (layout_.cell_fields > 0) {
+      Vec3d sum{};
+      for (int i = 0; i < n; ++i) sum = sum + to_double(cell.position(i));
+      for (uint32_t f = 0; f < F_; ++f) {
+        s.values[f] = slots_[f].association == Association::Cell ? cell.cell_value(slots_[f].index) : NAN;
+      }
+      if (s.table.add(sum * (1.0 / double(n)), s.values.data())) return true;
+    }
+    return false;
+  }
+
+  // Each cell of `file` to the files of the children it overlaps, as cells_overlapping_boxes decides in core.
+  std::array<std::string, 8> route(const std::string& stem, const Bounds& region, const std::string& file) {
+    std::array<std::string, 8> names;
+    std::array<std::unique_ptr<SoupWriter>, 8> writers;
+    const Vec3d size = region.size();
+    auto box_lo = [&](int axis, uint32_t i) { return region.lo[axis] + size[axis] * (double(i) / 2.0); };
+    SoupReader reader(file, layout_);
+    const std::byte* rec = nullptr;
+    Vec3d v[kMaxCellVertices];
+    while (reader.next(rec)) {
+      const SoupCell cell(rec, layout_);
+      const int n = cell.vertex_count();
+      Bounds bb;
+      for (int i = 0; i < n; ++i) bb.add(v[i] = to_double(cell.position(i)));
+      const double margin = kOverlapMargin * length(bb.size());
+      for (uint32_t o = 0; o < 8; ++o) {
+        const uint32_t x = o & 1, y = (o >> 1) & 1, z = (o >> 2) & 1;
+        Bounds b;
+        b.lo = {box_lo(0, x), box_lo(1, y), box_lo(2, z)};
+        b.hi = {box_lo(0, x + 1), box_lo(1, y + 1), box_lo(2, z + 1)};
+        const Bounds e = expanded(b, margin);
+        if (bb.lo.x > e.hi.x || bb.lo.y > e.hi.y || bb.lo.z > e.hi.z || bb.hi.x < e.lo.x || bb.hi.y < e.lo.y ||
+            bb.hi.z < e.lo.z) {
+          continue;
+        }
+        if (!cell_box_overlap(cell.type(), v, e)) continue;
+        if (!writers[o]) {
+          names[o] = (temp_ / (stem + "-" + std::to_string(o))).string();
+          writers[o] = std::make_unique<SoupWriter>(names[o], layout_);
+        }
+        writers[o]->add(cell);
+      }
+    }
+    for (auto& w : writers)
+      if (w) w->close();
+    return names;
+  }
+
+  std::vector<std::byte> load(const std::string& file) const {
+    std::vector<std::byte> kept;
+    SoupReader reader(file, layout_);
+    const std::byte* rec = nullptr;
+    while (reader.next(rec)) kept.insert(kept.end(), rec, rec + SoupCell(rec, layout_).bytes());
+    return kept;
+  }
+
+  // Records welded back into a mesh: vertices by id, cells in the order of their ids (as in core, so that the
+  // sampler's tie rule, the lowest cell id, picks the same cell), each scalar a float field of it.
+  struct LocalMesh {
+    UnstructuredMesh mesh;
+    FieldSet fields;
+    std::vector<ScalarRef> refs;
+    std::vector<uint64_t> cells;  // 0 .. cell count - 1
+  };
+  std::unique_ptr<LocalMesh> weld(const std::vector<std::byte>& kept) const {
+    std::vector<size_t> offsets;
+    std::vector<uint32_t> ids;
+    for (size_t at = 0; at < kept.size();) {
+      const SoupCell cell(kept.data() + at, layout_);
+      offsets.push_back(at);
+      for (int i = 0; i < cell.vertex_count(); ++i) ids.push_back(cell.vertex(i));
+      at += cell.bytes();
+    }
+    std::sort(offsets.begin(), offsets.end(), [&](size_t a, size_t b) {
+      return SoupCell(kept.data() + a, layout_).id() < SoupCell(kept.data() + b, layout_).id();
+    });
+    std::sort(ids.begin(), ids.end());
+    ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+    auto local = std::make_unique<LocalMesh>();
+    UnstructuredMesh& mesh = local->mesh;
+    mesh.points.resize(ids.size());
+    std::vector<std::vector<float>> vertex_values(layout_.vertex_fields, std::vector<float>(ids.size()));
+    std::vector<std::vector<float>> cell_values(layout_.cell_fields);
+    uint32_t v[kMaxCellVertices];
+    for (size_t at : offsets) {
+      const SoupCell cell(kept.data() + at, layout_);
+      const int n = cell.vertex_count();
+      for (int i = 0; i < n; ++i) {
+        v[i] = uint32_t(std::lower_bound(ids.begin(), ids.end(), cell.vertex(i)) - ids.begin());
+        mesh.points[v[i]] = cell.position(i);
+        for (uint32_t f = 0; f < layout_.vertex_fields; ++f) vertex_values[f][v[i]] = cell.vertex_value(f, i);
+      }
+      mesh.add_cell(cell.type(), std::span<const uint32_t>(v, size_t(n)));
+      for (uint32_t f = 0; f < layout_.cell_fields; ++f) cell_values[f].push_back(cell.cell_value(f));
+    }
+    for (uint32_t f = 0; f < F_; ++f) {
+      const Slot& s = slots_[f];
+      std::vector<float>& values = s.association == Association::Vertex ? vertex_values[s.index] : cell_values[s.index];
+      local->fields.add(Field(fields_[f].name, s.association, DataArray::from(std::move(values), 1)));
+    }
+    for (uint32_t f = 0; f < F_; ++f) local->refs.push_back({&local->fields[f], kMagnitude});
+    local->cells.resize(mesh.cell_count());
+    std::iota(local->cells.begin(), local->cells.end(), uint64_t(0));
+    return local;
+  }
+
+  void sample(const LocalMesh& local, int level, std::array<uint32_t, 3> ijk, Scratch& scratch, BrickSamples& out) {
+    const BrickSampler sampler(local.mesh, local.refs, o_.sampler);
+    const auto t0 = std::chrono::steady_clock::now();
+    BrickSamplerStats st;
+    sampler.sample(lattice_, level, ijk, local.cells, scratch.sampler, out, &st);
+    sampler_ns_ += uint64_t(seconds_since(t0) * 1e9);
+  }
+
+  void sample_leaf(const OctreeNode& node, const Bounds& box, const std::vector<std::byte>& kept, Scratch& scratch,
+                   Result& r, std::vector<ErrorSum>& sums) {
+    const std::unique_ptr<LocalMesh> local = weld(kept);
+    sample(*local, node.level, {node.i, node.j, node.k}, scratch, r.brick);
+    leaf_samples_ += r.brick.mask.size();
+    valid_samples_ += r.brick.valid;
+    const OctreeDataPoints data(local->mesh, local->refs);
+    std::vector<uint64_t> points;
+    data.points_inside(local->cells, box, points);
+    pad_brick(o_.resolution, F_, r.brick.values.data(), r.brick.mask.data());
+    measure_against_points(r.brick, box, data, points, sums);
+  }
+
+  void init_brick(BrickSamples& b) const {
+    const size_t n = size_t(o_.resolution) * o_.resolution * o_.resolution;
+    b.resolution = o_.resolution;
+    b.field_count = F_;
+    b.values.assign(F_ * n, 0.0f);
+    b.mask.assign(n, 0);
+    b.valid = 0;
+  }
+
+  // A leaf too large for memory, sampled in pieces: its cells are routed to the eight halves of `region` (and those
+  // halves split again while too large), and the leaf's whole lattice is sampled once per piece with that piece's
+  // cells only, keeping the samples inside the piece. A point inside a piece lies only in cells that overlap it, so
+  // it gets what sampling the whole leaf would give it, bit for bit; points outside find no candidate in their
+  // buckets and cost next to nothing, so the work stays about that of the leaf. Pieces are not nodes of the tree.
+  void sample_in_pieces(const OctreeNode& node, const Bounds& region, const std::string& file, int depth,
+                        BrickSamples& out) {
+    const std::array<std::string, 8> files = route("piece-" + std::to_string(pieces_++), region, file);
+    const Vec3d size = region.size();
+    auto box_lo = [&](int axis, uint32_t i) { return region.lo[axis] + size[axis] * (double(i) / 2.0); };
+    const uint32_t R = o_.resolution;
+    const size_t n = size_t(R) * R * R;
+    Scratch& scratch = scratch_.local();
+    BrickSamples piece;
+    for (uint32_t o = 0; o < 8; ++o) {
+      if (files[o].empty()) continue;
+      Bounds sub;  // as route() computed it
+      sub.lo = {box_lo(0, o & 1), box_lo(1, (o >> 1) & 1), box_lo(2, (o >> 2) & 1)};
+      sub.hi = {box_lo(0, (o & 1) + 1), box_lo(1, ((o >> 1) & 1) + 1), box_lo(2, ((o >> 2) & 1) + 1)};
+      std::vector<std::byte> kept;
+      bool complete = true;
+      {
+        SoupReader reader(files[o], layout_);
+        const std::byte* rec = nullptr;
+        while (complete && reader.next(rec)) {
+          const size_t bytes = SoupCell(rec, layout_).bytes();
+          if (kept.size() + bytes > preload_bytes_) complete = false;
+          kept.insert(kept.end(), rec, rec + bytes);
+        }
+      }
+      // Pieces stop halving after 16 levels (cells so large that each overlaps every piece): then all are loaded.
+      if (!complete && depth < 16) {
+        std::vector<std::byte>().swap(kept);
+        sample_in_pieces(node, sub, files[o], depth + 1, out);
+      } else {
+        if (!complete) kept = load(files[o]);
+        sample(*weld(kept), node.level, {node.i, node.j, node.k}, scratch, piece);
+        std::array<std::vector<uint8_t>, 3> inside;
+        for (int a = 0; a < 3; ++a) {
+          const uint64_t m0 = uint64_t(a == 0 ? node.i : (a == 1 ? node.j : node.k)) * (R - 1);
+          for (uint32_t x = 0; x < R; ++x) {
+            const double c = lattice_.coordinate(a, node.level, m0 + x);
+            inside[size_t(a)].push_back(c >= sub.lo[a] && c <= sub.hi[a]);
+          }
+        }
+        for (uint32_t z = 0; z < R; ++z)
+          for (uint32_t y = 0; y < R; ++y)
+            for (uint32_t x = 0; x < R; ++x) {
+              if (!inside[0][x] || !inside[1][y] || !inside[2][z]) continue;
+              const size_t si = x + size_t(R) * (y + size_t(R) * z);
+              if (!piece.mask[si]) continue;
+              out.valid += !out.mask[si];
+              out.mask[si] = 1;
+              for (uint32_t f = 0; f < F_; ++f) out.values[f * n + si] = piece.values[f * n + si];
+            }
+      }
+      std::filesystem::remove(files[o]);
+    }
+  }
+
+  // The leaf's error at the data points of its cells, streamed from its file. Points shared by several cells count
+  // once per cell here (in core: once), which weighs the rms by incidence; the max is the same.
+  void measure_streamed(const BrickSamples& brick, const Bounds& box, const std::string& file,
+                        std::vector<ErrorSum>& sums) {
+    Vec3d scale;
+    for (int a = 0; a < 3; ++a) {
+      const double extent = box.hi[a] - box.lo[a];
+      scale[a] = extent > 0 ? double(o_.resolution - 1) / extent : 0.0;
+    }
+    std::vector<double> interpolated(F_);
+    auto measure = [&](Vec3d p, auto value_of) {
+      if (!box_contains(box, p)) return;
+      const Vec3d u{(p.x - box.lo.x) * scale.x, (p.y - box.lo.y) * scale.y, (p.z - box.lo.z) * scale.z};
+      if (!interpolate_brick(brick, u, interpolated.data())) return;
+      for (uint32_t f = 0; f < F_; ++f) {
+        const float exact = value_of(f);
+        if (!std::isnan(exact)) sums[f].add(std::abs(interpolated[f] - double(exact)));
+      }
+    };
+    SoupReader reader(file, layout_);
+    const std::byte* rec = nullptr;
+    while (reader.next(rec)) {
+      const SoupCell cell(rec, layout_);
+      const int n = cell.vertex_count();
+      Vec3d sum{};
+      for (int i = 0; i < n; ++i) {
+        const Vec3d p = to_double(cell.position(i));
+        sum = sum + p;
+        if (layout_.vertex_fields == 0) continue;
+        measure(p, [&](uint32_t f) {
+          return slots_[f].association == Association::Vertex ? cell.vertex_value(slots_[f].index, i) : NAN;
+        });
+      }
+      if (layout_.cell_fields == 0) continue;
+      measure(sum * (1.0 / double(n)), [&](uint32_t f) {
+        return slots_[f].association == Association::Cell ? cell.cell_value(slots_[f].index) : NAN;
+      });
+    }
+  }
+
+  using Slot = VtuCellSource::Slot;
+  const OctreeBuildOptions& o_;
+  SoupLayout layout_;
+  std::vector<Slot> slots_;
+  std::vector<BrickStoreField> fields_;
+  const BrickLattice& lattice_;
+  BrickStoreWriter& writer_;
+  std::filesystem::path temp_;
+  size_t preload_bytes_;
+  Progress& progress_;
+  uint32_t F_;
+  std::vector<double> thresholds_;
+  tbb::concurrent_vector<OctreeNode> nodes_;
+  tbb::concurrent_vector<FieldError> errors_;  // node x field
+  tbb::enumerable_thread_specific<Scratch> scratch_;
+  std::atomic<uint64_t> leaf_samples_{0}, valid_samples_{0}, sampler_ns_{0}, pieces_{0}, leaves_in_pieces_{0};
+};
+
+}  // namespace
+
+OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors,
+                                          const OctreeBuildOptions& options, uint64_t memory_budget,
+                                          const std::string& path) {
+  validate_build_options(options);
+  const auto start = std::chrono::steady_clock::now();
+  std::optional<tbb::global_control> threads;
+  if (options.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(options.threads));
+  const TempDir temp(path + ".cells-" + std::to_string(::getpid()));
+
+  VtuCellSource source(vtu_path, selectors);
+  const std::string root_file = (temp.path / "root").string();
+  uint64_t cells = 0;
+  {
+    // Points and vertex scalars are held while the cells are written: half of the budget beyond the program's own,
+    // at least 1 MiB (each slice costs a pass over the cells and an open file).
+    const uint64_t base = uint64_t(48) << 20;
+    const uint64_t point_budget = std::max((memory_budget > base ? memory_budget - base : 0) / 2, uint64_t(1) << 20);
+    Progress progress("cells to disk", source.file_cell_count());
+    SoupWriter soup(root_file, source.layout());
+    cells = source.write_soup(soup, point_budget, temp.path.string(), &progress);
+    soup.close();
+  }
+  const Bounds data_bounds = source.bounds();
+
+  BrickLattice lattice;
+  lattice.root = octree_root(data_bounds);
+  lattice.resolution = options.resolution;
+  BrickStoreLayout layout;
+  layout.resolution = options.resolution;
+  layout.fields = source.fields();
+  layout.root = lattice.root;
+  layout.data = data_bounds;
+  layout.encoding = options.encoding;
+  layout.tolerance = options.tolerance;
+  BrickStoreWriter writer(path, layout);
+
+  // What the budget pays for besides cells: the program and its store writer (about 48 MiB), and per worker the file
+  // buffers of a split (9 soup buffers of 1 MiB and their slack) and the bricks of the subtree in progress (8 per
+  // level, R³ (4F + 1) bytes each). The rest is shared by the workers, each of which may hold one node's records: a
+  // twelfth of its share, as sampling them takes up to about 10 times their size (the records with their vector's
+  // slack, the welded mesh, the sampler's prepared cells, about 400 bytes a cell, and its buckets, and what the
+  // allocator keeps between leaves; measured on 100M tetrahedra); at least 64 KiB.
+  const auto workers = uint64_t(std::max(1, tbb::this_task_arena::max_concurrency()));
+  const uint64_t brick_bytes =
+      uint64_t(options.resolution) * options.resolution * options.resolution * (4 * uint64_t(layout.fields.size()) + 1);
+  const uint64_t reserve =
+      (uint64_t(48) << 20) + workers * ((uint64_t(18) << 20) + 8 * uint64_t(options.max_depth + 1) * brick_bytes);
+  const uint64_t available = memory_budget > reserve ? memory_budget - reserve : 0;
+  const size_t preload = size_t(std::max<uint64_t>(available / (12 * workers), uint64_t(64) << 10));
+  OctreeBuildStats stats;
+  stats.cells = cells;
+  stats.subdivide_seconds = seconds_since(start);  // here: writing the cells to disk
+  const auto bricks_start = std::chrono::steady_clock::now();
+  std::vector<OctreeNode> nodes;
+  {
+    Progress progress("bricks", OutOfCoreBuild::kVolumeUnits);
+    OutOfCoreBuild build(options, source, lattice, writer, temp.path, preload, progress);
+    build.process(0, root_file);
+    nodes = build.nodes();
+    stats.leaf_samples = build.leaf_samples();
+    stats.valid_samples = build.valid_samples();
+    stats.leaves_in_pieces = build.leaves_in_pieces();
+    stats.point_passes = source.passes();
+    stats.sampler_seconds = build.sampler_seconds();
+    writer.commit(nodes, build.errors());
+  }
+  stats.brick_seconds = seconds_since(bricks_start);
+  count_tree_shape(nodes, stats);
+  stats.store_bytes = std::filesystem::file_size(path);
+  stats.seconds = seconds_since(start);
+  const BrickStoreReader store(path);
+  for (uint64_t id = 0; id < store.node_count(); ++id) stats.bricks += store.node(id).has_brick();
+  return stats;
+}
+
+}  // namespace ugvr

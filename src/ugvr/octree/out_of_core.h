@@ -1,0 +1,42 @@
+// The out-of-core octree builder (Leven et al. 2002, figure 6): the same tree and bricks as build_octree
+// (octree/builder.h) from a .vtu file whose cells never are in memory all at once.
+//
+//  1. The file's cells become a cell soup (octree/soup.h), the root's cell file, streamed from the .vtu
+//     (octree/vtu_cells.h), which holds the points and vertex scalars a slice at a time within the budget.
+//  2. process(node, file), depth first, subtrees in parallel: the node streams its file once through the split
+//     test (VoxelSpread), keeping the records in memory as long as they fit its share of the budget. A node that
+//     splits streams its file again, routes each cell to the children it overlaps (the same separating-axis test
+//     and margin as in core), deletes its file and recurses; a leaf welds its records into a small mesh (vertices
+//     by their ids, cells in id order, so the sampler's tie rule picks the same cell as in core), samples it with
+//     the brick sampler and deletes its file. Interior bricks, padding and encoding are as in core.
+//
+// What differs from the in-core build, by design: node ids are given at split time (each split takes a block of
+// consecutive ids for its children, which keeps the store's rules) so they depend on the schedule, and an interior
+// node's error is measured at its children's samples only (its data points would have to be streamed again), then
+// made monotone as in core. The tree, every brick and the leaves' max errors are the same (the tests compare them).
+//
+// Memory, all within `memory_budget` (measured: docs/octree-build.md): while the soup is written, a slice of the
+// points and vertex scalars (half the budget beyond 48 MiB for the program; one more pass over the cells per
+// slice); then 48 MiB for the program and the store writer, per worker thread the file buffers of a split (9 MiB)
+// and the bricks of the subtree in progress, and the records of one node, up to a twelfth of the worker's share of
+// the rest (sampling takes up to about 10 times their size). A leaf with more records than that is sampled in
+// pieces: its cells are routed to the halves of its box (halved again while too large) and its lattice is sampled
+// once per piece with that piece's cells, keeping the samples inside the piece, which gives its samples bit for bit
+// for about the work of sampling it whole; its error is then measured at the data points streamed from
+// its file (the max as in core, the rms weighing shared points by their cells). Disk: the soup (96 bytes per
+// tetrahedron with one scalar) and the files of the pending nodes, about twice the soup at most, next to the output.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+
+#include "ugvr/octree/builder.h"
+
+namespace ugvr {
+
+OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors,
+                                          const OctreeBuildOptions& options, uint64_t memory_budget,
+                                          const std::string& path);
+
+}  // namespace ugvr

@@ -1,0 +1,74 @@
+// A .vtu file read for the out-of-core builder: its cells are streamed, never held, and written out as self-contained
+// soup records (octree/soup.h) with their vertices' positions and values.
+//
+// Points are referenced at random by the cells, so the points and the selected vertex scalars (12 + 4 bytes per point
+// and scalar: a sixth of a tetrahedral mesh's size, which has about 6 cells per point) are held in memory while the
+// records are written, as much of them as the given budget allows: when they do not all fit, the cells are streamed
+// once per slice of the points, each pass writing the corners whose vertex is in its slice to a corner file (in cell
+// order), and once more to assemble the records from those files, read in step. Memory is then bounded by the budget
+// whatever the size of the file, for one more pass over the cells per slice.
+//
+// Scope: one <Piece> of an UnstructuredGrid, any encoding the reader takes (ascii, base64, appended raw or base64,
+// zlib or lz4 compressed: vtk_xml_array.h). Cells follow the reader's policy (vtk_cell_import.h): linear volume cells
+// kept, quadratic ones linearised to their corners, voxels reordered, lower-dimensional cells dropped, anything else
+// refused naming the file and the cell.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "ugvr/core/progress.h"
+#include "ugvr/core/vec.h"
+#include "ugvr/octree/soup.h"
+#include "ugvr/store/brick_store.h"
+
+namespace ugvr {
+
+class VtuCellSource {
+ public:
+  // Where a selected scalar sits in the soup's records: the index among the vertex or among the cell scalars.
+  struct Slot {
+    Association association = Association::Vertex;
+    uint32_t index = 0;
+  };
+
+  // Parses the markup and streams the points and the vertex scalars once, for the bounds and the ranges.
+  // `selectors` as FieldSet::scalar takes them; empty: the first vertex field that is not constant, else the first
+  // field. Throws ugvr::Error naming the file.
+  VtuCellSource(std::string path, std::span<const std::string> selectors);
+  ~VtuCellSource();
+  VtuCellSource(const VtuCellSource&) = delete;
+  VtuCellSource& operator=(const VtuCellSource&) = delete;
+
+  uint64_t point_count() const { return points_; }
+  uint64_t file_cell_count() const { return cells_; }
+  const Bounds& bounds() const { return bounds_; }
+  const SoupLayout& layout() const { return layout_; }
+  const std::vector<Slot>& slots() const { return slots_; }
+  // The selected scalars; a cell scalar's range is known once write_soup has run.
+  const std::vector<BrickStoreField>& fields() const { return fields_; }
+
+  // Streams every volume cell into `soup` and returns their count, holding at most `point_budget` bytes of points and
+  // vertex scalars (at least one point); corner files go to `temp_dir`. Fails on NaN or infinite selected values.
+  uint64_t write_soup(SoupWriter& soup, uint64_t point_budget, const std::string& temp_dir,
+                      Progress* progress = nullptr);
+  // Slices of the points the last write_soup took (1: all points at once).
+  uint64_t passes() const { return passes_; }
+
+  struct Markup;  // the parsed file (pugixml), private to the implementation
+
+ private:
+  std::string path_;
+  std::unique_ptr<Markup> markup_;
+  uint64_t cells_ = 0;
+  uint64_t points_ = 0, passes_ = 0;
+  Bounds bounds_;
+  SoupLayout layout_;
+  std::vector<Slot> slots_;
+  std::vector<BrickStoreField> fields_;
+};
+
+}  // namespace ugvr

@@ -1,0 +1,667 @@
+#include "ugvr/store/brick_store.h"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <optional>
+
+#include "ugvr/core/error.h"
+#include "ugvr/store/brick_store_format.h"
+
+namespace ugvr {
+
+namespace {
+
+using store_format::field_record_size;
+using store_format::FieldRecord;
+using store_format::HeaderRecord;
+using store_format::node_record_size;
+using store_format::NodeFieldRecord;
+using store_format::NodeRecord;
+using store_format::read_record;
+using store_format::write_record;
+
+constexpr uint32_t kMaxNameLength = 1024;
+constexpr uint32_t kMaxHeaderSize = 2u << 20;          // far above 1024 fields of 1024-byte names
+constexpr uint64_t kMaxNodeId = uint64_t(1) << 40;     // ids index arrays the writer grows
+constexpr size_t kTableChunkBytes = size_t(16) << 20;  // node table I/O in pieces: bounded temporary memory
+
+// Where field f's entry of a node record starts, from the record's first byte.
+constexpr uint64_t node_field_offset(uint64_t f) { return sizeof(NodeRecord) + sizeof(NodeFieldRecord) * f; }
+
+uint32_t crc32_of(const void* data, size_t n, uint32_t crc = 0) {
+  return uint32_t(crc32_z(crc, static_cast<const Bytef*>(data), n));
+}
+
+std::string hex32(uint32_t v) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "0x%08x", v);
+  return buf;
+}
+
+void put_corners(const Bounds& box, double (&lo)[3], double (&hi)[3]) {
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = box.lo[a];
+    hi[a] = box.hi[a];
+  }
+}
+Bounds corners_bounds(const double (&lo)[3], const double (&hi)[3]) {
+  Bounds box;
+  for (int a = 0; a < 3; ++a) {
+    box.lo[a] = lo[a];
+    box.hi[a] = hi[a];
+  }
+  return box;
+}
+
+int octant_of(const OctreeNode& n) { return int((n.i & 1) | (n.j & 1) << 1 | (n.k & 1) << 2); }
+
+// What is wrong with a tree, if anything: the node, the byte of its record that holds the culprit, and a sentence.
+struct TreeIssue {
+  uint64_t node;
+  uint64_t record_offset;
+  std::string what;
+};
+
+// The structural rules of the node table (see store/brick_store.h): node 0 is the root, each child's coordinates, level
+// and position among its siblings agree with its parent's child mask, and children come after their parent (so the
+// table has no cycles and bottom-up passes run in reverse id order).
+template <class Node>
+std::optional<TreeIssue> check_tree(std::span<const Node> nodes) {
+  const uint64_t count = nodes.size();
+  for (uint64_t id = 0; id < count; ++id) {
+    const OctreeNode& n = nodes[id];
+    if (n.level > kMaxOctreeLevel)
+      return TreeIssue{id, offsetof(NodeRecord, level), "level " + std::to_string(n.level) + " above 31"};
+    const uint64_t extent = uint64_t(1) << n.level;
+    if (n.i >= extent || n.j >= extent || n.k >= extent) {
+      return TreeIssue{id, offsetof(NodeRecord, i),
+                       "coordinates (" + std::to_string(n.i) + ", " + std::to_string(n.j) + ", " + std::to_string(n.k) +
+                           ") outside level " + std::to_string(n.level)};
+    }
+    if (id == 0) {
+      if (n.parent != kNoNode) return TreeIssue{id, offsetof(NodeRecord, parent), "the root (node 0) has a parent"};
+      if (n.level != 0) return TreeIssue{id, offsetof(NodeRecord, level), "the root (node 0) is not at level 0"};
+    } else {
+      if (n.parent >= id) {
+        return TreeIssue{id, offsetof(NodeRecord, parent),
+                         n.parent == kNoNode ? std::string("a second root (no parent)")
+                                             : "parent " + std::to_string(n.parent) + " does not precede it"};
+      }
+      const OctreeNode& p = nodes[n.parent];
+      const int o = octant_of(n);
+      if (n.level != p.level + 1 || n.i >> 1 != p.i || n.j >> 1 != p.j || n.k >> 1 != p.k) {
+        return TreeIssue{id, offsetof(NodeRecord, i),
+                         "level and coordinates are not those of a child of node " + std::to_string(n.parent)};
+      }
+      const uint64_t rank = uint64_t(std::popcount(unsigned(p.child_mask) & ((1u << o) - 1)));
+      if (!(p.child_mask >> o & 1) || p.first_child + rank != id) {
+        return TreeIssue{
+            id, offsetof(NodeRecord, parent),
+            "parent " + std::to_string(n.parent) + " does not list it as its child in octant " + std::to_string(o)};
+      }
+    }
+    if ((n.child_mask == 0) != (n.first_child == kNoNode)) {
+      return TreeIssue{id, offsetof(NodeRecord, first_child), "child mask and first child disagree"};
+    }
+    if (n.child_mask) {
+      const uint64_t children = uint64_t(std::popcount(unsigned(n.child_mask)));
+      if (n.first_child <= id || n.first_child > count || children > count - n.first_child) {
+        return TreeIssue{id, offsetof(NodeRecord, first_child),
+                         "children [" + std::to_string(n.first_child) + ", +" + std::to_string(children) +
+                             ") do not follow it inside the " + std::to_string(count) + " nodes"};
+      }
+      for (uint64_t c = n.first_child; c < n.first_child + children; ++c) {
+        if (nodes[c].parent != id) {
+          return TreeIssue{id, offsetof(NodeRecord, first_child),
+                           "its child " + std::to_string(c) + " names another parent"};
+        }
+      }
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+uint64_t OctreeNode::child(int octant) const {
+  if (octant < 0 || octant > 7 || !(child_mask >> octant & 1)) return kNoNode;
+  return first_child + uint64_t(std::popcount(unsigned(child_mask) & ((1u << octant) - 1)));
+}
+
+Bounds node_bounds(const Bounds& root, const OctreeNode& node) {
+  const Vec3d cell = root.size() * std::ldexp(1.0, -int(node.level));
+  Bounds b;
+  b.lo = root.lo + Vec3d{cell.x * node.i, cell.y * node.j, cell.z * node.k};
+  // From the next corner rather than lo + cell, so neighbours share their faces exactly.
+  b.hi = root.lo + Vec3d{cell.x * (node.i + 1.0), cell.y * (node.j + 1.0), cell.z * (node.k + 1.0)};
+  return b;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Writer
+
+BrickStoreWriter::BrickStoreWriter(std::string path, BrickStoreLayout layout)
+    : path_(std::move(path)), layout_(std::move(layout)) {
+  const BrickStoreLayout& l = layout_;
+  if (l.resolution < kMinBrickResolution || l.resolution > kMaxBrickResolution) {
+    fail_in(path_, "brick resolution " + std::to_string(l.resolution) + " outside [2, 512]");
+  }
+  if (l.fields.empty() || l.fields.size() > kMaxStoreFields) {
+    fail_in(path_, std::to_string(l.fields.size()) + " fields; a brick store holds 1 to 1024");
+  }
+  uint64_t header = sizeof(HeaderRecord);
+  for (const BrickStoreField& f : l.fields) {
+    if (f.name.empty() || f.name.size() > kMaxNameLength) {
+      fail_in(path_, "field name of " + std::to_string(f.name.size()) + " bytes; 1 to 1024 allowed");
+    }
+    if (!std::isfinite(f.min) || !std::isfinite(f.max) || f.min > f.max) {
+      fail_in(path_,
+              "field '" + f.name + "': invalid range [" + std::to_string(f.min) + ", " + std::to_string(f.max) + "]");
+    }
+    header += field_record_size(f.name.size());
+  }
+  header_size_ = uint32_t(header);
+  if (l.root.empty() || !(l.root.size().x > 0 && l.root.size().y > 0 && l.root.size().z > 0) ||
+      !std::isfinite(l.root.lo.x + l.root.lo.y + l.root.lo.z + l.root.hi.x + l.root.hi.y + l.root.hi.z)) {
+    fail_in(path_, "the octree root cell must be a finite box of positive size on every axis");
+  }
+  if (l.encoding.samples == SampleEncoding::Float32) {
+    layout_.tolerance = 0;
+  } else if (!(l.tolerance == 0 || (l.tolerance >= kQuant16Tolerance && std::isfinite(l.tolerance)))) {
+    fail_in(path_, "tolerance " + std::to_string(l.tolerance) +
+                       ": 16-bit samples honour at least 1/131070 of the field range; use 0 (per-brick range) or "
+                       "float32 samples for more");
+  }
+  for (const BrickStoreField& f : l.fields) steps_.push_back(2 * layout_.tolerance * (f.max - f.min));
+
+  out_ = std::make_unique<AtomicOutputFile>(path_);
+  // A blank header until commit(): a temporary left by a killed build has no magic.
+  const std::vector<std::byte> blank(header_size_);
+  out_->write(blank.data(), blank.size());
+}
+
+BrickStoreWriter::~BrickStoreWriter() = default;
+
+uint64_t BrickStoreWriter::block_bytes() const {
+  std::lock_guard lock(mutex_);
+  return block_bytes_;
+}
+
+EncodedBrick BrickStoreWriter::encode(std::span<const float* const> fields, const uint8_t* mask) const {
+  const size_t nf = layout_.fields.size();
+  if (fields.size() != nf) {
+    fail_in(path_, "encode: " + std::to_string(fields.size()) + " fields given, the store has " + std::to_string(nf));
+  }
+  const uint32_t r = layout_.resolution;
+  const size_t n = size_t(r) * r * r;
+  const size_t valid = mask ? size_t(std::count_if(mask, mask + n, [](uint8_t m) { return m != 0; })) : n;
+  EncodedBrick out;
+  out.valid = uint32_t(valid);
+  if (valid == 0) return out;
+  for (size_t f = 0; f < nf; ++f) {
+    EncodedBlock block;
+    try {
+      block =
+          encode_brick(layout_.encoding, r, fields[f], valid == n ? nullptr : mask, steps_[f], layout_.fields[f].min);
+    } catch (const Error& e) {
+      fail_in(path_, "field '" + layout_.fields[f].name + "': " + e.what());
+    }
+    out.sizes.push_back(uint32_t(block.bytes.size()));
+    out.crcs.push_back(crc32_of(block.bytes.data(), block.bytes.size()));
+    // Both ranges: culling by the node range must hold for what the renderer decodes, and for the exact samples.
+    out.lo.push_back(std::min(block.lo, block.decoded_lo));
+    out.hi.push_back(std::max(block.hi, block.decoded_hi));
+    out.bytes.insert(out.bytes.end(), block.bytes.begin(), block.bytes.end());
+  }
+  return out;
+}
+
+void BrickStoreWriter::append(uint64_t node, const EncodedBrick& brick) {
+  std::lock_guard lock(mutex_);
+  const size_t nf = layout_.fields.size();
+  if (done_) fail_in(path_, "brick appended after commit() or after a failed write");
+  if (node >= kMaxNodeId) fail_in(path_, "node id " + std::to_string(node) + " is absurdly large");
+  if (brick.empty()) return;
+  if (brick.sizes.size() != nf || brick.crcs.size() != nf || brick.lo.size() != nf || brick.hi.size() != nf) {
+    fail_in(path_, "append: brick of node " + std::to_string(node) + " was not encoded for this store");
+  }
+  if (node >= placed_.size()) {
+    const size_t grown = std::max<size_t>(size_t(node) + 1, placed_.size() * 3 / 2);
+    placed_.resize(grown);
+    sizes_.resize(grown * nf);
+    crcs_.resize(grown * nf);
+    lo_.resize(grown * nf);
+    hi_.resize(grown * nf);
+  }
+  if (placed_[node].offset) fail_in(path_, "node " + std::to_string(node) + " already has a brick");
+  const uint64_t offset = out_->position();
+  try {
+    out_->write(brick.bytes.data(), brick.bytes.size());
+  } catch (...) {
+    done_ = true;  // the file may hold part of the brick: only the destructor's cleanup is left to do
+    throw;
+  }
+  placed_[node] = {offset, brick.valid};
+  for (size_t f = 0; f < nf; ++f) {
+    sizes_[node * nf + f] = brick.sizes[f];
+    crcs_[node * nf + f] = brick.crcs[f];
+    lo_[node * nf + f] = brick.lo[f];
+    hi_[node * nf + f] = brick.hi[f];
+  }
+  block_bytes_ += brick.bytes.size();
+}
+
+void BrickStoreWriter::add_brick(uint64_t node, std::span<const float* const> fields, const uint8_t* mask) {
+  append(node, encode(fields, mask));
+}
+
+void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const FieldError> errors) {
+  std::lock_guard lock(mutex_);
+  if (done_) fail_in(path_, "commit() after commit() or after a failed write");
+  done_ = true;  // whatever happens below, this writer writes no more
+  const uint64_t count = nodes.size();
+  const size_t nf = layout_.fields.size();
+  if (count == 0) fail_in(path_, "commit: the tree has no node");
+  if (!errors.empty() && errors.size() != count * nf) {
+    fail_in(path_, "commit: " + std::to_string(errors.size()) + " error entries for " + std::to_string(count) +
+                       " nodes × " + std::to_string(nf) + " fields");
+  }
+  if (auto issue = check_tree(nodes))
+    fail_in(path_, "commit: node " + std::to_string(issue->node) + ": " + issue->what);
+  for (uint64_t id = count; id < placed_.size(); ++id) {
+    if (placed_[id].offset) {
+      fail_in(path_, "commit: a brick was appended for node " + std::to_string(id) + " but the tree has " +
+                         std::to_string(count) + " nodes");
+    }
+  }
+  placed_.resize(count);
+  sizes_.resize(count * nf);
+  crcs_.resize(count * nf);
+  lo_.resize(count * nf);
+  hi_.resize(count * nf);
+
+  // Value ranges bottom-up (children have larger ids), so that a node's range contains its subtree's.
+  std::vector<float> mins(count * nf, INFINITY), maxs(count * nf, -INFINITY);
+  for (uint64_t id = count; id-- > 0;) {
+    const OctreeNode& n = nodes[id];
+    for (size_t f = 0; f < nf; ++f) {
+      float& mn = mins[id * nf + f];
+      float& mx = maxs[id * nf + f];
+      if (placed_[id].offset) {
+        mn = lo_[id * nf + f];
+        mx = hi_[id * nf + f];
+      }
+      if (n.child_mask) {
+        const uint64_t end = n.first_child + uint64_t(std::popcount(unsigned(n.child_mask)));
+        for (uint64_t c = n.first_child; c < end; ++c) {
+          mn = std::min(mn, mins[c * nf + f]);
+          mx = std::max(mx, maxs[c * nf + f]);
+        }
+      }
+    }
+  }
+
+  const uint32_t rec = node_record_size(nf);
+  const double samples = double(layout_.resolution) * layout_.resolution * layout_.resolution;
+  const uint64_t table_offset = out_->position();
+  const uint64_t chunk_nodes = std::max<uint64_t>(1, kTableChunkBytes / rec);
+  std::vector<std::byte> buf;
+  uint32_t table_crc = 0;
+  for (uint64_t first = 0; first < count; first += chunk_nodes) {
+    const uint64_t end = std::min(count, first + chunk_nodes);
+    buf.assign(size_t(end - first) * rec, std::byte{0});
+    for (uint64_t id = first; id < end; ++id) {
+      std::byte* at = buf.data() + size_t(id - first) * rec;
+      const OctreeNode& n = nodes[id];
+      NodeRecord r;
+      r.parent = n.parent;
+      r.first_child = n.first_child;
+      r.brick_offset = placed_[id].offset;
+      r.i = n.i;
+      r.j = n.j;
+      r.k = n.k;
+      r.level = n.level;
+      r.child_mask = n.child_mask;
+      r.valid_fraction = float(double(placed_[id].valid) / samples);
+      write_record(at, r);
+      for (size_t f = 0; f < nf; ++f) {
+        const size_t e = id * nf + f;
+        NodeFieldRecord fr;
+        fr.min = mins[e];
+        fr.max = maxs[e];
+        fr.error_max = errors.empty() ? 0.0f : errors[e].max;
+        fr.error_rms = errors.empty() ? 0.0f : errors[e].rms;
+        fr.block_size = placed_[id].offset ? sizes_[e] : 0;
+        fr.block_crc = placed_[id].offset ? crcs_[e] : 0;
+        write_record(at + node_field_offset(f), fr);
+      }
+    }
+    table_crc = crc32_of(buf.data(), buf.size(), table_crc);
+    out_->write(buf.data(), buf.size());
+  }
+  const uint64_t file_size = out_->position();
+
+  HeaderRecord header;
+  std::memcpy(header.magic, store_format::kMagic, sizeof header.magic);
+  header.version = kBrickStoreVersion;
+  header.header_size = header_size_;
+  header.resolution = layout_.resolution;
+  header.field_count = uint32_t(nf);
+  header.node_record_size = rec;
+  header.samples = uint8_t(layout_.encoding.samples);
+  header.predictor = uint8_t(layout_.encoding.predictor);
+  header.codec = uint8_t(layout_.encoding.codec);
+  header.shuffle = layout_.encoding.shuffle ? 1 : 0;
+  header.codec_level = layout_.encoding.level;
+  header.tolerance = layout_.tolerance;
+  put_corners(layout_.root, header.root_lo, header.root_hi);
+  put_corners(layout_.data, header.data_lo, header.data_hi);
+  header.node_count = count;
+  header.node_table_offset = table_offset;
+  header.file_size = file_size;
+  header.node_table_crc = table_crc;
+  // The checksum covers the field records too, so they go into the buffer first; header_crc is 0 meanwhile.
+  std::vector<std::byte> h(header_size_, std::byte{0});
+  size_t at = sizeof(HeaderRecord);
+  for (const BrickStoreField& f : layout_.fields) {
+    FieldRecord r;
+    r.min = f.min;
+    r.max = f.max;
+    r.association = uint8_t(f.association);
+    r.name_length = uint16_t(f.name.size());
+    write_record(h.data() + at, r);
+    std::memcpy(h.data() + at + sizeof(FieldRecord), f.name.data(), f.name.size());
+    at += field_record_size(f.name.size());
+  }
+  write_record(h.data(), header);
+  header.header_crc = crc32_of(h.data(), h.size());
+  write_record(h.data(), header);
+  out_->write_at(0, h.data(), h.size());
+  out_->commit();
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Reader
+
+BrickStoreReader::BrickStoreReader(std::string path) : file_(std::move(path)) {
+  const std::vector<std::byte> header_bytes = read_header();
+  read_field_records(header_bytes);
+  read_node_table();
+  check_nodes();
+}
+
+// The header record and the field records' bytes, checked: magic, version, header size and checksum, then the fixed
+// fields.
+std::vector<std::byte> BrickStoreReader::read_header() {
+  const std::string& name = file_.path();
+  const uint64_t size = file_.size();
+  std::byte fixed[sizeof(HeaderRecord)] = {};
+  const size_t got = file_.read_some_at(0, fixed, sizeof fixed);
+  const HeaderRecord h = read_record<HeaderRecord>(fixed);
+  if (got < sizeof h.magic || std::memcmp(h.magic, store_format::kMagic, sizeof h.magic) != 0) {
+    const bool blank =
+        got >= sizeof h.magic && std::all_of(std::begin(h.magic), std::end(h.magic), [](uint8_t b) { return b == 0; });
+    fail_at_offset(name, offsetof(HeaderRecord, magic),
+                   blank ? "not a ugvr brick store: the header is blank (the temporary file of an unfinished build?)"
+                         : "not a ugvr brick store (wrong magic number)");
+  }
+  if (got < offsetof(HeaderRecord, version) + sizeof h.version)
+    fail_at_offset(name, got, "truncated brick store header");
+  if (h.version != kBrickStoreVersion) {
+    fail_at_offset(name, offsetof(HeaderRecord, version),
+                   "brick store format version " + std::to_string(h.version) + "; this build reads version " +
+                       std::to_string(kBrickStoreVersion) +
+                       (h.version < kBrickStoreVersion
+                            ? " only (older stores quantize each brick on its own grid): rebuild it with `ugvr build`"
+                            : " (written by a newer ugvr)"));
+  }
+  if (got < sizeof(HeaderRecord)) {
+    fail_at_offset(name, got, "truncated brick store: " + std::to_string(size) + " bytes, shorter than its header");
+  }
+  if (h.header_size < sizeof(HeaderRecord) || h.header_size % 8 || h.header_size > kMaxHeaderSize ||
+      h.header_size > size) {
+    fail_at_offset(
+        name, offsetof(HeaderRecord, header_size),
+        "header size " + std::to_string(h.header_size) + " impossible (file of " + std::to_string(size) + " bytes)");
+  }
+  std::vector<std::byte> bytes(h.header_size);
+  file_.read_at(0, bytes.data(), bytes.size());
+  std::memset(bytes.data() + offsetof(HeaderRecord, header_crc), 0, sizeof h.header_crc);
+  if (const uint32_t crc = crc32_of(bytes.data(), bytes.size()); crc != h.header_crc) {
+    fail_at_offset(name, offsetof(HeaderRecord, header_crc),
+                   "header checksum mismatch (stored " + hex32(h.header_crc) + ", computed " + hex32(crc) +
+                       "): the header is corrupt");
+  }
+  header_ = h;
+
+  // From here on the header is as the writer wrote it; the checks guard against a writer of another make.
+  BrickStoreLayout& l = layout_;
+  l.resolution = h.resolution;
+  if (l.resolution < kMinBrickResolution || l.resolution > kMaxBrickResolution) {
+    fail_at_offset(name, offsetof(HeaderRecord, resolution),
+                   "brick resolution " + std::to_string(l.resolution) + " outside [2, 512]");
+  }
+  if (h.field_count == 0 || h.field_count > kMaxStoreFields) {
+    fail_at_offset(name, offsetof(HeaderRecord, field_count),
+                   std::to_string(h.field_count) + " fields (1 to 1024 allowed)");
+  }
+  if (h.node_record_size != node_record_size(h.field_count)) {
+    fail_at_offset(name, offsetof(HeaderRecord, node_record_size),
+                   "node record size " + std::to_string(h.node_record_size) + ", expected " +
+                       std::to_string(node_record_size(h.field_count)) + " for " + std::to_string(h.field_count) +
+                       " fields");
+  }
+  if (h.samples < 1 || h.samples > 2 || h.predictor > 2 || h.codec > 2 || h.shuffle > 1) {
+    fail_at_offset(name, offsetof(HeaderRecord, samples), "unknown encoding settings");
+  }
+  l.encoding = {SampleEncoding(h.samples), Predictor(h.predictor), h.shuffle != 0, BrickCodec(h.codec), h.codec_level};
+  l.tolerance = h.tolerance;
+  l.root = corners_bounds(h.root_lo, h.root_hi);
+  l.data = corners_bounds(h.data_lo, h.data_hi);
+  if (l.root.empty() || !(l.root.size().x > 0 && l.root.size().y > 0 && l.root.size().z > 0)) {
+    fail_at_offset(name, offsetof(HeaderRecord, root_lo), "empty octree root cell");
+  }
+  return bytes;
+}
+
+// The field records that follow the header record, into layout_.fields.
+void BrickStoreReader::read_field_records(std::span<const std::byte> bytes) {
+  const std::string& name = file_.path();
+  const uint64_t header_size = bytes.size();
+  uint64_t at = sizeof(HeaderRecord);
+  for (uint32_t f = 0; f < header_.field_count; ++f) {
+    if (at + sizeof(FieldRecord) > header_size) {
+      fail_at_offset(name, at, "field record " + std::to_string(f) + " past the header");
+    }
+    const FieldRecord r = read_record<FieldRecord>(bytes.data() + at);
+    BrickStoreField field;
+    field.min = r.min;
+    field.max = r.max;
+    if (r.association > 1) {
+      fail_at_offset(name, at + offsetof(FieldRecord, association),
+                     "unknown field association " + std::to_string(r.association));
+    }
+    field.association = Association(r.association);
+    if (r.name_length == 0 || r.name_length > kMaxNameLength || at + field_record_size(r.name_length) > header_size) {
+      fail_at_offset(name, at + offsetof(FieldRecord, name_length),
+                     "field name length " + std::to_string(r.name_length) + " impossible");
+    }
+    field.name.assign(reinterpret_cast<const char*>(bytes.data() + at + sizeof(FieldRecord)), r.name_length);
+    layout_.fields.push_back(std::move(field));
+    at += field_record_size(r.name_length);
+  }
+}
+
+// The file's size against the header, then the node table, in chunks: the checksum runs over the raw bytes, the
+// records are parsed as they come.
+void BrickStoreReader::read_node_table() {
+  const std::string& name = file_.path();
+  const uint64_t size = file_.size(), count = header_.node_count, rec = header_.node_record_size;
+  const uint32_t nf = header_.field_count;
+  node_table_offset_ = header_.node_table_offset;
+  if (header_.file_size != size) {
+    fail_at_offset(name, std::min(header_.file_size, size),
+                   "the file has " + std::to_string(size) + " bytes, its header says " +
+                       std::to_string(header_.file_size) +
+                       (size < header_.file_size ? ": truncated" : ": data appended after its end"));
+  }
+  if (count == 0) fail_at_offset(name, offsetof(HeaderRecord, node_count), "no nodes");
+  if (node_table_offset_ < header_.header_size || node_table_offset_ > size ||
+      count > (size - node_table_offset_) / rec || count * rec != size - node_table_offset_) {
+    fail_at_offset(name, offsetof(HeaderRecord, node_table_offset),
+                   "node table of " + std::to_string(count) + " records of " + std::to_string(rec) +
+                       " bytes at offset " + std::to_string(node_table_offset_) + " does not end the " +
+                       std::to_string(size) + "-byte file");
+  }
+  nodes_.resize(count);
+  stats_.resize(count * nf);
+  blocks_.resize(count * nf);
+  const uint64_t chunk_nodes = std::max<uint64_t>(1, kTableChunkBytes / rec);
+  std::vector<std::byte> buf;
+  uint32_t table_crc = 0;
+  for (uint64_t first = 0; first < count; first += chunk_nodes) {
+    const uint64_t end = std::min(count, first + chunk_nodes);
+    buf.resize(size_t(end - first) * rec);
+    file_.read_at(node_table_offset_ + first * rec, buf.data(), buf.size());
+    table_crc = crc32_of(buf.data(), buf.size(), table_crc);
+    for (uint64_t id = first; id < end; ++id) {
+      const std::byte* p = buf.data() + size_t(id - first) * rec;
+      const NodeRecord r = read_record<NodeRecord>(p);
+      BrickNode& n = nodes_[id];
+      n.parent = r.parent;
+      n.first_child = r.first_child;
+      n.brick_offset = r.brick_offset;
+      n.i = r.i;
+      n.j = r.j;
+      n.k = r.k;
+      n.level = r.level;
+      n.child_mask = r.child_mask;
+      n.valid_fraction = r.valid_fraction;
+      for (uint32_t f = 0; f < nf; ++f) {
+        const NodeFieldRecord fr = read_record<NodeFieldRecord>(p + node_field_offset(f));
+        stats_[id * nf + f] = {fr.min, fr.max, fr.error_max, fr.error_rms};
+        blocks_[id * nf + f] = {0, fr.block_size, fr.block_crc};
+      }
+    }
+  }
+  if (table_crc != header_.node_table_crc) {
+    fail_at_offset(name, node_table_offset_,
+                   "node table checksum mismatch (stored " + hex32(header_.node_table_crc) + ", computed " +
+                       hex32(table_crc) + "): the node table is corrupt");
+  }
+}
+
+// The tree's structure, each node's valid fraction against its brick, and where its blocks lie.
+void BrickStoreReader::check_nodes() {
+  const std::string& name = file_.path();
+  const uint64_t count = nodes_.size(), header_size = header_.header_size;
+  const uint32_t nf = field_count();
+  if (auto issue = check_tree(std::span<const BrickNode>(nodes_))) {
+    fail_at_offset(name, record_offset(issue->node) + issue->record_offset,
+                   "node " + std::to_string(issue->node) + ": " + issue->what);
+  }
+  for (uint64_t id = 0; id < count; ++id) {
+    const BrickNode& n = nodes_[id];
+    if (!(n.valid_fraction >= 0 && n.valid_fraction <= 1) || (n.has_brick() != (n.valid_fraction > 0))) {
+      fail_at_offset(name, record_offset(id) + offsetof(NodeRecord, valid_fraction),
+                     "node " + std::to_string(id) + ": valid fraction " + std::to_string(n.valid_fraction) +
+                         (n.has_brick() ? " with a brick" : " without a brick"));
+    }
+    uint64_t offset = n.brick_offset;
+    for (uint32_t f = 0; f < nf; ++f) {
+      BlockRef& b = blocks_[id * nf + f];
+      const uint64_t size_at = record_offset(id) + node_field_offset(f) + offsetof(NodeFieldRecord, block_size);
+      if (!n.has_brick()) {
+        if (b.size) fail_at_offset(name, size_at, "node " + std::to_string(id) + " has no brick but a block size");
+        continue;
+      }
+      if (b.size < kBlockHeaderSize || offset < header_size || offset > node_table_offset_ ||
+          b.size > node_table_offset_ - offset) {
+        fail_at_offset(name, size_at,
+                       "node " + std::to_string(id) + " field '" + layout_.fields[f].name + "': block of " +
+                           std::to_string(b.size) + " bytes at offset " + std::to_string(offset) +
+                           " outside the block area [" + std::to_string(header_size) + ", " +
+                           std::to_string(node_table_offset_) + ")");
+      }
+      b.offset = offset;
+      offset += b.size;
+    }
+  }
+}
+
+uint64_t BrickStoreReader::record_offset(uint64_t node) const {
+  return node_table_offset_ + node * header_.node_record_size;
+}
+
+int BrickStoreReader::field_index(std::string_view field_name) const {
+  for (size_t f = 0; f < layout_.fields.size(); ++f) {
+    if (layout_.fields[f].name == field_name) return int(f);
+  }
+  return -1;
+}
+
+void BrickStoreReader::check_node_field(uint64_t node, uint32_t field) const {
+  if (node >= nodes_.size()) {
+    fail_in(path(), "node " + std::to_string(node) + " out of range (the store has " + std::to_string(nodes_.size()) +
+                        " nodes)");
+  }
+  if (field >= field_count()) {
+    fail_in(path(), "field " + std::to_string(field) + " out of range (the store has " + std::to_string(field_count()) +
+                        " fields)");
+  }
+}
+
+const BrickNode& BrickStoreReader::node(uint64_t id) const {
+  check_node_field(id, 0);
+  return nodes_[id];
+}
+
+const FieldStats& BrickStoreReader::stats(uint64_t node, uint32_t field) const {
+  check_node_field(node, field);
+  return stats_[node * field_count() + field];
+}
+
+BlockRef BrickStoreReader::block(uint64_t node, uint32_t field) const {
+  check_node_field(node, field);
+  return blocks_[node * field_count() + field];
+}
+
+void BrickStoreReader::read_block(uint64_t node, uint32_t field, std::byte* dst) const {
+  const BlockRef b = block(node, field);
+  if (b.size == 0) {
+    fail_in(path(), "node " + std::to_string(node) + " has no brick: its cell holds no data (valid fraction 0)");
+  }
+  file_.read_at(b.offset, dst, b.size);
+  if (const uint32_t crc = crc32_of(dst, b.size); crc != b.crc32) {
+    fail_at_offset(path(), b.offset,
+                   "node " + std::to_string(node) + " field '" + layout_.fields[field].name +
+                       "': brick checksum mismatch (stored " + hex32(b.crc32) + ", computed " + hex32(crc) +
+                       "): the brick is corrupt");
+  }
+}
+
+void BrickStoreReader::decode_block(uint64_t node, uint32_t field, std::span<const std::byte> block, float* samples,
+                                    uint8_t* mask) const {
+  const BlockRef b = this->block(node, field);
+  try {
+    decode_brick(block, layout_.resolution, samples, mask, path(), b.offset);
+  } catch (const Error& e) {
+    throw Error(std::string(e.what()) + " (node " + std::to_string(node) + ", field '" + layout_.fields[field].name +
+                "')");
+  }
+}
+
+void BrickStoreReader::read_brick(uint64_t node, uint32_t field, float* samples, uint8_t* mask) const {
+  thread_local std::vector<std::byte> buffer;
+  const BlockRef b = block(node, field);
+  buffer.resize(b.size);
+  read_block(node, field, buffer.data());
+  decode_block(node, field, buffer, samples, mask);
+}
+
+}  // namespace ugvr

@@ -1,0 +1,225 @@
+// The brick store: one file holding a sparse, adaptive octree of fixed-resolution bricks (Leven et al. 2002, sections
+// 3-4) over a dataset, for one or more fields. Written once by the builder (streaming: bricks in any order from any
+// number of threads, the node table at the end), read by the renderers and their caches (any brick by id, one pread,
+// from any number of threads). docs/brick-store.md explains the choices and gives the measurements.
+//
+// Octree conventions. Node 0 is the root and covers `root` (a box; the builder usually makes it a cube). A node at
+// level L with integer coordinates (i, j, k), 0 <= i, j, k < 2^L, covers the cell
+//   lo = root.lo + (i, j, k) · root.size() / 2^L,  hi = lo + root.size() / 2^L,
+// and its brick holds R³ samples at lo + (x, y, z) / (R - 1) · (hi - lo), x, y, z in [0, R): the border samples lie
+// on the cell faces, so neighbouring bricks of one level share them (paper, figure 3). A node's children are stored
+// contiguously from first_child, in increasing octant order, octant o = dx | dy << 1 | dz << 2 (child coordinates
+// 2i + dx, ...), bit o of child_mask telling whether that child exists; children always come after their parent.
+// A node whose cell holds no data at all has no brick (brick_offset 0, every block size 0, valid_fraction 0).
+//
+// File layout: [header record, field records] [blocks, appended as built] [node table], little-endian. A node's
+// brick is its F blocks back to back (field 0 first) from brick_offset, each self-describing and compressed on its
+// own (store/brick_codec.h), with its size and crc32 in the node's record. The structs of store/brick_store_format.h
+// define every byte, each member with its offset and meaning; docs/brick-store.md has the same as tables, with the
+// reasons.
+//
+// With tolerance > 0, every Quant16 block of field f lies on one grid, origin = field min, step = 2 × tolerance ×
+// (field max - field min) (both stored in each block), so samples that neighbouring bricks share decode to
+// bit-identical values (the renderer's seams stay closed). Only a brick whose values exceed the field's declared range
+// so far that 16 bits cannot cover it on that grid gets a grid of its own. With tolerance 0 (or a field of range 0)
+// each brick has its own grid, and shared samples may differ by up to a step of either brick.
+//
+// Atomicity: the writer works on a temporary next to the path (core/file.h) whose header stays all zeros until
+// commit() writes it, then renames; an interrupted or failed build leaves no file at the path, and a temporary left
+// by a killed process has no magic. The reader checks magic, version, sizes against the file size, both checksums
+// and the tree's structure at open, and each block's checksum before decoding it.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ugvr/core/file.h"
+#include "ugvr/core/vec.h"
+#include "ugvr/grid/field.h"
+#include "ugvr/store/brick_codec.h"
+#include "ugvr/store/brick_store_format.h"
+
+namespace ugvr {
+
+inline constexpr uint64_t kNoNode = ~uint64_t(0);
+inline constexpr int kMaxOctreeLevel = 31;
+inline constexpr uint32_t kMaxStoreFields = 1024;
+// The finest tolerance 16 bits can honour for any brick: a brick spanning the whole field range needs all 65536 codes.
+inline constexpr double kQuant16Tolerance = 1.0 / 131070.0;
+
+struct BrickStoreField {
+  std::string name;
+  Association association = Association::Vertex;
+  double min = 0, max = 0;  // global range over the dataset
+};
+
+// What a store holds besides its nodes. The writer takes it; the reader gives it back as read from the header.
+struct BrickStoreLayout {
+  uint32_t resolution = 32;
+  std::vector<BrickStoreField> fields;
+  Bounds root;  // the octree's root cell
+  Bounds data;  // the dataset's bounds
+  BrickEncoding encoding;
+  // Quant16: max sample error relative to each field's range, >= kQuant16Tolerance; 0: each brick uses its own
+  // range over 65535 codes (more precise in small-range bricks, larger). Ignored (stored 0) for Float32.
+  double tolerance = kQuant16Tolerance;
+};
+
+// The tree as the builder describes it.
+struct OctreeNode {
+  uint64_t parent = kNoNode;
+  uint64_t first_child = kNoNode;  // children at first_child + (rank of their octant among child_mask's bits)
+  uint32_t i = 0, j = 0, k = 0;
+  uint8_t level = 0;
+  uint8_t child_mask = 0;  // bit o: the child in octant o = dx | dy << 1 | dz << 2 exists
+
+  bool is_leaf() const { return child_mask == 0; }
+  // The child in `octant`, or kNoNode.
+  uint64_t child(int octant) const;
+};
+
+// A node as stored: the writer adds what it measured.
+struct BrickNode : OctreeNode {
+  float valid_fraction = 0;
+  uint64_t brick_offset = 0;  // 0: no brick
+
+  bool has_brick() const { return brick_offset != 0; }
+};
+
+// The builder's error figures for one field of one node, in the field's units.
+struct FieldError {
+  float max = 0, rms = 0;
+};
+
+struct FieldStats {
+  // Conservative over the subtree, for the samples as given and as decoded; +inf / -inf where it has no data.
+  float min = 0, max = 0;
+  float error_max = 0, error_rms = 0;
+};
+
+// Where one block lies.
+struct BlockRef {
+  uint64_t offset = 0;
+  uint32_t size = 0;
+  uint32_t crc32 = 0;
+};
+
+// The cell a node covers.
+Bounds node_bounds(const Bounds& root, const OctreeNode& node);
+
+// One node's bricks, encoded (by BrickStoreWriter::encode, on any thread) and ready to append.
+struct EncodedBrick {
+  std::vector<std::byte> bytes;  // the F blocks back to back; empty: the node has no valid sample, so no brick
+  std::vector<uint32_t> sizes, crcs;
+  std::vector<float> lo, hi;  // per field: range of the valid samples, exact and decoded
+  uint32_t valid = 0;         // valid samples
+
+  bool empty() const { return bytes.empty(); }
+};
+
+class BrickStoreWriter {
+ public:
+  // Creates the temporary file; throws ugvr::Error for an invalid layout.
+  BrickStoreWriter(std::string path, BrickStoreLayout layout);
+  // Without commit(), removes the temporary: nothing is left at the path.
+  ~BrickStoreWriter();
+  BrickStoreWriter(const BrickStoreWriter&) = delete;
+  BrickStoreWriter& operator=(const BrickStoreWriter&) = delete;
+
+  const BrickStoreLayout& layout() const { return layout_; }
+
+  // Encodes one node's bricks: fields[f] points to R³ samples (x fastest) of field f, mask to R³ bytes (nonzero =
+  // data; nullptr = all data). Thread-safe and I/O-free: the expensive part, to run on the builder's threads.
+  EncodedBrick encode(std::span<const float* const> fields, const uint8_t* mask) const;
+  // Appends node `node`'s bricks at the end of the file. Thread-safe (an internal mutex orders the writes); an empty
+  // brick records "no brick". A node gets at most one brick.
+  void append(uint64_t node, const EncodedBrick& brick);
+  // encode() then append().
+  void add_brick(uint64_t node, std::span<const float* const> fields, const uint8_t* mask);
+
+  // Writes the node table and the header, syncs and renames the file into place. `nodes` is the whole tree (node 0
+  // the root); `errors` has nodes.size() × F entries, node-major (empty: all zero). Validates the tree and that every
+  // appended brick belongs to a node of it; on error nothing is committed and the writer is unusable.
+  void commit(std::span<const OctreeNode> nodes, std::span<const FieldError> errors = {});
+
+  // Bytes of blocks appended so far.
+  uint64_t block_bytes() const;
+
+ private:
+  struct Placed {
+    uint64_t offset = 0;  // 0: no brick
+    uint32_t valid = 0;
+  };
+
+  std::string path_;
+  BrickStoreLayout layout_;
+  std::vector<double> steps_;  // per field, for encode_brick: the Quant16 grid's step (0: per brick)
+  uint32_t header_size_ = 0;
+  std::unique_ptr<AtomicOutputFile> out_;
+  mutable std::mutex mutex_;
+  std::vector<Placed> placed_;          // by node id
+  std::vector<uint32_t> sizes_, crcs_;  // node × F
+  std::vector<float> lo_, hi_;          // node × F
+  uint64_t block_bytes_ = 0;
+  bool done_ = false;  // committed, or failed: no more writes
+};
+
+class BrickStoreReader {
+ public:
+  // Opens and validates the store; throws ugvr::Error naming the file, the byte offset and what is wrong.
+  explicit BrickStoreReader(std::string path);
+
+  const std::string& path() const { return file_.path(); }
+  uint64_t file_size() const { return file_.size(); }
+  // The header record as stored (checksum verified); layout() is the same, decoded.
+  const store_format::HeaderRecord& header() const { return header_; }
+  // File offset of node `node`'s record in the node table (it need not exist: for messages).
+  uint64_t record_offset(uint64_t node) const;
+  const BrickStoreLayout& layout() const { return layout_; }
+  uint32_t resolution() const { return layout_.resolution; }
+  uint32_t field_count() const { return uint32_t(layout_.fields.size()); }
+  // Index of the field called `name`, or -1.
+  int field_index(std::string_view name) const;
+
+  uint64_t node_count() const { return nodes_.size(); }
+  std::span<const BrickNode> nodes() const { return nodes_; }
+  const BrickNode& node(uint64_t id) const;
+  const FieldStats& stats(uint64_t node, uint32_t field) const;
+  BlockRef block(uint64_t node, uint32_t field) const;
+  Bounds bounds(uint64_t node) const { return node_bounds(layout_.root, this->node(node)); }
+
+  // Decodes field `field` of node `node` into samples (R³ floats, x fastest) and, unless null, mask (R³ bytes, 1 =
+  // data). One pread of the block, checksum verified. Thread-safe: per-thread scratch, no shared mutable state.
+  // Throws ugvr::Error for a node without brick or a corrupt block (naming the file, node, field and offset).
+  void read_brick(uint64_t node, uint32_t field, float* samples, uint8_t* mask) const;
+
+  // For a cache of compressed bricks: read_block fills dst (block(node, field).size bytes) with the block, checksum
+  // verified; decode_block decodes such bytes (not re-verified).
+  void read_block(uint64_t node, uint32_t field, std::byte* dst) const;
+  void decode_block(uint64_t node, uint32_t field, std::span<const std::byte> block, float* samples,
+                    uint8_t* mask) const;
+
+ private:
+  // The steps of opening, in order; each throws ugvr::Error naming the file and offset.
+  std::vector<std::byte> read_header();
+  void read_field_records(std::span<const std::byte> header_bytes);
+  void read_node_table();
+  void check_nodes();
+  void check_node_field(uint64_t node, uint32_t field) const;
+
+  InputFile file_;
+  store_format::HeaderRecord header_;
+  BrickStoreLayout layout_;
+  uint64_t node_table_offset_ = 0;
+  std::vector<BrickNode> nodes_;
+  std::vector<FieldStats> stats_;  // node × F
+  std::vector<BlockRef> blocks_;   // node × F
+};
+
+}  // namespace ugvr

@@ -1,0 +1,234 @@
+// The on-disk layout of a brick store (.ugvr), as structs: these are the source of truth for every byte offset, the
+// writer and reader (store/brick_store.cpp) and the block codec (store/brick_codec.cpp) copy records to and from them
+// and use no offset of their own. docs/brick-store.md has the same layout as tables, with the reasons; what the values
+// mean for the octree (coordinates, child order, ranges) is in store/brick_store.h, how a block's payload is coded in
+// store/brick_codec.h.
+//
+//   [HeaderRecord] [FieldRecord, name, padding] × F   the header, header_size bytes
+//   [BlockRecord, payload] × (F per node with a brick)  the blocks, in the order the writer appended them
+//   [NodeRecord, NodeFieldRecord × F] × N               the node table, in node id order, ending the file
+//
+// Little-endian, written and read by copying a record's bytes (std::memcpy), so the host must be little-endian too
+// (asserted below; a big-endian port would byte-swap in read_record / write_record). No struct has padding inside
+// (the offsetof asserts leave no gap, and each ends at its last member), so a copied record has no indeterminate
+// bytes, and every member is at a multiple of its own size, so the structs need no packing; FieldRecord alone is
+// packed, because the name follows its 20 bytes directly. Reserved members are written as 0 and not checked.
+// Changing any of this changes the format: bump kBrickStoreVersion, and the reader must still refuse old files
+// clearly.
+#pragma once
+
+#include <bit>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <type_traits>
+
+namespace ugvr {
+
+static_assert(std::endian::native == std::endian::little, "the brick store is read and written as little-endian");
+
+inline constexpr uint32_t kBrickStoreVersion = 2;
+
+namespace store_format {
+
+// "\x89UBS\r\n\x1a\n": a binary tag that a text-mode (newline-translating) or 7-bit transfer, or a truncation at an
+// EOF character, breaks (the PNG trick).
+inline constexpr uint8_t kMagic[8] = {0x89, 'U', 'B', 'S', '\r', '\n', 0x1a, '\n'};
+
+// The file's first bytes; the field records follow it.
+struct HeaderRecord {
+  uint8_t magic[8] = {};           //   0  kMagic; all zeros in the temporary file of a build not yet committed
+  uint32_t version = 0;            //   8  format version, kBrickStoreVersion (version 1 quantized each brick on a
+                                   //      grid of its own and is refused)
+  uint32_t header_size = 0;        //  12  bytes of this record and the field records, a multiple of 8; the
+                                   //      blocks start here
+  uint32_t resolution = 0;         //  16  brick resolution R, samples per axis, 2..512
+  uint32_t field_count = 0;        //  20  F, 1..1024: the field records, and the entries of each node record
+  uint32_t node_record_size = 0;   //  24  bytes per node: sizeof(NodeRecord) + F × sizeof(NodeFieldRecord)
+  uint8_t samples = 0;             //  28  SampleEncoding the writer was set to: 1 quant16, 2 float32 (each block
+                                   //      states its own in its BlockRecord; these five are the writer's settings)
+  uint8_t predictor = 0;           //  29  Predictor: 0 none, 1 delta-x, 2 lorenzo
+  uint8_t codec = 0;               //  30  BrickCodec: 0 stored, 1 lz4, 2 zstd
+  uint8_t shuffle = 0;             //  31  byte shuffle of the residuals, 0 or 1
+  int32_t codec_level = 0;         //  32  BrickEncoding::level as given (<= 0: the codec's default)
+  uint32_t reserved0 = 0;          //  36  0
+  double tolerance = 0;            //  40  quant16 samples lie within tolerance × (field max - min) of the exact
+                                   //      ones; 0 for float32 (exact) and for "each brick's own range over 65535
+                                   //      codes"
+  double root_lo[3] = {};          //  48  the octree's root cell, the box node 0 covers: lower corner x, y, z
+  double root_hi[3] = {};          //  72  its upper corner
+  double data_lo[3] = {};          //  96  the dataset's bounds (inside the root cell): lower corner
+  double data_hi[3] = {};          // 120  upper corner
+  uint64_t node_count = 0;         // 144  N >= 1
+  uint64_t node_table_offset = 0;  // 152  file offset of node 0's record; the table runs to the end of the file
+  uint64_t file_size = 0;          // 160  node_table_offset + N × node_record_size: shows a truncated copy
+  uint32_t node_table_crc = 0;     // 168  crc32 (zlib) of the whole node table
+  uint32_t header_crc = 0;         // 172  crc32 (zlib) of bytes [0, header_size), these 4 bytes read as 0
+};
+
+// One per field, in field order, after the header record; each followed by its name (name_length bytes, UTF-8, not
+// terminated) and zeros up to a multiple of 8 bytes (field_record_size).
+struct [[gnu::packed]] FieldRecord {
+  double min = 0;            //  0  global minimum of the field over the dataset: what tolerances are relative to,
+                             //     and the origin of the field's quant16 grid
+  double max = 0;            //  8  global maximum
+  uint8_t association = 0;   // 16  where the source mesh had it: 0 vertex, 1 cell (Association)
+  uint8_t reserved = 0;      // 17  0
+  uint16_t name_length = 0;  // 18  L, 1..1024; the name follows at byte 20
+};
+
+// One per node, in node id order, from node_table_offset; followed by field_count NodeFieldRecords.
+struct NodeRecord {
+  uint64_t parent = 0;        //  0  parent's id; kNoNode (2^64 - 1) for the root, node 0
+  uint64_t first_child = 0;   //  8  id of the first child, the others following in octant order; kNoNode: a leaf
+  uint64_t brick_offset = 0;  // 16  file offset of the node's first block (field 0), the others back to back;
+                              //     0: the node's cell holds no data and it has no brick
+  uint32_t i = 0;             // 24  integer coordinates of the node's cell at its level, each < 2^level
+  uint32_t j = 0;             // 28
+  uint32_t k = 0;             // 32
+  uint8_t level = 0;          // 36  0..31, root 0
+  uint8_t child_mask = 0;     // 37  bit o set: the child in octant o = dx | dy << 1 | dz << 2 exists
+  uint16_t reserved0 = 0;     // 38  0
+  float valid_fraction = 0;   // 40  valid samples / R³ in the node's brick (0 exactly when there is no brick)
+  uint32_t reserved1 = 0;     // 44  0
+};
+
+// Per field of a node, in field order, after its NodeRecord.
+struct NodeFieldRecord {
+  float min = 0;            //  0  smallest sample of the node's brick and of all its descendants', over the samples
+                            //     as given and as decoded (quant16 may decode step / 2 beyond); +inf: no data
+  float max = 0;            //  4  largest, likewise; -inf: no data. Culling a node by value range culls its subtree
+  float error_max = 0;      //  8  max |sample - finest data| over the node's cell, in field units (the builder's)
+  float error_rms = 0;      // 12  root mean square of the same
+  uint32_t block_size = 0;  // 16  bytes of this field's block (0: no brick); it starts at brick_offset plus the
+                            //     sizes of the fields before it
+  uint32_t block_crc = 0;   // 20  crc32 (zlib) of the block's bytes
+};
+
+// The first bytes of every block (one field of one node's brick); the payload, compressed by `codec`, follows.
+struct BlockRecord {
+  uint8_t samples = 0;    //  0  SampleEncoding: 1 quant16, 2 float32
+  uint8_t predictor = 0;  //  1  Predictor: 0 none, 1 delta-x, 2 lorenzo
+  uint8_t codec = 0;      //  2  BrickCodec: 0 stored, 1 lz4, 2 zstd (stored when compressing would not shrink it)
+  uint8_t flags = 0;      //  3  kBlockFlagMask | kBlockFlagShuffled
+  uint32_t raw_size = 0;  //  4  bytes of the payload once decompressed
+  uint32_t valid = 0;     //  8  valid samples, 1..R³ (R³ without a mask)
+  float lo = 0;           // 12  smallest valid sample, as given to the encoder
+  float hi = 0;           // 16  largest valid sample
+  uint32_t qmax = 0;      // 20  quant16: the largest code, 0..65535; float32: 0
+  int64_t base = 0;       // 24  quant16: grid index of code 0, -2^52 <= base, base + qmax <= 2^52; float32: 0
+  double origin = 0;      // 32  quant16: value of grid index 0 (a store writes the field's min); float32: 0
+  double step = 0;        // 40  quant16: grid step, > 0 unless qmax = 0 (a store writes 2 × tolerance × field
+                          //     range); float32: 0
+};
+
+inline constexpr uint8_t kBlockFlagMask = 1;      // the payload starts with the validity mask, else all is valid
+inline constexpr uint8_t kBlockFlagShuffled = 2;  // the residuals are split into byte planes
+
+// Bytes a field record takes with its name and padding.
+constexpr uint32_t field_record_size(uint64_t name_length) {
+  return uint32_t((sizeof(FieldRecord) + name_length + 7) / 8 * 8);
+}
+// Bytes of one node's record with its per-field entries.
+constexpr uint32_t node_record_size(uint64_t field_count) {
+  return uint32_t(sizeof(NodeRecord) + sizeof(NodeFieldRecord) * field_count);
+}
+
+// A record from the bytes at p, and back. memcpy: p need not be aligned.
+template <class Record>
+Record read_record(const void* p) {
+  static_assert(std::is_trivially_copyable_v<Record>);
+  Record r;
+  std::memcpy(&r, p, sizeof r);
+  return r;
+}
+template <class Record>
+void write_record(void* p, const Record& r) {
+  static_assert(std::is_trivially_copyable_v<Record>);
+  std::memcpy(p, &r, sizeof r);
+}
+
+// The layout, checked member by member: reordering, resizing or inserting a member fails to compile here (and
+// tests/test_brick_store_format.cpp finds each value at its documented offset in a written file).
+#define UGVR_RECORD_AT(Record, member, offset) static_assert(offsetof(Record, member) == (offset), #Record "::" #member)
+
+static_assert(std::is_trivially_copyable_v<HeaderRecord> && std::is_standard_layout_v<HeaderRecord>);
+static_assert(sizeof(HeaderRecord) == 176);
+UGVR_RECORD_AT(HeaderRecord, magic, 0);
+UGVR_RECORD_AT(HeaderRecord, version, 8);
+UGVR_RECORD_AT(HeaderRecord, header_size, 12);
+UGVR_RECORD_AT(HeaderRecord, resolution, 16);
+UGVR_RECORD_AT(HeaderRecord, field_count, 20);
+UGVR_RECORD_AT(HeaderRecord, node_record_size, 24);
+UGVR_RECORD_AT(HeaderRecord, samples, 28);
+UGVR_RECORD_AT(HeaderRecord, predictor, 29);
+UGVR_RECORD_AT(HeaderRecord, codec, 30);
+UGVR_RECORD_AT(HeaderRecord, shuffle, 31);
+UGVR_RECORD_AT(HeaderRecord, codec_level, 32);
+UGVR_RECORD_AT(HeaderRecord, reserved0, 36);
+UGVR_RECORD_AT(HeaderRecord, tolerance, 40);
+UGVR_RECORD_AT(HeaderRecord, root_lo, 48);
+UGVR_RECORD_AT(HeaderRecord, root_hi, 72);
+UGVR_RECORD_AT(HeaderRecord, data_lo, 96);
+UGVR_RECORD_AT(HeaderRecord, data_hi, 120);
+UGVR_RECORD_AT(HeaderRecord, node_count, 144);
+UGVR_RECORD_AT(HeaderRecord, node_table_offset, 152);
+UGVR_RECORD_AT(HeaderRecord, file_size, 160);
+UGVR_RECORD_AT(HeaderRecord, node_table_crc, 168);
+UGVR_RECORD_AT(HeaderRecord, header_crc, 172);
+static_assert(offsetof(HeaderRecord, header_crc) + 4 == sizeof(HeaderRecord));
+static_assert(sizeof(HeaderRecord) % 8 == 0, "the field records start 8-byte aligned");
+
+static_assert(std::is_trivially_copyable_v<FieldRecord> && std::is_standard_layout_v<FieldRecord>);
+static_assert(sizeof(FieldRecord) == 20);
+UGVR_RECORD_AT(FieldRecord, min, 0);
+UGVR_RECORD_AT(FieldRecord, max, 8);
+UGVR_RECORD_AT(FieldRecord, association, 16);
+UGVR_RECORD_AT(FieldRecord, reserved, 17);
+UGVR_RECORD_AT(FieldRecord, name_length, 18);
+
+static_assert(std::is_trivially_copyable_v<NodeRecord> && std::is_standard_layout_v<NodeRecord>);
+static_assert(sizeof(NodeRecord) == 48);
+UGVR_RECORD_AT(NodeRecord, parent, 0);
+UGVR_RECORD_AT(NodeRecord, first_child, 8);
+UGVR_RECORD_AT(NodeRecord, brick_offset, 16);
+UGVR_RECORD_AT(NodeRecord, i, 24);
+UGVR_RECORD_AT(NodeRecord, j, 28);
+UGVR_RECORD_AT(NodeRecord, k, 32);
+UGVR_RECORD_AT(NodeRecord, level, 36);
+UGVR_RECORD_AT(NodeRecord, child_mask, 37);
+UGVR_RECORD_AT(NodeRecord, reserved0, 38);
+UGVR_RECORD_AT(NodeRecord, valid_fraction, 40);
+UGVR_RECORD_AT(NodeRecord, reserved1, 44);
+static_assert(offsetof(NodeRecord, reserved1) + 4 == sizeof(NodeRecord));
+
+static_assert(std::is_trivially_copyable_v<NodeFieldRecord> && std::is_standard_layout_v<NodeFieldRecord>);
+static_assert(sizeof(NodeFieldRecord) == 24);
+UGVR_RECORD_AT(NodeFieldRecord, min, 0);
+UGVR_RECORD_AT(NodeFieldRecord, max, 4);
+UGVR_RECORD_AT(NodeFieldRecord, error_max, 8);
+UGVR_RECORD_AT(NodeFieldRecord, error_rms, 12);
+UGVR_RECORD_AT(NodeFieldRecord, block_size, 16);
+UGVR_RECORD_AT(NodeFieldRecord, block_crc, 20);
+static_assert(offsetof(NodeFieldRecord, block_crc) + 4 == sizeof(NodeFieldRecord));
+
+static_assert(std::is_trivially_copyable_v<BlockRecord> && std::is_standard_layout_v<BlockRecord>);
+static_assert(sizeof(BlockRecord) == 48);
+UGVR_RECORD_AT(BlockRecord, samples, 0);
+UGVR_RECORD_AT(BlockRecord, predictor, 1);
+UGVR_RECORD_AT(BlockRecord, codec, 2);
+UGVR_RECORD_AT(BlockRecord, flags, 3);
+UGVR_RECORD_AT(BlockRecord, raw_size, 4);
+UGVR_RECORD_AT(BlockRecord, valid, 8);
+UGVR_RECORD_AT(BlockRecord, lo, 12);
+UGVR_RECORD_AT(BlockRecord, hi, 16);
+UGVR_RECORD_AT(BlockRecord, qmax, 20);
+UGVR_RECORD_AT(BlockRecord, base, 24);
+UGVR_RECORD_AT(BlockRecord, origin, 32);
+UGVR_RECORD_AT(BlockRecord, step, 40);
+static_assert(offsetof(BlockRecord, step) + 8 == sizeof(BlockRecord));
+
+#undef UGVR_RECORD_AT
+
+}  // namespace store_format
+}  // namespace ugvr
