@@ -2,10 +2,9 @@
 // ParaView preset JSON, and render settings.
 #include <gtest/gtest.h>
 
-#include <nlohmann/json.hpp>
-
 #include <cmath>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <numbers>
 
 #include "ugvr/core/error.h"

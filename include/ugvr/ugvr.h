@@ -61,8 +61,8 @@ struct StoreSummary {
 
 // Builds the store of `inputs` (files, as read_dataset takes them) at `output` (.ugvr; written to a temporary file and
 // renamed when complete).
-StoreSummary build_store(const std::vector<std::string>& inputs, const std::string& output,
-                         const StoreOptions& options, const ReadOptions& read = {});
+StoreSummary build_store(const std::vector<std::string>& inputs, const std::string& output, const StoreOptions& options,
+                         const ReadOptions& read = {});
 // The same from a dataset in memory.
 StoreSummary build_store_from_dataset(const Dataset& dataset, const std::string& output, const StoreOptions& options);
 
@@ -72,7 +72,7 @@ struct RendererConfig {
   bool interactive = false;     // hold FrameRequest::target_fps, converging to full quality at rest
   std::string field;            // bound at once (empty: the first)
   // Level of detail.
-  std::string gpu = "auto";                      // EGL device index, or auto: the first GPU, else Mesa's llvmpipe
+  std::string gpu = "auto";                       // EGL device index, or auto: the first GPU, else Mesa's llvmpipe
   uint64_t gpu_memory_bytes = uint64_t(2) << 30;  // bricks on the GPU
   uint64_t ram_memory_bytes = uint64_t(1) << 30;  // interactive: decoded bricks in RAM
   double step_voxels = 0.5;                       // sample step at rest, in voxels of each node

@@ -3,12 +3,12 @@
 // the build here. It reads a small mesh, renders it with the exact engine, builds its brick store and renders that
 // with the level-of-detail engine, one frame and interactively.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
-#include <unistd.h>
 
 #include "ugvr/ugvr.h"
 
