@@ -31,4 +31,16 @@ inline CLI::Option* add_byte_size_option(CLI::App& cmd, const std::string& name,
   return cmd.add_option(name, bytes, description)->transform(CLI::AsSizeValue(true))->default_str(default_size);
 }
 
+// The level-of-detail engine's device and memory flags, the same for `ugvr render` and `ugvr view`: --gpu,
+// --gpu-memory (the atlas of bricks) and --ram-memory (decoded bricks; `ram_use` says whose).
+inline void add_gpu_memory_flags(CLI::App& cmd, std::string& gpu, uint64_t& gpu_memory, uint64_t& ram_memory,
+                                 const std::string& ram_use) {
+  cmd.add_option("--gpu", gpu, "EGL device index, or auto (first GPU, else Mesa's llvmpipe)")
+      ->default_str("auto")
+      ->type_name("DEVICE");
+  add_byte_size_option(cmd, "--gpu-memory", gpu_memory, "GPU memory for bricks (e.g. 512MiB, 4GiB)", "2GiB");
+  add_byte_size_option(cmd, "--ram-memory", ram_memory, "RAM for decoded bricks (e.g. 256MiB, 4GiB), " + ram_use,
+                       "1GiB");
+}
+
 }  // namespace ugvr::cli

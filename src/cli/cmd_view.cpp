@@ -171,12 +171,8 @@ void register_view(CLI::App& app) {
       ->default_str("127.0.0.1");
   cmd->add_option("--size", opts->size, "Initial image size: N or WxH, sides in [16, 4096] (the page then sets it)")
       ->default_str("512");
-  cmd->add_option("--gpu", opts->gpu, "EGL device index, or auto (first GPU, else Mesa's llvmpipe)")
-      ->default_str("auto");
-  add_byte_size_option(*cmd, "--gpu-memory", opts->gpu_memory, "GPU memory for bricks (e.g. 512MiB, 4GiB)", "2GiB");
-  add_byte_size_option(*cmd, "--ram-memory", opts->ram_memory,
-                       "RAM for decoded bricks, per browser tab (e.g. 256MiB, 4GiB): what a resting view can refine to",
-                       "1GiB");
+  add_gpu_memory_flags(*cmd, opts->gpu, opts->gpu_memory, opts->ram_memory,
+                       "per browser tab: what a resting view can refine to");
   cmd->add_option("--fps", opts->fps, "Frame-rate target while interacting (0: every frame at full quality)")
       ->default_str("10");
   cmd->callback([opts] { run_view(*opts); });

@@ -152,12 +152,7 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
                   "pixels:P (one voxel <= P pixels on screen)")
       ->default_str("pixels:1")
       ->type_name("SPEC");
-  cmd->add_option("--gpu", opts->gpu, "lod: EGL device index, or auto (first GPU, else Mesa's llvmpipe)")
-      ->default_str("auto")
-      ->type_name("DEVICE");
-  cmd->add_option("--gpu-memory", opts->gpu_memory, "lod: GPU memory for bricks (e.g. 512MiB, 4GiB)")
-      ->transform(CLI::AsSizeValue(true))
-      ->default_str("2GiB");
+  add_gpu_memory_flags(*cmd, opts->gpu, opts->gpu_memory, opts->ram_memory, "lod: along --path");
   cmd->add_option("--step-voxels", opts->step_voxels, "lod: sample step in voxels of each node (default 0.5)")
       ->type_name("F");
   cmd->add_option("--fps", opts->fps, "lod: target frame rate held along --path (time-critical level of detail)")
@@ -169,9 +164,6 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
                   "frames); --stats then writes one JSON line per frame")
       ->type_name("SPEC|FILE");
   cmd->add_option("--out", opts->out_dir, "lod: write every frame of --path as DIR/frame_NNNNN.png")->type_name("DIR");
-  cmd->add_option("--ram-memory", opts->ram_memory, "lod: RAM cache for decoded bricks along --path")
-      ->transform(CLI::AsSizeValue(true))
-      ->default_str("1GiB");
   cmd->add_option("--uploads-per-frame", opts->uploads_per_frame, "lod: bricks uploaded to the GPU per frame (64)")
       ->type_name("N");
   cmd->add_option("--error-weight", opts->error_weight,
