@@ -18,14 +18,19 @@ constexpr size_t kMaxRecordBytes = 16 + 16 * 8 + 4 * 8 * 1024;
 
 }  // namespace
 
-SoupWriter::SoupWriter(std::string path, const SoupLayout& layout) : path_(std::move(path)), layout_(layout) {
-  file_ = std::fopen(path_.c_str(), "wb");
-  if (!file_) fail_io(path_, "cannot create the temporary cell file");
-  buffer_.reserve(kBufferBytes + kMaxRecordBytes);  // flushed past kBufferBytes: never reallocated
+SoupFile::SoupFile(std::string path, const SoupLayout& layout, const char* mode, const char* what)
+    : path_(std::move(path)), layout_(layout) {
+  file_ = std::fopen(path_.c_str(), mode);
+  if (!file_) fail_io(path_, what);
 }
 
-SoupWriter::~SoupWriter() {
+SoupFile::~SoupFile() {
   if (file_) std::fclose(file_);
+}
+
+SoupWriter::SoupWriter(std::string path, const SoupLayout& layout)
+    : SoupFile(std::move(path), layout, "wb", "cannot create the temporary cell file") {
+  buffer_.reserve(kBufferBytes + kMaxRecordBytes);  // flushed past kBufferBytes: never reallocated
 }
 
 void SoupWriter::write(const void* data, size_t n) {
@@ -71,14 +76,9 @@ void SoupWriter::close() {
   if (rc != 0) fail_io(path_, "cannot close the temporary cell file");
 }
 
-SoupReader::SoupReader(std::string path, const SoupLayout& layout) : path_(std::move(path)), layout_(layout) {
-  file_ = std::fopen(path_.c_str(), "rb");
-  if (!file_) fail_io(path_, "cannot open the temporary cell file");
+SoupReader::SoupReader(std::string path, const SoupLayout& layout)
+    : SoupFile(std::move(path), layout, "rb", "cannot open the temporary cell file") {
   buffer_.resize(kBufferBytes);
-}
-
-SoupReader::~SoupReader() {
-  if (file_) std::fclose(file_);
 }
 
 bool SoupReader::fill(size_t need) {

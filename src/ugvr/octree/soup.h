@@ -66,13 +66,27 @@ class SoupCell {
   const SoupLayout* layout_;
 };
 
+// What a soup writer and reader share: the open file, its layout and a block buffer; the file closes with the object.
+class SoupFile {
+ public:
+  SoupFile(const SoupFile&) = delete;
+  SoupFile& operator=(const SoupFile&) = delete;
+  const SoupLayout& layout() const { return layout_; }
+
+ protected:
+  // `mode` as fopen takes it; `what` says what failed ("cannot create the temporary cell file").
+  SoupFile(std::string path, const SoupLayout& layout, const char* mode, const char* what);
+  ~SoupFile();
+  std::string path_;
+  SoupLayout layout_;
+  std::FILE* file_ = nullptr;
+  std::vector<std::byte> buffer_;
+};
+
 // Appends records to a new file (truncating one that exists). Throws ugvr::Error naming the file on I/O failure.
-class SoupWriter {
+class SoupWriter : public SoupFile {
  public:
   SoupWriter(std::string path, const SoupLayout& layout);
-  ~SoupWriter();
-  SoupWriter(const SoupWriter&) = delete;
-  SoupWriter& operator=(const SoupWriter&) = delete;
 
   // A record from its parts: ids, positions (n each), vertex values (Fv x n, field-major), cell values (Fc).
   void add(uint64_t id, CellType type, int n, const uint32_t* vertices, const Vec3f* positions,
@@ -88,32 +102,20 @@ class SoupWriter {
   void write(const void* data, size_t n);
   void flush();
 
-  std::string path_;
-  SoupLayout layout_;
-  std::FILE* file_ = nullptr;
-  std::vector<std::byte> buffer_;
   uint64_t records_ = 0, bytes_ = 0;
 };
 
 // Reads a soup file front to back in large blocks.
-class SoupReader {
+class SoupReader : public SoupFile {
  public:
   SoupReader(std::string path, const SoupLayout& layout);
-  ~SoupReader();
-  SoupReader(const SoupReader&) = delete;
-  SoupReader& operator=(const SoupReader&) = delete;
 
   // The next record, valid until the next call; false at the end of the file.
   bool next(const std::byte*& record);
-  const SoupLayout& layout() const { return layout_; }
 
  private:
   bool fill(size_t need);
 
-  std::string path_;
-  SoupLayout layout_;
-  std::FILE* file_ = nullptr;
-  std::vector<std::byte> buffer_;
   size_t begin_ = 0, end_ = 0;
   bool eof_ = false;
 };
