@@ -1,8 +1,10 @@
 // Fixed scenes through `ugvr render` with every engine, compared with reference images made before the renderer
 // interface existed (tests/golden: scenes.txt lists them, make_references.sh made them). The exact engine must give
 // the same bits anywhere (no FMA contraction, deterministic per pixel); the LOD engine the same bits on the GL
-// renderer the references were drawn with (renderer.txt), and within a small tolerance on another one (a GPU, or
-// llvmpipe with other vector widths), where the shader's float arithmetic may round differently.
+// renderer the references were drawn with (renderer.txt). Another GL renderer draws the same scenes a little
+// differently: on an NVIDIA H200 the LOD scenes were 42-104 dB from llvmpipe's (GPUs filter textures with fixed-point
+// weights; MIP, which keeps the largest sample, shows it most), the same for the code before and after the renderer
+// interface (bench/results/gpu/golden_nvidia.txt). There the test asks for a close image, not the same bits.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -102,10 +104,13 @@ TEST_F(GoldenImages, EveryEngineDrawsTheReferenceImages) {
       if (got.rgba[i] != want.rgba[i]) ++differing;
       max_abs = std::max(max_abs, double(std::abs(got.rgba[i] - want.rgba[i])));
     }
-    if (exact_bits)
+    if (exact_bits) {
       EXPECT_EQ(differing, 0u) << "values differ from the reference (max " << max_abs << ")";
-    else
-      EXPECT_LT(max_abs, 2e-3) << differing << " values differ on another GL renderer";
+    } else {
+      const ImageDifference d = compare_images(got, want);
+      EXPECT_GT(d.psnr_db, 35.0) << differing << " values differ on " << renderer << " (max " << max_abs << ")";
+      EXPECT_GT(ssim(got, want), 0.99) << renderer;
+    }
   }
   EXPECT_GE(lod_scenes, 5);
 }

@@ -22,6 +22,7 @@
 #include "ugvr/core/json_file.h"
 #include "ugvr/core/memory.h"
 #include "ugvr/core/progress.h"
+#include "ugvr/core/threads.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/camera_path.h"
 #include "ugvr/render/image.h"
@@ -252,7 +253,7 @@ void run_render(const Options& o) {
   const double median_cpu_seconds =
       frames > 1 ? median(std::vector<double>(frame_cpu_seconds.begin() + 1, frame_cpu_seconds.end()))
                  : frame_cpu_seconds[0];
-  const int threads_used = tbb::this_task_arena::max_concurrency();
+  const int threads_used = worker_threads();
 
   write_image(o.output, image);
   if (!o.float_output.empty()) write_pfm(o.float_output, image);

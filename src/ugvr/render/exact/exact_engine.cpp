@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "ugvr/core/error.h"
+#include "ugvr/core/threads.h"
 #include "ugvr/grid/cell_interpolation.h"
 #include "ugvr/render/exact/boundary_bins.h"
 #include "ugvr/render/exact/ray_frame.h"
@@ -729,7 +730,7 @@ Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, cons
     stats->reentries = total.reentries;
     stats->nonlinear_samples = total.nonlinear_samples;
     stats->lost_rays = total.lost_rays;
-    stats->threads = tbb::this_task_arena::max_concurrency();
+    stats->threads = worker_threads();
   }
   return image;
 }

@@ -9,6 +9,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/memory.h"
+#include "ugvr/core/threads.h"
 
 namespace ugvr {
 
@@ -44,9 +45,7 @@ void ExactFrameStats::to_json(nlohmann::json& j) const {
 
 ExactRenderer::ExactRenderer(std::shared_ptr<ExactScene> scene) : scene_(std::move(scene)) { scene_->bind(field_); }
 
-std::string ExactRenderer::device() const {
-  return "CPU, " + std::to_string(tbb::this_task_arena::max_concurrency()) + " threads";
-}
+std::string ExactRenderer::device() const { return "CPU, " + std::to_string(worker_threads()) + " threads"; }
 
 void ExactRenderer::set_field(std::string_view name) {
   scene_->bind(std::string(name));
