@@ -350,15 +350,21 @@ TEST(LodEngine, CallersCutWithCachedBricksMatchesItsOwnCut) {
   ASSERT_TRUE(cache.wait_all(30));
   LodEngine b(s.store, *s.gl);
   b.set_field("wave");
-  const Image theirs = b.render_nodes(v.camera, tf, v.settings, cut.nodes, [&](uint64_t n) { return cache.get(n); });
+  BrickResidency with_cache(b.store(), b.gpu_slots(), &cache);
+  EXPECT_TRUE(with_cache.resident(cut.nodes[0]));
+  EXPECT_FALSE(with_cache.on_gpu(cut.nodes[0]));
+  LodRenderStats sb;
+  const Image theirs = b.render_nodes(v.camera, tf, v.settings, cut.nodes, with_cache, &sb);
   EXPECT_EQ(compare_images(own, theirs).max_abs, 0.0);
-  EXPECT_TRUE(b.in_atlas(cut.nodes[0]));
-  // A brick the source does not have is read by the engine itself: late, never a hole in the image.
+  EXPECT_TRUE(with_cache.on_gpu(cut.nodes[0]));
+  EXPECT_EQ(sb.bricks_read_sync, 0u);
+  // A brick the RAM tier does not have is read by the engine itself: late, never a hole in the image.
   LodEngine c(s.store, *s.gl);
   c.set_field("wave");
+  BrickCache empty(store, field, uint64_t(64) << 20, 1);
+  BrickResidency with_empty(c.store(), c.gpu_slots(), &empty);
   LodRenderStats sc;
-  const Image late = c.render_nodes(
-      v.camera, tf, v.settings, cut.nodes, [](uint64_t) { return nullptr; }, &sc);
+  const Image late = c.render_nodes(v.camera, tf, v.settings, cut.nodes, with_empty, &sc);
   EXPECT_EQ(compare_images(own, late).max_abs, 0.0);
   EXPECT_EQ(sc.bricks_read_sync, cut.nodes.size());
 }

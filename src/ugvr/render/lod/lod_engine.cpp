@@ -10,12 +10,12 @@
 #include <map>
 #include <memory>
 #include <tuple>
-#include <unordered_map>
 
 #include "lod_shared.h"  // shaders/lod_shared.h: what the engine and shaders/lod_raycast.comp agree on
 #include "ugvr/core/error.h"
 #include "ugvr/gpu/gl_program.h"
 #include "ugvr/render/lod/brick_atlas.h"
+#include "ugvr/render/lod/brick_residency.h"
 #include "ugvr/store/brick_store.h"
 
 namespace ugvr {
@@ -92,16 +92,12 @@ struct LodEngine::Impl {
   int out_w = 0, out_h = 0;
   BrickAtlas atlas;
   bool have_atlas = false;
-  std::unordered_map<uint64_t, uint64_t> resident;  // node -> slot
-  std::vector<uint64_t> slot_owner;                 // slot -> node (kNoNode: free)
-  std::vector<uint64_t> slot_frame;                 // slot -> last frame that drew it (LRU eviction)
-  uint64_t frame = 0;
-  uint64_t sync_reads = 0;  // bricks the last frame read itself (no source, or the source lacked them)
+  BrickSlotTable slot_table;  // which slot of the atlas holds which node's brick (brick_residency.h)
 
   Impl(const std::string& path, const GlContext& g, LodOptions o) : store(path), gl(g), options(o) {}
   uint64_t budget_slots() const;
   void ensure_atlas(uint64_t needed);
-  uint64_t load(std::span<const uint64_t> nodes, const TexelSource& source);
+  uint64_t load(std::span<const uint64_t> nodes, BrickResidency& residency);
   void upload_transfer_function(const TransferFunction& tf);
   lod_gpu::LodFrame frame_parameters(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
                                      bool overlay) const;
@@ -133,65 +129,26 @@ void LodEngine::Impl::ensure_atlas(uint64_t needed) {
   atlas = BrickAtlas();
   atlas = BrickAtlas(store.resolution(), std::max(want, needed), gl.max_3d_texture_size());
   have_atlas = true;
-  resident.clear();
-  slot_owner.assign(atlas.capacity(), kNoNode);
-  slot_frame.assign(atlas.capacity(), 0);
+  slot_table.reset(atlas.capacity());
 }
 
-// Gives every cut node a slot, keeping resident ones where they are, and loads the missing bricks: free slots first,
-// then those of the bricks drawn least recently.
-uint64_t LodEngine::Impl::load(std::span<const uint64_t> nodes, const TexelSource& source) {
-  ++frame;
-  sync_reads = 0;
-  std::vector<uint64_t> missing;
-  for (uint64_t n : nodes) {
-    auto it = resident.find(n);
-    if (it != resident.end())
-      slot_frame[it->second] = frame;
-    else
-      missing.push_back(n);
-  }
-  if (missing.empty()) return 0;
-  std::vector<uint64_t> slots;
-  for (uint64_t s = 0; s < slot_owner.size(); ++s)
-    if (slot_frame[s] != frame) slots.push_back(s);
-  if (slots.size() < missing.size()) fail_in("lod engine", "internal: the atlas is smaller than the cut");
-  // Never-used slots have frame 0 and come first.
-  std::partial_sort(
-      slots.begin(), slots.begin() + std::ptrdiff_t(missing.size()), slots.end(),
-      [&](uint64_t a, uint64_t b) { return slot_frame[a] != slot_frame[b] ? slot_frame[a] < slot_frame[b] : a < b; });
-
-  const uint32_t r = store.resolution();
-  const size_t n3 = size_t(r) * r * r;
+// Gives every cut node a slot, keeping resident ones where they are, and uploads the missing bricks the residency
+// fetches (free slots first, then those of the bricks drawn least recently: BrickSlotTable), a batch at a time.
+uint64_t LodEngine::Impl::load(std::span<const uint64_t> nodes, BrickResidency& residency) {
+  const BrickSlotTable::Plan plan = residency.plan(nodes);
   const double lo = store.layout().fields[field].min, hi = store.layout().fields[field].max;
-  std::vector<std::vector<uint16_t>> texels(kLoadBatch);
-  std::vector<std::shared_ptr<const std::vector<uint16_t>>> given(kLoadBatch);
-  for (size_t b = 0; b < missing.size(); b += kLoadBatch) {
-    const size_t count = std::min(kLoadBatch, missing.size() - b);
-    // From the source where it has the brick; read here otherwise (a RAM cache may have evicted a brick between the
-    // controller's choice and this frame: late, not wrong).
-    for (size_t i = 0; i < count; ++i) given[i] = source ? source(missing[b + i]) : nullptr;
-    tbb::parallel_for(size_t(0), count, [&](size_t i) {
-      if (given[i]) return;
-      thread_local std::vector<float> samples;
-      thread_local std::vector<uint8_t> mask;
-      samples.resize(n3);
-      mask.resize(n3);
-      store.read_brick(missing[b + i], field, samples.data(), mask.data());
-      make_atlas_slot(r, samples.data(), mask.data(), lo, hi, texels[i]);
-    });
+  std::vector<std::vector<uint16_t>> read(kLoadBatch);
+  std::vector<BrickResidency::Texels> ram(kLoadBatch);
+  for (size_t b = 0; b < plan.missing.size(); b += kLoadBatch) {
+    const size_t count = std::min(kLoadBatch, plan.missing.size() - b);
+    residency.fetch(plan, b, count, field, lo, hi, ram, read);
     for (size_t i = 0; i < count; ++i) {
-      const uint64_t slot = slots[b + i], node = missing[b + i];
-      if (slot_owner[slot] != kNoNode) resident.erase(slot_owner[slot]);
-      if (!given[i]) ++sync_reads;
-      atlas.upload(slot, given[i] ? given[i]->data() : texels[i].data());
-      slot_owner[slot] = node;
-      slot_frame[slot] = frame;
-      resident[node] = slot;
+      atlas.upload(plan.slots[b + i], ram[i] ? ram[i]->data() : read[i].data());
+      residency.place(plan.missing[b + i], plan.slots[b + i]);
     }
   }
-  check_gl("uploading bricks");
-  return missing.size();
+  if (!plan.missing.empty()) check_gl("uploading bricks");
+  return plan.missing.size();
 }
 
 // The transfer function over its own range, TF_TEXELS texels; values reach it through the frame's u_tf_map.
@@ -286,9 +243,7 @@ void LodEngine::set_field(std::string_view name) {
   }
   if (uint32_t(f) != I.field) {
     I.field = uint32_t(f);
-    I.resident.clear();
-    std::fill(I.slot_owner.begin(), I.slot_owner.end(), kNoNode);
-    std::fill(I.slot_frame.begin(), I.slot_frame.end(), 0);
+    I.slot_table.clear();
   }
 }
 
@@ -313,7 +268,8 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   co.tf_cull = !boundary_overlay_on(settings);
   const Cut cut = select_cut(I.store, cut_spec, camera, settings.width, settings.height, tf, co);
   st.cut_seconds = seconds_since(t0);
-  const Image image = render_nodes(camera, tf, settings, cut.nodes, {}, &st);
+  BrickResidency from_store(I.store, I.slot_table);  // no RAM tier: the bricks are read here
+  const Image image = render_nodes(camera, tf, settings, cut.nodes, from_store, &st);
   st.cut_nodes = cut.nodes.size();
   st.culled_frustum = cut.culled_frustum;
   st.culled_tf = cut.culled_tf;
@@ -325,7 +281,8 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   return image;
 }
 
-bool LodEngine::in_atlas(uint64_t node) const { return impl_->resident.count(node) != 0; }
+BrickSlotTable& LodEngine::gpu_slots() { return impl_->slot_table; }
+const BrickSlotTable& LodEngine::gpu_slots() const { return impl_->slot_table; }
 uint64_t LodEngine::atlas_budget_bricks() const { return impl_->budget_slots(); }
 const BrickStoreReader& LodEngine::store() const { return impl_->store; }
 uint32_t LodEngine::field() const { return impl_->field; }
@@ -335,8 +292,15 @@ void LodEngine::set_step_voxels(double step) {
 }
 
 Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
-                              std::span<const uint64_t> nodes, const TexelSource& source, LodRenderStats* stats) {
+                              std::span<const uint64_t> nodes, LodRenderStats* stats) {
+  BrickResidency from_store(impl_->store, impl_->slot_table);
+  return render_nodes(camera, tf, settings, nodes, from_store, stats);
+}
+
+Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
+                              std::span<const uint64_t> nodes, BrickResidency& residency, LodRenderStats* stats) {
   Impl& I = *impl_;
+  if (&residency.gpu() != &I.slot_table) fail_in("lod engine", "the residency is another engine's (gpu_slots())");
   settings.validate("render settings");
   tf.validate("transfer function");
   if (settings.iso_values.size() > size_t(lod_gpu::MAX_ISO))
@@ -355,11 +319,11 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
 
   const auto t1 = std::chrono::steady_clock::now();
   I.ensure_atlas(nodes.size());
-  st.bricks_loaded = I.load(nodes, source);
-  st.bricks_read_sync = I.sync_reads;
+  st.bricks_loaded = I.load(nodes, residency);
+  st.bricks_read_sync = residency.sync_reads();
   std::vector<uint32_t> state(I.store.node_count(), lod_gpu::NODE_SKIP);
   for (uint64_t n : nodes) {
-    state[n] = uint32_t(I.resident.at(n));
+    state[n] = uint32_t(I.slot_table.slot(n));
     for (uint64_t p = I.store.node(n).parent; p != kNoNode && state[p] != lod_gpu::NODE_DESCEND;
          p = I.store.node(p).parent)
       state[p] = lod_gpu::NODE_DESCEND;

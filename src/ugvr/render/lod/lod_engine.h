@@ -11,7 +11,6 @@
 #pragma once
 
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -22,6 +21,7 @@
 #include "ugvr/gpu/gl_context.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/image.h"
+#include "ugvr/render/lod/brick_residency.h"
 #include "ugvr/render/lod/lod_cut.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/transfer_function.h"
@@ -40,7 +40,7 @@ struct LodRenderStats {
   uint64_t bricks_entered = 0;  // node traversals, summed over rays
   uint64_t cut_nodes = 0;
   uint64_t bricks_loaded = 0;     // uploaded to the atlas this frame
-  uint64_t bricks_read_sync = 0;  // of those, read from the store on the render thread (not from a texel source)
+  uint64_t bricks_read_sync = 0;  // of those, read from the store on the render thread (not from the RAM tier)
   uint64_t culled_frustum = 0, culled_tf = 0;
   bool budget_limited = false;
   int max_level = 0;
@@ -80,17 +80,20 @@ class LodEngine {
   Image render(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings, const CutSpec& cut,
                LodRenderStats* stats = nullptr);
 
-  // Where the bricks of nodes not yet in the atlas come from: the texels make_atlas_slot builds (brick_atlas.h), or
-  // null when the source does not have it (the engine then reads it from the store itself, on this thread).
-  using TexelSource = std::function<std::shared_ptr<const std::vector<uint16_t>>(uint64_t node)>;
   // Renders exactly `nodes`, a cut chosen by the caller (the time-critical controller): they must cover the data at
-  // most once. Bricks not in the atlas come from `source`, or are read from the store here when `source` is empty.
+  // most once. The residency (brick_residency.h: this engine's gpu_slots() and the caller's RAM tier) gives each node
+  // its atlas slot and the texels of the bricks not in the atlas yet: from its RAM cache, or read from the store here.
   // The atlas keeps bricks across frames and evicts the least recently drawn first. Throws ugvr::Error when the cut
   // does not fit the atlas budget.
   Image render_nodes(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
-                     std::span<const uint64_t> nodes, const TexelSource& source = {}, LodRenderStats* stats = nullptr);
-  // Whether node's brick is in the atlas now (for the controller: drawing it costs no upload).
-  bool in_atlas(uint64_t node) const;
+                     std::span<const uint64_t> nodes, BrickResidency& residency, LodRenderStats* stats = nullptr);
+  // The same with no RAM tier: the missing bricks are read from the store on this thread.
+  Image render_nodes(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
+                     std::span<const uint64_t> nodes, LodRenderStats* stats = nullptr);
+  // The GPU tier's bookkeeping (which node's brick is in which atlas slot), shared by every session drawing with this
+  // engine: a session's BrickResidency refers to it. A new atlas (the cut outgrew it) or a new field empties it.
+  BrickSlotTable& gpu_slots();
+  const BrickSlotTable& gpu_slots() const;
   // Bricks the atlas may hold within the options' budget.
   uint64_t atlas_budget_bricks() const;
   const BrickStoreReader& store() const;

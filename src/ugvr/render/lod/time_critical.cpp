@@ -21,7 +21,8 @@ struct TimeCriticalRenderer::Impl {
   LodEngine& engine;
   TimeCriticalOptions options;
   ActiveCut cut;
-  BrickCache cache;
+  BrickCache cache;            // the RAM tier
+  BrickResidency residency;    // where each brick is: the engine's atlas (shared), `cache`, or the store
   FrameController controller;  // budgets ray samples
   QualityPolicy policy;
   std::optional<Camera> last_camera;
@@ -35,6 +36,7 @@ struct TimeCriticalRenderer::Impl {
         options(o),
         cut(e.store(), ActiveCutOptions{e.field(), o.pixels, o.error_weight}),
         cache(e.store(), e.field(), o.ram_budget_bytes, o.loader_threads),
+        residency(e.store(), e.gpu_slots(), &cache),
         policy(QualityPolicyOptions{.min_scale = o.min_scale}) {
     FrameControllerOptions fc;
     fc.target_seconds = o.target_fps > 0 ? 1.0 / o.target_fps : 0.0;
@@ -94,17 +96,16 @@ Image TimeCriticalRenderer::Impl::step(const Camera& camera, const TransferFunct
   scaled.height = std::max(1, int(std::lround(settings.height * f.scale)));
   if (scaled.width == settings.width && scaled.height == settings.height) f.scale = 1;
   cull_for(settings);
-  const CutUpdate u = cut.update(camera, scaled.width, scaled.height, tf, budget,
-                                 [&](uint64_t n) { return engine.in_atlas(n) || cache.resident(n); });
+  const CutUpdate u =
+      cut.update(camera, scaled.width, scaled.height, tf, budget, [&](uint64_t n) { return residency.resident(n); });
   // The cache keeps what the cut draws and has not uploaded yet (most important), then what it wants next.
   std::vector<std::pair<uint64_t, float>> requests;
   for (uint64_t n : u.visible)
-    if (!engine.in_atlas(n)) requests.push_back({n, 1e30f});
+    if (!residency.on_gpu(n)) requests.push_back({n, 1e30f});
   for (size_t i = 0; i < u.wanted.size(); ++i) requests.push_back({u.wanted[i], float(u.wanted_priority[i])});
   cache.request(requests);
   f.requested = requests.size();
-  Image image = engine.render_nodes(
-      camera, tf, scaled, u.visible, [&](uint64_t n) { return cache.get(n); }, &f.render);
+  Image image = engine.render_nodes(camera, tf, scaled, u.visible, residency, &f.render);
   cache.rethrow_load_error();
   if (f.scale != 1) image = resize_bilinear(image, settings.width, settings.height);
   f.cut_nodes = cut.size();
@@ -170,11 +171,11 @@ Image TimeCriticalRenderer::full_quality(const Camera& camera, const TransferFun
     CutBudget budget;
     budget.max_nodes = I.engine.atlas_budget_bricks();
     const CutUpdate u = I.cut.update(camera, settings.width, settings.height, tf, budget,
-                                     [&](uint64_t n) { return I.engine.in_atlas(n) || I.cache.resident(n); });
+                                     [&](uint64_t n) { return I.residency.resident(n); });
     if (u.converged || (u.splits == 0 && u.merges == 0 && u.wanted.empty())) break;
     std::vector<std::pair<uint64_t, float>> requests;
     for (uint64_t n : u.visible)
-      if (!I.engine.in_atlas(n)) requests.push_back({n, 1e30f});
+      if (!I.residency.on_gpu(n)) requests.push_back({n, 1e30f});
     for (size_t i = 0; i < u.wanted.size(); ++i) requests.push_back({u.wanted[i], float(u.wanted_priority[i])});
     I.cache.request(requests);
     I.cache.wait_all(60);

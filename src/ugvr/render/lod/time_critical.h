@@ -10,8 +10,9 @@
 //  2. the active cut merges and splits (§5.1) for the image at that scale: splits only into bricks already in RAM or
 //     in the atlas, at most `uploads_per_frame` new bricks a frame; what it would split next goes to the RAM cache as
 //     read requests (`reads_per_frame`, by error), together with the bricks the cut itself must keep;
-//  3. the engine draws the visible cut nodes at the scaled size, uploading new bricks from the cache; a scaled frame
-//     is magnified to the output size (bilinear);
+//  3. the engine draws the visible cut nodes at the scaled size, uploading new bricks from the cache (the session's
+//     BrickResidency, brick_residency.h, says where each brick is); a scaled frame is magnified to the output size
+//     (bilinear);
 //  4. the frame's wall time (to the image in host memory) and its sample count go back to the controller.
 // Once the view rests the budget is lifted and the scale returns to 1: the cut refines until it converges, then one
 // frame at `resting_step_voxels` (instead of `moving_step_voxels`) is full quality, and stays so while the view rests.
