@@ -49,6 +49,9 @@ struct StoreOptions {
   uint64_t memory_bytes = uint64_t(1) << 30;  // a .vtu larger than 40 % of this is built out of core
   bool out_of_core = false;                   // stream the cells through temporary files whatever the size
   const std::atomic<bool>* cancel = nullptr;  // set from another thread to stop (then throws; nothing is written)
+  // This build's progress (stage, fraction done), about 10 times a second per stage, from a worker thread; returning
+  // false stops the build like `cancel`.
+  ProgressCallback progress;
 };
 
 struct StoreSummary {

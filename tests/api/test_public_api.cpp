@@ -92,6 +92,30 @@ TEST_F(PublicApi, ReadRenderBuildAndRenderAgain) {
   EXPECT_GT(converged.stats.cut_nodes, 0u);
 }
 
+// A build reports its own progress to its caller, and stops when the callback says so (nothing written).
+TEST_F(PublicApi, BuildProgressIsPerCallAndCancels) {
+  ugvr::StoreOptions so;
+  so.brick = 8;
+  so.max_depth = 3;
+  std::vector<std::string> stages;
+  double last = -1;
+  so.progress = [&](std::string_view stage, double fraction) {
+    if (stages.empty() || stages.back() != stage) stages.emplace_back(stage);
+    last = fraction;
+    return true;
+  };
+  const std::string store = (dir_ / "p.ugvr").string();
+  ugvr::build_store({mesh_}, store, so);
+  ASSERT_FALSE(stages.empty());
+  EXPECT_EQ(stages.back(), "bricks");
+  EXPECT_DOUBLE_EQ(last, 1.0);
+
+  so.progress = [](std::string_view, double) { return false; };
+  const std::string cancelled = (dir_ / "c.ugvr").string();
+  EXPECT_THROW(ugvr::build_store({mesh_}, cancelled, so), ugvr::Error);
+  EXPECT_FALSE(fs::exists(cancelled));
+}
+
 TEST_F(PublicApi, ErrorsNameTheOptionAtFault) {
   ugvr::RendererConfig config;
   config.field = "nope";

@@ -15,11 +15,19 @@ namespace ugvr {
 
 namespace {
 
-OctreeBuildOptions octree_options(const StoreOptions& o) {
+// `stop` is where a progress callback that returns false says so; the builder polls it as its cancel flag, together
+// with the caller's own flag (folded in at each report).
+OctreeBuildOptions octree_options(const StoreOptions& o, std::atomic<bool>& stop) {
   OctreeBuildOptions b;
   std::tie(b.resolution, b.max_depth, b.error, b.threads, b.cancel) =
       std::tuple(o.brick, o.max_depth, o.error, o.threads, o.cancel);
   if (o.float32) b.encoding.samples = SampleEncoding::Float32;
+  if (o.progress) {
+    b.cancel = &stop;
+    b.progress = [&o, &stop](const std::string& label, double fraction) {
+      if (!o.progress(label, fraction) || (o.cancel && o.cancel->load())) stop = true;
+    };
+  }
   validate_build_options(b);
   return b;
 }
@@ -43,7 +51,8 @@ const char* version() { return UGVR_VERSION; }
 
 StoreSummary build_store_from_dataset(const Dataset& dataset, const std::string& output, const StoreOptions& options) {
   check_store_path(output);
-  const OctreeBuildOptions b = octree_options(options);
+  std::atomic<bool> stop{false};
+  const OctreeBuildOptions b = octree_options(options, stop);
   const OctreeInput input = prepare_octree_input(dataset, options.fields);
   std::vector<std::string> names;
   for (const BrickStoreField& f : input.fields) names.push_back(f.name);
@@ -58,8 +67,9 @@ StoreSummary build_store(const std::vector<std::string>& inputs, const std::stri
   const bool out_of_core =
       options.out_of_core || (vtu && std::filesystem::file_size(inputs[0]) > options.memory_bytes / 5 * 2);
   if (!out_of_core) return build_store_from_dataset(read_dataset(inputs, read), output, options);
+  std::atomic<bool> stop{false};
   const OctreeBuildStats s =
-      build_octree_out_of_core(inputs[0], options.fields, octree_options(options), options.memory_bytes, output);
+      build_octree_out_of_core(inputs[0], options.fields, octree_options(options, stop), options.memory_bytes, output);
   std::vector<std::string> names;
   const BrickStoreReader store(output);
   for (const BrickStoreField& f : store.layout().fields) names.push_back(f.name);

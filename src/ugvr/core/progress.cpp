@@ -34,6 +34,10 @@ Progress::Progress(std::string label, uint64_t total)
       last_report_(start_),
       tty_(isatty(STDERR_FILENO) != 0) {}
 
+Progress::Progress(std::string label, uint64_t total, Observer observer) : Progress(std::move(label), total) {
+  own_observer_ = std::move(observer);
+}
+
 Progress::~Progress() {
   // Unwinding (a failed or cancelled step): the work did not finish, so no "100%".
   if (std::uncaught_exceptions() == 0) finish();
@@ -64,6 +68,7 @@ void Progress::report(bool final) {
   const double fraction = total_ ? std::min(1.0, double(done_) / double(total_)) : 1.0;
   if (final || now - last_observed_ > std::chrono::milliseconds(100)) {
     if (const auto o = observer()) (*o)(label_, fraction);
+    if (own_observer_) own_observer_(label_, fraction);
     last_observed_ = now;
   }
   if (!g_enabled) return;

@@ -23,6 +23,9 @@ class Progress {
   static void set_observer(Observer observer);  // empty: none
 
   Progress(std::string label, uint64_t total);
+  // The same, also reporting to `observer` (this object's own, beside the process-wide one): a build run for one
+  // caller (the viewer's background build, the public API's build_store) reports to that caller alone.
+  Progress(std::string label, uint64_t total, Observer observer);
   ~Progress();
   Progress(const Progress&) = delete;
   Progress& operator=(const Progress&) = delete;
@@ -36,6 +39,7 @@ class Progress {
 
   std::string label_;
   uint64_t total_;
+  Observer own_observer_;
   std::atomic<uint64_t> done_{0};
   std::chrono::steady_clock::time_point start_, last_report_, last_observed_;
   int last_decile_ = -1;

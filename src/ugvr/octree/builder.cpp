@@ -172,7 +172,7 @@ OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions
   stats.cells = mesh.cell_count();
   OctreeShape shape;
   {
-    Progress progress("subdivide", uint64_t(options.max_depth) + 1);
+    Progress progress("subdivide", uint64_t(options.max_depth) + 1, options.progress);
     shape = subdivide_octree(mesh, lattice, split, options.max_depth, &progress);
   }
   stats.subdivide_seconds = seconds_since(start);
@@ -189,7 +189,7 @@ OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions
   const BrickSampler sampler(mesh, input.scalars, options.sampler);
   const auto bricks_start = std::chrono::steady_clock::now();
   {
-    Progress progress("bricks", stats.nodes);
+    Progress progress("bricks", stats.nodes, options.progress);
     if (options.cancel && options.cancel->load()) throw Error("octree build cancelled");
     BrickPass pass(shape, lattice, sampler, data, writer, progress, options.cancel);
     pass.process(0);

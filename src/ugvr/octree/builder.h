@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "ugvr/core/progress.h"
 #include "ugvr/grid/dataset.h"
 #include "ugvr/octree/brick_sampler.h"
 #include "ugvr/octree/input.h"
@@ -40,6 +41,8 @@ struct OctreeBuildOptions {
   BrickSamplerOptions sampler;
   // Set from another thread to stop the build early (build_octree then throws ugvr::Error and writes nothing).
   const std::atomic<bool>* cancel = nullptr;
+  // Sees this build's progress (stage label, fraction done), from whichever thread reports (core/progress.h).
+  Progress::Observer progress;
 };
 
 struct OctreeBuildStats {

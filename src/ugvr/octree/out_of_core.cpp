@@ -474,7 +474,7 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
     // at least 1 MiB (each slice costs a pass over the cells and an open file).
     const uint64_t base = uint64_t(48) << 20;
     const uint64_t point_budget = std::max((memory_budget > base ? memory_budget - base : 0) / 2, uint64_t(1) << 20);
-    Progress progress("cells to disk", source.file_cell_count());
+    Progress progress("cells to disk", source.file_cell_count(), options.progress);
     SoupWriter soup(root_file, source.layout());
     cells = source.write_soup(soup, point_budget, temp.path.string(), &progress);
     soup.close();
@@ -512,7 +512,7 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   const auto bricks_start = std::chrono::steady_clock::now();
   std::vector<OctreeNode> nodes;
   {
-    Progress progress("bricks", OutOfCoreBuild::kVolumeUnits);
+    Progress progress("bricks", OutOfCoreBuild::kVolumeUnits, options.progress);
     OutOfCoreBuild build(options, source, lattice, writer, temp.path, preload, progress);
     build.process(0, root_file);
     nodes = build.nodes();

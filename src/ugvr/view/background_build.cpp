@@ -30,21 +30,20 @@ BackgroundBuild::State BackgroundBuild::state() const {
 
 void BackgroundBuild::run(std::shared_ptr<const Dataset> dataset, std::vector<std::string> fields,
                           OctreeBuildOptions options) {
-  Progress::set_observer([this](const std::string& label, double fraction) {
+  // This build's own progress (not the process-wide observer: another build may run beside it).
+  options.progress = [this](const std::string& label, double fraction) {
     std::lock_guard lock(mutex_);
     state_.label = label;
     state_.fraction = fraction;
-  });
+  };
   try {
     std::filesystem::create_directories(std::filesystem::path(path_).parent_path());
     const OctreeInput input = prepare_octree_input(*dataset, fields);
     build_octree(input, options, path_);
-    Progress::set_observer({});
     std::lock_guard lock(mutex_);
     state_.stage = Stage::Done;
     state_.fraction = 1;
   } catch (const std::exception& e) {
-    Progress::set_observer({});
     std::lock_guard lock(mutex_);
     state_.stage = Stage::Failed;
     state_.error = e.what();
