@@ -83,7 +83,7 @@ std::map<std::string, std::vector<Member>> struct_members() {
         UGVR_MEMBER(HeaderRecord, codec),
         UGVR_MEMBER(HeaderRecord, shuffle),
         UGVR_MEMBER(HeaderRecord, codec_level),
-        UGVR_MEMBER(HeaderRecord, reserved0),
+        UGVR_MEMBER(HeaderRecord, provenance_size),
         UGVR_MEMBER(HeaderRecord, tolerance),
         UGVR_MEMBER(HeaderRecord, root_lo),
         UGVR_MEMBER(HeaderRecord, root_hi),
@@ -336,7 +336,7 @@ TEST_P(BrickStoreFormatFile, HeaderMembersAtTheirDocumentedOffsets) {
   EXPECT_MEMBER(d, h, codec, uint8_t(e.codec));
   EXPECT_MEMBER(d, h, shuffle, e.shuffle ? 1 : 0);
   EXPECT_MEMBER(d, h, codec_level, e.level);
-  EXPECT_MEMBER(d, h, reserved0, 0);
+  EXPECT_MEMBER(d, h, provenance_size, 0);
   EXPECT_MEMBER(d, h, tolerance, store_.quant16() ? store_.layout.tolerance : 0.0);
   const Bounds& root = store_.layout.root;
   const Bounds& data = store_.layout.data;

@@ -267,7 +267,7 @@ TEST(CliInfo, BrickStoreText) {
                           "bricks:   8 x 8 x 8 samples, quant16",
                           "octree:   ", "  level 0: 1 node, 0 leaves, 1 with a brick", "bytes:    file ", "node table ",
                           "smaller than the bricks as float32", "fields:", "  vertex density (quant16): [0.2, 1]",
-                          "build:    --brick 8 --fields density", "does not record its input"});
+                          "build:    --brick 8 --fields density --error", "--max-depth 3", "(ugvr "});
 }
 
 TEST(CliInfo, BrickStoreJson) {
@@ -301,17 +301,22 @@ TEST(CliInfo, BrickStoreJson) {
   // Bytes: the parts make the file; compressed smaller than float32.
   const json& b = r["bytes"];
   EXPECT_EQ(b["file"].get<uint64_t>(), std::filesystem::file_size(path));
-  EXPECT_EQ(b["header"].get<uint64_t>() + b["blocks"].get<uint64_t>() + b["node_table"].get<uint64_t>(),
+  EXPECT_EQ(b["header"].get<uint64_t>() + b["blocks"].get<uint64_t>() + b["node_table"].get<uint64_t>() +
+                b["provenance"].get<uint64_t>(),
             b["file"].get<uint64_t>());
+  EXPECT_GT(b["provenance"].get<uint64_t>(), 0u);
   EXPECT_EQ(b["unreferenced"], 0);
   EXPECT_EQ(b["blocks"], f["block_bytes"]);
   EXPECT_EQ(b["float32"].get<uint64_t>(), r["nodes_with_data"].get<uint64_t>() * 8 * 8 * 8 * 4);
   EXPECT_GT(b["ratio"].get<double>(), 1.0);
-  // What the store records of its build, and what it does not.
+  // What the store records of its build (its provenance record): the input as given and the options.
   EXPECT_EQ(r["build"]["brick"], 8);
   EXPECT_EQ(r["build"]["fields"], json({"density"}));
-  EXPECT_TRUE(r["build"]["input"].is_null());
-  EXPECT_TRUE(r["build"]["error"].is_null());
+  ASSERT_EQ(r["build"]["input"].size(), 1u);
+  EXPECT_NE(r["build"]["input"][0].get<std::string>().find("spx.inp"), std::string::npos) << r["build"].dump();
+  EXPECT_EQ(r["build"]["max_depth"], 3);
+  EXPECT_TRUE(r["build"]["error"].is_number());
+  EXPECT_EQ(r["build"]["out_of_core"], false);
   EXPECT_FALSE(r.contains("verify"));
 }
 
@@ -328,6 +333,25 @@ TEST(CliInfo, BrickStoreVerify) {
   EXPECT_EQ(v["bricks"], bricks);
   EXPECT_EQ(v["bad_blocks"], 0);
   EXPECT_EQ(v["bytes"], info(path)["bytes"]["blocks"]);
+}
+
+// The provenance record (how the store was built) carries its own checksum: a damaged one is named at its offset.
+TEST(CliInfo, BrickStoreDamagedProvenanceIsNamed) {
+  UGVR_REQUIRE_DATA("spx/spx.inp");
+  test::ScratchDir dir;
+  const std::string path = build_store(dir);
+  uint64_t at = 0;
+  {
+    const BrickStoreReader s(path);
+    ASSERT_FALSE(s.layout().provenance.empty());
+    at = s.header().node_table_offset - s.header().provenance_size;
+  }
+  std::string bytes = read_bytes(path);
+  bytes[at + 3] ^= 0x20;
+  write_bytes(path, bytes);
+  const test::CommandResult r = run("info " + path);
+  EXPECT_EQ(r.status, 1);
+  expect_contains(r.out, {"byte " + std::to_string(at), "provenance record checksum mismatch"});
 }
 
 TEST(CliInfo, BrickStoreVerifyFindsAFlippedPayloadByte) {

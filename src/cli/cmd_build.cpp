@@ -60,6 +60,7 @@ void register_build(CLI::App& app) {
   cmd->callback([opts] {
     if (extension_lower(opts->output) != ".ugvr") throw Error(opts->output + ": the output must be a .ugvr file");
     if (opts->float32) opts->build.encoding.samples = SampleEncoding::Float32;
+    opts->build.inputs = opts->input.files;  // recorded in the store
     validate_build_options(opts->build);
     const bool vtu = opts->input.files.size() == 1 && extension_lower(opts->input.files[0]) == ".vtu";
     if (opts->out_of_core && !vtu) throw Error(opts->input.files[0] + ": --out-of-core reads a single .vtu file");

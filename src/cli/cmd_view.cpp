@@ -94,6 +94,7 @@ void run_view(const Options& o) {
     vo.store = o.inputs[0];
   } else {
     vo.build = o.build;
+    vo.build.inputs = o.inputs.empty() ? std::vector<std::string>{"ugvr view --demo"} : o.inputs;
     // Leave a core to the exact engine's preview frames while the store is built.
     vo.build.threads = std::max(1, int(std::thread::hardware_concurrency()) - 1);
     GenerateOptions demo;

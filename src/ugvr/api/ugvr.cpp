@@ -49,14 +49,25 @@ void check_store_path(const std::string& output) {
 
 const char* version() { return UGVR_VERSION; }
 
-StoreSummary build_store_from_dataset(const Dataset& dataset, const std::string& output, const StoreOptions& options) {
+namespace {
+
+// In core, recording `inputs` (none for a dataset made in memory) in the store.
+StoreSummary build_in_core(const Dataset& dataset, const std::string& output, const StoreOptions& options,
+                           const std::vector<std::string>& inputs) {
   check_store_path(output);
   std::atomic<bool> stop{false};
-  const OctreeBuildOptions b = octree_options(options, stop);
+  OctreeBuildOptions b = octree_options(options, stop);
+  b.inputs = inputs;
   const OctreeInput input = prepare_octree_input(dataset, options.fields);
   std::vector<std::string> names;
   for (const BrickStoreField& f : input.fields) names.push_back(f.name);
   return summary_of(build_octree(input, b, output), std::move(names), false);
+}
+
+}  // namespace
+
+StoreSummary build_store_from_dataset(const Dataset& dataset, const std::string& output, const StoreOptions& options) {
+  return build_in_core(dataset, output, options, {});
 }
 
 StoreSummary build_store(const std::vector<std::string>& inputs, const std::string& output, const StoreOptions& options,
@@ -66,10 +77,11 @@ StoreSummary build_store(const std::vector<std::string>& inputs, const std::stri
   if (options.out_of_core && !vtu) throw Error(inputs.at(0) + ": out of core reads a single .vtu file");
   const bool out_of_core =
       options.out_of_core || (vtu && std::filesystem::file_size(inputs[0]) > options.memory_bytes / 5 * 2);
-  if (!out_of_core) return build_store_from_dataset(read_dataset(inputs, read), output, options);
+  if (!out_of_core) return build_in_core(read_dataset(inputs, read), output, options, inputs);
   std::atomic<bool> stop{false};
-  const OctreeBuildStats s =
-      build_octree_out_of_core(inputs[0], options.fields, octree_options(options, stop), options.memory_bytes, output);
+  OctreeBuildOptions b = octree_options(options, stop);
+  b.inputs = inputs;
+  const OctreeBuildStats s = build_octree_out_of_core(inputs[0], options.fields, b, options.memory_bytes, output);
   std::vector<std::string> names;
   const BrickStoreReader store(output);
   for (const BrickStoreField& f : store.layout().fields) names.push_back(f.name);

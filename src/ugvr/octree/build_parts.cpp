@@ -1,6 +1,7 @@
 #include "ugvr/octree/build_parts.h"
 
 #include <algorithm>
+#include <nlohmann/json.hpp>
 
 namespace ugvr {
 
@@ -23,6 +24,26 @@ void count_tree_shape(std::span<const OctreeNode> nodes, OctreeBuildStats& stats
     stats.max_level = std::max(stats.max_level, int(n.level));
   }
   stats.mean_leaf_level = level_sum / double(stats.leaves);
+}
+
+BrickStoreLayout store_layout(const OctreeBuildOptions& options, std::vector<BrickStoreField> fields,
+                              const Bounds& root, const Bounds& data, bool out_of_core) {
+  BrickStoreLayout layout;
+  layout.resolution = options.resolution;
+  layout.fields = std::move(fields);
+  layout.root = root;
+  layout.data = data;
+  layout.encoding = options.encoding;
+  layout.tolerance = options.tolerance;
+  nlohmann::json p = {{"ugvr", UGVR_VERSION},
+                      {"inputs", options.inputs},
+                      {"brick", options.resolution},
+                      {"max_depth", options.max_depth},
+                      {"error", options.error},
+                      {"samples", options.encoding.samples == SampleEncoding::Float32 ? "float32" : "quant16"},
+                      {"out_of_core", out_of_core}};
+  layout.provenance = p.dump();
+  return layout;
 }
 
 }  // namespace ugvr

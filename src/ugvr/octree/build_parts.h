@@ -33,6 +33,11 @@ void add_interior_node_errors(std::span<const ErrorSum> measured, const Children
 
 // Encodes node `node`'s brick (its `fields` fields back to back, as BrickSamples keeps them) and appends it to the
 // store.
+// The store's layout for a build: resolution, fields, root cell and data bounds, encoding, and the provenance record
+// (ugvr version, the inputs, the options that shaped the tree; no date, so that builds stay byte for byte repeatable).
+BrickStoreLayout store_layout(const OctreeBuildOptions& options, std::vector<BrickStoreField> fields,
+                              const Bounds& root, const Bounds& data, bool out_of_core);
+
 void write_node_brick(BrickStoreWriter& writer, uint64_t node, const BrickSamples& brick, uint32_t fields);
 
 // Fills the tree's shape in `stats`: nodes, leaves, nodes per level, deepest and mean leaf level.

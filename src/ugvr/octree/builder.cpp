@@ -178,13 +178,7 @@ OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions
   stats.subdivide_seconds = seconds_since(start);
   count_tree_shape(shape.nodes, stats);
 
-  BrickStoreLayout layout;
-  layout.resolution = options.resolution;
-  layout.fields = input.fields;
-  layout.root = lattice.root;
-  layout.data = input.bounds;
-  layout.encoding = options.encoding;
-  layout.tolerance = options.tolerance;
+  const BrickStoreLayout layout = store_layout(options, input.fields, lattice.root, input.bounds, false);
   BrickStoreWriter writer(path, layout);
   const BrickSampler sampler(mesh, input.scalars, options.sampler);
   const auto bricks_start = std::chrono::steady_clock::now();

@@ -41,6 +41,8 @@ struct OctreeBuildOptions {
   BrickSamplerOptions sampler;
   // Set from another thread to stop the build early (build_octree then throws ugvr::Error and writes nothing).
   const std::atomic<bool>* cancel = nullptr;
+  // The files the mesh came from, as the caller named them: recorded in the store (BrickStoreLayout::provenance).
+  std::vector<std::string> inputs;
   // Sees this build's progress (stage label, fraction done), from whichever thread reports (core/progress.h).
   Progress::Observer progress;
 };

@@ -484,13 +484,7 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   BrickLattice lattice;
   lattice.root = octree_root(data_bounds);
   lattice.resolution = options.resolution;
-  BrickStoreLayout layout;
-  layout.resolution = options.resolution;
-  layout.fields = source.fields();
-  layout.root = lattice.root;
-  layout.data = data_bounds;
-  layout.encoding = options.encoding;
-  layout.tolerance = options.tolerance;
+  const BrickStoreLayout layout = store_layout(options, source.fields(), lattice.root, data_bounds, true);
   BrickStoreWriter writer(path, layout);
 
   // What the budget pays for besides cells: the program and its store writer (about 48 MiB), and per worker the file

@@ -22,6 +22,21 @@ namespace {
 
 using nlohmann::json;
 
+json build_json(const BrickStoreLayout& l, const std::vector<std::string>& names) {
+  json b = {{"brick", l.resolution},    {"encoding", sample_encoding_name(l.encoding.samples)},
+            {"tolerance", l.tolerance}, {"fields", names},
+            {"input", nullptr},         {"error", nullptr},
+            {"max_depth", nullptr},     {"ugvr", nullptr},
+            {"out_of_core", nullptr}};
+  const json p = json::parse(l.provenance.empty() ? "{}" : l.provenance, nullptr, false);
+  if (p.is_object()) {
+    if (p.contains("inputs")) b["input"] = p["inputs"];
+    for (const char* key : {"error", "max_depth", "ugvr", "out_of_core"})
+      if (p.contains(key)) b[key] = p[key];
+  }
+  return b;
+}
+
 // Nodes, leaves and nodes with a brick, per level.
 struct LevelCounts {
   std::vector<uint64_t> nodes, leaves, bricks;
@@ -86,7 +101,8 @@ json bytes_json(const BrickStoreReader& s, uint64_t block_bytes, uint64_t bricks
           {"header", h.header_size},
           {"blocks", block_bytes},
           {"node_table", table},
-          {"unreferenced", s.file_size() - h.header_size - block_bytes - table},
+          {"provenance", h.provenance_size},
+          {"unreferenced", s.file_size() - h.header_size - block_bytes - table - h.provenance_size},
           {"float32", float32},
           {"ratio", block_bytes ? double(float32) / double(block_bytes) : 0.0}};
 }
@@ -143,16 +159,9 @@ nlohmann::json store_report(const BrickStoreReader& s) {
           {"leaves_per_level", levels.leaves},
           {"nodes_with_data_per_level", levels.bricks},
           {"bytes", bytes_json(s, block_bytes, bricks)},
-          // What `ugvr build` was given, as far as the store tells: the format has no place for the input, --error
-          // or --max-depth (depth_max is the deepest level the build reached, not the limit it was given).
-          {"build",
-           {{"brick", l.resolution},
-            {"encoding", sample_encoding_name(l.encoding.samples)},
-            {"tolerance", l.tolerance},
-            {"fields", names},
-            {"input", nullptr},
-            {"error", nullptr},
-            {"max_depth", nullptr}}}};
+          // What `ugvr build` was given: the provenance record where the store has one (stores written before it
+          // existed have none: input, error and max_depth are then null).
+          {"build", build_json(l, names)}};
 }
 
 std::string format_store_report_text(const nlohmann::json& r) {
@@ -192,8 +201,16 @@ std::string format_store_report_text(const nlohmann::json& r) {
   const json& bd = r["build"];
   std::string names;
   for (const json& n : bd["fields"]) names += (names.empty() ? "" : ",") + n.get<std::string>();
-  o << "build:    --brick " << bd["brick"] << (bd["encoding"] == "float32" ? " --float32" : "") << " --fields " << names
-    << "; the store does not record its input, --error or --max-depth\n";
+  o << "build:    --brick " << bd["brick"] << (bd["encoding"] == "float32" ? " --float32" : "") << " --fields "
+    << names;
+  if (bd["input"].is_null()) {
+    o << "; the store does not record its input, --error or --max-depth (written before stores recorded them)\n";
+  } else {
+    o << " --error " << fmt_num(bd["error"]) << " --max-depth " << bd["max_depth"]
+      << (bd["out_of_core"] == true ? " --out-of-core" : "") << "\n          from";
+    for (const json& in : bd["input"]) o << " " << in.get<std::string>();
+    o << " (ugvr " << bd["ugvr"].get<std::string>() << ")\n";
+  }
   return o.str();
 }
 

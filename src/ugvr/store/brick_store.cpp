@@ -308,6 +308,16 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
 
   const uint32_t rec = node_record_size(nf);
   const double samples = double(layout_.resolution) * layout_.resolution * layout_.resolution;
+  uint32_t provenance_size = 0;
+  if (!layout_.provenance.empty()) {
+    const std::string& text = layout_.provenance;
+    const uint32_t crc = crc32_of(reinterpret_cast<const std::byte*>(text.data()), text.size(), 0);
+    std::byte crc_bytes[4];
+    std::memcpy(crc_bytes, &crc, 4);  // little-endian, as every integer of the format (brick_store_format.h)
+    out_->write(reinterpret_cast<const std::byte*>(text.data()), text.size());
+    out_->write(crc_bytes, 4);
+    provenance_size = uint32_t(text.size() + 4);
+  }
   const uint64_t table_offset = out_->position();
   const uint64_t chunk_nodes = std::max<uint64_t>(1, kTableChunkBytes / rec);
   std::vector<std::byte> buf;
@@ -358,6 +368,7 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
   header.codec = uint8_t(layout_.encoding.codec);
   header.shuffle = layout_.encoding.shuffle ? 1 : 0;
   header.codec_level = layout_.encoding.level;
+  header.provenance_size = provenance_size;
   header.tolerance = layout_.tolerance;
   put_corners(layout_.root, header.root_lo, header.root_hi);
   put_corners(layout_.data, header.data_lo, header.data_hi);
@@ -392,7 +403,25 @@ BrickStoreReader::BrickStoreReader(std::string path) : file_(std::move(path)) {
   const std::vector<std::byte> header_bytes = read_header();
   read_field_records(header_bytes);
   read_node_table();
+  read_provenance();
   check_nodes();
+}
+
+// The provenance record, if any: just before the node table, after the header, its checksum last.
+void BrickStoreReader::read_provenance() {
+  const uint64_t size = header_.provenance_size;
+  if (size == 0) return;
+  const std::string& name = file_.path();
+  if (size < 4 || size > node_table_offset_ - header_.header_size)
+    fail_at_offset(name, offsetof(HeaderRecord, provenance_size),
+                   "provenance record of " + std::to_string(size) + " bytes does not fit before the node table");
+  const uint64_t at = node_table_offset_ - size;
+  std::vector<std::byte> bytes(size);
+  file_.read_at(at, bytes.data(), bytes.size());
+  uint32_t stored = 0;
+  std::memcpy(&stored, bytes.data() + size - 4, 4);
+  if (crc32_of(bytes.data(), size - 4) != stored) fail_at_offset(name, at, "provenance record checksum mismatch");
+  layout_.provenance.assign(reinterpret_cast<const char*>(bytes.data()), size - 4);
 }
 
 // The header record and the field records' bytes, checked: magic, version, header size and checksum, then the fixed

@@ -69,6 +69,9 @@ struct BrickStoreLayout {
   // Quant16: max sample error relative to each field's range, >= kQuant16Tolerance; 0: each brick uses its own
   // range over 65535 codes (more precise in small-range bricks, larger). Ignored (stored 0) for Float32.
   double tolerance = kQuant16Tolerance;
+  // How the store was made, as one JSON object (the builder's: ugvr version, input, options); empty: not recorded.
+  // Written just before the node table (store_format::HeaderRecord::provenance_size).
+  std::string provenance;
 };
 
 // The tree as the builder describes it.
@@ -210,6 +213,7 @@ class BrickStoreReader {
   std::vector<std::byte> read_header();
   void read_field_records(std::span<const std::byte> header_bytes);
   void read_node_table();
+  void read_provenance();
   void check_nodes();
   void check_node_field(uint64_t node, uint32_t field) const;
 

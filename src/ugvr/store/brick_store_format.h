@@ -51,7 +51,10 @@ struct HeaderRecord {
   uint8_t codec = 0;               //  30  BrickCodec: 0 stored, 1 lz4, 2 zstd
   uint8_t shuffle = 0;             //  31  byte shuffle of the residuals, 0 or 1
   int32_t codec_level = 0;         //  32  BrickEncoding::level as given (<= 0: the codec's default)
-  uint32_t reserved0 = 0;          //  36  0
+  uint32_t provenance_size = 0;    //  36  bytes of the provenance record, which ends where the node table starts:
+                                   //      JSON text (how the store was built: ugvr version, input, options),
+                                   //      then the crc32 (zlib) of that text; 0: none (stores before it, raw
+                                   //      writers)
   double tolerance = 0;            //  40  quant16 samples lie within tolerance × (field max - min) of the exact
                                    //      ones; 0 for float32 (exact) and for "each brick's own range over 65535
                                    //      codes"
@@ -165,7 +168,7 @@ UGVR_RECORD_AT(HeaderRecord, predictor, 29);
 UGVR_RECORD_AT(HeaderRecord, codec, 30);
 UGVR_RECORD_AT(HeaderRecord, shuffle, 31);
 UGVR_RECORD_AT(HeaderRecord, codec_level, 32);
-UGVR_RECORD_AT(HeaderRecord, reserved0, 36);
+UGVR_RECORD_AT(HeaderRecord, provenance_size, 36);
 UGVR_RECORD_AT(HeaderRecord, tolerance, 40);
 UGVR_RECORD_AT(HeaderRecord, root_lo, 48);
 UGVR_RECORD_AT(HeaderRecord, root_hi, 72);
