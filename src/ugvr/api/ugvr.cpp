@@ -2,7 +2,6 @@
 #include "ugvr/ugvr.h"
 
 #include <filesystem>
-#include <tuple>
 
 #include "ugvr/core/file.h"
 #include "ugvr/octree/builder.h"
@@ -19,8 +18,11 @@ namespace {
 // with the caller's own flag (folded in at each report).
 OctreeBuildOptions octree_options(const StoreOptions& o, std::atomic<bool>& stop) {
   OctreeBuildOptions b;
-  std::tie(b.resolution, b.max_depth, b.error, b.threads, b.cancel) =
-      std::tuple(o.brick, o.max_depth, o.error, o.threads, o.cancel);
+  b.resolution = o.brick;
+  b.max_depth = o.max_depth;
+  b.error = o.error;
+  b.threads = o.threads;
+  b.cancel = o.cancel;
   if (o.float32) b.encoding.samples = SampleEncoding::Float32;
   if (o.progress) {
     b.cancel = &stop;

@@ -38,8 +38,6 @@ class ComputeProgram {
 
   GLuint id() const { return id_; }
   const std::string& name() const { return name_; }
-  // Location of a uniform; -1 where the compiler removed it (setting -1 is a no-op in GL).
-  GLint uniform(const char* name) const { return glGetUniformLocation(id_, name); }
   // Size in bytes of a uniform block as the driver lays it out; -1 where the program has no active block of that name.
   GLint uniform_block_size(const char* block) const;
 
