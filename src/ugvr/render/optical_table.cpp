@@ -194,4 +194,15 @@ void OpticalTable::integrate_linear_segment(double s0, double s1, double length,
   }
 }
 
+std::vector<float> OpticalTable::pack_for_gpu() const {
+  std::vector<float> out;
+  out.reserve(x_.size() * 8);
+  for (size_t i = 0; i < x_.size(); ++i) {
+    const float inv = i + 1 < x_.size() ? float(inv_width_[i]) : 0.0f;
+    out.insert(out.end(), {float(x_[i]), inv, 0.0f, 0.0f});
+    out.insert(out.end(), {float(rgb_[i].x), float(rgb_[i].y), float(rgb_[i].z), float(tau_[i])});
+  }
+  return out;
+}
+
 }  // namespace ugvr

@@ -53,6 +53,9 @@ class OpticalTable {
   // Same with the emitted colour scaled by `shade` (volume lighting: the shade is constant over the segment).
   void integrate_linear_segment(double s0, double s1, double length, double shade, RayAccumulator& acc) const;
 
+  // The table as shaders/optical.glsl reads it (layout there): 8 floats per breakpoint.
+  std::vector<float> pack_for_gpu() const;
+
  private:
   // Index i of the interval [x[i], x[i+1]) holding s; -1 below x[0]; n-1 at or above x[n-1].
   std::ptrdiff_t interval(double s) const;
