@@ -6,7 +6,8 @@
 #   on the blunt fin and ~200 CPU-s on the oxygen post at 512x512), EXTRA_BUNYK_INTEGRATORS (default "partial": one
 #   more Bunyk run per dataset with that ray integrator, closer to exact integration than VTK's default
 #   pre-integration table; "" for none),
-#   DATASETS (default "blunt-fin lox-post"), SKIP_UGVR=1 to run the VTK side only.
+#   DATASETS (default "blunt-fin lox-post"), SKIP_UGVR=1 to run the VTK side only, DEVICES (default "cpu gpu": the
+#   exact engine on the CPU and on the GPU engine through EGL — llvmpipe on a machine without a GPU).
 # For each dataset (blunt fin 187,395 tets / Density; oxygen post 513,375 tets / StagnationEnergy):
 #  1. `ugvr refine --levels 0 --split five` cuts the PLOT3D grid into 5 tets per hexahedron (`ugvr convert` keeps
 #     hexahedra and has no split option) -> SCRATCH/NAME.vtu;
@@ -122,11 +123,11 @@ run_vtk() {
 }
 
 # ---- ugvr side --------------------------------------------------------------------------------------------------------
-# run_ugvr NAME FIELD: >>> THE UGVR EXACT ENGINE RUN <<< on the same mesh, camera, transfer function (already over the
+# run_ugvr NAME FIELD DEVICE: >>> THE UGVR EXACT ENGINE RUN <<< on the same mesh, camera, transfer function (already over the
 # field range: --keep-range) and background; its --stats JSON has "median_frame_seconds". Reports itself skipped when
 # the binary has no `render --engine`; a failure is logged as an error line and does not stop the VTK runs.
 run_ugvr() {
-  local name=$1 field=$2 mesh="$scratch/$1.vtu" tag="$1-ugvr-exact" rc=0 rss_kb load
+  local name=$1 field=$2 device=$3 mesh="$scratch/$1.vtu" tag="$1-ugvr-exact-$3" rc=0 rss_kb load
   if [ -n "${SKIP_UGVR:-}" ] || ! "$ugvr" render --help 2>/dev/null | grep -q -- '--engine'; then
     echo "run_exact_render: skipped ugvr exact engine on $name (no \`ugvr render --engine\` in $ugvr)" >&2
     return 0
@@ -136,15 +137,15 @@ run_ugvr() {
   rm -f "$scratch/$tag-stats.json"
   /usr/bin/time -v -o "$scratch/$tag.time" "$ugvr" render "$mesh" --engine exact -o "$outdir/$tag.png" \
     --camera "$outdir/$name-camera.json" --tf "$outdir/$name-tf.json" --keep-range --field "$field" --size "$size" \
-    --background 0.32,0.34,0.43 --frames "$frames" --stats "$scratch/$tag-stats.json" --float "$outdir/$tag.pfm" \
+    --background 0.32,0.34,0.43 --frames "$frames" --device "$device" --stats "$scratch/$tag-stats.json" --float "$outdir/$tag.pfm" \
     >"$scratch/$tag.out" 2>"$scratch/$tag.err" || rc=$?
   rss_kb=$(awk -F': ' '/Maximum resident set size/ {print $2}' "$scratch/$tag.time" 2>/dev/null || echo 0)
   if [ "$rc" -ne 0 ] || [ ! -s "$scratch/$tag-stats.json" ]; then
-    echo "{\"bench\":\"render-ugvr\",\"dataset\":\"$name\",\"engine\":\"exact\",\"error\":\"exit $rc\",\"stderr\":$($py -c 'import json,sys; print(json.dumps(sys.stdin.read()[-400:]))' <"$scratch/$tag.err"),\"nproc\":$nproc}" | tee -a "$ugvr_jsonl"
+    echo "{\"bench\":\"render-ugvr\",\"dataset\":\"$name\",\"engine\":\"exact\",\"device\":\"$device\",\"error\":\"exit $rc\",\"stderr\":$($py -c 'import json,sys; print(json.dumps(sys.stdin.read()[-400:]))' <"$scratch/$tag.err"),\"nproc\":$nproc}" | tee -a "$ugvr_jsonl"
     return 0
   fi
-  $py -c 'import json,sys; s=json.load(open(sys.argv[1])); print(json.dumps({"bench":"render-ugvr","dataset":sys.argv[2],"engine":"exact","median":s.get("median_frame_seconds"),"stats":s,"time_v_peak_rss_bytes":int(sys.argv[3] or 0)*1024,"nproc":int(sys.argv[4]),"load_before":float(sys.argv[5]),"load_after":float(open("/proc/loadavg").read().split()[0]),"image":sys.argv[6]}))' \
-    "$scratch/$tag-stats.json" "$name" "$rss_kb" "$nproc" "$load" "$outdir/$tag.png" | tee -a "$ugvr_jsonl"
+  $py -c 'import json,sys; s=json.load(open(sys.argv[1])); print(json.dumps({"bench":"render-ugvr","dataset":sys.argv[2],"engine":"exact","device":sys.argv[7],"median":s.get("median_frame_seconds"),"stats":s,"time_v_peak_rss_bytes":int(sys.argv[3] or 0)*1024,"nproc":int(sys.argv[4]),"load_before":float(sys.argv[5]),"load_after":float(open("/proc/loadavg").read().split()[0]),"image":sys.argv[6]}))' \
+    "$scratch/$tag-stats.json" "$name" "$rss_kb" "$nproc" "$load" "$outdir/$tag.png" "$device" | tee -a "$ugvr_jsonl"
 }
 
 # ---- main -------------------------------------------------------------------------------------------------------------
@@ -155,5 +156,5 @@ for name in $datasets; do
   case $name in blunt-fin) field=Density ;; lox-post) field=StagnationEnergy ;; *) echo "unknown dataset $name" >&2; exit 1 ;; esac
   for m in $mappers; do run_vtk "$name" "$field" "$m"; done
   for integ in $extra_integrators; do run_vtk "$name" "$field" bunyk "$integ"; done
-  run_ugvr "$name" "$field"
+  for device in ${DEVICES:-cpu gpu}; do run_ugvr "$name" "$field" "$device"; done
 done

@@ -5,7 +5,11 @@
 # (view_socket_check.py: the scene's GL renderer, first frame, input-to-frame latency, a full-quality frame).
 # Usage: bench/run_gpu.sh [OUT_DIR=bench/results/gpu] [SCRATCH=/tmp/ugvr-gpu]
 #   UGVR (default build/ugvr), UGVR_DATA (default ../shared/data), PYTHON (default python3 on the PATH),
-#   SIZE (default 1024), QUICK=1: tiny sizes and frame counts, to check the script itself on llvmpipe.
+#   SIZE (default 1024), QUICK=1: tiny sizes and frame counts, to check the script itself on llvmpipe,
+#   SECTIONS (default "lod exact exact-gpu time-critical view"): which parts to run.
+# exact-gpu: the exact engine on the GPU (exact_gpu_engine.h) against the CPU engine on blunt fin and the oxygen post,
+# the oxygen post refined two levels (`ugvr refine --levels 2`, 32.9M tets) at SIZE, and the demo mesh at 1920x1080
+# with the LOD engine's frame at 1920x1080 beside it; double and float walk arithmetic; device bytes per cell.
 # Writes OUT_DIR/gpu.jsonl (a `session` line naming the GPU, then every result line of the scripts it runs), the
 # images, and OUT_DIR/log.txt. It runs the same on llvmpipe, where it measures llvmpipe.
 set -euo pipefail
@@ -38,6 +42,10 @@ else
   lod_sizes="$size 2048" frames=10 tc_frames=300 rest=30 moves=120 errors="0.01 0"
 fi
 
+sections=" ${SECTIONS:-lod exact exact-gpu time-critical view} "
+want() { [[ $sections == *" $1 "* ]]; }
+
+if want lod; then
 echo "== LOD engine vs exact (run_lod_render.sh)"
 for e in $errors; do
   for s in $lod_sizes; do
@@ -46,7 +54,9 @@ for e in $errors; do
     collect bench/results/lod_render.jsonl "$n"
   done
 done
+fi
 
+if want exact; then
 echo "== exact engine, all cores ($(nproc))"
 for name in blunt-fin lox-post; do
   case $name in
@@ -59,7 +69,61 @@ for name in blunt-fin lox-post; do
   "$PYTHON" -c "import json,sys; s=json.load(open('$scratch/exact.json')); print(json.dumps({'bench':'exact_render','dataset':'$name','size':$size,'threads':s.get('threads'),'median_frame_seconds':s['median_frame_seconds'],'median_frame_cpu_seconds':s.get('median_frame_cpu_seconds')}, separators=(',',':')))" |
     tee -a "$out/gpu.jsonl"
 done
+fi
 
+# exact_line TAG STATS_JSON [EXTRA_JSON]: one result line from a --stats file.
+exact_line() {
+  "$PYTHON" -c "import json,sys; s=json.load(open(sys.argv[2])); e=s.get('engine_stats', s); d={'bench':'exact_gpu','run':sys.argv[1],'median_frame_seconds':s.get('median_frame_seconds')}; d.update({k:s[k] for k in ('device','cells','device_bytes','device_bytes_per_cell','device_mesh_bytes_per_cell','gpu_seconds','boundary_bin_seconds','lost_rays','rays_hit','width','height') if k in s}); d.update(json.loads(sys.argv[3])); print(json.dumps(d, separators=(',',':')))" \
+    "$1" "$2" "${3:-{\}}" | tee -a "$out/gpu.jsonl"
+}
+
+if want exact-gpu; then
+echo "== exact engine on the GPU vs the CPU"
+for name in blunt-fin lox-post; do
+  case $name in
+    blunt-fin) field=Density inputs=("$UGVR_DATA/blunt-fin/bluntfinxyz.bin" "$UGVR_DATA/blunt-fin/bluntfinq.bin") ;;
+    lox-post) field=StagnationEnergy inputs=("$UGVR_DATA/lox-post/postxyz.bin" "$UGVR_DATA/lox-post/postq.bin") ;;
+  esac
+  for run in cpu gpu-double gpu-float; do
+    dev=${run%%-*} prec=${run#*-}; [ "$prec" = cpu ] && prec=double
+    "$UGVR" --quiet render "${inputs[@]}" --field "$field" --camera "bench/results/exact-render/$name-camera.json" \
+      --tf "bench/results/exact-render/$name-tf.json" --keep-range --size "$size" --frames $((frames + 1)) \
+      --device "$dev" --exact-precision "$prec" -o "$out/exact-$name-$run.png" --float "$scratch/exact-$name-$run.pfm" \
+      --stats "$scratch/exact-$run.json"
+    psnr='{}'
+    "$UGVR" --quiet compare "$scratch/exact-$name-cpu.pfm" "$scratch/exact-$name-$run.pfm" --json "$scratch/cmp.json" \
+      >/dev/null 2>&1 && psnr=$(tr -d '\n' <"$scratch/cmp.json")
+    exact_line "$name-$run" "$scratch/exact-$run.json" "{\"size\":$size,\"vs_cpu\":$psnr}"
+  done
+done
+if [[ -z $quick ]]; then
+  big="$scratch/lox-post-refined2.vtu"
+  [ -s "$big" ] || /usr/bin/time -f "refine: %e s, %M KiB" "$UGVR" --quiet refine "$UGVR_DATA/lox-post/postxyz.bin" \
+    "$UGVR_DATA/lox-post/postq.bin" --levels 2 -o "$big"
+  for prec in double float; do
+    "$UGVR" --quiet render "$big" --field StagnationEnergy --camera bench/results/exact-render/lox-post-camera.json \
+      --tf bench/results/exact-render/lox-post-tf.json --keep-range --size "$size" --frames 6 --device gpu \
+      --exact-precision "$prec" -o "$out/exact-lox-post-refined2-$prec.png" --stats "$scratch/big-$prec.json" || true
+    [ -s "$scratch/big-$prec.json" ] && exact_line "lox-post-refined2-gpu-$prec" "$scratch/big-$prec.json" "{\"size\":$size}"
+  done
+fi
+demo="$scratch/demo.vtu"
+[ -s "$demo" ] || "$UGVR" --quiet generate --cells 200000 --kind mixed -o "$demo"
+"$UGVR" --quiet build "$demo" -o "$scratch/demo.ugvr" --field velocity >/dev/null 2>&1 || "$UGVR" --quiet build "$demo" -o "$scratch/demo.ugvr"
+dsize=1920x1080; [[ -n $quick ]] && dsize=320x180
+for run in exact-cpu exact-gpu lod; do
+  case $run in
+    exact-cpu) args=(--engine exact --device cpu "$demo") ;;
+    exact-gpu) args=(--engine exact --device gpu "$demo") ;;
+    lod) args=("$scratch/demo.ugvr") ;;
+  esac
+  "$UGVR" --quiet render "${args[@]}" --view iso --size "$dsize" --frames $((frames / 2 + 2)) -o "$out/demo-$run.png" \
+    --stats "$scratch/demo-$run.json" || continue
+  exact_line "demo-$run" "$scratch/demo-$run.json" "{\"size\":\"$dsize\"}"
+done
+fi
+
+if want time-critical; then
 echo "== time-critical (run_time_critical.sh)"
 n=$(lines bench/results/time_critical.jsonl)
 if [[ -n $quick ]]; then
@@ -69,9 +133,12 @@ else
     "$out/time-critical" "$scratch"
 fi
 collect bench/results/time_critical.jsonl "$n"
+fi
 
+if want view; then
 echo "== viewer over its socket (view_socket_check.py)"
 "$PYTHON" bench/view_socket_check.py "$UGVR" "$scratch/lox-post-e0.01.ugvr" "$out/view" --size "${size}x768" \
   --moves "$moves" --fps 30 | tee -a "$out/gpu.jsonl"
+fi
 
 echo "== done: $out/gpu.jsonl"

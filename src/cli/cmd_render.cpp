@@ -56,6 +56,10 @@ RendererOptions renderer_options(const Options& o, const RenderSettings& setting
   r.interactive = !o.path.empty() || !o.fps.empty();
   r.field = settings.field;
   r.gpu = o.gpu;
+  r.device = o.device;
+  if (o.exact_precision != "double" && o.exact_precision != "float")
+    fail_flag("--exact-precision", "must be double or float");
+  r.exact_gpu.double_precision = o.exact_precision == "double";
   r.lod.atlas_budget_bytes = o.gpu_memory;
   if (!o.step_voxels.empty()) {
     r.lod.step_voxels = parse_number(o.step_voxels, "--step-voxels");

@@ -147,6 +147,15 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
                   "input, else exact)")
       ->default_str("auto")
       ->type_name("NAME");
+  cmd->add_option("--device", opts->device,
+                  "exact: cpu, gpu (the EGL device --gpu names, llvmpipe included) or auto (a hardware GPU that holds "
+                  "the mesh, else the CPU)")
+      ->default_str("auto")
+      ->type_name("NAME");
+  cmd->add_option("--exact-precision", opts->exact_precision,
+                  "exact on the GPU: the walk's arithmetic, double (as the CPU reference) or float")
+      ->default_str("double")
+      ->type_name("double|float");
   cmd->add_option("--cut", opts->cut,
                   "lod: which octree nodes to render: leaves, error:E (node error <= E of the field range) or "
                   "pixels:P (one voxel <= P pixels on screen)")

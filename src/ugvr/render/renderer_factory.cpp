@@ -34,8 +34,37 @@ const std::vector<std::string>& engine_names() {
 
 bool is_brick_store(const std::string& path) { return std::filesystem::path(path).extension() == ".ugvr"; }
 
+const std::vector<std::string>& device_names() {
+  static const std::vector<std::string> names = {"auto", "cpu", "gpu"};
+  return names;
+}
+
 std::unique_ptr<Renderer> make_renderer(std::shared_ptr<ExactScene> scene, const RendererOptions& options) {
-  return bound(std::make_unique<ExactRenderer>(std::move(scene)), options);
+  const std::string& device = options.device;
+  const std::vector<std::string>& names = device_names();
+  if (std::find(names.begin(), names.end(), device) == names.end())
+    throw OptionError("device", "unknown device \"" + device + "\" (valid: auto, cpu, gpu)");
+  bool on_gpu = false;
+  if (device != "cpu") {
+    if (scene->gpu_engine) {
+      on_gpu = true;
+    } else if (device == "gpu") {
+      auto gl = for_option("gpu", [&] { return std::make_shared<GlContext>(options.gpu); });
+      for_option("device", [&] { return &scene->gpu(std::move(gl), options.exact_gpu); });
+      on_gpu = true;
+    } else {
+      // auto: a hardware GPU that holds the mesh; llvmpipe loses to the CPU engine, and any failure means the CPU.
+      try {
+        auto gl = std::make_shared<GlContext>(options.gpu);
+        if (!gl->software()) {
+          scene->gpu(std::move(gl), options.exact_gpu);
+          on_gpu = true;
+        }
+      } catch (const Error&) {
+      }
+    }
+  }
+  return bound(std::make_unique<ExactRenderer>(std::move(scene), on_gpu), options);
 }
 
 std::unique_ptr<Renderer> make_renderer(std::shared_ptr<LodScene> scene, const RendererOptions& options) {

@@ -28,6 +28,10 @@ struct RendererOptions {
   // A session that holds FrameRequest::target_fps (the LOD engine: time-critical; the exact engine: adaptive scale).
   bool interactive = false;
   std::string field;  // bound at once (empty: the first field)
+  // Exact engine: "cpu", "gpu" (the EGL device `gpu` names, llvmpipe included) or "auto" (a hardware GPU when there
+  // is one and the mesh fits its memory, else the CPU engine, which outruns llvmpipe: docs/exact-engine.md).
+  std::string device = "auto";
+  ExactGpuOptions exact_gpu;
   // Level of detail.
   std::string gpu = "auto";           // EGL device index, or auto (the first GPU, else Mesa's llvmpipe)
   LodOptions lod;                     // GPU memory for bricks, sample step
@@ -37,6 +41,8 @@ struct RendererOptions {
   ProgressCallback progress;
 };
 
+// The device names RendererOptions::device takes.
+const std::vector<std::string>& device_names();
 // The engine names RendererOptions::engine takes.
 const std::vector<std::string>& engine_names();
 bool is_brick_store(const std::string& path);  // by extension: .ugvr

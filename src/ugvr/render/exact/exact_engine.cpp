@@ -671,6 +671,14 @@ uint64_t ExactEngine::memory_bytes() const {
   return impl_->mesh.memory_bytes() + impl_->values.capacity() * sizeof(float);
 }
 double ExactEngine::build_seconds() const { return impl_->build_seconds; }
+const WalkMesh& ExactEngine::walk_mesh() const { return impl_->mesh; }
+const std::vector<float>& ExactEngine::bound_values() const { return impl_->values; }
+bool ExactEngine::per_cell() const { return impl_->per_cell; }
+double ExactEngine::tolerance_abs(const TransferFunction& tf) const {
+  const double tf_width = tf.range_max() - tf.range_min();
+  const double scale = tf_width > 0 ? tf_width : std::max(impl_->field_max - impl_->field_min, 1e-30);
+  return impl_->nonlinear_tolerance * scale;
+}
 
 Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
                           ExactRenderStats* stats) const {
@@ -683,11 +691,8 @@ Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, cons
   const OpticalTable table(tf);
   std::vector<double> iso = settings.iso_values;
   std::sort(iso.begin(), iso.end());
-  const double tf_width = tf.range_max() - tf.range_min();
-  const double scale = tf_width > 0 ? tf_width : std::max(I.field_max - I.field_min, 1e-30);
   const double diagonal = length(I.mesh.bounds.size());
-  const Scene scene{I.values,       I.per_cell, I.mesh, table, tf, settings, iso, I.nonlinear_tolerance * scale,
-                    1e-7 * diagonal};
+  const Scene scene{I.values, I.per_cell, I.mesh, table, tf, settings, iso, tolerance_abs(tf), 1e-7 * diagonal};
 
   const int width = settings.width, height = settings.height;
   const CameraRays rays(camera, width, height);

@@ -12,6 +12,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "ugvr/grid/dataset.h"
 #include "ugvr/render/camera.h"
@@ -20,6 +21,8 @@
 #include "ugvr/render/transfer_function.h"
 
 namespace ugvr {
+
+struct WalkMesh;
 
 struct ExactRenderStats {
   double render_seconds = 0;       // wall time of render()
@@ -65,6 +68,13 @@ class ExactEngine {
   uint64_t memory_bytes() const;
   // Seconds spent building the walk mesh (topology included) in the constructor.
   double build_seconds() const;
+
+  // What the GPU engine (exact_gpu_engine.h) uploads: the walk mesh, the bound values (per vertex, or per cell in
+  // engine order) and the nonlinear tolerance in scalar units for a transfer function.
+  const WalkMesh& walk_mesh() const;
+  const std::vector<float>& bound_values() const;
+  bool per_cell() const;
+  double tolerance_abs(const TransferFunction& tf) const;
 
  private:
   struct Impl;

@@ -34,6 +34,21 @@ void ExactScene::bind(const std::string& selector) {
   bound = selector;
 }
 
+ExactGpuEngine& ExactScene::gpu(std::shared_ptr<const GlContext> gl, const ExactGpuOptions& options) {
+  if (!gpu_engine) {
+    gpu_engine = std::make_unique<ExactGpuEngine>(engine.walk_mesh(), std::move(gl), options);
+    gpu_bound.reset();
+  }
+  return *gpu_engine;
+}
+
+void ExactScene::bind_gpu(const std::string& selector) {
+  bind(selector);
+  if (gpu_bound && *gpu_bound == selector) return;
+  gpu_engine->set_values(engine.bound_values(), engine.per_cell());
+  gpu_bound = selector;
+}
+
 void ExactFrameStats::to_json(nlohmann::json& j) const {
   j["rays"] = render.rays;
   j["rays_hit"] = render.rays_hit;
@@ -43,9 +58,16 @@ void ExactFrameStats::to_json(nlohmann::json& j) const {
   j["lost_rays"] = render.lost_rays;
 }
 
-ExactRenderer::ExactRenderer(std::shared_ptr<ExactScene> scene) : scene_(std::move(scene)) { scene_->bind(field_); }
+ExactRenderer::ExactRenderer(std::shared_ptr<ExactScene> scene, bool on_gpu)
+    : scene_(std::move(scene)), on_gpu_(on_gpu) {
+  if (on_gpu_ && !scene_->gpu_engine) fail_in("exact engine", "no GPU engine in the scene (call ExactScene::gpu)");
+  scene_->bind(field_);
+}
 
-std::string ExactRenderer::device() const { return "CPU, " + std::to_string(worker_threads()) + " threads"; }
+std::string ExactRenderer::device() const {
+  if (on_gpu_) return "GPU, " + scene_->gpu_engine->gl().renderer();
+  return "CPU, " + std::to_string(worker_threads()) + " threads";
+}
 
 void ExactRenderer::set_field(std::string_view name) {
   scene_->bind(std::string(name));
@@ -81,7 +103,14 @@ Frame ExactRenderer::render(const FrameRequest& request) {
   RenderSettings rs = request.settings;
   rs.width = std::max(1, int(std::lround(w * f.stats.scale)));
   rs.height = std::max(1, int(std::lround(h * f.stats.scale)));
-  Image image = scene_->engine.render(request.camera, request.tf, rs, &detail->render);
+  Image image;
+  if (on_gpu_) {
+    scene_->bind_gpu(field_);
+    image = scene_->gpu_engine->render(request.camera, request.tf, rs, scene_->engine.tolerance_abs(request.tf),
+                                       &detail->render);
+  } else {
+    image = scene_->engine.render(request.camera, request.tf, rs, &detail->render);
+  }
   f.stats.seconds = detail->render.render_seconds;
   if (full) {
     f.image = std::move(image);
@@ -107,6 +136,16 @@ void ExactRenderer::describe(nlohmann::json& j) const {
   j["build_seconds"] = e.build_seconds();
   j["engine_bytes"] = e.memory_bytes();
   j["engine_bytes_per_cell"] = cells ? double(e.memory_bytes()) / double(cells) : 0.0;
+  j["device"] = device();
+  if (on_gpu_) {
+    const ExactGpuEngine& g = *scene_->gpu_engine;
+    j["device_bytes"] = g.device_bytes();
+    j["device_mesh_bytes"] = g.mesh_device_bytes();
+    j["device_bytes_per_cell"] = cells ? double(g.device_bytes()) / double(cells) : 0.0;
+    j["device_mesh_bytes_per_cell"] = cells ? double(g.mesh_device_bytes()) / double(cells) : 0.0;
+    j["boundary_bin_seconds"] = g.last_bin_seconds();
+    j["gpu_seconds"] = g.last_gpu_seconds();
+  }
 }
 
 std::string ExactRenderer::summary(const FrameStats& last) const {
@@ -114,9 +153,10 @@ std::string ExactRenderer::summary(const FrameStats& last) const {
   const auto* d = dynamic_cast<const ExactFrameStats*>(last.detail.get());
   const ExactRenderStats st = d ? d->render : ExactRenderStats{};
   char buf[256];
-  std::snprintf(buf, sizeof buf, "%llu cells, build %.3f s, %llu of %llu rays hit, engine %s",
+  std::snprintf(buf, sizeof buf, "%llu cells, build %.3f s, %llu of %llu rays hit, engine %s%s%s",
                 (unsigned long long)e.cell_count(), e.build_seconds(), (unsigned long long)st.rays_hit,
-                (unsigned long long)st.rays, format_bytes(e.memory_bytes()).c_str());
+                (unsigned long long)st.rays, format_bytes(e.memory_bytes()).c_str(), on_gpu_ ? ", on the GPU " : "",
+                on_gpu_ ? format_bytes(scene_->gpu_engine->device_bytes()).c_str() : "");
   std::string s = buf;
   if (st.lost_rays > 0) s += "\nwarning: " + std::to_string(st.lost_rays) + " rays were abandoned on a degenerate walk";
   return s;

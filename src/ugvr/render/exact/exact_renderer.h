@@ -12,8 +12,10 @@
 #include <optional>
 #include <string>
 
+#include "ugvr/gpu/gl_context.h"
 #include "ugvr/grid/dataset.h"
 #include "ugvr/render/exact/exact_engine.h"
+#include "ugvr/render/exact/exact_gpu_engine.h"
 #include "ugvr/render/renderer.h"
 
 namespace ugvr {
@@ -25,6 +27,13 @@ struct ExactScene {
   ExactEngine engine;
   std::optional<std::string> bound;  // the selector bound now
   void bind(const std::string& selector);
+
+  // The GPU engine over the same walk mesh, made on first use; its field follows the CPU engine's binding.
+  std::unique_ptr<ExactGpuEngine> gpu_engine;
+  std::optional<std::string> gpu_bound;  // the selector whose values the GPU holds
+  // Makes the GPU engine on `gl` (throws ugvr::Error when the mesh does not fit or GL fails).
+  ExactGpuEngine& gpu(std::shared_ptr<const GlContext> gl, const ExactGpuOptions& options);
+  void bind_gpu(const std::string& selector);
 };
 
 // The exact engine's own figures for --stats.
@@ -35,7 +44,8 @@ struct ExactFrameStats : EngineFrameStats {
 
 class ExactRenderer final : public Renderer {
  public:
-  explicit ExactRenderer(std::shared_ptr<ExactScene> scene);
+  // On the CPU engine, or on the scene's GPU engine (made with scene->gpu() before).
+  explicit ExactRenderer(std::shared_ptr<ExactScene> scene, bool on_gpu = false);
   std::string_view engine() const override { return "exact"; }
   std::string device() const override;
   void set_field(std::string_view name) override;
@@ -48,6 +58,7 @@ class ExactRenderer final : public Renderer {
 
  private:
   std::shared_ptr<ExactScene> scene_;
+  bool on_gpu_ = false;
   std::string field_;                 // this renderer's selector ("" until set: the dataset's first field)
   double scale_ = 0.5;                // interactive image scale while moving
   std::optional<FrameRequest> last_;  // the request the previous frame showed (resting = the same again)

@@ -1,0 +1,686 @@
+#version 450
+// The exact engine on the GPU: one invocation per pixel walks its ray from cell to cell across shared faces and
+// integrates each cell's stretch in closed form — the CPU engine's method (src/ugvr/render/exact/exact_engine.cpp,
+// docs/exact-engine.md), line for line where it matters:
+//  - watertight edge functions on per-vertex ray-local projections (ray_frame.h), `precise` so that no compiler
+//    contracts them into FMAs differently in two places: the two cells sharing a face get the same numbers;
+//  - native tetrahedra, pyramids, wedges and hexahedra; quadrilateral faces as two triangles along the walk mesh's
+//    diagonal; vertex or cell data;
+//  - in non-tetrahedral cells the field along the ray is split into linear pieces at midpoints until the midpoint is
+//    within the tolerance of the chord (Newton on the cell's monomial form for the point's parametric coordinates);
+//  - entries and re-entries from the boundary triangles binned per 16x16 screen tile (boundary_bins.h), taken in
+//    order of (t, triangle) as the CPU sorts them;
+//  - emission-absorption (optical.glsl), MIP, isosurfaces, the boundary overlay, the clip plane, lighting.
+// Engine and shader share their bindings and the per-frame block through exact_shared.h.
+
+#include "exact_shared.h"
+#define OPTICAL_TABLE_BINDING EXACT_OPTICAL_BINDING
+#include "optical.glsl"
+
+#ifndef MODE
+#define MODE EXACT_MODE_EA
+#endif
+#ifndef EXACT_DOUBLE
+#define EXACT_DOUBLE 1
+#endif
+#if EXACT_DOUBLE
+#define real double
+#define real3 dvec3
+#else
+#define real float
+#define real3 vec3
+#endif
+
+layout(local_size_x = EXACT_WORKGROUP_SIZE, local_size_y = EXACT_WORKGROUP_SIZE) in;
+
+layout(rgba32f, binding = EXACT_OUT_IMAGE_BINDING) uniform writeonly image2D u_out;
+layout(binding = EXACT_TF_TEXTURE_BINDING) uniform sampler1D u_tf;
+layout(std430, binding = EXACT_POINTS_BINDING) readonly buffer Points { float points[]; };
+layout(std430, binding = EXACT_CONN_BINDING + 0) readonly buffer Conn0 { uint conn0[]; };
+layout(std430, binding = EXACT_CONN_BINDING + 1) readonly buffer Conn1 { uint conn1[]; };
+layout(std430, binding = EXACT_CONN_BINDING + 2) readonly buffer Conn2 { uint conn2[]; };
+layout(std430, binding = EXACT_CONN_BINDING + 3) readonly buffer Conn3 { uint conn3[]; };
+layout(std430, binding = EXACT_NBR_BINDING + 0) readonly buffer Nbr0 { uint nbr0[]; };
+layout(std430, binding = EXACT_NBR_BINDING + 1) readonly buffer Nbr1 { uint nbr1[]; };
+layout(std430, binding = EXACT_NBR_BINDING + 2) readonly buffer Nbr2 { uint nbr2[]; };
+layout(std430, binding = EXACT_NBR_BINDING + 3) readonly buffer Nbr3 { uint nbr3[]; };
+layout(std430, binding = EXACT_QUAD_SPLIT_BINDING) readonly buffer QuadSplit { uint quad_split[]; };
+layout(std430, binding = EXACT_VALUES_BINDING) readonly buffer Values { float values[]; };
+layout(std430, binding = EXACT_BOUNDARY_BINDING) readonly buffer Boundary { uvec2 boundary[]; };
+layout(std430, binding = EXACT_BOXES_BINDING) readonly buffer Boxes { uvec2 boxes[]; };
+layout(std430, binding = EXACT_TILES_BINDING) readonly buffer Tiles { uint tiles[]; };
+layout(std430, binding = EXACT_COUNTERS_BINDING) buffer Counters { uint counters[]; };
+
+const float AMBIENT = 0.2, DIFFUSE = 0.8, SPECULAR = 0.25, SHININESS = 32.0;
+const vec3 OVERLAY_COLOR = vec3(0.85);
+const int MAX_STALL_STEPS = 1000;
+const int MAX_NONLINEAR_DEPTH = 6;
+// Infinity (1.0 / 0.0 is undefined in GLSL).
+#define INF real(uintBitsToFloat(0x7F800000u))
+#define FLOAT_INF uintBitsToFloat(0x7F800000u)
+
+// ---- cell tables (cell_type.h: VTK order, faces counter-clockwise seen from outside) ----------------------------
+const int VERTEX_COUNT[4] = int[4](4, 5, 6, 8);  // tetra, pyramid, wedge, hexahedron (the walk mesh's type order)
+const int FACE_COUNT[4] = int[4](4, 5, 5, 6);
+const int FACE_SIZE[24] = int[24](3, 3, 3, 3, 0, 0,  // tetra
+                                  4, 3, 3, 3, 3, 0,  // pyramid
+                                  3, 3, 4, 4, 4, 0,  // wedge
+                                  4, 4, 4, 4, 4, 4);
+const ivec4 FACE_V[24] = ivec4[24](ivec4(0, 1, 3, 0), ivec4(1, 2, 3, 0), ivec4(2, 0, 3, 0), ivec4(0, 2, 1, 0),
+                                   ivec4(0), ivec4(0),  //
+                                   ivec4(0, 3, 2, 1), ivec4(0, 1, 4, 0), ivec4(1, 2, 4, 0), ivec4(2, 3, 4, 0),
+                                   ivec4(3, 0, 4, 0), ivec4(0),  //
+                                   ivec4(0, 1, 2, 0), ivec4(3, 5, 4, 0), ivec4(0, 3, 4, 1), ivec4(1, 4, 5, 2),
+                                   ivec4(2, 5, 3, 0), ivec4(0),  //
+                                   ivec4(0, 4, 7, 3), ivec4(1, 2, 6, 5), ivec4(0, 1, 5, 4), ivec4(3, 7, 6, 2),
+                                   ivec4(0, 3, 2, 1), ivec4(4, 5, 6, 7));
+// Parametric corners of each vertex (cell_interpolation.h) for pyramid, wedge, hexahedron.
+const vec3 CORNER[24] = vec3[24](vec3(0, 0, 0), vec3(1, 0, 0), vec3(1, 1, 0), vec3(0, 1, 0), vec3(0, 0, 1), vec3(0),
+                                 vec3(0), vec3(0),  // pyramid
+                                 vec3(0, 0, 0), vec3(1, 0, 0), vec3(0, 1, 0), vec3(0, 0, 1), vec3(1, 0, 1),
+                                 vec3(0, 1, 1), vec3(0), vec3(0),  // wedge
+                                 vec3(0, 0, 0), vec3(1, 0, 0), vec3(1, 1, 0), vec3(0, 1, 0), vec3(0, 0, 1),
+                                 vec3(1, 0, 1), vec3(1, 1, 1), vec3(0, 1, 1));
+
+// ---- mesh access ---------------------------------------------------------------------------------------------------
+uint chunk_mask() { return (1u << uint(u_counts.z)) - 1u; }
+uint conn_at(uint i) {
+  uint c = i >> uint(u_counts.z), j = i & chunk_mask();
+  if (c == 0u) return conn0[j];
+  if (c == 1u) return conn1[j];
+  if (c == 2u) return conn2[j];
+  return conn3[j];
+}
+uint nbr_at(uint i) {
+  uint c = i >> uint(u_counts.z), j = i & chunk_mask();
+  if (c == 0u) return nbr0[j];
+  if (c == 1u) return nbr1[j];
+  if (c == 2u) return nbr2[j];
+  return nbr3[j];
+}
+int type_index(uint c) { return c < u_type_begin.y ? 0 : c < u_type_begin.z ? 1 : c < u_type_begin.w ? 2 : 3; }
+uint vertex_id(uint c, int k, int i) {
+  return conn_at(u_conn_begin[k] + (c - u_type_begin[k]) * uint(VERTEX_COUNT[k]) + uint(i));
+}
+uint neighbor(uint c, int k, int f) {
+  return nbr_at(u_face_begin[k] + (c - u_type_begin[k]) * uint(FACE_COUNT[k]) + uint(f));
+}
+bool quad_split_13(uint c, int f) {
+  uint i = c - u_type_begin.y;
+  return ((quad_split[i >> 2] >> (8u * (i & 3u) + uint(f))) & 1u) != 0u;
+}
+vec3 point_at(uint id) { return vec3(points[3u * id], points[3u * id + 1u], points[3u * id + 2u]); }
+ivec3 triangle_corners(int face_size, bool split_13, int tri) {
+  if (face_size == 3) return ivec3(0, 1, 2);
+  if (split_13) return tri == 0 ? ivec3(0, 1, 3) : ivec3(1, 2, 3);
+  return tri == 0 ? ivec3(0, 1, 2) : ivec3(0, 2, 3);
+}
+
+// ---- the ray -------------------------------------------------------------------------------------------------------
+real3 g_origin, g_dir, g_e1, g_e2;
+real g_t_lo, g_t_hi;
+vec4 g_acc = vec4(0, 0, 0, 1);  // premultiplied radiance, transmittance
+int g_hint = -1;
+float g_stop_transmittance;
+float g_mip_max;
+bool g_mip_hit = false;
+uint g_nonlinear = 0u;
+
+bool done() { return g_acc.a <= g_stop_transmittance; }
+
+// (u, v, w) of a vertex in the ray's frame; `precise`: every cell that projects it gets the same bits.
+real3 project(vec3 p) {
+  precise real3 a = real3(p) - g_origin;
+  precise real u = a.x * g_e1.x + a.y * g_e1.y + a.z * g_e1.z;
+  precise real v = a.x * g_e2.x + a.y * g_e2.y + a.z * g_e2.z;
+  precise real w = a.x * g_dir.x + a.y * g_dir.y + a.z * g_dir.z;
+  return real3(u, v, w);
+}
+real edge_side(real3 a, real3 b) {
+  precise real e = a.x * b.y - a.y * b.x;
+  return e;
+}
+
+// The current cell: its vertices, their projections and (vertex data) values.
+uint g_vid[8];
+real3 g_proj[8];
+float g_s[8];
+
+void load_cell(uint cell, int k) {
+  for (int i = 0; i < VERTEX_COUNT[k]; ++i) {
+    uint id = vertex_id(cell, k, i);
+    g_vid[i] = id;
+    g_proj[i] = project(point_at(id));
+    if (u_flags.x == 0) g_s[i] = values[id];
+  }
+}
+
+struct Crossing {
+  int face;
+  ivec3 corners;  // indices into the face's vertex list
+  real3 lambda;   // barycentric weights of those corners
+  real t;
+};
+
+// ---- shading -------------------------------------------------------------------------------------------------------
+vec3 shade_surface(vec3 color, vec3 normal, vec3 view_dir) {
+  if (u_flags.z == 0) return color;
+  float len = length(normal);
+  if (!(len > 0.0)) return color;
+  float c = abs(dot(normal, view_dir)) / len;
+  float spec = SPECULAR * pow(c, SHININESS);
+  return min(color * (AMBIENT + DIFFUSE * c) + vec3(spec), vec3(1.0));
+}
+void composite_surface(vec3 color, float alpha) {
+  g_acc.rgb += color * (g_acc.a * alpha);
+  g_acc.a *= 1.0 - alpha;
+}
+vec4 tf_lookup(float value) {
+  float u = clamp(value * u_tf_map.x + u_tf_map.y, 0.0, 1.0);
+  return texture(u_tf, (u * float(EXACT_TF_TEXELS - 1) + 0.5) / float(EXACT_TF_TEXELS));
+}
+
+// ---- cell interpolation (cell_interpolation.h): shape functions and the monomial form -----------------------------
+void shape_functions(int k, real3 p, out real N[8]) {
+  real r = p.x, s = p.y, t = p.z;
+  real rm = 1.0 - r, sm = 1.0 - s, tm = 1.0 - t;
+  for (int i = 0; i < 8; ++i) N[i] = 0.0;
+  if (k == 0) {
+    N[0] = 1.0 - r - s - t, N[1] = r, N[2] = s, N[3] = t;
+  } else if (k == 1) {
+    N[0] = rm * sm * tm, N[1] = r * sm * tm, N[2] = r * s * tm, N[3] = rm * s * tm, N[4] = t;
+  } else if (k == 2) {
+    real u = 1.0 - r - s;
+    N[0] = u * tm, N[1] = r * tm, N[2] = s * tm, N[3] = u * t, N[4] = r * t, N[5] = s * t;
+  } else {
+    N[0] = rm * sm * tm, N[1] = r * sm * tm, N[2] = r * s * tm, N[3] = rm * s * tm;
+    N[4] = rm * sm * t, N[5] = r * sm * t, N[6] = r * s * t, N[7] = rm * s * t;
+  }
+}
+
+// Monomial coefficients (1, r, s, t, rs, rt, st, rst) of the current cell's map and field, from the values at the
+// unit cube's corners.
+real3 g_map[8];
+real g_field[8];
+
+void build_monomials(int k) {
+  real3 cx[8];
+  real cs[8];
+  for (int q = 0; q < 8; ++q) {
+    real N[8];
+    shape_functions(k, real3(real(q & 1), real((q >> 1) & 1), real((q >> 2) & 1)), N);
+    cx[q] = real3(0.0);
+    cs[q] = 0.0;
+    for (int i = 0; i < VERTEX_COUNT[k]; ++i) {
+      cx[q] += real3(point_at(g_vid[i])) * N[i];
+      cs[q] += real(g_s[i]) * N[i];
+    }
+  }
+  g_map[0] = cx[0], g_map[1] = cx[1] - cx[0], g_map[2] = cx[2] - cx[0], g_map[3] = cx[4] - cx[0];
+  g_map[4] = cx[3] - cx[1] - cx[2] + cx[0], g_map[5] = cx[5] - cx[1] - cx[4] + cx[0];
+  g_map[6] = cx[6] - cx[2] - cx[4] + cx[0];
+  g_map[7] = cx[7] - cx[3] - cx[5] - cx[6] + cx[1] + cx[2] + cx[4] - cx[0];
+  g_field[0] = cs[0], g_field[1] = cs[1] - cs[0], g_field[2] = cs[2] - cs[0], g_field[3] = cs[4] - cs[0];
+  g_field[4] = cs[3] - cs[1] - cs[2] + cs[0], g_field[5] = cs[5] - cs[1] - cs[4] + cs[0];
+  g_field[6] = cs[6] - cs[2] - cs[4] + cs[0];
+  g_field[7] = cs[7] - cs[3] - cs[5] - cs[6] + cs[1] + cs[2] + cs[4] - cs[0];
+}
+real field_at(real3 p) {
+  real rs = p.x * p.y, rt = p.x * p.z, st = p.y * p.z;
+  return g_field[0] + g_field[1] * p.x + g_field[2] * p.y + g_field[3] * p.z + g_field[4] * rs + g_field[5] * rt +
+         g_field[6] * st + g_field[7] * (rs * p.z);
+}
+// Jacobian columns of the map at rst.
+void jacobian(real3 rst, out real3 jr, out real3 js, out real3 jt) {
+  real r = rst.x, s = rst.y, t = rst.z;
+  real3 q = g_map[6] + g_map[7] * r;
+  jr = g_map[1] + g_map[4] * s + (g_map[5] + g_map[7] * s) * t;
+  js = g_map[2] + g_map[4] * r + q * t;
+  jt = g_map[3] + g_map[5] * r + q * s;
+}
+// Newton on the monomial form (inverse_map_monomial).
+bool inverse_map(real3 point, real3 guess, real tolerance, out real3 rst) {
+  rst = guess;
+  real3 target = point - g_map[0];
+  real det_floor2 = -1.0;
+  for (int it = 0; it < 16; ++it) {
+    real r = rst.x, s = rst.y, t = rst.z;
+    real3 jr, js, jt;
+    jacobian(rst, jr, js, jt);
+    real3 x = jr * r + (g_map[2] + g_map[6] * t) * s + g_map[3] * t;
+    real3 a0 = cross(js, jt), a1 = cross(jt, jr), a2 = cross(jr, js);
+    real det = dot(jr, a0);
+    if (det_floor2 < 0.0) det_floor2 = 1e-24 * dot(jr, jr) * dot(js, js) * dot(jt, jt);
+    if (!(det * det > det_floor2)) return false;
+    real3 b = target - x;
+    real3 delta = real3(dot(a0, b), dot(a1, b), dot(a2, b)) / det;
+    rst += delta;
+    real step = max(abs(delta.x), max(abs(delta.y), abs(delta.z)));
+    if (step < tolerance) return true;
+    if (!(step < 1e8)) return false;
+  }
+  return false;
+}
+const vec3 CENTER[4] = vec3[4](vec3(0.25), vec3(0.4, 0.4, 0.2), vec3(1.0 / 3.0, 1.0 / 3.0, 0.5), vec3(0.5));
+
+// World gradient of the field in the current cell (build_monomials done) at distance t; zero for cell data.
+vec3 gradient_at(int k, real t) {
+  if (u_flags.x != 0) return vec3(0);
+  real3 rst = real3(CENTER[k]);
+  if (k != 0 && !inverse_map(g_origin + g_dir * t, rst, 1e-9, rst)) rst = real3(CENTER[k]);
+  real3 jr, js, jt;
+  jacobian(rst, jr, js, jt);
+  real3 a0 = cross(js, jt), a1 = cross(jt, jr), a2 = cross(jr, js);
+  real det = dot(jr, a0);
+  if (!(abs(det) > 0.0)) return vec3(0);
+  real r = rst.x, s = rst.y, tt = rst.z;
+  real gr = g_field[1] + g_field[4] * s + g_field[5] * tt + g_field[7] * s * tt;
+  real gs = g_field[2] + g_field[4] * r + g_field[6] * tt + g_field[7] * r * tt;
+  real gt = g_field[3] + g_field[5] * r + g_field[6] * s + g_field[7] * r * s;
+  // J^-T g: the rows of J^-1 are a0, a1, a2 over det.
+  return vec3((a0 * gr + a1 * gs + a2 * gt) / det);
+}
+bool g_monomials_built = false;  // for the current cell
+void need_monomials(int k) {
+  if (!g_monomials_built) build_monomials(k);
+  g_monomials_built = true;
+}
+
+vec3 triangle_normal(int k, int face, ivec3 c) {
+  ivec4 fv = FACE_V[k * 6 + face];
+  vec3 a = point_at(g_vid[fv[c.x]]), b = point_at(g_vid[fv[c.y]]), d = point_at(g_vid[fv[c.z]]);
+  return cross(b - a, d - a);
+}
+
+void overlay(int k, int face, ivec3 c, real t) {
+#if MODE != EXACT_MODE_MIP
+  float alpha = u_params.x;
+  if (!(alpha > 0.0) || t < g_t_lo || t > g_t_hi) return;
+  composite_surface(shade_surface(OVERLAY_COLOR, triangle_normal(k, face, c), vec3(-g_dir)), alpha);
+#endif
+}
+
+float iso_value(int i) { return u_iso[i >> 2][i & 3]; }
+
+// The isosurfaces the field crosses from a to b, in the order the ray meets them. normal_face >= 0: the surface lies
+// on that face (a jump across it); else the normal is the field's gradient where it crosses v, linear from (ta, a)
+// to (tb, b).
+void iso_crossings(float a, float b, int k, real ta, real tb, int normal_face, ivec3 corners) {
+  int n = u_counts.y;
+  bool up = b > a;
+  for (int i = 0; i < n && !done(); ++i) {
+    float v = iso_value(up ? i : n - 1 - i);
+    if ((a < v) == (b < v)) continue;
+    vec3 normal;
+    if (normal_face >= 0) {
+      normal = triangle_normal(k, normal_face, corners);
+    } else {
+      need_monomials(k);
+      normal = gradient_at(k, ta + real((v - a) / (b - a)) * (tb - ta));
+    }
+    composite_surface(shade_surface(tf_lookup(v).rgb, normal, vec3(-g_dir)), u_params.y);
+  }
+}
+
+// One linear piece of the field along the ray inside the current cell.
+void piece(real ta, real tb, float sa, float sb, int k) {
+  if (tb <= g_t_lo || ta >= g_t_hi || !(tb > ta)) return;
+  if (ta < g_t_lo) sa = sa + (sb - sa) * float((g_t_lo - ta) / (tb - ta)), ta = g_t_lo;
+  if (tb > g_t_hi) sb = sa + (sb - sa) * float((g_t_hi - ta) / (tb - ta)), tb = g_t_hi;
+#if MODE == EXACT_MODE_EA
+  float shade = 1.0;
+  if (u_flags.w != 0 && sa != sb) {
+    need_monomials(k);
+    vec3 g = gradient_at(k, 0.5 * (ta + tb));
+    float len = length(g);
+    if (len > 0.0) shade = AMBIENT + DIFFUSE * abs(dot(g, vec3(-g_dir))) / len;
+  }
+  optical_integrate(sa, sb, float(tb - ta), shade, g_acc, g_hint);
+#elif MODE == EXACT_MODE_MIP
+  if (!isnan(sa) && sa > g_mip_max) g_mip_max = sa, g_mip_hit = true;
+  if (!isnan(sb) && sb > g_mip_max) g_mip_max = sb, g_mip_hit = true;
+#else
+  if (sa == sb || isnan(sa) || isnan(sb)) return;
+  iso_crossings(sa, sb, k, ta, tb, -1, ivec3(0));
+#endif
+}
+
+// ---- the walk ------------------------------------------------------------------------------------------------------
+uint g_entry_ids[3];
+real3 g_entry_lambda;
+
+// The scalar where the ray crosses a face of the current cell (loaded).
+float scalar_at_face(uint cell, int k, Crossing x) {
+  if (u_flags.x != 0) return values[cell];
+  ivec4 fv = FACE_V[k * 6 + x.face];
+  if (k == 0 || FACE_SIZE[k * 6 + x.face] == 3) {
+    real s = x.lambda.x * real(g_s[fv[x.corners.x]]) + x.lambda.y * real(g_s[fv[x.corners.y]]) +
+             x.lambda.z * real(g_s[fv[x.corners.z]]);
+    return float(s);
+  }
+  // Bilinear over the quadrilateral at face parameters interpolated from the triangle's corners.
+  const real CU[4] = real[4](0.0, 1.0, 1.0, 0.0), CV[4] = real[4](0.0, 0.0, 1.0, 1.0);
+  real u = x.lambda.x * CU[x.corners.x] + x.lambda.y * CU[x.corners.y] + x.lambda.z * CU[x.corners.z];
+  real v = x.lambda.x * CV[x.corners.x] + x.lambda.y * CV[x.corners.y] + x.lambda.z * CV[x.corners.z];
+  real s0 = g_s[fv.x], s1 = g_s[fv.y], s2 = g_s[fv.z], s3 = g_s[fv.w];
+  return float((1.0 - u) * (1.0 - v) * s0 + u * (1.0 - v) * s1 + u * v * s2 + (1.0 - u) * v * s3);
+}
+
+void set_crossing(inout Crossing o, int f, ivec3 c, ivec4 fv, real l0, real l1, real l2) {
+  o.face = f;
+  o.corners = c;
+  o.lambda = real3(l0, l1, l2);
+  precise real t = l0 * g_proj[fv[c.x]].z + l1 * g_proj[fv[c.y]].z + l2 * g_proj[fv[c.z]].z;
+  o.t = t;
+}
+
+// The face (not entry_face) through which the ray leaves the current cell; false when no triangle passes the exact
+// test, `o` then being the least-violating one (exit_of on the CPU).
+bool exit_of(uint cell, int k, int entry_face, out Crossing o) {
+  o.face = 0, o.corners = ivec3(0, 1, 2), o.lambda = real3(1.0 / 3.0), o.t = -INF;
+  if (k == 0) {
+    real e01 = edge_side(g_proj[0], g_proj[1]), e12 = edge_side(g_proj[1], g_proj[2]);
+    real e20 = edge_side(g_proj[2], g_proj[0]), e03 = edge_side(g_proj[0], g_proj[3]);
+    real e13 = edge_side(g_proj[1], g_proj[3]), e23 = edge_side(g_proj[2], g_proj[3]);
+    real ab[4] = real[4](e01, e12, e20, -e20), bc[4] = real[4](e13, e23, e03, -e12);
+    real ca[4] = real[4](-e03, -e13, -e23, -e01);
+    for (int f = 0; f < 4; ++f) {
+      if (f == entry_face || !(ab[f] >= 0.0 && bc[f] >= 0.0 && ca[f] >= 0.0)) continue;
+      real sum = ab[f] + bc[f] + ca[f];
+      if (!(sum > 0.0)) continue;
+      real inv = 1.0 / sum;
+      set_crossing(o, f, ivec3(0, 1, 2), FACE_V[f], bc[f] * inv, ca[f] * inv, ab[f] * inv);
+      return true;
+    }
+  } else {
+    for (int f = 0; f < FACE_COUNT[k]; ++f) {
+      if (f == entry_face) continue;
+      int size = FACE_SIZE[k * 6 + f];
+      ivec4 fv = FACE_V[k * 6 + f];
+      bool split = size == 4 && quad_split_13(cell, f);
+      for (int tri = 0; tri < size - 2; ++tri) {
+        ivec3 c = triangle_corners(size, split, tri);
+        real3 a = g_proj[fv[c.x]], b = g_proj[fv[c.y]], d = g_proj[fv[c.z]];
+        real e_ab = edge_side(a, b), e_bc = edge_side(b, d), e_ca = edge_side(d, a);
+        real sum = e_ab + e_bc + e_ca;
+        if (!(e_ab >= 0.0 && e_bc >= 0.0 && e_ca >= 0.0 && sum > 0.0)) continue;
+        real inv = 1.0 / sum;
+        set_crossing(o, f, c, fv, e_bc * inv, e_ca * inv, e_ab * inv);
+        return true;
+      }
+    }
+  }
+  real best_score = -INF;
+  for (int f = 0; f < FACE_COUNT[k]; ++f) {
+    if (f == entry_face) continue;
+    int size = FACE_SIZE[k * 6 + f];
+    ivec4 fv = FACE_V[k * 6 + f];
+    bool split = k != 0 && size == 4 && quad_split_13(cell, f);
+    for (int tri = 0; tri < size - 2; ++tri) {
+      ivec3 c = triangle_corners(size, split, tri);
+      real3 a = g_proj[fv[c.x]], b = g_proj[fv[c.y]], d = g_proj[fv[c.z]];
+      real e_ab = edge_side(a, b), e_bc = edge_side(b, d), e_ca = edge_side(d, a);
+      real sum = e_ab + e_bc + e_ca;
+      real norm = abs(e_ab) + abs(e_bc) + abs(e_ca);
+      real score = norm > 0.0 ? min(e_ab, min(e_bc, e_ca)) / norm : -INF;
+      if (score > best_score && sum > 0.0) {
+        best_score = score;
+        real l0 = max(e_bc, 0.0), l1 = max(e_ca, 0.0), l2 = max(e_ab, 0.0);
+        real ls = l0 + l1 + l2;
+        if (ls > 0.0)
+          set_crossing(o, f, c, fv, l0 / ls, l1 / ls, l2 / ls);
+        else
+          set_crossing(o, f, c, fv, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0);
+      }
+    }
+  }
+  if (best_score == -INF) {
+    o.face = entry_face == 0 ? 1 : 0;
+    o.corners = ivec3(0, 1, 2);
+    o.lambda = real3(1.0 / 3.0);
+    o.t = -INF;
+  }
+  return false;
+}
+
+// The field between two face crossings of the current cell (cell_segment on the CPU).
+void cell_segment(uint cell, int k, real t0, real t1, float s0, float s1, Crossing exit_crossing) {
+  if (k == 0 || u_flags.x != 0 || !(t1 > t0) || t1 <= g_t_lo || t0 >= g_t_hi) {
+    piece(t0, t1, s0, s1, k);
+    return;
+  }
+  int n = VERTEX_COUNT[k];
+  float lo = FLOAT_INF, hi = -FLOAT_INF;
+  for (int i = 0; i < n; ++i) lo = min(lo, g_s[i]), hi = max(hi, g_s[i]);
+  real tolerance = real(u_tolerance.x);
+  if (!(real(hi) - real(lo) > tolerance)) {
+    piece(t0, t1, s0, s1, k);
+    return;
+  }
+  need_monomials(k);
+  real3 rst_in = real3(0.0), rst_out = real3(0.0);
+  ivec4 xv = FACE_V[k * 6 + exit_crossing.face];
+  for (int i = 0; i < 3; ++i) {
+    int j = 0;
+    while (j < n - 1 && g_vid[j] != g_entry_ids[i]) ++j;
+    rst_in += real3(CORNER[(k - 1) * 8 + j]) * g_entry_lambda[i];
+    rst_out += real3(CORNER[(k - 1) * 8 + xv[exit_crossing.corners[i]]]) * exit_crossing.lambda[i];
+  }
+  real inv_length = 1.0 / (t1 - t0);
+  // Midpoint subdivision with an explicit stack of right halves (end t, end s, depth): the CPU's recursion in order.
+  real stack_t[MAX_NONLINEAR_DEPTH + 1];
+  float stack_s[MAX_NONLINEAR_DEPTH + 1];
+  int stack_d[MAX_NONLINEAR_DEPTH + 1];
+  int sp = 0;
+  stack_t[0] = t1, stack_s[0] = s1, stack_d[0] = 0, sp = 1;
+  real ta = t0;
+  float sa = s0;
+  while (sp > 0 && !done()) {
+    --sp;
+    real tb = stack_t[sp];
+    float sb = stack_s[sp];
+    int depth = stack_d[sp];
+    real tm = 0.5 * (ta + tb);
+    float sm = 0.5 * (sa + sb);
+    ++g_nonlinear;
+    real3 rst;
+    if (inverse_map(g_origin + g_dir * tm, rst_in + (rst_out - rst_in) * ((tm - t0) * inv_length), 1e-7, rst))
+      sm = float(field_at(rst));
+    if (depth + 1 >= MAX_NONLINEAR_DEPTH || abs(real(sm) - 0.5 * (real(sa) + real(sb))) <= tolerance) {
+      piece(ta, tm, sa, sm, k);
+      if (!done()) piece(tm, tb, sm, sb, k);
+      ta = tb, sa = sb;
+    } else {
+      stack_t[sp] = tb, stack_s[sp] = sb, stack_d[sp] = depth + 1, ++sp;
+      stack_t[sp] = tm, stack_s[sp] = sm, stack_d[sp] = depth + 1, ++sp;
+    }
+  }
+}
+
+// Boundary triangle tri's corner vertex ids.
+uvec3 boundary_vertices(uint tri, out uint cell, out int k, out int face, out ivec3 corners) {
+  uvec2 b = boundary[tri];
+  cell = b.x >> 3;
+  face = int(b.x & 7u);
+  corners = ivec3(int(b.y & 3u), int((b.y >> 2) & 3u), int((b.y >> 4) & 3u));
+  k = type_index(cell);
+  ivec4 fv = FACE_V[k * 6 + face];
+  return uvec3(vertex_id(cell, k, fv[corners.x]), vertex_id(cell, k, fv[corners.y]),
+               vertex_id(cell, k, fv[corners.z]));
+}
+
+// The first entering crossing after (after_t, after_tri) in (t, triangle) order with t >= min_t, among the tile's
+// triangles whose box holds the pixel. Returns the triangle or EXACT_BOUNDARY.
+uint next_entry(ivec2 pixel, uint tile, real after_t, uint after_tri, real min_t, out real best_t,
+                out real3 best_lambda) {
+  uint best = EXACT_BOUNDARY;
+  best_t = INF;
+  best_lambda = real3(0.0);
+  uint begin = tiles[tile], end = tiles[tile + 1u];
+  for (uint i = begin; i < end; ++i) {
+    uint tri = tiles[i];
+    uvec2 box = boxes[tri];
+    if (pixel.x < int(box.x & 0xFFFFu) || pixel.x > int(box.x >> 16) || pixel.y < int(box.y & 0xFFFFu) ||
+        pixel.y > int(box.y >> 16))
+      continue;
+    uint cell;
+    int k, face;
+    ivec3 corners;
+    uvec3 v = boundary_vertices(tri, cell, k, face, corners);
+    real3 a = project(point_at(v.x)), b = project(point_at(v.y)), c = project(point_at(v.z));
+    real e_ab = edge_side(a, b), e_bc = edge_side(b, c), e_ca = edge_side(c, a);
+    precise real sum = e_ab + e_bc + e_ca;
+    if (!(e_ab <= 0.0 && e_bc <= 0.0 && e_ca <= 0.0 && sum < 0.0)) continue;
+    precise real3 lambda = real3(e_bc / sum, e_ca / sum, e_ab / sum);
+    precise real t = lambda.x * a.z + lambda.y * b.z + lambda.z * c.z;
+    if (t < min_t) continue;
+    if (t < after_t || (t == after_t && tri <= after_tri)) continue;
+    if (t < best_t || (t == best_t && tri < best)) best = tri, best_t = t, best_lambda = lambda;
+  }
+  return best;
+}
+
+void main() {
+  ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+  int width = u_size.x, height = u_size.y;
+  if (pixel.x >= width || pixel.y >= height) return;
+
+  // The ray (CameraRays::at) and its frame (RayFrame: Duff et al. 2017), operation for operation as the CPU computes
+  // them (`precise`: no fused multiply-adds), so that both engines walk the same rays.
+  precise double sx = 2.0 * (double(pixel.x) + 0.5) / double(width) - 1.0;
+  precise double sy = 1.0 - 2.0 * (double(pixel.y) + 0.5) / double(height);
+  precise double ox = sx * u_forward.w, oy = sy * u_right.w;
+  precise dvec3 offset = dvec3(u_right.x * ox + u_up.x * oy, u_right.y * ox + u_up.y * oy, u_right.z * ox + u_up.z * oy);
+  precise dvec3 origin, dir;
+  if (u_eye.w != 0.0) {
+    origin = u_eye.xyz + offset, dir = u_forward.xyz;
+  } else {
+    origin = u_eye.xyz;
+    dir = u_forward.xyz + offset;
+    precise double len = sqrt(dir.x * dir.x + dir.y * dir.y + dir.z * dir.z);
+    if (len > 0.0) dir = dir * (1.0 / len);  // normalized() in camera.cpp
+  }
+  precise double sgn = (unpackDouble2x32(dir.z).y & 0x80000000u) != 0u ? -1.0 : 1.0;  // copysign(1, dir.z)
+  precise double fa = -1.0 / (sgn + dir.z);
+  precise double fb = dir.x * dir.y * fa;
+  precise dvec3 e1 = dvec3(1.0 + sgn * dir.x * dir.x * fa, sgn * fb, -sgn * dir.x);
+  precise dvec3 e2 = dvec3(dir.y * e1.z - dir.z * e1.y, dir.z * e1.x - dir.x * e1.z, dir.x * e1.y - dir.y * e1.x);
+  g_origin = real3(origin), g_dir = real3(dir), g_e1 = real3(e1), g_e2 = real3(e2);
+
+  g_t_lo = 0.0, g_t_hi = INF;
+  if (u_flags.y != 0) {
+    double nd = dot(u_clip.xyz, dir);
+    double t_plane = (u_clip.w - dot(u_clip.xyz, origin)) / nd;
+    if (nd > 0.0)
+      g_t_lo = max(g_t_lo, real(t_plane));
+    else if (nd < 0.0)
+      g_t_hi = min(g_t_hi, real(t_plane));
+    else if (dot(u_clip.xyz, origin) - u_clip.w < 0.0)
+      g_t_hi = -INF;
+  }
+  g_stop_transmittance = u_params.z;
+  g_mip_max = -FLOAT_INF;
+
+  uint tile = uint(pixel.y / u_size.w) * uint(u_size.z) + uint(pixel.x / u_size.w);
+  uint max_steps = 4u * uint(u_counts.x) + 16u;
+  real reentry_slack = real(u_up.w);
+  bool entered = false, lost = false;
+  real last_exit = -INF, prev_t = -INF;
+  uint prev_tri = EXACT_BOUNDARY;
+  uint steps = 0u, rays_hit = 0u, reentries = 0u, cell_steps = 0u;
+
+  while (!done() && !lost) {
+    real t_entry;
+    real3 lambda;
+    uint tri = next_entry(pixel, tile, prev_t, prev_tri == EXACT_BOUNDARY ? 0u : prev_tri,
+                          entered ? last_exit - reentry_slack : -INF, t_entry, lambda);
+    if (tri == EXACT_BOUNDARY || t_entry > g_t_hi) break;
+    prev_t = t_entry, prev_tri = tri;
+    if (entered)
+      ++reentries;
+    else
+      ++rays_hit;
+    entered = true;
+
+    // start_walk
+    uint cell;
+    int k, entry_face;
+    ivec3 corners;
+    boundary_vertices(tri, cell, k, entry_face, corners);
+    load_cell(cell, k);
+    g_monomials_built = false;
+    Crossing x;
+    x.face = entry_face, x.corners = corners, x.lambda = lambda, x.t = t_entry;
+    real t_in = t_entry;
+    float s_in = scalar_at_face(cell, k, x);
+    {
+      ivec4 fv = FACE_V[k * 6 + entry_face];
+      for (int i = 0; i < 3; ++i) g_entry_ids[i] = g_vid[fv[corners[i]]];
+      g_entry_lambda = lambda;
+    }
+    overlay(k, entry_face, corners, t_in);
+    int stall = 0;
+    bool in_walk = true;
+    while (in_walk && !done()) {
+      ++cell_steps;
+      Crossing o;
+      exit_of(cell, k, entry_face, o);
+      real t_out = max(o.t, t_in);
+      bool stalled = !(t_out > t_in);
+      float s_out = scalar_at_face(cell, k, o);
+      cell_segment(cell, k, t_in, t_out, s_in, s_out, o);
+      {
+        ivec4 fv = FACE_V[k * 6 + o.face];
+        for (int i = 0; i < 3; ++i) g_entry_ids[i] = g_vid[fv[o.corners[i]]];
+        g_entry_lambda = o.lambda;
+      }
+      t_in = t_out;
+      s_in = s_out;
+      uint next = neighbor(cell, k, o.face);
+      stall = stalled ? stall + 1 : 0;
+      if (stall > MAX_STALL_STEPS || ++steps > max_steps) {
+        lost = true;
+        break;
+      }
+      if (done()) break;
+      if (next == EXACT_BOUNDARY) {
+        overlay(k, o.face, o.corners, t_in);
+        last_exit = t_in;
+        in_walk = false;
+        break;
+      }
+      uint next_cell = next >> 3;
+      if (u_flags.x != 0) {
+        float s_next = values[next_cell];
+#if MODE == EXACT_MODE_ISO
+        if (s_in != s_next && t_in >= g_t_lo && t_in <= g_t_hi && !isnan(s_in) && !isnan(s_next))
+          iso_crossings(s_in, s_next, k, t_in, t_in, o.face, o.corners);
+#endif
+        s_in = s_next;
+      }
+      cell = next_cell;
+      entry_face = int(next & 7u);
+      k = type_index(cell);
+      load_cell(cell, k);
+      g_monomials_built = false;
+    }
+  }
+
+  vec4 result = g_acc;
+#if MODE == EXACT_MODE_MIP
+  result = vec4(0, 0, 0, 1);
+  if (g_mip_hit) {
+    vec4 c = tf_lookup(g_mip_max);
+    result = vec4(c.rgb * c.a, 1.0 - c.a);
+  }
+#endif
+  imageStore(u_out, pixel, result);
+  if (rays_hit > 0u) atomicAdd(counters[EXACT_COUNTER_RAYS_HIT], rays_hit);
+  if (reentries > 0u) atomicAdd(counters[EXACT_COUNTER_REENTRIES], reentries);
+  if (g_nonlinear > 0u) atomicAdd(counters[EXACT_COUNTER_NONLINEAR], g_nonlinear);
+  if (lost) atomicAdd(counters[EXACT_COUNTER_LOST], 1u);
+  if (cell_steps > 0u) {
+    uint old = atomicAdd(counters[EXACT_COUNTER_STEPS_LO], cell_steps);
+    if (old + cell_steps < old) atomicAdd(counters[EXACT_COUNTER_STEPS_HI], 1u);
+  }
+}
