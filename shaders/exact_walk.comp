@@ -23,6 +23,9 @@
 #ifndef EXACT_DOUBLE
 #define EXACT_DOUBLE 1
 #endif
+#ifndef TETS_ONLY
+#define TETS_ONLY 0
+#endif
 #if EXACT_DOUBLE
 #define real double
 #define real3 dvec3
@@ -98,7 +101,15 @@ uint nbr_at(uint i) {
   if (c == 2u) return nbr2[j];
   return nbr3[j];
 }
-int type_index(uint c) { return c < u_type_begin.y ? 0 : c < u_type_begin.z ? 1 : c < u_type_begin.w ? 2 : 3; }
+// TETS_ONLY (a mesh of tetrahedra alone): every cell is type 0, so the compiler drops the code of the other types
+// (non-linear subdivision, Newton, quadrilateral faces) and the registers it holds, which lets more rays run at once.
+int type_index(uint c) {
+#if TETS_ONLY
+  return 0;
+#else
+  return c < u_type_begin.y ? 0 : c < u_type_begin.z ? 1 : c < u_type_begin.w ? 2 : 3;
+#endif
+}
 uint vertex_id(uint c, int k, int i) {
   return conn_at(u_conn_begin[k] + (c - u_type_begin[k]) * uint(VERTEX_COUNT[k]) + uint(i));
 }

@@ -49,18 +49,24 @@ std::unique_ptr<Renderer> make_renderer(std::shared_ptr<ExactScene> scene, const
     if (scene->gpu_engine) {
       on_gpu = true;
     } else if (device == "gpu") {
-      auto gl = for_option("gpu", [&] { return std::make_shared<GlContext>(options.gpu); });
+      auto gl = options.gl_context ? options.gl_context : for_option("gpu", [&] {
+        return std::shared_ptr<const GlContext>(std::make_shared<GlContext>(options.gpu));
+      });
       for_option("device", [&] { return &scene->gpu(std::move(gl), options.exact_gpu); });
       on_gpu = true;
     } else {
       // auto: a hardware GPU that holds the mesh; llvmpipe loses to the CPU engine, and any failure means the CPU.
       try {
-        auto gl = std::make_shared<GlContext>(options.gpu);
+        auto gl = options.gl_context ? options.gl_context
+                                     : std::shared_ptr<const GlContext>(std::make_shared<GlContext>(options.gpu));
         if (!gl->software()) {
           scene->gpu(std::move(gl), options.exact_gpu);
           on_gpu = true;
+        } else {
+          scene->gpu_unavailable = "only a software renderer (" + gl->renderer() + "), slower than the CPU engine";
         }
-      } catch (const Error&) {
+      } catch (const Error& e) {
+        scene->gpu_unavailable = e.what();
       }
     }
   }

@@ -32,6 +32,8 @@ struct RendererOptions {
   // is one and the mesh fits its memory, else the CPU engine, which outruns llvmpipe: docs/exact-engine.md).
   std::string device = "auto";
   ExactGpuOptions exact_gpu;
+  // A GL context to use rather than open one (the viewer's, so that its engines share one context).
+  std::shared_ptr<const GlContext> gl_context;
   // Level of detail.
   std::string gpu = "auto";           // EGL device index, or auto (the first GPU, else Mesa's llvmpipe)
   LodOptions lod;                     // GPU memory for bricks, sample step

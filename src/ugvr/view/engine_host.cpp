@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <vector>
 
 #include "ugvr/gpu/gl_context.h"
@@ -78,7 +79,16 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
   sc.preset = options_.preset;
   sc.fps = options_.fps;
   sc.width = options_.width, sc.height = options_.height;
-  sc.renderer = "exact engine (CPU)";
+  // The exact engine on a hardware GPU when the grid fits there (docs/exact-engine.md), else on the CPU (llvmpipe
+  // is slower than the CPU engine); a failure says why in the log and falls back.
+  if (!gl_->software()) {
+    try {
+      exact_->gpu(gl_, {});
+    } catch (const Error& e) {
+      std::fprintf(stderr, "ugvr view: exact engine on the CPU: %s\n", e.what());
+    }
+  }
+  sc.renderer = exact_->gpu_engine ? "exact engine (GPU: " + gl_->renderer() + ")" : "exact engine (CPU)";
   sc.engine = "exact";
   scene_ = std::move(sc);
   build_ =
@@ -158,6 +168,7 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
     ro.interactive = true;
     ro.time_critical.ram_budget_bytes = options_.ram_per_session;
     ro.time_critical.loader_threads = 2;
+    ro.gl_context = gl_;  // the exact engine runs on the GPU where there is a hardware one (device auto)
     tab.renderer = lod_ ? make_renderer(lod_, ro) : make_renderer(exact_, ro);
   }
   FrameRequest fr;

@@ -78,8 +78,10 @@ struct ExactGpuEngine::Impl {
   ComputeProgram& program_for(int mode) {
     auto it = programs.find(mode);
     if (it == programs.end()) {
-      ComputeProgram p("exact_walk.comp",
-                       {{"MODE", std::to_string(mode)}, {"EXACT_DOUBLE", options.double_precision ? "1" : "0"}});
+      const bool tets_only = mesh.type_begin[1] == mesh.cell_count();
+      ComputeProgram p("exact_walk.comp", {{"MODE", std::to_string(mode)},
+                                           {"EXACT_DOUBLE", options.double_precision ? "1" : "0"},
+                                           {"TETS_ONLY", tets_only ? "1" : "0"}});
       check_contract(p);
       it = programs.emplace(mode, std::move(p)).first;
     }

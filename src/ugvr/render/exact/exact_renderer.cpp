@@ -137,6 +137,7 @@ void ExactRenderer::describe(nlohmann::json& j) const {
   j["engine_bytes"] = e.memory_bytes();
   j["engine_bytes_per_cell"] = cells ? double(e.memory_bytes()) / double(cells) : 0.0;
   j["device"] = device();
+  if (!on_gpu_ && !scene_->gpu_unavailable.empty()) j["gpu_unavailable"] = scene_->gpu_unavailable;
   if (on_gpu_) {
     const ExactGpuEngine& g = *scene_->gpu_engine;
     j["device_bytes"] = g.device_bytes();

@@ -31,6 +31,7 @@ struct ExactScene {
   // The GPU engine over the same walk mesh, made on first use; its field follows the CPU engine's binding.
   std::unique_ptr<ExactGpuEngine> gpu_engine;
   std::optional<std::string> gpu_bound;  // the selector whose values the GPU holds
+  std::string gpu_unavailable;           // why `--device auto` stayed on the CPU (empty: it did not try)
   // Makes the GPU engine on `gl` (throws ugvr::Error when the mesh does not fit or GL fails).
   ExactGpuEngine& gpu(std::shared_ptr<const GlContext> gl, const ExactGpuOptions& options);
   void bind_gpu(const std::string& selector);
