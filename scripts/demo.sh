@@ -13,18 +13,18 @@ mkdir -p out
 # The demo's first view (the same as `ugvr view --demo` starts from, src/cli/demo_scene.h): the wing and its vortex
 # street by pressure, from upstream, to the side and above; the free stream transparent over a dark background.
 cat >out/demo-camera.json <<'JSON'
-{"position": [-4.5, -13.0, 8.0], "focal_point": [3.6, 0.5, 0.5], "view_up": [0, 0, 1], "view_angle": 34}
+{"position": [-3.5, -9.5, 10.5], "focal_point": [4.0, 0.6, 0.4], "view_up": [0, 0, 1], "view_angle": 38}
 JSON
 cat >out/demo-tf.json <<'JSON'
 [{"Name": "demo pressure", "ColorSpace": "RGB",
-  "RGBPoints": [-1.8, 1.0, 1.0, 0.6, -0.6, 1.0, 0.75, 0.2, -0.3, 0.95, 0.35, 0.1, -0.1, 0.55, 0.1, 0.35,
+  "RGBPoints": [-1.8, 1.0, 1.0, 0.6, -0.6, 1.0, 0.8, 0.25, -0.3, 1.0, 0.45, 0.12, -0.1, 0.7, 0.12, 0.45,
                 0.0, 0.2, 0.1, 0.4, 0.1, 0.1, 0.4, 0.8, 1.2, 0.6, 0.9, 1.0],
-  "Points": [-1.8, 0.9, 0.5, 0.0, -0.3, 0.6, 0.5, 0.0, -0.12, 0.25, 0.5, 0.0, -0.05, 0.0, 0.5, 0.0,
+  "Points": [-1.8, 0.9, 0.5, 0.0, -0.3, 0.65, 0.5, 0.0, -0.12, 0.3, 0.5, 0.0, -0.05, 0.0, 0.5, 0.0,
              0.06, 0.0, 0.5, 0.0, 0.2, 0.3, 0.5, 0.0, 1.2, 0.8, 0.5, 0.0],
   "ScalarOpacityUnitDistance": 0.2}]
 JSON
 ./build/ugvr render out/demo.vtu --field pressure --camera out/demo-camera.json --tf out/demo-tf.json --keep-range \
-  --background 0.02,0.02,0.04 --boundary-opacity 0.08 -o out/demo.png --stats out/demo-stats.json
+  --background 0.02,0.02,0.04 --boundary-opacity 0.06 -o out/demo.png --stats out/demo-stats.json
 echo "demo: wrote out/demo.png"
 [ "${UGVR_DEMO_NO_VIEW:-0}" = 1 ] && exit 0
 # The viewer: the first run builds the demo's brick store in the background (the page shows the exact engine's image

@@ -20,12 +20,12 @@ namespace ugvr::cli {
 inline constexpr const char* kDemoField = "pressure";
 
 inline constexpr const char* kDemoCameraJson =
-    R"({"position": [-4.5, -13.0, 8.0], "focal_point": [3.6, 0.5, 0.5], "view_up": [0, 0, 1], "view_angle": 34})";
+    R"({"position": [-3.5, -9.5, 10.5], "focal_point": [4.0, 0.6, 0.4], "view_up": [0, 0, 1], "view_angle": 38})";
 
 inline constexpr const char* kDemoTfJson = R"([{"Name": "demo pressure", "ColorSpace": "RGB",
-  "RGBPoints": [-1.8, 1.0, 1.0, 0.6, -0.6, 1.0, 0.75, 0.2, -0.3, 0.95, 0.35, 0.1, -0.1, 0.55, 0.1, 0.35,
+  "RGBPoints": [-1.8, 1.0, 1.0, 0.6, -0.6, 1.0, 0.8, 0.25, -0.3, 1.0, 0.45, 0.12, -0.1, 0.7, 0.12, 0.45,
                 0.0, 0.2, 0.1, 0.4, 0.1, 0.1, 0.4, 0.8, 1.2, 0.6, 0.9, 1.0],
-  "Points": [-1.8, 0.9, 0.5, 0.0, -0.3, 0.6, 0.5, 0.0, -0.12, 0.25, 0.5, 0.0, -0.05, 0.0, 0.5, 0.0,
+  "Points": [-1.8, 0.9, 0.5, 0.0, -0.3, 0.65, 0.5, 0.0, -0.12, 0.3, 0.5, 0.0, -0.05, 0.0, 0.5, 0.0,
              0.06, 0.0, 0.5, 0.0, 0.2, 0.3, 0.5, 0.0, 1.2, 0.8, 0.5, 0.0],
   "ScalarOpacityUnitDistance": 0.2}])";
 
