@@ -1,6 +1,6 @@
 // The built-in demo's first view: the field, camera, transfer function and background that `ugvr view --demo` starts
 // from and scripts/demo.sh renders (it writes the same JSON to out/demo-camera.json and out/demo-tf.json;
-// test_demo_scene.cpp checks that they agree).
+// tests/test_first_look.cpp checks that they agree).
 //
 // The demo dataset (`ugvr generate --kind mixed`, src/ugvr/gen/generator.cpp) is a swept, tapered wing of root chord
 // 1 and span 2 standing on a floor at z = 0, in a disc of radius 15; the free stream comes from -x at 6 degrees
