@@ -10,23 +10,25 @@ ninja -C build ugvr
 mkdir -p out
 ./build/ugvr generate --cells 200000 --kind mixed -o out/demo.vtu
 ./build/ugvr info out/demo.vtu
-# A view of the wing from above and behind, and a transfer function that shows its wake (slow air opaque and bright,
-# the free stream transparent).
+# The demo's first view (the same as `ugvr view --demo` starts from, src/cli/demo_scene.h): the wing and its vortex
+# street by pressure, from upstream, to the side and above; the free stream transparent over a dark background.
 cat >out/demo-camera.json <<'JSON'
-{"position": [7.5, -9.0, 7.0], "focal_point": [0.5, 0.0, 0.6], "view_up": [0, 0, 1], "view_angle": 30}
+{"position": [-3.5, -9.5, 10.5], "focal_point": [4.0, 0.6, 0.4], "view_up": [0, 0, 1], "view_angle": 38}
 JSON
 cat >out/demo-tf.json <<'JSON'
-[{"Name": "demo wake", "ColorSpace": "RGB",
-  "RGBPoints": [0.0, 0.98, 0.9, 0.15, 0.5, 0.9, 0.35, 0.1, 0.95, 0.35, 0.05, 0.45, 1.6, 0.05, 0.05, 0.25],
-  "Points": [0.0, 0.9, 0.5, 0.0, 0.6, 0.5, 0.5, 0.0, 0.97, 0.02, 0.5, 0.0, 1.6, 0.0, 0.5, 0.0],
-  "ScalarOpacityUnitDistance": 0.3}]
+[{"Name": "demo pressure", "ColorSpace": "RGB",
+  "RGBPoints": [-1.8, 1.0, 1.0, 0.6, -0.6, 1.0, 0.8, 0.25, -0.3, 1.0, 0.45, 0.12, -0.1, 0.7, 0.12, 0.45,
+                0.0, 0.2, 0.1, 0.4, 0.1, 0.1, 0.4, 0.8, 1.2, 0.6, 0.9, 1.0],
+  "Points": [-1.8, 0.9, 0.5, 0.0, -0.3, 0.65, 0.5, 0.0, -0.12, 0.3, 0.5, 0.0, -0.05, 0.0, 0.5, 0.0,
+             0.06, 0.0, 0.5, 0.0, 0.2, 0.3, 0.5, 0.0, 1.2, 0.8, 0.5, 0.0],
+  "ScalarOpacityUnitDistance": 0.2}]
 JSON
-./build/ugvr render out/demo.vtu --field velocity --camera out/demo-camera.json --tf out/demo-tf.json --keep-range \
-  --boundary-opacity 0.1 -o out/demo.png --stats out/demo-stats.json
+./build/ugvr render out/demo.vtu --field pressure --camera out/demo-camera.json --tf out/demo-tf.json --keep-range \
+  --background 0.02,0.02,0.04 --boundary-opacity 0.06 -o out/demo.png --stats out/demo-stats.json
 echo "demo: wrote out/demo.png"
 [ "${UGVR_DEMO_NO_VIEW:-0}" = 1 ] && exit 0
 # The viewer: the first run builds the demo's brick store in the background (the page shows the exact engine's image
 # and the build's progress meanwhile); later runs start from the store kept in ~/.cache/ugvr. Over SSH, forward the
 # port: `ssh -L 8080:127.0.0.1:8080 host` and add `--port 8080`.
 echo "demo: starting the viewer; open the URL below in a browser (Ctrl-C to stop)"
-exec ./build/ugvr view --demo --camera out/demo-camera.json --tf out/demo-tf.json
+exec ./build/ugvr view --demo

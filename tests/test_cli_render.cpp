@@ -115,7 +115,7 @@ TEST_F(CliRender, HelpListsTheFlags) {
   EXPECT_EQ(r.status, 0);
   for (const char* flag : {"--size", "--camera", "--view", "--tf", "--range", "--unit-distance", "--mode", "--iso",
                            "--clip", "--background", "--settings", "--float", "--stats", "--save-camera", "--save-tf",
-                           "--threads", "--frames", "diagonal / 100"})
+                           "--threads", "--frames", "diagonal / 10"})
     EXPECT_NE(r.out.find(flag), std::string::npos) << flag;
 }
 
@@ -368,6 +368,133 @@ TEST_F(CliRender, ExactPathHoldsATargetAndConvergesAtRest) {
   EXPECT_TRUE(held[4]["resting"].get<bool>());
   EXPECT_TRUE(held[4]["converged"].get<bool>());
   EXPECT_EQ(read_png(file("x.png")).width, 24);
+}
+
+// ---- First impressions (issue 25): the default view, transfer function and field.
+
+// The default camera is the three-quarter oblique view framed on the bounds (+z up), and the default opacity unit
+// distance is a tenth of the bounds' diagonal: the inside shows. Measured by the light the data lets through, T =
+// image over white - image over black: with the old unit distance (diagonal / 100) the slab was nearly opaque.
+TEST_F(CliRender, EngineDefaultViewIsObliqueAndShowsTheInside) {
+  render_ok("-o " + file("a.pfm") + " --size 48 --save-camera " + file("cam.json") + " --save-tf " + file("tf.json") +
+            " --stats " + file("s.json"));
+  const Camera cam = read_camera(file("cam.json"));
+  EXPECT_NEAR(dot(cam.direction(), normalized({0.6, 0.8, -0.55})), 1.0, 1e-9);
+  EXPECT_GT(cam.view_up.z, 0.8);
+  // ResetCamera's framing: distance = radius / sin(15 degrees), radius = half the diagonal.
+  const double diagonal = 2 * cam.distance() * std::sin(15 * 3.141592653589793 / 180);
+  const TransferFunction tf = read_paraview_preset(file("tf.json"));
+  EXPECT_NEAR(tf.opacity_unit_distance, diagonal / 10, 1e-9 * diagonal);
+  EXPECT_EQ(tf.name, "viridis");
+  const json s = json::parse(read_bytes(file("s.json")));
+  EXPECT_EQ(s["field"], "pressure");
+  EXPECT_TRUE(s["field_default"].get<bool>());
+
+  // Mean transmittance over the pixels the data covers.
+  const auto see_through = [&](const std::string& flags) {
+    render_ok("-o " + file("w.pfm") + " --size 48 --background 1,1,1" + flags);
+    render_ok("-o " + file("b.pfm") + " --size 48 --background 0,0,0" + flags);
+    const Image w = read_pfm(file("w.pfm")), b = read_pfm(file("b.pfm"));
+    double sum = 0;
+    int covered = 0;
+    for (int y = 0; y < w.height; ++y)
+      for (int x = 0; x < w.width; ++x) {
+        const double t = w.pixel(x, y)[0] - b.pixel(x, y)[0];
+        if (t < 0.99) sum += t, ++covered;
+      }
+    EXPECT_GT(covered, 48 * 48 / 10) << flags;
+    return covered ? sum / covered : 0.0;
+  };
+  const double now = see_through("");
+  const double before = see_through(" --unit-distance " + std::to_string(diagonal / 100));
+  EXPECT_GT(now, 0.3) << "the data lets light through";
+  EXPECT_LT(before, 0.1) << "at diagonal / 100 it was a slab";
+}
+
+// A legacy VTK mesh of two hexahedra whose first field is constant: "density" 1, "heat" varying along x, and a
+// vector "velocity".
+std::string write_constant_first(const std::string& path) {
+  std::ofstream out(path);
+  out << "# vtk DataFile Version 3.0\nbar\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 12 float\n";
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 2; ++j)
+      for (int k = 0; k < 2; ++k) out << i << " " << j << " " << k << "\n";
+  const auto id = [](int i, int j, int k) { return i * 4 + j * 2 + k; };
+  out << "CELLS 2 18\n";
+  for (int i = 0; i < 2; ++i)
+    out << "8 " << id(i, 0, 0) << " " << id(i + 1, 0, 0) << " " << id(i + 1, 1, 0) << " " << id(i, 1, 0) << " "
+        << id(i, 0, 1) << " " << id(i + 1, 0, 1) << " " << id(i + 1, 1, 1) << " " << id(i, 1, 1) << "\n";
+  out << "CELL_TYPES 2\n12\n12\nPOINT_DATA 12\nSCALARS density float 1\nLOOKUP_TABLE default\n";
+  for (int p = 0; p < 12; ++p) out << "1\n";
+  out << "SCALARS heat float 1\nLOOKUP_TABLE default\n";
+  for (int p = 0; p < 12; ++p) out << float((p / 4) * (p / 4)) << "\n";
+  out << "VECTORS velocity float\n";
+  for (int p = 0; p < 12; ++p) out << float(p / 4) << " 0 " << float(p % 2) << "\n";
+  return path;
+}
+
+// Without --field, the first field whose range is not constant is drawn, and --stats and the log say which.
+TEST_F(CliRender, EngineDefaultFieldIsTheFirstThatVaries) {
+  const std::string mesh = write_constant_first(file("bar.vtk"));
+  const std::string cmd = "render " + mesh + " --size 24 -o " + file("a.png") + " --stats " + file("s.json");
+  ASSERT_EQ(run_ugvr(cmd).status, 0);
+  json s = json::parse(read_bytes(file("s.json")));
+  EXPECT_EQ(s["field"], "heat");
+  EXPECT_TRUE(s["field_default"].get<bool>());
+  EXPECT_EQ(s["field_range"][1].get<double>(), 4.0);
+  // Without --quiet the log names it.
+  std::string log;
+  {
+    FILE* p = popen((std::string(UGVR_BINARY) + " " + cmd + " 2>&1").c_str(), "r");
+    ASSERT_NE(p, nullptr);
+    char buf[4096];
+    for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) log.append(buf, n);
+    EXPECT_EQ(pclose(p), 0) << log;
+  }
+  EXPECT_NE(log.find("field heat: the first that varies"), std::string::npos) << log;
+  // Named, a constant field is still drawn.
+  ASSERT_EQ(run_ugvr(cmd + " --field density").status, 0);
+  s = json::parse(read_bytes(file("s.json")));
+  EXPECT_EQ(s["field"], "density");
+  EXPECT_FALSE(s["field_default"].get<bool>());
+}
+
+// The issue's case: the LOX post's first field, Density, is 1 everywhere.
+TEST_F(CliRender, EngineDefaultFieldOfTheLoxPostVaries) {
+  UGVR_REQUIRE_DATA("lox-post/postxyz.bin");
+  const std::string q = test::data_path("lox-post/postq.bin");
+  ASSERT_EQ(run_ugvr("render " + relative_data_path + " " + q + " --size 16 -o " + file("a.png") + " --stats " +
+                     file("s.json"))
+                .status,
+            0);
+  const json s = json::parse(read_bytes(file("s.json")));
+  EXPECT_NE(s["field"], "Density");
+  EXPECT_LT(s["field_range"][0].get<double>(), s["field_range"][1].get<double>());
+}
+
+// A store built from a vector field names it "velocity:magnitude"; `--field velocity` selects it, as on the mesh. A
+// store's default field is also the first that varies.
+TEST_F(CliRender, LodVectorNameSelectsItsMagnitudeAndDefaultFieldVaries) {
+  const std::string mesh = write_constant_first(file("bar.vtk"));
+  const std::string store = file("bar.ugvr");
+  const CommandResult b = run_ugvr("build " + mesh + " --fields density,velocity --brick 8 --max-depth 2 -o " + store);
+  ASSERT_EQ(b.status, 0) << b.out;
+  const std::string out = " --size 24 -o " + file("a.png") + " --stats " + file("s.json");
+  CommandResult r = run_ugvr("render " + store + out + " --field velocity");
+  ASSERT_EQ(r.status, 0) << r.out;
+  json s = json::parse(read_bytes(file("s.json")));
+  EXPECT_EQ(s["field"], "velocity:magnitude");
+  EXPECT_GT(s["field_range"][1].get<double>(), 1.0);
+  r = run_ugvr("render " + store + out);
+  ASSERT_EQ(r.status, 0) << r.out;
+  s = json::parse(read_bytes(file("s.json")));
+  EXPECT_EQ(s["field"], "velocity:magnitude") << "density, the store's first field, is constant";
+  EXPECT_TRUE(s["field_default"].get<bool>());
+  ASSERT_EQ(run_ugvr("render " + store + out + " --field density").status, 0);
+  EXPECT_EQ(json::parse(read_bytes(file("s.json")))["field"], "density");
+  r = run_ugvr("render " + store + out + " --field heat");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("no field \"heat\""), std::string::npos) << r.out;
 }
 
 }  // namespace

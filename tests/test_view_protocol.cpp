@@ -246,6 +246,37 @@ TEST(ViewRequest, UnknownFieldIsRejectedAndStateUnchanged) {
   EXPECT_EQ(s.generation, before.generation);
 }
 
+// A vector's name alone selects its magnitude, as on a mesh and in `ugvr render` of a store; the scene's own names
+// win, and the state names the field as the store does.
+TEST(ViewRequest, VectorNameSelectsItsMagnitude) {
+  SceneInfo scene = two_field_scene();
+  scene.fields = {{"pressure", 0, 10, {}}, {"velocity:magnitude", 0, 2, {}}, {"heat", 1, 3, {}}};
+  ASSERT_NE(scene.find_field("velocity"), nullptr);
+  EXPECT_EQ(scene.find_field("velocity")->name, "velocity:magnitude");
+  EXPECT_EQ(scene.find_field("heat")->name, "heat");
+  EXPECT_EQ(scene.find_field("heat:magnitude"), nullptr) << "only a name alone is widened";
+  EXPECT_EQ(scene.find_field("pres"), nullptr);
+  ViewState s = initial_view(scene);
+  apply_message(s, parse_client_message(R"({"type":"settings","field":"velocity"})"), scene);
+  EXPECT_EQ(s.request.settings.field, "velocity:magnitude");
+  EXPECT_EQ(s.request.tf.range_max(), 2);
+}
+
+// New tabs start from the scene's background when it has one (the demo's dark one), else RenderSettings' default;
+// the opacity unit distance defaults to the bounds' diagonal / 10, as `ugvr render`'s.
+TEST(ViewRequest, InitialBackgroundAndUnitDistance) {
+  SceneInfo scene = two_field_scene();
+  scene.bounds = {{0, 0, 0}, {3, 4, 12}};  // diagonal 13
+  ViewState plain = initial_view(scene);
+  EXPECT_EQ(plain.request.settings.background, RenderSettings{}.background);
+  EXPECT_DOUBLE_EQ(plain.request.tf.opacity_unit_distance, 1.3);
+  scene.background = std::array<double, 4>{0.02, 0.02, 0.04, 1};
+  const ViewState dark = initial_view(scene);
+  EXPECT_EQ(dark.request.settings.background, *scene.background);
+  apply_message(plain, parse_client_message(R"({"type":"settings","background":[1,1,1]})"), scene);
+  EXPECT_EQ(plain.request.settings.background[0], 1.0) << "a page's pick still wins";
+}
+
 TEST(ViewRequest, ClipAndBoundaryOverlay) {
   const SceneInfo scene = two_field_scene();
   ViewState s = initial_view(scene);

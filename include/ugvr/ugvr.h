@@ -73,7 +73,7 @@ StoreSummary build_store_from_dataset(const Dataset& dataset, const std::string&
 struct RendererConfig {
   std::string engine = "auto";  // "exact", "lod", or "auto": lod for a .ugvr store, else exact
   bool interactive = false;     // hold FrameRequest::target_fps, converging to full quality at rest
-  std::string field;            // bound at once (empty: the first)
+  std::string field;            // bound at once (empty: the first field whose range is not constant)
   // Level of detail.
   std::string gpu = "auto";                       // EGL device index, or auto: the first GPU, else Mesa's llvmpipe
   uint64_t gpu_memory_bytes = uint64_t(2) << 30;  // bricks on the GPU
@@ -90,8 +90,10 @@ std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, 
 // The exact engine over a dataset in memory (shared: the renderer keeps it alive).
 std::unique_ptr<Renderer> make_renderer(std::shared_ptr<const Dataset> dataset, const RendererConfig& config);
 
-// The request `ugvr render` makes without flags: ParaView's default view framed on the data (or a preset: +x -x +y
-// -y +z -z iso), the viridis colour map over the bound field's range, opacity unit distance = bounds diagonal / 100.
+// The request `ugvr render` makes without flags: a three-quarter oblique view framed on the data, +z up
+// (default_camera in render/camera.h; or a preset: +x -x +y -y +z -z iso), viridis with its linear opacity ramp over
+// the bound field's range, opacity unit distance = bounds diagonal / 10 (default_transfer_function), so that the
+// first image shows the inside of the data rather than an opaque slab.
 FrameRequest default_request(const Renderer& renderer, int width, int height, std::string_view view = "");
 
 }  // namespace ugvr

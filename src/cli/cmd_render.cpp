@@ -17,6 +17,7 @@
 #include "cli/cli_numbers.h"
 #include "cli/commands.h"
 #include "cli/render_flags.h"
+#include "ugvr/api/default_field.h"
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
 #include "ugvr/core/json_file.h"
@@ -196,10 +197,16 @@ void run_render(const Options& o) {
   const double fps = target_fps(o);
   RendererOptions ro = renderer_options(o, settings);
   OpenedInput opened;
-  std::unique_ptr<Renderer> renderer = flag_errors([&] { return open_renderer(o.inputs, o.read, ro, &opened); });
+  std::unique_ptr<Renderer> renderer =
+      flag_errors([&] { return open_renderer_default_field(o.inputs, o.read, ro, &opened); });
   for (const std::string& w : opened.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   // Recorded in --stats so the settings reproduce the image; a selector the user gave ("velocity:x") is kept as is.
-  if (settings.field.empty()) settings.field = renderer->field_name();
+  const bool default_field = settings.field.empty();
+  if (default_field) {
+    settings.field = renderer->field_name();
+    if (Progress::enabled())
+      std::fprintf(stderr, "field %s: the first that varies (--field picks another)\n", settings.field.c_str());
+  }
   const FieldRange field_range = renderer->field_range();
 
   const Bounds bounds = renderer->bounds();
@@ -210,8 +217,7 @@ void run_render(const Options& o) {
   } else if (!o.view.empty()) {
     camera = camera_preset(o.view, bounds, view_angle.value_or(30));
   } else {
-    // ParaView's default view: along -z, +y up.
-    camera = reset_camera(bounds, view_angle.value_or(30));
+    camera = default_camera(bounds, view_angle.value_or(30));  // three-quarter oblique, +z up
   }
 
   if (range) {
@@ -221,10 +227,7 @@ void run_render(const Options& o) {
     // An all-NaN field has no range; the map then stays where it was rather than becoming NaN itself.
     if (std::isfinite(lo) && std::isfinite(hi)) tf.rescale(lo, hi);
   }
-  if (!unit_distance) {
-    const double diagonal = length(bounds.size());
-    unit_distance = diagonal > 0 ? diagonal / 100 : 1.0;
-  }
+  if (!unit_distance) unit_distance = default_unit_distance(bounds);
   tf.opacity_unit_distance = *unit_distance;
 
   if (!o.save_camera.empty()) write_camera(o.save_camera, camera);
@@ -269,6 +272,8 @@ void run_render(const Options& o) {
         {"engine", std::string(renderer->engine())},
         {"input", input},
         {"field", renderer->field_name()},
+        // true: no --field, the renderer's default (the first field that varies) was drawn.
+        {"field_default", default_field},
         {"field_range", {field_range.min, field_range.max}},
         {"width", settings.width},
         {"height", settings.height},

@@ -7,10 +7,12 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <thread>
 
 #include "cli/cli_numbers.h"
 #include "cli/commands.h"
+#include "cli/demo_scene.h"
 #include "ugvr/core/error.h"
 #include "ugvr/gen/generator.h"
 #include "ugvr/io/reader.h"
@@ -75,7 +77,18 @@ void run_view(const Options& o) {
   if (!(vo.fps >= 0) || vo.fps > view::kMaxFps)
     fail_in("--fps", "must be in [0, " + std::to_string(int(view::kMaxFps)) + "]");
   validate_build_options(o.build);
-  if (!o.camera.empty()) vo.camera = read_camera(o.camera);
+  // The demo starts from its own view (demo_scene.h) unless told otherwise; with other --fields its transfer function
+  // would not fit.
+  const bool demo_view = o.demo && o.fields.empty();
+  if (!o.camera.empty()) {
+    vo.camera = read_camera(o.camera);
+  } else if (demo_view) {
+    vo.camera = camera_from_json(nlohmann::json::parse(kDemoCameraJson), "demo camera");
+  }
+  if (demo_view) {
+    vo.background = kDemoBackground;
+    if (o.tf.empty()) vo.tf = parse_paraview_presets(kDemoTfJson, "demo transfer function").at(0);
+  }
   if (!o.tf.empty()) {
     if (std::filesystem::is_regular_file(o.tf)) {
       vo.tf = read_paraview_preset(o.tf);
@@ -99,9 +112,10 @@ void run_view(const Options& o) {
     vo.build.threads = std::max(1, int(std::thread::hardware_concurrency()) - 1);
     GenerateOptions demo;
     demo.cells = kDemoCells, demo.kind = GenCellKind::Mixed;
-    // The demo shows the wing's wake by its speed (as scripts/demo.sh renders it).
+    // The demo shows the wing and its vortex street by pressure (as scripts/demo.sh renders it); velocity is there to
+    // pick.
     const std::vector<std::string> fields =
-        o.demo && o.fields.empty() ? std::vector<std::string>{"velocity"} : o.fields;
+        o.demo && o.fields.empty() ? std::vector<std::string>{kDemoField, "velocity"} : o.fields;
     vo.store = !o.store_path.empty() ? o.store_path
                : o.demo
                    ? view::cached_store_path("demo", "generate mixed " + std::to_string(demo.cells), fields, vo.build)

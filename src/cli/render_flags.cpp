@@ -183,8 +183,8 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
       ->type_name("N");
   cmd->add_option("--camera", opts->camera, "Camera JSON file (as written by --save-camera)")->type_name("FILE");
   cmd->add_option("--view", opts->view,
-                  "View preset framed on the data: +x -x +y -y +z -z iso; default: ParaView's default view, looking "
-                  "along -z with +y up")
+                  "View preset framed on the data: +x -x +y -y +z -z iso; default: a three-quarter oblique view, +z "
+                  "up, from the -x -y side and about 29 degrees above the xy plane")
       ->type_name("NAME");
   cmd->add_option("--view-angle", opts->view_angle, "Vertical view angle in degrees (default 30)")->type_name("DEG");
   cmd->add_option("--tf", opts->tf,
@@ -199,9 +199,12 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
       ->type_name("MIN,MAX");
   cmd->add_option("--unit-distance", opts->unit_distance,
                   "Scalar opacity unit distance (default: the --tf file's ScalarOpacityUnitDistance, else the "
-                  "bounds diagonal / 100; ParaView uses the mean cell size)")
+                  "bounds diagonal / 10, so that the inside shows; ParaView uses the mean cell size)")
       ->type_name("D");
-  cmd->add_option("--field", opts->field, "Scalar to render: NAME, NAME:x|y|z|k or NAME:magnitude (default: first)")
+  cmd->add_option(
+         "--field", opts->field,
+         "Scalar to render: NAME, NAME:x|y|z|k or NAME:magnitude; a vector's NAME is its magnitude, on a mesh as "
+         "in a store (default: the first field that varies)")
       ->type_name("NAME");
   cmd->add_option("--mode", opts->mode, "ea (emission-absorption, default), mip or iso (isosurfaces)")
       ->type_name("ea|mip|iso");

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -90,6 +91,41 @@ TEST_F(PublicApi, ReadRenderBuildAndRenderAgain) {
   const ugvr::Frame converged = session->render(request);
   EXPECT_TRUE(converged.stats.converged);
   EXPECT_GT(converged.stats.cut_nodes, 0u);
+}
+
+// A newcomer's first request: an oblique view framed on the data (+z up) and an opacity unit distance of a tenth of
+// the diagonal; without a field named, the first field that varies is drawn (the bar's "still" is constant).
+TEST_F(PublicApi, DefaultRequestAndFieldShowTheData) {
+  {
+    std::ifstream in(mesh_);
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string data = "POINT_DATA 12\n";
+    std::string still = "SCALARS still float 1\nLOOKUP_TABLE default\n";
+    for (int i = 0; i < 12; ++i) still += "7\n";
+    text.insert(text.find(data) + data.size(), still);
+    std::ofstream(dir_ / "still.vtk") << text;
+  }
+  const std::string mesh = (dir_ / "still.vtk").string();
+  auto dataset = std::make_shared<const ugvr::Dataset>(ugvr::read_dataset(std::vector<std::string>{mesh}));
+  auto exact = ugvr::make_renderer(dataset, {});
+  EXPECT_EQ(exact->field_name(), "heat");
+  auto opened = ugvr::open_renderer({mesh}, {});
+  EXPECT_EQ(opened->field_name(), "heat");
+  ugvr::RendererConfig named;
+  named.field = "still";
+  EXPECT_EQ(ugvr::open_renderer({mesh}, named)->field_name(), "still");
+
+  const ugvr::FrameRequest request = ugvr::default_request(*exact, 40, 30);
+  const ugvr::Vec3d d = request.camera.direction();
+  EXPECT_GT(d.x, 0.3);
+  EXPECT_GT(d.y, 0.3);
+  EXPECT_LT(d.z, -0.3);
+  EXPECT_GT(request.camera.view_up.z, 0.8);
+  const double diagonal = std::sqrt(2 * 2 + 1 + 1);
+  EXPECT_NEAR(request.tf.opacity_unit_distance, diagonal / 10, 1e-12);
+  EXPECT_EQ(request.tf.range_max(), 4.0);
+  EXPECT_EQ(request.settings.field, "heat");
+  EXPECT_GT(drawn(exact->render(request).image, request), 50);
 }
 
 // A build reports its own progress to its caller, and stops when the callback says so (nothing written).

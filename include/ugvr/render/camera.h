@@ -39,6 +39,13 @@ Vec3d normalized(Vec3d v);
 // against the direction. Throws ugvr::Error for empty bounds, a zero direction or an up parallel to it.
 Camera reset_camera(const Bounds& bounds, double view_angle = 30, Vec3d direction = {0, 0, -1}, Vec3d up = {0, 1, 0});
 
+// The first view of a dataset (ugvr render without --camera/--view, the public API's default_request, the viewer): a
+// three-quarter oblique view framed on `bounds` as reset_camera does, +z up, from the -x -y side and about 29 degrees
+// above the xy plane (looking along (0.6, 0.8, -0.55)). Face-on views (ParaView's default, along -z) show most
+// datasets as a flat slab; simulation data is mostly z-up (a floor, a plate, a post standing on it), and an oblique
+// view shows its depth. Throws as reset_camera.
+Camera default_camera(const Bounds& bounds, double view_angle = 30);
+
 // ParaView's "Set view direction" buttons followed by a reset: "+x" looks along +x (camera on the -x side), and so
 // on; view up is +z for the ±x and ±y views and +y for the ±z views. "iso" is ParaView's isometric view: the -z
 // view turned 45° in azimuth and 35.264° in elevation, i.e. looking along (-1,-1,-1) with +y (orthogonalised) up.

@@ -96,4 +96,14 @@ std::optional<double> read_preset_unit_distance(const std::string& path, std::st
 TransferFunction builtin_preset(std::string_view name);
 std::vector<std::string> builtin_preset_names();
 
+// The opacity unit distance a transfer function gets when nothing sets it: the bounds' diagonal / 10 (1 for empty or
+// single-point bounds). With ParaView's mean cell size (or the diagonal / 100 used before), a linear opacity ramp makes
+// every value above the middle of the range opaque within a few cells and the data an opaque slab; at a tenth of the
+// diagonal a ray crossing the data sees the opaque upper values and through the rest.
+double default_unit_distance(const Bounds& bounds);
+// The first transfer function of a field with range [lo, hi] (`ugvr render` without --tf, default_request, the
+// viewer): "viridis" with its linear opacity ramp rescaled to [lo, hi] (kept on [0, 1] when lo or hi is not finite:
+// an all-NaN field), opacity unit distance default_unit_distance(bounds).
+TransferFunction default_transfer_function(double lo, double hi, const Bounds& bounds);
+
 }  // namespace ugvr

@@ -3,6 +3,7 @@
 
 #include <filesystem>
 
+#include "ugvr/api/default_field.h"
 #include "ugvr/core/file.h"
 #include "ugvr/octree/builder.h"
 #include "ugvr/octree/input.h"
@@ -125,12 +126,16 @@ std::unique_ptr<Renderer> naming_options(F&& f) {
 
 std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, const RendererConfig& config,
                                         const ReadOptions& read) {
-  return naming_options([&] { return ugvr::open_renderer(inputs, read, renderer_options(config)); });
+  return naming_options([&] { return open_renderer_default_field(inputs, read, renderer_options(config)); });
 }
 
 std::unique_ptr<Renderer> make_renderer(std::shared_ptr<const Dataset> dataset, const RendererConfig& config) {
   return naming_options([&] {
-    const RendererOptions o = renderer_options(config);
+    RendererOptions o = renderer_options(config);
+    if (o.field.empty() && dataset && !dataset->blocks.empty()) {
+      const std::vector<std::string> names = default_field_names(dataset->blocks[0], 1);
+      if (!names.empty()) o.field = names[0];  // the first that varies, as open_renderer
+    }
     return make_renderer(std::make_shared<ExactScene>(std::move(dataset), o.progress), o);
   });
 }
@@ -138,12 +143,9 @@ std::unique_ptr<Renderer> make_renderer(std::shared_ptr<const Dataset> dataset, 
 FrameRequest default_request(const Renderer& renderer, int width, int height, std::string_view view) {
   FrameRequest r;
   const Bounds bounds = renderer.bounds();
-  r.camera = view.empty() ? reset_camera(bounds) : camera_preset(view, bounds);
-  r.tf = builtin_preset("viridis");
+  r.camera = view.empty() ? default_camera(bounds) : camera_preset(view, bounds);
   const FieldRange range = renderer.field_range();
-  if (std::isfinite(range.min) && std::isfinite(range.max)) r.tf.rescale(range.min, range.max);
-  const double diagonal = length(bounds.size());
-  r.tf.opacity_unit_distance = diagonal > 0 ? diagonal / 100 : 1.0;
+  r.tf = default_transfer_function(range.min, range.max, bounds);
   r.settings.width = width, r.settings.height = height;
   r.settings.field = renderer.field_name();
   r.settings.validate("default_request");

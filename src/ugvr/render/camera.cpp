@@ -70,6 +70,10 @@ Camera reset_camera(const Bounds& bounds, double view_angle, Vec3d direction, Ve
   return c;
 }
 
+Camera default_camera(const Bounds& bounds, double view_angle) {
+  return reset_camera(bounds, view_angle, {0.6, 0.8, -0.55}, {0, 0, 1});
+}
+
 Camera camera_preset(std::string_view name, const Bounds& bounds, double view_angle) {
   struct Preset {
     std::string_view name;

@@ -264,6 +264,18 @@ TransferFunction builtin_preset(std::string_view name) {
 
 std::vector<std::string> builtin_preset_names() { return {"viridis", "inferno", "cool-warm", "grayscale", "rainbow"}; }
 
+double default_unit_distance(const Bounds& bounds) {
+  const double diagonal = bounds.empty() ? 0.0 : length(bounds.size());
+  return diagonal > 0 && std::isfinite(diagonal) ? diagonal / 10 : 1.0;
+}
+
+TransferFunction default_transfer_function(double lo, double hi, const Bounds& bounds) {
+  TransferFunction tf = builtin_preset("viridis");
+  if (std::isfinite(lo) && std::isfinite(hi)) tf.rescale(lo, hi);
+  tf.opacity_unit_distance = default_unit_distance(bounds);
+  return tf;
+}
+
 std::optional<double> read_preset_unit_distance(const std::string& path, std::string_view name) {
   const nlohmann::json j = read_json_file(path);
   const nlohmann::json* preset = nullptr;

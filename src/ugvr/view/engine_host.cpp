@@ -31,6 +31,14 @@ std::vector<FieldInfo> store_fields(const LodEngine& engine) {
   return out;
 }
 
+// The field new tabs show: the first whose range is not constant (a constant field draws a blank-looking image), else
+// the first.
+std::string first_varying(const std::vector<FieldInfo>& fields) {
+  for (const FieldInfo& f : fields)
+    if (f.max > f.min) return f.name;
+  return fields.front().name;
+}
+
 std::shared_ptr<LodScene> open_store(const ViewServerOptions& options, std::shared_ptr<GlContext> gl) {
   LodOptions lo;
   lo.atlas_budget_bytes = options.gpu_memory;
@@ -73,10 +81,11 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
     sc.bounds = input.bounds;
   }
   exact_ = std::make_shared<ExactScene>(options_.dataset);
-  sc.field = sc.fields.front().name;
-  sc.camera = options_.camera.value_or(reset_camera(sc.bounds, 30));
+  sc.field = first_varying(sc.fields);
+  sc.camera = options_.camera.value_or(default_camera(sc.bounds, 30));
   sc.tf = options_.tf;
   sc.preset = options_.preset;
+  sc.background = options_.background;
   sc.fps = options_.fps;
   sc.width = options_.width, sc.height = options_.height;
   // The exact engine on a hardware GPU when the grid fits there (docs/exact-engine.md), else on the CPU (llvmpipe
@@ -106,11 +115,12 @@ EngineHost::~EngineHost() {
 SceneInfo EngineHost::lod_scene() const {
   SceneInfo sc;
   sc.fields = store_fields(lod_->engine);
-  sc.field = lod_->engine.field_name();
+  sc.field = first_varying(sc.fields);
   sc.bounds = lod_->engine.bounds();
-  sc.camera = options_.camera.value_or(reset_camera(sc.bounds, 30));
+  sc.camera = options_.camera.value_or(default_camera(sc.bounds, 30));
   sc.tf = options_.tf;
   sc.preset = options_.preset;
+  sc.background = options_.background;
   sc.fps = options_.fps;
   sc.width = options_.width, sc.height = options_.height;
   sc.renderer = renderer_;

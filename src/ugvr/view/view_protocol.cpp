@@ -254,6 +254,10 @@ const FieldInfo* SceneInfo::find_field(std::string_view name) const {
   const std::string_view wanted = name.empty() ? std::string_view(field) : name;
   for (const FieldInfo& f : fields)
     if (f.name == wanted) return &f;
+  // A vector's name alone is its magnitude, as on a mesh and in `ugvr render` of a store.
+  const std::string magnitude = std::string(wanted) + ":magnitude";
+  for (const FieldInfo& f : fields)
+    if (f.name == magnitude) return &f;
   return nullptr;
 }
 

@@ -115,8 +115,11 @@ struct SceneInfo {
   // The transfer function new tabs start from (`ugvr view --tf FILE`: points in data values; an
   // opacity_unit_distance <= 0 means the viewer's default); none: `preset` over the field's range.
   std::optional<TransferFunction> tf;
+  // The background new tabs start from (the demo's is dark); none: RenderSettings' default. A page that picks one
+  // sends it in a settings message.
+  std::optional<std::array<double, 4>> background;
 
-  // The field called `name` (empty: `field`), or null.
+  // The field called `name` (empty: `field`; a vector's name alone: its "NAME:magnitude"), or null.
   const FieldInfo* find_field(std::string_view name) const;
 };
 

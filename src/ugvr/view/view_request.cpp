@@ -14,6 +14,7 @@ ViewState initial_view(const SceneInfo& scene) {
   s.request.camera = scene.camera;
   s.request.fps = scene.fps;
   s.request.settings.field = scene.field;
+  if (scene.background) s.request.settings.background = *scene.background;
   s.tf_preset = scene.preset;
   if (scene.tf) {
     s.tf_colors = scene.tf->color_points;
@@ -31,8 +32,7 @@ TransferFunction compose_tf(const ViewState& s, const SceneInfo& scene) {
   if (!s.tf_colors.empty()) tf.color_points = s.tf_colors;
   if (!s.tf_opacities.empty()) tf.opacity_points = s.tf_opacities;
   for (OpacityPoint& p : tf.opacity_points) p.opacity *= s.tf_opacity;
-  const double diagonal = length(scene.bounds.size());
-  tf.opacity_unit_distance = s.unit_distance > 0 ? s.unit_distance : diagonal > 0 ? diagonal / 100 : 1.0;
+  tf.opacity_unit_distance = s.unit_distance > 0 ? s.unit_distance : default_unit_distance(scene.bounds);
   return tf;
 }
 

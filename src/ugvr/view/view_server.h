@@ -20,6 +20,7 @@
 // socket.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -42,10 +43,11 @@ struct ViewServerOptions {
   std::shared_ptr<const Dataset> dataset;
   std::vector<std::string> fields;  // with `dataset`: field selectors to build (empty: default_view_fields)
   OctreeBuildOptions build;
-  std::optional<Camera> camera;         // the initial (and reset) view; none: the whole data from +z
-  std::optional<TransferFunction> tf;   // the initial transfer function (SceneInfo::tf)
-  std::string preset = "viridis";       // the initial colour map when there is no `tf`
-  std::function<void()> before_build;   // tests: runs on the build's thread before the build starts
+  std::optional<Camera> camera;        // the initial (and reset) view; none: default_camera (render/camera.h)
+  std::optional<TransferFunction> tf;  // the initial transfer function (SceneInfo::tf)
+  std::string preset = "viridis";      // the initial colour map when there is no `tf`
+  std::optional<std::array<double, 4>> background;  // the initial background (SceneInfo::background)
+  std::function<void()> before_build;               // tests: runs on the build's thread before the build starts
   std::function<void()> opening_store;  // tests: runs on the render thread, unlocked, before it opens the built store
   size_t max_sessions = 16;             // WebSocket connections at once; more are refused (HTTP 503)
   std::string host = "127.0.0.1";       // address to listen on

@@ -12,13 +12,25 @@ namespace ugvr {
 
 namespace {
 
-// A store field name, "" meaning the store's first.
+// A store field name from a renderer's selector. "" is the first field whose range is not constant (the store's first
+// when none varies): a constant field draws a blank-looking image. A vector's name alone ("velocity") is its magnitude
+// ("velocity:magnitude", the name `ugvr build` gives it), as on a mesh (FieldSet::scalar). Any other name is the
+// store's own, checked by LodEngine::set_field.
 std::string resolve_field(const LodEngine& engine, const std::string& name) {
-  return name.empty() ? engine.store().layout().fields.front().name : name;
+  const BrickStoreReader& store = engine.store();
+  if (name.empty()) {
+    for (const BrickStoreField& f : store.layout().fields)
+      if (f.max > f.min) return f.name;
+    return store.layout().fields.front().name;
+  }
+  const std::string magnitude = name + ":magnitude";
+  if (store.field_index(name) < 0 && store.field_index(magnitude) >= 0) return magnitude;
+  return name;
 }
 
 void bind_field(LodEngine& engine, const std::string& name) {
-  if (engine.field_name() != resolve_field(engine, name)) engine.set_field(name);
+  const std::string field = resolve_field(engine, name);
+  if (engine.field_name() != field) engine.set_field(field);
 }
 
 nlohmann::json unlimited_or(uint64_t v) {

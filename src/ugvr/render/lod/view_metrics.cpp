@@ -44,6 +44,7 @@ ViewMetrics::ViewMetrics(const Camera& camera, int width, int h, const Bounds& r
   half_height_ = parallel_ ? camera.parallel_scale : std::tan(0.5 * camera.view_angle * kDegree);
   const double half_width = half_height_ * double(width) / double(h);
   height_ = h;
+  max_pixels_ = std::hypot(double(width), double(h));
   const Vec3d s = root.size();
   min_depth_ = 1e-9 * std::max(length(s), 1e-300);
   planes_[0] = {forward_, 0};
@@ -67,9 +68,14 @@ bool ViewMetrics::outside(const Bounds& box) const {
 }
 
 double ViewMetrics::pixels(const Bounds& box, double h) const {
-  if (parallel_) return h / (2 * half_height_) * height_;
-  const double d = std::max(min_depth_, min_over_box(box, eye_, forward_));
-  return h / (2 * d * half_height_) * height_;
+  double p = 0;
+  if (parallel_) {
+    p = h / (2 * half_height_) * height_;
+  } else {
+    const double d = std::max(min_depth_, min_over_box(box, eye_, forward_));
+    p = h / (2 * d * half_height_) * height_;
+  }
+  return std::min(p, max_pixels_);  // NaN (an unknown box) stays NaN: the callers refine those first
 }
 
 double ViewMetrics::texel_pixels(const Bounds& box, uint32_t resolution) const {

@@ -14,6 +14,12 @@
 // in parallel projection. The texel of a node is its box's longest edge / (R - 1), R the brick resolution (the brick's
 // border samples lie on the cell faces). Since a child's box lies inside its parent's, is half as large and no nearer,
 // a child's texel size is at most half its parent's: the size is monotone down the tree.
+//
+// Every projected size is then clamped to the image's diagonal in pixels (max_pixels()): a length cannot show larger
+// than the whole image, and a box at or behind the eye (depth clamped as above) would otherwise report some 1e9 pixels,
+// which the frame statistics average into an absurd "texel error" (the viewer's status bar showed 1838762107 px).
+// The clamp keeps the order of every pair of sizes below it and the monotonicity down the tree (min(x, c) is
+// monotone); such nodes still rank first for refinement and still exceed any pixels:P criterion with P < max_pixels().
 #pragma once
 
 #include <array>
@@ -33,8 +39,10 @@ class ViewMetrics {
 
   // Whether the box lies entirely outside the frustum (see the header comment).
   bool outside(const Bounds& box) const;
-  // Pixels covered by a length `h` at the box's nearest depth.
+  // Pixels covered by a length `h` at the box's nearest depth, at most max_pixels().
   double pixels(const Bounds& box, double h) const;
+  // The clamp of every projected size: the image's diagonal, in pixels.
+  double max_pixels() const { return max_pixels_; }
   // Pixels covered by one texel of a brick of `resolution` (>= 2) samples per axis spanning `box`.
   double texel_pixels(const Bounds& box, uint32_t resolution) const;
 
@@ -48,6 +56,7 @@ class ViewMetrics {
   Vec3d eye_, forward_;
   double half_height_ = 1;  // tan(view_angle / 2) (perspective) or parallel_scale (parallel)
   double height_ = 1;       // pixels
+  double max_pixels_ = 1;   // the image's diagonal, pixels
   double min_depth_ = 0;    // clamp of the perspective distance
   std::array<Plane, 5> planes_;
 };
