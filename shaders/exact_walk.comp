@@ -26,6 +26,9 @@
 #ifndef TETS_ONLY
 #define TETS_ONLY 0
 #endif
+#ifndef VOLUME_LIGHTING
+#define VOLUME_LIGHTING 0  // compile time: without it (and outside isosurfaces) no gradient code, no registers for it
+#endif
 #if EXACT_DOUBLE
 #define real double
 #define real3 dvec3
@@ -153,9 +156,11 @@ real edge_side(real3 a, real3 b) {
 }
 
 // The current cell: its vertices, their projections and (vertex data) values.
-uint g_vid[8];
-real3 g_proj[8];
-float g_s[8];
+// Sized for the largest cell the program meets (TETS_ONLY: 4): these live in local memory, and smaller is faster.
+const int MAX_VERTICES = TETS_ONLY != 0 ? 4 : 8;
+uint g_vid[MAX_VERTICES];
+real3 g_proj[MAX_VERTICES];
+float g_s[MAX_VERTICES];
 
 void load_cell(uint cell, int k) {
   for (int i = 0; i < VERTEX_COUNT[k]; ++i) {
@@ -340,7 +345,7 @@ void piece(real ta, real tb, float sa, float sb, int k) {
   if (tb > g_t_hi) sb = sa + (sb - sa) * float((g_t_hi - ta) / (tb - ta)), tb = g_t_hi;
 #if MODE == EXACT_MODE_EA
   float shade = 1.0;
-  if (u_flags.w != 0 && sa != sb) {
+  if (VOLUME_LIGHTING != 0 && sa != sb) {
     need_monomials(k);
     vec3 g = gradient_at(k, 0.5 * (ta + tb));
     float len = length(g);

@@ -68,22 +68,23 @@ struct ExactGpuEngine::Impl {
   int out_w = 0, out_h = 0;
   bool per_cell = false, have_values = false;
   uint64_t mesh_bytes = 0, frame_bytes = 0, values_bytes = 0;
-  std::map<int, ComputeProgram> programs;
+  std::map<std::pair<int, bool>, ComputeProgram> programs;  // by (mode, volume lighting)
   std::unique_ptr<GlTimerQuery> timer;
   double bin_seconds = 0, gpu_seconds = 0;
 
   Impl(const WalkMesh& m, std::shared_ptr<const GlContext> g, ExactGpuOptions o)
       : mesh(m), gl(std::move(g)), options(o) {}
 
-  ComputeProgram& program_for(int mode) {
-    auto it = programs.find(mode);
+  ComputeProgram& program_for(int mode, bool volume_lighting) {
+    auto it = programs.find({mode, volume_lighting});
     if (it == programs.end()) {
       const bool tets_only = mesh.type_begin[1] == mesh.cell_count();
       ComputeProgram p("exact_walk.comp", {{"MODE", std::to_string(mode)},
                                            {"EXACT_DOUBLE", options.double_precision ? "1" : "0"},
-                                           {"TETS_ONLY", tets_only ? "1" : "0"}});
+                                           {"TETS_ONLY", tets_only ? "1" : "0"},
+                                           {"VOLUME_LIGHTING", volume_lighting ? "1" : "0"}});
       check_contract(p);
-      it = programs.emplace(mode, std::move(p)).first;
+      it = programs.emplace(std::make_pair(mode, volume_lighting), std::move(p)).first;
     }
     return it->second;
   }
@@ -125,7 +126,7 @@ ExactGpuEngine::ExactGpuEngine(const WalkMesh& mesh, std::shared_ptr<const GlCon
     fail_in("exact engine (GPU)", "the mesh needs " + format_bytes(needed) + " of GPU memory, " +
                                       format_bytes(available) + " are free on " + I.gl->renderer() + advice);
 
-  I.program_for(EXACT_MODE_EA);  // compile errors surface here, not at the first frame
+  I.program_for(EXACT_MODE_EA, false);  // compile errors surface here, not at the first frame
   I.upload_chunks(mesh.connectivity, I.conn);
   I.upload_chunks(mesh.neighbors, I.nbr);
   I.points.upload(mesh.points.data(), mesh.points.size() * sizeof(Vec3f));
@@ -273,7 +274,7 @@ Image ExactGpuEngine::render(const Camera& camera, const TransferFunction& tf, c
   const int mode = settings.mode == RenderMode::Mip          ? EXACT_MODE_MIP
                    : settings.mode == RenderMode::Isosurface ? EXACT_MODE_ISO
                                                              : EXACT_MODE_EA;
-  const ComputeProgram& program = I.program_for(mode);
+  const ComputeProgram& program = I.program_for(mode, mode == EXACT_MODE_EA && settings.volume_lighting);
   glUseProgram(program.id());
   glBindBufferBase(GL_UNIFORM_BUFFER, exact_gpu::EXACT_FRAME_BLOCK_BINDING, I.frame_block.id());
   glBindImageTexture(exact_gpu::EXACT_OUT_IMAGE_BINDING, I.out_texture.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
