@@ -128,7 +128,7 @@ run_vtk() {
 # the binary has no `render --engine`; a failure is logged as an error line and does not stop the VTK runs.
 run_ugvr() {
   local name=$1 field=$2 device=$3 mesh="$scratch/$1.vtu" tag="$1-ugvr-exact-$3" rc=0 rss_kb load
-  if [ -n "${SKIP_UGVR:-}" ] || ! "$ugvr" render --help 2>/dev/null | grep -q -- '--engine'; then
+  if [ -n "${SKIP_UGVR:-}" ] || ! "$ugvr" render --help 2>/dev/null | grep -- '--engine' >/dev/null; then  # not grep -q: under pipefail its early exit fails the pipe
     echo "run_exact_render: skipped ugvr exact engine on $name (no \`ugvr render --engine\` in $ugvr)" >&2
     return 0
   fi
