@@ -45,6 +45,8 @@ struct OctreeBuildOptions {
   std::vector<std::string> inputs;
   // Sees this build's progress (stage label, fraction done), from whichever thread reports (core/progress.h).
   Progress::Observer progress;
+  // Write the transfer-function error table (store/brick_store_format.h, TfErrorEntry): 44 bytes per node and field.
+  bool tf_errors = true;
 };
 
 struct OctreeBuildStats {
@@ -62,6 +64,7 @@ struct OctreeBuildStats {
   // Wall clock. Out of core, "subdivide" is the writing of the cells to disk (the tree is shaped as bricks are made).
   double subdivide_seconds = 0, brick_seconds = 0, seconds = 0;
   uint64_t store_bytes = 0;
+  uint64_t tf_error_table_bytes = 0;  // of store_bytes: the transfer-function error table (nodes × fields × 44)
 };
 
 // The root cell: a cube with the data's lower corner and its largest extent. A cube keeps voxels isotropic, so a

@@ -16,31 +16,61 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "ugvr/core/vec.h"
+#include "ugvr/grid/cell_type.h"
 #include "ugvr/octree/brick_sampler.h"
 #include "ugvr/octree/data_points.h"
 #include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 
+// (node value, finest value) at one point, for the transfer-function error table.
+using ErrorPair = std::array<float, 2>;
+
 struct ErrorSum {
   double max = 0, sum_sq = 0;
   uint64_t count = 0;
+  std::vector<ErrorPair>* pairs = nullptr;  // when set, every measured point is also kept as a pair
 
   void add(double e) {
     max = e > max ? e : max;
     sum_sq += e * e;
     ++count;
   }
+  // The node's value and the finest value at one point.
+  void add(double coarse, double fine) {
+    add(std::abs(coarse - fine));
+    if (pairs) pairs->push_back({float(coarse), float(fine)});
+  }
   FieldError result() const;
 };
+
+// The transfer-function error entry (store/brick_store_format.h, TfErrorEntry) of a node from its (node value,
+// finest value) pairs: the pairs in kTfErrorGroups groups of about equal count by finest value (through a
+// 256-bin histogram over their range: linear time, whatever the count), per group the range of finest values and the
+// rms difference. Codes over the field's global range [field_min, field_max]. No pairs: an all-zero entry (unknown).
+store_format::TfErrorEntry make_tf_error_entry(std::span<const ErrorPair> pairs, double field_min, double field_max);
 
 // The brick's trilinear interpolation at lattice coordinates u (0..R-1 per axis, clamped), every field into
 // out[0..F). Returns false, leaving out alone, where none of the 8 corners has data.
 bool interpolate_brick(const BrickSamples& brick, Vec3d u, double* out);
+
+// The split criterion's interpolant check (octree/split.h, error > 0): whether the brick (padded) read trilinearly
+// departs from the cell's own interpolant by more than thresholds[f] at any of the cell's vertices, edge midpoints
+// and its centre that lie in `box` (the node's first to last sample) and whose 8 surrounding samples all hold data
+// (near the mesh boundary the pad's extrapolation, not the resolution, decides the value). The cell's interpolant at
+// those points is exact without locating them: along an edge every cell type's interpolant and its map are linear in
+// the edge parameter, so the midpoint is the mean of the two ends in position and in value; at the parametric centre
+// (tetrahedron, wedge, hexahedron, and the pyramid's at height 1/5) every vertex has the same weight. `values[f]`: the
+// cell's vertex values of field f in VTK order, or null for a field the cell's vertices do not carry (a cell field:
+// constant per cell, which the voxel field cannot follow across faces at any resolution).
+bool cell_interpolant_exceeds(const BrickSamples& brick, const Bounds& box, CellType type, const Vec3d* vertices,
+                              std::span<const float* const> values, std::span<const double> thresholds);
 
 // Adds |brick(p) - child sample| over every data sample of every child (children[o]: octant o, null = none).
 // `brick` padded. sums: one per field.

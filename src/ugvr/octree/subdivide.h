@@ -27,7 +27,9 @@ struct OctreeShape {
 };
 
 // `progress` (optional) advances by one per level.
+// `interpolant` (optional): a node the split test keeps whole still splits where it says so.
 OctreeShape subdivide_octree(const UnstructuredMesh& mesh, const BrickLattice& lattice, const SplitTest& split,
-                             int max_depth, Progress* progress = nullptr);
+                             int max_depth, Progress* progress = nullptr,
+                             const InterpolantCheck* interpolant = nullptr);
 
 }  // namespace ugvr
