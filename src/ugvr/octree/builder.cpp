@@ -63,9 +63,12 @@ class BrickPass {
     const Bounds box = lattice_.node_box(node.level, ijk);
     auto r = std::make_unique<Result>();
     std::vector<ErrorSum> sums(F_);
-    std::vector<std::vector<ErrorPair>> pairs(F_);  // for the transfer-function error table
-    if (tf_errors_on_)
+    std::vector<ErrorHistogram> pairs;  // for the transfer-function error table
+    if (tf_errors_on_) {
+      pairs.reserve(F_);
+      for (uint32_t f = 0; f < F_; ++f) pairs.emplace_back(fields_[f].min, fields_[f].max);
       for (uint32_t f = 0; f < F_; ++f) sums[f].pairs = &pairs[f];
+    }
     if (node.is_leaf()) {
       std::vector<uint64_t>& cells = shape_.leaf_cells[id];
       const auto t0 = std::chrono::steady_clock::now();

@@ -16,44 +16,33 @@ FieldError ErrorSum::result() const {
   return e;
 }
 
-store_format::TfErrorEntry make_tf_error_entry(std::span<const ErrorPair> pairs, double field_min, double field_max) {
+store_format::TfErrorEntry make_tf_error_entry(const ErrorHistogram& h, double field_min, double field_max) {
   store_format::TfErrorEntry e;
-  if (pairs.empty()) return e;
+  if (h.total == 0) return e;
   constexpr int K = store_format::kTfErrorGroups;
-  constexpr int kBins = 256;
   const double range = field_max - field_min;
   auto code = [&](double v, bool up) {
     if (!(range > 0)) return uint16_t(0);
     const double c = (v - field_min) / range * 65535.0;
     return uint16_t(std::clamp(up ? std::ceil(c) : std::floor(c), 0.0, 65535.0));
   };
-  double lo = INFINITY, hi = -INFINITY;
-  for (const ErrorPair& p : pairs) lo = std::min(lo, double(p[1])), hi = std::max(hi, double(p[1]));
-  const double width = (hi - lo) / kBins;
-  std::array<uint64_t, kBins> count{};
-  std::array<double, kBins> sum_sq{};
-  for (const ErrorPair& p : pairs) {
-    const int b = width > 0 ? std::min(kBins - 1, int((double(p[1]) - lo) / width)) : 0;
-    const double d = double(p[0]) - double(p[1]);
-    ++count[size_t(b)];
-    sum_sq[size_t(b)] += d * d;
-  }
   // Groups of about n / K pairs, cut at bin edges; a bin heavier than a group makes fewer, heavier groups.
-  const double n = double(pairs.size());
-  e.bound[0] = code(lo, false);
+  const double n = double(h.total);
+  const double width = h.scale > 0 ? 1.0 / h.scale : 0.0;
+  e.bound[0] = code(h.fine_min, false);
   int g = 0, b = 0;
   uint64_t taken = 0;
-  while (g < K && b < kBins) {
+  while (g < K && b < kErrorBins && taken < h.total) {
     uint64_t c = 0;
     double sq = 0;
     const double target = double(g + 1) * n / K;
-    while (b < kBins && (c == 0 || double(taken + c + count[size_t(b)]) <= target + 0.5 || g == K - 1)) {
-      c += count[size_t(b)];
-      sq += sum_sq[size_t(b)];
+    while (b < kErrorBins && (c == 0 || double(taken + c + h.count[size_t(b)]) <= target + 0.5 || g == K - 1)) {
+      c += h.count[size_t(b)];
+      sq += h.sum_sq[size_t(b)];
       ++b;
     }
     taken += c;
-    e.bound[g + 1] = code(b == kBins ? hi : lo + width * b, true);
+    e.bound[g + 1] = taken == h.total ? code(h.fine_max, true) : code(std::min(h.fine_max, h.lo + width * b), true);
     if (c > 0) {
       const double rms = std::sqrt(sq / double(c));
       e.spread[g] = range > 0 ? uint16_t(std::min(65535.0, std::ceil(rms / range * 65535.0))) : 0;

@@ -15,6 +15,7 @@
 // figure covers what its descendants' finer lattices show (which it does not measure directly).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -29,13 +30,34 @@
 
 namespace ugvr {
 
-// (node value, finest value) at one point, for the transfer-function error table.
-using ErrorPair = std::array<float, 2>;
+// The (node value, finest value) pairs of one node and field, for the transfer-function error table, as a histogram
+// over the finest value: kErrorBins bins over the field's global range, each with its count and sum of squared
+// differences, plus the exact extremes. A fixed 16 KiB per node and field in progress, no allocation per point;
+// 1/1024 of the range is as fine as a renderer samples a transfer function (render/lod/tf_error.h).
+inline constexpr int kErrorBins = 1024;
+struct ErrorHistogram {
+  ErrorHistogram(double field_min, double field_max)
+      : lo(field_min), scale(field_max > field_min ? kErrorBins / (field_max - field_min) : 0.0) {}
+  void add(double coarse, double fine) {
+    const int b = std::clamp(int((fine - lo) * scale), 0, kErrorBins - 1);
+    const double d = coarse - fine;
+    ++count[size_t(b)];
+    sum_sq[size_t(b)] += d * d;
+    fine_min = std::min(fine_min, fine);
+    fine_max = std::max(fine_max, fine);
+    ++total;
+  }
+  double lo, scale;
+  std::array<uint64_t, kErrorBins> count{};
+  std::array<double, kErrorBins> sum_sq{};
+  double fine_min = INFINITY, fine_max = -INFINITY;
+  uint64_t total = 0;
+};
 
 struct ErrorSum {
   double max = 0, sum_sq = 0;
   uint64_t count = 0;
-  std::vector<ErrorPair>* pairs = nullptr;  // when set, every measured point is also kept as a pair
+  ErrorHistogram* pairs = nullptr;  // when set, every measured point also goes into the histogram
 
   void add(double e) {
     max = e > max ? e : max;
@@ -45,16 +67,16 @@ struct ErrorSum {
   // The node's value and the finest value at one point.
   void add(double coarse, double fine) {
     add(std::abs(coarse - fine));
-    if (pairs) pairs->push_back({float(coarse), float(fine)});
+    if (pairs) pairs->add(coarse, fine);
   }
   FieldError result() const;
 };
 
-// The transfer-function error entry (store/brick_store_format.h, TfErrorEntry) of a node from its (node value,
-// finest value) pairs: the pairs in kTfErrorGroups groups of about equal count by finest value (through a
-// 256-bin histogram over their range: linear time, whatever the count), per group the range of finest values and the
-// rms difference. Codes over the field's global range [field_min, field_max]. No pairs: an all-zero entry (unknown).
-store_format::TfErrorEntry make_tf_error_entry(std::span<const ErrorPair> pairs, double field_min, double field_max);
+// The transfer-function error entry (store/brick_store_format.h, TfErrorEntry) of a node from its pairs: the bins in
+// kTfErrorGroups groups of about equal count, per group the range of finest values (bin edges, the exact extremes at
+// both ends) and the rms difference. Codes over the field's global range [field_min, field_max]. No pair: an
+// all-zero entry (unknown).
+store_format::TfErrorEntry make_tf_error_entry(const ErrorHistogram& pairs, double field_min, double field_max);
 
 // The brick's trilinear interpolation at lattice coordinates u (0..R-1 per axis, clamped), every field into
 // out[0..F). Returns false, leaving out alone, where none of the 8 corners has data.

@@ -107,10 +107,11 @@ class OutOfCoreBuild {
     }
     auto r = std::make_unique<Result>();
     std::vector<ErrorSum> sums(F_);
-    std::vector<std::vector<ErrorPair>> pairs(F_);
+    std::vector<ErrorHistogram> pairs;
     auto reset_sums = [&] {
+      pairs.clear();
+      for (uint32_t f = 0; f < F_ && o_.tf_errors; ++f) pairs.emplace_back(fields_[f].min, fields_[f].max);
       for (uint32_t f = 0; f < F_; ++f) {
-        pairs[f].clear();
         sums[f] = ErrorSum{};
         if (o_.tf_errors) sums[f].pairs = &pairs[f];
       }
