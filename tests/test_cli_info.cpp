@@ -302,8 +302,9 @@ TEST(CliInfo, BrickStoreJson) {
   const json& b = r["bytes"];
   EXPECT_EQ(b["file"].get<uint64_t>(), std::filesystem::file_size(path));
   EXPECT_EQ(b["header"].get<uint64_t>() + b["blocks"].get<uint64_t>() + b["node_table"].get<uint64_t>() +
-                b["provenance"].get<uint64_t>(),
+                b["provenance"].get<uint64_t>() + b["tf_errors"].get<uint64_t>(),
             b["file"].get<uint64_t>());
+  EXPECT_EQ(b["tf_errors"].get<uint64_t>(), r["nodes"].get<uint64_t>() * 44);  // one field, 44 bytes per node
   EXPECT_GT(b["provenance"].get<uint64_t>(), 0u);
   EXPECT_EQ(b["unreferenced"], 0);
   EXPECT_EQ(b["blocks"], f["block_bytes"]);
