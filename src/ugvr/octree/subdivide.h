@@ -1,5 +1,6 @@
-// The octree's shape, decided top-down before any brick is sampled (Leven et al. 2002, figure 6): a node splits
-// while the split criterion asks (octree/split.h) and its level is below the maximum depth; each child gets the cells
+// The octree's shape, decided top-down before the bricks of pass 2 (Leven et al. 2002, figure 6): a node splits
+// while the split criterion asks (octree/split.h: the voxel rule, and above --error 0 the interpolant check, which
+// samples the node it would keep) and its level is below the maximum depth; each child gets the cells
 // that overlap it (octree/cell_box_overlap.h, with the sampler's margin, so its list is a valid candidate list for the
 // sampler), and a child that no cell overlaps is not created: no sample of its box can hold data.
 //
