@@ -737,6 +737,61 @@ TEST(ActiveCut, DataErrorWeight) {
   EXPECT_GE(right_level, 2);
 }
 
+// The transfer-function weight (tf_error.h) in the time-critical path: white, opacity 0.5 everywhere except a ramp
+// over [lo, lo + 0.1]. Every node whose x range misses the ramp is uniform under it, so it is never split, and the
+// refinement follows the ramp when it moves; with tf_cull off (the boundary overlay) a transparent node is never
+// split either.
+TEST(ActiveCut, TransferFunctionWeightFollowsTheOpacity) {
+  const BrickStoreReader& s = plain_store();
+  auto ramp_at = [](double lo) {
+    TransferFunction tf;
+    tf.color_points = {{0, {1, 1, 1}}, {1, {1, 1, 1}}};
+    tf.opacity_points = {{0, 0.5}, {lo, 0.5}, {lo + 0.1, 1}, {1, 1}};
+    return tf;
+  };
+  auto over = [&](std::span<const uint64_t> nodes, double lo, double hi) {
+    size_t n = 0;
+    for (uint64_t id : nodes) n += s.bounds(id).lo.x < hi && s.bounds(id).hi.x > lo;
+    return n;
+  };
+  const Camera c = looking({0.5, 0.5, 2.5}, {0.5, 0.5, 0.5});
+  ActiveCutOptions options;
+  options.pixels = 0.05;
+  options.frustum_cull = false;
+  ActiveCut cut(s, options);
+  const CutUpdate a = converge(cut, c, 64, 64, ramp_at(0.3));
+  const size_t a_low = over(a.visible, 0.3, 0.4), a_high = over(a.visible, 0.6, 0.7);
+  for (uint64_t id : a.visible) {
+    const Bounds b = s.bounds(id);
+    const uint64_t p = cut.brick_parent(id);
+    // A node off the ramp was never split: its parent (if any) meets the ramp.
+    if (b.hi.x < 0.3 || b.lo.x > 0.4) {
+      EXPECT_TRUE(p == kNoNode || (s.bounds(p).lo.x <= 0.4 && s.bounds(p).hi.x >= 0.3)) << id;
+    }
+    EXPECT_EQ(cut.error(id).weighted == 0, b.hi.x < 0.3 || b.lo.x > 0.4) << id;
+  }
+  const CutUpdate b = converge(cut, c, 64, 64, ramp_at(0.6));  // the same cut object: it follows the change
+  const size_t b_low = over(b.visible, 0.3, 0.4), b_high = over(b.visible, 0.6, 0.7);
+  EXPECT_GT(a_low, b_low);
+  EXPECT_GT(b_high, a_high);
+  expect_covers(s, cut, "moved ramp");
+  // Transparent below 0.5 and not culled: those nodes are never split (the plain texel criterion splits them).
+  ActiveCutOptions keep = options;
+  keep.tf_cull = false;
+  ActiveCut transparent(s, keep);
+  const TransferFunction half = tf_with({{0, 0}, {0.5, 0}, {1, 1}});
+  const CutUpdate t = converge(transparent, c, 64, 64, half);
+  for (uint64_t id : t.visible) {
+    if (s.bounds(id).hi.x > 0.5) continue;
+    const uint64_t p = transparent.brick_parent(id);
+    EXPECT_TRUE(p == kNoNode || s.bounds(p).hi.x > 0.5) << "transparent node " << id << " was split into";
+  }
+  keep.tf_error = false;
+  transparent.set_options(keep);
+  const CutUpdate plain = converge(transparent, c, 64, 64, half);
+  EXPECT_GT(over(plain.visible, 0, 0.5), over(t.visible, 0, 0.5));
+}
+
 TEST(ActiveCut, InvalidArguments) {
   const BrickStoreReader& s = plain_store();
   EXPECT_THROW(ActiveCut(s, {.field = 1}), Error);

@@ -761,7 +761,7 @@ TEST(BrickStore, DocumentedLayout) {
     return v;
   };
   EXPECT_EQ(f.substr(0, 8), std::string("\x89UBS\r\n\x1a\n", 8));
-  EXPECT_EQ(u32(8), 2u);
+  EXPECT_EQ(u32(8), 3u);
   const uint32_t header_size = u32(12);
   EXPECT_EQ(u32(16), 8u);
   EXPECT_EQ(u32(20), 3u);
@@ -780,13 +780,16 @@ TEST(BrickStore, DocumentedLayout) {
   EXPECT_EQ(u32(172), uint32_t(crc32(0, reinterpret_cast<const Bytef*>(h.data()), uInt(h.size()))));
   EXPECT_EQ(u32(168),
             uint32_t(crc32(0, reinterpret_cast<const Bytef*>(f.data() + u64(152)), uInt(f.size() - u64(152)))));
-  // Field records: "pressure" first.
-  EXPECT_EQ(f64(176), -3.0);
-  EXPECT_EQ(f64(184), 3.0);
-  EXPECT_EQ(f[192], 0);
-  EXPECT_EQ(uint16_t(uint8_t(f[194]) | uint8_t(f[195]) << 8), 8);
-  EXPECT_EQ(f.substr(196, 8), "pressure");
-  EXPECT_EQ(f.substr(208 + 20, 10), "velocity:x");
+  // Version 3: the transfer-function error table's record (none written here: all zero), then the field records,
+  // "pressure" first.
+  EXPECT_EQ(f.substr(176, 24), std::string(24, '\0'));
+  const size_t fr = 200;
+  EXPECT_EQ(f64(fr), -3.0);
+  EXPECT_EQ(f64(fr + 8), 3.0);
+  EXPECT_EQ(f[fr + 16], 0);
+  EXPECT_EQ(uint16_t(uint8_t(f[fr + 18]) | uint8_t(f[fr + 19]) << 8), 8);
+  EXPECT_EQ(f.substr(fr + 20, 8), "pressure");
+  EXPECT_EQ(f.substr(fr + 32 + 20, 10), "velocity:x");
   // Node 0's record and its first block, whose crc is in the record.
   const size_t rec = u64(152);
   EXPECT_EQ(u64(rec), kNoNode);
@@ -964,11 +967,11 @@ TEST_F(BrickStoreCorruption, WrongMagicOrVersion) {
   f = good_;
   patch_u32(f, 8, 1);  // a store of the previous format: its blocks quantize each brick on a grid of its own
   write_file(bad_, f);
-  expect_open_error(bad_, {"byte 8", "version 1", "reads version 2", "rebuild"});
+  expect_open_error(bad_, {"byte 8", "version 1", "reads versions 2 to 3", "rebuild"});
   f = good_;
-  patch_u32(f, 8, 3);
+  patch_u32(f, 8, 4);
   write_file(bad_, f);
-  expect_open_error(bad_, {"byte 8", "version 3", "newer"});
+  expect_open_error(bad_, {"byte 8", "version 4", "newer"});
 }
 
 TEST_F(BrickStoreCorruption, FlippedHeaderOrNodeTableByte) {
@@ -1024,6 +1027,104 @@ TEST_F(BrickStoreCorruption, FlippedBrickByteIsReportedNotRendered) {
 
 // ---------------------------------------------------------------------------------------------------------------
 // Interrupted builds
+
+// ---- the transfer-function error table (format version 3) ----------------------------------------------------------
+
+// Entries whose every byte depends on node, field and position, so a misplaced entry shows.
+std::vector<store_format::TfErrorEntry> tf_entries(uint64_t nodes, uint32_t fields) {
+  std::vector<store_format::TfErrorEntry> out(nodes * fields);
+  for (uint64_t i = 0; i < out.size(); ++i) {
+    store_format::TfErrorEntry& e = out[i];
+    for (int g = 0; g <= store_format::kTfErrorGroups; ++g) e.bound[g] = uint16_t(i * 31 + uint64_t(g) * 977);
+    for (int g = 0; g < store_format::kTfErrorGroups; ++g) {
+      e.spread[g] = uint16_t(i * 7 + uint64_t(g));
+      e.weight[g] = uint8_t(i + uint64_t(g) * 3);
+    }
+  }
+  return out;
+}
+
+TEST(BrickStore, TfErrorTableRoundTripAndChecksum) {
+  ScratchDir dir;
+  const TestStore t = make_test_store(8, 3);
+  const std::string path = dir.file("tf.ugvr");
+  const auto entries = tf_entries(t.nodes.size(), 3);
+  {
+    BrickStoreWriter w(path, t.layout);
+    for (size_t id = 0; id < t.nodes.size(); ++id) {
+      if (t.masks[id].empty()) continue;
+      const float* fields[3] = {t.samples[id][0].data(), t.samples[id][1].data(), t.samples[id][2].data()};
+      w.add_brick(id, fields, t.masks[id].data());
+    }
+    w.commit(t.nodes, t.errors, entries);
+  }
+  std::string good = read_file(path);
+  uint64_t table_at = 0;
+  {
+    const BrickStoreReader s(path);
+    check_store(t, s);
+    ASSERT_TRUE(s.has_tf_errors());
+    ASSERT_EQ(s.tf_errors().size(), entries.size());
+    EXPECT_EQ(std::memcmp(s.tf_errors().data(), entries.data(), entries.size() * sizeof(entries[0])), 0);
+    table_at = s.tf_error_header().table_offset;
+    EXPECT_EQ(s.tf_error_header().entry_size, 44u);
+    EXPECT_EQ(s.tf_error_header().table_size, entries.size() * 44);
+    // Between the blocks and the node table, at the offset the header names (byte 176 of a version 3 header).
+    EXPECT_EQ(get_u64(good, 176), table_at);
+    EXPECT_EQ(std::memcmp(good.data() + table_at, entries.data(), 44), 0);
+  }
+  // A flipped byte in the table: the open fails naming the table and its offset.
+  const std::string bad = dir.file("bad.ugvr");
+  std::string f = good;
+  f[table_at + 100] ^= 4;
+  write_file(bad, f);
+  expect_open_error(bad, {"transfer-function error table checksum mismatch", "byte " + std::to_string(table_at)});
+  // A table size that does not match the node count, the header resealed: refused before reading.
+  f = good;
+  std::memcpy(f.data() + 176 + 8, "\x01\x00\x00\x00\x00\x00\x00\x00", 8);
+  reseal(f);
+  write_file(bad, f);
+  expect_open_error(bad, {"transfer-function error table of 1 bytes", "byte 184"});
+  // Without a table (the default commit), the store opens and says so.
+  const std::string plain = dir.file("plain.ugvr");
+  write_test_store(t, plain);
+  const BrickStoreReader p(plain);
+  EXPECT_FALSE(p.has_tf_errors());
+  EXPECT_TRUE(p.tf_errors().empty());
+  // The writer refuses a table of the wrong size.
+  BrickStoreWriter w(dir.file("w.ugvr"), t.layout);
+  EXPECT_THROW(w.commit(t.nodes, t.errors, std::span(entries).first(5)), Error);
+}
+
+// A version 2 store (before the table): the same file less the 24-byte TfErrorHeaderRecord, every offset after it
+// moved back. It must still open, with no table.
+TEST(BrickStore, Version2StoresStillOpen) {
+  ScratchDir dir;
+  const TestStore t = make_test_store(8, 3);
+  const std::string path = dir.file("v3.ugvr");
+  write_test_store(t, path);
+  std::string f = read_file(path);
+  f.erase(176, 24);
+  patch_u32(f, 8, 2);
+  patch_u32(f, 12, get_u32(f, 12) - 24);
+  const uint64_t table = get_u64(f, 152) - 24, size = get_u64(f, 160) - 24;
+  std::memcpy(f.data() + 152, &table, 8);
+  std::memcpy(f.data() + 160, &size, 8);
+  const uint64_t rec = get_u32(f, 24);
+  for (uint64_t id = 0; id < t.nodes.size(); ++id) {
+    const uint64_t at = table + id * rec + 16;  // NodeRecord::brick_offset
+    uint64_t offset = get_u64(f, at);
+    if (offset) offset -= 24;
+    std::memcpy(f.data() + at, &offset, 8);
+  }
+  reseal(f);
+  const std::string v2 = dir.file("v2.ugvr");
+  write_file(v2, f);
+  const BrickStoreReader s(v2);
+  EXPECT_EQ(s.header().version, 2u);
+  EXPECT_FALSE(s.has_tf_errors());
+  check_store(t, s);
+}
 
 TEST(BrickStoreAtomicity, WriterDestroyedBeforeCommit) {
   ScratchDir dir;

@@ -94,6 +94,12 @@ std::map<std::string, std::vector<Member>> struct_members() {
         UGVR_MEMBER(HeaderRecord, file_size),
         UGVR_MEMBER(HeaderRecord, node_table_crc),
         UGVR_MEMBER(HeaderRecord, header_crc)}},
+      {"TfErrorHeaderRecord",
+       {UGVR_MEMBER(TfErrorHeaderRecord, table_offset), UGVR_MEMBER(TfErrorHeaderRecord, table_size),
+        UGVR_MEMBER(TfErrorHeaderRecord, entry_size), UGVR_MEMBER(TfErrorHeaderRecord, table_crc)}},
+      {"TfErrorEntry",
+       {UGVR_MEMBER(TfErrorEntry, bound), UGVR_MEMBER(TfErrorEntry, spread), UGVR_MEMBER(TfErrorEntry, weight),
+        UGVR_MEMBER(TfErrorEntry, reserved)}},
       {"FieldRecord",
        {UGVR_MEMBER(FieldRecord, min), UGVR_MEMBER(FieldRecord, max), UGVR_MEMBER(FieldRecord, association),
         UGVR_MEMBER(FieldRecord, reserved), UGVR_MEMBER(FieldRecord, name_length)}},
@@ -307,8 +313,9 @@ class BrickStoreFormatFile : public ::testing::TestWithParam<Variant> {
   uint64_t table() const { return bytes_.size() - SmallStore::kNodes * kRecordSize; }
 
   // Field records of 24, 48 and 32 bytes (names of 1, 21 and 10 bytes); node records of 48 + 3 × 24 bytes.
-  static constexpr uint64_t kFieldAt[3] = {176, 176 + 24, 176 + 24 + 48};
-  static constexpr uint64_t kHeaderSize = 176 + 24 + 48 + 32;
+  // Version 3: the TfErrorHeaderRecord (24 bytes) between the header record and the field records.
+  static constexpr uint64_t kFieldAt[3] = {200, 200 + 24, 200 + 24 + 48};
+  static constexpr uint64_t kHeaderSize = 200 + 24 + 48 + 32;
   static constexpr uint64_t kRecordSize = 48 + 3 * 24;
 
   test::ScratchDir dir_;
@@ -357,6 +364,13 @@ TEST_P(BrickStoreFormatFile, HeaderMembersAtTheirDocumentedOffsets) {
   std::string header = bytes_.substr(0, kHeaderSize);
   std::memset(header.data() + 172, 0, 4);
   EXPECT_MEMBER(d, h, header_crc, crc_of(header, 0, header.size()));
+  // Written without a transfer-function error table: its record says so with zeros.
+  const TfErrorHeaderRecord t = record<TfErrorHeaderRecord>(176);
+  DocRecord dt(bytes_, doc_["TfErrorHeaderRecord"], 176);
+  EXPECT_MEMBER(dt, t, table_offset, 0);
+  EXPECT_MEMBER(dt, t, table_size, 0);
+  EXPECT_MEMBER(dt, t, entry_size, 0);
+  EXPECT_MEMBER(dt, t, table_crc, 0);
 }
 
 TEST_P(BrickStoreFormatFile, FieldRecordsAtTheirDocumentedOffsets) {

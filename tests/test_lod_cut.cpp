@@ -20,6 +20,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/lod/lod_cut.h"
+#include "ugvr/render/lod/tf_error.h"
 #include "ugvr/render/transfer_function.h"
 #include "ugvr/store/brick_store.h"
 
@@ -36,6 +37,9 @@ struct StoreOptions {
   int depth = 4;
   bool root_without_brick = false;  // an inner node without brick: must be refined regardless
   bool last_leaf_without_brick = false;
+  // A transfer-function error table (store_format::TfErrorEntry) for field 0: per node its x range in 8 equal
+  // groups, each with an rms difference of 0.02 × 2^-level of the range (inner nodes; leaves 0).
+  bool tf_table = false;
 };
 
 // Root [0,1]³. A node exists where its box meets the ball of radius 0.5 around the centre, except in the root's
@@ -80,7 +84,22 @@ std::unique_ptr<BrickStoreReader> make_store(const std::string& path, const Stor
     const float* fields[] = {f0.data(), f1.data()};
     writer.add_brick(id, fields, nullptr);
   }
-  writer.commit(nodes, errors);
+  std::vector<store_format::TfErrorEntry> table;
+  if (o.tf_table) {
+    table.resize(nodes.size() * 2);
+    for (uint64_t id = 0; id < nodes.size(); ++id) {
+      const Bounds b = node_bounds(root, nodes[id]);
+      store_format::TfErrorEntry& e = table[id * 2];
+      for (int g = 0; g <= store_format::kTfErrorGroups; ++g) {
+        e.bound[g] = uint16_t(std::lround((b.lo.x + (b.hi.x - b.lo.x) * g / store_format::kTfErrorGroups) * 65535));
+      }
+      for (int g = 0; g < store_format::kTfErrorGroups; ++g) {
+        e.spread[g] = nodes[id].is_leaf() ? 0 : uint16_t(std::ceil(std::ldexp(0.02, -nodes[id].level) * 65535));
+        e.weight[g] = 32;
+      }
+    }
+  }
+  writer.commit(nodes, errors, table);
   return std::make_unique<BrickStoreReader>(path);
 }
 
@@ -96,6 +115,10 @@ std::unique_ptr<BrickStoreReader> make_shared_store(const std::string& name, con
 }
 const BrickStoreReader& plain_store() {
   static const std::unique_ptr<BrickStoreReader> store = make_shared_store("plain.ubs", {});
+  return *store;
+}
+const BrickStoreReader& tf_store() {
+  static const std::unique_ptr<BrickStoreReader> store = make_shared_store("tf.ubs", {.tf_table = true});
   return *store;
 }
 const BrickStoreReader& holes_store() {
@@ -448,6 +471,94 @@ TEST(LodCut, TransferFunctionCulling) {
   const Cut none = select_cut(*s, parse_cut_spec("leaves"), framing_camera(), 32, 32, tf_with({{0, 0}, {1, 0}}));
   EXPECT_TRUE(none.nodes.empty());
   EXPECT_EQ(none.culled_tf, 1u);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// The transfer-function-aware error (render/lod/tf_error.h)
+
+// Cut nodes whose x range overlaps [lo, hi].
+size_t nodes_over(const BrickStoreReader& s, const Cut& cut, double lo, double hi) {
+  size_t n = 0;
+  for (uint64_t id : cut.nodes) n += s.bounds(id).lo.x < hi && s.bounds(id).hi.x > lo;
+  return n;
+}
+
+// White, opacity 0.5 with a gentle slope everywhere, and a steep rise by 0.45 over [lo, lo + 0.1].
+TransferFunction steep_at(double lo) {
+  TransferFunction tf;
+  tf.color_points = {{0, {1, 1, 1}}, {1, {1, 1, 1}}};
+  tf.opacity_points = {{0, 0.5}, {lo, 0.5 + 0.05 * lo}, {lo + 0.1, 0.95 + 0.05 * lo}, {1, 1}};
+  return tf;
+}
+
+TEST(LodCutTfError, MovingTheOpacityMovesTheRefinement) {
+  const BrickStoreReader& s = tf_store();
+  ASSERT_TRUE(s.has_tf_errors());
+  const Camera cam = framing_camera();
+  CutOptions o;
+  o.frustum_cull = false;
+  o.max_nodes = 40;  // a budget: the nodes whose image differs most are refined first
+  const TransferFunction a = steep_at(0.3), b = steep_at(0.6);
+  const CutSpec spec = parse_cut_spec("pixels:0.01");
+  const Cut ca = select_cut(s, spec, cam, 64, 64, a, o), cb = select_cut(s, spec, cam, 64, 64, b, o);
+  EXPECT_TRUE(ca.budget_limited);
+  // The steep part of each transfer function gets the nodes.
+  EXPECT_GT(nodes_over(s, ca, 0.3, 0.4), nodes_over(s, cb, 0.3, 0.4));
+  EXPECT_GT(nodes_over(s, cb, 0.6, 0.7), nodes_over(s, ca, 0.6, 0.7));
+  expect_exact_once(s, ca, cam, 64, 64, a, o, "tf a");
+  expect_exact_once(s, cb, cam, 64, 64, b, o, "tf b");
+  // Without the transfer-function error the two cuts are the same: only the texel sizes rank the nodes.
+  o.tf_error = false;
+  EXPECT_EQ(select_cut(s, spec, cam, 64, 64, a, o).nodes, select_cut(s, spec, cam, 64, 64, b, o).nodes);
+  // The errors themselves: larger where the transfer function is steep over the node's values.
+  TfNodeErrors errors(s, 0);
+  EXPECT_TRUE(errors.update(a));
+  EXPECT_FALSE(errors.update(a));  // the same transfer function: nothing to recompute
+  uint64_t steep = kNoNode, gentle = kNoNode;
+  for (uint64_t id = 0; id < s.node_count(); ++id) {
+    const Bounds box = s.bounds(id);
+    if (s.node(id).level != 3 || s.node(id).is_leaf()) continue;
+    if (box.lo.x == 0.25) steep = id;  // [0.25, 0.375]: meets a's ramp [0.3, 0.4], none of b's
+    if (box.lo.x >= 0.75) gentle = id;
+  }
+  ASSERT_NE(steep, kNoNode);
+  ASSERT_NE(gentle, kNoNode);
+  EXPECT_GT(errors.error(steep), 10 * errors.error(gentle));
+  EXPECT_GT(errors.weight(steep), errors.weight(gentle));
+  EXPECT_GE(errors.weight(gentle), 1.0);
+  EXPECT_TRUE(errors.update(b));
+  EXPECT_LT(errors.error(steep), errors.error(gentle) * 10);
+}
+
+TEST(LodCutTfError, TransparentOrUniformNodesAreNeverSplit) {
+  for (const BrickStoreReader* s : {&plain_store(), &tf_store()}) {  // without and with the table
+    CutOptions o;
+    o.frustum_cull = false;
+    o.tf_cull = false;  // as with the boundary overlay: transparent nodes stay on the cut
+    // Transparent up to x = 0.5, then opaque white: uniform beyond 0.5 too. Only nodes whose x range crosses 0.5
+    // differ from their finest data under it.
+    TransferFunction tf;
+    tf.color_points = {{0, {1, 1, 1}}, {1, {1, 1, 1}}};
+    tf.opacity_points = {{0, 0}, {0.5, 0}, {0.5001, 1}, {1, 1}};
+    const Cut cut = select_cut(*s, parse_cut_spec("pixels:0.001"), framing_camera(), 64, 64, tf, o);
+    for (uint64_t id : cut.nodes) {
+      const Bounds box = s->bounds(id);
+      // A node's values are its x range: it differs from its finest data only if that meets the step [0.5, 0.5001].
+      auto meets_step = [](const Bounds& b) { return b.lo.x < 0.5001 && b.hi.x > 0.5; };
+      if (!meets_step(box)) {
+        // Transparent or uniform: it was never split, so its parent (if any) meets the step.
+        const uint64_t p = s->node(id).parent;
+        EXPECT_TRUE(p == kNoNode || meets_step(s->bounds(p))) << id;
+      } else {
+        EXPECT_TRUE(s->node(id).is_leaf()) << id;  // crossing: refined to the leaves (pixels:0.001)
+      }
+    }
+    expect_exact_once(*s, cut, framing_camera(), 64, 64, tf, o, "uniform");
+    EXPECT_LT(cut.nodes.size(), brick_leaves(*s).size());
+    // Without the weight the same spec refines everything to the leaves.
+    o.tf_error = false;
+    EXPECT_EQ(select_cut(*s, parse_cut_spec("pixels:0.001"), framing_camera(), 64, 64, tf, o).nodes, brick_leaves(*s));
+  }
 }
 
 TEST(LodCut, InvalidArguments) {

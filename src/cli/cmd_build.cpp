@@ -20,7 +20,7 @@ void register_build(CLI::App& app) {
     std::string output;
     OctreeBuildOptions build;
     uint64_t memory = uint64_t(1) << 30;
-    bool float32 = false, json = false, out_of_core = false;
+    bool float32 = false, json = false, out_of_core = false, no_tf_errors = false;
   };
   auto opts = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -57,9 +57,13 @@ void register_build(CLI::App& app) {
                 "Stream the cells through temporary files next to the output instead of loading the mesh (one .vtu "
                 "input; chosen by itself when the .vtu is larger than 40% of --memory)");
   cmd->add_flag("--json", opts->json, "Print the summary as one JSON object (for benchmarks)");
+  cmd->add_flag("--no-tf-errors", opts->no_tf_errors,
+                "Leave out the transfer-function error table (44 bytes per node and field; renderers then rank nodes "
+                "by texel size alone)");
   cmd->callback([opts] {
     if (extension_lower(opts->output) != ".ugvr") throw Error(opts->output + ": the output must be a .ugvr file");
     if (opts->float32) opts->build.encoding.samples = SampleEncoding::Float32;
+    opts->build.tf_errors = !opts->no_tf_errors;
     opts->build.inputs = opts->input.files;  // recorded in the store
     validate_build_options(opts->build);
     const bool vtu = opts->input.files.size() == 1 && extension_lower(opts->input.files[0]) == ".vtu";
@@ -105,6 +109,7 @@ void register_build(CLI::App& app) {
                                 {"seconds", s.seconds},
                                 {"samples_per_second", samples_per_second},
                                 {"store_bytes", s.store_bytes},
+                                {"tf_error_table_bytes", s.tf_error_table_bytes},
                                 {"peak_rss_bytes", peak_rss_bytes()}};
       std::printf("%s\n", j.dump().c_str());
     } else {

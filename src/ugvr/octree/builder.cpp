@@ -41,8 +41,11 @@ class BrickPass {
   };
 
   BrickPass(OctreeShape& shape, const BrickLattice& lattice, const BrickSampler& sampler, const OctreeDataPoints& data,
-            BrickStoreWriter& writer, Progress& progress, const std::atomic<bool>* cancel)
-      : shape_(shape),
+            std::span<const BrickStoreField> fields, bool tf_errors, BrickStoreWriter& writer, Progress& progress,
+            const std::atomic<bool>* cancel)
+      : tf_errors_on_(tf_errors),
+        shape_(shape),
+        fields_(fields),
         lattice_(lattice),
         sampler_(sampler),
         data_(data),
@@ -50,7 +53,8 @@ class BrickPass {
         cancel_(cancel),
         progress_(progress),
         F_(uint32_t(data.field_count())),
-        errors_(shape.nodes.size() * F_) {}
+        errors_(shape.nodes.size() * F_),
+        tf_errors_(tf_errors ? shape.nodes.size() * F_ : 0) {}
 
   std::unique_ptr<Result> process(uint64_t id) {
     if (cancel_ && cancel_->load(std::memory_order_relaxed)) throw Error("octree build cancelled");
@@ -59,6 +63,12 @@ class BrickPass {
     const Bounds box = lattice_.node_box(node.level, ijk);
     auto r = std::make_unique<Result>();
     std::vector<ErrorSum> sums(F_);
+    std::vector<ErrorHistogram> pairs;  // for the transfer-function error table
+    if (tf_errors_on_) {
+      pairs.reserve(F_);
+      for (uint32_t f = 0; f < F_; ++f) pairs.emplace_back(fields_[f].min, fields_[f].max);
+      for (uint32_t f = 0; f < F_; ++f) sums[f].pairs = &pairs[f];
+    }
     if (node.is_leaf()) {
       std::vector<uint64_t>& cells = shape_.leaf_cells[id];
       const auto t0 = std::chrono::steady_clock::now();
@@ -104,19 +114,25 @@ class BrickPass {
     }
     write_node_brick(writer_, id, r->brick, F_);
     std::copy(r->errors.begin(), r->errors.end(), errors_.begin() + ptrdiff_t(id * F_));
+    for (uint32_t f = 0; f < F_ && tf_errors_on_; ++f) {
+      tf_errors_[id * F_ + f] = make_tf_error_entry(pairs[f], fields_[f].min, fields_[f].max);
+    }
     bricks_ += r->brick.valid > 0;
     progress_.add(1);
     return r;
   }
 
   const std::vector<FieldError>& errors() const { return errors_; }
+  const std::vector<store_format::TfErrorEntry>& tf_errors() const { return tf_errors_; }
   uint64_t leaf_samples() const { return leaf_samples_; }
   uint64_t valid_samples() const { return valid_samples_; }
   uint64_t bricks() const { return bricks_; }
   double sampler_seconds() const { return double(sampler_ns_) * 1e-9; }
 
  private:
+  bool tf_errors_on_;
   OctreeShape& shape_;
+  std::span<const BrickStoreField> fields_;
   const BrickLattice& lattice_;
   const BrickSampler& sampler_;
   const OctreeDataPoints& data_;
@@ -124,7 +140,8 @@ class BrickPass {
   const std::atomic<bool>* cancel_;
   Progress& progress_;
   uint32_t F_;
-  std::vector<FieldError> errors_;  // node x field; each node writes its own entries
+  std::vector<FieldError> errors_;                     // node x field; each node writes its own entries
+  std::vector<store_format::TfErrorEntry> tf_errors_;  // likewise
   tbb::enumerable_thread_specific<BrickScratch> scratch_;
   std::atomic<uint64_t> leaf_samples_{0}, valid_samples_{0}, bricks_{0}, sampler_ns_{0};
 };
@@ -170,31 +187,35 @@ OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions
 
   OctreeBuildStats stats;
   stats.cells = mesh.cell_count();
+  const BrickSampler sampler(mesh, input.scalars, options.sampler);
+  std::optional<InterpolantCheck> interpolant;
+  if (options.error > 0) interpolant.emplace(data, sampler, lattice, split.thresholds());
   OctreeShape shape;
   {
     Progress progress("subdivide", uint64_t(options.max_depth) + 1, options.progress);
-    shape = subdivide_octree(mesh, lattice, split, options.max_depth, &progress);
+    shape = subdivide_octree(mesh, lattice, split, options.max_depth, &progress, interpolant ? &*interpolant : nullptr);
   }
   stats.subdivide_seconds = seconds_since(start);
   count_tree_shape(shape.nodes, stats);
 
   const BrickStoreLayout layout = store_layout(options, input.fields, lattice.root, input.bounds, false);
   BrickStoreWriter writer(path, layout);
-  const BrickSampler sampler(mesh, input.scalars, options.sampler);
   const auto bricks_start = std::chrono::steady_clock::now();
   {
     Progress progress("bricks", stats.nodes, options.progress);
     if (options.cancel && options.cancel->load()) throw Error("octree build cancelled");
-    BrickPass pass(shape, lattice, sampler, data, writer, progress, options.cancel);
+    BrickPass pass(shape, lattice, sampler, data, input.fields, options.tf_errors, writer, progress, options.cancel);
     pass.process(0);
     stats.leaf_samples = pass.leaf_samples();
     stats.valid_samples = pass.valid_samples();
     stats.bricks = pass.bricks();
     stats.sampler_seconds = pass.sampler_seconds();
-    writer.commit(shape.nodes, pass.errors());
+    writer.commit(shape.nodes, pass.errors(), pass.tf_errors());
   }
   stats.brick_seconds = seconds_since(bricks_start);
   stats.store_bytes = std::filesystem::file_size(path);
+  if (options.tf_errors)
+    stats.tf_error_table_bytes = stats.nodes * layout.fields.size() * sizeof(store_format::TfErrorEntry);
   stats.seconds = seconds_since(start);
   return stats;
 }

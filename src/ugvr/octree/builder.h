@@ -3,13 +3,16 @@
 //
 // Two passes over the tree:
 //  1. Shape, top-down (octree/subdivide.h): the root covers a cube around the data; a node splits while two data
-//     points that differ by more than the error threshold share one of its voxels (octree/split.h), up to the
-//     maximum depth; children get the cells that overlap them; empty children are not created.
+//     points that differ by more than the error threshold share one of its voxels, at error 0 while a cell edge in it
+//     spans fewer than two voxels, and above 0 while its trilinear voxel field departs from the cells' interpolant by
+//     more than the threshold (octree/split.h), up to the maximum depth; children get the cells that overlap them;
+//     empty children are not created.
 //  2. Bricks, bottom-up and depth first, subtrees in parallel: a leaf samples its cells (octree/brick_sampler.h); an
 //     interior node subsamples its children (octree/downsample.h), so every sample of every node is the exact field
 //     at its lattice point and borders shared by neighbours are identical; each brick is padded (store/brick_pad.h),
-//     its error measured (octree/node_error.h), encoded and appended to the store as soon as it exists. Only the bricks
-//     of the nodes whose subtrees are in progress are in memory, never the whole tree's.
+//     its error measured (octree/node_error.h; the same (node value, finest value) pairs make its transfer-function
+//     error table entry, store/brick_store_format.h's TfErrorEntry), encoded and appended to the store as soon as it
+//     exists. Only the bricks of the nodes whose subtrees are in progress are in memory, never the whole tree's.
 // octree/out_of_core.h builds the same store from a .vtu within a memory budget, streaming the cells through files.
 // Gradients are not stored: a renderer takes central differences on the brick it has (the paper's gradient pass
 // stored them, tripling the store for what costs a renderer a few loads per sample).
@@ -45,6 +48,8 @@ struct OctreeBuildOptions {
   std::vector<std::string> inputs;
   // Sees this build's progress (stage label, fraction done), from whichever thread reports (core/progress.h).
   Progress::Observer progress;
+  // Write the transfer-function error table (store/brick_store_format.h, TfErrorEntry): 44 bytes per node and field.
+  bool tf_errors = true;
 };
 
 struct OctreeBuildStats {
@@ -62,6 +67,7 @@ struct OctreeBuildStats {
   // Wall clock. Out of core, "subdivide" is the writing of the cells to disk (the tree is shaped as bricks are made).
   double subdivide_seconds = 0, brick_seconds = 0, seconds = 0;
   uint64_t store_bytes = 0;
+  uint64_t tf_error_table_bytes = 0;  // of store_bytes: the transfer-function error table (nodes × fields × 44)
 };
 
 // The root cell: a cube with the data's lower corner and its largest extent. A cube keeps voxels isotropic, so a

@@ -64,6 +64,11 @@ const EdgeTable& edge_table(CellType t) {
 
 }  // namespace
 
+std::span<const std::array<uint8_t, 2>> cell_edges(CellType type) {
+  const EdgeTable& t = edge_table(type);
+  return std::span<const std::array<uint8_t, 2>>(t.e.data(), size_t(t.edges));
+}
+
 bool cell_box_overlap(CellType type, const Vec3d* vertices, const Bounds& box, OverlapAxes axes) {
   const int n = cell_vertex_count(type);
   // Work relative to the box centre: the box is then [-h, h] and projections lose no digits to a far origin.

@@ -36,6 +36,10 @@ enum class OverlapAxes : uint8_t { Exact, FaceNormals, BoxNormals };
 
 bool cell_box_overlap(CellType type, const Vec3d* vertices, const Bounds& box, OverlapAxes axes = OverlapAxes::Exact);
 
+// The edges of a cell type as pairs of local vertex indices (6 for a tetrahedron, 8 for a pyramid, 9 for a wedge, 12
+// for a hexahedron), derived from cell_info's faces.
+std::span<const std::array<uint8_t, 2>> cell_edges(CellType type);
+
 // The box grown by `margin` on every side.
 inline Bounds expanded(const Bounds& b, double margin) {
   Bounds e;

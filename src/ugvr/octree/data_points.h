@@ -58,6 +58,9 @@ class OctreeDataPoints {
     return is_vertex(point) ? vertex_splits_[point] != 0 : cell_flat_[point - vertex_count_] == 0;
   }
 
+  // Whether cell `cell` is flat (see above).
+  bool cell_flat(uint64_t cell) const { return cell_flat_[cell] != 0; }
+
   // Calls f(point id) for each data point of `cell`: its vertices when a vertex field is selected, its centroid when
   // a cell field is.
   template <class F>

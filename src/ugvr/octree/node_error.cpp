@@ -4,12 +4,53 @@
 #include <cmath>
 #include <vector>
 
+#include "ugvr/grid/cell_interpolation.h"
+#include "ugvr/octree/cell_box_overlap.h"
+
 namespace ugvr {
 
 FieldError ErrorSum::result() const {
   FieldError e;
   e.max = float(max);
   e.rms = count ? float(std::sqrt(sum_sq / double(count))) : 0.0f;
+  return e;
+}
+
+store_format::TfErrorEntry make_tf_error_entry(const ErrorHistogram& h, double field_min, double field_max) {
+  store_format::TfErrorEntry e;
+  if (h.total == 0) return e;
+  constexpr int K = store_format::kTfErrorGroups;
+  const double range = field_max - field_min;
+  auto code = [&](double v, bool up) {
+    if (!(range > 0)) return uint16_t(0);
+    const double c = (v - field_min) / range * 65535.0;
+    return uint16_t(std::clamp(up ? std::ceil(c) : std::floor(c), 0.0, 65535.0));
+  };
+  // Groups of about n / K pairs, cut at bin edges; a bin heavier than a group makes fewer, heavier groups.
+  const double n = double(h.total);
+  const double width = h.scale > 0 ? 1.0 / h.scale : 0.0;
+  e.bound[0] = code(h.fine_min, false);
+  int g = 0, b = 0;
+  uint64_t taken = 0;
+  while (g < K && b < kErrorBins && taken < h.total) {
+    uint64_t c = 0;
+    double sq = 0;
+    const double target = double(g + 1) * n / K;
+    while (b < kErrorBins && (c == 0 || double(taken + c + h.count[size_t(b)]) <= target + 0.5 || g == K - 1)) {
+      c += h.count[size_t(b)];
+      sq += h.sum_sq[size_t(b)];
+      ++b;
+    }
+    taken += c;
+    e.bound[g + 1] = taken == h.total ? code(h.fine_max, true) : code(std::min(h.fine_max, h.lo + width * b), true);
+    if (c > 0) {
+      const double rms = std::sqrt(sq / double(c));
+      e.spread[g] = range > 0 ? uint16_t(std::min(65535.0, std::ceil(rms / range * 65535.0))) : 0;
+      e.weight[g] = uint8_t(std::clamp(std::lround(double(c) / n * 255.0), 1L, 255L));
+    }
+    ++g;
+  }
+  for (int rest = g + 1; rest <= K; ++rest) e.bound[rest] = e.bound[g];
   return e;
 }
 
@@ -40,6 +81,71 @@ bool interpolate_brick(const BrickSamples& brick, Vec3d u, double* out) {
     out[f] = sum;
   }
   return true;
+}
+
+namespace {
+
+// interpolate_brick, but only where all 8 surrounding samples hold data; field f alone.
+bool interpolate_inside(const BrickSamples& brick, Vec3d u, uint32_t f, double& out) {
+  const uint32_t R = brick.resolution;
+  const size_t n = size_t(R) * R * R;
+  uint32_t i0[3];
+  double t[3];
+  for (int a = 0; a < 3; ++a) {
+    const double c = std::clamp(u[a], 0.0, double(R - 1));
+    i0[a] = std::min(uint32_t(c), R - 2);
+    t[a] = c - double(i0[a]);
+  }
+  const float* v = brick.values.data() + f * n;
+  double sum = 0;
+  for (int q = 0; q < 8; ++q) {
+    const uint32_t dx = q & 1, dy = (q >> 1) & 1, dz = (q >> 2) & 1;
+    const size_t corner = (i0[0] + dx) + size_t(R) * ((i0[1] + dy) + size_t(R) * (i0[2] + dz));
+    if (!brick.mask[corner]) return false;
+    sum += (dx ? t[0] : 1 - t[0]) * (dy ? t[1] : 1 - t[1]) * (dz ? t[2] : 1 - t[2]) * v[corner];
+  }
+  out = sum;
+  return true;
+}
+
+}  // namespace
+
+bool cell_interpolant_exceeds(const BrickSamples& brick, const Bounds& box, CellType type, const Vec3d* vertices,
+                              std::span<const float* const> values, std::span<const double> thresholds) {
+  const uint32_t R = brick.resolution;
+  Vec3d scale;
+  for (int a = 0; a < 3; ++a) {
+    const double extent = box.hi[a] - box.lo[a];
+    scale[a] = extent > 0 ? double(R - 1) / extent : 0.0;
+  }
+  const int n = cell_vertex_count(type);
+  // Test point p with value per field sum_i w_i values[f][i] over the listed vertices.
+  auto exceeds = [&](Vec3d p, std::span<const uint8_t> ids) {
+    if (!box_contains(box, p)) return false;
+    const Vec3d u{(p.x - box.lo.x) * scale.x, (p.y - box.lo.y) * scale.y, (p.z - box.lo.z) * scale.z};
+    for (size_t f = 0; f < values.size(); ++f) {
+      if (!values[f]) continue;
+      double exact = 0;
+      for (uint8_t i : ids) exact += values[f][i];
+      exact /= double(ids.size());
+      double voxel = 0;
+      if (!interpolate_inside(brick, u, uint32_t(f), voxel)) return false;
+      if (std::abs(voxel - exact) > thresholds[f]) return true;
+    }
+    return false;
+  };
+  std::array<uint8_t, kMaxCellVertices> all{};
+  Vec3d centre{0, 0, 0};
+  for (int i = 0; i < n; ++i) {
+    all[size_t(i)] = uint8_t(i);
+    centre = centre + vertices[i];
+    const uint8_t one[1] = {uint8_t(i)};
+    if (exceeds(vertices[i], one)) return true;
+  }
+  for (const auto& e : cell_edges(type)) {
+    if (exceeds((vertices[e[0]] + vertices[e[1]]) * 0.5, e)) return true;
+  }
+  return exceeds(centre * (1.0 / n), std::span<const uint8_t>(all.data(), size_t(n)));
 }
 
 void measure_against_children(const BrickSamples& brick, const std::array<const BrickSamples*, 8>& children,
@@ -105,7 +211,7 @@ void measure_against_children(const BrickSamples& brick, const std::array<const 
             const uint32_t lo = X.lo[x], hi = X.hi[x];
             if (!(row_mask[lo] | row_mask[hi])) continue;
             const double interpolated = lo == hi ? rf[lo] : 0.5 * (rf[lo] + rf[hi]);
-            acc.add(std::abs(interpolated - cv[x]));
+            acc.add(interpolated, double(cv[x]));
           }
           sums[f] = acc;
         }
@@ -128,7 +234,7 @@ void measure_against_points(const BrickSamples& brick, const Bounds& box, const 
     if (!interpolate_brick(brick, u, interpolated.data())) continue;
     for (uint32_t f = 0; f < F; ++f) {
       const float exact = data.value(p, f);
-      if (!std::isnan(exact)) sums[f].add(std::abs(interpolated[f] - double(exact)));
+      if (!std::isnan(exact)) sums[f].add(interpolated[f], double(exact));
     }
   }
 }

@@ -78,6 +78,7 @@ class OutOfCoreBuild {
     for (const BrickStoreField& f : fields_) thresholds_.push_back(o_.error * (f.max - f.min));
     nodes_.push_back(OctreeNode{});
     errors_.grow_to_at_least(F_);
+    tf_errors_.grow_to_at_least(F_);
   }
 
   std::unique_ptr<Result> process(uint64_t id, const std::string& file) {
@@ -106,6 +107,49 @@ class OutOfCoreBuild {
     }
     auto r = std::make_unique<Result>();
     std::vector<ErrorSum> sums(F_);
+    std::vector<ErrorHistogram> pairs;
+    auto reset_sums = [&] {
+      pairs.clear();
+      for (uint32_t f = 0; f < F_ && o_.tf_errors; ++f) pairs.emplace_back(fields_[f].min, fields_[f].max);
+      for (uint32_t f = 0; f < F_; ++f) {
+        sums[f] = ErrorSum{};
+        if (o_.tf_errors) sums[f].pairs = &pairs[f];
+      }
+    };
+    reset_sums();
+    // The interpolant check (split.h, InterpolantCheck) needs the leaf's brick: a node the voxel rule keeps whole is
+    // sampled as a leaf first, and split after all if its brick departs from the cells' interpolant.
+    const bool check = o_.error > 0 && node.level < o_.max_depth;
+    if (!split) {
+      bool pieces = false;
+      if (complete || node.level >= kMaxOctreeLevel) {
+        if (!complete) kept = load(file);
+        sample_leaf(node, box, kept, scratch, *r, sums);
+      } else {
+        // More cells than this worker's share of the budget: the brick in pieces (see sample_in_pieces), its error
+        // from the data points streamed from the file.
+        pieces = true;
+        std::vector<std::byte>().swap(kept);
+        init_brick(r->brick);
+        sample_in_pieces(node, box, file, 0, r->brick);
+        leaf_samples_ += r->brick.mask.size();
+        valid_samples_ += r->brick.valid;
+        pad_brick(o_.resolution, F_, r->brick.values.data(), r->brick.mask.data());
+        measure_streamed(r->brick, box, file, sums);
+      }
+      if (check && interpolant_exceeds(r->brick, box, pieces ? nullptr : &kept, file, scratch)) {
+        split = true;
+        leaf_samples_ -= r->brick.mask.size();  // what sampling this leaf added (other threads add theirs)
+        valid_samples_ -= r->brick.valid;
+        r = std::make_unique<Result>();
+        reset_sums();
+      } else {
+        leaves_in_pieces_ += pieces;
+        std::filesystem::remove(file);
+        for (const ErrorSum& s : sums) r->errors.push_back(s.result());
+        progress_.add(kVolumeUnits >> std::min(3 * int(node.level), 62));
+      }
+    }
     if (split) {
       std::vector<std::byte>().swap(kept);
       const std::array<std::string, 8> files = route("node-" + std::to_string(id), box, file);
@@ -115,6 +159,7 @@ class OutOfCoreBuild {
       const int count = std::popcount(mask);
       const uint64_t first = uint64_t(nodes_.grow_by(size_t(count)) - nodes_.begin());
       errors_.grow_to_at_least((first + uint64_t(count)) * F_);
+      tf_errors_.grow_to_at_least((first + uint64_t(count)) * F_);
       nodes_[id].first_child = first;
       nodes_[id].child_mask = mask;
       std::array<std::unique_ptr<Result>, 8> kids;
@@ -139,34 +184,20 @@ class OutOfCoreBuild {
       pad_brick(o_.resolution, F_, r->brick.values.data(), r->brick.mask.data());
       measure_against_children(r->brick, bricks, sums);
       add_interior_node_errors(sums, kids, r->errors);
-    } else if (complete || node.level >= kMaxOctreeLevel) {
-      if (!complete) kept = load(file);
-      std::filesystem::remove(file);
-      sample_leaf(node, box, kept, scratch, *r, sums);
-      for (const ErrorSum& s : sums) r->errors.push_back(s.result());
-      progress_.add(kVolumeUnits >> std::min(3 * int(node.level), 62));
-    } else {
-      // More cells than this worker's share of the budget: the brick in pieces (see sample_in_pieces), its error
-      // from the data points streamed from the file.
-      std::vector<std::byte>().swap(kept);
-      init_brick(r->brick);
-      sample_in_pieces(node, box, file, 0, r->brick);
-      leaf_samples_ += r->brick.mask.size();
-      valid_samples_ += r->brick.valid;
-      ++leaves_in_pieces_;
-      pad_brick(o_.resolution, F_, r->brick.values.data(), r->brick.mask.data());
-      measure_streamed(r->brick, box, file, sums);
-      std::filesystem::remove(file);
-      for (const ErrorSum& s : sums) r->errors.push_back(s.result());
-      progress_.add(kVolumeUnits >> std::min(3 * int(node.level), 62));
     }
     write_node_brick(writer_, id, r->brick, F_);
-    for (uint32_t f = 0; f < F_; ++f) errors_[id * F_ + f] = r->errors[f];
+    for (uint32_t f = 0; f < F_; ++f) {
+      errors_[id * F_ + f] = r->errors[f];
+      if (o_.tf_errors) tf_errors_[id * F_ + f] = make_tf_error_entry(pairs[f], fields_[f].min, fields_[f].max);
+    }
     return r;
   }
 
   std::vector<OctreeNode> nodes() const { return {nodes_.begin(), nodes_.end()}; }
   std::vector<FieldError> errors() const { return {errors_.begin(), errors_.begin() + ptrdiff_t(nodes_.size() * F_)}; }
+  std::vector<store_format::TfErrorEntry> tf_errors() const {
+    return {tf_errors_.begin(), tf_errors_.begin() + ptrdiff_t(nodes_.size() * F_)};
+  }
   uint64_t leaf_samples() const { return leaf_samples_; }
   uint64_t valid_samples() const { return valid_samples_; }
   uint64_t leaves_in_pieces() const { return leaves_in_pieces_; }
@@ -192,6 +223,9 @@ class OutOfCoreBuild {
   bool feed(const SoupCell& cell, Scratch& s) {
     s.values.resize(F_);
     const int n = cell.vertex_count();
+    Vec3d corners[kMaxCellVertices];
+    for (int i = 0; i < n; ++i) corners[i] = to_double(cell.position(i));
+    if (s.table.add_cell_edges(cell.type(), corners)) return true;
     if (layout_.vertex_fields > 0) {
       for (int i = 0; i < n; ++i) {
         for (uint32_t f = 0; f < F_; ++f) {
@@ -397,6 +431,40 @@ class OutOfCoreBuild {
     }
   }
 
+  // InterpolantCheck (split.h) on a leaf's brick, over its records: `kept` (all of them) or, when null, streamed from
+  // `file`.
+  bool interpolant_exceeds(const BrickSamples& brick, const Bounds& box, const std::vector<std::byte>* kept,
+                           const std::string& file, Scratch& scratch) {
+    std::vector<float> values(size_t(F_) * kMaxCellVertices);
+    std::vector<const float*> per_field(F_);
+    Vec3d corners[kMaxCellVertices];
+    auto exceeds = [&](const SoupCell& cell) {
+      if (is_flat(cell, scratch)) return false;
+      const int n = cell.vertex_count();
+      for (int i = 0; i < n; ++i) corners[i] = to_double(cell.position(i));
+      for (uint32_t f = 0; f < F_; ++f) {
+        per_field[f] = nullptr;
+        if (slots_[f].association != Association::Vertex) continue;
+        for (int i = 0; i < n; ++i) values[f * kMaxCellVertices + size_t(i)] = cell.vertex_value(slots_[f].index, i);
+        per_field[f] = values.data() + f * kMaxCellVertices;
+      }
+      return cell_interpolant_exceeds(brick, box, cell.type(), corners, per_field, thresholds_);
+    };
+    if (kept) {
+      for (size_t at = 0; at < kept->size();) {
+        const SoupCell cell(kept->data() + at, layout_);
+        if (exceeds(cell)) return true;
+        at += cell.bytes();
+      }
+      return false;
+    }
+    SoupReader reader(file, layout_);
+    const std::byte* rec = nullptr;
+    while (reader.next(rec))
+      if (exceeds(SoupCell(rec, layout_))) return true;
+    return false;
+  }
+
   // The leaf's error at the data points of its cells, streamed from its file. Points shared by several cells count
   // once per cell here (in core: once), which weighs the rms by incidence; the max is the same.
   void measure_streamed(const BrickSamples& brick, const Bounds& box, const std::string& file,
@@ -413,7 +481,7 @@ class OutOfCoreBuild {
       if (!interpolate_brick(brick, u, interpolated.data())) return;
       for (uint32_t f = 0; f < F_; ++f) {
         const float exact = value_of(f);
-        if (!std::isnan(exact)) sums[f].add(std::abs(interpolated[f] - double(exact)));
+        if (!std::isnan(exact)) sums[f].add(interpolated[f], double(exact));
       }
     };
     SoupReader reader(file, layout_);
@@ -450,7 +518,8 @@ class OutOfCoreBuild {
   uint32_t F_;
   std::vector<double> thresholds_;
   tbb::concurrent_vector<OctreeNode> nodes_;
-  tbb::concurrent_vector<FieldError> errors_;  // node x field
+  tbb::concurrent_vector<FieldError> errors_;                     // node x field
+  tbb::concurrent_vector<store_format::TfErrorEntry> tf_errors_;  // node x field
   tbb::enumerable_thread_specific<Scratch> scratch_;
   std::atomic<uint64_t> leaf_samples_{0}, valid_samples_{0}, sampler_ns_{0}, pieces_{0}, leaves_in_pieces_{0};
 };
@@ -515,11 +584,14 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
     stats.leaves_in_pieces = build.leaves_in_pieces();
     stats.point_passes = source.passes();
     stats.sampler_seconds = build.sampler_seconds();
-    writer.commit(nodes, build.errors());
+    writer.commit(nodes, build.errors(),
+                  options.tf_errors ? build.tf_errors() : std::vector<store_format::TfErrorEntry>{});
   }
   stats.brick_seconds = seconds_since(bricks_start);
   count_tree_shape(nodes, stats);
   stats.store_bytes = std::filesystem::file_size(path);
+  if (options.tf_errors)
+    stats.tf_error_table_bytes = stats.nodes * layout.fields.size() * sizeof(store_format::TfErrorEntry);
   stats.seconds = seconds_since(start);
   const BrickStoreReader store(path);
   for (uint64_t id = 0; id < store.node_count(); ++id) stats.bricks += store.node(id).has_brick();

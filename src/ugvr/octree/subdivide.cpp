@@ -11,13 +11,14 @@
 namespace ugvr {
 
 OctreeShape subdivide_octree(const UnstructuredMesh& mesh, const BrickLattice& lattice, const SplitTest& split,
-                             int max_depth, Progress* progress) {
+                             int max_depth, Progress* progress, const InterpolantCheck* interpolant) {
   OctreeShape shape;
   shape.nodes.push_back(OctreeNode{});
   shape.leaf_cells.emplace_back(mesh.cell_count());
   std::iota(shape.leaf_cells[0].begin(), shape.leaf_cells[0].end(), uint64_t(0));
 
   tbb::enumerable_thread_specific<VoxelSpread> scratch;
+  tbb::enumerable_thread_specific<BrickScratch> sampler_scratch;
   std::vector<uint64_t> level_ids = {0};
   for (int level = 0; !level_ids.empty(); ++level) {
     // Children's cell lists per node of this level, octant-indexed; all empty for a node that does not split.
@@ -28,7 +29,10 @@ OctreeShape subdivide_octree(const UnstructuredMesh& mesh, const BrickLattice& l
       if (level >= max_depth) return;
       const Bounds box = lattice.node_box(level, {node.i, node.j, node.k});
       // The scratch is released before the nested parallel loop below, in which this thread may run other nodes.
-      if (!split.needs_split(box, cells, scratch.local())) return;
+      if (!split.needs_split(box, cells, scratch.local()) &&
+          !(interpolant && interpolant->exceeds(level, {node.i, node.j, node.k}, cells, sampler_scratch.local()))) {
+        return;
+      }
       const BoxCellLists lists = cells_overlapping_boxes(mesh, box, {2, 2, 2}, cells);
       for (int o = 0; o < 8; ++o) {
         const auto b = lists.box(uint64_t(o));

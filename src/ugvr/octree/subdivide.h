@@ -1,5 +1,6 @@
-// The octree's shape, decided top-down before any brick is sampled (Leven et al. 2002, figure 6): a node splits
-// while the split criterion asks (octree/split.h) and its level is below the maximum depth; each child gets the cells
+// The octree's shape, decided top-down before the bricks of pass 2 (Leven et al. 2002, figure 6): a node splits
+// while the split criterion asks (octree/split.h: the voxel rule, and above --error 0 the interpolant check, which
+// samples the node it would keep) and its level is below the maximum depth; each child gets the cells
 // that overlap it (octree/cell_box_overlap.h, with the sampler's margin, so its list is a valid candidate list for the
 // sampler), and a child that no cell overlaps is not created: no sample of its box can hold data.
 //
@@ -27,7 +28,9 @@ struct OctreeShape {
 };
 
 // `progress` (optional) advances by one per level.
+// `interpolant` (optional): a node the split test keeps whole still splits where it says so.
 OctreeShape subdivide_octree(const UnstructuredMesh& mesh, const BrickLattice& lattice, const SplitTest& split,
-                             int max_depth, Progress* progress = nullptr);
+                             int max_depth, Progress* progress = nullptr,
+                             const InterpolantCheck* interpolant = nullptr);
 
 }  // namespace ugvr

@@ -18,11 +18,14 @@ namespace {
 
 using store_format::field_record_size;
 using store_format::FieldRecord;
+using store_format::header_records_size;
 using store_format::HeaderRecord;
 using store_format::node_record_size;
 using store_format::NodeFieldRecord;
 using store_format::NodeRecord;
 using store_format::read_record;
+using store_format::TfErrorEntry;
+using store_format::TfErrorHeaderRecord;
 using store_format::write_record;
 
 constexpr uint32_t kMaxNameLength = 1024;
@@ -154,7 +157,7 @@ BrickStoreWriter::BrickStoreWriter(std::string path, BrickStoreLayout layout)
   if (l.fields.empty() || l.fields.size() > kMaxStoreFields) {
     fail_in(path_, std::to_string(l.fields.size()) + " fields; a brick store holds 1 to 1024");
   }
-  uint64_t header = sizeof(HeaderRecord);
+  uint64_t header = header_records_size(kBrickStoreVersion);
   for (const BrickStoreField& f : l.fields) {
     if (f.name.empty() || f.name.size() > kMaxNameLength) {
       fail_in(path_, "field name of " + std::to_string(f.name.size()) + " bytes; 1 to 1024 allowed");
@@ -260,7 +263,8 @@ void BrickStoreWriter::add_brick(uint64_t node, std::span<const float* const> fi
   append(node, encode(fields, mask));
 }
 
-void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const FieldError> errors) {
+void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const FieldError> errors,
+                              std::span<const TfErrorEntry> tf_errors) {
   std::lock_guard lock(mutex_);
   if (done_) fail_in(path_, "commit() after commit() or after a failed write");
   done_ = true;  // whatever happens below, this writer writes no more
@@ -270,6 +274,10 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
   if (!errors.empty() && errors.size() != count * nf) {
     fail_in(path_, "commit: " + std::to_string(errors.size()) + " error entries for " + std::to_string(count) +
                        " nodes × " + std::to_string(nf) + " fields");
+  }
+  if (!tf_errors.empty() && tf_errors.size() != count * nf) {
+    fail_in(path_, "commit: " + std::to_string(tf_errors.size()) + " transfer-function error entries for " +
+                       std::to_string(count) + " nodes × " + std::to_string(nf) + " fields");
   }
   if (auto issue = check_tree(nodes))
     fail_in(path_, "commit: node " + std::to_string(issue->node) + ": " + issue->what);
@@ -308,6 +316,15 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
 
   const uint32_t rec = node_record_size(nf);
   const double samples = double(layout_.resolution) * layout_.resolution * layout_.resolution;
+  // The transfer-function error table, before the provenance record (which must end where the node table starts).
+  TfErrorHeaderRecord tf_header;
+  if (!tf_errors.empty()) {
+    tf_header.table_offset = out_->position();
+    tf_header.table_size = uint64_t(tf_errors.size_bytes());
+    tf_header.entry_size = sizeof(TfErrorEntry);
+    tf_header.table_crc = crc32_of(tf_errors.data(), tf_errors.size_bytes());
+    out_->write(reinterpret_cast<const std::byte*>(tf_errors.data()), tf_errors.size_bytes());
+  }
   uint32_t provenance_size = 0;
   if (!layout_.provenance.empty()) {
     const std::string& text = layout_.provenance;
@@ -378,7 +395,8 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
   header.node_table_crc = table_crc;
   // The checksum covers the field records too, so they go into the buffer first; header_crc is 0 meanwhile.
   std::vector<std::byte> h(header_size_, std::byte{0});
-  size_t at = sizeof(HeaderRecord);
+  write_record(h.data() + sizeof(HeaderRecord), tf_header);
+  size_t at = header_records_size(kBrickStoreVersion);
   for (const BrickStoreField& f : layout_.fields) {
     FieldRecord r;
     r.min = f.min;
@@ -404,7 +422,38 @@ BrickStoreReader::BrickStoreReader(std::string path) : file_(std::move(path)) {
   read_field_records(header_bytes);
   read_node_table();
   read_provenance();
+  read_tf_errors();
   check_nodes();
+}
+
+// The transfer-function error table, if any: between the blocks and the provenance record, its checksum in its header
+// record.
+void BrickStoreReader::read_tf_errors() {
+  const TfErrorHeaderRecord& t = tf_error_header_;
+  if (t.table_offset == 0 && t.table_size == 0) return;
+  const std::string& name = file_.path();
+  const uint64_t at = sizeof(HeaderRecord);
+  const uint64_t expected = node_count() * field_count() * sizeof(TfErrorEntry);
+  if (t.entry_size != sizeof(TfErrorEntry) || t.table_size != expected) {
+    fail_at_offset(name, at + offsetof(TfErrorHeaderRecord, table_size),
+                   "transfer-function error table of " + std::to_string(t.table_size) + " bytes in entries of " +
+                       std::to_string(t.entry_size) + "; expected " + std::to_string(expected) + " in entries of " +
+                       std::to_string(sizeof(TfErrorEntry)));
+  }
+  const uint64_t end = node_table_offset_ - header_.provenance_size;
+  if (t.table_offset < header_.header_size || t.table_offset > end || t.table_size > end - t.table_offset) {
+    fail_at_offset(name, at + offsetof(TfErrorHeaderRecord, table_offset),
+                   "transfer-function error table at offset " + std::to_string(t.table_offset) +
+                       " does not fit between the header and the node table");
+  }
+  tf_errors_.resize(size_t(node_count() * field_count()));
+  file_.read_at(t.table_offset, tf_errors_.data(), t.table_size);
+  if (const uint32_t crc = crc32_of(tf_errors_.data(), t.table_size); crc != t.table_crc) {
+    tf_errors_.clear();
+    fail_at_offset(name, t.table_offset,
+                   "transfer-function error table checksum mismatch (stored " + hex32(t.table_crc) + ", computed " +
+                       hex32(crc) + "): the table is corrupt");
+  }
 }
 
 // The provenance record, if any: just before the node table, after the header, its checksum last.
@@ -441,10 +490,10 @@ std::vector<std::byte> BrickStoreReader::read_header() {
   }
   if (got < offsetof(HeaderRecord, version) + sizeof h.version)
     fail_at_offset(name, got, "truncated brick store header");
-  if (h.version != kBrickStoreVersion) {
+  if (h.version < kOldestReadableBrickStoreVersion || h.version > kBrickStoreVersion) {
     fail_at_offset(name, offsetof(HeaderRecord, version),
-                   "brick store format version " + std::to_string(h.version) + "; this build reads version " +
-                       std::to_string(kBrickStoreVersion) +
+                   "brick store format version " + std::to_string(h.version) + "; this build reads versions " +
+                       std::to_string(kOldestReadableBrickStoreVersion) + " to " + std::to_string(kBrickStoreVersion) +
                        (h.version < kBrickStoreVersion
                             ? " only (older stores quantize each brick on its own grid): rebuild it with `ugvr build`"
                             : " (written by a newer ugvr)"));
@@ -452,7 +501,7 @@ std::vector<std::byte> BrickStoreReader::read_header() {
   if (got < sizeof(HeaderRecord)) {
     fail_at_offset(name, got, "truncated brick store: " + std::to_string(size) + " bytes, shorter than its header");
   }
-  if (h.header_size < sizeof(HeaderRecord) || h.header_size % 8 || h.header_size > kMaxHeaderSize ||
+  if (h.header_size < header_records_size(h.version) || h.header_size % 8 || h.header_size > kMaxHeaderSize ||
       h.header_size > size) {
     fail_at_offset(
         name, offsetof(HeaderRecord, header_size),
@@ -467,6 +516,7 @@ std::vector<std::byte> BrickStoreReader::read_header() {
                        "): the header is corrupt");
   }
   header_ = h;
+  if (h.version >= 3) tf_error_header_ = read_record<TfErrorHeaderRecord>(bytes.data() + sizeof(HeaderRecord));
 
   // From here on the header is as the writer wrote it; the checks guard against a writer of another make.
   BrickStoreLayout& l = layout_;
@@ -502,7 +552,7 @@ std::vector<std::byte> BrickStoreReader::read_header() {
 void BrickStoreReader::read_field_records(std::span<const std::byte> bytes) {
   const std::string& name = file_.path();
   const uint64_t header_size = bytes.size();
-  uint64_t at = sizeof(HeaderRecord);
+  uint64_t at = header_records_size(header_.version);
   for (uint32_t f = 0; f < header_.field_count; ++f) {
     if (at + sizeof(FieldRecord) > header_size) {
       fail_at_offset(name, at, "field record " + std::to_string(f) + " past the header");

@@ -149,7 +149,10 @@ class BrickStoreWriter {
   // Writes the node table and the header, syncs and renames the file into place. `nodes` is the whole tree (node 0
   // the root); `errors` has nodes.size() × F entries, node-major (empty: all zero). Validates the tree and that every
   // appended brick belongs to a node of it; on error nothing is committed and the writer is unusable.
-  void commit(std::span<const OctreeNode> nodes, std::span<const FieldError> errors = {});
+  // `tf_errors` (optional): nodes.size() × F transfer-function error entries, node-major (store_format::TfErrorEntry);
+  // empty: the store has no table.
+  void commit(std::span<const OctreeNode> nodes, std::span<const FieldError> errors = {},
+              std::span<const store_format::TfErrorEntry> tf_errors = {});
 
   // Bytes of blocks appended so far.
   uint64_t block_bytes() const;
@@ -197,6 +200,12 @@ class BrickStoreReader {
   BlockRef block(uint64_t node, uint32_t field) const;
   Bounds bounds(uint64_t node) const { return node_bounds(layout_.root, this->node(node)); }
 
+  // The transfer-function error table (store_format::TfErrorEntry; version 3 stores written with one), checksum
+  // verified at open: entries node-major, F per node. Empty when the store has none (older stores, raw writers).
+  bool has_tf_errors() const { return !tf_errors_.empty(); }
+  std::span<const store_format::TfErrorEntry> tf_errors() const { return tf_errors_; }
+  const store_format::TfErrorHeaderRecord& tf_error_header() const { return tf_error_header_; }
+
   // Decodes field `field` of node `node` into samples (R³ floats, x fastest) and, unless null, mask (R³ bytes, 1 =
   // data). One pread of the block, checksum verified. Thread-safe: per-thread scratch, no shared mutable state.
   // Throws ugvr::Error for a node without brick or a corrupt block (naming the file, node, field and offset).
@@ -214,11 +223,14 @@ class BrickStoreReader {
   void read_field_records(std::span<const std::byte> header_bytes);
   void read_node_table();
   void read_provenance();
+  void read_tf_errors();
   void check_nodes();
   void check_node_field(uint64_t node, uint32_t field) const;
 
   InputFile file_;
   store_format::HeaderRecord header_;
+  store_format::TfErrorHeaderRecord tf_error_header_;
+  std::vector<store_format::TfErrorEntry> tf_errors_;  // node × F; empty: none
   BrickStoreLayout layout_;
   uint64_t node_table_offset_ = 0;
   std::vector<BrickNode> nodes_;

@@ -4,8 +4,11 @@
 // mean for the octree (coordinates, child order, ranges) is in store/brick_store.h, how a block's payload is coded in
 // store/brick_codec.h.
 //
-//   [HeaderRecord] [FieldRecord, name, padding] × F   the header, header_size bytes
+//   [HeaderRecord] [TfErrorHeaderRecord] [FieldRecord, name, padding] × F   the header, header_size bytes
+//                                                        (version 2 stores have no TfErrorHeaderRecord)
 //   [BlockRecord, payload] × (F per node with a brick)  the blocks, in the order the writer appended them
+//   [TfErrorEntry × F] × N                              the transfer-function error table, if any (version 3)
+//   [provenance text, crc32]                            if any
 //   [NodeRecord, NodeFieldRecord × F] × N               the node table, in node id order, ending the file
 //
 // Little-endian, written and read by copying a record's bytes (std::memcpy), so the host must be little-endian too
@@ -27,7 +30,10 @@ namespace ugvr {
 
 static_assert(std::endian::native == std::endian::little, "the brick store is read and written as little-endian");
 
-inline constexpr uint32_t kBrickStoreVersion = 2;
+// Version 3 adds the transfer-function error table (TfErrorHeaderRecord, TfErrorEntry); version 2 stores, which
+// lack it, are still read (a renderer then falls back to the stored error_max).
+inline constexpr uint32_t kBrickStoreVersion = 3;
+inline constexpr uint32_t kOldestReadableBrickStoreVersion = 2;
 
 namespace store_format {
 
@@ -68,6 +74,39 @@ struct HeaderRecord {
   uint32_t node_table_crc = 0;     // 168  crc32 (zlib) of the whole node table
   uint32_t header_crc = 0;         // 172  crc32 (zlib) of bytes [0, header_size), these 4 bytes read as 0
 };
+
+// Version 3: follows the HeaderRecord (so the field records start at byte 200, not 176 as in version 2); covered by
+// header_crc. Where the transfer-function error table lies (LaMar et al., "Efficient error calculation for
+// multiresolution texture-based volume visualization", ch. 7): per node and field a TfErrorEntry, node-major, F entries
+// per node.
+struct TfErrorHeaderRecord {
+  uint64_t table_offset = 0;  //  0  file offset of node 0's first entry; 0: the store has no table
+  uint64_t table_size = 0;    //  8  bytes: node_count × field_count × entry_size (0 without a table)
+  uint32_t entry_size = 0;    // 16  sizeof(TfErrorEntry), 44 (0 without a table)
+  uint32_t table_crc = 0;     // 20  crc32 (zlib) of the table's bytes
+};
+
+// Groups of a TfErrorEntry.
+inline constexpr int kTfErrorGroups = 8;
+
+// How far a node's brick is from the finest data under it, kept so that the error under any transfer function can be
+// computed later without the data (render/lod/tf_error.h). The builder pairs each point where it measures error_max
+// (octree/node_error.h) with the node's trilinear value there (coarse c, finest f), sorts the pairs by f into
+// kTfErrorGroups groups of about equal count, and keeps per group the range of f and the rms of (c - f). Values are
+// 16-bit codes over the field's global range [min, max] (FieldRecord): value = min + code / 65535 × (max - min).
+struct TfErrorEntry {
+  uint16_t bound[kTfErrorGroups + 1] = {};  //  0  group g holds the pairs with f in [bound[g], bound[g + 1]]:
+                                            //     ascending codes, rounded outward (bound[0] down, the others up)
+  uint16_t spread[kTfErrorGroups] = {};     // 18  per group, rms |c - f| in codes, rounded up (0: exact)
+  uint8_t weight[kTfErrorGroups] = {};      // 34  per group, its share of the pairs in 1/255 (all 0: no pair was
+                                            //     measured; the error is then unknown)
+  uint16_t reserved = 0;                    // 42  0
+};
+
+// Bytes of the records before the field records, by format version.
+constexpr uint32_t header_records_size(uint32_t version) {
+  return uint32_t(version >= 3 ? 176 + sizeof(TfErrorHeaderRecord) : 176);
+}
 
 // One per field, in field order, after the header record; each followed by its name (name_length bytes, UTF-8, not
 // terminated) and zeros up to a multiple of 8 bytes (field_record_size).
@@ -230,6 +269,21 @@ UGVR_RECORD_AT(BlockRecord, base, 24);
 UGVR_RECORD_AT(BlockRecord, origin, 32);
 UGVR_RECORD_AT(BlockRecord, step, 40);
 static_assert(offsetof(BlockRecord, step) + 8 == sizeof(BlockRecord));
+
+static_assert(std::is_trivially_copyable_v<TfErrorHeaderRecord> && std::is_standard_layout_v<TfErrorHeaderRecord>);
+static_assert(sizeof(TfErrorHeaderRecord) == 24);
+UGVR_RECORD_AT(TfErrorHeaderRecord, table_offset, 0);
+UGVR_RECORD_AT(TfErrorHeaderRecord, table_size, 8);
+UGVR_RECORD_AT(TfErrorHeaderRecord, entry_size, 16);
+UGVR_RECORD_AT(TfErrorHeaderRecord, table_crc, 20);
+static_assert(header_records_size(3) % 8 == 0 && header_records_size(2) == sizeof(HeaderRecord));
+
+static_assert(std::is_trivially_copyable_v<TfErrorEntry> && std::is_standard_layout_v<TfErrorEntry>);
+static_assert(sizeof(TfErrorEntry) == 44);
+UGVR_RECORD_AT(TfErrorEntry, bound, 0);
+UGVR_RECORD_AT(TfErrorEntry, spread, 18);
+UGVR_RECORD_AT(TfErrorEntry, weight, 34);
+UGVR_RECORD_AT(TfErrorEntry, reserved, 42);
 
 #undef UGVR_RECORD_AT
 

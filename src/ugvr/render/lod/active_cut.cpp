@@ -50,7 +50,8 @@ uint32_t next_stamp(uint32_t& stamp, Arrays&... arrays) {
 
 }  // namespace
 
-ActiveCut::ActiveCut(const BrickStoreReader& store, ActiveCutOptions options) : store_(store), options_(options) {
+ActiveCut::ActiveCut(const BrickStoreReader& store, ActiveCutOptions options)
+    : store_(store), options_(options), tf_errors_(store, options.field < store.field_count() ? options.field : 0) {
   check_options(store, options);
   const BrickStoreField& f = store.layout().fields[options.field];
   range_ = f.max - f.min;
@@ -111,6 +112,7 @@ void ActiveCut::set_options(const ActiveCutOptions& options) {
   const BrickStoreField& f = store_.layout().fields[options.field];
   options_ = options;
   range_ = f.max - f.min;
+  tf_errors_.set_field(options.field);
   next_stamp(view_stamp_, eval_stamp_);  // the cached errors used the old weighting and culling
 }
 
@@ -198,6 +200,7 @@ const NodeError& ActiveCut::eval(uint64_t node) const {
     relative = std::isnan(relative) ? 1.0 : std::clamp(relative, 0.0, 1.0);  // unknown error: assume the worst
     w *= std::pow(relative, options_.error_weight);
   }
+  if (options_.tf_error) w *= tf_errors_.weight(node);
   if (std::isnan(w)) w = kInf;  // unknown: split first, as select_cut does
   if (e.culled) w = 0;
   if (parent_[node] != kNoNode) w = std::min(w, eval(parent_[node]).weighted);
@@ -239,6 +242,7 @@ CutUpdate ActiveCut::update(const Camera& camera, int width, int height, const T
   if (budget.max_new_nodes_per_frame == 0) fail_in("active cut", "max_new_nodes_per_frame must be >= 1");
   view_.emplace(ViewMetrics(camera, width, height, store_.layout().root));  // validates before anything changes
   tf_ = tf;
+  if (options_.tf_error) tf_errors_.update(tf);  // only when the transfer function (or field) changed
   next_stamp(view_stamp_, eval_stamp_);
   const uint32_t frame = next_stamp(frame_, moved_);
   const double threshold = options_.pixels;

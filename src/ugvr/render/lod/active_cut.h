@@ -23,12 +23,13 @@
 // Error (per node, per view): the largest screen size of the node's texels in pixels (ViewMetrics::texel_pixels,
 // perspective-correct: at the nearest depth of the node's box), times (error_max / field range)^w with w =
 // ActiveCutOptions::error_weight (w = 0: the paper's pure texel size; w = 1: texel size times the relative data error,
-// so a node that represents its data exactly is never split). Culled nodes have error 0. The error is clamped to its
-// brick parent's, so it never increases down the tree (the texel size alone already halves per level). Hence merging
-// a node removes no error larger than its own, and a merge of lower error than a split truly lowers the maximum.
-// No sequence of moves at a fixed view and budget can repeat: the highest-error node split in a would-be cycle would
-// have to be merged back, which only a free merge (its error <= threshold: it would not have been split) or a merge
-// for a split of higher error (contradicting "highest") could do.
+// so a node that represents its data exactly is never split), times, with ActiveCutOptions::tf_error, the node's
+// transfer-function weight (tf_error.h; the same factor select_cut applies). Culled nodes have error 0. The error is
+// clamped to its brick parent's, so it never increases down the tree (the texel size alone already halves per level).
+// Hence merging a node removes no error larger than its own, and a merge of lower error than a split truly lowers the
+// maximum. No sequence of moves at a fixed view and budget can repeat: the highest-error node split in a would-be cycle
+// would have to be merged back, which only a free merge (its error <= threshold: it would not have been split) or a
+// merge for a split of higher error (contradicting "highest") could do.
 //
 // One update (a frame). The errors of the cut nodes and merge candidates are computed for the new view; the split
 // queue holds the split candidates by decreasing error, the merge queue the merge candidates by increasing error
@@ -79,6 +80,7 @@
 #include <vector>
 
 #include "ugvr/render/camera.h"
+#include "ugvr/render/lod/tf_error.h"
 #include "ugvr/render/lod/view_metrics.h"
 #include "ugvr/render/transfer_function.h"
 #include "ugvr/store/brick_store.h"
@@ -91,6 +93,10 @@ struct ActiveCutOptions {
   double error_weight = 0;   // w >= 0 (see the header comment)
   bool frustum_cull = true;  // culled nodes count as error 0 (and are not drawn)
   bool tf_cull = true;
+  // Multiply the error by the node's transfer-function weight (render/lod/tf_error.h: 0 when transparent or uniform
+  // under the transfer function, so never split; 1 to 2 by how far its image is from its finest data's, so those
+  // are split first). Recomputed when the transfer function changes, not per update.
+  bool tf_error = true;
 };
 
 struct CutBudget {
@@ -207,6 +213,7 @@ class ActiveCut {
   uint32_t mark_ = 0;             // separate stamp sequence for marked_
   std::optional<ViewMetrics> view_;
   TransferFunction tf_;
+  TfNodeErrors tf_errors_;   // for tf_ and options_.field
   uint32_t view_stamp_ = 0;  // the errors cached with this stamp belong to view_
   mutable std::vector<uint32_t> eval_stamp_;
   mutable std::vector<NodeError> errors_;

@@ -4,10 +4,12 @@
 #include <bit>
 #include <charconv>
 #include <cmath>
+#include <optional>
 #include <queue>
 #include <system_error>
 
 #include "ugvr/core/error.h"
+#include "ugvr/render/lod/tf_error.h"
 #include "ugvr/render/lod/view_metrics.h"
 
 namespace ugvr {
@@ -28,8 +30,8 @@ struct Expansion {
 class Selector {
  public:
   Selector(const BrickStoreReader& store, const CutSpec& spec, const ViewMetrics& view, const TransferFunction& tf,
-           const CutOptions& options)
-      : store_(store), spec_(spec), view_(view), tf_(tf), options_(options) {
+           const CutOptions& options, const TfNodeErrors* tf_errors)
+      : store_(store), spec_(spec), view_(view), tf_(tf), options_(options), tf_errors_(tf_errors) {
     const BrickStoreField& f = store.layout().fields[options.field];
     error_threshold_ = spec.value * (f.max - f.min);
   }
@@ -67,10 +69,12 @@ class Selector {
   // Priority of refining `id` and whether the criterion wants it.
   std::pair<double, bool> need(uint64_t id) const {
     double p = 0;
+    const double w = tf_errors_ ? tf_errors_->weight(id) : 1.0;
     if (spec_.kind == CutSpec::Kind::Error) {
       p = store_.stats(id, options_.field).error_max;
     } else {
       p = view_.texel_pixels(store_.bounds(id), store_.resolution());
+      if (spec_.kind == CutSpec::Kind::Pixels) p *= w;
     }
     if (std::isnan(p)) p = std::numeric_limits<double>::infinity();  // unknown: refine, first
     switch (spec_.kind) {
@@ -87,6 +91,7 @@ class Selector {
   const ViewMetrics& view_;
   const TransferFunction& tf_;
   const CutOptions& options_;
+  const TfNodeErrors* tf_errors_;
   double error_threshold_ = 0;
 };
 
@@ -156,7 +161,17 @@ Cut select_cut(const BrickStoreReader& store, const CutSpec& spec, const Camera&
   if (spec.kind == CutSpec::Kind::Pixels && !(spec.value > 0 && std::isfinite(spec.value)))
     fail_in("lod cut", "cut spec " + cut_spec_name(spec) + ": the pixel size must be finite and > 0");
   const ViewMetrics view(camera, width, height, store.layout().root);
-  const Selector selector(store, spec, view, tf, options);
+  std::optional<TfNodeErrors> own;
+  const TfNodeErrors* tf_errors = nullptr;
+  if (options.tf_error && spec.kind != CutSpec::Kind::Leaves) {
+    tf_errors = options.tf_errors;
+    if (!tf_errors) {
+      own.emplace(store, options.field);
+      own->update(tf);
+      tf_errors = &*own;
+    }
+  }
+  const Selector selector(store, spec, view, tf, options, tf_errors);
 
   Cut cut;
   Expansion start;

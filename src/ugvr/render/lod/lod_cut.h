@@ -30,6 +30,9 @@
 //  - "error:E": refine while the node's error_max (max |brick sample - finest data| over its cell, the builder's
 //  figure)
 //    is > E × (field max - field min), the global range of the field in the store's header, as `ugvr build --error`;
+//  - with CutOptions::tf_error, "pixels:P" compares the voxel's size times the node's transfer-function weight
+//    (0 for a node transparent or uniform under the transfer function, 1 to 2 by its image error; tf_error.h) and
+//    ranks nodes by that weighted size ("error:E" stays the data's own criterion, "leaves" the full resolution);
 //  - "pixels:P": refine while one voxel of the node, h = edge / (R - 1) (R the brick resolution, edge the node box's
 //    longest side), projects to more than P pixels: perspective h / (2 d tan(view_angle / 2)) · height with d the
 //    distance from the camera plane to the nearest point of the box along the view direction (clamped to a tiny
@@ -50,6 +53,8 @@
 
 namespace ugvr {
 
+class TfNodeErrors;  // render/lod/tf_error.h
+
 struct CutSpec {
   enum class Kind { Leaves, Error, Pixels };
   Kind kind = Kind::Pixels;
@@ -68,6 +73,12 @@ struct CutOptions {
   uint64_t max_nodes = std::numeric_limits<uint64_t>::max();  // budget: cut nodes (atlas slots), >= 1
   bool frustum_cull = true;
   bool tf_cull = true;
+  // Weigh "pixels:P" texel sizes by the transfer-function-aware error (render/lod/tf_error.h): nodes transparent or
+  // uniform under the transfer function are never split, nodes whose image differs from their finest data's are
+  // split first (and to half the texel size). `tf_errors`: the caller's, already updated for this transfer function
+  // and field (a renderer keeps one across frames); null: computed here for this call.
+  bool tf_error = true;
+  const TfNodeErrors* tf_errors = nullptr;
 };
 
 struct Cut {

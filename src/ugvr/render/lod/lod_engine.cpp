@@ -16,6 +16,7 @@
 #include "ugvr/gpu/gl_program.h"
 #include "ugvr/render/lod/brick_atlas.h"
 #include "ugvr/render/lod/brick_residency.h"
+#include "ugvr/render/lod/tf_error.h"
 #include "ugvr/store/brick_store.h"
 
 namespace ugvr {
@@ -92,7 +93,8 @@ struct LodEngine::Impl {
   int out_w = 0, out_h = 0;
   BrickAtlas atlas;
   bool have_atlas = false;
-  BrickSlotTable slot_table;  // which slot of the atlas holds which node's brick (brick_residency.h)
+  BrickSlotTable slot_table;         // which slot of the atlas holds which node's brick (brick_residency.h)
+  TfNodeErrors tf_errors{store, 0};  // for the last transfer function rendered: recomputed when it changes
 
   Impl(const std::string& path, const GlContext& g, LodOptions o) : store(path), gl(g), options(o) {}
   uint64_t budget_slots() const;
@@ -266,6 +268,9 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   // The overlay draws the boundary of the drawn nodes' data: a node transparent under the transfer function still
   // holds data, and dropping it would put a false boundary around it.
   co.tf_cull = !boundary_overlay_on(settings);
+  I.tf_errors.set_field(I.field);
+  I.tf_errors.update(tf);
+  co.tf_errors = &I.tf_errors;
   const Cut cut = select_cut(I.store, cut_spec, camera, settings.width, settings.height, tf, co);
   st.cut_seconds = seconds_since(t0);
   BrickResidency from_store(I.store, I.slot_table);  // no RAM tier: the bricks are read here
