@@ -872,7 +872,9 @@ TEST(OctreeBuilder, TfErrorTableFromThePairs) {
       if (!store.node(id).has_brick()) continue;
       // No pair (no measured point had a data sample among its 8 neighbours): all zero, "unknown".
       EXPECT_TRUE(weight == 0 || std::abs(weight - 255) <= 8) << "node " << id << " field " << f << ": " << weight;
-      if (weight == 0) EXPECT_EQ(spread, 0) << id;
+      if (weight == 0) {
+        EXPECT_EQ(spread, 0) << id;
+      }
       const double code = 65535 / (field.max - field.min);
       if (f == 0 && id == 0) root_wave = spread / code;
       // Never beyond the node's stored error_max (rms <= max), up to the code's rounding.
