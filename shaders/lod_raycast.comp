@@ -6,21 +6,15 @@
 // [0, 1]³ per axis; ray parameters t are world distances, measured from where the ray enters the root cell so that
 // they stay small (float precision).
 //
-// Samples sit on one grid per level along each ray: the ray is cut into intervals [k·step_L, (k+1)·step_L) with
-// step_L = step_0 / 2^L, and each interval (clipped to the node) is integrated with its midpoint sample. A coarse
-// level's interval boundaries are a subset of the finer level's, so where bricks or levels meet no interval is
-// counted twice or skipped and no sample pattern changes abruptly (no seams; gvdb-voxels #99, OSPRay PR 187).
+// Samples sit on one grid per level along each ray: the points k·step_L with step_L = step_0 / 2^L, plus the ray's
+// entry into and exit from each node. Between consecutive samples of one node the value is taken as linear and the
+// segment is integrated in closed form over the piecewise-linear transfer function (pre-integration, optical.glsl,
+// the exact engine's method), so for data the bricks hold exactly the image does not depend on the step. A coarse
+// level's grid points are a subset of the finer level's, and every node is integrated from its entry to its exit, so
+// where bricks or levels meet no stretch of the ray is counted twice or skipped and no sample pattern changes
+// abruptly (no seams; gvdb-voxels #99, OSPRay PR 187).
 
 #include "lod_shared.h"  // constants, bindings and the uniform block LodFrame, shared with the engine
-
-layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE) in;
-
-layout(rgba32f, binding = OUT_IMAGE_BINDING) uniform writeonly image2D u_out;
-layout(binding = ATLAS_TEXTURE_BINDING) uniform sampler3D u_atlas;
-layout(binding = TF_TEXTURE_BINDING) uniform sampler1D u_tf;
-layout(std430, binding = TREE_BUFFER_BINDING) readonly buffer Tree { uvec2 tree[]; };
-layout(std430, binding = STATE_BUFFER_BINDING) readonly buffer State { uint node_state[]; };
-layout(std430, binding = COUNTERS_BUFFER_BINDING) buffer Counters { uint counters[]; };
 
 // Compile-time choices (the engine compiles one program per combination it meets): on llvmpipe every branch of the
 // sample loop costs its full price whatever a uniform says, so code a frame does not need must not be there.
@@ -33,6 +27,21 @@ layout(std430, binding = COUNTERS_BUFFER_BINDING) buffer Counters { uint counter
 #ifndef OVERLAY
 #define OVERLAY 0  // the boundary overlay (never with LOD_MODE_MIP)
 #endif
+
+#if MODE == LOD_MODE_EA
+#define OPTICAL_TABLE_BINDING LOD_OPTICAL_TABLE_BINDING
+#include "optical.glsl"  // optical_integrate: the closed-form integral of a linear segment
+#endif
+
+layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE) in;
+
+layout(rgba32f, binding = OUT_IMAGE_BINDING) uniform writeonly image2D u_out;
+layout(binding = ATLAS_TEXTURE_BINDING) uniform sampler3D u_atlas;
+layout(binding = TF_TEXTURE_BINDING) uniform sampler1D u_tf;
+layout(std430, binding = TREE_BUFFER_BINDING) readonly buffer Tree { uvec2 tree[]; };
+layout(std430, binding = STATE_BUFFER_BINDING) readonly buffer State { uint node_state[]; };
+layout(std430, binding = COUNTERS_BUFFER_BINDING) buffer Counters { uint counters[]; };
+
 
 const float AMBIENT = LOD_AMBIENT, DIFFUSE = LOD_DIFFUSE, SPECULAR = LOD_SPECULAR, SHININESS = LOD_SHININESS;
 const vec3 OVERLAY_COLOR = vec3(LOD_OVERLAY_GREY);
@@ -201,6 +210,9 @@ void main() {
   bool have_prev = false;
   float prev_value = 0.0, prev_t = 0.0;
   uint samples = 0u, bricks = 0u;
+#if MODE == LOD_MODE_EA
+  int hint = -1;  // the optical table's interval at the last segment's end (optical_integrate)
+#endif
   for (int guard = 0; guard < 65536 && t < t_end && transmittance > u_min_transmittance; ++guard) {
     // Point location: descend from the root to the cut node (or empty region) just past t.
     vec3 p = base + dir * (t + u_nudge);
@@ -251,55 +263,84 @@ void main() {
     float step = u_fixed_step ? u_step0 : u_step0 / float(1 << level);
     vec3 voxel = u_root_size * (size / float(u_resolution - 1));
     ++bricks;
+    // Samples at the node's entry t, at the level's grid points k·step inside, and at its exit; sa, va: the previous
+    // sample of this node (none before the entry).
     float k = floor(t / step);
-    for (float s0 = t; s0 < t_exit; k += 1.0) {
-      float s1 = min((k + 1.0) * step, t_exit);
-      float len = s1 - s0;
-      float tm = 0.5 * (s0 + s1);
-      s0 = s1;
-      if (!(len > 0.0)) continue;
-      vec3 c = c0 + c1 * tm;
-      vec2 v = texture(u_atlas, c).rg;
+    float sa = t;
+    vec2 va = vec2(0.0);
+#if MODE == LOD_MODE_EA && VOLUME_LIGHTING
+    float shade_a = 1.0;
+#endif
+    for (float sb = t;;) {
+      vec3 c = c0 + c1 * sb;
+      vec2 vb = texture(u_atlas, c).rg;
       ++samples;
+      bool first = sb == t;
 #if OVERLAY
+      // The overlay's state is read at each segment's midpoint tm, never at a node's faces: there the point just
+      // inside a crossing, whose node gives the normal's brick, could be located in the neighbour by rounding. A
+      // change between ov_t and tm: entering, the overlay lies before this segment's valid part; leaving, after it.
       // (Past t_end only where the last node's exit passes it by rounding: outside the ray, no state.)
-      if (tm < t_end && (v.g >= 0.5) != ov_inside) {
-        composite_overlay(boundary_crossing(ov_t, tm, ov_inside), dir_world, radiance, transmittance);
-        ov_inside = !ov_inside;
+      float tm = 0.5 * (sa + sb);
+      bool ov_state = !first && tm < t_end;
+      bool ov_cross = ov_state && (texture(u_atlas, c0 + c1 * tm).g >= 0.5) != ov_inside;
+      bool ov_leave = ov_cross && ov_inside;
+      if (ov_cross && !ov_inside) {
+        composite_overlay(boundary_crossing(ov_t, tm, false), dir_world, radiance, transmittance);
+        ov_inside = true;
         if (transmittance <= u_min_transmittance) break;
       }
-      if (tm < t_end) ov_t = tm;
 #endif
-      if (v.g < 0.5) {
-        have_prev = false;
-        continue;
-      }
 #if MODE == LOD_MODE_EA
       {
-        vec4 tf = tf_at(v.r);
-        float a = 1.0 - exp(-tf.a * len);
-        float shade = 1.0;
 #if VOLUME_LIGHTING
-        if (a > 0.0) {
+        // The shade at each sample (the gradient where the data there is not transparent); a segment takes the mean
+        // of its ends'.
+        float shade_b = 1.0;
+        if (vb.g >= 0.5 && tf_at(vb.r).a > 0.0) {
           vec3 g = gradient_at(c, voxel);
           float gl = length(g);
-          if (gl > 0.0) shade = AMBIENT + DIFFUSE * abs(dot(g, dir_world)) / gl;
+          if (gl > 0.0) shade_b = AMBIENT + DIFFUSE * abs(dot(g, dir_world)) / gl;
         }
+        float shade = 0.5 * (shade_a + shade_b);
+        shade_a = shade_b;
+#else
+        const float shade = 1.0;
 #endif
-        radiance += transmittance * a * shade * tf.rgb;
-        transmittance *= 1.0 - a;
-        if (transmittance <= u_min_transmittance) break;
+        bool ga = va.g >= 0.5, gb = vb.g >= 0.5;
+        if (!first && (ga || gb)) {
+          // The value is linear between the samples. Where only one end is valid, the stencil's 1/2 crossing (linear
+          // between them) ends the data, and the value is the same line up to there.
+          float s0 = va.r, s1 = vb.r, len = sb - sa;
+          if (!(ga && gb)) {
+            float f = clamp((0.5 - va.g) / (vb.g - va.g), 0.0, 1.0);
+            float sf = mix(va.r, vb.r, f);
+            if (ga) {
+              s1 = sf;
+              len *= f;
+            } else {
+              s0 = sf;
+              len *= 1.0 - f;
+            }
+          }
+          vec4 acc = vec4(radiance, transmittance);
+          optical_integrate(s0, s1, len, shade, acc, hint);
+          radiance = acc.rgb;
+          transmittance = acc.a;
+        }
       }
 #elif MODE == LOD_MODE_MIP
-      mip_max = max(mip_max, v.r);
+      if (vb.g >= 0.5) mip_max = max(mip_max, vb.r);
 #else
-      {
-        if (have_prev && v.r != prev_value) {
-          bool up = v.r > prev_value;
+      if (vb.g < 0.5) {
+        have_prev = false;
+      } else {
+        if (have_prev && vb.r != prev_value) {
+          bool up = vb.r > prev_value;
           for (int i = 0; i < u_iso_count; ++i) {
             float iso = iso_value(up ? i : u_iso_count - 1 - i);
-            if ((prev_value < iso) == (v.r < iso)) continue;
-            float th = prev_t + (iso - prev_value) / (v.r - prev_value) * (tm - prev_t);
+            if ((prev_value < iso) == (vb.r < iso)) continue;
+            float th = prev_t + (iso - prev_value) / (vb.r - prev_value) * (sb - prev_t);
             vec3 ch = c0 + c1 * max(th, t);  // a crossing just before this brick: its entry
             vec3 color = shade_surface(tf_at(iso).rgb, gradient_at(ch, voxel), dir_world);
             radiance += transmittance * u_iso_opacity * color;
@@ -307,11 +348,25 @@ void main() {
           }
         }
         have_prev = true;
-        prev_value = v.r;
-        prev_t = tm;
-        if (transmittance <= u_min_transmittance) break;
+        prev_value = vb.r;
+        prev_t = sb;
       }
 #endif
+#if OVERLAY
+      if (ov_leave) {
+        composite_overlay(boundary_crossing(ov_t, tm, true), dir_world, radiance, transmittance);
+        ov_inside = false;
+      }
+      if (ov_state) ov_t = tm;
+#endif
+      if (transmittance <= u_min_transmittance || sb >= t_exit) break;
+      sa = sb;
+      va = vb;
+      // The next grid point past sa (float rounding may need a second try), or the exit.
+      do {
+        k += 1.0;
+        sb = min(k * step, t_exit);
+      } while (!(sb > sa));
     }
     t = t_exit;
   }

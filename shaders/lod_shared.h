@@ -59,6 +59,10 @@ const int TREE_BUFFER_BINDING = 3;      // uvec2 per store node: first child id,
 const int STATE_BUFFER_BINDING = 4;     // uint per store node this frame: a cut node's atlas slot, or NODE_*
 const int COUNTERS_BUFFER_BINDING = 5;  // uint[COUNTER_COUNT], zeroed per frame, read back for --stats
 const int FRAME_BLOCK_BINDING = 6;      // uniform block LodFrame (below)
+// vec4[2n], the transfer function as the optical table (OpticalTable::pack_for_gpu; layout in shaders/optical.glsl),
+// its breakpoints mapped to the atlas's normalised values (lod_engine.cpp). A macro: optical.glsl tests it with
+// #ifndef (the shader defines OPTICAL_TABLE_BINDING as this before including it).
+#define LOD_OPTICAL_TABLE_BINDING 7
 
 const uint TREE_CHILD_MASK = 0xFFu;  // the child mask in a tree entry's y
 const uint TREE_LEVEL_SHIFT = 8u;    // the node's level above it

@@ -16,6 +16,7 @@
 #include "ugvr/gpu/gl_program.h"
 #include "ugvr/render/lod/brick_atlas.h"
 #include "ugvr/render/lod/brick_residency.h"
+#include "ugvr/render/optical_table.h"
 #include "ugvr/store/brick_store.h"
 
 namespace ugvr {
@@ -71,6 +72,12 @@ void check_contract(const ComputeProgram& program) {
                 "x" + std::to_string(lod_gpu::WORKGROUP_SIZE) + " (rebuild after editing the file)");
 }
 
+int mode_of(const RenderSettings& settings) {
+  return settings.mode == RenderMode::Mip          ? LOD_MODE_MIP
+         : settings.mode == RenderMode::Isosurface ? LOD_MODE_ISO
+                                                   : LOD_MODE_EA;
+}
+
 }  // namespace
 
 bool boundary_overlay_on(const RenderSettings& settings) {
@@ -88,6 +95,12 @@ struct LodEngine::Impl {
   GlBuffer tree, state, counters, readback;
   GlBuffer frame_block;  // the uniform block LodFrame
   GlTexture tf_texture, out_texture;
+  // The optical table (emission-absorption's pre-integration), with the transfer function and field range it was
+  // made for: rebuilt when either changes.
+  GlBuffer optical;
+  size_t optical_bytes = 0;
+  TransferFunction optical_tf;
+  uint32_t optical_field = ~0u;
   std::unique_ptr<GlTimerQuery> timer;  // created on first use (the context is current then)
   int out_w = 0, out_h = 0;
   BrickAtlas atlas;
@@ -99,6 +112,7 @@ struct LodEngine::Impl {
   void ensure_atlas(uint64_t needed);
   uint64_t load(std::span<const uint64_t> nodes, BrickResidency& residency);
   void upload_transfer_function(const TransferFunction& tf);
+  void upload_optical_table(const TransferFunction& tf);
   lod_gpu::LodFrame frame_parameters(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
                                      bool overlay) const;
 };
@@ -163,6 +177,25 @@ void LodEngine::Impl::upload_transfer_function(const TransferFunction& tf) {
     table[size_t(i) * 4 + 2] = float(c.z), table[size_t(i) * 4 + 3] = float(tf.extinction(s));
   }
   glTextureSubImage1D(tf_texture.id(), 0, 0, n, GL_RGBA, GL_FLOAT, table.data());
+}
+
+// The optical table of shaders/optical.glsl (OpticalTable::pack_for_gpu: per breakpoint (x, 1 / width, 0, 0) then
+// (r, g, b, tau)), its breakpoints x mapped from data values to the atlas's, which are normalised to the field's range:
+// x' = (x - min) / (max - min), so the widths' inverses scale by (max - min). (A field of range 0 holds 0 in the atlas:
+// x' = x - min.) Made from the transfer function in microseconds; rebuilt only when it or the field changes.
+void LodEngine::Impl::upload_optical_table(const TransferFunction& tf) {
+  if (optical_bytes > 0 && field == optical_field && tf == optical_tf) return;
+  std::vector<float> table = OpticalTable(tf).pack_for_gpu();
+  const double f_lo = store.layout().fields[field].min, f_hi = store.layout().fields[field].max;
+  const double width = f_hi > f_lo ? f_hi - f_lo : 1.0;
+  for (size_t i = 0; i + 7 < table.size(); i += 8) {
+    table[i] = float((double(table[i]) - f_lo) / width);
+    table[i + 1] = float(double(table[i + 1]) * width);
+  }
+  optical_bytes = table.size() * sizeof(float);
+  optical.upload(table.data(), optical_bytes);
+  optical_tf = tf;
+  optical_field = field;
 }
 
 // The shader's per-frame parameters: computed in double, passed as float. Coordinates are normalised to the root cell
@@ -334,6 +367,7 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   st.atlas_slots = I.atlas.capacity();
 
   I.upload_transfer_function(tf);
+  if (mode_of(settings) == LOD_MODE_EA) I.upload_optical_table(tf);
   const int w = settings.width, h = settings.height;
   if (w != I.out_w || h != I.out_h) {
     I.out_texture = GlTexture(GL_TEXTURE_2D);
@@ -342,9 +376,7 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
     I.out_w = w, I.out_h = h;
   }
 
-  const int mode = settings.mode == RenderMode::Mip          ? LOD_MODE_MIP
-                   : settings.mode == RenderMode::Isosurface ? LOD_MODE_ISO
-                                                             : LOD_MODE_EA;
+  const int mode = mode_of(settings);
   const bool overlay = boundary_overlay_on(settings);
   const ComputeProgram& program = I.program_for(mode, mode == LOD_MODE_EA && settings.volume_lighting, overlay);
   glUseProgram(program.id());
@@ -356,6 +388,11 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   glBindTextureUnit(lod_gpu::TF_TEXTURE_BINDING, I.tf_texture.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::TREE_BUFFER_BINDING, I.tree.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::STATE_BUFFER_BINDING, I.state.id());
+  // The range, not the whole buffer: it keeps its size when a table shrinks, and the shader counts the entries by
+  // the bound size.
+  if (mode == LOD_MODE_EA)
+    glBindBufferRange(GL_SHADER_STORAGE_BUFFER, LOD_OPTICAL_TABLE_BINDING, I.optical.id(), 0,
+                      GLsizeiptr(I.optical_bytes));
   const uint32_t zero[lod_gpu::COUNTER_COUNT] = {};
   I.counters.upload(zero, sizeof zero);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::COUNTERS_BUFFER_BINDING, I.counters.id());
