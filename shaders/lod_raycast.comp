@@ -8,8 +8,8 @@
 //
 // Samples sit on one grid per level along each ray: the points k·step_L with step_L = step_0 / 2^L, plus the ray's
 // entry into and exit from each node. Between consecutive samples of one node the value is taken as linear and the
-// segment is integrated in closed form over the piecewise-linear transfer function (pre-integration, optical.glsl,
-// the exact engine's method), so for data the bricks hold exactly the image does not depend on the step. A coarse
+// segment is integrated over the transfer function with a table of its integrals (pre-integration: segment_ea), so
+// that for data the bricks hold exactly the image does not depend on the step. A coarse
 // level's grid points are a subset of the finer level's, and every node is integrated from its entry to its exit, so
 // where bricks or levels meet no stretch of the ray is counted twice or skipped and no sample pattern changes
 // abruptly (no seams; gvdb-voxels #99, OSPRay PR 187).
@@ -28,16 +28,13 @@
 #define OVERLAY 0  // the boundary overlay (never with LOD_MODE_MIP)
 #endif
 
-#if MODE == LOD_MODE_EA
-#define OPTICAL_TABLE_BINDING LOD_OPTICAL_TABLE_BINDING
-#include "optical.glsl"  // optical_integrate: the closed-form integral of a linear segment
-#endif
 
 layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE) in;
 
 layout(rgba32f, binding = OUT_IMAGE_BINDING) uniform writeonly image2D u_out;
 layout(binding = ATLAS_TEXTURE_BINDING) uniform sampler3D u_atlas;
 layout(binding = TF_TEXTURE_BINDING) uniform sampler1D u_tf;
+layout(binding = PREINT_TEXTURE_BINDING) uniform sampler1D u_preint;
 layout(std430, binding = TREE_BUFFER_BINDING) readonly buffer Tree { uvec2 tree[]; };
 layout(std430, binding = STATE_BUFFER_BINDING) readonly buffer State { uint node_state[]; };
 layout(std430, binding = COUNTERS_BUFFER_BINDING) buffer Counters { uint counters[]; };
@@ -53,6 +50,41 @@ vec4 tf_at(float value) {
   float u = clamp(value * u_tf_map.x + u_tf_map.y, 0.0, 1.0);
   return texture(u_tf, (u * (float(TF_TEXELS) - 1.0) + 0.5) / float(TF_TEXELS));
 }
+
+#if MODE == LOD_MODE_EA
+// Pre-integration. u_preint holds, over the transfer function's range u in [0, 1], the integrals I(u) = (∫ c·τ du',
+// ∫ τ du') from 0 to u (c colour, τ extinction per world unit). Along a segment of length len over which the value
+// goes linearly from u0 to u1, τ's mean is (I(u1) - I(u0)).a / (u1 - u0), exactly for any transfer function (up to
+// the table's resolution), and the segment's transmittance exp(-mean τ · len); its colour is the τ-weighted mean
+// colour, which leaves out the attenuation inside the segment (second order in its optical depth; the exact engine
+// integrates that too). Beyond the range the transfer function is constant, so I extends linearly with its end
+// values (g_tf_lo, g_tf_hi: (c·τ, τ) at u = 0 and 1). A segment narrower than half a texel in u is widened to half a
+// texel about its middle: the table is linear inside a texel, and the difference of two nearly equal integrals would
+// lose float's precision.
+vec4 g_tf_lo, g_tf_hi;
+
+vec4 integral_at(float u) {
+  vec4 v = texture(u_preint, (clamp(u, 0.0, 1.0) * (float(TF_TEXELS) - 1.0) + 0.5) / float(TF_TEXELS));
+  return v + g_tf_lo * min(u, 0.0) + g_tf_hi * max(u - 1.0, 0.0);
+}
+
+// Composites the segment from normalised value v0 to v1 over world length len, its emission scaled by shade.
+void segment_ea(float v0, float v1, float len, float shade, inout vec3 radiance, inout float transmittance) {
+  float u0 = v0 * u_tf_map.x + u_tf_map.y, u1 = v1 * u_tf_map.x + u_tf_map.y;
+  float lo = min(u0, u1), hi = max(u0, u1);
+  const float min_width = 0.5 / (float(TF_TEXELS) - 1.0);
+  if (hi - lo < min_width) {
+    float m = 0.5 * (lo + hi);
+    lo = m - 0.5 * min_width;
+    hi = m + 0.5 * min_width;
+  }
+  vec4 mean = (integral_at(hi) - integral_at(lo)) / (hi - lo);
+  if (!(mean.a > 0.0)) return;
+  float a = 1.0 - exp(-mean.a * len);
+  radiance += transmittance * a * shade * (mean.rgb / mean.a);
+  transmittance *= 1.0 - a;
+}
+#endif
 
 vec3 slot_origin(uint slot) {
   uint sx = uint(u_slots.x), sy = uint(u_slots.y);
@@ -211,7 +243,9 @@ void main() {
   float prev_value = 0.0, prev_t = 0.0;
   uint samples = 0u, bricks = 0u;
 #if MODE == LOD_MODE_EA
-  int hint = -1;  // the optical table's interval at the last segment's end (optical_integrate)
+  vec4 end_lo = texture(u_tf, 0.5 / float(TF_TEXELS)), end_hi = texture(u_tf, 1.0 - 0.5 / float(TF_TEXELS));
+  g_tf_lo = vec4(end_lo.rgb * end_lo.a, end_lo.a);
+  g_tf_hi = vec4(end_hi.rgb * end_hi.a, end_hi.a);
 #endif
   for (int guard = 0; guard < 65536 && t < t_end && transmittance > u_min_transmittance; ++guard) {
     // Point location: descend from the root to the cut node (or empty region) just past t.
@@ -323,10 +357,7 @@ void main() {
               len *= 1.0 - f;
             }
           }
-          vec4 acc = vec4(radiance, transmittance);
-          optical_integrate(s0, s1, len, shade, acc, hint);
-          radiance = acc.rgb;
-          transmittance = acc.a;
+          segment_ea(s0, s1, len, shade, radiance, transmittance);
         }
       }
 #elif MODE == LOD_MODE_MIP

@@ -192,10 +192,12 @@ TEST_P(LodSeams, FieldsHeldExactlyMatchTheExactEngine) {
 INSTANTIATE_TEST_SUITE_P(ConstantAndLinear, LodSeams,
                          ::testing::Combine(::testing::Values("one", "lin"), ::testing::Bool()));
 
-// Pre-integration: the value is linear between consecutive samples and each segment is integrated in closed form, so
-// for a field the bricks hold exactly the image does not depend on the step, even under a transfer function whose
-// opacity and colour change over a small part of the range (the midpoint rule it replaced aliased there: 0.29 away
-// from the exact engine at some pixel of this view at 1 voxel per step, 0.095 at 0.5, 0.041 at 0.25).
+// Pre-integration: the value is linear between consecutive samples and each segment is integrated over the transfer
+// function with its integrals' table, so for a field the bricks hold exactly the image hardly depends on the step,
+// even under a transfer function whose opacity and colour change over a small part of the range (the midpoint rule
+// it replaced aliased there: 0.29 away from the exact engine at some pixel of this view at 1 voxel per step, 0.095 at
+// 0.5, 0.041 at 0.25). What is left, 0.017 at 1 voxel per step and 0.006 at 0.5, is the colour's attenuation inside
+// a segment, which the table leaves out (second order in the segment's optical depth; these are up to 0.25).
 TEST(LodPreintegration, SteepTransferFunctionIndependentOfTheStep) {
   REQUIRE_GL();
   const Shared& s = shared();
@@ -213,9 +215,10 @@ TEST(LodPreintegration, SteepTransferFunctionIndependentOfTheStep) {
     lod.set_field("lin");
     images.push_back(lod.render(v.camera, tf, v.settings, CutSpec{CutSpec::Kind::Leaves, 0}));
     const ImageDifference d = compare_images(images.back(), exact);
-    EXPECT_LT(d.max_abs, 4e-3) << "step " << step << " voxels: PSNR " << d.psnr_db;
+    EXPECT_LT(d.max_abs, 0.02) << "step " << step << " voxels: PSNR " << d.psnr_db;
+    EXPECT_GE(d.psnr_db, 45.0) << "step " << step;
   }
-  EXPECT_LT(compare_images(images[0], images[2]).max_abs, 4e-3);
+  EXPECT_LT(compare_images(images[0], images[2]).max_abs, 0.02);
   // The view is not blank: the band of opacity crosses it.
   double lo = 1, hi = 0;
   for (int y = 0; y < exact.height; ++y)
