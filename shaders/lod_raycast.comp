@@ -8,7 +8,7 @@
 //
 // Samples sit on one grid per level along each ray: the points k·step_L with step_L = step_0 / 2^L, plus the ray's
 // entry into and exit from each node. Between consecutive samples of one node the value is taken as linear and the
-// segment is integrated over the transfer function with a table of its integrals (pre-integration: segment_ea), so
+// segment is integrated over the transfer function with a table of its integrals (pre-integration: integral_at), so
 // that for data the bricks hold exactly the image does not depend on the step. A coarse
 // level's grid points are a subset of the finer level's, and every node is integrated from its entry to its exit, so
 // where bricks or levels meet no stretch of the ray is counted twice or skipped and no sample pattern changes
@@ -56,33 +56,17 @@ vec4 tf_at(float value) {
 // ∫ τ du') from 0 to u (c colour, τ extinction per world unit). Along a segment of length len over which the value
 // goes linearly from u0 to u1, τ's mean is (I(u1) - I(u0)).a / (u1 - u0), exactly for any transfer function (up to
 // the table's resolution), and the segment's transmittance exp(-mean τ · len); its colour is the τ-weighted mean
-// colour, which leaves out the attenuation inside the segment (second order in its optical depth; the exact engine
-// integrates that too). Beyond the range the transfer function is constant, so I extends linearly with its end
-// values (g_tf_lo, g_tf_hi: (c·τ, τ) at u = 0 and 1). A segment narrower than half a texel in u is widened to half a
-// texel about its middle: the table is linear inside a texel, and the difference of two nearly equal integrals would
-// lose float's precision.
+// colour, which leaves out the attenuation inside the segment (second order in its optical depth). Each sample's I is
+// read once and serves the segments on both sides. Beyond the range the transfer function is constant, so I extends
+// linearly with its end values (g_tf_lo, g_tf_hi: (c·τ, τ) at u = 0 and 1). Where the value changes by less than half
+// a texel over a segment (the difference of two nearly equal integrals would lose float's precision; the table is
+// linear inside a texel anyway), and over the valid part of a segment that leaves or enters the data, the colour
+// table's point value at the middle is used instead.
 vec4 g_tf_lo, g_tf_hi;
 
 vec4 integral_at(float u) {
   vec4 v = texture(u_preint, (clamp(u, 0.0, 1.0) * (float(TF_TEXELS) - 1.0) + 0.5) / float(TF_TEXELS));
   return v + g_tf_lo * min(u, 0.0) + g_tf_hi * max(u - 1.0, 0.0);
-}
-
-// Composites the segment from normalised value v0 to v1 over world length len, its emission scaled by shade.
-void segment_ea(float v0, float v1, float len, float shade, inout vec3 radiance, inout float transmittance) {
-  float u0 = v0 * u_tf_map.x + u_tf_map.y, u1 = v1 * u_tf_map.x + u_tf_map.y;
-  float lo = min(u0, u1), hi = max(u0, u1);
-  const float min_width = 0.5 / (float(TF_TEXELS) - 1.0);
-  if (hi - lo < min_width) {
-    float m = 0.5 * (lo + hi);
-    lo = m - 0.5 * min_width;
-    hi = m + 0.5 * min_width;
-  }
-  vec4 mean = (integral_at(hi) - integral_at(lo)) / (hi - lo);
-  if (!(mean.a > 0.0)) return;
-  float a = 1.0 - exp(-mean.a * len);
-  radiance += transmittance * a * shade * (mean.rgb / mean.a);
-  transmittance *= 1.0 - a;
 }
 #endif
 
@@ -302,6 +286,9 @@ void main() {
     float k = floor(t / step);
     float sa = t;
     vec2 va = vec2(0.0);
+#if MODE == LOD_MODE_EA
+    vec4 ia = vec4(0.0);  // the integrals at the previous sample's value
+#endif
 #if MODE == LOD_MODE_EA && VOLUME_LIGHTING
     float shade_a = 1.0;
 #endif
@@ -342,23 +329,39 @@ void main() {
         const float shade = 1.0;
 #endif
         bool ga = va.g >= 0.5, gb = vb.g >= 0.5;
+        float ua = va.r * u_tf_map.x + u_tf_map.y, ub = vb.r * u_tf_map.x + u_tf_map.y;
+        vec4 ib = integral_at(ub);
         if (!first && (ga || gb)) {
-          // The value is linear between the samples. Where only one end is valid, the stencil's 1/2 crossing (linear
-          // between them) ends the data, and the value is the same line up to there.
-          float s0 = va.r, s1 = vb.r, len = sb - sa;
-          if (!(ga && gb)) {
-            float f = clamp((0.5 - va.g) / (vb.g - va.g), 0.0, 1.0);
-            float sf = mix(va.r, vb.r, f);
-            if (ga) {
-              s1 = sf;
-              len *= f;
-            } else {
-              s0 = sf;
-              len *= 1.0 - f;
+          float len = sb - sa;
+          vec4 mean;
+          if (ga && gb && abs(ub - ua) >= 0.5 / (float(TF_TEXELS) - 1.0)) {
+            mean = (ib - ia) / (ub - ua);
+          } else {
+            // The value is linear between the samples. Where only one end is valid, the stencil's 1/2 crossing (linear
+            // between them) ends the data, and the value is the same line up to there.
+            float u0 = ua, u1 = ub;
+            if (!(ga && gb)) {
+              float f = clamp((0.5 - va.g) / (vb.g - va.g), 0.0, 1.0);
+              float uf = mix(ua, ub, f);
+              if (ga) {
+                u1 = uf;
+                len *= f;
+              } else {
+                u0 = uf;
+                len *= 1.0 - f;
+              }
             }
+            vec4 p = texture(u_tf, (clamp(0.5 * (u0 + u1), 0.0, 1.0) * (float(TF_TEXELS) - 1.0) + 0.5) /
+                                       float(TF_TEXELS));
+            mean = vec4(p.rgb * p.a, p.a);
           }
-          segment_ea(s0, s1, len, shade, radiance, transmittance);
+          if (mean.a > 0.0) {
+            float a = 1.0 - exp(-mean.a * len);
+            radiance += transmittance * a * shade * (mean.rgb / mean.a);
+            transmittance *= 1.0 - a;
+          }
         }
+        ia = ib;
       }
 #elif MODE == LOD_MODE_MIP
       if (vb.g >= 0.5) mip_max = max(mip_max, vb.r);
