@@ -3,11 +3,13 @@
 # the demo's camera and transfer function (velocity magnitude of `ugvr generate --cells 200000 --kind mixed`) and for
 # blunt fin (Density) and oxygen post (StagnationEnergy) with a steep transfer function (opacity rising from 0 to 0.9
 # over 10 % of the field's range, unit distance diagonal/200: 15-25 % of Density shows the fin and the shock, 70-80 %
-# of StagnationEnergy the post's wake; bench/results/exact-render's cameras), at `--cut leaves` with 1, 0.5 and 0.25
+# of StagnationEnergy the post's wake; bench/results/exact-render's cameras), blunt fin with a thin shell (opacity 0
+# at 20 %, 0.9 at 20.5 %, 0 at 21 % of the Density range, unit distance 0.3: where a midpoint rule shows wood grain),
+# at `--cut leaves` with 1, 0.5 and 0.25
 # voxels per step (the step study) and at the default cut (pixels:1, step 0.5).
-# Usage: bench/run_lod_fidelity.sh LABEL [OUT_DIR=bench/results/lod-fidelity/LABEL] [SCRATCH=/tmp/ugvr-fidelity]
+# Usage: bench/run_lod_fidelity.sh LABEL [OUT_DIR=SCRATCH/LABEL] [SCRATCH=/tmp/ugvr-fidelity]
 #   UGVR (default build/ugvr), SEAMS (default build/bench/bench_lod_seams), UGVR_DATA (default ../shared/data),
-#   SCENES (default "demo blunt-fin lox-post"), STEPS (default "1 0.5 0.25"), SIZE (512), PYTHON (python3),
+#   SCENES (default "demo blunt-fin lox-post blunt-fin-thin"), STEPS (default "1 0.5 0.25"), SIZE (512), PYTHON (python3),
 #   EXACT_ONLY=1: only make the stores and the exact images.
 # The exact images and the stores are made once in SCRATCH (by whichever ugvr runs first: they do not depend on the
 # LOD engine). One JSON line per LOD image is appended to bench/results/lod_fidelity.jsonl after a `session` line.
@@ -15,12 +17,12 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
 label=$1
-outdir=${2:-bench/results/lod-fidelity/$label}
+outdir=${2:-${3:-/tmp/ugvr-fidelity}/$label}
 scratch=${3:-/tmp/ugvr-fidelity}
 ugvr=${UGVR:-$root/build/ugvr}
 seams=${SEAMS:-$root/build/bench/bench_lod_seams}
 data=${UGVR_DATA:-../shared/data}
-scenes=${SCENES:-demo blunt-fin lox-post}
+scenes=${SCENES:-demo blunt-fin lox-post blunt-fin-thin}
 steps=${STEPS:-1 0.5 0.25}
 size=${SIZE:-512}
 py=${PYTHON:-$(command -v python3)}
@@ -64,6 +66,16 @@ for name in $scenes; do
 JSON
       view=(--camera "$scratch/demo-camera.json" --tf "$scratch/demo-tf.json" --keep-range --size "$size")
       ;;
+    blunt-fin-thin)
+      field=Density inputs=("$data/blunt-fin/bluntfinxyz.bin" "$data/blunt-fin/bluntfinq.bin") store_field=Density
+      cat >"$scratch/$name-tf.json" <<'JSON'
+[{"Name": "thin shell", "ColorSpace": "RGB",
+  "RGBPoints": [0.0, 0.267, 0.005, 0.329, 0.2, 0.128, 0.567, 0.551, 0.21, 0.369, 0.789, 0.383, 1.0, 0.993, 0.906, 0.144],
+  "Points": [0.0, 0.0, 0.5, 0.0, 0.2, 0.0, 0.5, 0.0, 0.205, 0.9, 0.5, 0.0, 0.21, 0.0, 0.5, 0.0, 1.0, 0.0, 0.5, 0.0]}]
+JSON
+      view=(--camera "bench/results/exact-render/blunt-fin-camera.json" --tf "$scratch/$name-tf.json"
+        --unit-distance 0.3 --size "$size")
+      ;;
     blunt-fin | lox-post)
       if [ $name = blunt-fin ]; then
         field=Density inputs=("$data/blunt-fin/bluntfinxyz.bin" "$data/blunt-fin/bluntfinq.bin") band=(0.15 0.25)
@@ -79,7 +91,7 @@ JSON
       ;;
     *) echo "unknown scene $name" >&2; exit 1 ;;
   esac
-  store="$scratch/$name.ugvr"
+  store="$scratch/${name%-thin}.ugvr"
   [ -f "$store" ] || "$ugvr" --quiet build "${inputs[@]}" --fields "$store_field" -o "$store"
   ref="$scratch/$name-exact.pfm"
   [ -f "$ref" ] || "$ugvr" --quiet render "${inputs[@]}" --engine exact --field "$field" "${view[@]}" \
