@@ -9,10 +9,10 @@
 // Samples sit on one grid per level along each ray: the points k·step_L with step_L = step_0 / 2^L, plus the ray's
 // entry into and exit from each node. Between consecutive samples of one node the value is taken as linear and the
 // segment is integrated over the transfer function with a table of its integrals (pre-integration: integral_at), so
-// that for data the bricks hold exactly the image does not depend on the step. A coarse
-// level's grid points are a subset of the finer level's, and every node is integrated from its entry to its exit, so
-// where bricks or levels meet no stretch of the ray is counted twice or skipped and no sample pattern changes
-// abruptly (no seams; gvdb-voxels #99, OSPRay PR 187).
+// that a transfer function steeper than the step is integrated, not point-sampled, and the image hardly depends on
+// the step. A coarse level's grid points are a subset of the finer level's, and every node is integrated from its
+// entry to its exit, so where bricks or levels meet no stretch of the ray is counted twice or skipped and no sample
+// pattern changes abruptly (no seams; gvdb-voxels #99, OSPRay PR 187).
 
 #include "lod_shared.h"  // constants, bindings and the uniform block LodFrame, shared with the engine
 
@@ -28,7 +28,6 @@
 #define OVERLAY 0  // the boundary overlay (never with LOD_MODE_MIP)
 #endif
 
-
 layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE) in;
 
 layout(rgba32f, binding = OUT_IMAGE_BINDING) uniform writeonly image2D u_out;
@@ -38,7 +37,6 @@ layout(binding = PREINT_TEXTURE_BINDING) uniform sampler1D u_preint;
 layout(std430, binding = TREE_BUFFER_BINDING) readonly buffer Tree { uvec2 tree[]; };
 layout(std430, binding = STATE_BUFFER_BINDING) readonly buffer State { uint node_state[]; };
 layout(std430, binding = COUNTERS_BUFFER_BINDING) buffer Counters { uint counters[]; };
-
 
 const float AMBIENT = LOD_AMBIENT, DIFFUSE = LOD_DIFFUSE, SPECULAR = LOD_SPECULAR, SHININESS = LOD_SHININESS;
 const vec3 OVERLAY_COLOR = vec3(LOD_OVERLAY_GREY);
