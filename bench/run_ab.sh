@@ -43,7 +43,7 @@ for name in blunt-fin lox-post; do
           "$bin" --quiet render "${what[@]}" --camera "bench/results/exact-render/$name-camera.json" \
             --tf "bench/results/exact-render/$name-tf.json" --size "$size" --frames "$frames" -o "$scratch/$which.pfm" \
             --stats "$scratch/stats.json"
-          "$py" -c "import json; s=json.load(open('$scratch/stats.json')); print(json.dumps({'bench':'ab','build':'$which','engine':'$engine','dataset':'$name','size':$size,'round':$r,'median_frame_seconds':s['median_frame_seconds'],'readback_seconds':s.get('readback_seconds',0),'renderer':s.get('renderer','CPU %d threads' % s['threads'])}, separators=(',',':')))" |
+          "$py" -c "import json; s=json.load(open('$scratch/stats.json')); print(json.dumps({'bench':'ab','build':'$which','engine':'$engine','dataset':'$name','size':$size,'round':$r,'median_frame_seconds':s['median_frame_seconds'],'median_frame_cpu_seconds':s.get('median_frame_cpu_seconds',0),'readback_seconds':s.get('readback_seconds',0),'renderer':s.get('renderer','CPU %d threads' % s['threads'])}, separators=(',',':')))" |
             tee -a "$results"
         done
         cmp -s "$scratch/A.pfm" "$scratch/B.pfm" && same=yes || same=no
@@ -62,7 +62,11 @@ for key in sorted({scene(r) for r in rows}):
          for w in "AB"}
     rb = {w: statistics.median(r["readback_seconds"] for r in rows if scene(r) == key and r["build"] == w)
           for w in "AB"}
+    # The process's CPU time per frame: on a machine shared with other work, steadier than the wall time.
+    cpu = {w: statistics.median(r.get("median_frame_cpu_seconds", 0) for r in rows if scene(r) == key and r["build"] == w)
+           for w in "AB"}
     print(json.dumps({"bench": "ab_summary", "engine": key[0], "dataset": key[1], "size": key[2], "a_seconds": m["A"],
-                      "b_seconds": m["B"], "b_over_a": m["B"] / m["A"], "a_readback": rb["A"], "b_readback": rb["B"]},
+                      "b_seconds": m["B"], "b_over_a": m["B"] / m["A"], "a_cpu_seconds": cpu["A"], "b_cpu_seconds": cpu["B"],
+                      "cpu_b_over_a": cpu["B"] / cpu["A"] if cpu["A"] > 0 else 0, "a_readback": rb["A"], "b_readback": rb["B"]},
                      separators=(",", ":")))
 EOF

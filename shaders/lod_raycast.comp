@@ -6,21 +6,15 @@
 // [0, 1]³ per axis; ray parameters t are world distances, measured from where the ray enters the root cell so that
 // they stay small (float precision).
 //
-// Samples sit on one grid per level along each ray: the ray is cut into intervals [k·step_L, (k+1)·step_L) with
-// step_L = step_0 / 2^L, and each interval (clipped to the node) is integrated with its midpoint sample. A coarse
-// level's interval boundaries are a subset of the finer level's, so where bricks or levels meet no interval is
-// counted twice or skipped and no sample pattern changes abruptly (no seams; gvdb-voxels #99, OSPRay PR 187).
+// Samples sit on one grid per level along each ray: the points k·step_L with step_L = step_0 / 2^L, plus the ray's
+// entry into and exit from each node. Between consecutive samples of one node the value is taken as linear and the
+// segment is integrated over the transfer function with a table of its integrals (pre-integration: integral_at), so
+// that a transfer function steeper than the step is integrated, not point-sampled, and the image hardly depends on
+// the step. A coarse level's grid points are a subset of the finer level's, and every node is integrated from its
+// entry to its exit, so where bricks or levels meet no stretch of the ray is counted twice or skipped and no sample
+// pattern changes abruptly (no seams; gvdb-voxels #99, OSPRay PR 187).
 
 #include "lod_shared.h"  // constants, bindings and the uniform block LodFrame, shared with the engine
-
-layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE) in;
-
-layout(rgba32f, binding = OUT_IMAGE_BINDING) uniform writeonly image2D u_out;
-layout(binding = ATLAS_TEXTURE_BINDING) uniform sampler3D u_atlas;
-layout(binding = TF_TEXTURE_BINDING) uniform sampler1D u_tf;
-layout(std430, binding = TREE_BUFFER_BINDING) readonly buffer Tree { uvec2 tree[]; };
-layout(std430, binding = STATE_BUFFER_BINDING) readonly buffer State { uint node_state[]; };
-layout(std430, binding = COUNTERS_BUFFER_BINDING) buffer Counters { uint counters[]; };
 
 // Compile-time choices (the engine compiles one program per combination it meets): on llvmpipe every branch of the
 // sample loop costs its full price whatever a uniform says, so code a frame does not need must not be there.
@@ -34,6 +28,16 @@ layout(std430, binding = COUNTERS_BUFFER_BINDING) buffer Counters { uint counter
 #define OVERLAY 0  // the boundary overlay (never with LOD_MODE_MIP)
 #endif
 
+layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE) in;
+
+layout(rgba32f, binding = OUT_IMAGE_BINDING) uniform writeonly image2D u_out;
+layout(binding = ATLAS_TEXTURE_BINDING) uniform sampler3D u_atlas;
+layout(binding = TF_TEXTURE_BINDING) uniform sampler1D u_tf;
+layout(binding = PREINT_TEXTURE_BINDING) uniform sampler1D u_preint;
+layout(std430, binding = TREE_BUFFER_BINDING) readonly buffer Tree { uvec2 tree[]; };
+layout(std430, binding = STATE_BUFFER_BINDING) readonly buffer State { uint node_state[]; };
+layout(std430, binding = COUNTERS_BUFFER_BINDING) buffer Counters { uint counters[]; };
+
 const float AMBIENT = LOD_AMBIENT, DIFFUSE = LOD_DIFFUSE, SPECULAR = LOD_SPECULAR, SHININESS = LOD_SHININESS;
 const vec3 OVERLAY_COLOR = vec3(LOD_OVERLAY_GREY);
 
@@ -44,6 +48,25 @@ vec4 tf_at(float value) {
   float u = clamp(value * u_tf_map.x + u_tf_map.y, 0.0, 1.0);
   return texture(u_tf, (u * (float(TF_TEXELS) - 1.0) + 0.5) / float(TF_TEXELS));
 }
+
+#if MODE == LOD_MODE_EA
+// Pre-integration. u_preint holds, over the transfer function's range u in [0, 1], the integrals I(u) = (∫ c·τ du',
+// ∫ τ du') from 0 to u (c colour, τ extinction per world unit). Along a segment of length len over which the value
+// goes linearly from u0 to u1, τ's mean is (I(u1) - I(u0)).a / (u1 - u0), exactly for any transfer function (up to
+// the table's resolution), and the segment's transmittance exp(-mean τ · len); its colour is the τ-weighted mean
+// colour, which leaves out the attenuation inside the segment (second order in its optical depth). Each sample's I is
+// read once and serves the segments on both sides. Beyond the range the transfer function is constant, so I extends
+// linearly with its end values (g_tf_lo, g_tf_hi: (c·τ, τ) at u = 0 and 1). Where the value changes by less than half
+// a texel over a segment (the difference of two nearly equal integrals would lose float's precision; the table is
+// linear inside a texel anyway), and over the valid part of a segment that leaves or enters the data, the colour
+// table's point value at the middle is used instead.
+vec4 g_tf_lo, g_tf_hi;
+
+vec4 integral_at(float u) {
+  vec4 v = texture(u_preint, (clamp(u, 0.0, 1.0) * (float(TF_TEXELS) - 1.0) + 0.5) / float(TF_TEXELS));
+  return v + g_tf_lo * min(u, 0.0) + g_tf_hi * max(u - 1.0, 0.0);
+}
+#endif
 
 vec3 slot_origin(uint slot) {
   uint sx = uint(u_slots.x), sy = uint(u_slots.y);
@@ -201,6 +224,11 @@ void main() {
   bool have_prev = false;
   float prev_value = 0.0, prev_t = 0.0;
   uint samples = 0u, bricks = 0u;
+#if MODE == LOD_MODE_EA
+  vec4 end_lo = texture(u_tf, 0.5 / float(TF_TEXELS)), end_hi = texture(u_tf, 1.0 - 0.5 / float(TF_TEXELS));
+  g_tf_lo = vec4(end_lo.rgb * end_lo.a, end_lo.a);
+  g_tf_hi = vec4(end_hi.rgb * end_hi.a, end_hi.a);
+#endif
   for (int guard = 0; guard < 65536 && t < t_end && transmittance > u_min_transmittance; ++guard) {
     // Point location: descend from the root to the cut node (or empty region) just past t.
     vec3 p = base + dir * (t + u_nudge);
@@ -251,55 +279,100 @@ void main() {
     float step = u_fixed_step ? u_step0 : u_step0 / float(1 << level);
     vec3 voxel = u_root_size * (size / float(u_resolution - 1));
     ++bricks;
+    // Samples at the node's entry t, at the level's grid points k·step inside, and at its exit; sa, va: the previous
+    // sample of this node (none before the entry).
     float k = floor(t / step);
-    for (float s0 = t; s0 < t_exit; k += 1.0) {
-      float s1 = min((k + 1.0) * step, t_exit);
-      float len = s1 - s0;
-      float tm = 0.5 * (s0 + s1);
-      s0 = s1;
-      if (!(len > 0.0)) continue;
-      vec3 c = c0 + c1 * tm;
-      vec2 v = texture(u_atlas, c).rg;
+    float sa = t;
+    vec2 va = vec2(0.0);
+#if MODE == LOD_MODE_EA
+    vec4 ia = vec4(0.0);  // the integrals at the previous sample's value
+#endif
+#if MODE == LOD_MODE_EA && VOLUME_LIGHTING
+    float shade_a = 1.0;
+#endif
+    for (float sb = t;;) {
+      vec3 c = c0 + c1 * sb;
+      vec2 vb = texture(u_atlas, c).rg;
       ++samples;
+      bool first = sb == t;
 #if OVERLAY
+      // The overlay's state is read at each segment's midpoint tm, never at a node's faces: there the point just
+      // inside a crossing, whose node gives the normal's brick, could be located in the neighbour by rounding. A
+      // change between ov_t and tm: entering, the overlay lies before this segment's valid part; leaving, after it.
       // (Past t_end only where the last node's exit passes it by rounding: outside the ray, no state.)
-      if (tm < t_end && (v.g >= 0.5) != ov_inside) {
-        composite_overlay(boundary_crossing(ov_t, tm, ov_inside), dir_world, radiance, transmittance);
-        ov_inside = !ov_inside;
+      float tm = 0.5 * (sa + sb);
+      bool ov_state = !first && tm < t_end;
+      bool ov_cross = ov_state && (texture(u_atlas, c0 + c1 * tm).g >= 0.5) != ov_inside;
+      bool ov_leave = ov_cross && ov_inside;
+      if (ov_cross && !ov_inside) {
+        composite_overlay(boundary_crossing(ov_t, tm, false), dir_world, radiance, transmittance);
+        ov_inside = true;
         if (transmittance <= u_min_transmittance) break;
       }
-      if (tm < t_end) ov_t = tm;
 #endif
-      if (v.g < 0.5) {
-        have_prev = false;
-        continue;
-      }
 #if MODE == LOD_MODE_EA
       {
-        vec4 tf = tf_at(v.r);
-        float a = 1.0 - exp(-tf.a * len);
-        float shade = 1.0;
 #if VOLUME_LIGHTING
-        if (a > 0.0) {
+        // The shade at each sample (the gradient where the data there is not transparent); a segment takes the mean
+        // of its ends'.
+        float shade_b = 1.0;
+        if (vb.g >= 0.5 && tf_at(vb.r).a > 0.0) {
           vec3 g = gradient_at(c, voxel);
           float gl = length(g);
-          if (gl > 0.0) shade = AMBIENT + DIFFUSE * abs(dot(g, dir_world)) / gl;
+          if (gl > 0.0) shade_b = AMBIENT + DIFFUSE * abs(dot(g, dir_world)) / gl;
         }
+        float shade = 0.5 * (shade_a + shade_b);
+        shade_a = shade_b;
+#else
+        const float shade = 1.0;
 #endif
-        radiance += transmittance * a * shade * tf.rgb;
-        transmittance *= 1.0 - a;
-        if (transmittance <= u_min_transmittance) break;
+        bool ga = va.g >= 0.5, gb = vb.g >= 0.5;
+        float ua = va.r * u_tf_map.x + u_tf_map.y, ub = vb.r * u_tf_map.x + u_tf_map.y;
+        vec4 ib = integral_at(ub);
+        if (!first && (ga || gb)) {
+          float len = sb - sa;
+          vec4 mean;
+          if (ga && gb && abs(ub - ua) >= 0.5 / (float(TF_TEXELS) - 1.0)) {
+            mean = (ib - ia) / (ub - ua);
+          } else {
+            // The value is linear between the samples. Where only one end is valid, the stencil's 1/2 crossing (linear
+            // between them) ends the data, and the value is the same line up to there.
+            float u0 = ua, u1 = ub;
+            if (!(ga && gb)) {
+              float f = clamp((0.5 - va.g) / (vb.g - va.g), 0.0, 1.0);
+              float uf = mix(ua, ub, f);
+              if (ga) {
+                u1 = uf;
+                len *= f;
+              } else {
+                u0 = uf;
+                len *= 1.0 - f;
+              }
+            }
+            vec4 p = texture(u_tf, (clamp(0.5 * (u0 + u1), 0.0, 1.0) * (float(TF_TEXELS) - 1.0) + 0.5) /
+                                       float(TF_TEXELS));
+            mean = vec4(p.rgb * p.a, p.a);
+          }
+          if (mean.a > 0.0) {
+            float a = 1.0 - exp(-mean.a * len);
+            radiance += transmittance * a * shade * (mean.rgb / mean.a);
+            transmittance *= 1.0 - a;
+          }
+        }
+        ia = ib;
       }
 #elif MODE == LOD_MODE_MIP
-      mip_max = max(mip_max, v.r);
+      if (vb.g >= 0.5) mip_max = max(mip_max, vb.r);
 #else
-      {
-        if (have_prev && v.r != prev_value) {
-          bool up = v.r > prev_value;
+      if (vb.g < 0.5) {
+        have_prev = false;
+      } else {
+        if (have_prev && vb.r != prev_value) {
+          bool up = vb.r > prev_value;
           for (int i = 0; i < u_iso_count; ++i) {
             float iso = iso_value(up ? i : u_iso_count - 1 - i);
-            if ((prev_value < iso) == (v.r < iso)) continue;
-            float th = prev_t + (iso - prev_value) / (v.r - prev_value) * (tm - prev_t);
+            if ((prev_value < iso) == (vb.r < iso)) continue;
+            float th = prev_t + (iso - prev_value) / (vb.r - prev_value) * (sb - prev_t);
             vec3 ch = c0 + c1 * max(th, t);  // a crossing just before this brick: its entry
             vec3 color = shade_surface(tf_at(iso).rgb, gradient_at(ch, voxel), dir_world);
             radiance += transmittance * u_iso_opacity * color;
@@ -307,11 +380,25 @@ void main() {
           }
         }
         have_prev = true;
-        prev_value = v.r;
-        prev_t = tm;
-        if (transmittance <= u_min_transmittance) break;
+        prev_value = vb.r;
+        prev_t = sb;
       }
 #endif
+#if OVERLAY
+      if (ov_leave) {
+        composite_overlay(boundary_crossing(ov_t, tm, true), dir_world, radiance, transmittance);
+        ov_inside = false;
+      }
+      if (ov_state) ov_t = tm;
+#endif
+      if (transmittance <= u_min_transmittance || sb >= t_exit) break;
+      sa = sb;
+      va = vb;
+      // The next grid point past sa (float rounding may need a second try), or the exit.
+      do {
+        k += 1.0;
+        sb = min(k * step, t_exit);
+      } while (!(sb > sa));
     }
     t = t_exit;
   }

@@ -59,6 +59,7 @@ const int TREE_BUFFER_BINDING = 3;      // uvec2 per store node: first child id,
 const int STATE_BUFFER_BINDING = 4;     // uint per store node this frame: a cut node's atlas slot, or NODE_*
 const int COUNTERS_BUFFER_BINDING = 5;  // uint[COUNTER_COUNT], zeroed per frame, read back for --stats
 const int FRAME_BLOCK_BINDING = 6;      // uniform block LodFrame (below)
+const int PREINT_TEXTURE_BINDING = 7;   // sampler1D rgba32f: the transfer function's integrals (pre-integration)
 
 const uint TREE_CHILD_MASK = 0xFFu;  // the child mask in a tree entry's y
 const uint TREE_LEVEL_SHIFT = 8u;    // the node's level above it
@@ -71,7 +72,9 @@ const int COUNTER_SAMPLES = 0;  // texture samples of the volume, summed over ra
 const int COUNTER_BRICKS = 1;   // node traversals (bricks entered), summed over rays
 const int COUNTER_COUNT = 2;
 
-const int TF_TEXELS = 4096;  // texels of the transfer-function table, over the transfer function's own range
+// Texels of the transfer-function table and of its integrals, over the transfer function's own range: texel i at
+// u = i / (TF_TEXELS - 1) of it. The integrals' texel i holds (∫ c·τ du, ∫ τ du) from u = 0 to u_i (lod_engine.cpp).
+const int TF_TEXELS = 4096;
 const int MAX_ISO = 16;      // isosurface values at most (a multiple of 4: they are stored as vec4s)
 
 // Surface shading (isosurfaces, the boundary overlay; the ambient and diffuse terms for --volume-lighting): the exact

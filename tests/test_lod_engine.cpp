@@ -192,6 +192,41 @@ TEST_P(LodSeams, FieldsHeldExactlyMatchTheExactEngine) {
 INSTANTIATE_TEST_SUITE_P(ConstantAndLinear, LodSeams,
                          ::testing::Combine(::testing::Values("one", "lin"), ::testing::Bool()));
 
+// Pre-integration: the value is linear between consecutive samples and each segment is integrated over the transfer
+// function with its integrals' table, so for a field the bricks hold exactly the image hardly depends on the step,
+// even under a transfer function whose opacity and colour change over a small part of the range (the midpoint rule
+// it replaced aliased there: 0.29 away from the exact engine at some pixel of this view at 1 voxel per step, 0.095 at
+// 0.5, 0.041 at 0.25). What is left, 0.017 at 1 voxel per step and 0.006 at 0.5, is the colour's attenuation inside
+// a segment, which the table leaves out (second order in the segment's optical depth; these are up to 0.25).
+TEST(LodPreintegration, SteepTransferFunctionIndependentOfTheStep) {
+  REQUIRE_GL();
+  const Shared& s = shared();
+  const InsideView v = inside_view(false);
+  TransferFunction tf;
+  tf.color_points = {{0.8, {0.1, 0.2, 0.9}}, {0.9, {0.9, 0.6, 0.1}}, {1.0, {0.2, 0.9, 0.3}}};
+  tf.opacity_points = {{0.8, 0.0}, {0.9, 0.0}, {0.95, 0.7}, {1.0, 0.0}};
+  tf.opacity_unit_distance = 0.05;
+  const Image exact = render_exact("lin", v.camera, tf, v.settings);
+  std::vector<Image> images;
+  for (double step : {1.0, 0.5, 0.25}) {
+    LodOptions options;
+    options.step_voxels = step;
+    LodEngine lod(s.store, *s.gl, options);
+    lod.set_field("lin");
+    images.push_back(lod.render(v.camera, tf, v.settings, CutSpec{CutSpec::Kind::Leaves, 0}));
+    const ImageDifference d = compare_images(images.back(), exact);
+    EXPECT_LT(d.max_abs, 0.02) << "step " << step << " voxels: PSNR " << d.psnr_db;
+    EXPECT_GE(d.psnr_db, 45.0) << "step " << step;
+  }
+  EXPECT_LT(compare_images(images[0], images[2]).max_abs, 0.02);
+  // The view is not blank: the band of opacity crosses it.
+  double lo = 1, hi = 0;
+  for (int y = 0; y < exact.height; ++y)
+    for (int x = 0; x < exact.width; ++x)
+      lo = std::min(lo, double(exact.pixel(x, y)[1])), hi = std::max(hi, double(exact.pixel(x, y)[1]));
+  EXPECT_GT(hi - lo, 0.1);
+}
+
 // From outside, with the boundary in view: within PSNR 35 dB of the exact engine (the bar, at small size).
 TEST(LodEngine, OutsideViewCloseToExact) {
   REQUIRE_GL();

@@ -7,7 +7,8 @@
 // image; read the image back and composite it over the background exactly as the exact engine does, so the two
 // engines' images compare pixel for pixel with one camera / transfer function / settings.
 //
-// Values and geometry are separate: a transfer-function edit re-uploads a 4096-texel table and nothing else.
+// Values and geometry are separate: a transfer-function edit re-uploads two 4096-texel tables, the colour and
+// extinction and their integrals (pre-integration), and nothing else.
 #pragma once
 
 #include <cstdint>
