@@ -499,3 +499,37 @@ TEST_F(CliRender, LodVectorNameSelectsItsMagnitudeAndDefaultFieldVaries) {
 
 }  // namespace
 }  // namespace ugvr
+
+namespace ugvr {
+namespace {
+
+// `--device`: the exact engine on the GPU engine (llvmpipe here) draws the CPU engine's picture; --stats says where it
+// ran and what it cost on the device; `auto` on a software renderer stays on the CPU and says why.
+TEST_F(CliRender, ExactEngineOnEitherDevice) {
+  render_ok("--size 64 --device cpu -o " + file("cpu.pfm") + " --stats " + file("cpu.json"));
+  render_ok("--size 64 --device gpu -o " + file("gpu.pfm") + " --stats " + file("gpu.json"));
+  render_ok("--size 64 --device gpu --exact-precision float -o " + file("gpuf.pfm"));
+  const Image cpu = read_pfm(file("cpu.pfm"));
+  EXPECT_GE(compare_images(cpu, read_pfm(file("gpu.pfm"))).psnr_db, 60.0);
+  EXPECT_GE(compare_images(cpu, read_pfm(file("gpuf.pfm"))).psnr_db, 50.0);
+  std::ifstream cs(file("cpu.json")), gs(file("gpu.json"));
+  const json c = json::parse(cs), g = json::parse(gs);
+  EXPECT_EQ(c["device"].get<std::string>().rfind("CPU", 0), 0u) << c["device"];
+  EXPECT_EQ(g["device"].get<std::string>().rfind("GPU", 0), 0u) << g["device"];
+  EXPECT_GT(g["device_mesh_bytes_per_cell"].get<double>(), 20.0);
+  EXPECT_EQ(g["lost_rays"].get<uint64_t>(), 0u);
+  render_ok("--size 32 -o " + file("auto.png") + " --stats " + file("auto.json"));
+  std::ifstream as(file("auto.json"));
+  const json a = json::parse(as);
+  if (a["device"].get<std::string>().rfind("CPU", 0) == 0) {
+    EXPECT_TRUE(a.contains("gpu_unavailable")) << a.dump();
+  }
+  for (const char* bad : {"--device tpu", "--exact-precision half"}) {
+    const CommandResult r = render(std::string(bad) + " -o " + file("bad.png"));
+    EXPECT_EQ(r.status, 1) << bad;
+    EXPECT_NE(r.out.find(std::string(bad).substr(0, std::string(bad).find(' '))), std::string::npos) << r.out;
+  }
+}
+
+}  // namespace
+}  // namespace ugvr
