@@ -214,7 +214,13 @@ function showStatus() {
   const cache = s.ram_budget !== undefined
     ? `RAM ${mib(s.ram_bytes)}/${mib(s.ram_budget)} MiB  GPU ${mib(s.atlas_bytes)}/${mib(s.atlas_budget)} MiB  ` : "";
   const refining = s.pending_bricks ? `refining… ${s.pending_bricks} bricks pending` : "refining…";
-  statusBar.textContent = `${s.engine ?? "lod"}  ${s.width}×${s.height}  ${rate}frame ${(s.frame_seconds * 1000).toFixed(0)} ms  ` +
+  const frame = `${s.engine ?? "lod"}  ${s.width}×${s.height}  ${rate}frame ${(s.frame_seconds * 1000).toFixed(0)} ms  `;
+  // The exact engine has no cut, texel error or brick caches: its frames are exact, at a reduced scale while moving.
+  if (s.engine === "exact") {
+    statusBar.textContent = frame + (s.converged ? "full quality" : `moving  scale ${s.scale.toFixed(2)}`);
+    return;
+  }
+  statusBar.textContent = frame +
       `cut ${s.cut_nodes} nodes (${s.visible_nodes} visible)  texel error ${s.texel_error.toFixed(2)} px  ${cache}` +
       (s.converged ? "full quality" : `${refining}  scale ${s.scale.toFixed(2)}`);
 }
