@@ -63,6 +63,11 @@ TEST(ViewProtocol, GoodMessages) {
   EXPECT_FALSE(s.clip);
   EXPECT_FALSE(s.field);
   EXPECT_FALSE(s.boundary_opacity);
+  for (const std::string_view name : {kExactEngine, kLodEngine}) {
+    const ClientMessage engine = parse_client_message(R"({"type":"engine","engine":")" + std::string(name) + "\"}");
+    ASSERT_TRUE(std::holds_alternative<EngineMessage>(engine));
+    EXPECT_EQ(std::get<EngineMessage>(engine).engine, name);
+  }
   // Every key of tf and settings is optional.
   EXPECT_TRUE(std::holds_alternative<TfMessage>(parse_client_message(R"({"type":"tf"})")));
   EXPECT_FALSE(std::get<SettingsMessage>(parse_client_message(R"({"type":"settings"})")).mode);
@@ -124,6 +129,12 @@ TEST(ViewProtocol, MalformedMessagesNameTheField) {
       {R"({"type":"settings","clip":{"point":[0,0,0],"normal":[0,1e400,1]}})", "message"},  // not finite: not JSON
       {R"({"type":"settings","clip":{"point":[0,0,0],"normal":[0,0,1],"side":1}})", "clip"},
       {R"({"type":"settings","clipping":null})", "clipping"},
+      {R"({"type":"engine"})", "engine: missing"},
+      {R"({"type":"engine","engine":"fast"})", R"(engine: expected "exact" or "lod", found "fast")"},
+      {R"({"type":"engine","engine":"LOD"})", "engine"},
+      {R"({"type":"engine","engine":1})", "engine: expected"},
+      {R"({"type":"engine","engine":null})", "engine: expected"},
+      {R"({"type":"engine","engine":"lod","tab":2})", "tab"},
   };
   for (const auto& [text, field] : cases) {
     try {
@@ -186,6 +197,17 @@ TEST(ViewProtocol, SceneMessageCarriesFieldsAndPresetColours) {
     EXPECT_EQ(p[p.size() - 4], 1.0) << name;
     EXPECT_EQ(p[1], tf.color_points[0].rgb.x) << name;
   }
+  EXPECT_EQ(j["engines"], nlohmann::json::array()) << "none given";
+
+  scene.engine = "lod";
+  scene.renderer = "NVIDIA H100/PCIe/SSE2";
+  scene.engines = {{"exact", "exact engine (GPU: NVIDIA H100/PCIe/SSE2)"}, {"lod", "NVIDIA H100/PCIe/SSE2"}};
+  const nlohmann::json k = nlohmann::json::parse(scene_message(scene));
+  EXPECT_EQ(k["engine"], "lod");
+  EXPECT_EQ(k["renderer"], "NVIDIA H100/PCIe/SSE2");
+  EXPECT_EQ(k["engines"], nlohmann::json({"exact", "lod"}));
+  EXPECT_EQ(k["renderers"]["exact"], "exact engine (GPU: NVIDIA H100/PCIe/SSE2)");
+  EXPECT_EQ(k["renderers"]["lod"], "NVIDIA H100/PCIe/SSE2");
 }
 
 SceneInfo two_field_scene() {
@@ -293,6 +315,40 @@ TEST(ViewRequest, ClipAndBoundaryOverlay) {
   apply_message(s, parse_client_message(R"({"type":"settings","clip":null})"), scene);
   EXPECT_FALSE(s.request.settings.clip_plane);
   EXPECT_EQ(s.request.settings.boundary_overlay_opacity, 0.4);
+}
+
+// A tab picks one of the scene's engines; another is refused with the engines there are, and the state is unchanged.
+TEST(ViewRequest, EngineMustBeOneTheSceneOffers) {
+  SceneInfo scene = two_field_scene();
+  scene.engine = "exact";
+  scene.engines = {{"exact", "exact engine (CPU)"}};  // a grid whose store is still being built
+  ViewState s = initial_view(scene);
+  EXPECT_EQ(s.request.engine, "") << "a new tab: the scene's engine";
+  const ViewState before = s;
+  try {
+    apply_message(s, parse_client_message(R"({"type":"engine","engine":"lod"})"), scene);
+    ADD_FAILURE() << "accepted an engine the scene does not offer";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(
+                  "engine: \"lod\" is not available: the brick store is not ready yet (engines: exact)"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(s.request.engine, before.request.engine);
+  EXPECT_EQ(s.generation, before.generation);
+  apply_message(s, parse_client_message(R"({"type":"engine","engine":"exact"})"), scene);
+  EXPECT_EQ(s.request.engine, "exact");
+  EXPECT_EQ(s.generation, before.generation + 1) << "an accepted message is counted (a new frame follows)";
+
+  scene.engines = {{"exact", "exact engine (CPU)"}, {"lod", "llvmpipe"}};  // the store is shown, the grid kept
+  apply_message(s, parse_client_message(R"({"type":"engine","engine":"lod"})"), scene);
+  EXPECT_EQ(s.request.engine, "lod");
+  apply_message(s, parse_client_message(R"({"type":"engine","engine":"exact"})"), scene);
+  EXPECT_EQ(s.request.engine, "exact");
+
+  scene.engines = {{"lod", "llvmpipe"}};  // a viewer of a store
+  EXPECT_THROW(apply_message(s, parse_client_message(R"({"type":"engine","engine":"exact"})"), scene), Error);
+  EXPECT_EQ(s.request.engine, "exact") << "unchanged";
 }
 
 TEST(ViewJpeg, EncodesAnyImageSize) {

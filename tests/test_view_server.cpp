@@ -603,6 +603,123 @@ TEST(ViewServer, ShowsAGridWithTheExactEngineWhileItsStoreIsBuilt) {
   EXPECT_EQ(image_size(lod.bytes), std::make_pair(48, 40));
 }
 
+// `ugvr view MESH` keeps the grid once its store is shown: each tab picks the exact or the level-of-detail engine
+// ("engine" message), gets frames from either, and the other tabs keep theirs. Before the store is ready only the
+// exact engine is offered; with free_grid only the store is, once it is shown.
+TEST(ViewServer, EachTabSwitchesBetweenTheExactAndTheLodEngine) {
+  for (const bool free_grid : {false, true}) {
+    SCOPED_TRACE(free_grid ? "free_grid" : "grid kept");
+    const std::filesystem::path store = shared().dir / (free_grid ? "switch-freed.ugvr" : "switch-kept.ugvr");
+    std::filesystem::remove(store);
+    // The build waits until the test has tried the level-of-detail engine too early.
+    auto gate = std::make_shared<std::promise<void>>();
+    std::shared_future<void> open = gate->get_future().share();
+    std::unique_ptr<ViewServer> server;  // before the guard below, so that it is destroyed after the gate opens
+    bool opened = false;
+    const auto open_gate = [&] {
+      if (!opened) gate->set_value();
+      opened = true;
+    };
+    struct OpenAtExit {
+      std::function<void()> f;
+      ~OpenAtExit() { f(); }
+    } open_at_exit{open_gate};
+    {
+      ViewServerOptions o;
+      o.store = store.string();
+      o.dataset = std::make_shared<Dataset>(make_box());
+      o.fields = {"wave"};
+      o.build = small_build();
+      o.fps = 30;
+      o.free_grid = free_grid;
+      o.before_build = [open] { open.wait(); };
+      try {
+        server = std::make_unique<ViewServer>(o);
+      } catch (const Error& e) {
+        open_gate();
+        if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
+        FAIL() << "cannot start the server: " << e.what();
+      }
+    }
+    Client a(server->port()), b(server->port());
+    a.send(R"({"type":"hello","width":48,"height":40})");
+    b.send(R"({"type":"hello","width":40,"height":32})");
+    const Frame first = read_frame(a);
+    ASSERT_TRUE(first.scene && first.status);
+    EXPECT_EQ((*first.scene)["engines"], json({"exact"}));
+    EXPECT_EQ((*first.scene)["engine"], "exact");
+    const std::string exact_label = (*first.scene)["renderers"]["exact"];
+    EXPECT_EQ(exact_label.rfind("exact engine (", 0), 0u) << exact_label;
+    EXPECT_EQ((*first.scene)["renderer"], exact_label);
+    EXPECT_EQ((*first.status)["engine"], "exact");
+    // The store is not there yet.
+    a.send(R"({"type":"engine","engine":"lod"})");
+    EXPECT_NE(read_error(a).find("engine: \"lod\" is not available: the brick store is not ready yet"),
+              std::string::npos);
+    a.send(R"({"type":"engine","engine":"exact"})");  // request 2: the one there is
+    EXPECT_EQ((*read_until_converged(a, 2).status)["engine"], "exact");
+
+    open_gate();
+    const std::optional<json> scene = read_text_until(a, [](const json& j) { return j["type"] == "scene"; });
+    ASSERT_TRUE(scene) << "no new scene after the build";
+    EXPECT_EQ((*scene)["engine"], "lod");
+    EXPECT_EQ((*scene)["renderer"], server->renderer());
+    if (free_grid) {
+      EXPECT_EQ((*scene)["engines"], json({"lod"}));
+      EXPECT_FALSE((*scene)["renderers"].contains("exact"));
+      a.send(R"({"type":"engine","engine":"exact"})");
+      EXPECT_NE(read_error(a).find("engine: \"exact\" is not available"), std::string::npos);
+      EXPECT_EQ((*read_until_converged(a, 2).status)["engine"], "lod") << "the tab moved to the store";
+      continue;
+    }
+    EXPECT_EQ((*scene)["engines"], json({"exact", "lod"}));
+    EXPECT_EQ((*scene)["renderers"]["exact"], exact_label) << "the exact engine is kept as it was";
+    EXPECT_EQ((*scene)["renderers"]["lod"], server->renderer());
+    // Every tab moved to the store, the one that had picked the exact engine too.
+    const Frame lod = read_until_converged(a, 2);
+    EXPECT_EQ((*lod.status)["engine"], "lod");
+    EXPECT_TRUE(is_png(lod.bytes));
+
+    // Tab a back to the exact engine: frames from it, at the tab's size, to a converged PNG; tab b stays on the store.
+    a.send(R"({"type":"engine","engine":"exact"})");  // request 3
+    // A new renderer: its first frame is drawn at a reduced image scale (a view it has not shown yet), then the
+    // full-size image at rest.
+    const Frame scaled = read_frame_for(a, 3);
+    EXPECT_EQ((*scaled.status)["engine"], "exact");
+    EXPECT_EQ((*scaled.status)["converged"], false);
+    EXPECT_LT((*scaled.status)["scale"].get<double>(), 1.0);
+    EXPECT_TRUE(is_jpeg(scaled.bytes));
+    EXPECT_EQ(image_size(scaled.bytes), std::make_pair(48, 40)) << "magnified to the tab's size";
+    const Frame exact = read_until_converged(a, 3);
+    EXPECT_EQ((*exact.status)["engine"], "exact");
+    EXPECT_TRUE(is_png(exact.bytes));
+    EXPECT_EQ(image_size(exact.bytes), std::make_pair(48, 40));
+    b.send(camera_message(*scene, 0.4).dump());  // b: request 2
+    const Frame other = read_until_converged(b, 2);
+    EXPECT_EQ((*other.status)["engine"], "lod") << "one tab's pick is its own";
+    EXPECT_EQ(image_size(other.bytes), std::make_pair(40, 32));
+    // A move on the exact engine: an interactive frame, then the full-size image at rest.
+    a.send(camera_message(*scene, 0.9).dump());  // request 4
+    const Frame moving = read_frame_for(a, 4);
+    EXPECT_EQ((*moving.status)["engine"], "exact");
+    EXPECT_EQ((*moving.status)["converged"], false);
+    const Frame rest = read_until_converged(a, 4);
+    EXPECT_EQ((*rest.status)["engine"], "exact");
+    EXPECT_NE(rest.bytes, exact.bytes) << "another view";
+    // And back to the store, with the view the tab has now.
+    a.send(R"({"type":"engine","engine":"lod"})");  // request 5
+    const Frame back = read_until_converged(a, 5);
+    EXPECT_EQ((*back.status)["engine"], "lod");
+    EXPECT_GT((*back.status)["cut_nodes"].get<int>(), 0);
+    EXPECT_EQ(image_size(back.bytes), std::make_pair(48, 40));
+    // An unknown engine is refused and the tab goes on with the one it has.
+    a.send(R"({"type":"engine","engine":"hybrid"})");
+    EXPECT_NE(read_error(a).find(R"(engine: expected "exact" or "lod", found "hybrid")"), std::string::npos);
+    a.send(R"({"type":"resize","width":32,"height":32})");  // request 6
+    EXPECT_EQ((*read_frame_for(a, 6).status)["engine"], "lod");
+  }
+}
+
 // stop() while the render thread moves to a store that has just been built (it opens the store with the lock
 // released): the stop must not be lost. It once was: the loop went on to wait for work, and stop() waited for it.
 TEST(ViewServer, StopsWhileSwitchingToTheBuiltStore) {

@@ -46,6 +46,7 @@ const view = {
   clip: { on: false, axis: "x", position: 0.5, flip: false },
   fps: 10,
   fullQuality: false,  // every frame at full quality (fps 0)
+  engine: null,        // the engine picked on this page ("exact" | "lod"); null: the scene's
 };
 
 const tfEditor = new TfEditor($("tf"), () => {
@@ -80,6 +81,10 @@ window.ugvrViewer = {
   get log() { return structuredClone(sentLog); },
   get frameLog() { return structuredClone(drawnLog); },
   get scene() { return scene && structuredClone(scene); },
+  get engine() {
+    return { picked: currentEngine(), options: [...$("engine").options].map((o) => o.value),
+             disabled: $("engine").disabled, renderer: $("engine-renderer").textContent };
+  },
   get pngSaved() { return pngSaved; },
   // Where an opacity point is drawn, in page coordinates (for tests that drag it).
   tfPointPage(i) {
@@ -179,6 +184,19 @@ function clipPlane() {
 }
 const queueClip = () => queue({ type: "settings", clip: clipPlane() });
 
+// ---- the engine ----
+
+const engineNames = { exact: "exact", lod: "level of detail" };
+const currentEngine = () => view.engine ?? (scene ? scene.engine : "");
+// The engines the scene offers (one while a store is built, or for a store), the one picked, and its renderer.
+function showEngine() {
+  const engines = scene.engines ?? [scene.engine];
+  const picked = currentEngine();
+  $("engine").replaceChildren(...engines.map((e) => new Option(engineNames[e] ?? e, e, e === picked, e === picked)));
+  $("engine").disabled = engines.length < 2;
+  $("engine-renderer").textContent = (scene.renderers && scene.renderers[picked]) || scene.renderer || "";
+}
+
 // ---- the status bar and the build progress line ----
 
 const mib = (bytes) => (bytes / (1024 * 1024)).toFixed(0);
@@ -196,7 +214,13 @@ function showStatus() {
   const cache = s.ram_budget !== undefined
     ? `RAM ${mib(s.ram_bytes)}/${mib(s.ram_budget)} MiB  GPU ${mib(s.atlas_bytes)}/${mib(s.atlas_budget)} MiB  ` : "";
   const refining = s.pending_bricks ? `refining… ${s.pending_bricks} bricks pending` : "refining…";
-  statusBar.textContent = `${s.engine ?? "lod"}  ${s.width}×${s.height}  ${rate}frame ${(s.frame_seconds * 1000).toFixed(0)} ms  ` +
+  const frame = `${s.engine ?? "lod"}  ${s.width}×${s.height}  ${rate}frame ${(s.frame_seconds * 1000).toFixed(0)} ms  `;
+  // The exact engine has no cut, texel error or brick caches: its frames are exact, at a reduced scale while moving.
+  if (s.engine === "exact") {
+    statusBar.textContent = frame + (s.converged ? "full quality" : `moving  scale ${s.scale.toFixed(2)}`);
+    return;
+  }
+  statusBar.textContent = frame +
       `cut ${s.cut_nodes} nodes (${s.visible_nodes} visible)  texel error ${s.texel_error.toFixed(2)} px  ${cache}` +
       (s.converged ? "full quality" : `${refining}  scale ${s.scale.toFixed(2)}`);
 }
@@ -262,6 +286,8 @@ function onScene(m) {
     $("fps-value").textContent = String(view.fps);
   }
   if (!m.presets.includes(view.preset)) view.preset = m.preset;
+  view.engine = null;  // a new scene: the server moved every tab to its engine
+  showEngine();
   $("preset").replaceChildren(...m.presets.map((p) => new Option(p, p, p === view.preset, p === view.preset)));
   $("field").replaceChildren(...m.fields.map((f) => new Option(f.name, f.name, false, false)));
   const keep = !first && fieldInfo(view.field);
@@ -333,6 +359,11 @@ requestAnimationFrame(tick);
 
 new ResizeObserver(() => send({ type: "resize", ...canvasSize() })).observe(canvas);
 
+$("engine").addEventListener("change", (e) => {
+  view.engine = e.target.value;
+  showEngine();
+  queue({ type: "engine", engine: view.engine });
+});
 $("field").addEventListener("change", (e) => {
   view.field = e.target.value;
   resetTfPoints();

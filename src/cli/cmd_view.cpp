@@ -34,6 +34,7 @@ struct Options {
   std::vector<std::string> inputs, fields;
   std::string store_path, camera, tf;
   bool demo = false;
+  bool free_grid = false;
   ReadOptions read;
   OctreeBuildOptions build;
   std::string host = "127.0.0.1", size = "512", gpu = "auto", fps = "10";
@@ -67,6 +68,7 @@ void run_view(const Options& o) {
   vo.gpu = o.gpu;
   vo.gpu_memory = o.gpu_memory;
   vo.ram_per_session = o.ram_memory;
+  vo.free_grid = o.free_grid;
   const ImageSize size = parse_size(o.size, "--size");
   if (size.width < view::kMinViewSide || size.width > view::kMaxViewSide || size.height < view::kMinViewSide ||
       size.height > view::kMaxViewSide)
@@ -170,6 +172,9 @@ void register_view(CLI::App& app) {
   cmd->add_option("--store", opts->store_path,
                   "Where to build the grid's brick store (default: the cache directory, $UGVR_CACHE_DIR or "
                   "~/.cache/ugvr, reused while the input is unchanged)");
+  cmd->add_flag("--free-grid", opts->free_grid,
+                "Free the grid and its exact engine once its store is built and shown (saves their memory; the page "
+                "then offers only the level-of-detail engine)");
   cmd->add_option("--error", opts->build.error, "Build: split threshold relative to each field's range")
       ->check(CLI::Range(0.0, 1.0))
       ->default_val(opts->build.error);

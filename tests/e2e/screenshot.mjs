@@ -1,9 +1,10 @@
 // Saves a PNG of the `ugvr view` page for the docs: starts the viewer on a store, opens it in headless Chromium at
 // 1000x700, waits for the full-quality frame and takes a screenshot of the whole page.
 //   node tests/e2e/screenshot.mjs UGVR_BINARY STORE.ugvr|MESH|--demo OUT.png [--preset NAME] [--turn DX,DY]
-//        [-- VIEW_ARGS...]
-// (npm ci --prefix tests/e2e first; --turn drags the view by DX, DY pixels before the shot; arguments after -- go to
-// `ugvr view`. A grid whose store is still being built is shot once the store is shown.)
+//        [--engine exact|lod] [-- VIEW_ARGS...]
+// (npm ci --prefix tests/e2e first; --turn drags the view by DX, DY pixels before the shot; --engine picks the engine
+// in the page's engine picker (exact: a grid, not a store); arguments after -- go to `ugvr view`. A grid whose store
+// is still being built is shot once the store is shown.)
 import { launchBrowser, startViewer, stopViewer, waitConverged } from "./lib.mjs";
 
 const [ugvr, store, out, ...rest] = process.argv.slice(2);
@@ -25,6 +26,11 @@ try {
                              { timeout: 600_000, polling: 250 });
   await waitConverged(page, 120_000);
   if (opt("--preset")) await page.selectOption("#preset", opt("--preset"));
+  if (opt("--engine")) {
+    await page.selectOption("#engine", opt("--engine"));
+    await page.waitForFunction((e) => window.ugvrViewer.status && window.ugvrViewer.status.engine === e, opt("--engine"),
+                               { timeout: 120_000, polling: 250 });
+  }
   if (opt("--turn")) {
     const [dx, dy] = opt("--turn").split(",").map(Number);
     const box = await page.locator("#canvas").boundingBox();

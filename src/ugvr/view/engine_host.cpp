@@ -51,7 +51,8 @@ std::shared_ptr<LodScene> open_store(const ViewServerOptions& options, std::shar
 
 // What the render thread keeps for one tab.
 struct EngineHost::Tab {
-  std::unique_ptr<Renderer> renderer;  // interactive, over the store or (while it is built) the grid
+  std::unique_ptr<Renderer> renderer;  // interactive, over the store or the grid
+  std::string engine;                  // which of the two `renderer` draws with
   uint64_t seq = 0;
   double shown_fps = 0;
   Clock::time_point last;
@@ -97,8 +98,10 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
       std::fprintf(stderr, "ugvr view: exact engine on the CPU: %s\n", e.what());
     }
   }
-  sc.renderer = exact_->gpu_engine ? "exact engine (GPU: " + gl_->renderer() + ")" : "exact engine (CPU)";
-  sc.engine = "exact";
+  exact_renderer_ = exact_->gpu_engine ? "exact engine (GPU: " + gl_->renderer() + ")" : "exact engine (CPU)";
+  sc.renderer = exact_renderer_;
+  sc.engine = kExactEngine;
+  sc.engines = engines();
   scene_ = std::move(sc);
   build_ =
       std::make_unique<BackgroundBuild>(options_.dataset, names, options_.build, options_.store, options_.before_build);
@@ -124,8 +127,16 @@ SceneInfo EngineHost::lod_scene() const {
   sc.fps = options_.fps;
   sc.width = options_.width, sc.height = options_.height;
   sc.renderer = renderer_;
-  sc.engine = "lod";
+  sc.engine = kLodEngine;
+  sc.engines = engines();
   return sc;
+}
+
+std::vector<EngineChoice> EngineHost::engines() const {
+  std::vector<EngineChoice> out;
+  if (exact_) out.push_back({std::string(kExactEngine), exact_renderer_});
+  if (lod_) out.push_back({std::string(kLodEngine), renderer_});
+  return out;
 }
 
 std::optional<EngineHost::BuildReport> EngineHost::build_report() const {
@@ -157,12 +168,15 @@ EngineHost::Switch EngineHost::switch_to_store() {
   }
   build_.reset();
   if (!lod_) return {false, {"failed", "", 1, "cannot open the new store: " + error}};
+  if (options_.free_grid) {
+    exact_.reset();            // frees the walk mesh
+    options_.dataset.reset();  // and the grid (the scene above held it too)
+  }
   const Camera camera = scene_.camera;
   scene_ = lod_scene();
   scene_.camera = camera;  // the reset view stays the same
+  // Every tab moves to the store (the server resets the tabs' picks to the scene's engine).
   for (auto& [id, tab] : tabs_) *tab = Tab{};
-  exact_.reset();            // frees the walk mesh
-  options_.dataset.reset();  // and the grid
   return {true, {"ready", "", 1, "showing the brick store " + options_.store}};
 }
 
@@ -173,13 +187,22 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   std::unique_ptr<Tab>& slot = tabs_[job.tab];
   if (!slot) slot = std::make_unique<Tab>();
   Tab& tab = *slot;
-  if (!tab.renderer) {
+  // The engine the tab picked, if this viewer still has it (the request was checked against the scene it was made
+  // with), else the scene's.
+  const bool picked = (request.engine == kExactEngine && exact_) || (request.engine == kLodEngine && lod_);
+  const std::string engine = picked ? request.engine : scene_.engine;
+  if (!tab.renderer || tab.engine != engine) {
     RendererOptions ro;
     ro.interactive = true;
     ro.time_critical.ram_budget_bytes = options_.ram_per_session;
     ro.time_critical.loader_threads = 2;
     ro.gl_context = gl_;  // the exact engine runs on the GPU where there is a hardware one (device auto)
-    tab.renderer = lod_ ? make_renderer(lod_, ro) : make_renderer(exact_, ro);
+    // The old renderer goes first: a level-of-detail session joins its loader threads and drops its RAM cache.
+    tab.renderer.reset();
+    tab.renderer = engine == kLodEngine ? make_renderer(lod_, ro) : make_renderer(exact_, ro);
+    tab.engine = engine;
+    // The new engine's first frames are not part of the old one's frame rate.
+    tab.counting = false, tab.shown_fps = 0;
   }
   FrameRequest fr;
   fr.camera = request.camera;

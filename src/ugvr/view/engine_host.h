@@ -1,8 +1,10 @@
-// What the viewer's render thread owns (view_server.h): the OpenGL context, the scene that draws, and each tab's
-// renderer (render/renderer.h, interactive: it holds the tab's frame-rate target). The scene is the brick store for
-// the level-of-detail engine (a time-critical session per tab over one shared atlas), or, while the store of a grid is
-// built in the background (background_build.h), the grid for the exact CPU engine (an adaptive image scale per tab)
-// until the build is done and every tab moves to the store.
+// What the viewer's render thread owns (view_server.h): the OpenGL context, the scenes that draw, and each tab's
+// renderer (render/renderer.h, interactive: it holds the tab's frame-rate target). The scenes are the brick store for
+// the level-of-detail engine (a time-critical session per tab over one shared atlas) and, when the viewer was started
+// from a grid, the grid for the exact engine (an adaptive image scale per tab; on the GPU where there is a hardware
+// one). While the grid's store is built in the background (background_build.h) only the exact engine draws; when the
+// build is done every tab moves to the store, and each tab may then pick either engine (ViewRequest::engine) until
+// the grid is freed (ViewServerOptions::free_grid).
 //
 // Everything here lives and dies on the render thread (the GL context is current on the thread that created it) and
 // takes no lock: the server calls it with or without its own lock, as each call's cost allows.
@@ -51,8 +53,9 @@ class EngineHost {
   std::optional<ProgressInfo> initial_progress() const;
   // Forgets a failed build: the exact engine goes on showing the grid.
   void drop_build();
-  // The build is done: opens its store and moves every tab to it, its renderer started afresh (the exact preview and
-  // the grid are freed). Slow: reads the store. `opened` false: the store cannot be opened, the exact engine goes on.
+  // The build is done: opens its store and moves every tab to it, its renderer started afresh (the grid and its exact
+  // engine are kept for the tabs that pick them, or freed with free_grid). Slow: reads the store. `opened` false: the
+  // store cannot be opened, the exact engine goes on.
   struct Switch {
     bool opened = false;
     ProgressInfo progress;  // "ready" (a new scene() follows), or "failed"
@@ -64,8 +67,8 @@ class EngineHost {
     FrameStatus status;
     std::shared_ptr<const std::string> image;
   };
-  // Draws `job`'s frame with its tab's renderer (made on the tab's first frame, over the scene there is then).
-  // Throws (ugvr::Error and others).
+  // Draws `job`'s frame with its tab's renderer, made on the tab's first frame and again whenever the tab picks
+  // another engine (job.request.engine; empty: the scene's). Throws (ugvr::Error and others).
   Frame render(const FrameJob& job);
   // A tab has closed: its renderer goes (it joins its brick cache's threads).
   void forget(uint64_t tab);
@@ -73,14 +76,16 @@ class EngineHost {
  private:
   struct Tab;
   SceneInfo lod_scene() const;
+  std::vector<EngineChoice> engines() const;  // what the tabs may pick now
 
   ViewServerOptions options_;
-  std::string renderer_;  // GL_RENDERER
+  std::string renderer_;        // GL_RENDERER
+  std::string exact_renderer_;  // the exact engine's label: on the CPU, or on the GPU and which
   SceneInfo scene_;
   // Declared in the order they are made; destroyed in reverse (as ~EngineHost spells out).
   std::shared_ptr<GlContext> gl_;
   std::shared_ptr<LodScene> lod_;                  // the store, once there is one
-  std::shared_ptr<ExactScene> exact_;              // the grid, while its store is built
+  std::shared_ptr<ExactScene> exact_;              // the grid and its walk mesh (none for a viewer of a store)
   std::map<uint64_t, std::unique_ptr<Tab>> tabs_;  // each tab's renderer and frame counters
   std::unique_ptr<BackgroundBuild> build_;
 };

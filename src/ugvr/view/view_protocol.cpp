@@ -211,7 +211,17 @@ ClientMessage parse_client_message(std::string_view text) {
   }
   if (type == "tf") return parse_tf(j);
   if (type == "settings") return parse_settings(j);
-  fail_field("type", "unknown message type \"" + type + "\" (expected hello, resize, camera, tf or settings)");
+  if (type == "engine") {
+    check_keys(j, {"engine"});
+    if (!j.contains("engine")) fail_field("engine", "missing");
+    const json& v = j["engine"];
+    const std::string name = v.is_string() ? v.get<std::string>() : "";
+    if (name != kExactEngine && name != kLodEngine)
+      fail_field("engine",
+                 "expected \"exact\" or \"lod\", found " + v.dump(-1, ' ', false, json::error_handler_t::replace));
+    return EngineMessage{name};
+  }
+  fail_field("type", "unknown message type \"" + type + "\" (expected hello, resize, camera, tf, settings or engine)");
 }
 
 std::string error_message(std::string_view message) {
@@ -261,6 +271,10 @@ const FieldInfo* SceneInfo::find_field(std::string_view name) const {
   return nullptr;
 }
 
+bool SceneInfo::has_engine(std::string_view name) const {
+  return std::any_of(engines.begin(), engines.end(), [&](const EngineChoice& e) { return e.name == name; });
+}
+
 std::string scene_message(const SceneInfo& scene) {
   json fields = json::array();
   for (const FieldInfo& f : scene.fields)
@@ -273,6 +287,11 @@ std::string scene_message(const SceneInfo& scene) {
     for (const ColorPoint& p : builtin_preset(name).color_points)
       flat.insert(flat.end(), {p.x, p.rgb.x, p.rgb.y, p.rgb.z});
     preset_points[name] = flat;
+  }
+  json engines = json::array(), renderers = json::object();
+  for (const EngineChoice& e : scene.engines) {
+    engines.push_back(e.name);
+    renderers[e.name] = e.renderer;
   }
   const Bounds& b = scene.bounds;
   json j{{"type", "scene"},
@@ -289,6 +308,8 @@ std::string scene_message(const SceneInfo& scene) {
          {"height", scene.height},
          {"renderer", scene.renderer},
          {"engine", scene.engine},
+         {"engines", engines},
+         {"renderers", renderers},
          {"limits", {{"min_side", kMinViewSide}, {"max_side", kMaxViewSide}, {"max_fps", kMaxFps}}}};
   if (scene.tf) {
     json rgb = json::array(), opacity = json::array();

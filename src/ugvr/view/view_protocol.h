@@ -23,10 +23,14 @@
 //       in (0, 1] (a ray stops at this opacity); sample_step in world units, >= 0 (0: the engine's level of detail,
 //       step_voxels); background [r, g, b] in [0, 1] (opaque: frames are JPEG while moving). These are
 //       RenderSettings fields: src/ugvr/render/settings_table.h maps each to its message key and gives the ranges
+//   {"type":"engine", "engine":"exact"|"lod"}   which engine draws this tab: the exact engine over the grid, or the
+//       level-of-detail engine over the brick store; it must be one of the scene's "engines" (view_request.h rejects
+//       the others), and a tab that never sends one is drawn by the scene's "engine"
 //
 // Server -> client:
 //   text {"type":"scene", ...}   after hello: field, range, fields (with histograms), bounds, the initial camera,
-//         presets and their colours, limits; again when the server switches engine (a background build finished)
+//         presets and their colours, limits, the engines a tab may pick and each one's renderer label; again when the
+//         server switches engine (a background build finished: every tab moves to "lod")
 //   text {"type":"status", "seq", "request", "format":"jpeg"|"png", "width", "height", "fps", "frame_seconds",
 //         "cut_nodes", "visible_nodes", "texel_error", "max_texel_error", "scale", "converged"}   describes the
 //         binary frame that follows it; "request" counts the client messages accepted (not rejected) before the
@@ -93,7 +97,21 @@ struct SettingsMessage {
   std::optional<std::array<double, 4>> background;  // alpha always 1
 };
 
-using ClientMessage = std::variant<SizeMessage, CameraMessage, TfMessage, SettingsMessage>;
+// The engines a tab can be drawn by (SceneInfo::engines says which this viewer has).
+inline constexpr std::string_view kExactEngine = "exact", kLodEngine = "lod";
+
+struct EngineMessage {
+  std::string engine;  // kExactEngine or kLodEngine
+};
+
+using ClientMessage = std::variant<SizeMessage, CameraMessage, TfMessage, SettingsMessage, EngineMessage>;
+
+// One engine a tab may be drawn by, and its renderer's label for the page: "exact engine (CPU)", "exact engine (GPU:
+// NAME)", or the GL_RENDERER the level-of-detail engine draws with.
+struct EngineChoice {
+  std::string name;  // kExactEngine or kLodEngine
+  std::string renderer;
+};
 
 // What the scene message tells a page about the data, and what new tabs start from.
 struct FieldInfo {
@@ -110,8 +128,11 @@ struct SceneInfo {
   std::string preset = "viridis";
   double fps = 10;
   int width = 512, height = 512;
-  std::string renderer;  // GL_RENDERER, or the CPU engine's name
-  std::string engine;    // "lod" (the brick store on the GPU) or "exact" (CPU, while a store is being built)
+  std::string renderer;  // the label of `engine`'s renderer (renderers[engine])
+  std::string engine;    // what new tabs are drawn by: "lod" (the brick store) or "exact" (while a store is built)
+  // The engines a tab may pick ("engine" message), in the page's order: exact while the store of a grid is built;
+  // exact and lod once it is shown and the grid is kept; lod for a viewer of a store (or with --free-grid).
+  std::vector<EngineChoice> engines;
   // The transfer function new tabs start from (`ugvr view --tf FILE`: points in data values; an
   // opacity_unit_distance <= 0 means the viewer's default); none: `preset` over the field's range.
   std::optional<TransferFunction> tf;
@@ -121,11 +142,14 @@ struct SceneInfo {
 
   // The field called `name` (empty: `field`; a vector's name alone: its "NAME:magnitude"), or null.
   const FieldInfo* find_field(std::string_view name) const;
+  // Whether a tab may pick the engine called `name`.
+  bool has_engine(std::string_view name) const;
 };
 
 // {"type":"scene", "field", "range", "fields":[{"name","range","histogram"}...], "bounds", "camera", "presets",
 //  "preset_points":{NAME:[x,r,g,b,...] over [0, 1]}, "preset", "fps", "width", "height", "renderer", "engine",
-//  "limits", "tf":{"rgb_points":[x,r,g,b,...], "opacity_points":[x,a,...]} (only with SceneInfo::tf)}
+//  "engines":[NAME...], "renderers":{NAME:LABEL...}, "limits", "tf":{"rgb_points":[x,r,g,b,...],
+//  "opacity_points":[x,a,...]} (only with SceneInfo::tf)}
 std::string scene_message(const SceneInfo& scene);
 
 // Parses and validates one client message. Throws ugvr::Error "FIELD: what is wrong" (FIELD is "message" for the
@@ -146,7 +170,7 @@ struct FrameStatus {
   double texel_error = 0, max_texel_error = 0;  // screen size of a texel, mean and max, in pixels
   double scale = 1;
   bool converged = false;
-  std::string engine = "lod";                  // "lod" or "exact" (the CPU engine, while a store is being built)
+  std::string engine = "lod";                  // the engine that drew the frame: "lod" or "exact"
   uint64_t ram_bytes = 0, ram_budget = 0;      // this tab's RAM brick cache: resident decoded bricks, and its budget
   uint64_t atlas_bytes = 0, atlas_budget = 0;  // the GPU atlas (shared by all tabs)
   uint64_t pending_bricks = 0;                 // bricks the refinement waits for (queued or loading from disk)

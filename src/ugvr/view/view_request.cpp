@@ -93,6 +93,17 @@ void apply_message(ViewState& state, const ClientMessage& m, const SceneInfo& sc
     if (set->step_voxels) r.step_voxels = *set->step_voxels;
     if (set->fps) r.fps = *set->fps;
     if (set->full_quality) s.full_quality = true;
+  } else if (const auto* engine = std::get_if<EngineMessage>(&m)) {
+    if (!scene.has_engine(engine->engine)) {
+      std::string names;
+      for (const EngineChoice& e : scene.engines) names += (names.empty() ? "" : ", ") + e.name;
+      // Why it is missing: the store is not there yet, or the grid was not kept (a viewer of a store, --free-grid).
+      const std::string why = engine->engine == kLodEngine
+                                  ? "the brick store is not ready yet"
+                                  : "the grid is not kept (a viewer of a brick store, or --free-grid)";
+      fail_in("engine", "\"" + engine->engine + "\" is not available: " + why + " (engines: " + names + ")");
+    }
+    r.engine = engine->engine;
   }
   ++s.generation;
   state = std::move(s);

@@ -249,9 +249,12 @@ void ViewServer::Impl::publish_scene(bool announce) {
   scene = engine->scene();
   scene_text = scene_message(scene);
   if (!announce) return;
-  for (TabState& tab : scheduler.tabs())
+  for (TabState& tab : scheduler.tabs()) {
     // Ranges may differ (store vs dataset): the tab's transfer function is composed again over the new ones.
     tab.view.request.tf = compose_tf(tab.view, scene);
+    // Every tab moves to the new scene's engine; it may pick the other again afterwards.
+    tab.view.request.engine.clear();
+  }
   scheduler.redraw_all();
   broadcast({progress_text, scene_text});
   wake.notify_all();

@@ -38,10 +38,15 @@ namespace ugvr::view {
 struct ViewServerOptions {
   // The .ugvr brick store to show. With `dataset` set, the store does not exist yet: it is built there in the
   // background (background_build.h) from `fields` with `build`, and the exact engine shows the dataset meanwhile
-  // (render/exact/exact_renderer.h); when the build is done every tab switches to the store, keeping its view.
+  // (render/exact/exact_renderer.h); when the build is done every tab switches to the store, keeping its view, and
+  // may switch back to the exact engine ("engine" message) unless `free_grid`.
   std::string store;
   std::shared_ptr<const Dataset> dataset;
   std::vector<std::string> fields;  // with `dataset`: field selectors to build (empty: default_view_fields)
+  // With `dataset`: free the grid and its exact engine once the store is shown (every tab then has only the
+  // level-of-detail engine). Kept by default, so that each tab can switch between the engines; the cost is the
+  // dataset and its walk mesh in RAM (and on a hardware GPU the exact engine's buffers), docs/viewer.md.
+  bool free_grid = false;
   OctreeBuildOptions build;
   std::optional<Camera> camera;        // the initial (and reset) view; none: default_camera (render/camera.h)
   std::optional<TransferFunction> tf;  // the initial transfer function (SceneInfo::tf)
