@@ -352,6 +352,33 @@ TEST(ExodusReader, SyntheticOrderingsAndVariables) {
   EXPECT_NE(last.format.find("t = 1.5"), std::string::npos) << last.format;
 }
 
+// Issue 23: libnetcdf fills reads past the end of a truncated netCDF-3 file with zeros instead of failing, so a file
+// cut inside its data must be refused by the reader, naming the variable and the missing bytes. connect1 is the last
+// variable: 8 ints, 32 bytes.
+TEST(ExodusReader, SyntheticTruncatedVariableIsRefused) {
+  ScratchDir dir;
+  Model m(1);
+  m.block(1, "HEX8", 8, {1, 2, 3, 4, 5, 6, 7, 8});
+  const std::string path = m.write(dir, "whole.exo");
+  ASSERT_EQ(mesh_of(read_exodus(path, -1)).cell_count(), 1u);  // the whole file reads
+  const uint64_t size = std::filesystem::file_size(path);
+  for (uint64_t missing : {uint64_t(1), uint64_t(8), uint64_t(32)}) {
+    SCOPED_TRACE(missing);
+    std::filesystem::resize_file(path, size - missing);
+    const std::string e = error_of([&] { read_exodus(path, -1); });
+    EXPECT_NE(e.find("whole.exo"), std::string::npos) << e;
+    EXPECT_NE(e.find("variable connect1 is truncated"), std::string::npos) << e;
+    EXPECT_NE(e.find("(" + std::to_string(missing) + " bytes missing)"), std::string::npos) << e;
+    std::filesystem::resize_file(path, size);
+  }
+  // Cut inside coordz (after time_whole, coordx, coordy: 16 + 3 x 72 bytes of data before it ends): coordz is the
+  // first variable read that is short.
+  std::filesystem::resize_file(path, size - 32 - 4 - 40);  // connect1, eb_prop1 and 40 bytes of coordz
+  const std::string e = error_of([&] { read_exodus(path, -1); });
+  EXPECT_NE(e.find("variable coordz is truncated"), std::string::npos) << e;
+  EXPECT_NE(e.find("(40 bytes missing)"), std::string::npos) << e;
+}
+
 TEST(ExodusReader, SyntheticErrors) {
   ScratchDir dir;
   auto expect_error = [&](const std::string& name, auto&& build, std::vector<std::string> needles) {
