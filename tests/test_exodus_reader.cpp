@@ -379,6 +379,38 @@ TEST(ExodusReader, SyntheticTruncatedVariableIsRefused) {
   EXPECT_NE(e.find("(40 bytes missing)"), std::string::npos) << e;
 }
 
+// netCDF-4 (HDF5) files: libhdf5 refuses a file shorter than its superblock's end-of-file address with a bare "HDF
+// error"; the reader names the truncation first. Superblocks of version 2 and 0 built by hand (8-byte addresses).
+TEST(ExodusReader, TruncatedHdf5SuperblockIsNamed) {
+  ScratchDir dir;
+  auto le64 = [](uint64_t v) {
+    std::string s;
+    for (int k = 0; k < 8; ++k) s.push_back(char(v >> (8 * k)));
+    return s;
+  };
+  const std::string sig("\x89HDF\r\n\x1a\n", 8);
+  // v2: version, offsets size, lengths size, flags, base, extension, end of file, root group, checksum.
+  const std::string v2 = sig + std::string("\x02\x08\x08\x00", 4) + le64(0) + le64(UINT64_MAX) + le64(4096) + le64(48);
+  // v0: versions and sizes (16 bytes with the K values), flags, then base, free-space, end of file, driver.
+  const std::string v0 = sig + std::string("\x00\x00\x00\x00\x00\x08\x08\x00\x04\x00\x10\x00", 12) +
+                         std::string(4, '\0') + le64(0) + le64(UINT64_MAX) + le64(4096) + le64(UINT64_MAX);
+  for (const std::string& head : {v2, v0}) {
+    const std::string path = dir.file("short.exo");
+    std::string bytes = head + std::string(100 - head.size(), '\0');
+    std::ofstream(path, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+    std::string e = error_of([&] { read_exodus(path, -1); });
+    EXPECT_NE(e.find("short.exo"), std::string::npos) << e;
+    EXPECT_NE(e.find("truncated HDF5"), std::string::npos) << e;
+    EXPECT_NE(e.find("(3996 bytes missing)"), std::string::npos) << e;
+    // As long as the file: no truncation to name (libhdf5 then refuses the garbage itself).
+    bytes.resize(4096, '\0');
+    std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
+    e = error_of([&] { read_exodus(path, -1); });
+    EXPECT_NE(e.find("short.exo"), std::string::npos) << e;
+    EXPECT_EQ(e.find("truncated"), std::string::npos) << e;
+  }
+}
+
 TEST(ExodusReader, SyntheticErrors) {
   ScratchDir dir;
   auto expect_error = [&](const std::string& name, auto&& build, std::vector<std::string> needles) {

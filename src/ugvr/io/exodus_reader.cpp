@@ -32,7 +32,9 @@
 // variable cannot hold more values than the file has bytes; for netCDF-4, whose chunks may be compressed, a 1024:1
 // ratio is allowed). A netCDF-3 variable whose data (all its records) ends past the end of the file is refused when
 // read, naming the missing bytes: libnetcdf fills such reads with zeros or returns whatever bytes are there (a
-// truncated disk_out_ref gave fields [0, 0], or another variable's values). Node numbers, block sizes and variable
+// truncated disk_out_ref gave fields [0, 0], or another variable's values). An HDF5 file shorter than the end-of-file
+// address in its superblock is refused before nc_open with the missing byte count (libhdf5 would refuse it too,
+// with a bare "HDF error"). Node numbers, block sizes and variable
 // shapes are checked against the dimensions they must agree with.
 #include <netcdf.h>
 
@@ -424,13 +426,14 @@ class NcFile {
 
   // nc_open is only handed containers it recognises, so that an arbitrary file fails with a clear message.
   void check_header() {
-    char head[8] = {};
+    char head[64] = {};
     const size_t n = InputFile(path_).read_some_at(0, head, sizeof head);
     const std::string_view h(head, n);
     const bool cdf3 = h.starts_with("CDF\x01") || h.starts_with("CDF\x02") || h.starts_with("CDF\x05");
     if (!cdf3 && !h.starts_with("\x89HDF\r\n\x1a\n")) {
       fail("not a netCDF file (no CDF or HDF5 signature), so not Exodus II");
     }
+    if (!cdf3) check_hdf5_end(h);
     if (cdf3) {
       // Headers are small (a few KB even for large models): read 1 MiB, and more only if the header goes on.
       for (uint64_t limit : {uint64_t(1) << 20, kMaxHeaderBytes}) {
@@ -443,6 +446,37 @@ class NcFile {
         }
       }
       fail("netCDF header longer than " + std::to_string(kMaxHeaderBytes) + " bytes");
+    }
+  }
+
+  // An HDF5 superblock at the start of the file records the end-of-file address; libhdf5 refuses a shorter file with
+  // a bare "HDF error", so the truncation is named here first. Superblock layout (HDF5 File Format Specification,
+  // little-endian): signature (8), version (1); versions 0 and 1: ..., size of offsets at byte 13, base address at 24
+  // (v0) or 28 (v1), then the free-space, end-of-file and driver addresses; versions 2 and 3: size of offsets at
+  // byte 9, base address at 12, then the extension and end-of-file addresses. An undefined address is all ones. Only
+  // a superblock at byte 0 is looked at (netCDF-4 writes no user block); others are left to libhdf5.
+  void check_hdf5_end(std::string_view h) const {
+    if (h.size() < 9) return;
+    const uint8_t version = uint8_t(h[8]);
+    const size_t offsets_size =
+        version <= 1 ? (h.size() > 13 ? uint8_t(h[13]) : 0) : (h.size() > 9 ? uint8_t(h[9]) : 0);
+    if (version > 3 || (offsets_size != 2 && offsets_size != 4 && offsets_size != 8)) return;  // left to libhdf5
+    const size_t base_at = version == 0 ? 24 : version == 1 ? 28 : 12;
+    const size_t eof_at = base_at + 2 * offsets_size;
+    if (eof_at + offsets_size > h.size()) return;
+    auto address = [&](size_t at) {
+      uint64_t v = 0;
+      for (size_t k = offsets_size; k-- > 0;) v = (v << 8) | uint8_t(h[at + k]);
+      return v;
+    };
+    const uint64_t undefined = offsets_size == 8 ? UINT64_MAX : (uint64_t(1) << (8 * offsets_size)) - 1;
+    // libhdf5 compares the stored end-of-file address with the file's size as it is (H5F__super_read: eof + base
+    // address < stored eof, where its eof excludes the base), so the address counts from the start of the file.
+    const uint64_t end = address(eof_at);
+    if (end != undefined && end > file_size_) {
+      fail("truncated HDF5 (netCDF-4) file: its superblock puts the end of the data at byte " + std::to_string(end) +
+           " but the file has " + std::to_string(file_size_) + " bytes (" + std::to_string(end - file_size_) +
+           " bytes missing)");
     }
   }
 
