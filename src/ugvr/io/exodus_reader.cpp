@@ -34,8 +34,8 @@
 // read, naming the missing bytes: libnetcdf fills such reads with zeros or returns whatever bytes are there (a
 // truncated disk_out_ref gave fields [0, 0], or another variable's values). An HDF5 file shorter than the end-of-file
 // address in its superblock is refused before nc_open with the missing byte count (libhdf5 would refuse it too,
-// with a bare "HDF error"). Node numbers, block sizes and variable
-// shapes are checked against the dimensions they must agree with.
+// with a bare "HDF error"). Node numbers, block sizes and variable shapes are checked against the dimensions they
+// must agree with.
 #include <netcdf.h>
 
 #include <algorithm>
