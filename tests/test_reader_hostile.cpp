@@ -312,9 +312,12 @@ TEST(HostileReaders, PvtuListingOnePieceTwentyThousandTimesIsRefused) {
 
   write_file(dir.file("many.pvtu"), pvtu_listing(std::vector<std::string>(20000, "p0.vtu")));
   expect_refused(dir.file("many.pvtu"), {"p0.vtu", "already listed"});
-  // The same file by another spelling of its path.
+  // The same file by another spelling of its path, and through a hard link.
   write_file(dir.file("again.pvtu"), pvtu_listing({"p0.vtu", "p1.vtu", "./p0.vtu"}));
   expect_refused(dir.file("again.pvtu"), {"./p0.vtu", "already listed"});
+  std::filesystem::create_hard_link(dir.file("p1.vtu"), dir.file("link.vtu"));
+  write_file(dir.file("linked.pvtu"), pvtu_listing({"p0.vtu", "p1.vtu", "link.vtu"}));
+  expect_refused(dir.file("linked.pvtu"), {"link.vtu", "already listed"});
 }
 
 TEST(HostileReaders, PvtuPieceCountAndSizeAreCappedBeforeReading) {

@@ -20,12 +20,12 @@
 // Arrays of a type the model has no place for (String, Bit) are skipped with a warning. VTK's own arrays such as
 // vtkGhostType are ordinary numeric arrays and are kept as fields (a warning says when duplicate ghost cells are
 // present). FieldData (global values) is ignored.
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <filesystem>
 #include <functional>
 #include <map>
 #include <memory>
@@ -597,22 +597,25 @@ std::vector<std::string> pvtu_piece_paths(const XmlDoc& pdoc, pugi::xml_node gri
                         std::to_string(kMaxPvtuPieces) + " this reader accepts");
   }
   std::vector<std::string> paths;
-  std::map<std::string, pugi::xml_node> seen;  // canonical path -> its first <Piece>
+  std::map<std::string, pugi::xml_node> seen;  // file identity -> its first <Piece>
   uint64_t total = 0;
   for (pugi::xml_node piece : grid.children("Piece")) {
     const std::string source = piece.attribute("Source").value();
     if (source.empty()) pdoc.fail(piece, "<Piece> has no Source attribute");
     // Sources are relative to the .pvtu's directory.
     const std::string path = source.front() == '/' ? source : dir_name(pdoc.path) + source;
-    std::error_code ec;
-    std::filesystem::path key = std::filesystem::weakly_canonical(path, ec);
-    if (ec) key = path;
-    if (!seen.emplace(key.string(), piece).second) {
+    // One file however it is named (another spelling, a symbolic or a hard link): its device and inode; a file
+    // that cannot be stat'ed fails in load_doc, with its own message, so its path stands in for it here.
+    struct stat st {};
+    const bool found = ::stat(path.c_str(), &st) == 0;
+    const std::string key = found ? std::to_string(st.st_dev) + ":" + std::to_string(st.st_ino) : "path:" + path;
+    if (!seen.emplace(key, piece).second) {
       pdoc.fail(piece, "<Piece Source=\"" + source.substr(0, 200) + "\"> lists a piece file already listed");
     }
-    // A file that cannot be opened fails in load_doc, with its own message.
-    const uintmax_t size = std::filesystem::file_size(path, ec);
-    if (!ec) total = uint64_t(size) > UINT64_MAX - total ? UINT64_MAX : total + uint64_t(size);
+    if (found && S_ISREG(st.st_mode)) {
+      const uint64_t size = uint64_t(st.st_size);
+      total = size > UINT64_MAX - total ? UINT64_MAX : total + size;
+    }
     paths.push_back(path);
   }
   if (const uint64_t budget = pvtu_memory_budget(); total > budget) {
