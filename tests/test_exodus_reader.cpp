@@ -422,6 +422,12 @@ TEST(ExodusReader, SyntheticErrors) {
     for (const std::string& n : needles) EXPECT_NE(e.find(n), std::string::npos) << name << ": " << e;
   };
   expect_error("range.exo", [](Model& m) { m.block(1, "TETRA", 4, {1, 2, 3, 10}); }, {"connect1", "10", "1..9"});
+  // A mid-edge node of a TETRA10 (only the corners are kept) out of range: checked all the same (issue 23).
+  expect_error("midedge.exo",
+               [](Model& m) {
+                 m.block(1, "TETRA10", 10, {1, 2, 3, 5, 6, 7, 8, 9, 4, 12});
+               },
+               {"connect1", "node 10 is 12", "1..9"});
   expect_error("zero.exo", [](Model& m) { m.block(1, "TET4", 4, {0, 2, 3, 4}); }, {"connect1", "outside"});
   expect_error("nsided.exo", [](Model& m) { m.block(1, "NSIDED", 4, {1, 2, 3, 4}); }, {"connect1", "NSIDED"});
   expect_error("shells.exo", [](Model& m) { m.block(1, "SHELL4", 4, {1, 2, 3, 4}); }, {"no volume elements"});

@@ -660,13 +660,15 @@ class ExodusReader {
     mesh_.reserve(mesh_.cell_count() + info.elements, mesh_.connectivity.size() + info.elements * kind.corners);
     std::array<uint32_t, 8> corners{};
     for (uint64_t e = 0; e < info.elements; ++e) {
-      for (uint8_t k = 0; k < kind.corners; ++k) {
+      // Every node the element stores is checked, also the mid-edge ones of a higher-order element that only its
+      // corners are kept from: an id out of range anywhere means the connectivity cannot be trusted.
+      for (uint64_t k = 0; k < *per; ++k) {
         const long long id = ids[size_t(e * *per + k)];
         if (id < 1 || uint64_t(id) > nodes_) {
           nc_.fail("variable " + connect + ": element " + std::to_string(e + 1) + " node " + std::to_string(k + 1) +
                    " is " + std::to_string(id) + ", outside 1.." + std::to_string(nodes_));
         }
-        corners[k] = uint32_t(id - 1);
+        if (k < kind.corners) corners[k] = uint32_t(id - 1);
       }
       if (kind.type == CellType::Wedge) {
         // Exodus (like Gmsh and most FE codes) orders the wedge's first triangle with its normal towards the second
