@@ -434,6 +434,8 @@ TEST(Nastran, Malformed) {
       {"GRID,x,,0.,0.,0.\n", 1, "expected an integer for the grid id"},
       {"GRID,1,3,0.,0.,0.\nCTETRA,1,1,1,1,1,1\n", 1, "coordinate system 3"},
       {grids + "CTETRA,1,1,1,2,,4\n", 5, "missing a grid point id"},
+      // An edge node (dropped by linearisation) must still be a defined GRID (issue 23).
+      {grids + "CTETRA,1,1,1,2,3,4,99\n", 5, "GRID 99 (an edge node), which is not defined"},
   };
   for (size_t i = 0; i < cases.size(); ++i) {
     SCOPED_TRACE(cases[i].text);

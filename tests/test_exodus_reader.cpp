@@ -352,6 +352,65 @@ TEST(ExodusReader, SyntheticOrderingsAndVariables) {
   EXPECT_NE(last.format.find("t = 1.5"), std::string::npos) << last.format;
 }
 
+// Issue 23: libnetcdf fills reads past the end of a truncated netCDF-3 file with zeros instead of failing, so a file
+// cut inside its data must be refused by the reader, naming the variable and the missing bytes. connect1 is the last
+// variable: 8 ints, 32 bytes.
+TEST(ExodusReader, SyntheticTruncatedVariableIsRefused) {
+  ScratchDir dir;
+  Model m(1);
+  m.block(1, "HEX8", 8, {1, 2, 3, 4, 5, 6, 7, 8});
+  const std::string path = m.write(dir, "whole.exo");
+  ASSERT_EQ(mesh_of(read_exodus(path, -1)).cell_count(), 1u);  // the whole file reads
+  const uint64_t size = std::filesystem::file_size(path);
+  for (uint64_t missing : {uint64_t(1), uint64_t(8), uint64_t(32)}) {
+    SCOPED_TRACE(missing);
+    std::filesystem::resize_file(path, size - missing);
+    const std::string e = error_of([&] { read_exodus(path, -1); });
+    EXPECT_NE(e.find("whole.exo"), std::string::npos) << e;
+    EXPECT_NE(e.find("variable connect1 is truncated"), std::string::npos) << e;
+    EXPECT_NE(e.find("(" + std::to_string(missing) + " bytes missing)"), std::string::npos) << e;
+    std::filesystem::resize_file(path, size);
+  }
+  // Cut inside coordz (after time_whole, coordx, coordy: 16 + 3 x 72 bytes of data before it ends): coordz is the
+  // first variable read that is short.
+  std::filesystem::resize_file(path, size - 32 - 4 - 40);  // connect1, eb_prop1 and 40 bytes of coordz
+  const std::string e = error_of([&] { read_exodus(path, -1); });
+  EXPECT_NE(e.find("variable coordz is truncated"), std::string::npos) << e;
+  EXPECT_NE(e.find("(40 bytes missing)"), std::string::npos) << e;
+}
+
+// netCDF-4 (HDF5) files: libhdf5 refuses a file shorter than its superblock's end-of-file address with a bare "HDF
+// error"; the reader names the truncation first. Superblocks of version 2 and 0 built by hand (8-byte addresses).
+TEST(ExodusReader, TruncatedHdf5SuperblockIsNamed) {
+  ScratchDir dir;
+  auto le64 = [](uint64_t v) {
+    std::string s;
+    for (int k = 0; k < 8; ++k) s.push_back(char(v >> (8 * k)));
+    return s;
+  };
+  const std::string sig("\x89HDF\r\n\x1a\n", 8);
+  // v2: version, offsets size, lengths size, flags, base, extension, end of file, root group, checksum.
+  const std::string v2 = sig + std::string("\x02\x08\x08\x00", 4) + le64(0) + le64(UINT64_MAX) + le64(4096) + le64(48);
+  // v0: versions and sizes (16 bytes with the K values), flags, then base, free-space, end of file, driver.
+  const std::string v0 = sig + std::string("\x00\x00\x00\x00\x00\x08\x08\x00\x04\x00\x10\x00", 12) +
+                         std::string(4, '\0') + le64(0) + le64(UINT64_MAX) + le64(4096) + le64(UINT64_MAX);
+  for (const std::string& head : {v2, v0}) {
+    const std::string path = dir.file("short.exo");
+    std::string bytes = head + std::string(100 - head.size(), '\0');
+    std::ofstream(path, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+    std::string e = error_of([&] { read_exodus(path, -1); });
+    EXPECT_NE(e.find("short.exo"), std::string::npos) << e;
+    EXPECT_NE(e.find("truncated HDF5"), std::string::npos) << e;
+    EXPECT_NE(e.find("(3996 bytes missing)"), std::string::npos) << e;
+    // As long as the file: no truncation to name (libhdf5 then refuses the garbage itself).
+    bytes.resize(4096, '\0');
+    std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
+    e = error_of([&] { read_exodus(path, -1); });
+    EXPECT_NE(e.find("short.exo"), std::string::npos) << e;
+    EXPECT_EQ(e.find("truncated"), std::string::npos) << e;
+  }
+}
+
 TEST(ExodusReader, SyntheticErrors) {
   ScratchDir dir;
   auto expect_error = [&](const std::string& name, auto&& build, std::vector<std::string> needles) {
@@ -363,6 +422,12 @@ TEST(ExodusReader, SyntheticErrors) {
     for (const std::string& n : needles) EXPECT_NE(e.find(n), std::string::npos) << name << ": " << e;
   };
   expect_error("range.exo", [](Model& m) { m.block(1, "TETRA", 4, {1, 2, 3, 10}); }, {"connect1", "10", "1..9"});
+  // A mid-edge node of a TETRA10 (only the corners are kept) out of range: checked all the same (issue 23).
+  expect_error("midedge.exo",
+               [](Model& m) {
+                 m.block(1, "TETRA10", 10, {1, 2, 3, 5, 6, 7, 8, 9, 4, 12});
+               },
+               {"connect1", "node 10 is 12", "1..9"});
   expect_error("zero.exo", [](Model& m) { m.block(1, "TET4", 4, {0, 2, 3, 4}); }, {"connect1", "outside"});
   expect_error("nsided.exo", [](Model& m) { m.block(1, "NSIDED", 4, {1, 2, 3, 4}); }, {"connect1", "NSIDED"});
   expect_error("shells.exo", [](Model& m) { m.block(1, "SHELL4", 4, {1, 2, 3, 4}); }, {"no volume elements"});

@@ -400,6 +400,32 @@ TEST(GmshReader, MalformedAsciiNamesFileAndLine) {
   }
 }
 
+// Issue 23: every stored node tag is checked, also a second-order tetrahedron's mid-edge ones (linearised away) and
+// a dropped triangle's.
+TEST(GmshReader, NodeTagsInDroppedSlotsAreChecked) {
+  test::ScratchDir dir;
+  Options o22;
+  o22.version = 22;
+  const std::string good = msh(o22);
+  // The last node tag on the element line that starts with `prefix`, replaced by 99999.
+  auto bad_last_tag = [&](const std::string& prefix) {
+    const size_t line = good.find("\n" + prefix);
+    EXPECT_NE(line, std::string::npos) << prefix;
+    size_t end = good.find('\n', line + 1);
+    while (good[end - 1] == ' ') --end;  // the writer ends lines with a space
+    const size_t last = good.rfind(' ', end - 1) + 1;
+    std::string text = good;
+    text.replace(last, end - last, "99999");
+    return text;
+  };
+  for (const std::string prefix : {"1028 11 ", "1035 2 "}) {  // the tet10, the triangle
+    SCOPED_TRACE(prefix);
+    const std::string e = error_of(write_file(dir, "bad.msh", bad_last_tag(prefix)));
+    EXPECT_NE(e.find("bad.msh:"), std::string::npos) << e;
+    EXPECT_NE(e.find("uses node tag 99999, which $Nodes does not define"), std::string::npos) << e;
+  }
+}
+
 TEST(GmshReader, SurfaceOnlyIsRefused) {
   test::ScratchDir dir;
   Model m = make_model();

@@ -30,8 +30,12 @@
 // allocates what they say while parsing); netCDF-4/HDF5 containers are left to libhdf5. Every array whose size comes
 // from the file is checked against the file size before it is allocated (netCDF-3 stores data uncompressed, so a
 // variable cannot hold more values than the file has bytes; for netCDF-4, whose chunks may be compressed, a 1024:1
-// ratio is allowed). Node numbers, block sizes and variable shapes are checked against the dimensions they must agree
-// with.
+// ratio is allowed). A netCDF-3 variable whose data (all its records) ends past the end of the file is refused when
+// read, naming the missing bytes: libnetcdf fills such reads with zeros or returns whatever bytes are there (a
+// truncated disk_out_ref gave fields [0, 0], or another variable's values). An HDF5 file shorter than the end-of-file
+// address in its superblock is refused before nc_open with the missing byte count (libhdf5 would refuse it too,
+// with a bare "HDF error"). Node numbers, block sizes and variable shapes are checked against the dimensions they
+// must agree with.
 #include <netcdf.h>
 
 #include <algorithm>
@@ -82,6 +86,15 @@ class Cdf3HeaderCheck {
   Cdf3HeaderCheck(const std::string& path, std::string_view bytes, uint64_t file_size)
       : path_(path), b_(bytes), file_size_(file_size), version_(uint8_t(bytes[3])) {}
 
+  // Where a variable's data lies, from the header: netCDF-3 stores it uncompressed at `begin`; a record variable has
+  // one slab of `bytes` per record, records `record_size` apart.
+  struct Extent {
+    std::string name;
+    uint64_t begin = 0;
+    uint64_t bytes = 0;  // unpadded: values x type size (one record's worth for a record variable)
+    bool record = false;
+  };
+
   // False when the header continues beyond the bytes given (read more and check again).
   bool complete() {
     try {
@@ -92,24 +105,79 @@ class Cdf3HeaderCheck {
     }
   }
 
+  // The byte just past the data of each variable, as libnetcdf will read it (records 0..numrecs-1): a file shorter
+  // than that is truncated, and libnetcdf would return fill values (zeros) or the next variable's bytes for what is
+  // missing instead of failing. Valid after complete() returned true. UINT64_MAX when the end overflows.
+  std::vector<std::pair<std::string, uint64_t>> data_ends() const {
+    // The record size as libnetcdf computes it: the padded slabs of all record variables, except that a lone record
+    // variable is packed (no padding).
+    uint64_t record_size = 0, records = 0;
+    for (const Extent& e : extents_) {
+      if (!e.record) continue;
+      ++records;
+      record_size = sat_add(record_size, (e.bytes + 3) & ~uint64_t(3));
+    }
+    if (records == 1) {
+      for (const Extent& e : extents_)
+        if (e.record) record_size = e.bytes;
+    }
+    std::vector<std::pair<std::string, uint64_t>> ends;
+    for (const Extent& e : extents_) {
+      if (e.bytes == 0) continue;
+      if (!e.record) {
+        ends.emplace_back(e.name, sat_add(e.begin, e.bytes));
+      } else if (numrecs_ > 0 && !streaming_) {  // STREAMING: libnetcdf counts the records the file holds
+        ends.emplace_back(e.name, sat_add(sat_add(e.begin, sat_mul(numrecs_ - 1, record_size)), e.bytes));
+      }
+    }
+    return ends;
+  }
+
  private:
+  static uint64_t sat_add(uint64_t a, uint64_t b) {
+    uint64_t r;
+    return __builtin_add_overflow(a, b, &r) ? UINT64_MAX : r;
+  }
+  static uint64_t sat_mul(uint64_t a, uint64_t b) {
+    uint64_t r;
+    return __builtin_mul_overflow(a, b, &r) ? UINT64_MAX : r;
+  }
+
   void run() {
     pos_ = 4;
     big_ = version_ == 5;
-    num();          // numrecs (or STREAMING)
-    list(10, [&] {  // dimensions: name, length
+    numrecs_ = num();  // numrecs (or STREAMING: all ones)
+    streaming_ = numrecs_ == (big_ ? UINT64_MAX : uint64_t(UINT32_MAX));
+    dims_.clear();
+    extents_.clear();
+    list(10, [&] {  // dimensions: name, length (0: the record dimension)
       name();
-      num();
+      dims_.push_back(num());
     });
     attributes();
     list(11, [&] {  // variables: name, dim ids, attributes, type, vsize, begin
-      name();
+      Extent e;
+      e.name = name();
       const uint64_t ndims = count(big_ ? 8 : 4, "dimension ids of a variable");
-      for (uint64_t i = 0; i < ndims; ++i) num();
+      uint64_t values = 1;
+      bool known = true;
+      for (uint64_t i = 0; i < ndims; ++i) {
+        const uint64_t d = num();
+        if (d >= dims_.size()) {
+          known = false;  // libnetcdf refuses the header itself
+          continue;
+        }
+        if (i == 0 && dims_[d] == 0) {
+          e.record = true;
+        } else {
+          values = sat_mul(values, dims_[d]);
+        }
+      }
       attributes();
-      type();
-      num();
-      version_ == 1 ? i32() : i64();
+      e.bytes = sat_mul(values, type_size(type()));
+      num();  // vsize: libnetcdf recomputes it (it cannot hold sizes >= 4 GiB)
+      e.begin = version_ == 1 ? i32() : i64();
+      if (known) extents_.push_back(std::move(e));
     });
   }
 
@@ -144,7 +212,12 @@ class Cdf3HeaderCheck {
     need(padded);
     pos_ += padded;
   }
-  void name() { skip_padded(count(1, "name characters")); }
+  std::string name() {
+    const uint64_t n = count(1, "name characters");
+    const std::string text(b_.substr(pos_, n));
+    skip_padded(n);
+    return text;
+  }
   uint64_t type() {
     const uint64_t t = i32();
     if (t < 1 || t > (version_ == 5 ? 11u : 6u)) fail("unknown value type " + std::to_string(t));
@@ -175,6 +248,10 @@ class Cdf3HeaderCheck {
   uint8_t version_;
   uint64_t pos_ = 0;
   bool big_ = false;
+  uint64_t numrecs_ = 0;
+  bool streaming_ = false;
+  std::vector<uint64_t> dims_;
+  std::vector<Extent> extents_;
 };
 
 // A netCDF file opened read-only; every failure is reported as ugvr::Error naming the file and the variable.
@@ -270,6 +347,7 @@ class NcFile {
       if (__builtin_mul_overflow(n, uint64_t(c), &n)) fail("variable " + name + " is impossibly large");
     }
     check_fits(n, stored_size(var_type(v, name)), "variable " + name);
+    check_not_truncated(v);
     std::vector<T> out(static_cast<size_t>(n));
     if (n == 0) return out;
     int s;
@@ -347,28 +425,78 @@ class NcFile {
   }
 
   // nc_open is only handed containers it recognises, so that an arbitrary file fails with a clear message.
-  void check_header() const {
-    char head[8] = {};
+  void check_header() {
+    char head[64] = {};
     const size_t n = InputFile(path_).read_some_at(0, head, sizeof head);
     const std::string_view h(head, n);
     const bool cdf3 = h.starts_with("CDF\x01") || h.starts_with("CDF\x02") || h.starts_with("CDF\x05");
     if (!cdf3 && !h.starts_with("\x89HDF\r\n\x1a\n")) {
       fail("not a netCDF file (no CDF or HDF5 signature), so not Exodus II");
     }
+    if (!cdf3) check_hdf5_end(h);
     if (cdf3) {
       // Headers are small (a few KB even for large models): read 1 MiB, and more only if the header goes on.
       for (uint64_t limit : {uint64_t(1) << 20, kMaxHeaderBytes}) {
         const uint64_t length = std::min(file_size_, limit);
         std::string bytes(static_cast<size_t>(length), '\0');
         InputFile(path_).read_at(0, bytes.data(), bytes.size());
-        if (Cdf3HeaderCheck(path_, bytes, file_size_).complete()) return;
+        if (Cdf3HeaderCheck header(path_, bytes, file_size_); header.complete()) {
+          data_ends_ = header.data_ends();
+          return;
+        }
       }
       fail("netCDF header longer than " + std::to_string(kMaxHeaderBytes) + " bytes");
     }
   }
 
+  // An HDF5 superblock at the start of the file records the end-of-file address; libhdf5 refuses a shorter file with
+  // a bare "HDF error", so the truncation is named here first. Superblock layout (HDF5 File Format Specification,
+  // little-endian): signature (8), version (1); versions 0 and 1: ..., size of offsets at byte 13, base address at 24
+  // (v0) or 28 (v1), then the free-space, end-of-file and driver addresses; versions 2 and 3: size of offsets at
+  // byte 9, base address at 12, then the extension and end-of-file addresses. An undefined address is all ones. Only
+  // a superblock at byte 0 is looked at (netCDF-4 writes no user block); others are left to libhdf5.
+  void check_hdf5_end(std::string_view h) const {
+    if (h.size() < 9) return;
+    const uint8_t version = uint8_t(h[8]);
+    const size_t offsets_size =
+        version <= 1 ? (h.size() > 13 ? uint8_t(h[13]) : 0) : (h.size() > 9 ? uint8_t(h[9]) : 0);
+    if (version > 3 || (offsets_size != 2 && offsets_size != 4 && offsets_size != 8)) return;  // left to libhdf5
+    const size_t base_at = version == 0 ? 24 : version == 1 ? 28 : 12;
+    const size_t eof_at = base_at + 2 * offsets_size;
+    if (eof_at + offsets_size > h.size()) return;
+    auto address = [&](size_t at) {
+      uint64_t v = 0;
+      for (size_t k = offsets_size; k-- > 0;) v = (v << 8) | uint8_t(h[at + k]);
+      return v;
+    };
+    const uint64_t undefined = offsets_size == 8 ? UINT64_MAX : (uint64_t(1) << (8 * offsets_size)) - 1;
+    // libhdf5 compares the stored end-of-file address with the file's size as it is (H5F__super_read: eof + base
+    // address < stored eof, where its eof excludes the base), so the address counts from the start of the file.
+    const uint64_t end = address(eof_at);
+    if (end != undefined && end > file_size_) {
+      fail("truncated HDF5 (netCDF-4) file: its superblock puts the end of the data at byte " + std::to_string(end) +
+           " but the file has " + std::to_string(file_size_) + " bytes (" + std::to_string(end - file_size_) +
+           " bytes missing)");
+    }
+  }
+
+  // netCDF-3 only (libhdf5 itself refuses an HDF5 file shorter than the end address its superblock records): fails
+  // when the file ends before the variable's data does, naming the missing bytes.
+  void check_not_truncated(int v) const {
+    char buf[NC_MAX_NAME + 1] = {};
+    check(nc_inq_varname(id_, v, buf), "a variable name");
+    for (const auto& [name, end] : data_ends_) {
+      if (name != buf || end <= file_size_) continue;
+      fail("variable " + name + " is truncated: its data ends at byte " +
+           (end == UINT64_MAX ? std::string("(overflow)") : std::to_string(end)) + " but the file has " +
+           std::to_string(file_size_) + " bytes" +
+           (end == UINT64_MAX ? std::string() : " (" + std::to_string(end - file_size_) + " bytes missing)"));
+    }
+  }
+
   std::string path_;
   std::string format_name_;
+  std::vector<std::pair<std::string, uint64_t>> data_ends_;  // netCDF-3: variable name -> end of its data
   int id_ = -1;
   uint64_t file_size_ = 0;
   bool netcdf4_ = false;
@@ -532,13 +660,15 @@ class ExodusReader {
     mesh_.reserve(mesh_.cell_count() + info.elements, mesh_.connectivity.size() + info.elements * kind.corners);
     std::array<uint32_t, 8> corners{};
     for (uint64_t e = 0; e < info.elements; ++e) {
-      for (uint8_t k = 0; k < kind.corners; ++k) {
+      // Every node the element stores is checked, also the mid-edge ones of a higher-order element that only its
+      // corners are kept from: an id out of range anywhere means the connectivity cannot be trusted.
+      for (uint64_t k = 0; k < *per; ++k) {
         const long long id = ids[size_t(e * *per + k)];
         if (id < 1 || uint64_t(id) > nodes_) {
           nc_.fail("variable " + connect + ": element " + std::to_string(e + 1) + " node " + std::to_string(k + 1) +
                    " is " + std::to_string(id) + ", outside 1.." + std::to_string(nodes_));
         }
-        corners[k] = uint32_t(id - 1);
+        if (k < kind.corners) corners[k] = uint32_t(id - 1);
       }
       if (kind.type == CellType::Wedge) {
         // Exodus (like Gmsh and most FE codes) orders the wedge's first triangle with its normal towards the second

@@ -606,6 +606,11 @@ class GmshReader {
     label_name_ = physical_groups ? "gmsh:physical" : "gmsh:entity";
   }
 
+  // How many of an element's first node tags add_element looks up as corners (none for a dropped element).
+  static size_t cell_vertex_count_or_zero(const GmshType& type) {
+    return type.dim < 3 ? 0 : size_t(cell_vertex_count(type.cell));
+  }
+
   const GmshType& element_type(int64_t code) {
     const std::optional<GmshType> type = gmsh_type(code);
     if (!type) {
@@ -618,6 +623,15 @@ class GmshReader {
 
   void add_element(uint64_t tag, const GmshType& type, int32_t label) {
     ++file_elements_;
+    // Every node tag the element stores must be defined, also the mid-edge ones a higher-order element is linearised
+    // away from and those of dropped lower-dimensional elements: an unknown tag anywhere means the element section
+    // is corrupt. (The corners are looked up again below; the map is a hash table.)
+    for (size_t k = cell_vertex_count_or_zero(type); k < node_ids_.size(); ++k) {
+      if (node_map_.find(node_ids_[k]) == kAbsent) {
+        in_.fail("element " + std::to_string(tag) + " uses node tag " + std::to_string(node_ids_[k]) +
+                 ", which $Nodes does not define");
+      }
+    }
     if (type.dim < 3) {
       elements_.emplace_back(tag, kDropped);
       ++dropped_[type.name];

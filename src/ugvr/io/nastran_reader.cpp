@@ -335,7 +335,11 @@ class NastranReader {
     for (size_t k = 0; k < nodes; ++k) {
       // Edge nodes may be left blank, corners may not; edge nodes are dropped (linearised) but must be integers.
       const int64_t g = integer(2 + k, "a grid point id", k < e.corners);
-      if (k < e.corners) element_grids_.push_back(g);
+      if (k < e.corners) {
+        element_grids_.push_back(g);
+      } else if (g != 0) {  // blank (or 0): no edge node
+        edge_grids_.emplace_back(g, card_line_);
+      }
     }
     element_types_.push_back(e.type);
     element_lines_.push_back(card_line_);
@@ -396,6 +400,13 @@ class NastranReader {
     if (element_types_.empty()) {
       fail_in(path(), "no solid elements (CTETRA, CPYRAM, CPENTA, CHEXA): ugvr renders volumes only" +
                           (ignored_total_ ? " (" + ignored_summary() + ")" : std::string()));
+    }
+    // Edge nodes are dropped, but each must still be a defined GRID: an undefined one means the card is corrupt.
+    for (const auto& [g, line] : edge_grids_) {
+      if (!grid_ids_.find(g)) {
+        fail_at_line(path(), line,
+                     "element uses GRID " + std::to_string(g) + " (an edge node), which is not defined in the file");
+      }
     }
     mesh.reserve(element_types_.size(), element_grids_.size());
     std::array<uint32_t, 8> v{};
@@ -480,7 +491,8 @@ class NastranReader {
   std::map<int64_t, CoordSystem> systems_;
 
   std::vector<CellType> element_types_;
-  std::vector<int64_t> element_grids_;  // corner grid ids, resolved at the end
+  std::vector<int64_t> element_grids_;                    // corner grid ids, resolved at the end
+  std::vector<std::pair<int64_t, uint64_t>> edge_grids_;  // (edge node grid id, card line), checked at the end
   std::vector<uint64_t> element_lines_;
   std::vector<int32_t> pids_;
 

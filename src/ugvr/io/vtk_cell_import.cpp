@@ -24,6 +24,7 @@ template <class Id>
 void VtkCellImporter::add(int vtk_type, std::span<const Id> ids, uint64_t file_cell) {
   ++file_cells_;
   const VtkCellMapping m = map_vtk_cell_type(vtk_type);
+  const std::span<const Id> stored = ids;  // every id the file lists, before extra points are cut off
   if (m.kind != VtkCellMapping::Kind::Unsupported && m.expected_points >= 0 && ids.size() > size_t(m.expected_points)) {
     if (extra_point_cells_++ == 0) {
       extra_point_example_ = "cell " + std::to_string(file_cell) + ", " + std::string(m.vtk_name) + " with " +
@@ -35,6 +36,19 @@ void VtkCellImporter::add(int vtk_type, std::span<const Id> ids, uint64_t file_c
     fail_cell(file_cell, std::string(m.vtk_name) + " (type " + std::to_string(vtk_type) + ") needs " +
                              std::to_string(m.expected_points) + " points, the file lists " +
                              std::to_string(ids.size()));
+  }
+  // Every stored id must name a point, also those that are not used: the mid-edge ids of a linearised quadratic
+  // cell, the extra ids cut off above, the ids of a dropped lower-dimensional cell. An id out of range there means
+  // the connectivity is corrupt (or misaligned with the offsets), so the corners read beside it cannot be trusted.
+  if (m.kind != VtkCellMapping::Kind::Unsupported) {
+    for (size_t i = 0; i < stored.size(); ++i) {
+      const Id id = stored[i];
+      if (id < 0 || uint64_t(id) >= point_count_) {
+        fail_cell(file_cell, "point id " + std::to_string(int64_t(id)) + " is outside [0, " +
+                                 std::to_string(point_count_) + ") (slot " + std::to_string(i) + " of its " +
+                                 std::string(m.vtk_name) + ")");
+      }
+    }
   }
   switch (m.kind) {
     case VtkCellMapping::Kind::Unsupported:
@@ -53,14 +67,7 @@ void VtkCellImporter::add(int vtk_type, std::span<const Id> ids, uint64_t file_c
     case VtkCellMapping::Kind::Keep: break;
   }
   std::array<uint32_t, 8> v{};
-  for (size_t i = 0; i < m.corner_count; ++i) {
-    const Id id = ids[i];
-    if (id < 0 || uint64_t(id) >= point_count_) {
-      fail_cell(file_cell,
-                "point id " + std::to_string(int64_t(id)) + " is outside [0, " + std::to_string(point_count_) + ")");
-    }
-    v[i] = uint32_t(id);
-  }
+  for (size_t i = 0; i < m.corner_count; ++i) v[i] = uint32_t(ids[i]);  // range-checked above
   if (m.voxel_order) {
     std::swap(v[2], v[3]);
     std::swap(v[6], v[7]);

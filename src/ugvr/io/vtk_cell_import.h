@@ -25,7 +25,8 @@ class VtkCellImporter {
 
   void reserve(uint64_t cells, uint64_t indices);
   // Adds the file's cell number `file_cell` (used only in messages). Throws ugvr::Error for unsupported types, a
-  // wrong number of point ids, or ids outside [0, point_count).
+  // wrong number of point ids, or ids outside [0, point_count) in any slot the file stores (also the mid-edge slots
+  // that linearisation drops, extra points, and the ids of dropped lower-dimensional cells).
   template <class Id>
   void add(int vtk_type, std::span<const Id> ids, uint64_t file_cell);
 

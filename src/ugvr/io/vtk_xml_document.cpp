@@ -135,6 +135,27 @@ pugi::xml_node data_array(pugi::xml_node parent, std::string_view name) {
   return {};
 }
 
+pugi::xml_node single_child(const XmlDoc& d, pugi::xml_node parent, const char* tag) {
+  const pugi::xml_node first = parent.child(tag);
+  if (const pugi::xml_node second = first.next_sibling(tag)) {
+    d.fail(second, element_name(parent) + " has more than one <" + tag + "> element");
+  }
+  return first;
+}
+
+pugi::xml_node single_data_array(const XmlDoc& d, pugi::xml_node parent, std::string_view name) {
+  pugi::xml_node found;
+  for (pugi::xml_node c : parent.children("DataArray")) {
+    if (!name.empty() && name != c.attribute("Name").value()) continue;
+    if (found) {
+      d.fail(c, element_name(parent) + " has more than one <DataArray>" +
+                    (name.empty() ? std::string() : " named '" + std::string(name) + "'"));
+    }
+    found = c;
+  }
+  return found;
+}
+
 XmlArray required_array(const XmlDoc& d, pugi::xml_node n, const std::string& label) {
   auto v = describe_array(d, n, label);
   if (auto* u = std::get_if<Unsupported>(&v)) d.fail(n, label + ": unsupported " + u->reason);

@@ -98,6 +98,11 @@ struct Unsupported {
 std::variant<XmlArray, Unsupported> describe_array(const XmlDoc& d, pugi::xml_node n, const std::string& label);
 // The first <DataArray> child (Points, Coordinates) or the one with the given Name (Cells).
 pugi::xml_node data_array(pugi::xml_node parent, std::string_view name = {});
+// The <tag> child of `parent` (null when there is none); fails when there are several: a repeated <Points>, <Cells>,
+// <PointData>, ... would otherwise be silently ignored, the first one winning.
+pugi::xml_node single_child(const XmlDoc& d, pugi::xml_node parent, const char* tag);
+// data_array, failing when several <DataArray>s match (a second one under <Points>, or a second 'connectivity').
+pugi::xml_node single_data_array(const XmlDoc& d, pugi::xml_node parent, std::string_view name = {});
 // describe_array, failing for an unsupported type.
 XmlArray required_array(const XmlDoc& d, pugi::xml_node n, const std::string& label);
 

@@ -20,19 +20,25 @@
 // Arrays of a type the model has no place for (String, Bit) are skipped with a warning. VTK's own arrays such as
 // vtkGhostType are ordinary numeric arrays and are kept as fields (a warning says when duplicate ghost cells are
 // present). FieldData (global values) is ignored.
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <pugixml.hpp>
 #include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
+#include "ugvr/core/memory.h"
 #include "ugvr/core/progress.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/vtk_cell_import.h"
@@ -53,6 +59,8 @@ using vtk_xml::load_doc;
 using vtk_xml::parse_number;
 using vtk_xml::parse_numbers;
 using vtk_xml::required_array;
+using vtk_xml::single_child;
+using vtk_xml::single_data_array;
 using vtk_xml::Unsupported;
 using vtk_xml::XmlDoc;
 
@@ -160,8 +168,13 @@ UgPiece describe_ug_piece(const XmlDoc& d, size_t doc_index, pugi::xml_node piec
   p.label = label;
   p.points = count_attribute(d, piece, "NumberOfPoints");
   p.cells = count_attribute(d, piece, "NumberOfCells");
+  // Each of these may appear once: with two, which one is meant is a guess.
+  const pugi::xml_node points = single_child(d, piece, "Points");
+  const pugi::xml_node cells = single_child(d, piece, "Cells");
+  const pugi::xml_node point_data = single_child(d, piece, "PointData");
+  const pugi::xml_node cell_data = single_child(d, piece, "CellData");
   if (p.points > 0) {
-    const pugi::xml_node pa = data_array(piece.child("Points"));
+    const pugi::xml_node pa = single_data_array(d, points);
     if (!pa) d.fail(piece, label + "<Piece> has " + std::to_string(p.points) + " points but no <Points> DataArray");
     p.points_array = required_array(d, pa, label + "<Points> DataArray");
     if (p.points_array->components != 3) {
@@ -170,9 +183,8 @@ UgPiece describe_ug_piece(const XmlDoc& d, size_t doc_index, pugi::xml_node piec
     }
   }
   if (p.cells > 0) {
-    const pugi::xml_node cells = piece.child("Cells");
     for (const char* name : {"connectivity", "offsets", "types"}) {
-      const pugi::xml_node n = data_array(cells, name);
+      const pugi::xml_node n = single_data_array(d, cells, name);
       if (!n) d.fail(piece, label + "<Cells> has no DataArray named '" + name + "'");
       XmlArray a = required_array(d, n, label + "<Cells> DataArray '" + name + "'");
       if (a.type == ScalarType::Float32 || a.type == ScalarType::Float64) {
@@ -188,9 +200,50 @@ UgPiece describe_ug_piece(const XmlDoc& d, size_t doc_index, pugi::xml_node piec
         p.types = std::move(a);
     }
   }
-  p.point_data = field_arrays(d, piece.child("PointData"), Association::Vertex, label, warnings);
-  p.cell_data = field_arrays(d, piece.child("CellData"), Association::Cell, label, warnings);
+  p.point_data = field_arrays(d, point_data, Association::Vertex, label, warnings);
+  p.cell_data = field_arrays(d, cell_data, Association::Cell, label, warnings);
   return p;
+}
+
+// A <Piece> whose points and connectivity are the same bytes as another piece's of the same file is a copy of it (a
+// duplicated element, or appended offsets pointing twice at the same arrays): read, it would double the mesh with
+// coincident cells, so it is refused. Appended arrays are the same bytes when they start at the same offset; inline
+// arrays (ascii, binary) when their text is equal, compared by length and a 64-bit FNV-1a hash, read only in files
+// with several pieces.
+using ArrayIdentity = std::tuple<bool, uint64_t, uint64_t>;  // (inline, begin or hash, 0 or length)
+
+ArrayIdentity array_identity(const InputFile& file, const XmlArray& a) {
+  if (a.format == XmlArrayFormat::Appended) return {false, a.begin, 0};
+  uint64_t hash = 0xcbf29ce484222325u;
+  std::vector<unsigned char> buf(size_t(1) << 20);
+  for (uint64_t at = a.begin; at < a.end;) {
+    const size_t n = size_t(std::min<uint64_t>(buf.size(), a.end - at));
+    file.read_at(at, buf.data(), n);
+    for (size_t i = 0; i < n; ++i) hash = (hash ^ buf[i]) * 0x100000001b3u;
+    at += n;
+  }
+  return {true, hash, a.end - a.begin};
+}
+
+void refuse_duplicate_pieces(const std::vector<std::unique_ptr<XmlDoc>>& docs, const std::vector<UgPiece>& pieces) {
+  std::vector<size_t> per_doc(docs.size());
+  for (const UgPiece& p : pieces) ++per_doc[p.doc];
+  std::map<std::tuple<size_t, ArrayIdentity, ArrayIdentity>, size_t> seen;  // (doc, points, connectivity) -> piece
+  std::unique_ptr<InputFile> file;
+  size_t file_doc = SIZE_MAX;
+  for (size_t i = 0; i < pieces.size(); ++i) {
+    const UgPiece& p = pieces[i];
+    if (per_doc[p.doc] < 2 || !p.points_array || !p.connectivity) continue;
+    if (file_doc != p.doc) {
+      file = std::make_unique<InputFile>(docs[p.doc]->path);
+      file_doc = p.doc;
+    }
+    const auto key = std::tuple{p.doc, array_identity(*file, *p.points_array), array_identity(*file, *p.connectivity)};
+    const auto [it, fresh] = seen.emplace(key, i);
+    if (fresh) continue;
+    docs[p.doc]->fail(p.node, p.label + "<Piece> is a duplicate of " + pieces[it->second].label +
+                                  "<Piece>: its points and connectivity are the same bytes");
+  }
 }
 
 struct KeptCounts {
@@ -374,7 +427,7 @@ Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<X
     if (d.type != "UnstructuredGrid") {
       fail_in(d.path, "VTKFile type \"" + d.type.substr(0, 40) + "\", expected UnstructuredGrid");
     }
-    const pugi::xml_node grid = d.root.child("UnstructuredGrid");
+    const pugi::xml_node grid = single_child(d, d.root, "UnstructuredGrid");
     if (!grid) d.fail(d.root, "no <UnstructuredGrid> element");
     const size_t count = size_t(std::distance(grid.children("Piece").begin(), grid.children("Piece").end()));
     size_t k = 0;
@@ -384,6 +437,7 @@ Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<X
       ++k;
     }
   }
+  refuse_duplicate_pieces(docs, pieces);
 
   // Fields: those of the first piece with data; every other non-empty piece must agree.
   std::vector<FieldSpec> specs;
@@ -520,17 +574,63 @@ std::vector<FieldSpec> declared_fields(const XmlDoc& d, pugi::xml_node grid) {
   return out;
 }
 
-Dataset read_pvtu(std::unique_ptr<XmlDoc> pdoc) {
-  const pugi::xml_node grid = pdoc->root.child("PUnstructuredGrid");
-  if (!grid) pdoc->fail(pdoc->root, "no <PUnstructuredGrid> element");
-  std::vector<std::unique_ptr<XmlDoc>> docs;
+// More piece files than this in one .pvtu are refused before any is opened (large MPI runs write one per rank; each
+// open piece keeps its parsed markup while the mesh is assembled).
+constexpr size_t kMaxPvtuPieces = size_t(1) << 16;
+
+// The memory budget a .pvtu's pieces are checked against before reading: the machine's physical memory. The mesh
+// read from a piece takes about as much memory as the piece's file (float64 points become float32, base64 shrinks
+// by 3/4, compressed arrays grow), so pieces whose files add up to more than the memory cannot be read.
+uint64_t pvtu_memory_budget() {
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  if (pages <= 0 || page <= 0) return UINT64_MAX;
+  return uint64_t(pages) * uint64_t(page);
+}
+
+// The piece files a .pvtu lists, checked before any is read: a sane count, no file listed twice (it would be read
+// twice into one mesh, with coincident cells), and their total size within the memory budget. Without this, a .pvtu
+// listing one 1.1 MB piece 20,000 times ran to 5.9 GB before anything failed.
+std::vector<std::string> pvtu_piece_paths(const XmlDoc& pdoc, pugi::xml_node grid) {
+  const size_t count = size_t(std::distance(grid.children("Piece").begin(), grid.children("Piece").end()));
+  if (count > kMaxPvtuPieces) {
+    pdoc.fail(grid, "<PUnstructuredGrid> lists " + std::to_string(count) + " pieces, more than the " +
+                        std::to_string(kMaxPvtuPieces) + " this reader accepts");
+  }
+  std::vector<std::string> paths;
+  std::map<std::string, pugi::xml_node> seen;  // file identity -> its first <Piece>
+  uint64_t total = 0;
   for (pugi::xml_node piece : grid.children("Piece")) {
     const std::string source = piece.attribute("Source").value();
-    if (source.empty()) pdoc->fail(piece, "<Piece> has no Source attribute");
+    if (source.empty()) pdoc.fail(piece, "<Piece> has no Source attribute");
     // Sources are relative to the .pvtu's directory.
-    const std::string piece_path = source.front() == '/' ? source : dir_name(pdoc->path) + source;
-    docs.push_back(load_doc(piece_path));
+    const std::string path = source.front() == '/' ? source : dir_name(pdoc.path) + source;
+    // One file however it is named (another spelling, a symbolic or a hard link): its device and inode; a file
+    // that cannot be stat'ed fails in load_doc, with its own message, so its path stands in for it here.
+    struct stat st {};
+    const bool found = ::stat(path.c_str(), &st) == 0;
+    const std::string key = found ? std::to_string(st.st_dev) + ":" + std::to_string(st.st_ino) : "path:" + path;
+    if (!seen.emplace(key, piece).second) {
+      pdoc.fail(piece, "<Piece Source=\"" + source.substr(0, 200) + "\"> lists a piece file already listed");
+    }
+    if (found && S_ISREG(st.st_mode)) {
+      const uint64_t size = uint64_t(st.st_size);
+      total = size > UINT64_MAX - total ? UINT64_MAX : total + size;
+    }
+    paths.push_back(path);
   }
+  if (const uint64_t budget = pvtu_memory_budget(); total > budget) {
+    pdoc.fail(grid, "the " + std::to_string(count) + " piece files add up to " + format_bytes(total) + " (" +
+                        std::to_string(total) + " bytes), more than the memory budget of " + format_bytes(budget) +
+                        " (physical memory)");
+  }
+  return paths;
+}
+
+Dataset read_pvtu(std::unique_ptr<XmlDoc> pdoc) {
+  const pugi::xml_node grid = single_child(*pdoc, pdoc->root, "PUnstructuredGrid");
+  if (!grid) pdoc->fail(pdoc->root, "no <PUnstructuredGrid> element");
+  std::vector<std::unique_ptr<XmlDoc>> docs;
+  for (const std::string& piece_path : pvtu_piece_paths(*pdoc, grid)) docs.push_back(load_doc(piece_path));
   if (docs.empty()) pdoc->fail(grid, "<PUnstructuredGrid> lists no <Piece Source=...>");
   const std::vector<FieldSpec> declared = declared_fields(*pdoc, grid);
   return read_unstructured(pdoc->path, std::move(docs), "VTK XML PUnstructuredGrid (.pvtu)", declared, grid,
@@ -683,23 +783,25 @@ StPiece describe_st_piece(const XmlDoc& d, pugi::xml_node pn, StructuredKind kin
   p.extent = parse_extent(d, pn, "Extent");
   p.points = checked_point_count(d, pn, p.extent);
   p.cells = volume ? p.extent.cell_count() : 0;
+  const pugi::xml_node point_data = single_child(d, pn, "PointData");
+  const pugi::xml_node cell_data = single_child(d, pn, "CellData");
   if (kind == StructuredKind::Curvilinear) {
-    const pugi::xml_node pa = data_array(pn.child("Points"));
+    const pugi::xml_node pa = single_data_array(d, single_child(d, pn, "Points"));
     if (!pa) d.fail(pn, label + "<Piece> has no <Points> DataArray");
     p.points_array = required_array(d, pa, label + "<Points> DataArray");
     if (p.points_array->components != 3) d.fail(pa, label + "<Points> DataArray must have 3 components");
   } else if (kind == StructuredKind::Rectilinear) {
     int axis = 0;
-    for (pugi::xml_node a : pn.child("Coordinates").children("DataArray")) {
-      if (axis == 3) break;
+    for (pugi::xml_node a : single_child(d, pn, "Coordinates").children("DataArray")) {
+      if (axis == 3) d.fail(a, label + "<Coordinates> holds more than three DataArrays");
       p.coords[size_t(axis)] = required_array(d, a, label + "<Coordinates> DataArray " + std::to_string(axis));
       if (p.coords[size_t(axis)]->components != 1) d.fail(a, "<Coordinates> arrays must have 1 component");
       ++axis;
     }
     if (axis != 3) d.fail(pn, label + "<Coordinates> must hold three DataArrays (x, y, z)");
   }
-  p.point_data = field_arrays(d, pn.child("PointData"), Association::Vertex, label, warnings);
-  p.cell_data = field_arrays(d, pn.child("CellData"), Association::Cell, label, warnings);
+  p.point_data = field_arrays(d, point_data, Association::Vertex, label, warnings);
+  p.cell_data = field_arrays(d, cell_data, Association::Cell, label, warnings);
   return p;
 }
 
@@ -723,7 +825,7 @@ Dataset read_structured(std::unique_ptr<XmlDoc> doc, StructuredKind kind) {
               : kind == StructuredKind::Image     ? "VTK XML ImageData (.vti)"
                                                   : "VTK XML RectilinearGrid (.vtr)";
   ds.sources.push_back(d.path);
-  const pugi::xml_node grid = d.root.child(tag);
+  const pugi::xml_node grid = single_child(d, d.root, tag);
   if (!grid) d.fail(d.root, std::string("no <") + tag + "> element");
   const Extent whole = parse_extent(d, grid, "WholeExtent");
   const uint64_t whole_points = checked_point_count(d, grid, whole);
