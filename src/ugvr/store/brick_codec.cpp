@@ -575,6 +575,30 @@ BlockHeader parse_block_header(std::span<const std::byte> block, uint32_t r, std
           file, at(offsetof(BlockRecord, base)),
           "quantization grid decodes to [" + std::to_string(first) + ", " + std::to_string(last) + "], beyond float32");
     }
+    // The encoder gives lo code 0 and hi code qmax (choose_grid, with grid_index's arithmetic), so a grid that does
+    // not map [lo, hi] onto [0, qmax] cannot come from it: with qmax too small every sample would be clamped to a
+    // few codes and decode to values the brick never had. A grid of step 0 is a constant brick's (lo = hi = origin).
+    if (h.step > 0) {
+      const double inv = 1.0 / h.step;
+      // Far-off indices (beyond 2^53, where llround is undefined) are reported as such rather than computed.
+      auto code_of = [&](float v) {
+        const double i = (double(v) - h.origin) * inv;
+        return std::abs(i) <= 2 * kMaxGridIndex ? grid_index(v, h.origin, inv) - h.base
+                                                : std::numeric_limits<int64_t>::min();
+      };
+      const int64_t lo_code = code_of(h.lo), hi_code = code_of(h.hi);
+      if (lo_code != 0 || hi_code != int64_t(h.qmax)) {
+        fail_at_offset(file, at(offsetof(BlockRecord, qmax)),
+                       "quantization grid maps the brick's range [" + std::to_string(h.lo) + ", " +
+                           std::to_string(h.hi) + "] to codes [" + std::to_string(lo_code) + ", " +
+                           std::to_string(hi_code) + "], not [0, " + std::to_string(h.qmax) +
+                           "] (largest code qmax inconsistent with the range)");
+      }
+    } else if (h.qmax != 0 || h.lo != h.hi || float(h.origin) != h.lo) {
+      fail_at_offset(file, at(offsetof(BlockRecord, step)),
+                     "quantization step 0 for the range [" + std::to_string(h.lo) + ", " + std::to_string(h.hi) +
+                         "] with origin " + std::to_string(h.origin) + ": only a constant brick has no step");
+    }
   } else if (h.qmax != 0 || h.base != 0 || h.origin != 0 || h.step != 0) {
     fail_at_offset(file, at(offsetof(BlockRecord, qmax)), "float32 block with quantization grid fields");
   }
