@@ -258,6 +258,18 @@ TEST_F(KilledJobs, InterruptedGenerateLeavesNothing) {
   EXPECT_EQ(entries(dir_.file("")), (std::set<std::string>{"log"}));
 }
 
+TEST_F(KilledJobs, InterruptedConvertLeavesNothing) {
+  const std::string out = dir_.file("copy.vtu"), log = dir_.file("log");
+  const pid_t pid = spawn_ugvr({"convert", mesh_, out}, log);
+  ASSERT_GT(pid, 0);
+  if (!wait_until_writing(pid, dir_.file(""), 1 << 20)) GTEST_SKIP() << "convert ended early: " << read_text(log);
+  kill(pid, SIGTERM);
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGTERM) << status;
+  EXPECT_EQ(entries(dir_.file("")), (std::set<std::string>{"log"}));
+}
+
 TEST_F(KilledJobs, KilledBuildIsCleanedByTheNextRun) {
   const std::string out = dir_.file("out.ugvr"), log = dir_.file("log");
   const pid_t pid = spawn_ugvr(build_args(mesh_, out), log);
@@ -270,13 +282,15 @@ TEST_F(KilledJobs, KilledBuildIsCleanedByTheNextRun) {
   // SIGKILL cannot be caught: the scratch folder (and maybe the store's temporary) stay...
   ASSERT_TRUE(fs::exists(out + ".cells"));
   EXPECT_GT(temporary_bytes(dir_.file("")), uint64_t(1) << 20);
-  // ...until the next run of the same output, which removes them and says so.
-  const auto r = test::run_ugvr("build " + mesh_ + " -o " + out + " --out-of-core --memory 64MiB");
+  // ...until the next run of the same output, which removes them and says so (a small mesh, to be quick).
+  const std::string small = dir_.file("small.vtu");
+  ASSERT_EQ(test::run_ugvr("generate -o " + small + " --cells 10000 --kind tet").status, 0);
+  const auto r = test::run_ugvr("build " + small + " -o " + out + " --out-of-core --memory 64MiB");
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("ugvr: removed " + out + ".cells"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("left by process " + std::to_string(pid) + ", which is no longer running"), std::string::npos)
       << r.out;
-  EXPECT_EQ(entries(dir_.file("")), (std::set<std::string>{"log", "out.ugvr"}));
+  EXPECT_EQ(entries(dir_.file("")), (std::set<std::string>{"log", "out.ugvr", "small.vtu"}));
 }
 
 }  // namespace
