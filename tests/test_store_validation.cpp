@@ -6,6 +6,7 @@
 #include <zlib.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -42,6 +43,7 @@ T get(const std::string& f, size_t at) {
   std::memcpy(&v, f.data() + at, sizeof v);
   return v;
 }
+void fs_remove(const std::string& path) { std::remove(path.c_str()); }
 uint32_t crc_of(const std::string& f, size_t at, size_t n) {
   return uint32_t(crc32(0, reinterpret_cast<const Bytef*>(f.data() + at), uInt(n)));
 }
@@ -257,6 +259,48 @@ TEST_F(StoreBlockValidation, BlockRangeOutsideItsNode) {
   reseal(f);
   const BlockRef b = BrickStoreReader(path_).block(7, 0);
   expect_block_refused(f, 7, 0, b.offset + offsetof(BlockRecord, lo), {"node 7", "outside the node's value range"});
+}
+
+// The attack as it was found, through the ugvr binary: a built store whose root block says qmax 0 (or whose field
+// range is [+inf, -inf]), checksums recomputed, rendered at a cut that draws the root: refused, exit 1, not rendered.
+TEST_F(StoreValidation, TheBinaryRefusesWhatOnceRendered) {
+  const std::string mesh = dir_.file("m.vtu"), store = dir_.file("s.ugvr"), png = dir_.file("out.png");
+  ASSERT_EQ(test::run_ugvr("generate -o " + mesh + " --cells 20000 --kind tet").status, 0);
+  ASSERT_EQ(test::run_ugvr("build " + mesh + " -o " + store + " --fields pressure").status, 0);
+  const std::string render = " -o " + png + " --size 64 --engine lod --cut error:10";
+  const auto good = test::run_ugvr("render " + store + render);
+  ASSERT_EQ(good.status, 0) << good.out;
+  std::string f = read_file(store);
+  table_ = get<uint64_t>(f, offsetof(HeaderRecord, node_table_offset));
+  rec_ = get<uint32_t>(f, offsetof(HeaderRecord, node_record_size));
+  const uint64_t block = get<uint64_t>(f, table_ + offsetof(NodeRecord, brick_offset));
+  const uint32_t size = get<uint32_t>(f, node_field(0, 0) + offsetof(NodeFieldRecord, block_size));
+  ASSERT_GT(get<uint32_t>(f, block + offsetof(BlockRecord, qmax)), 0u);
+  put(f, block + offsetof(BlockRecord, qmax), uint32_t(0));
+  put(f, node_field(0, 0) + offsetof(NodeFieldRecord, block_crc), crc_of(f, block, size));
+  reseal(f);
+  write_file(bad_, f);
+  fs_remove(png);
+  const auto r = test::run_ugvr("render " + bad_ + render);
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find(bad_ + ": byte " + std::to_string(block + offsetof(BlockRecord, qmax))), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("qmax inconsistent with the range"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("node 0, field 'pressure'"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::ifstream(png).good());
+  // The field range [+inf, -inf]: refused on opening, by `info` as by `render`.
+  f = read_file(store);
+  const size_t field0 = header_records_size(kBrickStoreVersion);
+  put(f, field0 + offsetof(FieldRecord, min), double(INFINITY));
+  put(f, field0 + offsetof(FieldRecord, max), double(-INFINITY));
+  reseal(f);
+  write_file(bad_, f);
+  for (const std::string& command : {"info " + bad_, "render " + bad_ + render}) {
+    const auto c = test::run_ugvr(command);
+    EXPECT_EQ(c.status, 1) << command << ": " << c.out;
+    EXPECT_NE(c.out.find(bad_ + ": byte " + std::to_string(field0)), std::string::npos) << c.out;
+    EXPECT_NE(c.out.find("not a finite range"), std::string::npos) << c.out;
+  }
 }
 
 }  // namespace
