@@ -15,6 +15,7 @@
 
 #include "test_data.h"
 #include "ugvr/core/error.h"
+#include "ugvr/store/brick_codec.h"
 #include "ugvr/store/brick_store.h"
 #include "ugvr/store/brick_store_format.h"
 
@@ -259,6 +260,36 @@ TEST_F(StoreBlockValidation, BlockRangeOutsideItsNode) {
   reseal(f);
   const BlockRef b = BrickStoreReader(path_).block(7, 0);
   expect_block_refused(f, 7, 0, b.offset + offsetof(BlockRecord, lo), {"node 7", "outside the node's value range"});
+}
+
+// A payload code above qmax (the encoder never writes one: the codes of lo and hi are 0 and qmax) is refused, not
+// clamped into a plausible value: with the checksum recomputed it is the only sign of a tampered payload.
+TEST(BlockPayloadValidation, CodeAboveQmaxIsRefused) {
+  const uint32_t r = 4;
+  std::vector<float> v(size_t(r) * r * r);
+  for (size_t s = 0; s < v.size(); ++s) v[s] = float(s % 10);
+  // No predictor, no shuffle, stored: the payload is the codes themselves, u16 each, after the 48-byte record.
+  const BrickEncoding plain{SampleEncoding::Quant16, Predictor::None, false, BrickCodec::Stored, 0};
+  const EncodedBlock b = encode_brick(plain, r, v.data(), nullptr, 0.01, 0.0);
+  const BlockHeader h = parse_block_header(b.bytes, r, "x.ugvr", 0);
+  ASSERT_EQ(h.codec, BrickCodec::Stored);
+  ASSERT_GT(h.qmax, 0u);
+  std::vector<float> out(v.size());
+  EXPECT_NO_THROW(decode_brick(b.bytes, r, out.data(), nullptr, "x.ugvr", 0));
+  for (const uint32_t code : {h.qmax + 1, 65535u}) {
+    std::vector<std::byte> bad = b.bytes;
+    const uint16_t c = uint16_t(code);
+    std::memcpy(bad.data() + sizeof(BlockRecord) + 2 * 7, &c, 2);
+    try {
+      decode_brick(bad, r, out.data(), nullptr, "x.ugvr", 1000);
+      ADD_FAILURE() << "decoded code " << code << " above qmax " << h.qmax;
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("x.ugvr: byte " + std::to_string(1000 + sizeof(BlockRecord))), std::string::npos) << what;
+      EXPECT_NE(what.find("code " + std::to_string(code) + ", above the block's largest code qmax"), std::string::npos)
+          << what;
+    }
+  }
 }
 
 // The attack as it was found, through the ugvr binary: a built store whose root block says qmax 0 (or whose field

@@ -209,9 +209,10 @@ void dispatch(Predictor p, bool shuffled, bool has_mask, F&& f) {
 // mod 2^16, (3) codes to floats. No prediction is clamped in such a row, so mod 2^16 arithmetic gives exactly the
 // codes of traverse() (valid samples only need p mod 2^16), with one add per sample left serial: 2-3x faster. Rows
 // with invalid samples run the scalar recurrence, which needs the exact prediction to clamp the fill.
+// Returns the largest code met: above qmax only in a payload that the encoder did not write.
 template <Predictor P, bool Shuffled>
-void decode_quant16(uint32_t r, const std::byte* bits, const std::byte* values, size_t valid, const Grid& grid,
-                    float* samples, Scratch& scratch) {
+uint16_t decode_quant16(uint32_t r, const std::byte* bits, const std::byte* values, size_t valid, const Grid& grid,
+                        float* samples, Scratch& scratch) {
   const int32_t qmax = grid.qmax;
   const uint16_t qcap = uint16_t(qmax);
   const double origin = grid.origin, base = double(grid.base), step = grid.step;
@@ -228,6 +229,7 @@ void decode_quant16(uint32_t r, const std::byte* bits, const std::byte* values, 
     return Shuffled ? uint16_t(bytes[k] | bytes[valid + k] << 8) : uint16_t(bytes[2 * k] | bytes[2 * k + 1] << 8);
   };
   size_t s = 0, k = 0;
+  uint16_t top = 0;
   for (uint32_t z = 0; z < r; ++z) {
     for (uint32_t y = 0; y < r; ++y, s += r) {
       uint16_t* row = cur + (y + 1) * w + 1;
@@ -275,13 +277,16 @@ void decode_quant16(uint32_t r, const std::byte* bits, const std::byte* values, 
         }
       }
       // The value depends on the grid index alone (no cap at the brick's hi), so that blocks on one grid agree. Codes
-      // above qmax come only from a corrupt payload: clamped, they still decode to finite floats.
+      // above qmax come only from a corrupt payload: clamped, they still decode to finite floats, and the caller
+      // refuses the block (a checksum recomputed over a tampered payload must not pass as data).
       for (uint32_t x = 0; x < r; ++x) {
+        top = std::max(top, row[x]);
         samples[s + x] = float(grid_value(origin, base + double(std::min(row[x], qcap)), step));
       }
     }
     std::swap(prev, cur);
   }
+  return top;
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -649,9 +654,15 @@ void decode_brick(std::span<const std::byte> block, uint32_t r, float* samples, 
   const bool quant = h.samples == SampleEncoding::Quant16;
   if (quant) {
     const Grid grid{h.origin, h.step, h.base, int32_t(h.qmax), false};
+    uint16_t top = 0;
     dispatch(h.predictor, h.shuffled, false, [&]<Predictor P, bool Shuffled, bool>() {
-      decode_quant16<P, Shuffled>(r, h.has_mask ? bits : nullptr, values, h.valid, grid, samples, scratch);
+      top = decode_quant16<P, Shuffled>(r, h.has_mask ? bits : nullptr, values, h.valid, grid, samples, scratch);
     });
+    if (top > h.qmax) {
+      fail_at_offset(file, offset + kBlockHeaderSize,
+                     "payload holds code " + std::to_string(top) + ", above the block's largest code qmax " +
+                         std::to_string(h.qmax));
+    }
   } else {
     dispatch(h.predictor, h.shuffled, h.has_mask, [&]<Predictor P, bool Shuffled, bool HasMask>() {
       size_t k = 0;
