@@ -5,8 +5,11 @@
 #include "cli/commands.h"
 #include "ugvr/core/error.h"
 #include "ugvr/core/progress.h"
+#include "ugvr/core/temp_files.h"
 
 int main(int argc, char** argv) {
+  // First, so that no temporary outlives an interrupted job (`view` blocks these signals and handles them itself).
+  ugvr::install_temp_cleanup_on_signals();
   CLI::App app{"ugvr: interactive direct volume rendering of large unstructured grids"};
   app.set_version_flag("--version", std::string("ugvr ") + UGVR_VERSION);
   app.require_subcommand(1);

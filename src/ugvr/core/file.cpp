@@ -110,6 +110,9 @@ std::string InputFile::read_all(uint64_t max_bytes) const {
 
 AtomicOutputFile::AtomicOutputFile(std::string path) : path_(std::move(path)) {
   temp_path_ = path_ + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(g_temp_counter++);
+  remove_stale_temporaries(path_);
+  // Registered before it exists, so that a signal from here on removes it.
+  registration_ = TempRegistration(temp_path_, false);
   fd_ = ::open(temp_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd_ < 0) fail_in(path_, std::string("cannot create temporary output: ") + std::strerror(errno));
   buffer_.reserve(kWriteBuffer);
@@ -118,6 +121,7 @@ AtomicOutputFile::AtomicOutputFile(std::string path) : path_(std::move(path)) {
 AtomicOutputFile::~AtomicOutputFile() {
   if (fd_ >= 0) ::close(fd_);
   if (!committed_) ::unlink(temp_path_.c_str());
+  registration_.release();
 }
 
 void AtomicOutputFile::flush_buffer() {
@@ -159,6 +163,7 @@ void AtomicOutputFile::commit() {
     fail_in(path_, std::string("cannot rename temporary output into place: ") + std::strerror(errno));
   }
   committed_ = true;
+  registration_.release();
 }
 
 }  // namespace ugvr

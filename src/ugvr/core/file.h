@@ -2,7 +2,9 @@
 //  - InputFile: positional reads (pread) that fail with the file name and offset on a short read, so a truncated
 //    file is reported where it ends instead of yielding garbage. Safe to share between threads.
 //  - AtomicOutputFile: writes to "<path>.tmp-<pid>-<n>" and renames over <path> only on commit(), so an interrupted
-//    or failed write never leaves a file that looks complete; the temporary is removed if commit() is never reached.
+//    or failed write never leaves a file that looks complete; the temporary is removed if commit() is never reached,
+//    by the signal handler on SIGINT / SIGTERM / SIGHUP (core/temp_files.h), and, after a SIGKILL, by the next
+//    AtomicOutputFile of the same path (the stale temporaries of dead processes are removed when one is opened).
 #pragma once
 
 #include <cstddef>
@@ -10,6 +12,8 @@
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "ugvr/core/temp_files.h"
 
 namespace ugvr {
 
@@ -65,6 +69,7 @@ class AtomicOutputFile {
   uint64_t position_ = 0;
   std::vector<char> buffer_;
   bool committed_ = false;
+  TempRegistration registration_;  // the temporary, for the signal handler
 };
 
 // Writes all n bytes at offset of an open descriptor (retrying short writes and EINTR); throws ugvr::Error naming

@@ -18,6 +18,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/progress.h"
+#include "ugvr/core/temp_files.h"
 #include "ugvr/grid/cell_interpolation.h"
 #include "ugvr/octree/build_parts.h"
 #include "ugvr/octree/cell_box_overlap.h"
@@ -34,19 +35,6 @@ namespace {
 double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
-
-// Removes the build's temporary directory however the build ends.
-struct TempDir {
-  std::filesystem::path path;
-  explicit TempDir(std::filesystem::path p) : path(std::move(p)) {
-    std::filesystem::remove_all(path);
-    std::filesystem::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path, ec);
-  }
-};
 
 // Per-thread scratch: the split test's table, the sampler's, and a one-cell mesh for the flatness test.
 struct Scratch {
@@ -533,10 +521,13 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   const auto start = std::chrono::steady_clock::now();
   std::optional<tbb::global_control> threads;
   if (options.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(options.threads));
-  const TempDir temp(path + ".cells-" + std::to_string(::getpid()));
+  // "<path>.cells": one predictable name; removed however the build ends, on SIGINT / SIGTERM too, and, after a
+  // SIGKILL, by the next build of the same output (core/temp_files.h).
+  const ScratchFolder scratch(path);
+  const std::filesystem::path temp_path(scratch.path());
 
   VtuCellSource source(vtu_path, selectors);
-  const std::string root_file = (temp.path / "root").string();
+  const std::string root_file = (temp_path / "root").string();
   uint64_t cells = 0;
   {
     // Points and vertex scalars are held while the cells are written: half of the budget beyond the program's own,
@@ -545,7 +536,7 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
     const uint64_t point_budget = std::max((memory_budget > base ? memory_budget - base : 0) / 2, uint64_t(1) << 20);
     Progress progress("cells to disk", source.file_cell_count(), options.progress);
     SoupWriter soup(root_file, source.layout());
-    cells = source.write_soup(soup, point_budget, temp.path.string(), &progress);
+    cells = source.write_soup(soup, point_budget, temp_path.string(), &progress);
     soup.close();
   }
   const Bounds data_bounds = source.bounds();
@@ -576,7 +567,7 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   std::vector<OctreeNode> nodes;
   {
     Progress progress("bricks", OutOfCoreBuild::kVolumeUnits, options.progress);
-    OutOfCoreBuild build(options, source, lattice, writer, temp.path, preload, progress);
+    OutOfCoreBuild build(options, source, lattice, writer, temp_path, preload, progress);
     build.process(0, root_file);
     nodes = build.nodes();
     stats.leaf_samples = build.leaf_samples();

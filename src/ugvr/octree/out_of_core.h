@@ -24,7 +24,9 @@
 // once per piece with that piece's cells, keeping the samples inside the piece, which gives its samples bit for bit
 // for about the work of sampling it whole; its error is then measured at the data points streamed from
 // its file (the max as in core, the rms weighing shared points by their cells). Disk: the soup (96 bytes per
-// tetrahedron with one scalar) and the files of the pending nodes, about twice the soup at most, next to the output.
+// tetrahedron with one scalar) and the files of the pending nodes, about twice the soup at most, next to the output,
+// in the scratch folder "<path>.cells" (core/temp_files.h: removed on error, SIGINT and SIGTERM, and after a SIGKILL
+// by the next build of the same output).
 #pragma once
 
 #include <cstdint>

@@ -209,9 +209,10 @@ void dispatch(Predictor p, bool shuffled, bool has_mask, F&& f) {
 // mod 2^16, (3) codes to floats. No prediction is clamped in such a row, so mod 2^16 arithmetic gives exactly the
 // codes of traverse() (valid samples only need p mod 2^16), with one add per sample left serial: 2-3x faster. Rows
 // with invalid samples run the scalar recurrence, which needs the exact prediction to clamp the fill.
+// Returns the largest code met: above qmax only in a payload that the encoder did not write.
 template <Predictor P, bool Shuffled>
-void decode_quant16(uint32_t r, const std::byte* bits, const std::byte* values, size_t valid, const Grid& grid,
-                    float* samples, Scratch& scratch) {
+uint16_t decode_quant16(uint32_t r, const std::byte* bits, const std::byte* values, size_t valid, const Grid& grid,
+                        float* samples, Scratch& scratch) {
   const int32_t qmax = grid.qmax;
   const uint16_t qcap = uint16_t(qmax);
   const double origin = grid.origin, base = double(grid.base), step = grid.step;
@@ -228,6 +229,7 @@ void decode_quant16(uint32_t r, const std::byte* bits, const std::byte* values, 
     return Shuffled ? uint16_t(bytes[k] | bytes[valid + k] << 8) : uint16_t(bytes[2 * k] | bytes[2 * k + 1] << 8);
   };
   size_t s = 0, k = 0;
+  uint16_t top = 0;
   for (uint32_t z = 0; z < r; ++z) {
     for (uint32_t y = 0; y < r; ++y, s += r) {
       uint16_t* row = cur + (y + 1) * w + 1;
@@ -275,13 +277,16 @@ void decode_quant16(uint32_t r, const std::byte* bits, const std::byte* values, 
         }
       }
       // The value depends on the grid index alone (no cap at the brick's hi), so that blocks on one grid agree. Codes
-      // above qmax come only from a corrupt payload: clamped, they still decode to finite floats.
+      // above qmax come only from a corrupt payload: clamped, they still decode to finite floats, and the caller
+      // refuses the block (a checksum recomputed over a tampered payload must not pass as data).
       for (uint32_t x = 0; x < r; ++x) {
+        top = std::max(top, row[x]);
         samples[s + x] = float(grid_value(origin, base + double(std::min(row[x], qcap)), step));
       }
     }
     std::swap(prev, cur);
   }
+  return top;
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -575,6 +580,30 @@ BlockHeader parse_block_header(std::span<const std::byte> block, uint32_t r, std
           file, at(offsetof(BlockRecord, base)),
           "quantization grid decodes to [" + std::to_string(first) + ", " + std::to_string(last) + "], beyond float32");
     }
+    // The encoder gives lo code 0 and hi code qmax (choose_grid, with grid_index's arithmetic), so a grid that does
+    // not map [lo, hi] onto [0, qmax] cannot come from it: with qmax too small every sample would be clamped to a
+    // few codes and decode to values the brick never had. A grid of step 0 is a constant brick's (lo = hi = origin).
+    if (h.step > 0) {
+      const double inv = 1.0 / h.step;
+      // Far-off indices (beyond 2^53, where llround is undefined) are reported as such rather than computed.
+      auto code_of = [&](float v) {
+        const double i = (double(v) - h.origin) * inv;
+        return std::abs(i) <= 2 * kMaxGridIndex ? grid_index(v, h.origin, inv) - h.base
+                                                : std::numeric_limits<int64_t>::min();
+      };
+      const int64_t lo_code = code_of(h.lo), hi_code = code_of(h.hi);
+      if (lo_code != 0 || hi_code != int64_t(h.qmax)) {
+        fail_at_offset(file, at(offsetof(BlockRecord, qmax)),
+                       "quantization grid maps the brick's range [" + std::to_string(h.lo) + ", " +
+                           std::to_string(h.hi) + "] to codes [" + std::to_string(lo_code) + ", " +
+                           std::to_string(hi_code) + "], not [0, " + std::to_string(h.qmax) +
+                           "] (largest code qmax inconsistent with the range)");
+      }
+    } else if (h.qmax != 0 || h.lo != h.hi || float(h.origin) != h.lo) {
+      fail_at_offset(file, at(offsetof(BlockRecord, step)),
+                     "quantization step 0 for the range [" + std::to_string(h.lo) + ", " + std::to_string(h.hi) +
+                         "] with origin " + std::to_string(h.origin) + ": only a constant brick has no step");
+    }
   } else if (h.qmax != 0 || h.base != 0 || h.origin != 0 || h.step != 0) {
     fail_at_offset(file, at(offsetof(BlockRecord, qmax)), "float32 block with quantization grid fields");
   }
@@ -625,9 +654,15 @@ void decode_brick(std::span<const std::byte> block, uint32_t r, float* samples, 
   const bool quant = h.samples == SampleEncoding::Quant16;
   if (quant) {
     const Grid grid{h.origin, h.step, h.base, int32_t(h.qmax), false};
+    uint16_t top = 0;
     dispatch(h.predictor, h.shuffled, false, [&]<Predictor P, bool Shuffled, bool>() {
-      decode_quant16<P, Shuffled>(r, h.has_mask ? bits : nullptr, values, h.valid, grid, samples, scratch);
+      top = decode_quant16<P, Shuffled>(r, h.has_mask ? bits : nullptr, values, h.valid, grid, samples, scratch);
     });
+    if (top > h.qmax) {
+      fail_at_offset(file, offset + kBlockHeaderSize,
+                     "payload holds code " + std::to_string(top) + ", above the block's largest code qmax " +
+                         std::to_string(h.qmax));
+    }
   } else {
     dispatch(h.predictor, h.shuffled, h.has_mask, [&]<Predictor P, bool Shuffled, bool HasMask>() {
       size_t k = 0;

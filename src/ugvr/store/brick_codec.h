@@ -29,13 +29,13 @@
 // of a store field, see store/brick_store.h) decode equal input samples to bit-identical values, whatever their own
 // range. |v' - v| <= step / 2 plus half a float32 ulp of v (and double rounding, ~1e-16 relative). Decoded values lie
 // in [v'(0), v'(qmax)], which may reach step / 2 beyond [lo, hi]: there is no cap at hi, as a cap would depend on the
-// block and break the identity. A reader clamps codes to qmax, so that a corrupt payload still decodes within that
-// range. p is computed on codes in exact integers; residual = zigzag16((q - p) mod 2^16) (None: q itself); an invalid
-// sample takes clamp(p, 0, qmax).
-// Float32 (lossless, bit exact): p is computed in float32; pc = clamp(p, lo, hi) (NaN -> lo); residual =
-// zigzag32((ord(v) - ord(pc)) mod 2^32), ord mapping a float's bits to an unsigned integer of the same order so that
-// nearby values give small residuals (None: the float's bits); an invalid sample takes pc.
-// zigzag maps 0, -1, 1, -2, ... (the difference read as signed) to 0, 1, 2, 3, ...
+// block and break the identity. A code above qmax occurs only in a corrupt payload: the reader clamps it while
+// decoding (so the output stays within that range) and then refuses the block. p is computed on codes in exact
+// integers; residual = zigzag16((q - p) mod 2^16) (None: q itself); an invalid sample takes clamp(p, 0, qmax). Float32
+// (lossless, bit exact): p is computed in float32; pc = clamp(p, lo, hi) (NaN -> lo); residual = zigzag32((ord(v) -
+// ord(pc)) mod 2^32), ord mapping a float's bits to an unsigned integer of the same order so that nearby values give
+// small residuals (None: the float's bits); an invalid sample takes pc. zigzag maps 0, -1, 1, -2, ... (the difference
+// read as signed) to 0, 1, 2, 3, ...
 #pragma once
 
 #include <cstddef>

@@ -545,6 +545,34 @@ std::vector<std::byte> BrickStoreReader::read_header() {
   if (l.root.empty() || !(l.root.size().x > 0 && l.root.size().y > 0 && l.root.size().z > 0)) {
     fail_at_offset(name, offsetof(HeaderRecord, root_lo), "empty octree root cell");
   }
+  // What the writer refuses to write, refused here too: a header with its checksum recomputed must not get a value
+  // past the reader that the format cannot hold (an infinite root cell divides into NaN node boxes, a bad tolerance
+  // into a wrong error bound).
+  for (int a = 0; a < 3; ++a) {
+    if (!std::isfinite(h.root_lo[a]) || !std::isfinite(h.root_hi[a])) {
+      fail_at_offset(name, offsetof(HeaderRecord, root_lo) + 8 * a + (std::isfinite(h.root_lo[a]) ? 24 : 0),
+                     "octree root cell [" + std::to_string(h.root_lo[a]) + ", " + std::to_string(h.root_hi[a]) +
+                         "] on axis " + std::to_string(a) + " is not finite");
+    }
+  }
+  // The dataset's bounds: a finite box, or the empty box (+inf, -inf) of a writer that was given none.
+  const bool data_unset =
+      std::all_of(std::begin(h.data_lo), std::end(h.data_lo), [](double v) { return v == INFINITY; }) &&
+      std::all_of(std::begin(h.data_hi), std::end(h.data_hi), [](double v) { return v == -INFINITY; });
+  for (int a = 0; a < 3 && !data_unset; ++a) {
+    if (!std::isfinite(h.data_lo[a]) || !std::isfinite(h.data_hi[a]) || !(h.data_lo[a] <= h.data_hi[a])) {
+      fail_at_offset(name, offsetof(HeaderRecord, data_lo) + 8 * a,
+                     "dataset bounds [" + std::to_string(h.data_lo[a]) + ", " + std::to_string(h.data_hi[a]) +
+                         "] on axis " + std::to_string(a) + " are not a finite range with min <= max");
+    }
+  }
+  const bool float32 = h.samples == uint8_t(SampleEncoding::Float32);
+  if (!std::isfinite(h.tolerance) ||
+      (float32 ? h.tolerance != 0 : !(h.tolerance == 0 || h.tolerance >= kQuant16Tolerance))) {
+    fail_at_offset(name, offsetof(HeaderRecord, tolerance),
+                   "tolerance " + std::to_string(h.tolerance) +
+                       (float32 ? " in a float32 store (0 expected)" : " outside {0} and [1/131070, inf)"));
+  }
   return bytes;
 }
 
@@ -561,6 +589,11 @@ void BrickStoreReader::read_field_records(std::span<const std::byte> bytes) {
     BrickStoreField field;
     field.min = r.min;
     field.max = r.max;
+    if (!std::isfinite(r.min) || !std::isfinite(r.max) || !(r.min <= r.max)) {
+      fail_at_offset(name, at + offsetof(FieldRecord, min),
+                     "field record " + std::to_string(f) + ": range [" + std::to_string(r.min) + ", " +
+                         std::to_string(r.max) + "] is not a finite range with min <= max");
+    }
     if (r.association > 1) {
       fail_at_offset(name, at + offsetof(FieldRecord, association),
                      "unknown field association " + std::to_string(r.association));
@@ -651,6 +684,7 @@ void BrickStoreReader::check_nodes() {
                      "node " + std::to_string(id) + ": valid fraction " + std::to_string(n.valid_fraction) +
                          (n.has_brick() ? " with a brick" : " without a brick"));
     }
+    for (uint32_t f = 0; f < nf; ++f) check_node_stats(id, f);
     uint64_t offset = n.brick_offset;
     for (uint32_t f = 0; f < nf; ++f) {
       BlockRef& b = blocks_[id * nf + f];
@@ -669,6 +703,41 @@ void BrickStoreReader::check_nodes() {
       }
       b.offset = offset;
       offset += b.size;
+    }
+  }
+}
+
+// A node's value range and errors for one field, as the writer makes them: a finite range with min <= max, or
+// (+inf, -inf) where the subtree has no data (never for a node with a brick), containing each child's range (culling
+// a node by value range culls its subtree); errors finite and >= 0. Children come after their parent, so checking
+// each node against its parent covers the tree.
+void BrickStoreReader::check_node_stats(uint64_t id, uint32_t f) const {
+  const uint32_t nf = field_count();
+  const FieldStats& s = stats_[id * nf + f];
+  const uint64_t at = record_offset(id) + node_field_offset(f);
+  auto where = [&] { return "node " + std::to_string(id) + " field '" + layout_.fields[f].name + "': "; };
+  auto range = [](const FieldStats& r) { return "[" + std::to_string(r.min) + ", " + std::to_string(r.max) + "]"; };
+  const bool no_data = s.min == INFINITY && s.max == -INFINITY;
+  if (!(no_data || (std::isfinite(s.min) && std::isfinite(s.max) && s.min <= s.max))) {
+    fail_at_offset(file_.path(), at + offsetof(NodeFieldRecord, min),
+                   where() + "value range " + range(s) + " is neither a finite range with min <= max nor (inf, -inf)");
+  }
+  if (no_data && nodes_[id].has_brick()) {
+    fail_at_offset(file_.path(), at + offsetof(NodeFieldRecord, min),
+                   where() + "value range (inf, -inf) says no data, but the node has a brick");
+  }
+  if (!(std::isfinite(s.error_max) && s.error_max >= 0 && std::isfinite(s.error_rms) && s.error_rms >= 0)) {
+    fail_at_offset(file_.path(), at + offsetof(NodeFieldRecord, error_max),
+                   where() + "errors (max " + std::to_string(s.error_max) + ", rms " + std::to_string(s.error_rms) +
+                       ") are not finite and >= 0");
+  }
+  if (id > 0 && !no_data) {
+    const uint64_t parent = nodes_[id].parent;  // check_tree: parent < id
+    const FieldStats& p = stats_[parent * nf + f];
+    if (!(p.min <= s.min && s.max <= p.max)) {
+      fail_at_offset(file_.path(), at + offsetof(NodeFieldRecord, min),
+                     where() + "value range " + range(s) + " is not inside its parent node " + std::to_string(parent) +
+                         "'s " + range(p));
     }
   }
 }
@@ -728,6 +797,16 @@ void BrickStoreReader::decode_block(uint64_t node, uint32_t field, std::span<con
                                     uint8_t* mask) const {
   const BlockRef b = this->block(node, field);
   try {
+    // The block's range against its node's (which the writer made to contain it): a block that claims values its
+    // node's range excludes would be culled wrongly or rendered out of range.
+    const BlockHeader h = parse_block_header(block, layout_.resolution, path(), b.offset);
+    const FieldStats& s = stats_[node * field_count() + field];
+    if (!(s.min <= h.lo && h.hi <= s.max)) {
+      fail_at_offset(path(), b.offset + offsetof(store_format::BlockRecord, lo),
+                     "brick range [" + std::to_string(h.lo) + ", " + std::to_string(h.hi) +
+                         "] outside the node's value range [" + std::to_string(s.min) + ", " + std::to_string(s.max) +
+                         "]");
+    }
     decode_brick(block, layout_.resolution, samples, mask, path(), b.offset);
   } catch (const Error& e) {
     throw Error(std::string(e.what()) + " (node " + std::to_string(node) + ", field '" + layout_.fields[field].name +

@@ -225,6 +225,7 @@ class BrickStoreReader {
   void read_provenance();
   void read_tf_errors();
   void check_nodes();
+  void check_node_stats(uint64_t id, uint32_t f) const;
   void check_node_field(uint64_t node, uint32_t field) const;
 
   InputFile file_;
