@@ -21,6 +21,7 @@
 #include "ugvr/io/codec.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/vtu_writer.h"
+#include "ugvr/octree/vtu_cells.h"
 
 namespace ugvr {
 namespace {
@@ -338,6 +339,27 @@ TEST(HostileReaders, PvtuPieceCountAndSizeAreCappedBeforeReading) {
   if (ec) GTEST_SKIP() << "this file system cannot hold a sparse 4 TiB file: " << ec.message();
   write_file(dir.file("size.pvtu"), pvtu_listing({"p0.vtu", "huge.vtu"}));
   expect_refused(dir.file("size.pvtu"), {"2 piece files add up to", "memory budget"});
+}
+
+// The out-of-core builder's own .vtu parser (octree/vtu_cells.h) refuses repeated elements as the reader does.
+TEST(HostileReaders, OutOfCoreVtuDuplicatedElementsAreRefused) {
+  ScratchDir dir;
+  const std::string good = dir.file("good.vtu");
+  write_file(good, hex_vtu());
+  const std::vector<std::string> field = {"t"};
+  EXPECT_EQ(VtuCellSource(good, field).file_cell_count(), 1u);
+  const std::string points2 =
+      "<Points><DataArray type=\"Float32\" NumberOfComponents=\"3\" format=\"ascii\">"
+      "9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9 9</DataArray></Points>\n";
+  const std::string point_data2 =
+      "<PointData><DataArray type=\"Float32\" Name=\"u\" format=\"ascii\">0 0 0 0 0 0 0 0 0</DataArray></PointData>\n";
+  for (const std::string& extra : {points2, point_data2}) {
+    const std::string bad = dir.file("bad.vtu");
+    write_file(bad, hex_vtu(extra));
+    const std::string e = error_of([&] { VtuCellSource source(bad, field); });
+    EXPECT_NE(e.find("bad.vtu"), std::string::npos) << e;
+    EXPECT_NE(e.find("<" + extra.substr(1, extra.find('>') - 1) + ">"), std::string::npos) << e;
+  }
 }
 
 }  // namespace

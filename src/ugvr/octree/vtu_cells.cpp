@@ -75,7 +75,7 @@ struct VtuCellSource::Markup {
   [[noreturn]] void fail(pugi::xml_node n, const std::string& message) const { xml->fail(n, message); }
   uint64_t count(pugi::xml_node n, const char* name) const { return vtk_xml::count_attribute(*xml, n, name); }
   XmlArray required(pugi::xml_node parent, std::string_view name, const std::string& label) const {
-    const pugi::xml_node n = vtk_xml::data_array(parent, name);
+    const pugi::xml_node n = vtk_xml::single_data_array(*xml, parent, name);
     if (!n) fail(piece, label + " is missing");
     return vtk_xml::required_array(*xml, n, label);
   }
@@ -90,24 +90,27 @@ VtuCellSource::VtuCellSource(std::string path, std::span<const std::string> sele
   if (m.xml->type != "UnstructuredGrid") {
     fail_in(path_, "not a VTK XML UnstructuredGrid (.vtu) file: the out-of-core build reads only those");
   }
-  const pugi::xml_node grid = root.child("UnstructuredGrid");
+  // Repeated elements are refused as the in-core reader refuses them (a second <Points> would otherwise be ignored).
+  const pugi::xml_node grid = vtk_xml::single_child(*m.xml, root, "UnstructuredGrid");
   int pieces = 0;
   for (pugi::xml_node p : grid.children("Piece")) m.piece = p, ++pieces;
   if (pieces != 1) fail_in(path_, "has " + std::to_string(pieces) + " pieces; the out-of-core build reads one");
   const uint64_t points = m.count(m.piece, "NumberOfPoints");
   cells_ = m.count(m.piece, "NumberOfCells");
   if (points > UINT32_MAX) m.fail(m.piece, "more than 2^32-1 points");
-  m.points = m.required(m.piece.child("Points"), {}, "<Points> DataArray");
+  m.points = m.required(vtk_xml::single_child(*m.xml, m.piece, "Points"), {}, "<Points> DataArray");
   if (m.points->components != 3) m.fail(m.piece, "<Points> DataArray must have 3 components");
-  const pugi::xml_node cells = m.piece.child("Cells");
+  const pugi::xml_node cells = vtk_xml::single_child(*m.xml, m.piece, "Cells");
   m.connectivity = m.required(cells, "connectivity", "<Cells> DataArray 'connectivity'");
   m.offsets = m.required(cells, "offsets", "<Cells> DataArray 'offsets'");
   m.types = m.required(cells, "types", "<Cells> DataArray 'types'");
 
   // The fields, as FieldSet::scalar resolves selectors: an exact name, else NAME:COMPONENT; vertex fields first.
   std::vector<std::pair<pugi::xml_node, Association>> arrays;
-  for (pugi::xml_node n : m.piece.child("PointData").children("DataArray")) arrays.push_back({n, Association::Vertex});
-  for (pugi::xml_node n : m.piece.child("CellData").children("DataArray")) arrays.push_back({n, Association::Cell});
+  for (pugi::xml_node n : vtk_xml::single_child(*m.xml, m.piece, "PointData").children("DataArray"))
+    arrays.push_back({n, Association::Vertex});
+  for (pugi::xml_node n : vtk_xml::single_child(*m.xml, m.piece, "CellData").children("DataArray"))
+    arrays.push_back({n, Association::Cell});
   auto find = [&](std::string_view name) -> const std::pair<pugi::xml_node, Association>* {
     for (const auto& a : arrays)
       if (name == a.first.attribute("Name").value()) return &a;
