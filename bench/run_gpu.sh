@@ -42,6 +42,14 @@ else
   lod_sizes="$size 2048" frames=10 tc_frames=300 rest=30 moves=120 errors="0.01 0"
 fi
 
+# dataset NAME: sets `field` and `inputs` (the PLOT3D grid and solution) of blunt-fin or lox-post.
+dataset() {
+  case $1 in
+    blunt-fin) field=Density inputs=("$UGVR_DATA/blunt-fin/bluntfinxyz.bin" "$UGVR_DATA/blunt-fin/bluntfinq.bin") ;;
+    lox-post) field=StagnationEnergy inputs=("$UGVR_DATA/lox-post/postxyz.bin" "$UGVR_DATA/lox-post/postq.bin") ;;
+  esac
+}
+
 sections=" ${SECTIONS:-lod exact exact-gpu time-critical view} "
 want() { [[ $sections == *" $1 "* ]]; }
 
@@ -59,10 +67,7 @@ fi
 if want exact; then
 echo "== exact engine, all cores ($(nproc))"
 for name in blunt-fin lox-post; do
-  case $name in
-    blunt-fin) field=Density inputs=("$UGVR_DATA/blunt-fin/bluntfinxyz.bin" "$UGVR_DATA/blunt-fin/bluntfinq.bin") ;;
-    lox-post) field=StagnationEnergy inputs=("$UGVR_DATA/lox-post/postxyz.bin" "$UGVR_DATA/lox-post/postq.bin") ;;
-  esac
+  dataset "$name"
   "$UGVR" --quiet render "${inputs[@]}" --field "$field" --camera "bench/results/exact-render/$name-camera.json" \
     --tf "bench/results/exact-render/$name-tf.json" --size "$size" --frames $((frames / 2 + 1)) \
     -o "$scratch/exact.png" --stats "$scratch/exact.json"
@@ -80,10 +85,7 @@ exact_line() {
 if want exact-gpu; then
 echo "== exact engine on the GPU vs the CPU"
 for name in blunt-fin lox-post; do
-  case $name in
-    blunt-fin) field=Density inputs=("$UGVR_DATA/blunt-fin/bluntfinxyz.bin" "$UGVR_DATA/blunt-fin/bluntfinq.bin") ;;
-    lox-post) field=StagnationEnergy inputs=("$UGVR_DATA/lox-post/postxyz.bin" "$UGVR_DATA/lox-post/postq.bin") ;;
-  esac
+  dataset "$name"
   for run in cpu gpu-double gpu-float; do
     dev=${run%%-*} prec=${run#*-}; [ "$prec" = cpu ] && prec=double
     "$UGVR" --quiet render "${inputs[@]}" --field "$field" --camera "bench/results/exact-render/$name-camera.json" \

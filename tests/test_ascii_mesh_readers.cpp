@@ -20,14 +20,7 @@ std::string write_file(const test::ScratchDir& dir, const std::string& name, con
   return path;
 }
 
-std::string error_of(const std::function<Dataset()>& read) {
-  try {
-    read();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using test::error_of;
 
 const UnstructuredMesh& mesh_of(const Dataset& d) { return std::get<UnstructuredMesh>(d.blocks.at(0).grid); }
 

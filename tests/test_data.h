@@ -9,9 +9,22 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <string>
 
+#include "ugvr/core/error.h"
+
 namespace ugvr::test {
+
+// The message of the ugvr::Error that f throws, or "(no error)".
+inline std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
 
 inline std::string data_dir() {
   if (const char* env = std::getenv("UGVR_DATA"); env && *env) return env;

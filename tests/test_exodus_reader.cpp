@@ -29,14 +29,7 @@ uint64_t inverted_cells(const UnstructuredMesh& m) {
   return n;
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using test::error_of;
 
 // ---- Real files ----
 

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 
+#include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/render_settings.h"
@@ -17,14 +18,7 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180;
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using test::error_of;
 
 Bounds box(Vec3d lo, Vec3d hi) {
   Bounds b;

@@ -19,14 +19,7 @@ std::string write_file(const test::ScratchDir& dir, const std::string& name, con
   return path;
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using test::error_of;
 
 TEST(TextTokenizer, TokensLinesAndPeek) {
   test::ScratchDir dir;

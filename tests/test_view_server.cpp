@@ -533,25 +533,34 @@ TEST(ViewServer, SendsAContentSecurityPolicyAndLimitsTabs) {
   EXPECT_THROW(Client(server->port()), beast::system_error) << "a third tab past max_sessions = 2";
 }
 
+// Holds a viewer's background build (ViewServerOptions::before_build) until open(), so that what each phase shows is
+// checked, not raced. Opened on every way out (a failed assertion returns early), as the server's destructor waits
+// for the build: declare the gate after the server, so that it opens first.
+class BuildGate {
+ public:
+  std::function<void()> hold() const {
+    return [f = future_] { f.wait(); };
+  }
+  void open() {
+    if (!opened_) promise_.set_value();
+    opened_ = true;
+  }
+  ~BuildGate() { open(); }
+
+ private:
+  std::promise<void> promise_;
+  std::shared_future<void> future_ = promise_.get_future().share();
+  bool opened_ = false;
+};
+
 // `ugvr view MESH`: the exact engine shows the grid while its store is built in the background, then every tab moves
 // to the store with the view it had.
 TEST(ViewServer, ShowsAGridWithTheExactEngineWhileItsStoreIsBuilt) {
   const std::filesystem::path store = shared().dir / "built-in-background.ugvr";
   std::filesystem::remove(store);
   // The build waits until the test has seen an exact frame, so what each phase shows is checked, not raced.
-  auto gate = std::make_shared<std::promise<void>>();
-  std::shared_future<void> open = gate->get_future().share();
-  std::unique_ptr<ViewServer> server;  // before the guard below, so that it is destroyed after the gate opens
-  bool opened = false;
-  const auto open_gate = [&] {
-    if (!opened) gate->set_value();
-    opened = true;
-  };
-  // Opened on every way out (a failed assertion returns early): the server's destructor waits for the build.
-  struct OpenAtExit {
-    std::function<void()> f;
-    ~OpenAtExit() { f(); }
-  } open_at_exit{open_gate};
+  std::unique_ptr<ViewServer> server;  // before the gate, so that it is destroyed after the gate opens
+  BuildGate gate;
   {
     ViewServerOptions o;
     o.store = store.string();
@@ -559,11 +568,11 @@ TEST(ViewServer, ShowsAGridWithTheExactEngineWhileItsStoreIsBuilt) {
     o.fields = {"wave"};
     o.build = small_build();
     o.fps = 30;
-    o.before_build = [open] { open.wait(); };
+    o.before_build = gate.hold();
     try {
       server = std::make_unique<ViewServer>(o);
     } catch (const Error& e) {
-      open_gate();
+      gate.open();
       if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
       FAIL() << "cannot start the server: " << e.what();
     }
@@ -584,7 +593,7 @@ TEST(ViewServer, ShowsAGridWithTheExactEngineWhileItsStoreIsBuilt) {
   EXPECT_TRUE(is_png(still.bytes));
   EXPECT_FALSE(std::filesystem::exists(store)) << "the build was held";
 
-  open_gate();
+  gate.open();
   // Progress ("ready"), then the store's scene; the next frames come from the store, for the same request.
   bool ready = false;
   const std::optional<json> scene = read_text_until(c, [&](const json& j) {
@@ -614,18 +623,8 @@ TEST(ViewServer, EachTabSwitchesBetweenTheExactAndTheLodEngine) {
     const std::filesystem::path store = shared().dir / (free_grid ? "switch-freed.ugvr" : "switch-kept.ugvr");
     std::filesystem::remove(store);
     // The build waits until the test has tried the level-of-detail engine too early.
-    auto gate = std::make_shared<std::promise<void>>();
-    std::shared_future<void> open = gate->get_future().share();
-    std::unique_ptr<ViewServer> server;  // before the guard below, so that it is destroyed after the gate opens
-    bool opened = false;
-    const auto open_gate = [&] {
-      if (!opened) gate->set_value();
-      opened = true;
-    };
-    struct OpenAtExit {
-      std::function<void()> f;
-      ~OpenAtExit() { f(); }
-    } open_at_exit{open_gate};
+    std::unique_ptr<ViewServer> server;  // before the gate, so that it is destroyed after the gate opens
+    BuildGate gate;
     {
       ViewServerOptions o;
       o.store = store.string();
@@ -634,11 +633,11 @@ TEST(ViewServer, EachTabSwitchesBetweenTheExactAndTheLodEngine) {
       o.build = small_build();
       o.fps = 30;
       o.free_grid = free_grid;
-      o.before_build = [open] { open.wait(); };
+      o.before_build = gate.hold();
       try {
         server = std::make_unique<ViewServer>(o);
       } catch (const Error& e) {
-        open_gate();
+        gate.open();
         if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
         FAIL() << "cannot start the server: " << e.what();
       }
@@ -661,7 +660,7 @@ TEST(ViewServer, EachTabSwitchesBetweenTheExactAndTheLodEngine) {
     a.send(R"({"type":"engine","engine":"exact"})");  // request 2: the one there is
     EXPECT_EQ((*read_until_converged(a, 2).status)["engine"], "exact");
 
-    open_gate();
+    gate.open();
     const std::optional<json> scene = read_text_until(a, [](const json& j) { return j["type"] == "scene"; });
     ASSERT_TRUE(scene) << "no new scene after the build";
     EXPECT_EQ((*scene)["engine"], "lod");

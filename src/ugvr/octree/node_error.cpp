@@ -54,9 +54,15 @@ store_format::TfErrorEntry make_tf_error_entry(const ErrorHistogram& h, double f
   return e;
 }
 
-bool interpolate_brick(const BrickSamples& brick, Vec3d u, double* out) {
-  const uint32_t R = brick.resolution;
-  const size_t n = size_t(R) * R * R;
+namespace {
+
+// The 8 samples around brick coordinate u (clamped into the brick) and their trilinear weights.
+struct TrilinearStencil {
+  size_t corner[8];
+  double weight[8];
+};
+
+TrilinearStencil trilinear_stencil(uint32_t R, Vec3d u) {
   uint32_t i0[3];
   double t[3];
   for (int a = 0; a < 3; ++a) {
@@ -64,51 +70,46 @@ bool interpolate_brick(const BrickSamples& brick, Vec3d u, double* out) {
     i0[a] = std::min(uint32_t(c), R - 2);
     t[a] = c - double(i0[a]);
   }
-  size_t corner[8];
-  double weight[8];
-  bool any = false;
+  TrilinearStencil st;
   for (int q = 0; q < 8; ++q) {
     const uint32_t dx = q & 1, dy = (q >> 1) & 1, dz = (q >> 2) & 1;
-    corner[q] = (i0[0] + dx) + size_t(R) * ((i0[1] + dy) + size_t(R) * (i0[2] + dz));
-    weight[q] = (dx ? t[0] : 1 - t[0]) * (dy ? t[1] : 1 - t[1]) * (dz ? t[2] : 1 - t[2]);
-    any = any || brick.mask[corner[q]];
+    st.corner[q] = (i0[0] + dx) + size_t(R) * ((i0[1] + dy) + size_t(R) * (i0[2] + dz));
+    st.weight[q] = (dx ? t[0] : 1 - t[0]) * (dy ? t[1] : 1 - t[1]) * (dz ? t[2] : 1 - t[2]);
   }
-  if (!any) return false;
-  for (uint32_t f = 0; f < brick.field_count; ++f) {
-    const float* v = brick.values.data() + f * n;
-    double sum = 0;
-    for (int q = 0; q < 8; ++q) sum += weight[q] * v[corner[q]];
-    out[f] = sum;
-  }
-  return true;
+  return st;
 }
-
-namespace {
 
 // interpolate_brick, but only where all 8 surrounding samples hold data; field f alone.
 bool interpolate_inside(const BrickSamples& brick, Vec3d u, uint32_t f, double& out) {
   const uint32_t R = brick.resolution;
-  const size_t n = size_t(R) * R * R;
-  uint32_t i0[3];
-  double t[3];
-  for (int a = 0; a < 3; ++a) {
-    const double c = std::clamp(u[a], 0.0, double(R - 1));
-    i0[a] = std::min(uint32_t(c), R - 2);
-    t[a] = c - double(i0[a]);
-  }
-  const float* v = brick.values.data() + f * n;
+  const TrilinearStencil st = trilinear_stencil(R, u);
+  const float* v = brick.values.data() + f * size_t(R) * R * R;
   double sum = 0;
   for (int q = 0; q < 8; ++q) {
-    const uint32_t dx = q & 1, dy = (q >> 1) & 1, dz = (q >> 2) & 1;
-    const size_t corner = (i0[0] + dx) + size_t(R) * ((i0[1] + dy) + size_t(R) * (i0[2] + dz));
-    if (!brick.mask[corner]) return false;
-    sum += (dx ? t[0] : 1 - t[0]) * (dy ? t[1] : 1 - t[1]) * (dz ? t[2] : 1 - t[2]) * v[corner];
+    if (!brick.mask[st.corner[q]]) return false;
+    sum += st.weight[q] * v[st.corner[q]];
   }
   out = sum;
   return true;
 }
 
 }  // namespace
+
+bool interpolate_brick(const BrickSamples& brick, Vec3d u, double* out) {
+  const uint32_t R = brick.resolution;
+  const size_t n = size_t(R) * R * R;
+  const TrilinearStencil st = trilinear_stencil(R, u);
+  bool any = false;
+  for (int q = 0; q < 8; ++q) any = any || brick.mask[st.corner[q]];
+  if (!any) return false;
+  for (uint32_t f = 0; f < brick.field_count; ++f) {
+    const float* v = brick.values.data() + f * n;
+    double sum = 0;
+    for (int q = 0; q < 8; ++q) sum += st.weight[q] * v[st.corner[q]];
+    out[f] = sum;
+  }
+  return true;
+}
 
 bool cell_interpolant_exceeds(const BrickSamples& brick, const Bounds& box, CellType type, const Vec3d* vertices,
                               std::span<const float* const> values, std::span<const double> thresholds) {

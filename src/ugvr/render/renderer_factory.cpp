@@ -44,29 +44,24 @@ std::unique_ptr<Renderer> make_renderer(std::shared_ptr<ExactScene> scene, const
   const std::vector<std::string>& names = device_names();
   if (std::find(names.begin(), names.end(), device) == names.end())
     throw OptionError("device", "unknown device \"" + device + "\" (valid: auto, cpu, gpu)");
+  // The caller's GL context, else one opened on the device `gpu` names.
+  auto context = [&]() -> std::shared_ptr<const GlContext> {
+    return options.gl_context ? options.gl_context : std::make_shared<GlContext>(options.gpu);
+  };
   bool on_gpu = false;
   if (device != "cpu") {
     if (scene->gpu_engine) {
       on_gpu = true;
     } else if (device == "gpu") {
-      auto gl = options.gl_context ? options.gl_context : for_option("gpu", [&] {
-        return std::shared_ptr<const GlContext>(std::make_shared<GlContext>(options.gpu));
-      });
+      auto gl = for_option("gpu", context);
       for_option("device", [&] { return &scene->gpu(std::move(gl), options.exact_gpu); });
       on_gpu = true;
-    } else {
-      // auto: a hardware GPU that holds the mesh; llvmpipe loses to the CPU engine, and any failure means the CPU.
+    } else if (scene->gpu_unavailable.empty()) {
+      // auto: a hardware GPU that holds the mesh, else the CPU engine (ExactScene::use_gpu_if_it_pays).
       try {
-        auto gl = options.gl_context ? options.gl_context
-                                     : std::shared_ptr<const GlContext>(std::make_shared<GlContext>(options.gpu));
-        if (!gl->software()) {
-          scene->gpu(std::move(gl), options.exact_gpu);
-          on_gpu = true;
-        } else {
-          scene->gpu_unavailable = "only a software renderer (" + gl->renderer() + "), slower than the CPU engine";
-        }
+        on_gpu = scene->use_gpu_if_it_pays(context(), options.exact_gpu);
       } catch (const Error& e) {
-        scene->gpu_unavailable = e.what();
+        scene->gpu_unavailable = e.what();  // no GL context at all
       }
     }
   }

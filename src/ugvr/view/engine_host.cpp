@@ -91,13 +91,8 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
   sc.width = options_.width, sc.height = options_.height;
   // The exact engine on a hardware GPU when the grid fits there (docs/exact-engine.md), else on the CPU (llvmpipe
   // is slower than the CPU engine); a failure says why in the log and falls back.
-  if (!gl_->software()) {
-    try {
-      exact_->gpu(gl_, {});
-    } catch (const Error& e) {
-      std::fprintf(stderr, "ugvr view: exact engine on the CPU: %s\n", e.what());
-    }
-  }
+  if (!exact_->use_gpu_if_it_pays(gl_, {}) && !gl_->software())
+    std::fprintf(stderr, "ugvr view: exact engine on the CPU: %s\n", exact_->gpu_unavailable.c_str());
   exact_renderer_ = exact_->gpu_engine ? "exact engine (GPU: " + gl_->renderer() + ")" : "exact engine (CPU)";
   sc.renderer = exact_renderer_;
   sc.engine = kExactEngine;

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <optional>
 
 #include "exact_shared.h"  // shaders/exact_shared.h: what the engine and shaders/exact_walk.comp agree on
 #include "ugvr/core/error.h"
@@ -15,6 +16,7 @@
 #include "ugvr/gpu/gl_program.h"
 #include "ugvr/render/exact/boundary_bins.h"
 #include "ugvr/render/exact/walk_mesh.h"
+#include "ugvr/render/gpu_readback.h"
 #include "ugvr/render/optical_table.h"
 
 namespace ugvr {
@@ -67,7 +69,8 @@ struct ExactGpuEngine::Impl {
   GlTexture tf_texture, out_texture;
   int out_w = 0, out_h = 0;
   bool per_cell = false, have_values = false;
-  uint64_t mesh_bytes = 0, frame_bytes = 0, values_bytes = 0;
+  uint64_t mesh_bytes = 0, frame_bytes = 0, values_bytes = 0, tf_bytes = 0;
+  std::optional<TransferFunction> uploaded_tf;              // what the optical table and the TF texture hold
   std::map<std::pair<int, bool>, ComputeProgram> programs;  // by (mode, volume lighting)
   std::unique_ptr<GlTimerQuery> timer;
   double bin_seconds = 0, gpu_seconds = 0;
@@ -219,20 +222,24 @@ Image ExactGpuEngine::render(const Camera& camera, const TransferFunction& tf, c
   I.boxes.upload(boxes.data(), boxes.size() * 4);
   I.tiles.upload(list.data(), list.size() * 4);
 
-  // The optical table (emission-absorption) and the transfer function's colour and opacity (isosurfaces, MIP).
-  const OpticalTable table(tf);
-  const std::vector<float> packed = table.pack_for_gpu();
-  I.optical.upload(packed.data(), packed.size() * sizeof(float));
+  // The optical table (emission-absorption) and the transfer function's colour and opacity (isosurfaces, MIP): made
+  // again only when the transfer function changes, not every frame of a camera move.
   const int texels = exact_gpu::EXACT_TF_TEXELS;
   const double lo = tf.range_min(), hi = tf.range_max();
-  std::vector<float> tf_table(size_t(texels) * 4);
-  for (int i = 0; i < texels; ++i) {
-    const double s = lo + (hi - lo) * double(i) / double(texels - 1);
-    const Vec3d c = tf.color(s);
-    tf_table[size_t(i) * 4 + 0] = float(c.x), tf_table[size_t(i) * 4 + 1] = float(c.y);
-    tf_table[size_t(i) * 4 + 2] = float(c.z), tf_table[size_t(i) * 4 + 3] = float(tf.opacity(s));
+  if (!I.uploaded_tf || !(*I.uploaded_tf == tf)) {
+    const std::vector<float> packed = OpticalTable(tf).pack_for_gpu();
+    I.optical.upload(packed.data(), packed.size() * sizeof(float));
+    std::vector<float> tf_table(size_t(texels) * 4);
+    for (int i = 0; i < texels; ++i) {
+      const double s = lo + (hi - lo) * double(i) / double(texels - 1);
+      const Vec3d c = tf.color(s);
+      tf_table[size_t(i) * 4 + 0] = float(c.x), tf_table[size_t(i) * 4 + 1] = float(c.y);
+      tf_table[size_t(i) * 4 + 2] = float(c.z), tf_table[size_t(i) * 4 + 3] = float(tf.opacity(s));
+    }
+    glTextureSubImage1D(I.tf_texture.id(), 0, 0, texels, GL_RGBA, GL_FLOAT, tf_table.data());
+    I.tf_bytes = (packed.size() + tf_table.size()) * sizeof(float);
+    I.uploaded_tf = tf;
   }
-  glTextureSubImage1D(I.tf_texture.id(), 0, 0, texels, GL_RGBA, GL_FLOAT, tf_table.data());
 
   if (w != I.out_w || h != I.out_h) {
     I.out_texture = GlTexture(GL_TEXTURE_2D);
@@ -314,25 +321,9 @@ Image ExactGpuEngine::render(const Camera& camera, const TransferFunction& tf, c
   uint32_t counted[exact_gpu::EXACT_COUNTER_COUNT] = {};
   glGetNamedBufferSubData(I.counters.id(), 0, sizeof counted, counted);
 
-  // Read back through a mapped pixel-pack buffer (lod_engine.cpp says why) and composite over the background.
-  const size_t pixels = size_t(w) * size_t(h), bytes = pixels * 4 * sizeof(float);
-  I.readback.reserve_readback(bytes);
-  glBindBuffer(GL_PIXEL_PACK_BUFFER, I.readback.id());
-  glGetTextureImage(I.out_texture.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(bytes), nullptr);
-  glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
-  const auto* raw =
-      static_cast<const float*>(glMapNamedBufferRange(I.readback.id(), 0, GLsizeiptr(bytes), GL_MAP_READ_BIT));
-  check_gl("reading the image back");
-  if (!raw) fail_in("exact engine (GPU)", "mapping the image for reading failed");
-  Image image(w, h);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, pixels, 16384), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i < r.end(); ++i) {
-      const double radiance[3] = {raw[4 * i], raw[4 * i + 1], raw[4 * i + 2]};
-      composite_pixel(image.rgba.data() + 4 * i, radiance, raw[4 * i + 3], settings.background);
-    }
-  });
-  glUnmapNamedBuffer(I.readback.id());
-  I.frame_bytes = boxes.size() * 4 + list.size() * 4 + packed.size() * 4 + bytes * 2 + tf_table.size() * 4;
+  Image image = read_back_composited(I.readback, I.out_texture, w, h, settings.background, "exact engine (GPU)");
+  const size_t bytes = size_t(w) * size_t(h) * 4 * sizeof(float);
+  I.frame_bytes = boxes.size() * 4 + list.size() * 4 + I.tf_bytes + bytes * 2;
   if (stats) {
     stats->render_seconds = seconds_since(t0);
     stats->rays = uint64_t(w) * uint64_t(h);

@@ -42,6 +42,22 @@ ExactGpuEngine& ExactScene::gpu(std::shared_ptr<const GlContext> gl, const Exact
   return *gpu_engine;
 }
 
+bool ExactScene::use_gpu_if_it_pays(std::shared_ptr<const GlContext> gl, const ExactGpuOptions& options) {
+  if (gpu_engine) return true;
+  if (!gpu_unavailable.empty()) return false;
+  if (gl->software()) {
+    gpu_unavailable = "only a software renderer (" + gl->renderer() + "), slower than the CPU engine";
+    return false;
+  }
+  try {
+    gpu(std::move(gl), options);
+    return true;
+  } catch (const Error& e) {
+    gpu_unavailable = e.what();
+    return false;
+  }
+}
+
 void ExactScene::bind_gpu(const std::string& selector) {
   bind(selector);
   if (gpu_bound && *gpu_bound == selector) return;

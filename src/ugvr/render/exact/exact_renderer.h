@@ -34,6 +34,10 @@ struct ExactScene {
   std::string gpu_unavailable;           // why `--device auto` stayed on the CPU (empty: it did not try)
   // Makes the GPU engine on `gl` (throws ugvr::Error when the mesh does not fit or GL fails).
   ExactGpuEngine& gpu(std::shared_ptr<const GlContext> gl, const ExactGpuOptions& options);
+  // `--device auto`: the GPU engine on `gl` when it is hardware and the mesh fits there (llvmpipe is slower than the
+  // CPU engine). Otherwise records why in gpu_unavailable, once (a scene that failed does not try again), and
+  // returns false: the CPU engine serves. Never throws.
+  bool use_gpu_if_it_pays(std::shared_ptr<const GlContext> gl, const ExactGpuOptions& options);
   void bind_gpu(const std::string& selector);
 };
 

@@ -1,7 +1,6 @@
 #include "ugvr/render/lod/lod_engine.h"
 
 #include <epoxy/gl.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
@@ -15,6 +14,7 @@
 #include "lod_shared.h"  // shaders/lod_shared.h: what the engine and shaders/lod_raycast.comp agree on
 #include "ugvr/core/error.h"
 #include "ugvr/gpu/gl_program.h"
+#include "ugvr/render/gpu_readback.h"
 #include "ugvr/render/lod/brick_atlas.h"
 #include "ugvr/render/lod/brick_residency.h"
 #include "ugvr/render/lod/tf_error.h"
@@ -410,26 +410,7 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   st.bricks_entered = counted[lod_gpu::COUNTER_BRICKS];
 
   const auto t3 = std::chrono::steady_clock::now();
-  // Through a pixel-pack buffer mapped for reading: glGetTextureImage straight into client memory ran at ~1 GB/s on
-  // an H200 (100 ms of a 110 ms frame at 2048x2048, bench/README.md "GPU"); compositing over the background is
-  // spread over the cores.
-  const size_t pixels = size_t(w) * size_t(h), bytes = pixels * 4 * sizeof(float);
-  I.readback.reserve_readback(bytes);
-  glBindBuffer(GL_PIXEL_PACK_BUFFER, I.readback.id());
-  glGetTextureImage(I.out_texture.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(bytes), nullptr);
-  glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
-  const auto* raw =
-      static_cast<const float*>(glMapNamedBufferRange(I.readback.id(), 0, GLsizeiptr(bytes), GL_MAP_READ_BIT));
-  check_gl("reading the image back");
-  if (!raw) fail_in("lod engine", "mapping the image for reading failed");
-  Image image(w, h);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, pixels, 16384), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i < r.end(); ++i) {
-      const double radiance[3] = {raw[4 * i], raw[4 * i + 1], raw[4 * i + 2]};
-      composite_pixel(image.rgba.data() + 4 * i, radiance, raw[4 * i + 3], settings.background);
-    }
-  });
-  glUnmapNamedBuffer(I.readback.id());
+  Image image = read_back_composited(I.readback, I.out_texture, w, h, settings.background, "lod engine");
   st.readback_seconds = seconds_since(t3);
   st.render_seconds = seconds_since(t0) + st.cut_seconds;
   if (stats) *stats = st;
