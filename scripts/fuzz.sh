@@ -161,6 +161,9 @@ PY
 # Exodus: the two small real files. NRRD: hand-made attached-data files (raw, big-endian short with space fields,
 # gzip, ascii with line skip, 4-D vector with byte skip).
 seed fuzz_exodus "$data"/exodus-misc/box-noglom.ex2 "$data"/exodus-misc/mesh_fs8.exo
+# CGNS: the shared ADF sample (1 MB, above seed()'s size cap: copied as it is).
+mkdir -p fuzz-corpus/fuzz_cgns/seeds
+if [ -f "$data"/cgns-sqnz/sqnz_s.adf.cgns ]; then cp "$data"/cgns-sqnz/sqnz_s.adf.cgns fuzz-corpus/fuzz_cgns/seeds/; fi
 /usr/bin/python3 - fuzz-corpus/fuzz_nrrd/seeds <<'PY'
 import gzip, os, struct, sys
 out = sys.argv[1]

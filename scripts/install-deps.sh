@@ -12,6 +12,7 @@ PACKAGES=(
   libpugixml-dev                      # VTK XML headers
   libcli11-dev nlohmann-json3-dev     # command line; JSON output and settings files
   libnetcdf-dev                       # Exodus II files are netCDF
+  libcgns-dev                         # CGNS files (ADF and HDF5)
   libpng-dev                          # rendered images
   libboost-dev                        # Beast + Asio: the browser viewer's HTTP / WebSocket server (`ugvr view`)
   libturbojpeg0-dev                   # JPEG frames streamed to the browser viewer

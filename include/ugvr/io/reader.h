@@ -28,6 +28,7 @@ enum class InputFormat {
   Nastran,    // .nas .bdf
   RawVolume,  // .raw (layout given in RawVolumeOptions)
   Nrrd,       // .nrrd / .nhdr
+  Cgns,       // .cgns (ADF or HDF5)
 };
 
 // Layout of a headerless raw voxel volume (dims, type and spacing come from the command line).
@@ -64,5 +65,7 @@ Dataset read_exodus(const std::string& path, int64_t time_step);
 Dataset read_nastran(const std::string& path);
 Dataset read_raw_volume(const std::string& path, const RawVolumeOptions& options);
 Dataset read_nrrd(const std::string& path);
+// Every zone of every 3-D base; `time_step` picks a step of the zones' iterative data (-1: the last).
+Dataset read_cgns(const std::string& path, int64_t time_step);
 
 }  // namespace ugvr

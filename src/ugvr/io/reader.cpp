@@ -11,7 +11,10 @@ namespace {
 
 bool is_space(char c) { return c == ' ' || c == '\n' || c == '\r' || c == '\t'; }
 
-std::optional<InputFormat> detect_by_content(std::string_view h) {
+std::optional<InputFormat> detect_by_content(std::string_view h, const std::string& path) {
+  // CGNS: ADF files carry "ADF Database Version" after a 4-byte tag; HDF5 ones are told from Exodus by the name.
+  if (h.size() >= 24 && h.substr(4, 20) == "ADF Database Version") return InputFormat::Cgns;
+  if (h.starts_with("\x89HDF\r\n\x1a\n") && extension_lower(path) == ".cgns") return InputFormat::Cgns;
   if (h.starts_with("CDF\x01") || h.starts_with("CDF\x02") || h.starts_with("CDF\x05") ||
       h.starts_with("\x89HDF\r\n\x1a\n")) {
     return InputFormat::Exodus;
@@ -37,6 +40,7 @@ std::optional<InputFormat> detect_by_extension(const std::string& path) {
   if (ext == ".e" || ext == ".ex2" || ext == ".exo" || ext == ".exii") return InputFormat::Exodus;
   if (ext == ".nas" || ext == ".bdf" || ext == ".nastran") return InputFormat::Nastran;
   if (ext == ".raw") return InputFormat::RawVolume;
+  if (ext == ".cgns") return InputFormat::Cgns;
   if (ext == ".nrrd" || ext == ".nhdr") return InputFormat::Nrrd;
   if (ext == ".bin" || ext == ".xyz" || ext == ".x" || ext == ".g" || ext == ".grid" || ext == ".p3d")
     return InputFormat::Plot3d;
@@ -52,11 +56,11 @@ InputFormat detect_format(std::span<const std::string> paths) {
   InputFile f(paths[0]);
   char head[64] = {};
   const size_t n = f.read_some_at(0, head, sizeof head);
-  if (auto by_content = detect_by_content(std::string_view(head, n))) return *by_content;
+  if (auto by_content = detect_by_content(std::string_view(head, n), paths[0])) return *by_content;
   if (auto by_extension = detect_by_extension(paths[0])) return *by_extension;
   fail_in(paths[0], "unrecognised format: no known signature, and the extension '" + extension_lower(paths[0]) +
                         "' is none of .vtu .pvtu .vts .vti .vtr .vtk .inp .off .ugrid .msh .node .ele .e .ex2 .exo "
-                        ".nas .bdf .raw .nrrd .nhdr or a PLOT3D grid (.bin .xyz .x .g .grid .p3d)");
+                        ".nas .bdf .raw .nrrd .nhdr .cgns or a PLOT3D grid (.bin .xyz .x .g .grid .p3d)");
 }
 
 Dataset read_dataset(std::span<const std::string> paths, const ReadOptions& options) {
@@ -77,6 +81,7 @@ Dataset read_dataset(std::span<const std::string> paths, const ReadOptions& opti
     case InputFormat::Nastran: return read_nastran(paths[0]);
     case InputFormat::RawVolume: return read_raw_volume(paths[0], options.raw);
     case InputFormat::Nrrd: return read_nrrd(paths[0]);
+    case InputFormat::Cgns: return read_cgns(paths[0], options.time_step);
   }
   throw Error("unreachable");
 }

@@ -1,0 +1,387 @@
+// The CGNS reader (io/cgns_reader.cpp): the shared structured sample against VTK 9.1's counts and values, and
+// unstructured files written here by libcgns itself (ADF and HDF5; per-type, MIXED and NGON/NFACE sections; rind;
+// iterative data) read back to the mesh and fields they were written from.
+#include <cgnslib.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+
+#include "test_data.h"
+#include "ugvr/core/error.h"
+#include "ugvr/gen/generator.h"
+#include "ugvr/io/reader.h"
+
+namespace ugvr {
+namespace {
+
+using test::ScratchDir;
+
+#define CG(call) ASSERT_EQ((call), CG_OK) << cg_get_error()
+
+TEST(CgnsReader, SharedStructuredSampleMatchesVtk) {
+  UGVR_REQUIRE_DATA("cgns-sqnz/sqnz_s.adf.cgns");
+  const std::vector<std::string> paths{relative_data_path};
+  EXPECT_EQ(detect_format(paths), InputFormat::Cgns);
+  const Dataset ds = read_dataset(paths);
+  EXPECT_EQ(ds.format, "CGNS (ADF)");
+  // ../shared/data/cgns-sqnz/SOURCE.txt: VTK 9.1's vtkCGNSReader reports 12 zones, 15,228 points, 11,264 hexahedra.
+  ASSERT_EQ(ds.blocks.size(), 12u);
+  EXPECT_EQ(ds.point_count(), 15228u);
+  EXPECT_EQ(ds.cell_count(), 11264u);
+  const Block& b0 = ds.blocks[0];
+  EXPECT_EQ(b0.name, "SQNZ/dom1_1_1_1");
+  ASSERT_TRUE(std::holds_alternative<StructuredGrid>(b0.grid));
+  EXPECT_EQ(std::get<StructuredGrid>(b0.grid).dims.points, (std::array<uint32_t, 3>{15, 9, 9}));
+  // Momentum X/Y/Z grouped into a vector, as VTK does; ranges as vtkCGNSReader gives them for the first zone.
+  const Field* density = b0.fields.find("Density");
+  const Field* momentum = b0.fields.find("Momentum");
+  ASSERT_NE(density, nullptr);
+  ASSERT_NE(momentum, nullptr);
+  EXPECT_EQ(density->association(), Association::Cell);
+  EXPECT_EQ(momentum->components(), 3);
+  EXPECT_NEAR(density->range().min, 0.7895130710766533, 1e-12);
+  EXPECT_NEAR(density->range().max, 0.914286030153726, 1e-12);
+  EXPECT_NEAR(momentum->range().min, 0.3836539315557368, 1e-12);
+  EXPECT_NEAR(momentum->range().max, 0.5286443499106337, 1e-12);
+}
+
+enum class Layout { PerType, Mixed, Polyhedra };
+
+const char* const kSectionNames[] = {"Tetra", "Pyramid", "Penta", "Hexa"};
+
+ElementType_t cgns_type(CellType t) {
+  switch (t) {
+    case CellType::Tetra: return TETRA_4;
+    case CellType::Pyramid: return PYRA_5;
+    case CellType::Wedge: return PENTA_6;
+    case CellType::Hexahedron: return HEXA_8;
+  }
+  return ElementTypeNull;
+}
+
+// The cell's nodes in CGNS order, 1-based: CGNS's PENTA_6 runs its first triangle the other way round from VTK's
+// wedge; the other types agree.
+std::vector<cgsize_t> cgns_nodes(const UnstructuredMesh& m, uint64_t c) {
+  std::vector<cgsize_t> n;
+  for (uint32_t v : m.cell(c)) n.push_back(cgsize_t(v) + 1);
+  if (m.cell_types[c] == CellType::Wedge) {
+    std::swap(n[1], n[2]);
+    std::swap(n[4], n[5]);
+  }
+  return n;
+}
+
+// Writes the first block of `ds` (an unstructured mesh with point field "pressure" and a cell field) as a CGNS file.
+void write_unstructured(const std::string& path, const Dataset& ds, Layout layout, int file_type) {
+  const auto& mesh = std::get<UnstructuredMesh>(ds.blocks[0].grid);
+  CG(cg_set_file_type(file_type));
+  int fn = 0, B = 0, Z = 0;
+  CG(cg_open(path.c_str(), CG_MODE_WRITE, &fn));
+  CG(cg_base_write(fn, "Base", 3, 3, &B));
+  cgsize_t size[3] = {cgsize_t(mesh.point_count()), cgsize_t(mesh.cell_count()), 0};
+  CG(cg_zone_write(fn, B, "Wing", size, Unstructured, &Z));
+  for (int a = 0; a < 3; ++a) {
+    std::vector<double> x(mesh.point_count());
+    for (size_t i = 0; i < x.size(); ++i)
+      x[i] = a == 0 ? mesh.points[i].x : a == 1 ? mesh.points[i].y : mesh.points[i].z;
+    int C = 0;
+    const char* name[] = {"CoordinateX", "CoordinateY", "CoordinateZ"};
+    CG(cg_coord_write(fn, B, Z, RealDouble, name[a], x.data(), &C));
+  }
+  int S = 0;
+  cgsize_t next = 1;
+  if (layout == Layout::PerType) {
+    // Sections by type in cell order runs: element numbers follow cell order only if cells are sorted by type, so
+    // write one section per run of equal types.
+    uint64_t c = 0;
+    while (c < mesh.cell_count()) {
+      uint64_t e = c;
+      std::vector<cgsize_t> conn;
+      while (e < mesh.cell_count() && mesh.cell_types[e] == mesh.cell_types[c]) {
+        auto n = cgns_nodes(mesh, e);
+        conn.insert(conn.end(), n.begin(), n.end());
+        ++e;
+      }
+      const std::string name = std::string(kSectionNames[c % 4]) + std::to_string(next);
+      CG(cg_section_write(fn, B, Z, name.c_str(), cgns_type(mesh.cell_types[c]), next, next + cgsize_t(e - c) - 1, 0,
+                          conn.data(), &S));
+      next += cgsize_t(e - c);
+      c = e;
+    }
+  } else if (layout == Layout::Mixed) {
+    std::vector<cgsize_t> conn, offsets{0};
+    for (uint64_t c = 0; c < mesh.cell_count(); ++c) {
+      conn.push_back(cgns_type(mesh.cell_types[c]));
+      auto n = cgns_nodes(mesh, c);
+      conn.insert(conn.end(), n.begin(), n.end());
+      offsets.push_back(cgsize_t(conn.size()));
+    }
+    CG(cg_poly_section_write(fn, B, Z, "Cells", MIXED, 1, cgsize_t(mesh.cell_count()), 0, conn.data(), offsets.data(),
+                             &S));
+    next = cgsize_t(mesh.cell_count()) + 1;
+  } else {
+    // Every cell as an NFACE_n of its faces; faces listed once per cell in an NGON_n section after the cells.
+    std::vector<cgsize_t> faces, face_offsets{0}, cells, cell_offsets{0};
+    const cgsize_t first_face = cgsize_t(mesh.cell_count()) + 1;
+    cgsize_t face_number = first_face;
+    for (uint64_t c = 0; c < mesh.cell_count(); ++c) {
+      const auto v = mesh.cell(c);
+      const CellInfo info = cell_info(mesh.cell_types[c]);
+      for (int f = 0; f < info.face_count; ++f) {
+        for (int k = 0; k < info.faces[size_t(f)].size; ++k)
+          faces.push_back(cgsize_t(v[info.faces[size_t(f)].v[size_t(k)]]) + 1);
+        face_offsets.push_back(cgsize_t(faces.size()));
+        cells.push_back(f % 2 ? face_number : -face_number);  // signs (orientation) must not matter
+        ++face_number;
+      }
+      cell_offsets.push_back(cgsize_t(cells.size()));
+    }
+    CG(cg_poly_section_write(fn, B, Z, "Cells", NFACE_n, 1, cgsize_t(mesh.cell_count()), 0, cells.data(),
+                             cell_offsets.data(), &S));
+    CG(cg_poly_section_write(fn, B, Z, "Faces", NGON_n, first_face, face_number - 1, 0, faces.data(),
+                             face_offsets.data(), &S));
+    next = face_number;
+  }
+  // A boundary section of lower dimension: skipped by the reader.
+  std::vector<cgsize_t> tri{1, 2, 3};
+  CG(cg_section_write(fn, B, Z, "Wall", TRI_3, next, next, 0, tri.data(), &S));
+
+  int sols[2] = {0, 0};  // per association: one FlowSolution_t each
+  for (const Field& f : ds.blocks[0].fields) {
+    const bool vertex = f.association() == Association::Vertex;
+    int& sol = sols[vertex ? 0 : 1];
+    if (sol == 0) {
+      CG(cg_sol_write(fn, B, Z, vertex ? "NodalSolution" : "CellSolution", vertex ? Vertex : CellCenter, &sol));
+    }
+    for (int comp = 0; comp < f.components(); ++comp) {
+      std::vector<double> v(f.tuples());
+      for (uint64_t t = 0; t < f.tuples(); ++t) v[t] = f.data().get(t, comp);
+      std::string name = f.name();
+      if (f.components() == 3) name += "XYZ"[comp];
+      int F = 0;
+      CG(cg_field_write(fn, B, Z, sol, RealDouble, name.c_str(), v.data(), &F));
+    }
+  }
+  CG(cg_close(fn));
+}
+
+// Cells as sorted vertex sets (the order within a cell may differ by the wedge flip; the set may not).
+std::multiset<std::vector<uint32_t>> cell_sets(const UnstructuredMesh& m) {
+  std::multiset<std::vector<uint32_t>> s;
+  for (uint64_t c = 0; c < m.cell_count(); ++c) {
+    std::vector<uint32_t> v(m.cell(c).begin(), m.cell(c).end());
+    std::sort(v.begin(), v.end());
+    s.insert(v);
+  }
+  return s;
+}
+
+void expect_same_mesh_and_fields(const Dataset& written, const Dataset& read) {
+  ASSERT_EQ(read.blocks.size(), 1u);
+  const auto& a = std::get<UnstructuredMesh>(written.blocks[0].grid);
+  const auto& b = std::get<UnstructuredMesh>(read.blocks[0].grid);
+  ASSERT_EQ(b.point_count(), a.point_count());
+  ASSERT_EQ(b.cell_count(), a.cell_count());
+  EXPECT_EQ(b.points, a.points);
+  EXPECT_EQ(b.cell_types, a.cell_types);
+  EXPECT_EQ(cell_sets(b), cell_sets(a));
+  for (uint64_t c = 0; c < b.cell_count(); ++c) ASSERT_GT(cell_volume(b, c), 0) << "cell " << c;
+  for (const Field& f : written.blocks[0].fields) {
+    const Field* g = read.blocks[0].fields.find(f.name());
+    ASSERT_NE(g, nullptr) << f.name();
+    EXPECT_EQ(g->association(), f.association());
+    ASSERT_EQ(g->components(), f.components());
+    for (uint64_t t = 0; t < f.tuples(); t += 7)
+      for (int c = 0; c < f.components(); ++c) ASSERT_EQ(g->data().get(t, c), f.data().get(t, c)) << f.name() << t;
+  }
+}
+
+Dataset small_mixed_mesh() {
+  GenerateOptions o;
+  o.cells = 3000;
+  o.kind = GenCellKind::Mixed;
+  return generate_in_memory(o);
+}
+
+TEST(CgnsReader, UnstructuredSectionsRoundTripAdfAndHdf5) {
+  ScratchDir dir;
+  const Dataset ds = small_mixed_mesh();
+  for (int file_type : {CG_FILE_ADF, CG_FILE_HDF5}) {
+    for (Layout layout : {Layout::PerType, Layout::Mixed}) {
+      const std::string path = dir.file("mixed.cgns");
+      std::filesystem::remove(path);
+      write_unstructured(path, ds, layout, file_type);
+      const std::vector<std::string> paths{path};
+      ASSERT_EQ(detect_format(paths), InputFormat::Cgns);
+      const Dataset read = read_dataset(paths);
+      EXPECT_EQ(read.format, file_type == CG_FILE_HDF5 ? "CGNS (HDF5)" : "CGNS (ADF)");
+      SCOPED_TRACE(std::to_string(file_type) + (layout == Layout::Mixed ? " mixed" : " per type"));
+      expect_same_mesh_and_fields(ds, read);
+      bool noted = false;
+      for (const auto& w : read.warnings) noted |= w.find("1 elements of lower dimension") != std::string::npos;
+      EXPECT_TRUE(noted);
+    }
+  }
+}
+
+TEST(CgnsReader, PolyhedraWithNativeShapesComeBackNative) {
+  ScratchDir dir;
+  const Dataset ds = small_mixed_mesh();
+  const std::string path = dir.file("poly.cgns");
+  write_unstructured(path, ds, Layout::Polyhedra, CG_FILE_HDF5);
+  const Dataset read = read_dataset(std::vector<std::string>{path});
+  ASSERT_EQ(read.blocks.size(), 1u);
+  const auto& a = std::get<UnstructuredMesh>(ds.blocks[0].grid);
+  const auto& b = std::get<UnstructuredMesh>(read.blocks[0].grid);
+  EXPECT_EQ(b.point_count(), a.point_count());  // no centre point added: every polyhedron had a native shape
+  EXPECT_EQ(b.cell_types, a.cell_types);
+  EXPECT_EQ(cell_sets(b), cell_sets(a));
+  for (uint64_t c = 0; c < b.cell_count(); ++c) ASSERT_GT(cell_volume(b, c), 0) << c;
+  const Field* cell_field = nullptr;
+  for (const Field& f : ds.blocks[0].fields)
+    if (f.association() == Association::Cell) cell_field = &f;
+  if (cell_field) {
+    const Field* g = read.blocks[0].fields.find(cell_field->name());
+    ASSERT_NE(g, nullptr);
+    EXPECT_EQ(g->data().get(17, 0), cell_field->data().get(17, 0));
+  }
+}
+
+// One hexagonal prism (not a native shape) as NGON/NFACE: decomposed, with a cell-centred value on every piece.
+TEST(CgnsReader, GeneralPolyhedronIsDecomposed) {
+  ScratchDir dir;
+  const std::string path = dir.file("prism.cgns");
+  int fn = 0, B = 0, Z = 0, S = 0;
+  CG(cg_open(path.c_str(), CG_MODE_WRITE, &fn));
+  CG(cg_base_write(fn, "Base", 3, 3, &B));
+  cgsize_t size[3] = {12, 1, 0};
+  CG(cg_zone_write(fn, B, "Prism", size, Unstructured, &Z));
+  std::vector<double> xyz[3];
+  for (int layer = 0; layer < 2; ++layer)
+    for (int i = 0; i < 6; ++i) {
+      xyz[0].push_back(std::cos(i * M_PI / 3));
+      xyz[1].push_back(std::sin(i * M_PI / 3));
+      xyz[2].push_back(layer);
+    }
+  int C = 0;
+  CG(cg_coord_write(fn, B, Z, RealDouble, "CoordinateX", xyz[0].data(), &C));
+  CG(cg_coord_write(fn, B, Z, RealDouble, "CoordinateY", xyz[1].data(), &C));
+  CG(cg_coord_write(fn, B, Z, RealDouble, "CoordinateZ", xyz[2].data(), &C));
+  std::vector<cgsize_t> faces{1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12}, offsets{0, 6, 12};
+  for (cgsize_t i = 0; i < 6; ++i) {
+    const cgsize_t a = i + 1, b = (i + 1) % 6 + 1;
+    faces.insert(faces.end(), {a, b, b + 6, a + 6});
+    offsets.push_back(offsets.back() + 4);
+  }
+  std::vector<cgsize_t> cell{2, 3, 4, 5, 6, 7, 8, 9}, cell_offsets{0, 8};
+  CG(cg_poly_section_write(fn, B, Z, "Cell", NFACE_n, 1, 1, 0, cell.data(), cell_offsets.data(), &S));
+  CG(cg_poly_section_write(fn, B, Z, "Faces", NGON_n, 2, 9, 0, faces.data(), offsets.data(), &S));
+  int sol = 0, F = 0;
+  CG(cg_sol_write(fn, B, Z, "Sol", CellCenter, &sol));
+  double value = 4.5;
+  CG(cg_field_write(fn, B, Z, sol, RealDouble, "T", &value, &F));
+  CG(cg_close(fn));
+
+  const Dataset read = read_dataset(std::vector<std::string>{path});
+  const auto& m = std::get<UnstructuredMesh>(read.blocks[0].grid);
+  EXPECT_EQ(m.cell_count(), 18u);   // 6 pyramids on the sides, 6 tetrahedra on each hexagon
+  EXPECT_EQ(m.point_count(), 15u);  // + cell centre + two face centres
+  double volume = 0;
+  for (uint64_t c = 0; c < m.cell_count(); ++c) volume += cell_volume(m, c);
+  EXPECT_NEAR(volume, 3 * std::sqrt(3.0) / 2, 1e-6);
+  const Field* t = read.blocks[0].fields.find("T");
+  ASSERT_NE(t, nullptr);
+  EXPECT_EQ(t->tuples(), 18u);
+  EXPECT_EQ(t->range().min, 4.5);
+  EXPECT_EQ(t->range().max, 4.5);
+}
+
+// A structured zone with a rind layer on its solution and two solutions named by iterative data (time steps).
+TEST(CgnsReader, RindIsCutAndIterativeDataPicksTheStep) {
+  ScratchDir dir;
+  const std::string path = dir.file("steps.cgns");
+  int fn = 0, B = 0, Z = 0, C = 0;
+  CG(cg_open(path.c_str(), CG_MODE_WRITE, &fn));
+  CG(cg_base_write(fn, "Base", 3, 3, &B));
+  cgsize_t size[9] = {3, 3, 3, 2, 2, 2, 0, 0, 0};
+  CG(cg_zone_write(fn, B, "Box", size, Structured, &Z));
+  std::vector<double> x, y, z;
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i) {
+        x.push_back(i);
+        y.push_back(j);
+        z.push_back(k);
+      }
+  CG(cg_coord_write(fn, B, Z, RealDouble, "CoordinateX", x.data(), &C));
+  CG(cg_coord_write(fn, B, Z, RealDouble, "CoordinateY", y.data(), &C));
+  CG(cg_coord_write(fn, B, Z, RealDouble, "CoordinateZ", z.data(), &C));
+  for (int step = 0; step < 2; ++step) {
+    int sol = 0;
+    const std::string name = "Step" + std::to_string(step);
+    CG(cg_sol_write(fn, B, Z, name.c_str(), CellCenter, &sol));
+    // One rind cell on each side of every direction: 4 x 4 x 4 values, the core 2 x 2 x 2 in the middle.
+    CG(cg_goto(fn, B, "Zone_t", Z, "FlowSolution_t", sol, "end"));
+    int rind[6] = {1, 1, 1, 1, 1, 1};
+    CG(cg_rind_write(rind));
+    std::vector<double> v;
+    for (int k = 0; k < 4; ++k)
+      for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i) {
+          const bool core = i >= 1 && i <= 2 && j >= 1 && j <= 2 && k >= 1 && k <= 2;
+          v.push_back(core ? 100 * step + (i - 1) + 2 * (j - 1) + 4 * (k - 1) : -1);
+        }
+    int F = 0;
+    CG(cg_field_write(fn, B, Z, sol, RealDouble, "Q", v.data(), &F));
+  }
+  CG(cg_ziter_write(fn, B, Z, "ZoneIterativeData"));
+  CG(cg_goto(fn, B, "Zone_t", Z, "ZoneIterativeData_t", 1, "end"));
+  char pointers[64];
+  std::fill(pointers, pointers + 64, ' ');
+  std::copy_n("Step0", 5, pointers);
+  std::copy_n("Step1", 5, pointers + 32);
+  cgsize_t dims[2] = {32, 2};
+  CG(cg_array_write("FlowSolutionPointers", Character, 2, dims, pointers));
+  int BI = 0;
+  (void)BI;
+  CG(cg_biter_write(fn, B, "BaseIterativeData", 2));
+  CG(cg_close(fn));
+
+  for (int64_t step : {int64_t(0), int64_t(1), int64_t(-1)}) {
+    ReadOptions options;
+    options.time_step = step;
+    const Dataset ds = read_dataset(std::vector<std::string>{path}, options);
+    const Field* q = ds.blocks[0].fields.find("Q");
+    ASSERT_NE(q, nullptr);
+    ASSERT_EQ(q->tuples(), 8u);
+    const double base = step == 0 ? 0 : 100;
+    for (uint64_t t = 0; t < 8; ++t) EXPECT_EQ(q->scalar(t, 0), base + double(t)) << step << " " << t;
+  }
+  ReadOptions too_far;
+  too_far.time_step = 2;
+  EXPECT_THROW(read_dataset(std::vector<std::string>{path}, too_far), Error);
+}
+
+TEST(CgnsReader, BrokenFilesAreNamed) {
+  ScratchDir dir;
+  const Dataset ds = small_mixed_mesh();
+  const std::string good = dir.file("good.cgns");
+  write_unstructured(good, ds, Layout::PerType, CG_FILE_ADF);
+  // Truncated to half: libcgns cannot read it; the message names the file.
+  const std::string cut = dir.file("cut.cgns");
+  std::filesystem::copy_file(good, cut);
+  std::filesystem::resize_file(cut, std::filesystem::file_size(good) / 2);
+  try {
+    read_dataset(std::vector<std::string>{cut});
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cut.cgns"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace ugvr
