@@ -14,6 +14,7 @@
 #include <future>
 #include <map>
 #include <mutex>
+#include <set>
 #include <thread>
 #include <variant>
 #include <vector>
@@ -54,6 +55,7 @@ struct ViewServer::Impl final : HttpHost {
   std::condition_variable wake;
   FrameScheduler scheduler;
   std::map<uint64_t, std::weak_ptr<WsSession>> sockets;  // of the scheduler's tabs
+  std::set<uint64_t> opening;                            // tabs admitted, their WebSocket handshake not done yet
   uint64_t next_id = 1;
   bool stopping = false;
   // Published by the render thread: the I/O thread reads the scene when a tab says hello and when it applies a
@@ -89,15 +91,18 @@ struct ViewServer::Impl final : HttpHost {
   const std::string& token() const override { return token_; }
   std::optional<TabState> open_tab(std::string& why) override {
     std::lock_guard lock(mutex);
-    why = tab_limit_refusal(scheduler.size(), options.max_sessions);
+    // Tabs still in their WebSocket handshake count too, so a burst of connections cannot pass the limit.
+    why = tab_limit_refusal(scheduler.size() + opening.size(), options.max_sessions);
     if (!why.empty()) return std::nullopt;
     TabState tab;
     tab.id = next_id++;
+    opening.insert(tab.id);
     tab.view = initial_view(scene);
     return tab;
   }
   void attach(TabState tab, std::weak_ptr<WsSession> socket) override {
     std::lock_guard lock(mutex);
+    opening.erase(tab.id);
     sockets[tab.id] = std::move(socket);
     scheduler.add(std::move(tab));
   }
@@ -120,6 +125,7 @@ struct ViewServer::Impl final : HttpHost {
   }
   void tab_closed(uint64_t id) override {
     std::lock_guard lock(mutex);
+    opening.erase(id);
     scheduler.close(id);
     wake.notify_all();
   }

@@ -15,6 +15,9 @@ constexpr size_t kHardMessageLimit = 1 << 20;
 // Error replies a client has not read yet: past this, further ones are dropped (a client flooding bad messages
 // without reading must not grow the server's memory).
 constexpr size_t kMaxQueuedReplies = 64;
+// Bytes queued for a client that does not read (frames are sent one at a time, texts coalesced): past this the
+// client is dropped rather than letting the server's memory grow.
+constexpr size_t kMaxQueuedBytes = size_t(16) << 20;
 
 }  // namespace
 
@@ -37,12 +40,32 @@ void WsSession::send_frame(std::string status, std::shared_ptr<const std::string
 }
 
 void WsSession::send(Outgoing o) {
+  if (dropped_) return;
+  // A text equal to one still waiting (not the one being written: its buffer is in use) is already on its way: a
+  // client repeating hello without reading gets one scene message, not one per hello.
+  if (!o.binary && !o.ends_frame)
+    for (size_t i = 1; i < out_.size(); ++i)
+      if (!out_[i].binary && *out_[i].data == *o.data) return;
+  if (out_bytes_ + o.data->size() > kMaxQueuedBytes) {
+    // The client does not read: close the connection (the pending read and write then fail and the tab closes).
+    dropped_ = true;
+    while (out_.size() > 1) out_.pop_back();  // the front one's buffer belongs to the write in progress
+    out_bytes_ = out_.empty() ? 0 : out_.front().data->size();
+    beast::error_code ignored;
+    beast::get_lowest_layer(ws_).socket().shutdown(net::ip::tcp::socket::shutdown_both, ignored);
+    beast::get_lowest_layer(ws_).socket().close(ignored);
+    return;
+  }
+  out_bytes_ += o.data->size();
   out_.push_back(std::move(o));
   if (out_.size() == 1) write_next();
 }
 
 void WsSession::on_accept(beast::error_code ec) {
-  if (ec) return;
+  if (ec) {
+    host_.tab_closed(id_);  // releases the tab's reservation (ViewServer counts tabs being opened too)
+    return;
+  }
   host_.attach(std::move(tab_), weak_from_this());
   read_next();
 }
@@ -90,6 +113,7 @@ void WsSession::on_write(beast::error_code ec, size_t) {
     return;
   }
   const bool frame_done = out_.front().ends_frame;
+  out_bytes_ -= out_.front().data->size();
   out_.pop_front();
   if (frame_done) host_.frame_delivered(id_);
   if (!out_.empty()) write_next();

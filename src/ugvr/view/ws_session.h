@@ -71,6 +71,8 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   boost::beast::websocket::stream<boost::beast::tcp_stream> ws_;
   boost::beast::flat_buffer buffer_;
   std::deque<Outgoing> out_;
+  size_t out_bytes_ = 0;  // queued in out_
+  bool dropped_ = false;  // closed for not reading: nothing more is queued
   TabHost& host_;
   TabState tab_;  // until attached
   const uint64_t id_;
