@@ -101,6 +101,30 @@ TEST(BackgroundBuild, CancelledWhenDestroyedLeavingNothing) {
   EXPECT_LT(seconds, 60.0);
 }
 
+// Issue 23: two viewers of the same grid at once share the cache entry: one builds, the other waits on its lock and
+// then uses the store it wrote.
+TEST(BackgroundBuild, TwoViewersOfOneGridBuildItOnce) {
+  const fs::path path = scratch("shared") / "wing.ugvr";
+  OctreeBuildOptions o;
+  o.resolution = 8, o.max_depth = 4;
+  const auto dataset = wing(20'000);
+  BackgroundBuild a(dataset, {"pressure"}, o, path.string());
+  BackgroundBuild b(dataset, {"pressure"}, o, path.string());
+  BackgroundBuild::State sa, sb;
+  for (int i = 0; i < 2400; ++i) {
+    sa = a.state(), sb = b.state();
+    if (sa.stage != BackgroundBuild::Stage::Running && sb.stage != BackgroundBuild::Stage::Running) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_EQ(sa.stage, BackgroundBuild::Stage::Done) << sa.error;
+  ASSERT_EQ(sb.stage, BackgroundBuild::Stage::Done) << sb.error;
+  EXPECT_EQ(int(sa.reused) + int(sb.reused), 1) << "exactly one of the two builds the store";
+  const BrickStoreReader reader(path.string());
+  EXPECT_EQ(reader.layout().fields.at(0).name, "pressure");
+  for (const auto& e : fs::directory_iterator(path.parent_path()))
+    EXPECT_EQ(e.path(), path) << "left behind: " << e.path();
+}
+
 TEST(BackgroundBuild, AFailureIsReported) {
   BackgroundBuild build(wing(2000), {"no_such_field"}, OctreeBuildOptions{}, (scratch("fail") / "x.ugvr").string());
   BackgroundBuild::State st;

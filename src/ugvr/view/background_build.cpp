@@ -1,5 +1,12 @@
 #include "ugvr/view/background_build.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
 #include <filesystem>
 
 #include "ugvr/core/error.h"
@@ -7,6 +14,33 @@
 #include "ugvr/octree/input.h"
 
 namespace ugvr::view {
+
+namespace {
+
+// An exclusive flock on PATH.lock for as long as it lives; the holder removes the file when done. That leaves a small
+// window in which a third viewer locks a new file while a waiting one holds the old one: both may then build, which
+// costs time but no store (each writes its own temporary file and renames it into place whole).
+class CacheEntryLock {
+ public:
+  explicit CacheEntryLock(const std::string& store_path) : path_(store_path + ".lock") {
+    fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0) fail_in(path_, std::string("cannot open the cache entry's lock file: ") + std::strerror(errno));
+  }
+  ~CacheEntryLock() {
+    if (locked_) ::unlink(path_.c_str());
+    if (fd_ >= 0) ::close(fd_);  // releases the lock
+  }
+  CacheEntryLock(const CacheEntryLock&) = delete;
+  CacheEntryLock& operator=(const CacheEntryLock&) = delete;
+  bool try_lock() { return locked_ = ::flock(fd_, LOCK_EX | LOCK_NB) == 0; }
+
+ private:
+  std::string path_;
+  int fd_ = -1;
+  bool locked_ = false;
+};
+
+}  // namespace
 
 BackgroundBuild::BackgroundBuild(std::shared_ptr<const Dataset> dataset, std::vector<std::string> fields,
                                  OctreeBuildOptions options, std::string path, std::function<void()> before)
@@ -38,6 +72,24 @@ void BackgroundBuild::run(std::shared_ptr<const Dataset> dataset, std::vector<st
   };
   try {
     std::filesystem::create_directories(std::filesystem::path(path_).parent_path());
+    CacheEntryLock entry_lock(path_);
+    if (!entry_lock.try_lock()) {
+      {
+        std::lock_guard guard(mutex_);
+        state_.label = "waiting for another viewer's build";
+      }
+      while (!entry_lock.try_lock()) {
+        if (cancel_) throw Error("cancelled");
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      }
+    }
+    if (std::filesystem::exists(path_)) {  // written (renamed into place complete) by the build we waited for
+      std::lock_guard guard(mutex_);
+      state_.stage = Stage::Done;
+      state_.fraction = 1;
+      state_.reused = true;
+      return;
+    }
     const OctreeInput input = prepare_octree_input(*dataset, fields);
     build_octree(input, options, path_);
     std::lock_guard lock(mutex_);

@@ -22,12 +22,14 @@ class BackgroundBuild {
     Stage stage = Stage::Running;
     std::string label;  // the builder's step now ("subdivide", "bricks")
     double fraction = 0;
-    std::string error;  // when Failed
+    std::string error;    // when Failed
+    bool reused = false;  // Done without building: another process (or viewer) built the same store meanwhile
   };
 
   // Starts building `fields` of `dataset` into `path` (atomically: a valid store appears there only when done). The
-  // dataset must not change while this runs. Only one BackgroundBuild may run at a time (it observes the process's
-  // Progress reports).
+  // dataset must not change while this runs. Two viewers of the same grid share the cache entry: the build holds an
+  // exclusive lock on PATH.lock (flock), and a build that finds it held waits (label "waiting for another viewer's
+  // build"), then uses the store the other one wrote instead of building it again.
   // `before` (tests) runs on the build's thread before it starts.
   BackgroundBuild(std::shared_ptr<const Dataset> dataset, std::vector<std::string> fields, OctreeBuildOptions options,
                   std::string path, std::function<void()> before = {});
