@@ -293,5 +293,34 @@ TEST_F(KilledJobs, KilledBuildIsCleanedByTheNextRun) {
   EXPECT_EQ(entries(dir_.file("")), (std::set<std::string>{"log", "out.ugvr", "small.vtu"}));
 }
 
+// A full disk during a job: a clean error naming the output, exit status 1, and nothing left behind. The disk is made
+// "full" for the job alone with a file-size limit (ulimit -f) and SIGXFSZ ignored, so that its writes fail with
+// EFBIG, through the same error path as ENOSPC.
+TEST_F(KilledJobs, AFullDiskGivesACleanErrorAndNoPartialOutput) {
+  struct Job {
+    std::string name, args, output;
+  };
+  const std::vector<Job> jobs{
+      {"convert", "convert " + mesh_ + " " + dir_.file("copy.vtu"), "copy.vtu"},
+      {"build", "build " + mesh_ + " -o " + dir_.file("out.ugvr") + " --out-of-core --memory 64MiB", "out.ugvr"},
+      {"generate", "generate -o " + dir_.file("big.vtu") + " --cells 300000 --kind tet", "big.vtu"},
+  };
+  for (const Job& job : jobs) {
+    const std::string cmd =
+        "bash -c 'trap \"\" XFSZ; ulimit -f 2048; exec " + std::string(UGVR_BINARY) + " --quiet " + job.args + "' 2>&1";
+    FILE* p = popen(cmd.c_str(), "r");
+    ASSERT_NE(p, nullptr);
+    std::string out;
+    char buf[4096];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
+    const int status = pclose(p);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << job.name << ": " << status << " " << out;
+    EXPECT_NE(out.find("File too large"), std::string::npos) << job.name << ": " << out;
+    EXPECT_NE(out.find(job.output), std::string::npos) << job.name << " names its output: " << out;
+    EXPECT_EQ(entries(dir_.file("")), std::set<std::string>{}) << job.name << " left something behind";
+  }
+}
+
 }  // namespace
 }  // namespace ugvr
