@@ -2,17 +2,25 @@
 # Builds the libFuzzer targets with clang (ASan + UBSan) and runs each for FUZZ_SECONDS (default 60), seeded with the
 # small real files of ../shared/data (or $UGVR_DATA) and the hand-made cases the targets add. Exits non-zero on the
 # first crash; the reproducer is left in fuzz-corpus/<target>/crash-*.
+#   SEEDS_ONLY=1 UGVR=path/to/ugvr FUZZ_CORPUS=DIR bash scripts/fuzz.sh   writes the seeds only (no clang build): what
+#   the FuzzReplay test (scripts/fuzz_replay.sh) replays in CI. UGVR builds the store seeds (skipped without it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${FUZZ_SECONDS:-60}
 data=${UGVR_DATA:-../shared/data}
+corpus=${FUZZ_CORPUS:-fuzz-corpus}
+mkdir -p "$corpus"
+corpus=$(cd "$corpus" && pwd)
 
-cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang \
-  -DCMAKE_CXX_COMPILER=clang++ -DUGVR_FUZZ=ON -DUGVR_TESTS=OFF -DUGVR_BENCH=OFF >/dev/null
-ninja -C build-fuzz
+if [ -z "${SEEDS_ONLY:-}" ]; then
+  cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang \
+    -DCMAKE_CXX_COMPILER=clang++ -DUGVR_FUZZ=ON -DUGVR_TESTS=OFF -DUGVR_BENCH=OFF >/dev/null
+  ninja -C build-fuzz
+  UGVR=${UGVR:-build-fuzz/ugvr}
+fi
 
 seed() {  # target, files...
-  local dir=fuzz-corpus/$1/seeds
+  local dir=$corpus/$1/seeds
   shift
   mkdir -p "$dir"
   for f in "$@"; do
@@ -24,7 +32,7 @@ seed fuzz_vtk_xml "$data"/vtk-small-ugrids/*.vtu
 seed fuzz_vtk_legacy "$data"/vtk-small-ugrids/*.vtk "$data"/vtk-office/*.vtk
 # PLOT3D: the real files are too large as seeds; make small ones in the target's input layout (uint32 grid length,
 # grid file, Q file) for big- and little-endian, C and Fortran layouts, with and without IBLANK.
-/usr/bin/python3 - fuzz-corpus/fuzz_plot3d/seeds <<'PY'
+/usr/bin/python3 - "$corpus/fuzz_plot3d/seeds" <<'PY'
 import os, struct, sys
 out = sys.argv[1]
 os.makedirs(out, exist_ok=True)
@@ -48,7 +56,7 @@ PY
 
 # ASCII meshes (AVS UCD, TetGen, tetrahedral OFF, NASTRAN): spx.inp and the z88 piston are too large as seeds; make
 # small ones of every variant the readers take (TetGen: uint32 length of the .node part, .node, .ele).
-/usr/bin/python3 - fuzz-corpus <<'PY'
+/usr/bin/python3 - "$corpus" <<'PY'
 import os, struct, sys
 root = sys.argv[1]
 def put(target, name, data):
@@ -88,7 +96,7 @@ PY
 
 # Gmsh and UGRID: small hand-made meshes in every variant (MSH 2.2 / 4.1, ASCII / binary in both byte orders; UGRID
 # ASCII and the ten binary layouts, the first byte picking the file name as fuzz_ugrid.cpp does).
-/usr/bin/python3 - fuzz-corpus/fuzz_gmsh/seeds fuzz-corpus/fuzz_ugrid/seeds <<'PY'
+/usr/bin/python3 - "$corpus/fuzz_gmsh/seeds" "$corpus/fuzz_ugrid/seeds" <<'PY'
 import os, struct, sys
 out_gmsh, out_ugrid = sys.argv[1], sys.argv[2]
 os.makedirs(out_gmsh, exist_ok=True)
@@ -162,9 +170,9 @@ PY
 # gzip, ascii with line skip, 4-D vector with byte skip).
 seed fuzz_exodus "$data"/exodus-misc/box-noglom.ex2 "$data"/exodus-misc/mesh_fs8.exo
 # CGNS: the shared ADF sample (1 MB, above seed()'s size cap: copied as it is).
-mkdir -p fuzz-corpus/fuzz_cgns/seeds
-if [ -f "$data"/cgns-sqnz/sqnz_s.adf.cgns ]; then cp "$data"/cgns-sqnz/sqnz_s.adf.cgns fuzz-corpus/fuzz_cgns/seeds/; fi
-/usr/bin/python3 - fuzz-corpus/fuzz_nrrd/seeds <<'PY'
+mkdir -p "$corpus/fuzz_cgns/seeds"
+if [ -f "$data"/cgns-sqnz/sqnz_s.adf.cgns ]; then cp "$data"/cgns-sqnz/sqnz_s.adf.cgns "$corpus/fuzz_cgns/seeds/"; fi
+/usr/bin/python3 - "$corpus/fuzz_nrrd/seeds" <<'PY'
 import gzip, os, struct, sys
 out = sys.argv[1]
 os.makedirs(out, exist_ok=True)
@@ -183,13 +191,64 @@ for name, data in seeds.items():
         f.write(data)
 PY
 
+# The viewer's protocol: one message per file, valid ones of every type and a few near misses.
+/usr/bin/python3 - "$corpus/fuzz_view_protocol/seeds" <<'PY'
+import os, sys
+out = sys.argv[1]
+os.makedirs(out, exist_ok=True)
+messages = [
+    '{"type":"hello","width":640,"height":480}',
+    '{"type":"resize","width":32,"height":24}',
+    '{"type":"camera","position":[1,2,3],"focal_point":[0,0,0],"view_up":[0,0,1],"view_angle":30,"request":7}',
+    '{"type":"tf","points":[[0,0,0,0,0],[1,1,1,1,0.5]],"range":[0,1]}',
+    '{"type":"settings","volume_lighting":true,"step":0.5,"background":[0,0,0,1]}',
+    '{"type":"engine","engine":"exact"}',
+    '{"type":"camera","position":[1e308,-1e308,0]}',
+    '{"type":"hello","width":-1,"height":1e9}',
+    '[{"type":"hello"}]',
+]
+for i, m in enumerate(messages):
+    open(os.path.join(out, "m%02d.json" % i), "w").write(m)
+PY
+
+# Cameras, render settings and ParaView presets: the first byte picks the parser (fuzz_settings_files.cpp).
+/usr/bin/python3 - "$corpus/fuzz_settings_files/seeds" <<'PY'
+import os, sys
+out = sys.argv[1]
+os.makedirs(out, exist_ok=True)
+files = {
+    "camera": (0, '{"position":[1,2,3],"focal_point":[0,0,0],"view_up":[0,0,1],"view_angle":30,"parallel_projection":false}'),
+    "camera-parallel": (0, '{"position":[0,0,5],"focal_point":[0,0,0],"view_up":[0,1,0],"parallel_projection":true,"parallel_scale":2}'),
+    "settings": (1, '{"mode":"iso","iso_values":[0.5,0.7],"volume_lighting":true,"background":[0,0,0,1],"step":0.25}'),
+    "settings-clip": (1, '{"clip":{"origin":[0,0,0],"normal":[1,0,0]},"early_termination_opacity":0.95}'),
+    "preset": (2, '[{"Name":"Cool","ColorSpace":"Diverging","RGBPoints":[0,0.2,0.3,0.9,1,0.7,0.0,0.1],'
+                  '"Points":[0,0,0.5,0,1,1,0.5,0]}]'),
+}
+for name, (kind, text) in files.items():
+    open(os.path.join(out, name), "wb").write(bytes([kind]) + text.encode())
+PY
+
+# Brick stores: small ones built by ugvr itself (quantised and float, one and two fields).
+if [ -n "${UGVR:-}" ] && [ -x "${UGVR:-}" ]; then
+  mkdir -p "$corpus/fuzz_store/seeds"
+  tmp=$(mktemp -d)
+  "$UGVR" --quiet generate --cells 1000 --kind mixed -o "$tmp/g.vtu" >/dev/null
+  "$UGVR" --quiet build "$tmp/g.vtu" -o "$corpus/fuzz_store/seeds/q16.ugvr" --brick 8 --max-depth 2 >/dev/null
+  "$UGVR" --quiet build "$tmp/g.vtu" -o "$corpus/fuzz_store/seeds/f32.ugvr" --brick 8 --max-depth 1 --float32 \
+    --fields pressure,velocity >/dev/null
+  rm -rf "$tmp"
+fi
+
+[ -n "${SEEDS_ONLY:-}" ] && exit 0
+
 status=0
 for bin in build-fuzz/fuzz/fuzz_*; do
   [ -x "$bin" ] || continue
   name=$(basename "$bin")
-  mkdir -p "fuzz-corpus/$name/work" "fuzz-corpus/$name/seeds"
+  bin=$(pwd)/$bin
+  mkdir -p "$corpus/$name/work" "$corpus/$name/seeds"
   echo "== $name: ${seconds}s"
-  if ! (cd "fuzz-corpus/$name" && "../../$bin" -max_total_time="$seconds" -max_len=262144 -rss_limit_mb=4096 \
+  if ! (cd "$corpus/$name" && "$bin" -max_total_time="$seconds" -max_len=262144 -rss_limit_mb=4096 \
         -timeout=10 -print_final_stats=1 work seeds 2>&1 | tail -n 12); then
     echo "$name: FAILED"
     status=1
