@@ -6,6 +6,8 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <memory>
@@ -96,6 +98,9 @@ struct LodEngine::Impl {
   bool have_atlas = false;
   BrickSlotTable slot_table;         // which slot of the atlas holds which node's brick (brick_residency.h)
   TfNodeErrors tf_errors{store, 0};  // for the last transfer function rendered: recomputed when it changes
+  // The most slots the device has agreed to allocate, once it refused more than --gpu-memory allows (llvmpipe caps a
+  // texture at 1 GiB, below the default budget); UINT64_MAX until then.
+  uint64_t device_slots = UINT64_MAX;
 
   Impl(const std::string& path, const GlContext& g, LodOptions o) : store(path), gl(g), options(o) {}
   uint64_t budget_slots() const;
@@ -121,16 +126,57 @@ ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, boo
 uint64_t LodEngine::Impl::budget_slots() const {
   const uint64_t side = store.resolution() + 2;
   const uint64_t per_brick = side * side * side * 4;
-  return std::min(BrickAtlas::max_slots(store.resolution(), gl.max_3d_texture_size()),
-                  std::max<uint64_t>(1, options.atlas_budget_bytes / per_brick));
+  return std::min({BrickAtlas::max_slots(store.resolution(), gl.max_3d_texture_size()),
+                   std::max<uint64_t>(1, options.atlas_budget_bytes / per_brick), device_slots});
 }
 
 void LodEngine::Impl::ensure_atlas(uint64_t needed) {
   if (have_atlas && atlas.capacity() >= needed) return;
   // Grow with headroom so that a slowly growing cut does not reallocate every frame; a new atlas starts empty.
-  const uint64_t want = std::min(budget_slots(), std::max(needed + needed / 4, uint64_t(64)));
+  const uint64_t want = std::max(needed, std::min(budget_slots(), std::max(needed + needed / 4, uint64_t(64))));
   atlas = BrickAtlas();
-  atlas = BrickAtlas(store.resolution(), std::max(want, needed), gl.max_3d_texture_size());
+  have_atlas = false;
+  // UGVR_ATLAS_MAX_BYTES (fault injection for tests and for trying a smaller device): atlases above it are refused as
+  // an out-of-memory device would refuse them.
+  const char* limit_env = std::getenv("UGVR_ATLAS_MAX_BYTES");
+  const uint64_t injected_limit = limit_env && *limit_env ? std::strtoull(limit_env, nullptr, 10) : UINT64_MAX;
+  const auto allocate = [&](uint64_t slots) {
+    BrickAtlas a(store.resolution(), slots, gl.max_3d_texture_size());
+    if (a.bytes() > injected_limit)
+      fail_in("brick atlas",
+              "allocating the brick atlas: refused above UGVR_ATLAS_MAX_BYTES = " + std::to_string(injected_limit));
+    return a;
+  };
+  try {
+    atlas = allocate(want);
+  } catch (const Error& refused) {
+    // The device would not allocate it although the budget allows it: find the largest atlas it does allocate
+    // (bisection between 1 slot and `want`), make that the budget, and let the caller choose a cut that fits it.
+    uint64_t ok = 0, bad = want;
+    while (bad > ok + std::max<uint64_t>(1, bad / 64)) {
+      const uint64_t mid = ok + (bad - ok) / 2;
+      try {
+        atlas = allocate(mid);
+        ok = std::min(atlas.capacity(), bad - 1);  // slots round up to a box of slots: never past the refused count
+        atlas = BrickAtlas();
+      } catch (const Error&) {
+        bad = mid;
+      }
+    }
+    if (ok == 0) throw;
+    device_slots = ok;
+    const uint64_t side = store.resolution() + 2;
+    const uint64_t bytes = ok * side * side * side * 4;
+    // In the unit --gpu-memory takes (MiB, or KiB below 16 MiB), rounded down.
+    const std::string flag =
+        bytes >= (uint64_t(16) << 20) ? std::to_string(bytes >> 20) + "MiB" : std::to_string(bytes >> 10) + "KiB";
+    std::fprintf(stderr,
+                 "ugvr: the GPU refused a brick atlas of %llu bricks (%s); the budget is now %llu bricks (%s): "
+                 "--gpu-memory %s avoids this probe\n",
+                 (unsigned long long)want, refused.what(), (unsigned long long)ok, flag.c_str(), flag.c_str());
+    throw AtlasRefused("the GPU allocates at most " + std::to_string(ok) + " bricks (" + flag + "); the cut of " +
+                       std::to_string(needed) + " bricks must be chosen again");
+  }
   have_atlas = true;
   slot_table.reset(atlas.capacity());
 }
@@ -298,10 +344,18 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   I.tf_errors.set_field(I.field);
   I.tf_errors.update(tf);
   co.tf_errors = &I.tf_errors;
-  const Cut cut = select_cut(I.store, cut_spec, camera, settings.width, settings.height, tf, co);
+  Cut cut = select_cut(I.store, cut_spec, camera, settings.width, settings.height, tf, co);
   st.cut_seconds = seconds_since(t0);
   BrickResidency from_store(I.store, I.slot_table);  // no RAM tier: the bricks are read here
-  const Image image = render_nodes(camera, tf, settings, cut.nodes, from_store, &st);
+  Image image;
+  try {
+    image = render_nodes(camera, tf, settings, cut.nodes, from_store, &st);
+  } catch (const AtlasRefused&) {
+    // The device allocates less than the budget: the cut again, within what it does allocate (once).
+    co.max_nodes = I.budget_slots();
+    cut = select_cut(I.store, cut_spec, camera, settings.width, settings.height, tf, co);
+    image = render_nodes(camera, tf, settings, cut.nodes, from_store, &st);
+  }
   st.cut_nodes = cut.nodes.size();
   st.culled_frustum = cut.culled_frustum;
   st.culled_tf = cut.culled_tf;

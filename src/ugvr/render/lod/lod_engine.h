@@ -18,6 +18,7 @@
 #include <string_view>
 #include <vector>
 
+#include "ugvr/core/error.h"
 #include "ugvr/core/vec.h"
 #include "ugvr/gpu/gl_context.h"
 #include "ugvr/render/camera.h"
@@ -53,6 +54,13 @@ struct LodRenderStats {
 // Whether settings draw the boundary overlay: opacity > 0, and not in MIP mode (as the exact engine). The cut must
 // then keep nodes that are transparent under the transfer function (CutOptions / ActiveCutOptions::tf_cull false).
 bool boundary_overlay_on(const RenderSettings& settings);
+
+// Thrown by LodEngine::render_nodes when the device refused an atlas that the budget allowed (llvmpipe caps a texture
+// at 1 GiB): atlas_budget_bricks() is now what it does allocate; choose the cut again within it and render again.
+class AtlasRefused : public Error {
+ public:
+  using Error::Error;
+};
 
 struct LodOptions {
   uint64_t atlas_budget_bytes = uint64_t(2) << 30;  // GPU memory for bricks

@@ -96,7 +96,7 @@ Image TimeCriticalRenderer::Impl::step(const Camera& camera, const TransferFunct
   scaled.height = std::max(1, int(std::lround(settings.height * f.scale)));
   if (scaled.width == settings.width && scaled.height == settings.height) f.scale = 1;
   cull_for(settings);
-  const CutUpdate u =
+  CutUpdate u =
       cut.update(camera, scaled.width, scaled.height, tf, budget, [&](uint64_t n) { return residency.resident(n); });
   // The cache keeps what the cut draws and has not uploaded yet (most important), then what it wants next.
   std::vector<std::pair<uint64_t, float>> requests;
@@ -105,7 +105,15 @@ Image TimeCriticalRenderer::Impl::step(const Camera& camera, const TransferFunct
   for (size_t i = 0; i < u.wanted.size(); ++i) requests.push_back({u.wanted[i], float(u.wanted_priority[i])});
   cache.request(requests);
   f.requested = requests.size();
-  Image image = engine.render_nodes(camera, tf, scaled, u.visible, residency, &f.render);
+  Image image;
+  try {
+    image = engine.render_nodes(camera, tf, scaled, u.visible, residency, &f.render);
+  } catch (const AtlasRefused&) {
+    // The device allocates less than the budget allowed (the engine now knows how much): the cut merges down to it.
+    budget.max_nodes = std::max<uint64_t>(1, std::min(engine.atlas_budget_bricks(), f.budget_nodes));
+    u = cut.update(camera, scaled.width, scaled.height, tf, budget, [&](uint64_t n) { return residency.resident(n); });
+    image = engine.render_nodes(camera, tf, scaled, u.visible, residency, &f.render);
+  }
   cache.rethrow_load_error();
   if (f.scale != 1) image = resize_bilinear(image, settings.width, settings.height);
   f.cut_nodes = cut.size();
