@@ -161,8 +161,6 @@ def from_vtk(obj, point_data=None, cell_data=None):
     cell_fields = arrays(obj.GetCellData(), cell_data)
     kind = obj.GetClassName()
     if obj.IsA("vtkImageData"):
-        if obj.IsA("vtkUniformGrid") and hasattr(obj, "GetDirectionMatrix"):
-            pass
         if hasattr(obj, "GetDirectionMatrix") and not obj.GetDirectionMatrix().IsIdentity():
             raise Error(f"from_vtk: {kind} with a direction matrix is not supported (axis-aligned images only)")
         return _from_image(obj.GetDimensions(), obj.GetOrigin(), obj.GetSpacing(), point_fields, cell_fields)
@@ -183,29 +181,35 @@ def from_vtk(obj, point_data=None, cell_data=None):
 
 def from_meshio(mesh):
     """A Dataset from a meshio.Mesh: its volume cell blocks in order (tetra, pyramid, wedge, hexahedron and their
-    quadratic forms), point_data, and cell_data concatenated over those blocks. Surface blocks (triangle, quad,
-    ...) are left out with their cell data. Copies as from_arrays."""
+    quadratic forms, linearised), point_data, and cell_data concatenated over those blocks. Surface blocks
+    (triangle, quad, ...) are left out with their cell data. Copies as from_arrays."""
     import numpy as np
-    volume = {"tetra", "pyramid", "wedge", "hexahedron", "tetra10", "pyramid13", "wedge15", "hexahedron20",
-              "hexahedron27", "wedge18", "pyramid14"}
-    blocks = [(i, b) for i, b in enumerate(mesh.cells) if b.type in volume]
+    vtk_ids = {"tetra": 10, "hexahedron": 12, "wedge": 13, "pyramid": 14, "tetra10": 24, "hexahedron20": 25,
+               "wedge15": 26, "pyramid13": 27, "hexahedron27": 29, "wedge18": 32, "pyramid14": 37}
+    blocks = [(i, b) for i, b in enumerate(mesh.cells) if b.type in vtk_ids and len(b.data)]
     if not blocks:
         raise Error("from_meshio: the mesh has no volume cells (tetra, pyramid, wedge, hexahedron)")
-    # One dict entry per block: blocks of the same type are merged in order (a dict has one key per type), so the
-    # cells are ordered by type first, and the cell data follows the same order.
-    order = []
-    for _, b in blocks:
-        if b.type not in order:
-            order.append(b.type)
-    cells = {t: np.concatenate([b.data for _, b in blocks if b.type == t]) for t in order}
+    # VTK-style arrays in the blocks' order, so that the cells keep the file's order (meshio splits a mixed file into
+    # runs of one type); the index arrays are built here (one more copy of the connectivity than from_vtk makes).
+    # meshio numbers a wedge's corners in the opposite orientation to VTK (its VTK writers swap 1<->2 and 4<->5, and
+    # so does this; the mid-edge nodes of a wedge15 are then dropped by the linearisation anyway).
+    def vtk_order(b):
+        data = np.asarray(b.data, dtype=np.int64)
+        if b.type.startswith("wedge"):
+            data = data[:, [0, 2, 1, 3, 5, 4] + list(range(6, data.shape[1]))]
+        return data.ravel()
+
+    connectivity = np.concatenate([vtk_order(b) for _, b in blocks])
+    sizes = np.concatenate([np.full(len(b.data), b.data.shape[1], dtype=np.int64) for _, b in blocks])
+    offsets = np.concatenate([[0], np.cumsum(sizes)])
+    types = np.concatenate([np.full(len(b.data), vtk_ids[b.type], dtype=np.uint8) for _, b in blocks])
     cell_data = {}
     for name, per_block in mesh.cell_data.items():
-        parts = [np.asarray(per_block[i]) for t in order for i, b in blocks if b.type == t]
+        parts = [np.asarray(per_block[i]) for i, _ in blocks]
         if all(p.dtype.kind in "iuf" for p in parts):
             cell_data[name] = np.concatenate(parts)
     point_data = {k: v for k, v in mesh.point_data.items() if np.asarray(v).dtype.kind in "iuf"}
-    return _from_arrays(np.asarray(mesh.points, dtype=np.float64 if mesh.points.dtype != np.float32 else None),
-                        cells, None, None, point_data, cell_data)
+    return _from_arrays(mesh.points, connectivity, offsets, types, point_data, cell_data)
 
 
 def generate(out=None, cells=1_000_000, kind="hex", seed=1):
