@@ -669,7 +669,8 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
     if (!(*view_angle > 0 && *view_angle < 180)) fail_in("view_angle", "must be in (0, 180) degrees");
   }
   std::optional<Camera> file_camera;
-  if (o.has("camera")) file_camera = o.get("camera").cast<Camera>();
+  // Validated as a --camera file is (position != focal point, view up not along the view, finite numbers).
+  if (o.has("camera")) file_camera = camera_from_json(camera_to_json(o.get("camera").cast<Camera>()), "camera");
   TransferFunction tf;
   std::optional<double> unit_distance;
   const std::string tf_name = o.str("tf_name");
@@ -965,7 +966,7 @@ class PyViewer {
   bool running() const { return bool(server_); }
   Camera camera() const { return options_.camera.value_or(default_camera(bounds_)); }
   void set_camera(const Camera& c) {
-    options_.camera = c;
+    options_.camera = camera_from_json(camera_to_json(c), "camera");
     restart();
   }
   py::object tf() const {
@@ -1052,7 +1053,7 @@ std::unique_ptr<PyViewer> start_view(py::object source, const std::string& store
   if (o.has("error")) vo.build.error = o.number("error");
   if (o.has("max_depth")) vo.build.max_depth = int(std::clamp<int64_t>(o.integer("max_depth"), -1, 1 << 20));
   validate_build_options(vo.build);
-  if (o.has("camera")) vo.camera = o.get("camera").cast<Camera>();
+  if (o.has("camera")) vo.camera = camera_from_json(camera_to_json(o.get("camera").cast<Camera>()), "camera");
   if (o.has("background")) {
     const std::vector<double> b = to_doubles(o.get("background"), "background", 3, 4);
     vo.background = std::array<double, 4>{b[0], b[1], b[2], b.size() == 4 ? b[3] : 1.0};

@@ -102,6 +102,18 @@ def test_bad_render_arguments(kwargs, message):
         ugvr.render(ds, size=kwargs.pop("size", 8), **kwargs)
 
 
+def test_bad_camera_object():
+    ds = make(point_data={"s": np.arange(4.0)})
+    camera = ugvr.Camera()
+    camera.focal_point = camera.position
+    with pytest.raises(ugvr.Error, match=r"camera"):
+        ugvr.render(ds, camera=camera, size=8)
+    with pytest.raises(ugvr.Error, match=r"position: expected 3 numbers"):
+        camera.position = (1, 2)
+    with pytest.raises(ugvr.Error, match=r"view_up: expected a number"):
+        camera.view_up = ("a", 0, 0)
+
+
 def test_bad_files(tmp_path):
     with pytest.raises(ugvr.Error, match=r"missing.vtu"):
         ugvr.read(tmp_path / "missing.vtu")
