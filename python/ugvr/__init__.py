@@ -11,12 +11,21 @@ Keyword arguments mirror `ugvr render` / `ugvr build` / `ugvr view` flags (--vie
 Errors are ugvr.Error with the library's message (the CLI's, naming the file or the argument). docs/python.md.
 """
 
+import atexit as _atexit
 import os as _os
+import weakref as _weakref
 
 from . import _ugvr
 from ._ugvr import Camera, Dataset, Error, TransferFunction
 
 __version__ = _ugvr.__version__
+
+# The compiled classes present themselves as ugvr.X (tracebacks, help()).
+for _cls in (Camera, Dataset, Error, TransferFunction):
+    try:
+        _cls.__module__ = "ugvr"
+    except (AttributeError, TypeError):
+        pass
 
 __all__ = [
     "Camera", "Dataset", "Error", "Image", "Store", "TransferFunction", "Viewer", "build", "compare", "demo",
@@ -330,8 +339,8 @@ def render(source, field=None, view=None, camera=None, view_angle=None, tf=None,
     early_termination=, sample_step=, settings=file|dict, threads=N, and for a store cut=, gpu=, gpu_memory=,
     ram_memory=, step_voxels=. dtype="float32" returns the float image (before 8-bit rounding).
 
-    progress(stage, fraction) is called (with the GIL) during long work -- the exact engine's walk mesh, reading --
-    and cancels it by returning False (ugvr.Error "cancelled"). The GIL is released while rendering, so other Python
+    progress(stage, fraction) is called (with the GIL) during long work -- the exact engine's walk mesh, built on a
+    Dataset's first render -- and cancels it by returning False (ugvr.Error "cancelled"). The GIL is released while rendering, so other Python
     threads run. A Dataset keeps its walk mesh for the next render."""
     options = dict(read_options)
     if lighting is None and no_lighting:
@@ -458,6 +467,16 @@ class Viewer:
         return f"<ugvr.Viewer {self.url if self.running else '(closed)'}>"
 
 
+_viewers = _weakref.WeakSet()
+
+
+@_atexit.register
+def _close_viewers():
+    """Servers still running when the interpreter exits are stopped while it can still run their destructors."""
+    for viewer in list(_viewers):
+        viewer.close()
+
+
 def view(source, port=0, host="127.0.0.1", camera=None, tf=None, fields=None, store=None, size=None, fps=None,
          error=None, max_depth=None, free_grid=False, background=None, gpu="auto", gpu_memory=None, ram_memory=None,
          height=560, **read_options):
@@ -488,4 +507,6 @@ def view(source, port=0, host="127.0.0.1", camera=None, tf=None, fields=None, st
         if temp_dir is not None:
             temp_dir.cleanup()
         raise
-    return Viewer(handle, temp_dir, height)
+    viewer = Viewer(handle, temp_dir, height)
+    _viewers.add(viewer)
+    return viewer
