@@ -45,6 +45,9 @@ def parse_args():
     p.add_argument("--name", default=None)
     p.add_argument("--size", type=int, default=384)
     p.add_argument("--frames", type=int, default=3)
+    p.add_argument("--camera", default=None, help="camera JSON (default: ugvr render's first view)")
+    p.add_argument("--tf", default=None, help="ParaView preset JSON in data values (default: viridis over the range)")
+    p.add_argument("--background", default=None, help="R,G,B (default ParaView's)")
     p.add_argument("--lod", action="store_true", help="also the level-of-detail engine over a brick store")
     p.add_argument("--out", default=None, help="directory for the images")
     return p.parse_args()
@@ -128,6 +131,9 @@ def main():
     reader.Update()
     grid = reader.GetOutput()
     size = (args.size, args.size)
+    background = tuple(float(c) for c in args.background.split(",")) if args.background else None
+    if background:
+        peer.BACKGROUND = background
 
     t0 = time.perf_counter()
     ds = ugvr.from_vtk(grid)
@@ -138,7 +144,8 @@ def main():
     seconds = []
     for _ in range(args.frames):
         t0 = time.perf_counter()
-        exact = ugvr.render(ds, field=args.field, size=size, engine="exact", device="cpu")
+        exact = ugvr.render(ds, field=args.field, size=size, engine="exact", device="cpu", camera=args.camera,
+                            tf=args.tf, keep_range=args.tf is not None, background=background)
         seconds.append(time.perf_counter() - t0)
     tmp = tempfile.mkdtemp(prefix="pv-style-")
     tf_path = os.path.join(tmp, "tf.json")
@@ -162,7 +169,8 @@ def main():
         seconds = []
         for _ in range(args.frames):
             t0 = time.perf_counter()
-            lod = ugvr.render(store, camera=exact.camera, tf=exact.tf, keep_range=True, size=size)
+            lod = ugvr.render(store, camera=exact.camera, tf=exact.tf, keep_range=True, size=size,
+                              background=background)
             seconds.append(time.perf_counter() - t0)
         q = ugvr.compare(lod.array, exact.array)
         records.append({"path": "ugvr-lod", "build_seconds": round(build_seconds, 3), "store_bytes": store.info["bytes"],

@@ -3,7 +3,7 @@
 # python3-vtk9 and Xvfb.
 # Usage: bench/run_python.sh [OUT_DIR=bench/results/python] [SCRATCH=/tmp/ugvr-bench-python]
 #   UGVR (default build/ugvr), UGVR_DATA (default ../shared/data), SIZE (384), FRAMES (3), RSS_CELLS (10000000; 0 skips
-#   the from_vtk memory run), LOD=0 to leave out the level-of-detail engine.
+#   the from_vtk memory run), LOD=0 to leave out the level-of-detail engine, ONLY=blunt-fin|kiefer-bracket|demo for one.
 #  1. PyVista's add_volume path (tetrahedralise, cell data to point data, vtkUnstructuredGridVolumeRayCastMapper) vs
 #     ugvr.render (exact; lod over a store) on the blunt fin (PLOT3D converted to hexahedra), the kiefer bracket
 #     (quadratic tetrahedra, cell data) and the generated mixed demo (200,000 cells): bench/peer_pyvista_style.py,
@@ -32,13 +32,19 @@ echo "$session" | tee -a "$jsonl"
 "$ugvr" --quiet generate -o "$scratch/demo.vtu" --cells 200000 --kind mixed
 lod_flag=()
 [ "$lod" = 1 ] && lod_flag=(--lod)
-run() {  # name mesh field
+# The demo is drawn in its own scene (ugvr.demo(): the camera, transfer function and background of scripts/demo.sh);
+# the others in `ugvr render`'s defaults (the oblique view, viridis over the field's range).
+"$py" -c "import ugvr, sys; d = ugvr._ugvr._demo_scene(); open(sys.argv[1], 'w').write(d[1]); open(sys.argv[2], 'w').write(d[2])" \
+  "$scratch/demo-camera.json" "$scratch/demo-tf.json"
+run() {  # name mesh field [extra flags]
   xvfb-run -a -s "-screen 0 1024x768x24" "$py" bench/peer_pyvista_style.py --mesh "$2" --field "$3" --name "$1" \
-    --size "$size" --frames "$frames" --out "$outdir" "${lod_flag[@]}" | tee -a "$jsonl"
+    --size "$size" --frames "$frames" --out "$outdir" "${lod_flag[@]}" "${@:4}" | tee -a "$jsonl"
 }
-run blunt-fin "$scratch/blunt-fin.vtu" Density
-run kiefer-bracket "$data/fea-kiefer-bracket/dataset.vtu" "Equivalent (von-Mises) Stress (psi)"
-run demo "$scratch/demo.vtu" pressure
+[ "${ONLY:-}" = "" ] || [ "${ONLY:-}" = blunt-fin ] && run blunt-fin "$scratch/blunt-fin.vtu" Density
+[ "${ONLY:-}" = "" ] || [ "${ONLY:-}" = kiefer-bracket ] &&
+  run kiefer-bracket "$data/fea-kiefer-bracket/dataset.vtu" "Equivalent (von-Mises) Stress (psi)"
+[ "${ONLY:-}" = "" ] || [ "${ONLY:-}" = demo ] && run demo "$scratch/demo.vtu" pressure \
+  --camera "$scratch/demo-camera.json" --tf "$scratch/demo-tf.json" --background 0.02,0.02,0.04
 
 if [ "$rss_cells" != 0 ]; then
   jsonl=bench/results/python_from_vtk_rss.jsonl
