@@ -102,10 +102,13 @@ struct Options {
   bool flag(const char* key, bool fallback = false) const { return has(key) ? bool(py::bool_(get(key))) : fallback; }
   int64_t integer(const char* key) const {
     py::object v = get(key);
-    if (!py::isinstance<py::int_>(v) || py::isinstance<py::bool_>(v))
+    // Anything with __index__ (int, numpy.int64), not bool and not float.
+    if (!PyIndex_Check(v.ptr()) || py::isinstance<py::bool_>(v))
       fail_in(key, "expected an integer, found " + py::repr(v).cast<std::string>());
     try {
-      return v.cast<int64_t>();
+      PyObject* index = PyNumber_Index(v.ptr());
+      if (!index) throw py::error_already_set();
+      return py::reinterpret_steal<py::int_>(index).cast<int64_t>();
     } catch (const py::cast_error&) {
       fail_in(key, "out of range: " + py::repr(v).cast<std::string>());
     }
@@ -503,6 +506,12 @@ py::dict field_views(const PyDataset& d, Association a, py::handle base) {
 struct PyTransferFunction : TransferFunction {
   bool unit_set = false;
 };
+
+// The colour points' range is what rescale() and range read: a transfer function without any is refused first.
+const PyTransferFunction& with_colors(const PyTransferFunction& tf) {
+  if (tf.color_points.empty()) fail_in("transfer function", "has no colour points");
+  return tf;
+}
 
 py::list color_points_list(const TransferFunction& tf) {
   py::list l;
@@ -1385,13 +1394,17 @@ PYBIND11_MODULE(_ugvr, m) {
             t.opacity_unit_distance = d, t.unit_set = true;
           },
           "ParaView's Scalar Opacity Unit Distance; None: render() uses the bounds diagonal / 10 as `ugvr render`")
-      .def("color", [](const PyTransferFunction& t, double s) { return tuple3(t.color(s)); })
+      .def("color", [](const PyTransferFunction& t, double s) { return tuple3(with_colors(t).color(s)); })
       .def("opacity", [](const PyTransferFunction& t, double s) { return t.opacity(s); })
       .def_property_readonly("range",
-                             [](const PyTransferFunction& t) { return py::make_tuple(t.range_min(), t.range_max()); })
+                             [](const PyTransferFunction& t) {
+                               with_colors(t);  // before either end is read (argument order is unspecified)
+                               return py::make_tuple(t.range_min(), t.range_max());
+                             })
       .def("rescale",
            [](PyTransferFunction& t, double lo, double hi) {
              if (!std::isfinite(lo) || !std::isfinite(hi) || hi < lo) fail_in("rescale", "needs finite lo <= hi");
+             (void)with_colors(t);
              t.rescale(lo, hi);
            })
       .def("validate", [](const PyTransferFunction& t) { t.validate("transfer function"); })

@@ -114,6 +114,22 @@ def test_bad_camera_object():
         camera.view_up = ("a", 0, 0)
 
 
+def test_empty_transfer_function():
+    tf = ugvr.TransferFunction()
+    for call in (lambda: tf.range, lambda: tf.color(0.5), lambda: tf.rescale(0, 1)):
+        with pytest.raises(ugvr.Error, match="no colour points"):
+            call()
+    with pytest.raises(ugvr.Error, match="tf"):
+        ugvr.render(make(point_data={"s": np.arange(4.0)}), tf=tf, size=8)
+
+
+def test_numpy_integers_are_integers(tmp_path):
+    ds = make(point_data={"s": np.arange(4.0)})
+    assert ugvr.render(ds, size=np.int64(8), threads=np.int32(1)).shape == (8, 8, 4)
+    with pytest.raises(ugvr.Error, match="threads: expected an integer"):
+        ugvr.render(ds, size=8, threads=1.5)
+
+
 def test_bad_files(tmp_path):
     with pytest.raises(ugvr.Error, match=r"missing.vtu"):
         ugvr.read(tmp_path / "missing.vtu")

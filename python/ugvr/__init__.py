@@ -12,6 +12,7 @@ Errors are ugvr.Error with the library's message (the CLI's, naming the file or 
 """
 
 import atexit as _atexit
+import numbers as _numbers
 import os as _os
 import weakref as _weakref
 
@@ -67,8 +68,8 @@ def _bytes(value, name):
 def _size(size):
     if size is None:
         return None
-    if isinstance(size, int) and not isinstance(size, bool):
-        return (size, size)
+    if isinstance(size, _numbers.Integral) and not isinstance(size, bool):
+        return (int(size), int(size))
     if isinstance(size, str):
         parts = size.lower().split("x")
         try:
