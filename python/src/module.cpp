@@ -30,6 +30,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
 #include "ugvr/core/memory.h"
+#include "ugvr/core/progress.h"
 #include "ugvr/gen/generator.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/octree/builder.h"
@@ -1497,6 +1498,8 @@ PYBIND11_MODULE(_ugvr, m) {
     out["ssim"] = ssim(ia, ib);
     return out;
   });
+  m.def("set_progress_output", &Progress::set_enabled, py::arg("enabled"),
+        "Turns the library's progress lines on stderr (builds, long reads) on or off, as `ugvr --quiet` does");
   m.def("_peak_rss_bytes", &peak_rss_bytes);
   m.def("_current_rss_bytes", &current_rss_bytes);
 }

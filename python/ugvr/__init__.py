@@ -17,7 +17,7 @@ import os as _os
 import weakref as _weakref
 
 from . import _ugvr
-from ._ugvr import Camera, Dataset, Error, TransferFunction
+from ._ugvr import Camera, Dataset, Error, TransferFunction, set_progress_output
 
 __version__ = _ugvr.__version__
 
@@ -30,7 +30,7 @@ for _cls in (Camera, Dataset, Error, TransferFunction):
 
 __all__ = [
     "Camera", "Dataset", "Error", "Image", "Store", "TransferFunction", "Viewer", "build", "compare", "demo",
-    "from_meshio", "from_vtk", "generate", "open_store", "read", "read_image", "render", "view",
+    "from_meshio", "from_vtk", "generate", "open_store", "read", "read_image", "render", "set_progress_output", "view",
 ]
 
 
