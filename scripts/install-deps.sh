@@ -19,6 +19,9 @@ PACKAGES=(
   libepoxy-dev libegl-dev             # OpenGL 4.5 through headless EGL (GPU engines)
   libegl1 libegl-mesa0 libgl1-mesa-dri  # Mesa's EGL and llvmpipe: the GPU engines run without a GPU (CI)
   python3 python3-matplotlib          # benchmark plots
+  python3-dev pybind11-dev python3-numpy python3-pytest  # `import ugvr` (python/) and its pytest suite
+  python3-vtk9 python3-meshio         # ugvr.from_vtk / from_meshio and their tests; the PyVista-style bench
+  jupyter-nbconvert python3-ipykernel # executes docs/python-demo.ipynb in CI
   chromium                            # headless browser for the viewer's end-to-end tests (tests/e2e; node + npm too)
 )
 

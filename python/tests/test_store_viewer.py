@@ -1,0 +1,81 @@
+"""ugvr.build + open_store (every `ugvr build` option reaches the store), rendering a store with the lod engine as the
+CLI does, and the viewer: started, serving its page, camera and transfer function get + set, closed."""
+import urllib.request
+
+import numpy as np
+import pytest
+
+import ugvr
+
+
+@pytest.fixture(scope="module")
+def mesh():
+    return ugvr.generate(cells=5000, kind="mixed")
+
+
+def test_build_and_open_store(mesh, tmp_path):
+    store = ugvr.build(mesh, tmp_path / "a.ugvr", fields="pressure,velocity:x", brick=16, max_depth=3, error=0.02,
+                       float32=True, no_tf_errors=True, memory="256MiB")
+    assert store.summary["fields"] == "pressure,velocity:x" and store.summary["brick"] == 16
+    again = ugvr.open_store(tmp_path / "a.ugvr")
+    info = again.info
+    assert again.fields == ["pressure", "velocity:x"]
+    assert info["brick"] == 16 and info["encoding"] == "float32" and not info["tf_errors"]
+    assert info["max_level"] <= 3 and info["nodes"] == store.summary["nodes"]
+    lo, hi = info["fields"][0]["range"]
+    assert lo < hi
+    bounds = np.array(info["bounds"])
+    assert np.allclose(bounds, np.array(mesh.bounds), rtol=1e-5)
+    default = ugvr.build(mesh, tmp_path / "b.ugvr", max_depth=2)
+    assert default.info["encoding"] == "quant16" and default.info["tf_errors"] and default.info["brick"] == 32
+
+
+def test_store_renders_as_the_cli(mesh, tmp_path, cli):
+    path = tmp_path / "m.vtu"
+    ugvr.generate(path, cells=3000, kind="mixed")
+    store = ugvr.build(path, tmp_path / "m.ugvr", max_depth=3)
+    out = tmp_path / "cli.png"
+    cli("render", store.path, "-o", out, "--size", "40x32", "--view", "+y")
+    img = ugvr.render(store, size=(40, 32), view="+y")
+    assert img.stats["engine"] == "lod"
+    assert np.array_equal(img.array, ugvr.read_image(out).array)
+
+
+def fetch(url):
+    with urllib.request.urlopen(url, timeout=30) as response:
+        return response.status, response.read().decode("utf-8", "replace")
+
+
+def test_view_dataset(mesh):
+    with ugvr.view(mesh, fields=["pressure"], max_depth=2) as viewer:
+        assert viewer.running and viewer.url.startswith("http://127.0.0.1:")
+        status, page = fetch(viewer.url)
+        assert status == 200 and "<html" in page.lower()
+        assert f'src="{viewer.url}"' in viewer._repr_html_()
+        default = viewer.camera
+        assert default == ugvr.Camera.default(mesh)
+        camera = ugvr.Camera.preset("+x", mesh)
+        port = viewer.port
+        viewer.camera = camera  # restarts on the same port
+        assert viewer.camera == camera and viewer.port == port
+        assert fetch(viewer.url)[0] == 200
+        tf = ugvr.TransferFunction.preset("inferno")
+        viewer.tf = tf
+        assert viewer.tf.color_points == tf.color_points
+    assert not viewer.running
+    with pytest.raises(OSError):
+        fetch(viewer.url)
+
+
+def test_view_store(mesh, tmp_path):
+    store = ugvr.build(mesh, tmp_path / "v.ugvr", max_depth=2)
+    viewer = ugvr.view(store, tf="cool-warm")
+    try:
+        assert fetch(viewer.url)[0] == 200
+        assert viewer.tf.name == ugvr.TransferFunction.preset("cool-warm").name
+        assert viewer.store == store.path
+    finally:
+        viewer.close()
+    viewer.close()  # idempotent
+    with pytest.raises(ugvr.Error, match="port"):
+        ugvr.view(store, port=70000)
