@@ -604,6 +604,41 @@ TEST(ViewServer, AHelloFloodWithoutReadingKeepsTheServerSmall) {
   }
 }
 
+// The Python API's live view (Viewer.camera / Viewer.tf): current_view reports what the tab that moved last shows;
+// set_view moves every tab, tells the pages ("view" message) and redraws; a tab opened afterwards starts from it.
+TEST(ViewServer, SetViewMovesTheTabsAndCurrentViewFollowsThem) {
+  START_SERVER(server);
+  Client c(server->port());
+  c.send(R"({"type":"hello","width":32,"height":32})");
+  const Frame first = read_frame(c);
+  ASSERT_TRUE(first.scene);
+  EXPECT_EQ(camera_to_json(server->current_view().camera), (*first.scene)["camera"]) << "no tab moved yet";
+  const json moved = camera_message(*first.scene, 0.7);
+  c.send(moved.dump());
+  read_frame_for(c, 2);
+  EXPECT_EQ(camera_to_json(server->current_view().camera)["position"], moved["position"]);
+
+  Camera camera = camera_from_json((*first.scene)["camera"], "scene");
+  camera.view_angle = 20;
+  TransferFunction tf = builtin_preset("inferno");
+  tf.rescale(0, 1);
+  tf.opacity_points = {{0, 0}, {0.5, 0.25}, {1, 0.75}};
+  server->set_view(camera, tf);
+  const std::optional<json> told = read_text_until(c, [](const json& j) { return j["type"] == "view"; });
+  ASSERT_TRUE(told);
+  EXPECT_EQ((*told)["camera"], camera_to_json(camera));
+  EXPECT_EQ((*told)["tf"]["opacity_points"], json({0, 0, 0.5, 0.25, 1, 0.75}));
+  const ViewServer::View now = server->current_view();
+  EXPECT_EQ(camera_to_json(now.camera), camera_to_json(camera));
+  EXPECT_EQ(now.tf.opacity_points.size(), 3u);
+  EXPECT_EQ(now.tf.color_points.size(), tf.color_points.size());
+  // A tab opened now starts from the view set, and is told after the scene.
+  Client d(server->port());
+  d.send(R"({"type":"hello","width":32,"height":32})");
+  EXPECT_TRUE(read_text_until(d, [](const json& j) { return j["type"] == "view"; }));
+  EXPECT_THROW(server->set_view(std::nullopt, TransferFunction{}), Error) << "an empty transfer function";
+}
+
 // Holds a viewer's background build (ViewServerOptions::before_build) until open(), so that what each phase shows is
 // checked, not raced. Opened on every way out (a failed assertion returns early), as the server's destructor waits
 // for the build: declare the gate after the server, so that it opens first.

@@ -14,6 +14,7 @@ ws.binaryType = "blob";
 
 let scene = null;        // the latest scene message
 let scenes = 0;          // scene messages received (a second one: the server switched engine)
+let viewsReceived = 0;   // view messages received (the server moved the view: ViewServer::set_view)
 let camera = null;       // camera.h's JSON form, as the server sent it and we move it
 let lastStatus = null;   // the status that describes the next binary frame
 let cameraDirty = false; // a camera message is owed at the next animation frame (one per frame: latest wins)
@@ -64,6 +65,7 @@ window.ugvrViewer = {
   get sent() { return messagesSent + queued.length + (cameraDirty ? 1 : 0); },
   get error() { return lastError; },
   get scenes() { return scenes; },
+  get views() { return viewsReceived; },
   get fields() { return scene ? scene.fields.map((f) => ({ name: f.name, range: f.range.slice(), bins: f.histogram.length })) : []; },
   get field() { return view.field; },
   get range() { return [tfEditor.lo, tfEditor.hi]; },
@@ -307,6 +309,26 @@ function onScene(m) {
   if (!first) resendState();
 }
 
+// The server moved this tab's view (ViewServer::set_view, e.g. from Python): the page takes it as its own, so that
+// the next drag or edit starts from it. The server has applied it already: nothing is sent back.
+function onView(m) {
+  if (m.camera) {
+    camera = structuredClone(m.camera);
+    cameraDirty = false;
+  }
+  if (m.tf) {
+    view.colors = m.tf.rgb_points.slice();
+    const pts = [];
+    for (let i = 0; i + 1 < m.tf.opacity_points.length; i += 2) pts.push([m.tf.opacity_points[i], m.tf.opacity_points[i + 1]]);
+    tfEditor.setPoints(pts);
+    view.pointsEdited = true;
+    view.opacity = 1;
+    $("opacity").value = "1";
+    showField();
+  }
+  viewsReceived++;
+}
+
 ws.onopen = () => send({ type: "hello", ...canvasSize() });
 ws.onclose = () => { lastError = "disconnected"; showStatus(); };
 ws.onmessage = async (event) => {
@@ -338,6 +360,8 @@ ws.onmessage = async (event) => {
     showStatus();
   } else if (m.type === "progress") {
     showProgress(m);
+  } else if (m.type === "view") {
+    onView(m);
   }
 };
 

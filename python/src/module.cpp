@@ -959,9 +959,9 @@ py::dict build(py::object source, const std::string& output, const py::dict& kwa
 
 // ---------------------------------------------------------------- viewer
 
-// `ugvr view` in a background thread of its own (the server's I/O and render threads). The server has no call to
-// change its initial camera or transfer function while it runs, so setting them restarts it on the same port with
-// the store it has built (open pages reconnect and start from the new view).
+// `ugvr view` in a background thread of its own (the server's I/O and render threads). `camera` and `tf` are live:
+// the getters report what the browser tab that moved last shows, the setters move every open tab (the pages follow)
+// and every tab opened later (ViewServer::current_view / set_view).
 class PyViewer {
  public:
   PyViewer(view::ViewServerOptions options, Bounds bounds, std::string temp_store)
@@ -974,14 +974,21 @@ class PyViewer {
   int port() const { return port_; }
   std::string renderer() const { return renderer_; }
   bool running() const { return bool(server_); }
-  Camera camera() const { return options_.camera.value_or(default_camera(bounds_)); }
+  Camera camera() const {
+    if (!server_) return options_.camera.value_or(default_camera(bounds_));
+    return server_->current_view().camera;
+  }
   void set_camera(const Camera& c) {
-    options_.camera = camera_from_json(camera_to_json(c), "camera");
-    restart();
+    const Camera checked = camera_from_json(camera_to_json(c), "camera");
+    options_.camera = checked;
+    if (server_) server_->set_view(checked, std::nullopt);
   }
   py::object tf() const {
     PyTransferFunction t;
-    if (options_.tf) {
+    if (server_) {
+      static_cast<TransferFunction&>(t) = server_->current_view().tf;
+      t.unit_set = true;
+    } else if (options_.tf) {
       static_cast<TransferFunction&>(t) = *options_.tf;
       t.unit_set = options_.tf->opacity_unit_distance > 0;
     } else {
@@ -994,7 +1001,7 @@ class PyViewer {
     TransferFunction tf = t;
     if (!t.unit_set) tf.opacity_unit_distance = 0;  // 0: the viewer's default
     options_.tf = tf;
-    restart();
+    if (server_) server_->set_view(std::nullopt, tf);
   }
   void close() {
     if (!server_) return;
@@ -1011,20 +1018,6 @@ class PyViewer {
     port_ = server_->port();
     url_ = server_->url();
     renderer_ = server_->renderer();
-  }
-  void restart() {
-    close();
-    options_.port = uint16_t(port_);
-    // The store the first server built: shown directly from now on (the build is not repeated).
-    std::error_code ec;
-    if (options_.dataset && std::filesystem::exists(options_.store, ec)) {
-      try {
-        BrickStoreReader check(options_.store);
-        options_.dataset.reset();
-      } catch (const Error&) {
-      }
-    }
-    start();
   }
 
   view::ViewServerOptions options_;

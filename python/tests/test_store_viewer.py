@@ -56,7 +56,7 @@ def test_view_dataset(mesh):
         assert default == ugvr.Camera.default(mesh)
         camera = ugvr.Camera.preset("+x", mesh)
         port = viewer.port
-        viewer.camera = camera  # restarts on the same port
+        viewer.camera = camera  # live: the same server
         assert viewer.camera == camera and viewer.port == port
         assert fetch(viewer.url)[0] == 200
         tf = ugvr.TransferFunction.preset("inferno")

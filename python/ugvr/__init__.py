@@ -411,9 +411,10 @@ def build(source, out, fields=None, brick=None, max_depth=None, error=None, floa
 # ------------------------------------------------------------------------------------------------------------- viewer
 
 class Viewer:
-    """The browser viewer (`ugvr view`) serving in background threads. `url` opens it; `camera` and `tf` are the view
-    it starts from (get and set: setting restarts the server on the same port, and open pages reconnect to the new
-    view); `close()` stops it. In Jupyter it shows inline (an IFrame of the page on loopback)."""
+    """The browser viewer (`ugvr view`) serving in background threads. `url` opens it; `camera` and `tf` are live: get
+    returns what the browser tab that moved last shows (before any tab moved, the view tabs start from), set moves
+    every open tab (the pages follow) and every tab opened later; `close()` stops it. In Jupyter it shows inline (an
+    IFrame of the page on loopback)."""
 
     def __init__(self, handle, temp_dir=None, height=560):
         self._handle = handle

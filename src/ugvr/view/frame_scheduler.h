@@ -50,6 +50,7 @@ class FrameScheduler {
   void add(TabState tab);
   // The tab `id`, or null when it has been removed.
   TabState* find(uint64_t id);
+  const TabState* find(uint64_t id) const { return const_cast<FrameScheduler*>(this)->find(id); }
   // Every tab, in round order (closed ones not yet removed included).
   std::vector<TabState>& tabs() { return tabs_; }
   const std::vector<TabState>& tabs() const { return tabs_; }

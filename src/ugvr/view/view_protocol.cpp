@@ -275,6 +275,20 @@ bool SceneInfo::has_engine(std::string_view name) const {
   return std::any_of(engines.begin(), engines.end(), [&](const EngineChoice& e) { return e.name == name; });
 }
 
+namespace {
+
+// A transfer function's points as the page's editor takes them: flat [x, r, g, b, ...] and [x, opacity, ...].
+json tf_points_json(const TransferFunction& tf) {
+  json rgb = json::array(), opacity = json::array();
+  for (const ColorPoint& p : tf.color_points)
+    for (const double v : {p.x, p.rgb.x, p.rgb.y, p.rgb.z}) rgb.push_back(v);
+  for (const OpacityPoint& p : tf.opacity_points)
+    for (const double v : {p.x, p.opacity}) opacity.push_back(v);
+  return {{"rgb_points", rgb}, {"opacity_points", opacity}};
+}
+
+}  // namespace
+
 std::string scene_message(const SceneInfo& scene) {
   json fields = json::array();
   for (const FieldInfo& f : scene.fields)
@@ -311,14 +325,14 @@ std::string scene_message(const SceneInfo& scene) {
          {"engines", engines},
          {"renderers", renderers},
          {"limits", {{"min_side", kMinViewSide}, {"max_side", kMaxViewSide}, {"max_fps", kMaxFps}}}};
-  if (scene.tf) {
-    json rgb = json::array(), opacity = json::array();
-    for (const ColorPoint& p : scene.tf->color_points)
-      for (const double v : {p.x, p.rgb.x, p.rgb.y, p.rgb.z}) rgb.push_back(v);
-    for (const OpacityPoint& p : scene.tf->opacity_points)
-      for (const double v : {p.x, p.opacity}) opacity.push_back(v);
-    j["tf"] = {{"rgb_points", rgb}, {"opacity_points", opacity}};
-  }
+  if (scene.tf) j["tf"] = tf_points_json(*scene.tf);
+  return j.dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
+std::string view_message(const std::optional<Camera>& camera, const std::optional<TransferFunction>& tf) {
+  json j{{"type", "view"}};
+  if (camera) j["camera"] = camera_to_json(*camera);
+  if (tf) j["tf"] = tf_points_json(*tf);
   return j.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 

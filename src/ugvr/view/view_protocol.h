@@ -158,6 +158,9 @@ ClientMessage parse_client_message(std::string_view text);
 
 // {"type":"error","message":...}
 std::string error_message(std::string_view message);
+// {"type":"view","camera":{...},"tf":{"rgb_points":[x,r,g,b,...],"opacity_points":[x,a,...]}}: the view the server
+// moved the tab to (ViewServer::set_view); either part may be absent. The page takes it as its own.
+std::string view_message(const std::optional<Camera>& camera, const std::optional<TransferFunction>& tf);
 
 struct FrameStatus {
   uint64_t seq = 0;      // frames sent to this session

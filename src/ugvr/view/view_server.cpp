@@ -56,6 +56,23 @@ struct ViewServer::Impl final : HttpHost {
   FrameScheduler scheduler;
   std::map<uint64_t, std::weak_ptr<WsSession>> sockets;  // of the scheduler's tabs
   std::set<uint64_t> opening;                            // tabs admitted, their WebSocket handshake not done yet
+  // set_view: what every tab was moved to, and what new tabs start from (after the scene's own), with its message.
+  std::optional<Camera> camera_set;
+  std::optional<TransferFunction> tf_set;
+  std::string view_text;     // view_message(camera_set, tf_set); empty: set_view never called
+  uint64_t last_active = 0;  // the tab that sent a camera or transfer-function message last (0: none)
+
+  // Under the lock: `camera_set` / `tf_set` applied to a tab's view.
+  void apply_view_set(ViewState& v) const {
+    if (camera_set) v.request.camera = *camera_set;
+    if (tf_set) {
+      v.tf_colors = tf_set->color_points;
+      v.tf_opacities = tf_set->opacity_points;
+      v.tf_opacity = 1;
+      v.unit_distance = tf_set->opacity_unit_distance;
+      v.request.tf = compose_tf(v, scene);
+    }
+  }
   uint64_t next_id = 1;
   bool stopping = false;
   // Published by the render thread: the I/O thread reads the scene when a tab says hello and when it applies a
@@ -98,6 +115,7 @@ struct ViewServer::Impl final : HttpHost {
     tab.id = next_id++;
     opening.insert(tab.id);
     tab.view = initial_view(scene);
+    apply_view_set(tab.view);
     return tab;
   }
   void attach(TabState tab, std::weak_ptr<WsSession> socket) override {
@@ -112,8 +130,11 @@ struct ViewServer::Impl final : HttpHost {
     TabState* tab = scheduler.find(id);
     if (!tab) return replies;  // closed meanwhile
     apply_message(tab->view, message, scene);
+    if (std::holds_alternative<CameraMessage>(message) || std::holds_alternative<TfMessage>(message)) last_active = id;
+    // After hello: the scene, a build's progress, and the view set_view moved the tabs to (the page takes it after
+    // the scene's own).
     if (std::holds_alternative<SizeMessage>(message) && std::get<SizeMessage>(message).hello)
-      for (const std::string* t : {&scene_text, &progress_text})
+      for (const std::string* t : {&scene_text, &progress_text, &view_text})
         if (!t->empty()) replies.push_back(*t);
     wake.notify_all();
     return replies;
@@ -325,6 +346,35 @@ void ViewServer::stop() {
 uint16_t ViewServer::port() const { return impl_->port; }
 const std::string& ViewServer::token() const { return impl_->token_; }
 std::string ViewServer::renderer() const { return impl_->scene.renderer; }
+
+ViewServer::View ViewServer::current_view() const {
+  Impl& I = *impl_;
+  std::lock_guard lock(I.mutex);
+  if (const TabState* tab = I.scheduler.find(I.last_active)) return {tab->view.request.camera, tab->view.request.tf};
+  ViewState v = initial_view(I.scene);
+  I.apply_view_set(v);
+  return {v.request.camera, v.request.tf};
+}
+
+void ViewServer::set_view(const std::optional<Camera>& camera, const std::optional<TransferFunction>& tf) {
+  if (tf) {
+    TransferFunction check = *tf;  // a unit distance <= 0 means the viewer's default (compose_tf)
+    if (!(check.opacity_unit_distance > 0)) check.opacity_unit_distance = 1;
+    check.validate("tf");
+  }
+  Impl& I = *impl_;
+  std::lock_guard lock(I.mutex);
+  if (camera) I.camera_set = camera;
+  if (tf) I.tf_set = tf;
+  I.view_text = view_message(I.camera_set, I.tf_set);
+  for (TabState& tab : I.scheduler.tabs()) {
+    I.apply_view_set(tab.view);
+    ++tab.view.generation;
+  }
+  I.scheduler.redraw_all();
+  I.broadcast({view_message(camera, tf)});
+  I.wake.notify_all();
+}
 
 std::string ViewServer::url() const {
   const bool v6 = impl_->options.host.find(':') != std::string::npos;

@@ -80,6 +80,17 @@ class ViewServer {
   // Stops serving: closes the listener and the sessions and joins the threads. Idempotent.
   void stop();
 
+  // What the tab that moved its camera or edited its transfer function last shows now (the Python API's
+  // Viewer.camera / Viewer.tf); with no such tab, what a new tab starts from.
+  struct View {
+    Camera camera;
+    TransferFunction tf;
+  };
+  View current_view() const;
+  // Moves every open tab, and every tab opened from now on, to `camera` and/or `tf` (points in data values; a unit
+  // distance <= 0: the viewer's default). The pages are told ("view" message) and follow; every tab draws again.
+  void set_view(const std::optional<Camera>& camera, const std::optional<TransferFunction>& tf);
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
