@@ -1096,33 +1096,52 @@ TEST(BrickStore, TfErrorTableRoundTripAndChecksum) {
   EXPECT_THROW(w.commit(t.nodes, t.errors, std::span(entries).first(5)), Error);
 }
 
-// A version 2 store (before the table): the same file less the 24-byte TfErrorHeaderRecord, every offset after it
-// moved back. It must still open, with no table.
-TEST(BrickStore, Version2StoresStillOpen) {
-  ScratchDir dir;
-  const TestStore t = make_test_store(8, 3);
-  const std::string path = dir.file("v3.ugvr");
-  write_test_store(t, path);
-  std::string f = read_file(path);
-  f.erase(176, 24);
-  patch_u32(f, 8, 2);
-  patch_u32(f, 12, get_u32(f, 12) - 24);
-  const uint64_t table = get_u64(f, 152) - 24, size = get_u64(f, 160) - 24;
+// An older store: the same file less `bytes` of header records at `at`, every offset after them moved back.
+std::string older_store(std::string f, uint32_t version, uint64_t at, uint64_t bytes, uint64_t nodes) {
+  f.erase(at, bytes);
+  patch_u32(f, 8, version);
+  patch_u32(f, 12, get_u32(f, 12) - uint32_t(bytes));
+  const uint64_t table = get_u64(f, 152) - bytes, size = get_u64(f, 160) - bytes;
   std::memcpy(f.data() + 152, &table, 8);
   std::memcpy(f.data() + 160, &size, 8);
   const uint64_t rec = get_u32(f, 24);
-  for (uint64_t id = 0; id < t.nodes.size(); ++id) {
-    const uint64_t at = table + id * rec + 16;  // NodeRecord::brick_offset
-    uint64_t offset = get_u64(f, at);
-    if (offset) offset -= 24;
-    std::memcpy(f.data() + at, &offset, 8);
+  for (uint64_t id = 0; id < nodes; ++id) {
+    const uint64_t where = table + id * rec + 16;  // NodeRecord::brick_offset
+    uint64_t offset = get_u64(f, where);
+    if (offset) offset -= bytes;
+    std::memcpy(f.data() + where, &offset, 8);
   }
   reseal(f);
+  return f;
+}
+
+// A version 2 store (before the table): without the 24-byte TfErrorHeaderRecord and the 40-byte BoundaryHeaderRecord.
+// It must still open, with neither.
+TEST(BrickStore, Version2StoresStillOpen) {
+  ScratchDir dir;
+  const TestStore t = make_test_store(8, 3);
+  const std::string path = dir.file("v4.ugvr");
+  write_test_store(t, path);
   const std::string v2 = dir.file("v2.ugvr");
-  write_file(v2, f);
+  write_file(v2, older_store(read_file(path), 2, 176, 24 + 40, t.nodes.size()));
   const BrickStoreReader s(v2);
   EXPECT_EQ(s.header().version, 2u);
   EXPECT_FALSE(s.has_tf_errors());
+  EXPECT_FALSE(s.has_boundary());
+  check_store(t, s);
+}
+
+// A version 3 store (before the boundary faces): without the BoundaryHeaderRecord. It opens, with no faces.
+TEST(BrickStore, Version3StoresStillOpen) {
+  ScratchDir dir;
+  const TestStore t = make_test_store(8, 3);
+  const std::string path = dir.file("v4.ugvr");
+  write_test_store(t, path);
+  const std::string v3 = dir.file("v3.ugvr");
+  write_file(v3, older_store(read_file(path), 3, 200, 40, t.nodes.size()));
+  const BrickStoreReader s(v3);
+  EXPECT_EQ(s.header().version, 3u);
+  EXPECT_FALSE(s.has_boundary());
   check_store(t, s);
 }
 

@@ -234,9 +234,12 @@ TEST(LodBoundary, BoundaryIndependentOfTheLevel) {
     std::printf("%-8s level 2 vs 4: %.5f; vs exact: level 2 %.5f, level 4 %.5f\n", faces ? "faces" : "stencil",
                 level_change[faces], vs_exact[faces][0], vs_exact[faces][1]);
   }
-  EXPECT_LT(level_change[1], 0.5 * level_change[0]);
-  EXPECT_LT(vs_exact[1][0], 0.5 * vs_exact[0][0]);
-  EXPECT_LT(vs_exact[1][1], vs_exact[0][1]);
+  // Measured on llvmpipe (96²): the stencil's images differ by 0.0066 between the two depths and by 0.0149 and 0.0089
+  // from the exact engine; with the faces, 0.00000, 0.00002 and 0.00002 (only the mesh's own boundary bounds the
+  // rays). A shader that ignores the faces, or clips at them with the wrong orientation, fails every line.
+  EXPECT_LT(level_change[1], 0.1 * level_change[0]);
+  EXPECT_LT(vs_exact[1][0], 0.1 * vs_exact[0][0]);
+  EXPECT_LT(vs_exact[1][1], 0.1 * vs_exact[0][1]);
 }
 
 }  // namespace
