@@ -120,6 +120,11 @@ bool cell_faces(uvec2 fe, vec3 o, vec3 d, float t0, float t1, float eps, inout i
     vec3 p0 = vec3(face_tri[b], face_tri[b + 1u], face_tri[b + 2u]);
     vec3 e1 = vec3(face_tri[b + 3u], face_tri[b + 4u], face_tri[b + 5u]) - p0;
     vec3 e2 = vec3(face_tri[b + 6u], face_tri[b + 7u], face_tri[b + 8u]) - p0;
+    // Where the line meets the triangle's plane first: once the state is known only crossings in [t0, t1) matter, and
+    // most triangles of a cell are rejected here, before the barycentric tests.
+    vec3 n = cross(e1, e2);
+    float dn = dot(d, n);
+    if (dn == 0.0 || (state >= 0 && !(dot(p0 - o, n) / dn >= t0 && dot(p0 - o, n) / dn < t1))) continue;
     vec3 pv = cross(d, e2);
     float det = dot(e1, pv);  // = -dot(e1 × e2, d): > 0 where the outward normal faces the ray
     if (det == 0.0) continue;
@@ -149,7 +154,7 @@ bool cell_faces(uvec2 fe, vec3 o, vec3 d, float t0, float t1, float eps, inout i
         }
         g_fh[j] = th;
         g_fs[j] = sg;
-        g_fn[j] = cross(e1, e2);
+        g_fn[j] = n;
       }
     } else if (th > behind_t + eps) {
       behind_t = th;
@@ -159,8 +164,6 @@ bool cell_faces(uvec2 fe, vec3 o, vec3 d, float t0, float t1, float eps, inout i
     }
   }
   if (state < 0) state = ahead_s != 0.0 ? (ahead_s < 0.0 ? 1 : 0) : behind_s != 0.0 ? (behind_s > 0.0 ? 1 : 0) : -1;
-  // The line meets none of them: the nearest face decides, at the middle of the stretch (no crossing in it).
-  if (state < 0) state = side_of_faces(fe, o + d * (0.5 * (t0 + t1)));
   return true;
 }
 
@@ -177,7 +180,9 @@ int node_faces(uint node, vec3 clo, float csize, vec3 o, vec3 d, vec3 inv_d, flo
   if (fe.y == 0u) return -1;
   int state = -1;
   float ts = t0;
-  for (int guard = 0; guard < 4096 && ts < t1; ++guard) {
+  uvec2 first_fe = uvec2(0u);  // the first cell with faces on the way, and the middle of the ray's stretch in it
+  float first_mid = 0.0;
+  for (int guard = 0; guard < 4096 && ts < t1; ++guard) {  // a bound only: a ray crosses far fewer cells
     vec3 p = o + d * (ts + eps);
     uint n = node;
     vec3 lo = clo;
@@ -204,10 +209,20 @@ int node_faces(uint node, vec3 clo, float csize, vec3 o, vec3 d, vec3 inv_d, flo
     }
     vec3 tx = ((lo + mix(vec3(0.0), vec3(size), greaterThan(inv_d, vec3(0.0)))) - o) * inv_d;
     float te = max(min(min(tx.x, tx.y), min(tx.z, t1)), ts + eps);
-    if (e.y > 0u && !cell_faces(e, o, d, ts, te, eps, state)) return -1;
+    if (e.y > 0u) {
+      if (!cell_faces(e, o, d, ts, te, eps, state)) return -1;
+      if (first_fe.y == 0u) {
+        first_fe = e;
+        first_mid = 0.5 * (ts + te);
+      }
+    }
     ts = te;
   }
-  return ts < t1 ? -1 : state;
+  if (ts < t1) return -1;
+  // The line meets none of the faces on the way (no crossing in the node): the nearest face of the first cell that
+  // has any decides, at the middle of the ray's stretch in it. Only then: it costs a closest point per face.
+  if (state < 0 && first_fe.y > 0u) state = side_of_faces(first_fe, o + d * first_mid);
+  return state;
 }
 #endif
 

@@ -24,7 +24,7 @@ namespace ugvr {
 
 // The default cap on a node's triangles: a ray entering the node intersects each (docs/lod-engine.md, "Exact
 // boundary" gives the cost).
-inline constexpr uint32_t kBoundaryFacesPerNode = 48;
+inline constexpr uint32_t kBoundaryFacesPerNode = 16;
 // How many levels below a leaf its faces may be divided.
 inline constexpr int kBoundaryVirtualLevels = 6;
 
