@@ -478,17 +478,26 @@ void main() {
     ++bricks;
 #if FACES
     // fstate: inside the mesh (1) or not (0) over the current segment, from the node's faces; -1: the stencil decides.
-    // fj: the next crossing to pass.
-    int fstate = node_faces(node, lo, size, base, dir, inv_dir, t, t_exit, u_nudge);
+    // fj: the next crossing to pass. The faces are looked at lazily: only once the stencil along the ray is neither
+    // wholly valid nor wholly empty (a sample strictly between, or a change), i.e. near the boundary; before that the
+    // stencil is the faces' answer (up to a feature thinner than a voxel). Most rays through a node the boundary
+    // crosses never come near it. Then the sample loop stops before that sample's segment, the faces are intersected
+    // from the previous sample on, and the loop starts again there (a second pass; the call stays out of the sample
+    // loop, whose code llvmpipe compiles far slower with it inside).
+    bool fpend = face_node[node].y != 0u;
+    int fstate = -1;
     int fj = 0;
-#if OVERLAY
-    if (fstate >= 0) ov_inside = fstate == 1;  // the faces know better than the stencil of the node before
-#endif
+    g_nh = 0;
 #endif
     // Samples at the node's entry t, at the level's grid points k·step inside, and at its exit; sa, va: the previous
     // sample of this node (none before the entry).
-    float k = floor(t / step);
-    float sa = t;
+    float tstart = t;
+#if FACES
+    for (int pass = 0; pass < 2; ++pass) {
+    bool restart = false;
+#endif
+    float k = floor(tstart / step);
+    float sa = tstart;
     vec2 va = vec2(0.0);
 #if MODE == LOD_MODE_EA
     vec4 ia = vec4(0.0);  // the integrals at the previous sample's value
@@ -496,12 +505,18 @@ void main() {
 #if MODE == LOD_MODE_EA && VOLUME_LIGHTING
     float shade_a = 1.0;
 #endif
-    for (float sb = t;;) {
+    for (float sb = tstart;;) {
       vec3 c = c0 + c1 * sb;
       vec2 vb = texture(u_atlas, c).rg;
       ++samples;
-      bool first = sb == t;
+      bool first = sb == tstart;
 #if FACES
+      if (fpend && ((vb.g > 0.001 && vb.g < 0.999) || (!first && (vb.g >= 0.5) != (va.g >= 0.5)))) {
+        fpend = false;
+        restart = true;
+        tstart = first ? tstart : sa;
+        break;
+      }
       if (fstate >= 0) {  // the segment [sa, sb] lies wholly on one side of the faces
         va.g = vb.g = fstate == 1 ? 1.0 : 0.0;
       }
@@ -643,6 +658,15 @@ void main() {
       }
 #endif
     }
+#if FACES
+    if (!restart) break;
+    fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);
+    fj = 0;
+#if OVERLAY
+    if (fstate >= 0) ov_inside = fstate == 1;  // the faces know better than the stencil
+#endif
+    }
+#endif
     t = t_exit;
   }
 #if OVERLAY
