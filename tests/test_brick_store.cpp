@@ -761,7 +761,7 @@ TEST(BrickStore, DocumentedLayout) {
     return v;
   };
   EXPECT_EQ(f.substr(0, 8), std::string("\x89UBS\r\n\x1a\n", 8));
-  EXPECT_EQ(u32(8), 3u);
+  EXPECT_EQ(u32(8), 4u);
   const uint32_t header_size = u32(12);
   EXPECT_EQ(u32(16), 8u);
   EXPECT_EQ(u32(20), 3u);
@@ -780,10 +780,10 @@ TEST(BrickStore, DocumentedLayout) {
   EXPECT_EQ(u32(172), uint32_t(crc32(0, reinterpret_cast<const Bytef*>(h.data()), uInt(h.size()))));
   EXPECT_EQ(u32(168),
             uint32_t(crc32(0, reinterpret_cast<const Bytef*>(f.data() + u64(152)), uInt(f.size() - u64(152)))));
-  // Version 3: the transfer-function error table's record (none written here: all zero), then the field records,
-  // "pressure" first.
-  EXPECT_EQ(f.substr(176, 24), std::string(24, '\0'));
-  const size_t fr = 200;
+  // Version 3: the transfer-function error table's record, version 4: the boundary faces' record (neither written
+  // here: all zero), then the field records, "pressure" first.
+  EXPECT_EQ(f.substr(176, 24 + 40), std::string(24 + 40, '\0'));
+  const size_t fr = 240;
   EXPECT_EQ(f64(fr), -3.0);
   EXPECT_EQ(f64(fr + 8), 3.0);
   EXPECT_EQ(f[fr + 16], 0);
@@ -967,11 +967,11 @@ TEST_F(BrickStoreCorruption, WrongMagicOrVersion) {
   f = good_;
   patch_u32(f, 8, 1);  // a store of the previous format: its blocks quantize each brick on a grid of its own
   write_file(bad_, f);
-  expect_open_error(bad_, {"byte 8", "version 1", "reads versions 2 to 3", "rebuild"});
+  expect_open_error(bad_, {"byte 8", "version 1", "reads versions 2 to 4", "rebuild"});
   f = good_;
-  patch_u32(f, 8, 4);
+  patch_u32(f, 8, 5);
   write_file(bad_, f);
-  expect_open_error(bad_, {"byte 8", "version 4", "newer"});
+  expect_open_error(bad_, {"byte 8", "version 5", "newer"});
 }
 
 TEST_F(BrickStoreCorruption, FlippedHeaderOrNodeTableByte) {

@@ -383,7 +383,11 @@ TEST_P(BrickStoreFormatFile, HeaderMembersAtTheirDocumentedOffsets) {
   EXPECT_MEMBER(db, bh, section_offset, 0);
   EXPECT_MEMBER(db, bh, section_size, 0);
   EXPECT_MEMBER(db, bh, triangle_count, 0);
+  EXPECT_MEMBER(db, bh, reference_count, 0);
+  EXPECT_MEMBER(db, bh, max_per_node, 0);
+  EXPECT_MEMBER(db, bh, section_crc, 0);
   EXPECT_MEMBER(db, bh, virtual_nodes, 0);
+  EXPECT_MEMBER(db, bh, reserved, 0);
 }
 
 TEST_P(BrickStoreFormatFile, FieldRecordsAtTheirDocumentedOffsets) {
