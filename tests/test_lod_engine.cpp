@@ -507,9 +507,9 @@ TEST(LodOverlay, MatchesTheExactEngine) {
     // dB without it), since the store keeps the boundary faces and the overlay is drawn on them with their normals
     // (with the stencil's boundary alone, before: 35.1-40.0 and 38-52 dB), while an image with the overlay on one
     // side only is at most 30.2 dB from the other, and the overlay changes the image by 0.032-0.066 rms. Planted
-    // faults each fail here: no exit crossings (29.3-34.5 dB), the clip plane's cut drawn (25.7 dB facing, 32.2 dB
-    // behind), the view direction as normal (16-22 dB), nodes dropped by transfer-function culling (26.0 dB,
-    // "transparent part").
+    // faults each failed here (measured with the stencil's boundary, before the faces): no exit crossings (29.3-34.5
+    // dB), the clip plane's cut drawn (25.7 dB facing, 32.2 dB behind), the view direction as normal (16-22 dB), nodes
+    // dropped by transfer-function culling (26.0 dB, "transparent part").
     EXPECT_GE(agree.psnr_db, 40.0) << c.name;
     EXPECT_GE(agree.psnr_db, std::max(without.psnr_db, one_sided.psnr_db) + 4.0) << c.name;
     EXPECT_GT(changed.rms, 0.02) << c.name;
