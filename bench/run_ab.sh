@@ -7,6 +7,8 @@
 #   takes EXACT_SIZES, default "512"), ROUNDS (3), FRAMES (10), CUT (pixels:1), PYTHON (default python3 on the PATH).
 #   One JSON line per render on stdout; a summary per engine and scene (median of the rounds' median frame times, A
 #   and B, and B/A) at the end.
+#   SHADERS_A, SHADERS_B: each build's UGVR_SHADER_DIR (default: the environment's). OWN_STORES=1: each build renders
+#   a store it built itself ($name-a.ugvr, $name-b.ugvr), for a change of the store's format (the bits then differ).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 a=$1 b=$2
@@ -29,6 +31,12 @@ for name in blunt-fin lox-post; do
   esac
   store="$scratch/$name.ugvr"
   [ -f "$store" ] || "$a" --quiet build "${inputs[@]}" --fields "$field" --error 0.01 -o "$store"
+  if [ "${OWN_STORES:-0}" = 1 ]; then
+    [ -f "$scratch/$name-a.ugvr" ] || UGVR_SHADER_DIR=${SHADERS_A:-${UGVR_SHADER_DIR:-}} "$a" --quiet build "${inputs[@]}" \
+      --fields "$field" --error 0.01 -o "$scratch/$name-a.ugvr"
+    [ -f "$scratch/$name-b.ugvr" ] || UGVR_SHADER_DIR=${SHADERS_B:-${UGVR_SHADER_DIR:-}} "$b" --quiet build "${inputs[@]}" \
+      --fields "$field" --error 0.01 -o "$scratch/$name-b.ugvr"
+  fi
   for engine in $engines; do
     if [ "$engine" = lod ]; then
       what=("$store" --engine lod --cut "$cut") engine_sizes=$sizes
@@ -38,9 +46,11 @@ for name in blunt-fin lox-post; do
     for size in $engine_sizes; do
       for ((r = 0; r < rounds; ++r)); do
         for which in A B; do
-          bin=$a
-          [ $which = B ] && bin=$b
-          "$bin" --quiet render "${what[@]}" --camera "bench/results/exact-render/$name-camera.json" \
+          bin=$a shaders=${SHADERS_A:-${UGVR_SHADER_DIR:-}}
+          [ $which = B ] && bin=$b shaders=${SHADERS_B:-${UGVR_SHADER_DIR:-}}
+          run=("${what[@]}")
+          [ "$engine" = lod ] && [ "${OWN_STORES:-0}" = 1 ] && run[0]="$scratch/$name-${which,,}.ugvr"
+          UGVR_SHADER_DIR=$shaders "$bin" --quiet render "${run[@]}" --camera "bench/results/exact-render/$name-camera.json" \
             --tf "bench/results/exact-render/$name-tf.json" --size "$size" --frames "$frames" -o "$scratch/$which.pfm" \
             --stats "$scratch/stats.json"
           "$py" -c "import json; s=json.load(open('$scratch/stats.json')); print(json.dumps({'bench':'ab','build':'$which','engine':'$engine','dataset':'$name','size':$size,'round':$r,'median_frame_seconds':s['median_frame_seconds'],'median_frame_cpu_seconds':s.get('median_frame_cpu_seconds',0),'readback_seconds':s.get('readback_seconds',0),'renderer':s.get('renderer','CPU %d threads' % s['threads'])}, separators=(',',':')))" |

@@ -27,6 +27,9 @@
 #ifndef OVERLAY
 #define OVERLAY 0  // the boundary overlay (never with LOD_MODE_MIP)
 #endif
+#ifndef FACES
+#define FACES 0  // the store keeps the mesh's boundary faces per node: clip at them (below)
+#endif
 
 layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE) in;
 
@@ -37,6 +40,191 @@ layout(binding = PREINT_TEXTURE_BINDING) uniform sampler1D u_preint;
 layout(std430, binding = TREE_BUFFER_BINDING) readonly buffer Tree { uvec2 tree[]; };
 layout(std430, binding = STATE_BUFFER_BINDING) readonly buffer State { uint node_state[]; };
 layout(std430, binding = COUNTERS_BUFFER_BINDING) buffer Counters { uint counters[]; };
+
+#if FACES
+// The exact boundary (Muigg 2008, section 5.1.2; docs/lod-engine.md, "Exact boundary"): a node the mesh boundary
+// crosses lists the boundary triangles that overlap it (at most the builder's cap; store/brick_store_format.h). A ray
+// in such a node intersects the line with each, keeps the crossings inside the node, sorted, and knows whether it is
+// inside the mesh between them from the faces' orientation (outward normals: a face the ray meets head-on is an entry).
+// The node's samples then include the crossings, and each segment between two samples counts wholly or not at all,
+// so the data ends exactly on the mesh's faces, at every level; the stencil decides in nodes without faces.
+layout(std430, binding = FACE_NODE_BUFFER_BINDING) readonly buffer FaceNodes { uvec2 face_node[]; };
+layout(std430, binding = FACE_REF_BUFFER_BINDING) readonly buffer FaceRefs { uint face_ref[]; };
+layout(std430, binding = FACE_TRI_BUFFER_BINDING) readonly buffer FaceTris { float face_tri[]; };
+
+// The current node's crossings along the ray: t, +1 entering / -1 leaving, the face's normal (normalised coordinates).
+float g_fh[MAX_FACE_HITS];
+float g_fs[MAX_FACE_HITS];
+vec3 g_fn[MAX_FACE_HITS];
+int g_nh;
+
+// The point of triangle (a, b, c) nearest to p (Ericson, "Real-Time Collision Detection", 5.1.5).
+vec3 closest_on_triangle(vec3 p, vec3 a, vec3 b, vec3 c) {
+  vec3 ab = b - a, ac = c - a, ap = p - a;
+  float d1 = dot(ab, ap), d2 = dot(ac, ap);
+  if (d1 <= 0.0 && d2 <= 0.0) return a;
+  vec3 bp = p - b;
+  float d3 = dot(ab, bp), d4 = dot(ac, bp);
+  if (d3 >= 0.0 && d4 <= d3) return b;
+  float vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return a + ab * (d1 / (d1 - d3));
+  vec3 cp = p - c;
+  float d5 = dot(ab, cp), d6 = dot(ac, cp);
+  if (d6 >= 0.0 && d5 <= d6) return c;
+  float vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return a + ac * (d2 / (d2 - d6));
+  float va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+  float denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+// Inside (1) or outside (0) the mesh at p, from the nearest of the run's triangles: the side of its plane p lies on
+// (outward normals). Where several are nearly as near (p nearest to an edge or a corner they share), the one whose
+// plane p is farthest from decides, the usual cure for the pseudo-normal problem at edges. For a point whose ray
+// meets none of a node's faces (a ray passing beside the boundary), where the stencil would put it within half a
+// voxel.
+int side_of_faces(uvec2 fe, vec3 p) {
+  float best = 3.0e38, best_plane = -1.0;
+  int side = -1;
+  for (uint i = 0u; i < fe.y; ++i) {
+    uint b = face_ref[fe.x + i] * 9u;
+    vec3 p0 = vec3(face_tri[b], face_tri[b + 1u], face_tri[b + 2u]);
+    vec3 p1 = vec3(face_tri[b + 3u], face_tri[b + 4u], face_tri[b + 5u]);
+    vec3 p2 = vec3(face_tri[b + 6u], face_tri[b + 7u], face_tri[b + 8u]);
+    vec3 q = closest_on_triangle(p, p0, p1, p2);
+    float dist = length(p - q);
+    vec3 n = cross(p1 - p0, p2 - p0);
+    float nl = length(n);
+    if (!(nl > 0.0)) continue;
+    float plane = dot(p - p0, n) / nl;
+    if (dist < best * (1.0 - 1e-4) || (dist <= best * (1.0 + 1e-4) && abs(plane) > best_plane)) {
+      best = min(best, dist);
+      best_plane = abs(plane);
+      side = plane > 0.0 ? 0 : 1;
+    }
+  }
+  return side;
+}
+
+// Intersects the line o + d·t with the triangles of one node's run `fe` (Möller-Trumbore, barycentric tolerance 1e-6
+// so that a ray through a shared edge meets at least one of its triangles: two meeting it count once, below). Adds
+// the crossings in [t0, t1) to g_f*, sorted (false: more than MAX_FACE_HITS). `state`: if < 0 on entry, set to the
+// state at t0 when the line meets any of the triangles: from the nearest crossings ahead (leaving: inside now), else
+// the nearest behind (entering: inside now). Crossings within eps of each other are one whose sign is their sum (a
+// face of two blocks that are not welded: leaving one and entering the other cancel).
+bool cell_faces(uvec2 fe, vec3 o, vec3 d, float t0, float t1, float eps, inout int state) {
+  float ahead_t = 3.0e38, ahead_s = 0.0, behind_t = -3.0e38, behind_s = 0.0;
+  for (uint i = 0u; i < fe.y; ++i) {
+    uint b = face_ref[fe.x + i] * 9u;
+    vec3 p0 = vec3(face_tri[b], face_tri[b + 1u], face_tri[b + 2u]);
+    vec3 e1 = vec3(face_tri[b + 3u], face_tri[b + 4u], face_tri[b + 5u]) - p0;
+    vec3 e2 = vec3(face_tri[b + 6u], face_tri[b + 7u], face_tri[b + 8u]) - p0;
+    // Where the line meets the triangle's plane first: once the state is known only crossings in [t0, t1) matter, and
+    // most triangles of a cell are rejected here, before the barycentric tests.
+    vec3 n = cross(e1, e2);
+    float dn = dot(d, n);
+    if (dn == 0.0 || (state >= 0 && !(dot(p0 - o, n) / dn >= t0 && dot(p0 - o, n) / dn < t1))) continue;
+    vec3 pv = cross(d, e2);
+    float det = dot(e1, pv);  // = -dot(e1 × e2, d): > 0 where the outward normal faces the ray
+    if (det == 0.0) continue;
+    float inv = 1.0 / det;
+    vec3 tv = o - p0;
+    float u = dot(tv, pv) * inv;
+    if (u < -1e-6 || u > 1.0 + 1e-6) continue;
+    vec3 qv = cross(tv, e1);
+    float v = dot(d, qv) * inv;
+    if (v < -1e-6 || u + v > 1.0 + 1e-6) continue;
+    float th = dot(e2, qv) * inv;
+    float sg = det > 0.0 ? 1.0 : -1.0;
+    if (th >= t0) {
+      if (th < ahead_t - eps) {
+        ahead_t = th;
+        ahead_s = sg;
+      } else if (th <= ahead_t + eps) {
+        ahead_s += sg;
+      }
+      if (th < t1) {
+        if (g_nh == MAX_FACE_HITS) return false;
+        int j = g_nh++;
+        for (; j > 0 && g_fh[j - 1] > th; --j) {
+          g_fh[j] = g_fh[j - 1];
+          g_fs[j] = g_fs[j - 1];
+          g_fn[j] = g_fn[j - 1];
+        }
+        g_fh[j] = th;
+        g_fs[j] = sg;
+        g_fn[j] = n;
+      }
+    } else if (th > behind_t + eps) {
+      behind_t = th;
+      behind_s = sg;
+    } else if (th >= behind_t - eps) {
+      behind_s += sg;
+    }
+  }
+  if (state < 0) state = ahead_s != 0.0 ? (ahead_s < 0.0 ? 1 : 0) : behind_s != 0.0 ? (behind_s > 0.0 ? 1 : 0) : -1;
+  return true;
+}
+
+// The crossings of the ray with the mesh boundary inside cut node `node` (box lo, size), between t0 and t1, into
+// g_f*, and the state at t0: 1 inside the mesh, 0 outside, -1 unknown (the stencil decides). A node that lists its
+// faces is one call of cell_faces. A node with more than the cap (a coarse node) is walked along the ray through its
+// descendants in the store's tree (all of them are on the GPU, drawn or not) and below a leaf in its virtual nodes:
+// at each position, down to the first node that lists its faces or has none, whose faces are tested over the stretch
+// of the ray inside it; a child the tree lacks holds no cells, so no faces. So the boundary is the same at every level
+// of the cut. Unknown where no face is near, or past MAX_FACE_HITS crossings.
+int node_faces(uint node, vec3 clo, float csize, vec3 o, vec3 d, vec3 inv_d, float t0, float t1, float eps) {
+  g_nh = 0;
+  uvec2 fe = face_node[node];
+  if (fe.y == 0u) return -1;
+  int state = -1;
+  float ts = t0;
+  uvec2 first_fe = uvec2(0u);  // the first cell with faces on the way, and the middle of the ray's stretch in it
+  float first_mid = 0.0;
+  for (int guard = 0; guard < 4096 && ts < t1; ++guard) {  // a bound only: a ray crosses far fewer cells
+    vec3 p = o + d * (ts + eps);
+    uint n = node;
+    vec3 lo = clo;
+    float size = csize;
+    uvec2 e = fe;
+    while (e.y == FACE_OVERFLOW) {
+      vec3 centre = lo + 0.5 * size;
+      uvec3 oc = uvec3(greaterThanEqual(p, centre));
+      uint octant = oc.x | (oc.y << 1) | (oc.z << 2);
+      size *= 0.5;
+      lo += vec3(oc) * size;
+      if (e.x != 0u) {  // a leaf's or a virtual node's: 8 virtual children from e.x
+        e = face_node[e.x + octant];
+        continue;
+      }
+      uvec2 tn = tree[n];
+      uint mask = tn.y & TREE_CHILD_MASK;
+      if ((mask & (1u << octant)) == 0u) {
+        e = uvec2(0u);  // no child there: no cells, no faces
+      } else {
+        n = tn.x + uint(bitCount(mask & ((1u << octant) - 1u)));
+        e = face_node[n];
+      }
+    }
+    vec3 tx = ((lo + mix(vec3(0.0), vec3(size), greaterThan(inv_d, vec3(0.0)))) - o) * inv_d;
+    float te = max(min(min(tx.x, tx.y), min(tx.z, t1)), ts + eps);
+    if (e.y > 0u) {
+      if (!cell_faces(e, o, d, ts, te, eps, state)) return -1;
+      if (first_fe.y == 0u) {
+        first_fe = e;
+        first_mid = 0.5 * (ts + te);
+      }
+    }
+    ts = te;
+  }
+  if (ts < t1) return -1;
+  // The line meets none of the faces on the way (no crossing in the node): the nearest face of the first cell that
+  // has any decides, at the middle of the ray's stretch in it. Only then: it costs a closest point per face.
+  if (state < 0 && first_fe.y > 0u) state = side_of_faces(first_fe, o + d * first_mid);
+  return state;
+}
+#endif
 
 const float AMBIENT = LOD_AMBIENT, DIFFUSE = LOD_DIFFUSE, SPECULAR = LOD_SPECULAR, SHININESS = LOD_SHININESS;
 const vec3 OVERLAY_COLOR = vec3(LOD_OVERLAY_GREY);
@@ -178,6 +366,15 @@ void composite_overlay(vec2 x, vec3 dir_world, inout vec3 radiance, inout float 
   radiance += transmittance * u_overlay_opacity * color;
   transmittance *= 1.0 - u_overlay_opacity;
 }
+
+#if FACES
+// The overlay on a boundary face: its own normal (normalised coordinates; world normals scale by 1 / root size).
+void composite_face(vec3 n, vec3 dir_world, inout vec3 radiance, inout float transmittance) {
+  vec3 color = shade_surface(OVERLAY_COLOR, n / u_root_size, dir_world);
+  radiance += transmittance * u_overlay_opacity * color;
+  transmittance *= 1.0 - u_overlay_opacity;
+}
+#endif
 #endif
 
 void main() {
@@ -279,10 +476,28 @@ void main() {
     float step = u_fixed_step ? u_step0 : u_step0 / float(1 << level);
     vec3 voxel = u_root_size * (size / float(u_resolution - 1));
     ++bricks;
+#if FACES
+    // fstate: inside the mesh (1) or not (0) over the current segment, from the node's faces; -1: the stencil decides.
+    // fj: the next crossing to pass. The faces are looked at lazily: only once the stencil along the ray is neither
+    // wholly valid nor wholly empty (a sample strictly between, or a change), i.e. near the boundary; before that the
+    // stencil is the faces' answer (up to a feature thinner than a voxel). Most rays through a node the boundary
+    // crosses never come near it. Then the sample loop stops before that sample's segment, the faces are intersected
+    // from the previous sample on, and the loop starts again there (a second pass; the call stays out of the sample
+    // loop, whose code llvmpipe compiles far slower with it inside).
+    bool fpend = face_node[node].y != 0u;
+    int fstate = -1;
+    int fj = 0;
+    g_nh = 0;
+#endif
     // Samples at the node's entry t, at the level's grid points k·step inside, and at its exit; sa, va: the previous
     // sample of this node (none before the entry).
-    float k = floor(t / step);
-    float sa = t;
+    float tstart = t;
+#if FACES
+    for (int pass = 0; pass < 2; ++pass) {
+    bool restart = false;
+#endif
+    float k = floor(tstart / step);
+    float sa = tstart;
     vec2 va = vec2(0.0);
 #if MODE == LOD_MODE_EA
     vec4 ia = vec4(0.0);  // the integrals at the previous sample's value
@@ -290,11 +505,22 @@ void main() {
 #if MODE == LOD_MODE_EA && VOLUME_LIGHTING
     float shade_a = 1.0;
 #endif
-    for (float sb = t;;) {
+    for (float sb = tstart;;) {
       vec3 c = c0 + c1 * sb;
       vec2 vb = texture(u_atlas, c).rg;
       ++samples;
-      bool first = sb == t;
+      bool first = sb == tstart;
+#if FACES
+      if (fpend && ((vb.g > 0.001 && vb.g < 0.999) || (!first && (vb.g >= 0.5) != (va.g >= 0.5)))) {
+        fpend = false;
+        restart = true;
+        tstart = first ? tstart : sa;
+        break;
+      }
+      if (fstate >= 0) {  // the segment [sa, sb] lies wholly on one side of the faces
+        va.g = vb.g = fstate == 1 ? 1.0 : 0.0;
+      }
+#endif
 #if OVERLAY
       // The overlay's state is read at each segment's midpoint tm, never at a node's faces: there the point just
       // inside a crossing, whose node gives the normal's brick, could be located in the neighbour by rounding. A
@@ -302,7 +528,11 @@ void main() {
       // (Past t_end only where the last node's exit passes it by rounding: outside the ray, no state.)
       float tm = 0.5 * (sa + sb);
       bool ov_state = !first && tm < t_end;
+#if FACES
+      bool ov_cross = ov_state && fstate < 0 && (texture(u_atlas, c0 + c1 * tm).g >= 0.5) != ov_inside;
+#else
       bool ov_cross = ov_state && (texture(u_atlas, c0 + c1 * tm).g >= 0.5) != ov_inside;
+#endif
       bool ov_leave = ov_cross && ov_inside;
       if (ov_cross && !ov_inside) {
         composite_overlay(boundary_crossing(ov_t, tm, false), dir_world, radiance, transmittance);
@@ -391,15 +621,52 @@ void main() {
       }
       if (ov_state) ov_t = tm;
 #endif
+#if FACES
+      // Passing crossings at sb (those within u_nudge of it are one, their signs summed): the state after them.
+      if (fstate >= 0 && fj < g_nh && g_fh[fj] <= sb) {
+        float sum = 0.0;
+        vec3 fn = vec3(0.0);
+        for (; fj < g_nh && g_fh[fj] <= sb + u_nudge; ++fj) {
+          sum += g_fs[fj];
+          fn = g_fn[fj];
+        }
+        int next = sum > 0.0 ? 1 : sum < 0.0 ? 0 : fstate;
+#if OVERLAY
+        if (next != fstate && sb < t_end) {
+          composite_face(fn, dir_world, radiance, transmittance);
+          ov_inside = next == 1;
+          ov_t = sb;
+        }
+#endif
+        fstate = next;
+      }
+#endif
       if (transmittance <= u_min_transmittance || sb >= t_exit) break;
       sa = sb;
       va = vb;
-      // The next grid point past sa (float rounding may need a second try), or the exit.
+      // The next grid point past sa (float rounding may need a second try), or the exit; with faces, or the next
+      // crossing if that comes first.
       do {
         k += 1.0;
         sb = min(k * step, t_exit);
       } while (!(sb > sa));
+#if FACES
+      if (fstate >= 0 && fj < g_nh && g_fh[fj] < sb) {
+        k -= 1.0;  // the grid point stays ahead
+        sb = max(g_fh[fj], sa);
+        if (!(sb > sa)) sb = min(sa + u_nudge, t_exit);
+      }
+#endif
     }
+#if FACES
+    if (!restart) break;
+    fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);
+    fj = 0;
+#if OVERLAY
+    if (fstate >= 0) ov_inside = fstate == 1;  // the faces know better than the stencil
+#endif
+    }
+#endif
     t = t_exit;
   }
 #if OVERLAY

@@ -60,6 +60,13 @@ const int STATE_BUFFER_BINDING = 4;     // uint per store node this frame: a cut
 const int COUNTERS_BUFFER_BINDING = 5;  // uint[COUNTER_COUNT], zeroed per frame, read back for --stats
 const int FRAME_BLOCK_BINDING = 6;      // uniform block LodFrame (below)
 const int PREINT_TEXTURE_BINDING = 7;   // sampler1D rgba32f: the transfer function's integrals (pre-integration)
+// The mesh's boundary faces (FACES variants; store/brick_store_format.h BoundaryHeaderRecord):
+const int FACE_NODE_BUFFER_BINDING = 8;  // uvec2 per store node: first reference, count (0: none; FACE_OVERFLOW:
+                                         // more than the cap, none listed: the node's descendants have them)
+const int FACE_REF_BUFFER_BINDING = 9;   // uint per reference: a triangle index
+const int FACE_TRI_BUFFER_BINDING = 10;  // float[9] per triangle: corners in normalised coordinates, outward order
+const uint FACE_OVERFLOW = 0xFFFFFFFFu;  // store_format::kBoundaryOverflow
+const int MAX_FACE_HITS = 8;  // face crossings kept per ray and node (more: the rest of the node is lost to the state)
 
 const uint TREE_CHILD_MASK = 0xFFu;  // the child mask in a tree entry's y
 const uint TREE_LEVEL_SHIFT = 8u;    // the node's level above it
@@ -75,7 +82,7 @@ const int COUNTER_COUNT = 2;
 // Texels of the transfer-function table and of its integrals, over the transfer function's own range: texel i at
 // u = i / (TF_TEXELS - 1) of it. The integrals' texel i holds (∫ c·τ du, ∫ τ du) from u = 0 to u_i (lod_engine.cpp).
 const int TF_TEXELS = 4096;
-const int MAX_ISO = 16;      // isosurface values at most (a multiple of 4: they are stored as vec4s)
+const int MAX_ISO = 16;  // isosurface values at most (a multiple of 4: they are stored as vec4s)
 
 // Surface shading (isosurfaces, the boundary overlay; the ambient and diffuse terms for --volume-lighting): the exact
 // engine's kAmbient... (render/exact/exact_engine.cpp), so that the engines compare. Macros so that each language

@@ -761,7 +761,7 @@ TEST(BrickStore, DocumentedLayout) {
     return v;
   };
   EXPECT_EQ(f.substr(0, 8), std::string("\x89UBS\r\n\x1a\n", 8));
-  EXPECT_EQ(u32(8), 3u);
+  EXPECT_EQ(u32(8), 4u);
   const uint32_t header_size = u32(12);
   EXPECT_EQ(u32(16), 8u);
   EXPECT_EQ(u32(20), 3u);
@@ -780,10 +780,10 @@ TEST(BrickStore, DocumentedLayout) {
   EXPECT_EQ(u32(172), uint32_t(crc32(0, reinterpret_cast<const Bytef*>(h.data()), uInt(h.size()))));
   EXPECT_EQ(u32(168),
             uint32_t(crc32(0, reinterpret_cast<const Bytef*>(f.data() + u64(152)), uInt(f.size() - u64(152)))));
-  // Version 3: the transfer-function error table's record (none written here: all zero), then the field records,
-  // "pressure" first.
-  EXPECT_EQ(f.substr(176, 24), std::string(24, '\0'));
-  const size_t fr = 200;
+  // Version 3: the transfer-function error table's record, version 4: the boundary faces' record (neither written
+  // here: all zero), then the field records, "pressure" first.
+  EXPECT_EQ(f.substr(176, 24 + 40), std::string(24 + 40, '\0'));
+  const size_t fr = 240;
   EXPECT_EQ(f64(fr), -3.0);
   EXPECT_EQ(f64(fr + 8), 3.0);
   EXPECT_EQ(f[fr + 16], 0);
@@ -967,11 +967,11 @@ TEST_F(BrickStoreCorruption, WrongMagicOrVersion) {
   f = good_;
   patch_u32(f, 8, 1);  // a store of the previous format: its blocks quantize each brick on a grid of its own
   write_file(bad_, f);
-  expect_open_error(bad_, {"byte 8", "version 1", "reads versions 2 to 3", "rebuild"});
+  expect_open_error(bad_, {"byte 8", "version 1", "reads versions 2 to 4", "rebuild"});
   f = good_;
-  patch_u32(f, 8, 4);
+  patch_u32(f, 8, 5);
   write_file(bad_, f);
-  expect_open_error(bad_, {"byte 8", "version 4", "newer"});
+  expect_open_error(bad_, {"byte 8", "version 5", "newer"});
 }
 
 TEST_F(BrickStoreCorruption, FlippedHeaderOrNodeTableByte) {
@@ -1096,33 +1096,52 @@ TEST(BrickStore, TfErrorTableRoundTripAndChecksum) {
   EXPECT_THROW(w.commit(t.nodes, t.errors, std::span(entries).first(5)), Error);
 }
 
-// A version 2 store (before the table): the same file less the 24-byte TfErrorHeaderRecord, every offset after it
-// moved back. It must still open, with no table.
-TEST(BrickStore, Version2StoresStillOpen) {
-  ScratchDir dir;
-  const TestStore t = make_test_store(8, 3);
-  const std::string path = dir.file("v3.ugvr");
-  write_test_store(t, path);
-  std::string f = read_file(path);
-  f.erase(176, 24);
-  patch_u32(f, 8, 2);
-  patch_u32(f, 12, get_u32(f, 12) - 24);
-  const uint64_t table = get_u64(f, 152) - 24, size = get_u64(f, 160) - 24;
+// An older store: the same file less `bytes` of header records at `at`, every offset after them moved back.
+std::string older_store(std::string f, uint32_t version, uint64_t at, uint64_t bytes, uint64_t nodes) {
+  f.erase(at, bytes);
+  patch_u32(f, 8, version);
+  patch_u32(f, 12, get_u32(f, 12) - uint32_t(bytes));
+  const uint64_t table = get_u64(f, 152) - bytes, size = get_u64(f, 160) - bytes;
   std::memcpy(f.data() + 152, &table, 8);
   std::memcpy(f.data() + 160, &size, 8);
   const uint64_t rec = get_u32(f, 24);
-  for (uint64_t id = 0; id < t.nodes.size(); ++id) {
-    const uint64_t at = table + id * rec + 16;  // NodeRecord::brick_offset
-    uint64_t offset = get_u64(f, at);
-    if (offset) offset -= 24;
-    std::memcpy(f.data() + at, &offset, 8);
+  for (uint64_t id = 0; id < nodes; ++id) {
+    const uint64_t where = table + id * rec + 16;  // NodeRecord::brick_offset
+    uint64_t offset = get_u64(f, where);
+    if (offset) offset -= bytes;
+    std::memcpy(f.data() + where, &offset, 8);
   }
   reseal(f);
+  return f;
+}
+
+// A version 2 store (before the table): without the 24-byte TfErrorHeaderRecord and the 40-byte BoundaryHeaderRecord.
+// It must still open, with neither.
+TEST(BrickStore, Version2StoresStillOpen) {
+  ScratchDir dir;
+  const TestStore t = make_test_store(8, 3);
+  const std::string path = dir.file("v4.ugvr");
+  write_test_store(t, path);
   const std::string v2 = dir.file("v2.ugvr");
-  write_file(v2, f);
+  write_file(v2, older_store(read_file(path), 2, 176, 24 + 40, t.nodes.size()));
   const BrickStoreReader s(v2);
   EXPECT_EQ(s.header().version, 2u);
   EXPECT_FALSE(s.has_tf_errors());
+  EXPECT_FALSE(s.has_boundary());
+  check_store(t, s);
+}
+
+// A version 3 store (before the boundary faces): without the BoundaryHeaderRecord. It opens, with no faces.
+TEST(BrickStore, Version3StoresStillOpen) {
+  ScratchDir dir;
+  const TestStore t = make_test_store(8, 3);
+  const std::string path = dir.file("v4.ugvr");
+  write_test_store(t, path);
+  const std::string v3 = dir.file("v3.ugvr");
+  write_file(v3, older_store(read_file(path), 3, 200, 40, t.nodes.size()));
+  const BrickStoreReader s(v3);
+  EXPECT_EQ(s.header().version, 3u);
+  EXPECT_FALSE(s.has_boundary());
   check_store(t, s);
 }
 

@@ -97,6 +97,11 @@ std::map<std::string, std::vector<Member>> struct_members() {
       {"TfErrorHeaderRecord",
        {UGVR_MEMBER(TfErrorHeaderRecord, table_offset), UGVR_MEMBER(TfErrorHeaderRecord, table_size),
         UGVR_MEMBER(TfErrorHeaderRecord, entry_size), UGVR_MEMBER(TfErrorHeaderRecord, table_crc)}},
+      {"BoundaryHeaderRecord",
+       {UGVR_MEMBER(BoundaryHeaderRecord, section_offset), UGVR_MEMBER(BoundaryHeaderRecord, section_size),
+        UGVR_MEMBER(BoundaryHeaderRecord, triangle_count), UGVR_MEMBER(BoundaryHeaderRecord, reference_count),
+        UGVR_MEMBER(BoundaryHeaderRecord, max_per_node), UGVR_MEMBER(BoundaryHeaderRecord, section_crc),
+        UGVR_MEMBER(BoundaryHeaderRecord, virtual_nodes), UGVR_MEMBER(BoundaryHeaderRecord, reserved)}},
       {"TfErrorEntry",
        {UGVR_MEMBER(TfErrorEntry, bound), UGVR_MEMBER(TfErrorEntry, spread), UGVR_MEMBER(TfErrorEntry, weight),
         UGVR_MEMBER(TfErrorEntry, reserved)}},
@@ -313,9 +318,10 @@ class BrickStoreFormatFile : public ::testing::TestWithParam<Variant> {
   uint64_t table() const { return bytes_.size() - SmallStore::kNodes * kRecordSize; }
 
   // Field records of 24, 48 and 32 bytes (names of 1, 21 and 10 bytes); node records of 48 + 3 × 24 bytes.
-  // Version 3: the TfErrorHeaderRecord (24 bytes) between the header record and the field records.
-  static constexpr uint64_t kFieldAt[3] = {200, 200 + 24, 200 + 24 + 48};
-  static constexpr uint64_t kHeaderSize = 200 + 24 + 48 + 32;
+  // Version 4: the TfErrorHeaderRecord (24 bytes) and the BoundaryHeaderRecord (40) between the header record and the
+  // field records.
+  static constexpr uint64_t kFieldAt[3] = {240, 240 + 24, 240 + 24 + 48};
+  static constexpr uint64_t kHeaderSize = 240 + 24 + 48 + 32;
   static constexpr uint64_t kRecordSize = 48 + 3 * 24;
 
   test::ScratchDir dir_;
@@ -371,6 +377,17 @@ TEST_P(BrickStoreFormatFile, HeaderMembersAtTheirDocumentedOffsets) {
   EXPECT_MEMBER(dt, t, table_size, 0);
   EXPECT_MEMBER(dt, t, entry_size, 0);
   EXPECT_MEMBER(dt, t, table_crc, 0);
+  // Nor boundary faces.
+  const BoundaryHeaderRecord bh = record<BoundaryHeaderRecord>(200);
+  DocRecord db(bytes_, doc_["BoundaryHeaderRecord"], 200);
+  EXPECT_MEMBER(db, bh, section_offset, 0);
+  EXPECT_MEMBER(db, bh, section_size, 0);
+  EXPECT_MEMBER(db, bh, triangle_count, 0);
+  EXPECT_MEMBER(db, bh, reference_count, 0);
+  EXPECT_MEMBER(db, bh, max_per_node, 0);
+  EXPECT_MEMBER(db, bh, section_crc, 0);
+  EXPECT_MEMBER(db, bh, virtual_nodes, 0);
+  EXPECT_MEMBER(db, bh, reserved, 0);
 }
 
 TEST_P(BrickStoreFormatFile, FieldRecordsAtTheirDocumentedOffsets) {

@@ -263,7 +263,7 @@ TEST(CliInfo, BrickStoreText) {
   const std::string path = build_store(dir);
   const test::CommandResult r = run("info " + path);
   EXPECT_EQ(r.status, 0) << r.out;
-  expect_contains(r.out, {"format:   ugvr brick store, version 3", "bounds:   [", "root:     [",
+  expect_contains(r.out, {"format:   ugvr brick store, version 4", "bounds:   [", "root:     [",
                           "bricks:   8 x 8 x 8 samples, quant16",
                           "octree:   ", "  level 0: 1 node, 0 leaves, 1 with a brick", "bytes:    file ", "node table ",
                           "smaller than the bricks as float32", "fields:", "  vertex density (quant16): [0.2, 1]",
@@ -276,7 +276,7 @@ TEST(CliInfo, BrickStoreJson) {
   const std::string path = build_store(dir);
   const json r = info(path);
   EXPECT_EQ(r["format"], "ugvr brick store");
-  EXPECT_EQ(r["version"], 3);
+  EXPECT_EQ(r["version"], 4);
   EXPECT_EQ(r["sources"], json({path}));
   EXPECT_EQ(r["brick"], 8);
   EXPECT_EQ(r["encoding"]["samples"], "quant16");
@@ -302,8 +302,9 @@ TEST(CliInfo, BrickStoreJson) {
   const json& b = r["bytes"];
   EXPECT_EQ(b["file"].get<uint64_t>(), std::filesystem::file_size(path));
   EXPECT_EQ(b["header"].get<uint64_t>() + b["blocks"].get<uint64_t>() + b["node_table"].get<uint64_t>() +
-                b["provenance"].get<uint64_t>() + b["tf_errors"].get<uint64_t>(),
+                b["provenance"].get<uint64_t>() + b["tf_errors"].get<uint64_t>() + b["boundary_faces"].get<uint64_t>(),
             b["file"].get<uint64_t>());
+  EXPECT_GT(b["boundary_faces"].get<uint64_t>(), 0u);  // format version 4: the mesh's boundary faces per node
   EXPECT_EQ(b["tf_errors"].get<uint64_t>(), r["nodes"].get<uint64_t>() * 44);  // one field, 44 bytes per node
   EXPECT_GT(b["provenance"].get<uint64_t>(), 0u);
   EXPECT_EQ(b["unreferenced"], 0);

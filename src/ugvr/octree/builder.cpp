@@ -15,6 +15,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/progress.h"
+#include "ugvr/octree/boundary_faces.h"
 #include "ugvr/octree/build_parts.h"
 #include "ugvr/octree/data_points.h"
 #include "ugvr/octree/downsample.h"
@@ -210,7 +211,14 @@ OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions
     stats.valid_samples = pass.valid_samples();
     stats.bricks = pass.bricks();
     stats.sampler_seconds = pass.sampler_seconds();
-    writer.commit(shape.nodes, pass.errors(), pass.tf_errors());
+    BoundaryFaceStats bst;
+    const StoreBoundary boundary =
+        store_boundary_faces(mesh, lattice.root, shape.nodes, options.boundary_faces_per_node, &bst);
+    stats.boundary_bytes = boundary.bytes();
+    stats.boundary_triangles = bst.triangles;
+    stats.boundary_overflow_nodes = bst.overflow_nodes;
+    stats.boundary_seconds = bst.seconds;
+    writer.commit(shape.nodes, pass.errors(), pass.tf_errors(), &boundary);
   }
   stats.brick_seconds = seconds_since(bricks_start);
   stats.store_bytes = std::filesystem::file_size(path);

@@ -26,6 +26,7 @@
 
 #include "ugvr/core/progress.h"
 #include "ugvr/grid/dataset.h"
+#include "ugvr/octree/boundary_faces.h"
 #include "ugvr/octree/brick_sampler.h"
 #include "ugvr/octree/input.h"
 #include "ugvr/store/brick_codec.h"
@@ -50,6 +51,10 @@ struct OctreeBuildOptions {
   Progress::Observer progress;
   // Write the transfer-function error table (store/brick_store_format.h, TfErrorEntry): 44 bytes per node and field.
   bool tf_errors = true;
+  // Keep the mesh's boundary faces with the nodes they cross (octree/boundary_faces.h), up to this many per node; 0:
+  // none (the renderer's boundary is then the stencil's alone). The in-core build only: the out-of-core one keeps
+  // none yet.
+  uint32_t boundary_faces_per_node = kBoundaryFacesPerNode;
 };
 
 struct OctreeBuildStats {
@@ -68,6 +73,9 @@ struct OctreeBuildStats {
   double subdivide_seconds = 0, brick_seconds = 0, seconds = 0;
   uint64_t store_bytes = 0;
   uint64_t tf_error_table_bytes = 0;  // of store_bytes: the transfer-function error table (nodes × fields × 44)
+  uint64_t boundary_bytes = 0;  // of store_bytes: the boundary faces (nodes × 8 + references × 4 + triangles × 36)
+  uint64_t boundary_triangles = 0, boundary_overflow_nodes = 0;
+  double boundary_seconds = 0;  // finding them, of `seconds`
 };
 
 // The root cell: a cube with the data's lower corner and its largest extent. A cube keeps voxels isotropic, so a

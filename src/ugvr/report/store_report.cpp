@@ -102,9 +102,10 @@ json bytes_json(const BrickStoreReader& s, uint64_t block_bytes, uint64_t bricks
           {"blocks", block_bytes},
           {"node_table", table},
           {"provenance", h.provenance_size},
-          {"tf_errors", s.tf_error_header().table_size},  // the transfer-function error table (format version 3)
-          {"unreferenced",
-           s.file_size() - h.header_size - block_bytes - table - h.provenance_size - s.tf_error_header().table_size},
+          {"tf_errors", s.tf_error_header().table_size},         // the transfer-function error table (format version 3)
+          {"boundary_faces", s.boundary_header().section_size},  // the boundary faces (format version 4)
+          {"unreferenced", s.file_size() - h.header_size - block_bytes - table - h.provenance_size -
+                               s.tf_error_header().table_size - s.boundary_header().section_size},
           {"float32", float32},
           {"ratio", block_bytes ? double(float32) / double(block_bytes) : 0.0}};
 }
@@ -192,6 +193,7 @@ std::string format_store_report_text(const nlohmann::json& r) {
   o << "bytes:    file " << bytes_text(b["file"]) << ": header " << fmt_count(b["header"]) << " bytes, blocks "
     << bytes_text(b["blocks"]) << ", node table " << bytes_text(b["node_table"]);
   if (b["tf_errors"].get<uint64_t>() > 0) o << ", transfer-function error table " << bytes_text(b["tf_errors"]);
+  if (b["boundary_faces"].get<uint64_t>() > 0) o << ", boundary faces " << bytes_text(b["boundary_faces"]);
   if (b["unreferenced"].get<uint64_t>() > 0) o << ", " << fmt_count(b["unreferenced"]) << " unreferenced";
   o << "\n          blocks " << fmt_ratio(b["ratio"]) << "x smaller than the bricks as float32 ("
     << format_bytes(b["float32"]) << ")\n";

@@ -16,6 +16,7 @@ namespace ugvr {
 
 namespace {
 
+using store_format::BoundaryHeaderRecord;
 using store_format::field_record_size;
 using store_format::FieldRecord;
 using store_format::header_records_size;
@@ -264,7 +265,7 @@ void BrickStoreWriter::add_brick(uint64_t node, std::span<const float* const> fi
 }
 
 void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const FieldError> errors,
-                              std::span<const TfErrorEntry> tf_errors) {
+                              std::span<const TfErrorEntry> tf_errors, const StoreBoundary* boundary) {
   std::lock_guard lock(mutex_);
   if (done_) fail_in(path_, "commit() after commit() or after a failed write");
   done_ = true;  // whatever happens below, this writer writes no more
@@ -278,6 +279,17 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
   if (!tf_errors.empty() && tf_errors.size() != count * nf) {
     fail_in(path_, "commit: " + std::to_string(tf_errors.size()) + " transfer-function error entries for " +
                        std::to_string(count) + " nodes × " + std::to_string(nf) + " fields");
+  }
+  if (boundary && !boundary->empty()) {
+    if (boundary->nodes.size() < count || (boundary->nodes.size() - count) % 8)
+      fail_in(path_, "commit: boundary faces for " + std::to_string(boundary->nodes.size()) + " nodes, the tree has " +
+                         std::to_string(count) + " (and virtual nodes come in eights)");
+    for (const auto& e : boundary->nodes) {
+      if (e.count != store_format::kBoundaryOverflow && uint64_t(e.first) + e.count > boundary->refs.size())
+        fail_in(path_, "commit: a node's boundary faces run past the references");
+    }
+    for (uint32_t r : boundary->refs)
+      if (r >= boundary->triangles.size()) fail_in(path_, "commit: a boundary reference past the triangles");
   }
   if (auto issue = check_tree(nodes))
     fail_in(path_, "commit: node " + std::to_string(issue->node) + ": " + issue->what);
@@ -324,6 +336,26 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
     tf_header.entry_size = sizeof(TfErrorEntry);
     tf_header.table_crc = crc32_of(tf_errors.data(), tf_errors.size_bytes());
     out_->write(reinterpret_cast<const std::byte*>(tf_errors.data()), tf_errors.size_bytes());
+  }
+  // The boundary faces likewise (format version 4): node entries, references, triangles, one checksum.
+  BoundaryHeaderRecord boundary_header;
+  if (boundary && !boundary->empty()) {
+    const StoreBoundary& b = *boundary;
+    boundary_header.section_offset = out_->position();
+    boundary_header.section_size = b.bytes();
+    boundary_header.triangle_count = uint32_t(b.triangles.size());
+    boundary_header.reference_count = uint32_t(b.refs.size());
+    boundary_header.max_per_node = b.max_per_node;
+    boundary_header.virtual_nodes = uint32_t(b.nodes.size() - count);
+    const auto* p0 = reinterpret_cast<const std::byte*>(b.nodes.data());
+    const auto* p1 = reinterpret_cast<const std::byte*>(b.refs.data());
+    const auto* p2 = reinterpret_cast<const std::byte*>(b.triangles.data());
+    const size_t n0 = b.nodes.size() * sizeof(b.nodes[0]), n1 = b.refs.size() * 4,
+                 n2 = b.triangles.size() * sizeof(b.triangles[0]);
+    boundary_header.section_crc = crc32_of(p2, n2, crc32_of(p1, n1, crc32_of(p0, n0)));
+    out_->write(p0, n0);
+    out_->write(p1, n1);
+    out_->write(p2, n2);
   }
   uint32_t provenance_size = 0;
   if (!layout_.provenance.empty()) {
@@ -396,6 +428,7 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
   // The checksum covers the field records too, so they go into the buffer first; header_crc is 0 meanwhile.
   std::vector<std::byte> h(header_size_, std::byte{0});
   write_record(h.data() + sizeof(HeaderRecord), tf_header);
+  write_record(h.data() + sizeof(HeaderRecord) + sizeof(TfErrorHeaderRecord), boundary_header);
   size_t at = header_records_size(kBrickStoreVersion);
   for (const BrickStoreField& f : layout_.fields) {
     FieldRecord r;
@@ -423,7 +456,81 @@ BrickStoreReader::BrickStoreReader(std::string path) : file_(std::move(path)) {
   read_node_table();
   read_provenance();
   read_tf_errors();
+  read_boundary();
   check_nodes();
+}
+
+// The boundary faces, if any (version 4): between the blocks and the provenance record, checked as a whole by its
+// checksum and each reference against the triangle count.
+void BrickStoreReader::read_boundary() {
+  const BoundaryHeaderRecord& b = boundary_header_;
+  if (b.section_offset == 0 && b.section_size == 0) return;
+  const std::string& name = file_.path();
+  const uint64_t at = sizeof(HeaderRecord) + sizeof(TfErrorHeaderRecord);
+  const uint64_t n = node_count(), entries = n + b.virtual_nodes;
+  if (b.virtual_nodes % 8 || entries >= store_format::kBoundaryOverflow)
+    fail_at_offset(name, at + offsetof(BoundaryHeaderRecord, virtual_nodes),
+                   std::to_string(b.virtual_nodes) + " virtual nodes (a multiple of 8 expected)");
+  const uint64_t expected = entries * sizeof(store_format::BoundaryNodeEntry) + uint64_t(b.reference_count) * 4 +
+                            uint64_t(b.triangle_count) * sizeof(store_format::BoundaryTriangleRecord);
+  if (b.section_size != expected) {
+    fail_at_offset(name, at + offsetof(BoundaryHeaderRecord, section_size),
+                   "boundary face section of " + std::to_string(b.section_size) + " bytes; expected " +
+                       std::to_string(expected) + " for " + std::to_string(entries) + " nodes, " +
+                       std::to_string(b.reference_count) + " references and " + std::to_string(b.triangle_count) +
+                       " triangles");
+  }
+  const uint64_t end = node_table_offset_ - header_.provenance_size;
+  if (b.section_offset < header_.header_size || b.section_offset > end || b.section_size > end - b.section_offset) {
+    fail_at_offset(name, at + offsetof(BoundaryHeaderRecord, section_offset),
+                   "boundary face section at offset " + std::to_string(b.section_offset) +
+                       " does not fit between the header and the node table");
+  }
+  StoreBoundary& s = boundary_;
+  s.nodes.resize(size_t(entries));
+  s.refs.resize(b.reference_count);
+  s.triangles.resize(b.triangle_count);
+  const size_t n0 = s.nodes.size() * sizeof(s.nodes[0]), n1 = s.refs.size() * 4,
+               n2 = s.triangles.size() * sizeof(s.triangles[0]);
+  file_.read_at(b.section_offset, s.nodes.data(), n0);
+  file_.read_at(b.section_offset + n0, s.refs.data(), n1);
+  file_.read_at(b.section_offset + n0 + n1, s.triangles.data(), n2);
+  const uint32_t crc = crc32_of(s.triangles.data(), n2, crc32_of(s.refs.data(), n1, crc32_of(s.nodes.data(), n0)));
+  auto fail = [&](uint64_t offset, const std::string& what) {
+    boundary_ = {};
+    fail_at_offset(name, offset, what);
+  };
+  if (crc != b.section_crc) {
+    fail(b.section_offset, "boundary face section checksum mismatch (stored " + hex32(b.section_crc) + ", computed " +
+                               hex32(crc) + "): the section is corrupt");
+  }
+  s.max_per_node = b.max_per_node;
+  // Overflow: an interior node of the tree (first 0), or 8 virtual children after the entry itself (so that a walk
+  // down them ends).
+  for (uint64_t id = 0; id < entries; ++id) {
+    const auto& e = s.nodes[id];
+    const bool children_ok = e.first == 0 ? id < n && !nodes_[id].is_leaf()
+                                          : e.first >= n && e.first > id && uint64_t(e.first) + 8 <= entries;
+    if (e.count == store_format::kBoundaryOverflow
+            ? !children_ok
+            : e.count > b.max_per_node || uint64_t(e.first) + e.count > s.refs.size())
+      fail(b.section_offset + id * sizeof(e), "boundary faces of node " + std::to_string(id) + ": entry (first " +
+                                                  std::to_string(e.first) + ", count " + std::to_string(e.count) +
+                                                  ") names no valid run of the " + std::to_string(s.refs.size()) +
+                                                  " references nor valid children");
+  }
+  for (size_t r = 0; r < s.refs.size(); ++r) {
+    if (s.refs[r] >= b.triangle_count)
+      fail(b.section_offset + n0 + r * 4, "boundary face reference " + std::to_string(s.refs[r]) + " past the " +
+                                              std::to_string(b.triangle_count) + " triangles");
+  }
+  for (size_t t = 0; t < s.triangles.size(); ++t) {
+    for (float v : s.triangles[t].p) {
+      if (!std::isfinite(v))
+        fail(b.section_offset + n0 + n1 + t * sizeof(s.triangles[0]),
+             "boundary triangle " + std::to_string(t) + " has a corner that is not finite");
+    }
+  }
 }
 
 // The transfer-function error table, if any: between the blocks and the provenance record, its checksum in its header
@@ -517,6 +624,9 @@ std::vector<std::byte> BrickStoreReader::read_header() {
   }
   header_ = h;
   if (h.version >= 3) tf_error_header_ = read_record<TfErrorHeaderRecord>(bytes.data() + sizeof(HeaderRecord));
+  if (h.version >= 4)
+    boundary_header_ =
+        read_record<BoundaryHeaderRecord>(bytes.data() + sizeof(HeaderRecord) + sizeof(TfErrorHeaderRecord));
 
   // From here on the header is as the writer wrote it; the checks guard against a writer of another make.
   BrickStoreLayout& l = layout_;

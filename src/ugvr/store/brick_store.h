@@ -116,6 +116,20 @@ struct BlockRef {
 // The cell a node covers.
 Bounds node_bounds(const Bounds& root, const OctreeNode& node);
 
+// The mesh's boundary faces per node (format version 4, store_format::BoundaryHeaderRecord has the layout and the
+// rules): nodes[id] is node id's run in refs, refs index triangles. Empty (no nodes): the store has none.
+struct StoreBoundary {
+  std::vector<store_format::BoundaryNodeEntry> nodes;
+  std::vector<uint32_t> refs;
+  std::vector<store_format::BoundaryTriangleRecord> triangles;
+  uint32_t max_per_node = 0;
+
+  bool empty() const { return nodes.empty(); }
+  uint64_t bytes() const {
+    return nodes.size() * sizeof(nodes[0]) + refs.size() * 4 + triangles.size() * sizeof(triangles[0]);
+  }
+};
+
 // One node's bricks, encoded (by BrickStoreWriter::encode, on any thread) and ready to append.
 struct EncodedBrick {
   std::vector<std::byte> bytes;  // the F blocks back to back; empty: the node has no valid sample, so no brick
@@ -151,8 +165,9 @@ class BrickStoreWriter {
   // appended brick belongs to a node of it; on error nothing is committed and the writer is unusable.
   // `tf_errors` (optional): nodes.size() × F transfer-function error entries, node-major (store_format::TfErrorEntry);
   // empty: the store has no table.
+  // `boundary` (optional, may be null or empty): the boundary faces, one entry per node of `nodes`.
   void commit(std::span<const OctreeNode> nodes, std::span<const FieldError> errors = {},
-              std::span<const store_format::TfErrorEntry> tf_errors = {});
+              std::span<const store_format::TfErrorEntry> tf_errors = {}, const StoreBoundary* boundary = nullptr);
 
   // Bytes of blocks appended so far.
   uint64_t block_bytes() const;
@@ -206,6 +221,12 @@ class BrickStoreReader {
   std::span<const store_format::TfErrorEntry> tf_errors() const { return tf_errors_; }
   const store_format::TfErrorHeaderRecord& tf_error_header() const { return tf_error_header_; }
 
+  // The boundary faces (version 4 stores built with them), checksum and references verified at open; empty when the
+  // store has none.
+  bool has_boundary() const { return !boundary_.empty(); }
+  const StoreBoundary& boundary() const { return boundary_; }
+  const store_format::BoundaryHeaderRecord& boundary_header() const { return boundary_header_; }
+
   // Decodes field `field` of node `node` into samples (R³ floats, x fastest) and, unless null, mask (R³ bytes, 1 =
   // data). One pread of the block, checksum verified. Thread-safe: per-thread scratch, no shared mutable state.
   // Throws ugvr::Error for a node without brick or a corrupt block (naming the file, node, field and offset).
@@ -224,6 +245,7 @@ class BrickStoreReader {
   void read_node_table();
   void read_provenance();
   void read_tf_errors();
+  void read_boundary();
   void check_nodes();
   void check_node_stats(uint64_t id, uint32_t f) const;
   void check_node_field(uint64_t node, uint32_t field) const;
@@ -232,6 +254,8 @@ class BrickStoreReader {
   store_format::HeaderRecord header_;
   store_format::TfErrorHeaderRecord tf_error_header_;
   std::vector<store_format::TfErrorEntry> tf_errors_;  // node × F; empty: none
+  store_format::BoundaryHeaderRecord boundary_header_;
+  StoreBoundary boundary_;
   BrickStoreLayout layout_;
   uint64_t node_table_offset_ = 0;
   std::vector<BrickNode> nodes_;

@@ -4,10 +4,12 @@
 // mean for the octree (coordinates, child order, ranges) is in store/brick_store.h, how a block's payload is coded in
 // store/brick_codec.h.
 //
-//   [HeaderRecord] [TfErrorHeaderRecord] [FieldRecord, name, padding] × F   the header, header_size bytes
-//                                                        (version 2 stores have no TfErrorHeaderRecord)
+//   [HeaderRecord] [TfErrorHeaderRecord] [BoundaryHeaderRecord] [FieldRecord, name, padding] × F   the header,
+//                                                        header_size bytes (version 2 stores have neither of the
+//                                                        two middle records, version 3 stores no BoundaryHeaderRecord)
 //   [BlockRecord, payload] × (F per node with a brick)  the blocks, in the order the writer appended them
 //   [TfErrorEntry × F] × N                              the transfer-function error table, if any (version 3)
+//   [BoundaryNodeEntry × N, uint32 × R, BoundaryTriangleRecord × T]  the boundary faces, if any (version 4)
 //   [provenance text, crc32]                            if any
 //   [NodeRecord, NodeFieldRecord × F] × N               the node table, in node id order, ending the file
 //
@@ -31,8 +33,10 @@ namespace ugvr {
 static_assert(std::endian::native == std::endian::little, "the brick store is read and written as little-endian");
 
 // Version 3 adds the transfer-function error table (TfErrorHeaderRecord, TfErrorEntry); version 2 stores, which
-// lack it, are still read (a renderer then falls back to the stored error_max).
-inline constexpr uint32_t kBrickStoreVersion = 3;
+// lack it, are still read (a renderer then falls back to the stored error_max). Version 4 adds the mesh's boundary
+// faces per node (BoundaryHeaderRecord); version 2 and 3 stores, which lack them, are still read (the renderer then
+// takes the boundary from the validity stencil alone, as before).
+inline constexpr uint32_t kBrickStoreVersion = 4;
 inline constexpr uint32_t kOldestReadableBrickStoreVersion = 2;
 
 namespace store_format {
@@ -103,9 +107,50 @@ struct TfErrorEntry {
   uint16_t reserved = 0;                    // 42  0
 };
 
+// Version 4: follows the TfErrorHeaderRecord (the field records start at byte 240); covered by header_crc. Where the
+// mesh's boundary faces lie, per node (Muigg 2008, section 5.1.2: the boundary of a resampled brick taken from the
+// mesh, so that it is the same at every level). One section, three arrays back to back:
+//   BoundaryNodeEntry × (N + V)  per node (id order), then V virtual nodes: each node's triangle references
+//   uint32 × R                   triangle indices, each node's run ascending
+//   BoundaryTriangleRecord × T   the boundary's triangles, each once
+// A node lists every boundary triangle that overlaps its cell (closed box), unless there are more than the builder's
+// cap: it then lists none (count kBoundaryOverflow) and its children do: an interior node's children in the tree
+// (first 0), a leaf's in 8 virtual nodes from entry `first` (>= N; octant order as for children, a virtual node that
+// no triangle reaches lists none), which may be divided again likewise. Nodes the boundary does not cross list none
+// (count 0). octree/boundary_faces.h builds it.
+struct BoundaryHeaderRecord {
+  uint64_t section_offset = 0;   //  0  file offset of node 0's entry; 0: the store has no boundary faces
+  uint64_t section_size = 0;     //  8  bytes: (N + V) × 8 + R × 4 + T × 36 (0 without)
+  uint32_t triangle_count = 0;   // 16  T
+  uint32_t reference_count = 0;  // 20  R, the sum of the listed counts
+  uint32_t max_per_node = 0;     // 24  the largest count a node lists (the builder's cap, or more where a virtual
+                                 //     node at the deepest division still has more)
+  uint32_t section_crc = 0;      // 28  crc32 (zlib) of the section's bytes
+  uint32_t virtual_nodes = 0;    // 32  V, a multiple of 8
+  uint32_t reserved = 0;         // 36  0
+};
+
+// A node's run of references: triangles refs[first .. first + count). count kBoundaryOverflow: over the cap, none
+// listed; first is 0 (an interior node: see its children) or its first virtual child's entry.
+struct BoundaryNodeEntry {
+  uint32_t first = 0;  // 0
+  uint32_t count = 0;  // 4
+};
+inline constexpr uint32_t kBoundaryOverflow = 0xFFFFFFFFu;
+
+// One triangle of the mesh boundary, corners in the root cell's normalised coordinates ((x - root.lo) / root.size(),
+// float32), ordered so that the right-hand normal (p1 - p0) × (p2 - p0) points out of the mesh (the cells are
+// positively oriented, README "How cells are brought in"). Quadrilateral faces are split along the diagonal through
+// their lexicographically smallest corner (the exact engine's rule, render/exact/walk_mesh.h).
+struct BoundaryTriangleRecord {
+  float p[9] = {};  // 0  x0 y0 z0 x1 y1 z1 x2 y2 z2
+};
+
 // Bytes of the records before the field records, by format version.
 constexpr uint32_t header_records_size(uint32_t version) {
-  return uint32_t(version >= 3 ? 176 + sizeof(TfErrorHeaderRecord) : 176);
+  return uint32_t(version >= 4   ? 176 + sizeof(TfErrorHeaderRecord) + sizeof(BoundaryHeaderRecord)
+                  : version >= 3 ? 176 + sizeof(TfErrorHeaderRecord)
+                                 : 176);
 }
 
 // One per field, in field order, after the header record; each followed by its name (name_length bytes, UTF-8, not
@@ -277,6 +322,19 @@ UGVR_RECORD_AT(TfErrorHeaderRecord, table_size, 8);
 UGVR_RECORD_AT(TfErrorHeaderRecord, entry_size, 16);
 UGVR_RECORD_AT(TfErrorHeaderRecord, table_crc, 20);
 static_assert(header_records_size(3) % 8 == 0 && header_records_size(2) == sizeof(HeaderRecord));
+
+static_assert(std::is_trivially_copyable_v<BoundaryHeaderRecord> && sizeof(BoundaryHeaderRecord) == 40);
+UGVR_RECORD_AT(BoundaryHeaderRecord, section_offset, 0);
+UGVR_RECORD_AT(BoundaryHeaderRecord, section_size, 8);
+UGVR_RECORD_AT(BoundaryHeaderRecord, triangle_count, 16);
+UGVR_RECORD_AT(BoundaryHeaderRecord, reference_count, 20);
+UGVR_RECORD_AT(BoundaryHeaderRecord, max_per_node, 24);
+UGVR_RECORD_AT(BoundaryHeaderRecord, section_crc, 28);
+UGVR_RECORD_AT(BoundaryHeaderRecord, virtual_nodes, 32);
+UGVR_RECORD_AT(BoundaryHeaderRecord, reserved, 36);
+static_assert(header_records_size(4) == 240 && header_records_size(4) % 8 == 0);
+static_assert(sizeof(BoundaryNodeEntry) == 8 && sizeof(BoundaryTriangleRecord) == 36);
+static_assert(std::is_trivially_copyable_v<BoundaryTriangleRecord> && std::is_trivially_copyable_v<BoundaryNodeEntry>);
 
 static_assert(std::is_trivially_copyable_v<TfErrorEntry> && std::is_standard_layout_v<TfErrorEntry>);
 static_assert(sizeof(TfErrorEntry) == 44);

@@ -90,6 +90,10 @@ struct LodEngine::Impl {
   std::map<std::tuple<int, bool, bool>, ComputeProgram> programs;
   ComputeProgram& program_for(int mode, bool volume_lighting, bool overlay);
   GlBuffer tree, state, counters, readback;
+  // The boundary faces (store format version 4), static; `faces` false: the store has none, and the shader is compiled
+  // without them (FACES 0: the stencil alone, at no cost).
+  bool faces = false;
+  GlBuffer face_nodes, face_refs, face_tris;
   GlBuffer frame_block;  // the uniform block LodFrame
   GlTexture tf_texture, preint_texture, out_texture;
   std::unique_ptr<GlTimerQuery> timer;  // created on first use (the context is current then)
@@ -116,7 +120,8 @@ ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, boo
   if (it == programs.end()) {
     ComputeProgram p("lod_raycast.comp", {{"MODE", std::to_string(mode)},
                                           {"VOLUME_LIGHTING", volume_lighting ? "1" : "0"},
-                                          {"OVERLAY", overlay ? "1" : "0"}});
+                                          {"OVERLAY", overlay ? "1" : "0"},
+                                          {"FACES", faces ? "1" : "0"}});
     check_contract(p);
     it = programs.emplace(std::make_tuple(mode, volume_lighting, overlay), std::move(p)).first;
   }
@@ -284,6 +289,30 @@ LodEngine::LodEngine(const std::string& store_path, const GlContext& gl, LodOpti
   if (I.store.node_count() >= lod_gpu::NODE_DESCEND)
     fail_in(store_path, "too many nodes for the GPU node table (2^32 - 2)");
   gl.make_current();
+  I.faces = I.store.has_boundary();
+  if (I.faces) {
+    // Per node (first reference, count) as stored (a node over the cap: count FACE_OVERFLOW, the shader looks in its
+    // descendants), the references and the triangles.
+    static_assert(lod_gpu::FACE_OVERFLOW == store_format::kBoundaryOverflow);
+    const StoreBoundary& b = I.store.boundary();
+    std::vector<uint32_t> entries(b.nodes.size() * 2);
+    for (size_t n = 0; n < b.nodes.size(); ++n) {
+      entries[2 * n] = b.nodes[n].first;
+      entries[2 * n + 1] = b.nodes[n].count;
+    }
+    const uint32_t none = 0;
+    I.face_nodes.upload(entries.data(), entries.size() * sizeof(uint32_t));
+    if (b.refs.empty()) {
+      I.face_refs.upload(&none, sizeof none);
+    } else {
+      I.face_refs.upload(b.refs.data(), b.refs.size() * sizeof(uint32_t));
+    }
+    if (b.triangles.empty()) {
+      I.face_tris.upload(&none, sizeof none);
+    } else {
+      I.face_tris.upload(b.triangles.data(), b.triangles.size() * sizeof(b.triangles[0]));
+    }
+  }
   I.program_for(LOD_MODE_EA, false, false);  // compile errors surface here, not at the first frame
   // The octree, static: first child and child mask | level << 8 per node.
   std::vector<uint32_t> tree(I.store.node_count() * 2);
@@ -443,6 +472,11 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   glBindTextureUnit(lod_gpu::PREINT_TEXTURE_BINDING, I.preint_texture.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::TREE_BUFFER_BINDING, I.tree.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::STATE_BUFFER_BINDING, I.state.id());
+  if (I.faces) {
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::FACE_NODE_BUFFER_BINDING, I.face_nodes.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::FACE_REF_BUFFER_BINDING, I.face_refs.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::FACE_TRI_BUFFER_BINDING, I.face_tris.id());
+  }
   const uint32_t zero[lod_gpu::COUNTER_COUNT] = {};
   I.counters.upload(zero, sizeof zero);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::COUNTERS_BUFFER_BINDING, I.counters.id());

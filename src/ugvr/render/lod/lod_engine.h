@@ -83,9 +83,11 @@ class LodEngine {
   double field_max() const;
 
   // Renders settings.width × settings.height. settings.field is ignored (set_field); settings.sample_step > 0 is one
-  // world step at every level, 0 the options' step_voxels per node. boundary_overlay_opacity draws the boundary of
-  // the valid region the bricks' stencils describe (voxel resolution; docs/lod-engine.md), with transfer-function
-  // culling off (boundary_overlay_on) so that transparent data still bounds it.
+  // world step at every level, 0 the options' step_voxels per node. boundary_overlay_opacity draws the mesh
+  // boundary: on the store's boundary faces with their normals where it has them (format version 4), else where the
+  // bricks' stencils put it (voxel resolution; docs/lod-engine.md), with transfer-function culling off
+  // (boundary_overlay_on) so that transparent data still bounds it. With faces, every node's samples are clipped at
+  // them (docs/lod-engine.md, "Exact boundary").
   Image render(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings, const CutSpec& cut,
                LodRenderStats* stats = nullptr);
 

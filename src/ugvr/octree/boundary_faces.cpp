@@ -1,0 +1,189 @@
+#include "ugvr/octree/boundary_faces.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <vector>
+
+#include "ugvr/core/error.h"
+#include "ugvr/grid/topology.h"
+
+namespace ugvr {
+namespace {
+
+using store_format::BoundaryNodeEntry;
+using store_format::BoundaryTriangleRecord;
+using store_format::kBoundaryOverflow;
+
+bool position_less(Vec3f a, Vec3f b, uint32_t ia, uint32_t ib) {
+  if (a.x != b.x) return a.x < b.x;
+  if (a.y != b.y) return a.y < b.y;
+  if (a.z != b.z) return a.z < b.z;
+  return ia < ib;
+}
+
+Vec3d cross(const Vec3d& a, const Vec3d& b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+double dot(const Vec3d& a, const Vec3d& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+}  // namespace
+
+bool triangle_box_overlap(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Bounds& box) {
+  const Vec3d centre = (box.lo + box.hi) * 0.5, half = (box.hi - box.lo) * 0.5;
+  const std::array<Vec3d, 3> v{a - centre, b - centre, c - centre};
+  // Separated along `axis` when the triangle's projection lies wholly beyond the box's radius on it.
+  auto separated = [&](const Vec3d& axis) {
+    const double p0 = dot(v[0], axis), p1 = dot(v[1], axis), p2 = dot(v[2], axis);
+    const double r = half.x * std::abs(axis.x) + half.y * std::abs(axis.y) + half.z * std::abs(axis.z);
+    return std::min({p0, p1, p2}) > r || std::max({p0, p1, p2}) < -r;
+  };
+  const std::array<Vec3d, 3> box_axes{Vec3d{1, 0, 0}, Vec3d{0, 1, 0}, Vec3d{0, 0, 1}};
+  for (const Vec3d& e : box_axes)
+    if (separated(e)) return false;
+  const std::array<Vec3d, 3> edges{v[1] - v[0], v[2] - v[1], v[0] - v[2]};
+  if (separated(cross(edges[0], edges[1]))) return false;
+  for (const Vec3d& e : edges)
+    for (const Vec3d& u : box_axes)
+      if (separated(cross(e, u))) return false;
+  return true;
+}
+
+StoreBoundary store_boundary_faces(const UnstructuredMesh& mesh, const Bounds& root, std::span<const OctreeNode> nodes,
+                                   uint32_t max_per_node, BoundaryFaceStats* stats) {
+  const auto start = std::chrono::steady_clock::now();
+  StoreBoundary out;
+  BoundaryFaceStats st;
+  if (max_per_node == 0 || nodes.empty()) return out;
+  if (nodes.size() >= kBoundaryOverflow) throw Error("too many nodes for the boundary face section");
+
+  // The boundary as triangles in the root cell's normalised coordinates, outward (right-hand) order.
+  const MeshTopology topo = build_topology(mesh);
+  const Vec3d size = root.size();
+  auto normalised = [&](uint32_t v) {
+    const Vec3f p = mesh.points[v];
+    return Vec3d{(double(p.x) - root.lo.x) / size.x, (double(p.y) - root.lo.y) / size.y,
+                 (double(p.z) - root.lo.z) / size.z};
+  };
+  std::vector<std::array<uint32_t, 3>> tris;
+  tris.reserve(topo.boundary.size() * 2);
+  for (uint64_t packed : topo.boundary) {
+    const uint64_t cell = face_cell(packed);
+    const CellFace face = cell_info(mesh.cell_types[cell]).faces[face_local(packed)];
+    const auto vs = mesh.cell(cell);
+    std::array<uint32_t, 4> f{};
+    for (int i = 0; i < face.size; ++i) f[size_t(i)] = vs[face.v[size_t(i)]];
+    if (face.size == 3) {
+      tris.push_back({f[0], f[1], f[2]});
+      continue;
+    }
+    int smallest = 0;
+    for (int i = 1; i < 4; ++i)
+      if (position_less(mesh.points[f[size_t(i)]], mesh.points[f[size_t(smallest)]], f[size_t(i)], f[size_t(smallest)]))
+        smallest = i;
+    if (smallest == 1 || smallest == 3) {
+      tris.push_back({f[0], f[1], f[3]});
+      tris.push_back({f[1], f[2], f[3]});
+    } else {
+      tris.push_back({f[0], f[1], f[2]});
+      tris.push_back({f[0], f[2], f[3]});
+    }
+  }
+  st.triangles = tris.size();
+  if (tris.empty()) {
+    if (stats) *stats = st;
+    return out;
+  }
+  std::vector<std::array<Vec3d, 3>> corners(tris.size());
+  out.triangles.resize(tris.size());
+  for (size_t t = 0; t < tris.size(); ++t) {
+    for (int i = 0; i < 3; ++i) {
+      corners[t][size_t(i)] = normalised(tris[t][size_t(i)]);
+      out.triangles[t].p[3 * i] = float(corners[t][size_t(i)].x);
+      out.triangles[t].p[3 * i + 1] = float(corners[t][size_t(i)].y);
+      out.triangles[t].p[3 * i + 2] = float(corners[t][size_t(i)].z);
+    }
+  }
+
+  // Top-down, depth first: a node's triangles are those of its parent's that overlap its cell, grown by a hair so
+  // that a face lying on a node face belongs to both sides (touching counts). Memory: one list per level in progress.
+  // A leaf over the cap is divided further for the faces alone (virtual nodes: 8 entries appended per division,
+  // store_format::BoundaryNodeEntry), down to kBoundaryVirtualLevels below it; one still over the cap there lists
+  // them all.
+  out.nodes.assign(nodes.size(), BoundaryNodeEntry{});
+  uint32_t largest = 0;
+  std::vector<uint32_t> all(tris.size());
+  for (uint32_t t = 0; t < all.size(); ++t) all[t] = t;
+  auto overlapping = [&](const Bounds& cell, const std::vector<uint32_t>& parent) {
+    const double grow = (cell.hi.x - cell.lo.x) * 1e-6;
+    Bounds box;
+    box.lo = cell.lo - Vec3d{grow, grow, grow};
+    box.hi = cell.hi + Vec3d{grow, grow, grow};
+    std::vector<uint32_t> mine;
+    for (uint32_t t : parent)
+      if (triangle_box_overlap(corners[t][0], corners[t][1], corners[t][2], box)) mine.push_back(t);
+    return mine;
+  };
+  auto list = [&](uint64_t entry, const std::vector<uint32_t>& mine) {
+    out.nodes[entry] = {uint32_t(out.refs.size()), uint32_t(mine.size())};
+    out.refs.insert(out.refs.end(), mine.begin(), mine.end());
+    largest = std::max(largest, uint32_t(mine.size()));
+    ++st.listed_nodes;
+  };
+  // A virtual node's entry (index `entry`, cell `cell`, `depth` levels below its leaf) given its triangles.
+  auto divide = [&](auto& self, uint64_t entry, const Bounds& cell, const std::vector<uint32_t>& mine,
+                    int depth) -> void {
+    if (mine.size() <= max_per_node || depth >= kBoundaryVirtualLevels) {
+      list(entry, mine);
+      return;
+    }
+    const uint64_t base = out.nodes.size();
+    if (base + 8 > kBoundaryOverflow) {
+      list(entry, mine);
+      return;
+    }
+    out.nodes.resize(base + 8);
+    out.nodes[entry] = {uint32_t(base), kBoundaryOverflow};
+    ++st.virtual_divisions;
+    const Vec3d half = (cell.hi - cell.lo) * 0.5;
+    for (int o = 0; o < 8; ++o) {
+      Bounds c;
+      c.lo = cell.lo + Vec3d{(o & 1) * half.x, (o >> 1 & 1) * half.y, (o >> 2 & 1) * half.z};
+      c.hi = c.lo + half;
+      const std::vector<uint32_t> sub = overlapping(c, mine);
+      if (!sub.empty()) self(self, base + uint64_t(o), c, sub, depth + 1);
+    }
+  };
+  auto visit = [&](auto& self, uint64_t id, const std::vector<uint32_t>& parent) -> void {
+    const OctreeNode& n = nodes[id];
+    const double cell = std::ldexp(1.0, -int(n.level));
+    Bounds box;
+    box.lo = Vec3d{n.i * cell, n.j * cell, n.k * cell};
+    box.hi = box.lo + Vec3d{cell, cell, cell};
+    const std::vector<uint32_t> mine = overlapping(box, parent);
+    if (mine.empty()) return;  // nor does any descendant's cell
+    ++st.crossed_nodes;
+    if (mine.size() <= max_per_node) {
+      list(id, mine);
+    } else if (n.is_leaf()) {
+      ++st.overflow_leaves;
+      divide(divide, id, box, mine, 0);
+    } else {
+      out.nodes[id] = {0, kBoundaryOverflow};
+      ++st.overflow_nodes;
+    }
+    if (n.is_leaf()) return;
+    const int kids = std::popcount(unsigned(n.child_mask));
+    for (int c = 0; c < kids; ++c) self(self, n.first_child + uint64_t(c), mine);
+  };
+  visit(visit, 0, all);
+  out.max_per_node = std::max(max_per_node, largest);
+  st.virtual_nodes = out.nodes.size() - nodes.size();
+  st.references = out.refs.size();
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (stats) *stats = st;
+  return out;
+}
+
+}  // namespace ugvr
