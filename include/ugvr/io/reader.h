@@ -28,6 +28,7 @@ enum class InputFormat {
   Nastran,    // .nas .bdf
   RawVolume,  // .raw (layout given in RawVolumeOptions)
   Nrrd,       // .nrrd / .nhdr
+  EnSight,    // .case (EnSight Gold) / .sos (its server-of-servers file)
 };
 
 // Layout of a headerless raw voxel volume (dims, type and spacing come from the command line).
@@ -41,7 +42,7 @@ struct RawVolumeOptions {
 };
 
 struct ReadOptions {
-  // Exodus: the time step whose variables are read (0-based); -1 = the last one.
+  // Exodus, EnSight: the time step read (0-based); -1 = the last one.
   int64_t time_step = -1;
   RawVolumeOptions raw;
 };
@@ -64,5 +65,7 @@ Dataset read_exodus(const std::string& path, int64_t time_step);
 Dataset read_nastran(const std::string& path);
 Dataset read_raw_volume(const std::string& path, const RawVolumeOptions& options);
 Dataset read_nrrd(const std::string& path);
+// A .case file, or a .sos file whose servers' cases are read and concatenated; one step (time_step, -1 = last).
+Dataset read_ensight(const std::string& path, int64_t time_step);
 
 }  // namespace ugvr

@@ -38,6 +38,7 @@ std::optional<InputFormat> detect_by_extension(const std::string& path) {
   if (ext == ".nas" || ext == ".bdf" || ext == ".nastran") return InputFormat::Nastran;
   if (ext == ".raw") return InputFormat::RawVolume;
   if (ext == ".nrrd" || ext == ".nhdr") return InputFormat::Nrrd;
+  if (ext == ".case" || ext == ".sos") return InputFormat::EnSight;
   if (ext == ".bin" || ext == ".xyz" || ext == ".x" || ext == ".g" || ext == ".grid" || ext == ".p3d")
     return InputFormat::Plot3d;
   return std::nullopt;
@@ -56,7 +57,7 @@ InputFormat detect_format(std::span<const std::string> paths) {
   if (auto by_extension = detect_by_extension(paths[0])) return *by_extension;
   fail_in(paths[0], "unrecognised format: no known signature, and the extension '" + extension_lower(paths[0]) +
                         "' is none of .vtu .pvtu .vts .vti .vtr .vtk .inp .off .ugrid .msh .node .ele .e .ex2 .exo "
-                        ".nas .bdf .raw .nrrd .nhdr or a PLOT3D grid (.bin .xyz .x .g .grid .p3d)");
+                        ".nas .bdf .raw .nrrd .nhdr .case .sos or a PLOT3D grid (.bin .xyz .x .g .grid .p3d)");
 }
 
 Dataset read_dataset(std::span<const std::string> paths, const ReadOptions& options) {
@@ -77,6 +78,7 @@ Dataset read_dataset(std::span<const std::string> paths, const ReadOptions& opti
     case InputFormat::Nastran: return read_nastran(paths[0]);
     case InputFormat::RawVolume: return read_raw_volume(paths[0], options.raw);
     case InputFormat::Nrrd: return read_nrrd(paths[0]);
+    case InputFormat::EnSight: return read_ensight(paths[0], options.time_step);
   }
   throw Error("unreachable");
 }
