@@ -164,7 +164,6 @@ class EnsStream {
     if (at_end()) return "";
     const uint64_t o = off_, r = rec_left_;
     char buf[80];
-    if (bytes_left() < 80) return "";
     take(buf, 80, "a keyword");
     off_ = o;
     rec_left_ = r;
@@ -345,24 +344,23 @@ FileKind detect_geo_kind(const InputFile& f) {
     f.read_at(off + 80, &raw[0], 4);
     raw[1] = 0;
     if (off + 84 + 160 + 4 <= size) f.read_at(off + 84 + 160, &raw[1], 4);
-    auto plausible = [&](bool swap) {
-      for (uint32_t r : raw) {
-        const int64_t v = int32_t(swap ? __builtin_bswap32(r) : r);
-        if (v < 0 || uint64_t(v) > size) return false;
-      }
-      return true;
-    };
-    const bool native_ok = plausible(false), swapped_ok = plausible(true);
+    auto value = [&](uint32_t r, bool swap) { return int64_t(int32_t(swap ? __builtin_bswap32(r) : r)); };
+    // Part numbers are small (EnSight numbers parts from 1): 1 read in the wrong order is 2^24. The count after the
+    // part header decides only when the part number fits both orders (or neither).
+    auto part_ok = [&](bool swap) { return value(raw[0], swap) >= 0 && value(raw[0], swap) <= (int64_t(1) << 20); };
+    auto count_ok = [&](bool swap) { return value(raw[1], swap) >= 0 && uint64_t(value(raw[1], swap)) <= size; };
     const bool native_big = std::endian::native == std::endian::big;
-    if (native_ok && swapped_ok) {
-      k.big_endian = false;
-    } else if (native_ok) {
-      k.big_endian = native_big;
-    } else if (swapped_ok) {
-      k.big_endian = !native_big;
+    bool swapped;
+    if (part_ok(false) != part_ok(true)) {
+      swapped = part_ok(true);
+    } else if (count_ok(false) != count_ok(true)) {
+      swapped = count_ok(true);
+    } else if (part_ok(false) || count_ok(false)) {
+      swapped = false;  // both orders plausible: the native one
     } else {
       fail_at_offset(f.path(), off + 80, "neither byte order gives a plausible part number and count here");
     }
+    k.big_endian = swapped != native_big;
     return k;
   }
   return k;  // no part in the first strings: the reader will say what is missing
