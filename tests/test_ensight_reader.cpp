@@ -452,6 +452,33 @@ TEST(EnSightGenerated, WildcardTimeSetChoosesTheStep) {
   EXPECT_NE(error_of([&] { read_case(path, 1); }).find("c-le.t002"), std::string::npos);
 }
 
+// Changing geometry: the model itself has a wildcard and a time set; each step's geometry and variable are read
+// together (here the second step's geometry is the first one's, written again in another encoding's byte order).
+TEST(EnSightGenerated, ChangingGeometryPerStep) {
+  ScratchDir dir;
+  write_case(dir, kEncodings[1]);
+  for (int step = 0; step < 2; ++step) {
+    Writer g(Writer::C, step == 1);
+    g.str("C Binary");
+    write_geometry(g);
+    write_file(dir.file("moving" + std::to_string(step) + ".geo"), g.bytes());
+  }
+  const std::string path = dir.file("moving.case");
+  write_file(path,
+             "FORMAT\ntype: ensight gold\nGEOMETRY\nmodel: 1 moving*.geo\nVARIABLE\nscalar per node: t c-le.t001\n"
+             "TIME\ntime set: 1\nnumber of steps: 2\nfilename numbers: 0 1\ntime values: 0 1\n");
+  // Step 1 reads moving1.geo (big-endian), step 0 moving0.geo; the variable is static.
+  const Dataset ds = read_case(path, 1);
+  EXPECT_NE(ds.format.find("big-endian"), std::string::npos) << ds.format;
+  EXPECT_EQ(ds.blocks[0].fields.find("t")->data().get(0, 0), 0);
+  const Dataset first = read_case(path, 0);
+  EXPECT_NE(first.format.find("little-endian"), std::string::npos) << first.format;
+  EXPECT_EQ(first.blocks[0].grid, ds.blocks[0].grid);
+  // A missing step file is named.
+  std::filesystem::remove(dir.file("moving1.geo"));
+  EXPECT_NE(error_of([&] { read_case(path, 1); }).find("moving1.geo"), std::string::npos);
+}
+
 TEST(EnSightGenerated, SingleFileStepsInEveryEncoding) {
   ScratchDir dir;
   for (const Encoding& e : kEncodings) {

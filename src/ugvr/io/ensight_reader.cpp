@@ -19,8 +19,10 @@
 // Byte layouts. C binary: strings are 80 bytes, integers int32, reals float32; the first string of a geometry file
 // is "C Binary". Fortran binary: the same values inside records framed by int32 byte counts; a value may sit in any
 // record (writers group them differently), only a record boundary inside one value is refused. Byte order is not
-// stated by the format: it is the order in which the first part number and the first count are plausible (>= 0 and
-// smaller than the file), little-endian when both orders are; variable files use the geometry's order.
+// stated by the format. Fortran: the order in which the first record marker reads 80. C binary: the order in which
+// the first part number is plausible (0..2^20; 1 in the wrong order reads 2^24), else in which the count after it is
+// (0..file size), else the native one; a variable file is taken in the geometry's order unless its first part
+// number (or Fortran marker) reads plausibly only in the other.
 //
 // Mapping to ugvr's model. One Block per part with volume cells, named by the part's description line. Linear 3-D
 // elements keep their vertices (penta6 in VTK's wedge order, as vtkEnSightGoldReader maps it); quadratic ones
@@ -109,6 +111,29 @@ class EnsStream {
   EnsStream(const InputFile& file, Encoding enc, bool big_endian) : file_(file), enc_(enc) {
     swap_ = big_endian != (std::endian::native == std::endian::big);
     if (enc_ == Encoding::Ascii) text_.emplace(file_);
+    // Fortran: every file starts with an 80-byte record (a description or "Fortran Binary"), whose marker gives
+    // the file's own byte order.
+    if (enc_ == Encoding::FortranBinary && file_.size() >= 4) {
+      uint32_t m;
+      file_.read_at(0, &m, 4);
+      const uint32_t as_set = swap_ ? __builtin_bswap32(m) : m, other = swap_ ? m : __builtin_bswap32(m);
+      if (as_set != 80 && other == 80) swap_ = !swap_;
+    }
+  }
+
+  // A part number. In a C binary file whose first part number reads implausibly (negative or over 2^20) but
+  // plausibly byte-swapped, the file is in the other byte order than assumed (a variable file written on another
+  // machine than its geometry): the order flips for the rest of the file.
+  int32_t read_part_number() {
+    const int32_t v = read_int("the part number");
+    if (enc_ != Encoding::CBinary || part_seen_) return v;
+    part_seen_ = true;
+    const int32_t w = int32_t(__builtin_bswap32(uint32_t(v)));
+    if ((v < 0 || v > (1 << 20)) && w >= 0 && w <= (1 << 20)) {
+      swap_ = !swap_;
+      return w;
+    }
+    return v;
   }
 
   Encoding encoding() const { return enc_; }
@@ -303,6 +328,7 @@ class EnsStream {
   const InputFile& file_;
   Encoding enc_;
   bool swap_ = false;
+  bool part_seen_ = false;
   std::optional<TextTokenizer> text_;
   bool mid_line_ = false;
   uint64_t off_ = 0;
@@ -479,7 +505,7 @@ class GeoReader {
  private:
   void read_part(Geometry& g) {
     auto p = std::make_unique<Part>();
-    p->number = s_.read_int("the part number");
+    p->number = s_.read_part_number();
     if (g.find(p->number)) s_.fail("part " + std::to_string(p->number) + " is listed twice");
     p->name = s_.read_string(false, "the part description");
     if (p->name.empty()) p->name = "part " + std::to_string(p->number);
@@ -735,7 +761,7 @@ void read_variable_step(EnsStream& s, const Variable& v, Geometry& g, bool store
     if (k.empty() || k.starts_with("end time step")) break;
     if (k != "part") s.fail("expected 'part', found '" + k + "'");
     s.read_string(true, "part");
-    const int32_t number = s.read_int("the part number");
+    const int32_t number = s.read_part_number();
     Part* p = g.find(number);
     if (!p) s.fail("part " + std::to_string(number) + " is not in the geometry");
     const std::string tag = "part " + std::to_string(number);
