@@ -27,7 +27,9 @@ std::optional<InputFormat> detect_by_content(std::string_view h) {
 
 std::optional<InputFormat> detect_by_extension(const std::string& path) {
   const std::string ext = extension_lower(path);
-  if (ext == ".vtu" || ext == ".pvtu" || ext == ".vts" || ext == ".vti" || ext == ".vtr") return InputFormat::VtkXml;
+  if (ext == ".vtu" || ext == ".pvtu" || ext == ".vts" || ext == ".vti" || ext == ".vtr" || ext == ".pvts" ||
+      ext == ".pvti" || ext == ".pvtr")
+    return InputFormat::VtkXml;
   if (ext == ".vtk") return InputFormat::VtkLegacy;
   if (ext == ".inp") return InputFormat::AvsUcd;
   if (ext == ".off") return InputFormat::OffTets;
