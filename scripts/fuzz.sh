@@ -239,6 +239,34 @@ if [ -n "${UGVR:-}" ] && [ -x "${UGVR:-}" ]; then
   rm -rf "$tmp"
 fi
 
+# EnSight: every shared sample case with its geometry and first variable file, the case rewritten to name f.geo and
+# f.var (the target's layout: uint32 case length, uint32 geometry length, case, geometry, variable).
+/usr/bin/python3 - "$data/ensight-samples" "$corpus/fuzz_ensight/seeds" <<'PY'
+import glob, os, re, struct, sys
+src, out = sys.argv[1], sys.argv[2]
+os.makedirs(out, exist_ok=True)
+for case in sorted(glob.glob(os.path.join(src, "*.case"))):
+    text = open(case).read()
+    model = re.search(r"^model:(.*)$", text, re.M)
+    if not model:
+        continue
+    geo = model.group(1).split()[-1]
+    var = re.search(r"^[a-z ]+per (?:node|element):(.*)$", text, re.M)
+    text = text.replace(geo, "f.geo", 1)
+    var_bytes = b""
+    if var:
+        name = var.group(1).split()[-1]
+        path = os.path.join(src, name.replace("****", "0001"))
+        if os.path.exists(path):
+            var_bytes = open(path, "rb").read()
+        text = re.sub(r"^(%s)$" % re.escape(var.group(0)), var.group(0).replace(name, "f.var"), text, count=1, flags=re.M)
+        text = "\n".join(l for l in text.split("\n") if not re.match(r"^[a-z ]+per (node|element):", l) or "f.var" in l)
+    geo_bytes = open(os.path.join(src, geo), "rb").read()
+    data = struct.pack("<II", len(text), len(geo_bytes)) + text.encode() + geo_bytes + var_bytes
+    if len(data) <= 262144:
+        open(os.path.join(out, os.path.basename(case)), "wb").write(data)
+PY
+
 [ -n "${SEEDS_ONLY:-}" ] && exit 0
 
 status=0

@@ -4,7 +4,8 @@
 //   - a truncated Exodus file (netCDF fills reads past the end with zeros or hands out the next variable's bytes);
 //   - single bit flips in NRRD gzip data (the reader stopped when the array was full, before the CRC);
 //   - duplicated XML elements in .vtu files, and point ids out of range in slots that linearisation drops;
-//   - a .pvtu listing one piece 20,000 times, more pieces than the cap, and pieces larger than the memory budget.
+//   - a .pvtu listing one piece 20,000 times, more pieces than the cap, and pieces larger than the memory budget;
+//   - EnSight Gold: geometry files cut short (binary and ASCII), absurd counts and Fortran record markers.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -353,6 +354,128 @@ TEST(HostileReaders, OutOfCoreVtuDuplicatedElementsAreRefused) {
     EXPECT_NE(e.find("bad.vtu"), std::string::npos) << e;
     EXPECT_NE(e.find("<" + extra.substr(1, extra.find('>') - 1) + ">"), std::string::npos) << e;
   }
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// EnSight Gold: every cut of a real binary and a real ASCII geometry file is refused naming the file and the byte
+// offset (binary) or line (ASCII); absurd counts are refused before anything is allocated for them.
+
+std::string ensight_case(const std::string& geo, const std::string& variables = "") {
+  return "FORMAT\ntype: ensight gold\nGEOMETRY\nmodel: " + geo + "\n" + variables;
+}
+
+TEST(HostileReaders, EnSightTruncatedGeometryIsNamed) {
+  UGVR_REQUIRE_DATA("ensight-samples/office_bin.geo");
+  ScratchDir dir;
+  const std::string binary = read_bytes(relative_data_path);
+  const std::string ascii = read_bytes(test::data_path("ensight-samples/test.geo"));
+  write_file(dir.file("cut.case"), ensight_case("cut.geo"));
+  for (size_t cut = 0; cut < binary.size(); cut += 53) {
+    SCOPED_TRACE(cut);
+    write_file(dir.file("cut.geo"), binary.substr(0, cut));
+    const std::string e = error_of([&] { read_ensight(dir.file("cut.case"), -1); });
+    EXPECT_NE(e.find("cut.geo"), std::string::npos) << e;
+    if (cut >= 80) EXPECT_NE(e.find("byte"), std::string::npos) << e;
+  }
+  // ASCII: cut inside the second part's lines and earlier. A cut between parts leaves a valid file with fewer
+  // parts; the case's per-element variable for part 2 then names the missing part.
+  write_file(dir.file("cut.case"),
+             ensight_case("cut.geo", "VARIABLE\nscalar per element: p " +
+                                         test::data_path("ensight-samples/test.extr_pressure.0001") + "\n"));
+  for (size_t cut = 0; cut + 16 < ascii.size(); cut += 997) {
+    SCOPED_TRACE(cut);
+    write_file(dir.file("cut.geo"), ascii.substr(0, cut));
+    const std::string e = error_of([&] { read_ensight(dir.file("cut.case"), -1); });
+    EXPECT_TRUE(e.find("cut.geo:") != std::string::npos || e.find("not in the geometry") != std::string::npos) << e;
+  }
+}
+
+// C binary: "C Binary", two descriptions, node/element id lines, then a part header and whatever follows.
+std::string ensight_binary_geo(const std::vector<std::pair<bool, std::string>>& items) {
+  std::string out;
+  auto str = [&](const std::string& s) {
+    std::string b = s;
+    b.resize(80, '\0');
+    out += b;
+  };
+  for (const char* s : {"C Binary", "d1", "d2", "node id off", "element id off", "part"}) str(s);
+  for (const auto& [is_string, v] : items) {
+    if (is_string) {
+      str(v);
+    } else {
+      out += v;
+    }
+  }
+  return out;
+}
+
+std::string le32(int32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); }
+
+TEST(HostileReaders, EnSightAbsurdCountsAreRefusedBeforeAllocating) {
+  ScratchDir dir;
+  write_file(dir.file("x.case"), ensight_case("x.geo"));
+  const std::string coords = le32(1) + std::string("p");
+  struct Bad {
+    std::string geo;
+    std::vector<std::string> needles;
+  };
+  const std::string part_head = le32(1);
+  const std::vector<Bad> bad = {
+      // 2^31-1 nodes in a file of a few hundred bytes.
+      {ensight_binary_geo({{false, part_head}, {true, "p"}, {true, "coordinates"}, {false, le32(0x7fffffff)}}),
+       {"x.geo", "byte", "node count 2147483647", "needs at least"}},
+      // A tetra section of 2^31-1 elements after 4 real nodes.
+      {ensight_binary_geo({{false, part_head},
+                           {true, "p"},
+                           {true, "coordinates"},
+                           {false, le32(4) + std::string(48, '\0')},
+                           {true, "tetra4"},
+                           {false, le32(0x7fffffff)}}),
+       {"x.geo", "tetra4 element count 2147483647", "needs at least"}},
+      // An nfaced element claiming 2^30 faces.
+      {ensight_binary_geo({{false, part_head},
+                           {true, "p"},
+                           {true, "coordinates"},
+                           {false, le32(4) + std::string(48, '\0')},
+                           {true, "nfaced"},
+                           {false, le32(1) + le32(1 << 30)}}),
+       {"x.geo", "nfaced face count", "needs at least"}},
+      // A block of 65536^3 points.
+      {ensight_binary_geo(
+           {{false, part_head}, {true, "p"}, {true, "block"}, {false, le32(65536) + le32(65536) + le32(65536)}}),
+       {"x.geo", "block point count", "needs at least"}},
+      // A node index beyond the part's nodes.
+      {ensight_binary_geo({{false, part_head},
+                           {true, "p"},
+                           {true, "coordinates"},
+                           {false, le32(4) + std::string(48, '\0')},
+                           {true, "tetra4"},
+                           {false, le32(1) + le32(1) + le32(2) + le32(3) + le32(9)}}),
+       {"x.geo", "node 9 is out of range 1..4"}},
+      // An unknown element type.
+      {ensight_binary_geo({{false, part_head}, {true, "p"}, {true, "coordinates"}, {false, le32(0)}, {true, "hexa27"}}),
+       {"x.geo", "unknown element type 'hexa27'"}},
+  };
+  for (const Bad& b : bad) {
+    write_file(dir.file("x.geo"), b.geo);
+    const std::string e = error_of([&] { read_ensight(dir.file("x.case"), -1); });
+    for (const std::string& n : b.needles) EXPECT_NE(e.find(n), std::string::npos) << n << " in: " << e;
+  }
+  // Fortran: a record marker larger than the file.
+  std::string fortran;
+  auto rec = [&](const std::string& payload) {
+    fortran += le32(int32_t(payload.size())) + payload + le32(int32_t(payload.size()));
+  };
+  auto str80 = [](std::string s) {
+    s.resize(80, ' ');
+    return s;
+  };
+  for (const char* s : {"Fortran Binary", "d1", "d2", "node id off", "element id off", "part"}) rec(str80(s));
+  fortran += le32(1 << 30) + le32(1);
+  write_file(dir.file("x.geo"), fortran);
+  const std::string e = error_of([&] { read_ensight(dir.file("x.case"), -1); });
+  EXPECT_NE(e.find("x.geo"), std::string::npos) << e;
+  EXPECT_NE(e.find("Fortran record marker 1073741824"), std::string::npos) << e;
 }
 
 }  // namespace

@@ -29,6 +29,7 @@ enum class InputFormat {
   RawVolume,  // .raw (layout given in RawVolumeOptions)
   Nrrd,       // .nrrd / .nhdr
   Cgns,       // .cgns (ADF or HDF5)
+  EnSight,    // .case (EnSight Gold) / .sos (its server-of-servers file)
 };
 
 // Layout of a headerless raw voxel volume (dims, type and spacing come from the command line).
@@ -42,7 +43,7 @@ struct RawVolumeOptions {
 };
 
 struct ReadOptions {
-  // Exodus: the time step whose variables are read (0-based); -1 = the last one.
+  // Exodus, EnSight: the time step read (0-based); -1 = the last one.
   int64_t time_step = -1;
   RawVolumeOptions raw;
 };
@@ -67,5 +68,7 @@ Dataset read_raw_volume(const std::string& path, const RawVolumeOptions& options
 Dataset read_nrrd(const std::string& path);
 // Every zone of every 3-D base; `time_step` picks a step of the zones' iterative data (-1: the last).
 Dataset read_cgns(const std::string& path, int64_t time_step);
+// A .case file, or a .sos file whose servers' cases are read and concatenated; one step (time_step, -1 = last).
+Dataset read_ensight(const std::string& path, int64_t time_step);
 
 }  // namespace ugvr

@@ -30,7 +30,9 @@ std::optional<InputFormat> detect_by_content(std::string_view h, const std::stri
 
 std::optional<InputFormat> detect_by_extension(const std::string& path) {
   const std::string ext = extension_lower(path);
-  if (ext == ".vtu" || ext == ".pvtu" || ext == ".vts" || ext == ".vti" || ext == ".vtr") return InputFormat::VtkXml;
+  if (ext == ".vtu" || ext == ".pvtu" || ext == ".vts" || ext == ".vti" || ext == ".vtr" || ext == ".pvts" ||
+      ext == ".pvti" || ext == ".pvtr")
+    return InputFormat::VtkXml;
   if (ext == ".vtk") return InputFormat::VtkLegacy;
   if (ext == ".inp") return InputFormat::AvsUcd;
   if (ext == ".off") return InputFormat::OffTets;
@@ -42,6 +44,7 @@ std::optional<InputFormat> detect_by_extension(const std::string& path) {
   if (ext == ".raw") return InputFormat::RawVolume;
   if (ext == ".cgns") return InputFormat::Cgns;
   if (ext == ".nrrd" || ext == ".nhdr") return InputFormat::Nrrd;
+  if (ext == ".case" || ext == ".sos") return InputFormat::EnSight;
   if (ext == ".bin" || ext == ".xyz" || ext == ".x" || ext == ".g" || ext == ".grid" || ext == ".p3d")
     return InputFormat::Plot3d;
   return std::nullopt;
@@ -60,7 +63,7 @@ InputFormat detect_format(std::span<const std::string> paths) {
   if (auto by_extension = detect_by_extension(paths[0])) return *by_extension;
   fail_in(paths[0], "unrecognised format: no known signature, and the extension '" + extension_lower(paths[0]) +
                         "' is none of .vtu .pvtu .vts .vti .vtr .vtk .inp .off .ugrid .msh .node .ele .e .ex2 .exo "
-                        ".nas .bdf .raw .nrrd .nhdr .cgns or a PLOT3D grid (.bin .xyz .x .g .grid .p3d)");
+                        ".nas .bdf .raw .nrrd .nhdr .cgns .case .sos or a PLOT3D grid (.bin .xyz .x .g .grid .p3d)");
 }
 
 Dataset read_dataset(std::span<const std::string> paths, const ReadOptions& options) {
@@ -82,6 +85,7 @@ Dataset read_dataset(std::span<const std::string> paths, const ReadOptions& opti
     case InputFormat::RawVolume: return read_raw_volume(paths[0], options.raw);
     case InputFormat::Nrrd: return read_nrrd(paths[0]);
     case InputFormat::Cgns: return read_cgns(paths[0], options.time_step);
+    case InputFormat::EnSight: return read_ensight(paths[0], options.time_step);
   }
   throw Error("unreachable");
 }

@@ -1,4 +1,4 @@
-// VTK XML reader: .vtu, .pvtu, .vts, .vti, .vtr.
+// VTK XML reader: .vtu, .pvtu, .vts, .vti, .vtr, .pvts, .pvti, .pvtr.
 //
 // How a file is read (see vtk_xml_skeleton.h and vtk_xml_array.h for the byte-level layouts):
 //  1. The file is scanned once for its markup (scan_xml_skeleton): tags are kept, array text is replaced by its file
@@ -14,7 +14,8 @@
 // Pieces: the <Piece>s of an UnstructuredGrid (in one .vtu or in the files a .pvtu lists) are concatenated into one
 // mesh, point ids offset by the points of the pieces before; fields are concatenated by name, so every piece must
 // have the same point and cell arrays (same type and components). Pieces of structured files are placed into the
-// WholeExtent by their Extent and must cover it.
+// WholeExtent by their Extent and must cover it; so are the piece files of a .pvts / .pvti / .pvtr (each read as a
+// .vts / .vti / .vtr of its <Piece Extent>, placed by that Extent, points shared between pieces written by each).
 //
 // Fields: PointData becomes vertex fields, CellData cell fields (filtered like the cells when some are dropped).
 // Arrays of a type the model has no place for (String, Bit) are skipped with a warning. VTK's own arrays such as
@@ -26,6 +27,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <map>
 #include <memory>
@@ -591,9 +593,10 @@ uint64_t pvtu_memory_budget() {
 // twice into one mesh, with coincident cells), and their total size within the memory budget. Without this, a .pvtu
 // listing one 1.1 MB piece 20,000 times ran to 5.9 GB before anything failed.
 std::vector<std::string> pvtu_piece_paths(const XmlDoc& pdoc, pugi::xml_node grid) {
+  const std::string tag = std::string("<") + grid.name() + ">";
   const size_t count = size_t(std::distance(grid.children("Piece").begin(), grid.children("Piece").end()));
   if (count > kMaxPvtuPieces) {
-    pdoc.fail(grid, "<PUnstructuredGrid> lists " + std::to_string(count) + " pieces, more than the " +
+    pdoc.fail(grid, tag + " lists " + std::to_string(count) + " pieces, more than the " +
                         std::to_string(kMaxPvtuPieces) + " this reader accepts");
   }
   std::vector<std::string> paths;
@@ -956,6 +959,11 @@ Dataset read_structured(std::unique_ptr<XmlDoc> doc, StructuredKind kind) {
   return ds;
 }
 
+// A parallel structured file (.pvts, .pvti, .pvtr): its piece files are read whole, each must be the serial kind of
+// the size of its <Piece Extent>, and are placed into the WholeExtent, which they must cover. The first piece's
+// arrays are the fields; every piece must have them with the same type and components (extra arrays are ignored).
+Dataset read_pstructured(std::unique_ptr<XmlDoc> pdoc, StructuredKind kind);
+
 }  // namespace
 
 Dataset read_vtk_xml(const std::string& path) {
@@ -970,12 +978,141 @@ Dataset read_vtk_xml(const std::string& path) {
   if (type == "StructuredGrid") return read_structured(std::move(doc), StructuredKind::Curvilinear);
   if (type == "ImageData") return read_structured(std::move(doc), StructuredKind::Image);
   if (type == "RectilinearGrid") return read_structured(std::move(doc), StructuredKind::Rectilinear);
-  if (type == "PStructuredGrid" || type == "PImageData" || type == "PRectilinearGrid") {
-    fail_in(path, "parallel structured VTK files (" + type + ") are not supported; read one piece file instead");
-  }
+  if (type == "PStructuredGrid") return read_pstructured(std::move(doc), StructuredKind::Curvilinear);
+  if (type == "PImageData") return read_pstructured(std::move(doc), StructuredKind::Image);
+  if (type == "PRectilinearGrid") return read_pstructured(std::move(doc), StructuredKind::Rectilinear);
   fail_in(path, "VTKFile type \"" + type.substr(0, 40) +
-                    "\" is not supported: ugvr reads UnstructuredGrid (.vtu, .pvtu), StructuredGrid (.vts), "
-                    "ImageData (.vti) and RectilinearGrid (.vtr)");
+                    "\" is not supported: ugvr reads UnstructuredGrid (.vtu, .pvtu), StructuredGrid (.vts, .pvts), "
+                    "ImageData (.vti, .pvti) and RectilinearGrid (.vtr, .pvtr)");
 }
 
+}  // namespace ugvr
+
+namespace ugvr {
+namespace {
+
+Dataset read_pstructured(std::unique_ptr<XmlDoc> pdoc, StructuredKind kind) {
+  const XmlDoc& d = *pdoc;
+  const char* tag = kind == StructuredKind::Curvilinear ? "PStructuredGrid"
+                    : kind == StructuredKind::Image     ? "PImageData"
+                                                        : "PRectilinearGrid";
+  const pugi::xml_node grid = single_child(d, d.root, tag);
+  if (!grid) d.fail(d.root, std::string("no <") + tag + "> element");
+  const Extent whole = parse_extent(d, grid, "WholeExtent");
+  const uint64_t whole_points = checked_point_count(d, grid, whole);
+  GridDims dims;
+  for (int i = 0; i < 3; ++i) dims.points[size_t(i)] = uint32_t(whole.points(i));
+  const bool volume = whole.points(0) > 1 && whole.points(1) > 1 && whole.points(2) > 1;
+  const std::vector<std::string> paths = pvtu_piece_paths(d, grid);
+  if (paths.empty()) d.fail(grid, std::string("<") + tag + "> lists no <Piece Source=...>");
+
+  Dataset ds;
+  ds.format = kind == StructuredKind::Curvilinear ? "VTK XML PStructuredGrid (.pvts)"
+              : kind == StructuredKind::Image     ? "VTK XML PImageData (.pvti)"
+                                                  : "VTK XML PRectilinearGrid (.pvtr)";
+  ds.sources.push_back(d.path);
+  StructuredGrid sgrid;
+  RectilinearGrid rgrid;
+  ImageGrid image;
+  sgrid.dims = rgrid.dims = image.dims = dims;
+  if (kind == StructuredKind::Curvilinear) sgrid.points.resize(size_t(whole_points));
+  for (int i = 0; i < 3; ++i) {
+    if (kind == StructuredKind::Rectilinear) rgrid.coords[size_t(i)].resize(dims.points[size_t(i)]);
+  }
+  std::vector<Field> fields;
+  Coverage point_cover(whole_points, true), cell_cover(dims.cell_count(), volume);
+  size_t k = 0;
+  for (pugi::xml_node pn : grid.children("Piece")) {
+    const std::string& path = paths[k];
+    const std::string label = "piece " + std::to_string(k) + " (" + base_name(path) + ")";
+    ++k;
+    const Extent e = parse_extent(d, pn, "Extent");
+    if (!inside(e, whole)) d.fail(pn, label + ": <Piece> Extent is outside the WholeExtent");
+    std::unique_ptr<XmlDoc> piece_doc = load_doc(path);
+    const char* serial = tag + 1;  // "StructuredGrid", "ImageData", "RectilinearGrid"
+    if (piece_doc->type != serial) {
+      d.fail(pn, label + " is a " + piece_doc->type.substr(0, 40) + " file, expected " + serial);
+    }
+    Dataset piece = read_structured(std::move(piece_doc), kind);
+    for (auto& w : piece.warnings) ds.warnings.push_back(std::move(w));
+    ds.sources.push_back(path);
+    Block& b = piece.blocks.at(0);
+    GridDims want;
+    for (int i = 0; i < 3; ++i) want.points[size_t(i)] = uint32_t(e.points(i));
+    const GridDims got = std::visit(
+        [](const auto& g) {
+          if constexpr (std::is_same_v<std::decay_t<decltype(g)>, UnstructuredMesh>) {
+            return GridDims{};
+          } else {
+            return g.dims;
+          }
+        },
+        b.grid);
+    if (!(got == want)) d.fail(pn, label + " does not have the point dimensions of its <Piece> Extent");
+    // Geometry.
+    uint64_t src = 0;
+    if (const auto* g = std::get_if<StructuredGrid>(&b.grid)) {
+      for_each_run(e, whole, false, [&](uint64_t first, uint64_t n) {
+        std::copy_n(g->points.begin() + ptrdiff_t(src), n, sgrid.points.begin() + ptrdiff_t(first));
+        src += n;
+      });
+    } else if (const auto* r = std::get_if<RectilinearGrid>(&b.grid)) {
+      for (int i = 0; i < 3; ++i) {
+        std::copy(r->coords[size_t(i)].begin(), r->coords[size_t(i)].end(),
+                  rgrid.coords[size_t(i)].begin() + ptrdiff_t(e.lo[i] - whole.lo[i]));
+      }
+    } else if (const auto* im = std::get_if<ImageGrid>(&b.grid)) {
+      // The piece's origin is its first point; the whole grid's is that minus the offset of the piece.
+      Vec3d origin = im->origin;
+      for (int i = 0; i < 3; ++i) (&origin.x)[i] -= double(e.lo[i] - whole.lo[i]) * (&im->spacing.x)[i];
+      if (k == 1) {
+        image.origin = origin;
+        image.spacing = im->spacing;
+      } else if (!(im->spacing == image.spacing) ||
+                 length(origin - image.origin) > 1e-9 * (1 + length(image.origin) + length(image.spacing))) {
+        d.fail(pn, label + " has another origin or spacing than the first piece");
+      }
+    }
+    // Fields, by name, placed run by run.
+    if (k == 1) {
+      for (const Field& f : b.fields) {
+        const uint64_t n = f.association() == Association::Vertex ? whole_points : dims.cell_count();
+        fields.emplace_back(f.name(), f.association(), DataArray(f.data().type(), f.components(), n));
+      }
+    }
+    for (Field& w : fields) {
+      const Field* f = b.fields.find(w.name(), w.association());
+      if (!f || f->data().type() != w.data().type() || f->components() != w.components()) {
+        d.fail(pn, label + " lacks the array '" + w.name() + "' of the first piece (or has it in another type)");
+      }
+      const size_t tuple_bytes = scalar_size(w.data().type()) * size_t(w.components());
+      std::byte* dst = w.mutable_data().bytes();
+      const std::byte* from = f->data().bytes();
+      uint64_t at = 0;
+      for_each_run(e, whole, w.association() == Association::Cell, [&](uint64_t first, uint64_t n) {
+        std::memcpy(dst + first * tuple_bytes, from + at * tuple_bytes, size_t(n) * tuple_bytes);
+        at += n;
+      });
+    }
+    for_each_run(e, whole, false, [&](uint64_t first, uint64_t n) { point_cover.mark(first, n); });
+    if (cell_cover.active()) {
+      for_each_run(e, whole, true, [&](uint64_t first, uint64_t n) { cell_cover.mark(first, n); });
+    }
+  }
+  if (!point_cover.complete() || !cell_cover.complete()) {
+    d.fail(grid, "the pieces' Extents leave parts of the WholeExtent without data");
+  }
+  Block block;
+  switch (kind) {
+    case StructuredKind::Curvilinear: block.grid = std::move(sgrid); break;
+    case StructuredKind::Rectilinear: block.grid = std::move(rgrid); break;
+    case StructuredKind::Image: block.grid = image; break;
+  }
+  for (Field& f : fields) block.fields.add(std::move(f));
+  block.validate_fields(base_name(d.path));
+  ds.blocks.push_back(std::move(block));
+  return ds;
+}
+
+}  // namespace
 }  // namespace ugvr
