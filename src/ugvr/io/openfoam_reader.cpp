@@ -837,8 +837,10 @@ Dataset read_openfoam(const std::string& path, int64_t time_step) {
       int components = 0;
       std::optional<Association> assoc;
       std::string why;
+      bool all_float32 = true;
       for (size_t k = 0; k < pieces.size() && why.empty(); ++k) {
         FoamFile f(per_piece[k]);
+        all_float32 = all_float32 && f.header().binary && f.header().scalar_bytes == 4;
         const std::string& cls = f.header().class_name;
         const bool vol = cls.starts_with("vol"), point = cls.starts_with("point");
         if (!(vol || point) || !cls.ends_with("Field")) {
@@ -859,7 +861,15 @@ Dataset read_openfoam(const std::string& path, int64_t time_step) {
         skipped.push_back(name + " (" + why + ")");
         continue;
       }
-      Field field(name, *assoc, DataArray::from(std::move(values), components));
+      // Binary files written with scalar=32 keep float32 (fields keep their stored type); text and scalar=64 are
+      // double.
+      DataArray data;
+      if (all_float32) {
+        data = DataArray::from(std::vector<float>(values.begin(), values.end()), components);
+      } else {
+        data = DataArray::from(std::move(values), components);
+      }
+      Field field(name, *assoc, std::move(data));
       fields.add(*assoc == Association::Cell ? decomposer.expand_cell_field(field)
                                              : decomposer.expand_point_field(field));
     }
