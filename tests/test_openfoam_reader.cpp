@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -272,6 +273,62 @@ TEST(OpenFoamReader, InfoListsTimeDirectories) {
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("0 0.1 0.2 0.3; read 0.1 (--time-step 1)"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("400"), std::string::npos) << r.out;
+}
+
+// The FoamFile layouts the generated cases do not cover (Debian's OpenFOAM writes LSB, label=32, scalar=64 only):
+// 64-bit big-endian labels, 32-bit scalars, a uniform list "N{v}", an ascii faceCompactList.
+std::string foam_header(const std::string& format, const std::string& cls, const std::string& arch) {
+  return "FoamFile\n{\n    format " + format + ";\n    class " + cls + ";\n    arch \"" + arch +
+         "\";\n    object x;\n}\n// comment\n/* block\n comment */\n";
+}
+
+template <class T>
+std::string big_endian_bytes(std::initializer_list<T> values) {
+  std::string out;
+  for (T v : values) {
+    char b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));
+    std::reverse(b, b + sizeof(T));
+    out.append(b, sizeof(T));
+  }
+  return out;
+}
+
+TEST(OpenFoamReader, BinaryLayoutsOfOtherArchitectures) {
+  {
+    openfoam::FoamFile f("owner", foam_header("binary", "labelList", "MSB;label=64;scalar=64") + "3\n(" +
+                                      big_endian_bytes<int64_t>({0, 7, 2}) + ")\n");
+    EXPECT_EQ(f.header().label_bytes, 8);
+    EXPECT_EQ(f.labels(7, false), (std::vector<int64_t>{0, 7, 2}));
+    openfoam::FoamFile g("owner", foam_header("binary", "labelList", "MSB;label=64;scalar=64") + "3\n(" +
+                                      big_endian_bytes<int64_t>({0, 8, 2}) + ")\n");
+    EXPECT_NE(test::error_of([&] { g.labels(7, false); }).find("label 8 is outside 0..7"), std::string::npos);
+  }
+  {
+    openfoam::FoamFile f("points", foam_header("binary", "vectorField", "MSB;label=32;scalar=32") + "2(" +
+                                       big_endian_bytes<float>({1, 2, 3, 4.5f, 5, 6}) + ")");
+    const std::vector<Vec3f> p = f.points();
+    ASSERT_EQ(p.size(), 2u);
+    EXPECT_EQ(p[1].x, 4.5f);
+    EXPECT_EQ(p[1].z, 6.0f);
+  }
+  {
+    openfoam::FoamFile f("U", foam_header("ascii", "volVectorField", "LSB;label=32;scalar=64") +
+                                  "dimensions [0 1 -1 0 0 0 0];\ninternalField nonuniform List<vector> 3{(1 2 3)};\n"
+                                  "boundaryField { wall { type fixedValue; value uniform (0 0 0); } }\n");
+    const auto v = f.internal_field(3);
+    ASSERT_TRUE(v.has_value());
+    EXPECT_EQ(v->values, (std::vector<double>{1, 2, 3, 1, 2, 3, 1, 2, 3}));
+    openfoam::FoamFile g("U", foam_header("ascii", "volVectorField", "") +
+                                  "internalField nonuniform List<vector> 99999999999{(1 2 3)};\n");
+    EXPECT_NE(test::error_of([&] { g.internal_field(3); }).find("99999999999 values, expected 3"), std::string::npos);
+  }
+  {
+    openfoam::FoamFile f("faces", foam_header("ascii", "faceCompactList", "") + "3 (0 3 7) 7 (0 1 2 0 2 3 4)");
+    const openfoam::FaceList faces = f.faces(5);
+    EXPECT_EQ(faces.offsets, (std::vector<uint64_t>{0, 3, 7}));
+    EXPECT_EQ(faces.vertices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 3, 4}));
+  }
 }
 
 }  // namespace
