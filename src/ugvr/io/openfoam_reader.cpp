@@ -523,6 +523,11 @@ std::optional<FieldValues> FoamFile::internal_field(uint64_t tuples) {
   while (!at_end()) {
     const size_t at = pos_;
     const std::string_view key = word("an entry keyword");
+    if (key.starts_with("#")) {  // a directive (#include "file", #inputMode merge): the rest of its line
+      const size_t e = text_.find('\n', pos_);
+      pos_ = e == std::string::npos ? text_.size() : e + 1;
+      continue;
+    }
     if (key != "internalField") {
       skip_value();
       continue;
@@ -707,6 +712,17 @@ void add_cells(const Piece& piece, uint32_t point_base, PolyhedronDecomposer& de
   }
 }
 
+// Whether the file (plain or gzip) starts with a FoamFile header: other files in a time directory (notes, scripts
+// that tools leave there) are skipped, not refused.
+bool has_foam_header(const std::string& path) {
+  const InputFile file(path);
+  char head[2] = {};
+  if (file.read_some_at(0, head, 2) == 2 && uint8_t(head[0]) == 0x1f && uint8_t(head[1]) == 0x8b) return true;
+  std::string text(std::min<uint64_t>(file.size(), 4096), '\0');
+  text.resize(file.read_some_at(0, text.data(), text.size()));
+  return text.find("FoamFile") != std::string::npos;
+}
+
 std::string join_times(const std::vector<TimeDir>& times) {
   std::string s;
   for (const auto& t : times) s += (s.empty() ? "" : " ") + t.name;
@@ -839,6 +855,10 @@ Dataset read_openfoam(const std::string& path, int64_t time_step) {
       std::string why;
       bool all_float32 = true;
       for (size_t k = 0; k < pieces.size() && why.empty(); ++k) {
+        if (!has_foam_header(per_piece[k])) {
+          why = "not a FoamFile";
+          break;
+        }
         FoamFile f(per_piece[k]);
         all_float32 = all_float32 && f.header().binary && f.header().scalar_bytes == 4;
         const std::string& cls = f.header().class_name;
