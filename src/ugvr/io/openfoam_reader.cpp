@@ -401,7 +401,9 @@ FaceList FoamFile::faces(uint64_t point_count) {
   if (header_.class_name == "faceCompactList") {
     // Two lists: N+1 offsets into the second, the vertex labels of all faces.
     const size_t at = (skip_space(), pos_);
-    std::vector<int64_t> offsets = label_list("face offsets", INT64_MAX, false);
+    // An offset cannot exceed the labels that follow, let alone the file's size (which also keeps the arithmetic
+    // below far from overflow).
+    std::vector<int64_t> offsets = label_list("face offsets", int64_t(text_.size()), false);
     std::vector<int64_t> labels = label_list("face vertices", max_point, false);
     if (offsets.empty()) fail(at, "faceCompactList has no offsets (at least the leading 0)");
     if (offsets.front() != 0 || uint64_t(offsets.back()) != labels.size())
@@ -409,7 +411,7 @@ FaceList FoamFile::faces(uint64_t point_count) {
                    ", the vertex list holds " + std::to_string(labels.size()));
     f.offsets.resize(offsets.size());
     for (size_t i = 0; i < offsets.size(); ++i) {
-      if (i > 0 && offsets[i] < offsets[i - 1] + 3)
+      if (i > 0 && offsets[i] - offsets[i - 1] < 3)
         fail(at, "face " + std::to_string(i - 1) + " has " + std::to_string(offsets[i] - offsets[i - 1]) +
                      " vertices (at least 3)");
       f.offsets[i] = uint64_t(offsets[i]);
@@ -653,7 +655,8 @@ Piece read_piece(const fs::path& dir, const std::string& time) {
   const std::string owner_path = need_file(topo, "owner");
   {
     FoamFile f(owner_path);
-    piece.owner = f.labels(INT32_MAX, false);
+    // A cell has at least one face: no cell label reaches the face count (which bounds what the cell arrays take).
+    piece.owner = f.labels(int64_t(nf) - 1, false);
   }
   if (piece.owner.size() != nf)
     fail_in(owner_path,
@@ -661,7 +664,7 @@ Piece read_piece(const fs::path& dir, const std::string& time) {
   const std::string neighbour_path = need_file(topo, "neighbour");
   {
     FoamFile f(neighbour_path);
-    piece.neighbour = f.labels(INT32_MAX, true);  // older cases list every face, -1 on the boundary
+    piece.neighbour = f.labels(int64_t(nf) - 1, true);  // older cases list every face, -1 on the boundary
   }
   if (piece.neighbour.size() > nf)
     fail_in(neighbour_path, "neighbour has " + std::to_string(piece.neighbour.size()) + " labels, the mesh only " +
