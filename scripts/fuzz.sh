@@ -168,9 +168,9 @@ PY
 
 # OpenFOAM: every FoamFile of the generated cases (ascii, binary, gzip; mesh, fields, boundary, cellZones), named by
 # their path (many share a name: p, U, faces).
-mkdir -p fuzz-corpus/fuzz_openfoam/seeds
+mkdir -p "$corpus/fuzz_openfoam/seeds"
 find tests/data/openfoam -type f ! -name '*.foam' ! -name '*.sh' ! -path '*/system/*' | while read -r f; do
-  cp "$f" "fuzz-corpus/fuzz_openfoam/seeds/$(echo "${f#tests/data/openfoam/}" | tr / _)"
+  cp "$f" "$corpus/fuzz_openfoam/seeds/$(echo "${f#tests/data/openfoam/}" | tr / _)"
 done
 
 # Exodus: the two small real files. NRRD: hand-made attached-data files (raw, big-endian short with space fields,

@@ -26,7 +26,8 @@ set_dict() {  # file key value: replaces "key  anything;" in an OpenFOAM diction
   sed -i -E "s/^($2[[:space:]]+)[^;]*;/\1$3;/" "$1"
 }
 clean_case() {  # removes what the tests do not read
-  rm -rf "$1"/log.* "$1"/*.obj "$1"/*/uniform "$1"/processor*/*/uniform "$1"/constant/polyMesh/sets
+  rm -rf "$1"/log.* "$1"/*.obj "$1"/*/uniform "$1"/processor*/*/uniform "$1"/constant/polyMesh/sets \
+    "$1"/processor*/constant/polyMesh/sets
 }
 
 # --- cavity: ascii, 3 written time steps, a cell zone ---
