@@ -166,6 +166,13 @@ for k, (suffix, e, fl, it, fortran) in enumerate(layouts):
     open(os.path.join(out_ugrid, "ugrid_%s" % (suffix or "ascii")), "wb").write(bytes([k]) + data)
 PY
 
+# OpenFOAM: every FoamFile of the generated cases (ascii, binary, gzip; mesh, fields, boundary, cellZones), named by
+# their path (many share a name: p, U, faces).
+mkdir -p "$corpus/fuzz_openfoam/seeds"
+find tests/data/openfoam -type f ! -name '*.foam' ! -name '*.sh' ! -path '*/system/*' | while read -r f; do
+  cp "$f" "$corpus/fuzz_openfoam/seeds/$(echo "${f#tests/data/openfoam/}" | tr / _)"
+done
+
 # Exodus: the two small real files. NRRD: hand-made attached-data files (raw, big-endian short with space fields,
 # gzip, ascii with line skip, 4-D vector with byte skip).
 seed fuzz_exodus "$data"/exodus-misc/box-noglom.ex2 "$data"/exodus-misc/mesh_fs8.exo

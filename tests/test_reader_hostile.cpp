@@ -6,6 +6,7 @@
 //   - duplicated XML elements in .vtu files, and point ids out of range in slots that linearisation drops;
 //   - a .pvtu listing one piece 20,000 times, more pieces than the cap, and pieces larger than the memory budget;
 //   - EnSight Gold: geometry files cut short (binary and ASCII), absurd counts and Fortran record markers.
+//   - OpenFOAM cases with truncated lists, absurd counts, face indices out of range, cut binary and gzip files.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -476,6 +477,99 @@ TEST(HostileReaders, EnSightAbsurdCountsAreRefusedBeforeAllocating) {
   const std::string e = error_of([&] { read_ensight(dir.file("x.case"), -1); });
   EXPECT_NE(e.find("x.geo"), std::string::npos) << e;
   EXPECT_NE(e.find("Fortran record marker 1073741824"), std::string::npos) << e;
+}
+
+// OpenFOAM: hostile edits of the generated cavity case (tests/data/openfoam) are refused naming the file and where.
+std::string openfoam_case_copy(const ScratchDir& dir, const std::string& name) {
+  const std::string to = dir.file(name);
+  std::filesystem::copy(std::string(UGVR_SOURCE_DIR) + "/tests/data/openfoam/" + name, to,
+                        std::filesystem::copy_options::recursive);
+  return to;
+}
+
+std::string replaced(std::string s, const std::string& from, const std::string& to) {
+  const size_t at = s.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) s.replace(at, from.size(), to);
+  return s;
+}
+
+TEST(HostileReaders, OpenFoamBadListsAreRefusedNamingFileAndLine) {
+  struct Case {
+    const char* file;  // in constant/polyMesh
+    std::string (*edit)(const std::string&);
+    std::vector<std::string> expected;
+  };
+  const std::vector<Case> cases = {
+      // Truncated: the file ends inside the points list.
+      {"points",
+       [](const std::string& s) { return s.substr(0, s.size() / 2); },
+       {"points", "byte ", "count 882 needs at least"}},
+      // An absurd count, refused before anything is allocated for it.
+      {"points",
+       [](const std::string& s) { return replaced(s, "\n882\n", "\n99999999999\n"); },
+       {"points", "count 99999999999 needs at least"}},
+      // A face naming a point that does not exist.
+      {"faces",
+       [](const std::string& s) { return replaced(s, "4(1 22 463 442)", "4(1 22 463 99999)"); },
+       {"faces", "line 21", "vertex 99999 is outside 0..881"}},
+      // A face of 2 vertices, and a cell index beyond the others' in owner (a label out of range: negative).
+      {"faces",
+       [](const std::string& s) { return replaced(s, "4(1 22 463 442)", "2(1 22)"); },
+       {"faces", "has 2 vertices (at least 3)"}},
+      {"owner",
+       [](const std::string& s) { return replaced(s, "(\n0\n", "(\n-5\n"); },
+       {"owner", "label -5 is outside"}},
+      {"owner", [](const std::string& s) { return replaced(s, "\n1640\n", "\n1639\n"); }, {"owner"}},
+  };
+  for (const Case& c : cases) {
+    ScratchDir dir;
+    const std::string root = openfoam_case_copy(dir, "cavity");
+    const std::string file = root + "/constant/polyMesh/" + c.file;
+    write_file(file, c.edit(read_bytes(file)));
+    const std::string e = error_of([&] { read_dataset(std::vector<std::string>{root}); });
+    SCOPED_TRACE(e);
+    ASSERT_FALSE(e.empty()) << c.file;
+    for (const std::string& x : c.expected) EXPECT_NE(e.find(x), std::string::npos) << x;
+  }
+}
+
+TEST(HostileReaders, OpenFoamBinaryAndGzipDamageIsRefused) {
+  ScratchDir dir;
+  {
+    // A binary faces file cut inside its raw labels.
+    const std::string root = openfoam_case_copy(dir, "cavity_binary");
+    const std::string file = root + "/constant/polyMesh/faces";
+    const std::string s = read_bytes(file);
+    write_file(file, s.substr(0, s.size() - 3000));
+    const std::string e = error_of([&] { read_dataset(std::vector<std::string>{root}); });
+    EXPECT_NE(e.find("faces"), std::string::npos) << e;
+    EXPECT_NE(e.find("face vertices count 6560 needs at least 4 bytes each"), std::string::npos) << e;
+  }
+  {
+    // A gzip stream cut short, and one with its deflate data damaged.
+    const std::string root = openfoam_case_copy(dir, "cavity_gzip");
+    const std::string file = root + "/constant/polyMesh/points.gz";
+    const std::string s = read_bytes(file);
+    write_file(file, s.substr(0, s.size() / 2));
+    std::string e = error_of([&] { read_dataset(std::vector<std::string>{root}); });
+    EXPECT_NE(e.find("points.gz"), std::string::npos) << e;
+    EXPECT_NE(e.find("truncated"), std::string::npos) << e;
+    std::string flipped = s;
+    for (size_t i = 20; i < 60; ++i) flipped[i] = char(~flipped[i]);
+    write_file(file, flipped);
+    e = error_of([&] { read_dataset(std::vector<std::string>{root}); });
+    EXPECT_NE(e.find("points.gz"), std::string::npos) << e;
+  }
+  {
+    // A field whose internalField count disagrees with the mesh.
+    const std::string root = openfoam_case_copy(dir, "cavity");
+    const std::string file = root + "/0.3/p";
+    write_file(file, replaced(read_bytes(file), "\n400\n", "\n401\n"));
+    const std::string e = error_of([&] { read_dataset(std::vector<std::string>{root}); });
+    EXPECT_NE(e.find("0.3/p"), std::string::npos) << e;
+    EXPECT_NE(e.find("internalField has 401 values, expected 400"), std::string::npos) << e;
+  }
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <optional>
 
 #include "cli/commands.h"
@@ -14,14 +15,17 @@ namespace ugvr::cli {
 CLI::Option* add_input(CLI::App& cmd, std::vector<std::string>& inputs) {
   return cmd
       .add_option("INPUT", inputs,
-                  "Input file (.vtu .pvtu .vts .vti .vtr .vtk), or a PLOT3D grid file then its solution file")
+                  "Input file (.vtu .pvtu .vts .vti .vtr .vtk ...), an OpenFOAM case directory, or a PLOT3D grid file "
+                  "then its solution file")
       ->required()
       ->expected(1, 2)
-      ->check(CLI::ExistingFile);
+      ->check(CLI::ExistingPath);
 }
 
 void add_read_options(CLI::App& cmd, ReadOptions& o) {
-  cmd.add_option("--time-step", o.time_step, "Exodus: time step to read (0-based; -1 = last)")->default_val(-1);
+  cmd.add_option("--time-step", o.time_step,
+                 "Exodus, OpenFOAM: time step (OpenFOAM: time directory) to read (0-based; -1 = last)")
+      ->default_val(-1);
   cmd.add_option("--raw-dims", o.raw.dims, "Raw volume: point dimensions NX NY NZ");
   cmd.add_option("--raw-type", o.raw.type, "Raw volume: value type")
       ->check(CLI::IsMember({"int8", "uint8", "int16", "uint16", "int32", "uint32", "float32", "float64"}))
@@ -79,7 +83,9 @@ void register_info(CLI::App& app) {
   cmd->add_flag("--verify", opts->verify,
                 "Brick store: read every brick, check its checksum and decode it; fails naming the first bad one");
   cmd->callback([opts] {
-    if (opts->inputs.size() == 1 && is_brick_store_path(opts->inputs[0])) {
+    // A directory (an OpenFOAM case) is no store; is_brick_store_path would try to open it as a file.
+    if (opts->inputs.size() == 1 && !std::filesystem::is_directory(opts->inputs[0]) &&
+        is_brick_store_path(opts->inputs[0])) {
       if (opts->topology) throw Error(opts->inputs[0] + ": --topology describes a mesh, not a brick store");
       store_info(opts->inputs[0], opts->json, opts->verify);
       return;

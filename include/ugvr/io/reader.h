@@ -1,7 +1,8 @@
 // Reading any supported input. A dataset is named by one path, or for PLOT3D by its grid file and then its solution
 // file ("ugvr info bluntfinxyz.bin bluntfinq.bin"). The format is recognised from the file contents first (XML
 // header, legacy VTK banner, netCDF/HDF5 magic, NRRD magic, Gmsh $MeshFormat) and the extension second; PLOT3D and
-// raw volumes have no signature and are recognised by extension and sizes.
+// raw volumes have no signature and are recognised by extension and sizes. An OpenFOAM case is a directory, found
+// before anything is opened.
 #pragma once
 
 #include <array>
@@ -30,6 +31,7 @@ enum class InputFormat {
   Nrrd,       // .nrrd / .nhdr
   Cgns,       // .cgns (ADF or HDF5)
   EnSight,    // .case (EnSight Gold) / .sos (its server-of-servers file)
+  OpenFoam,   // a case directory, its *.foam / *.OpenFOAM file or its system/controlDict
 };
 
 // Layout of a headerless raw voxel volume (dims, type and spacing come from the command line).
@@ -43,7 +45,8 @@ struct RawVolumeOptions {
 };
 
 struct ReadOptions {
-  // Exodus, EnSight: the time step read (0-based); -1 = the last one.
+  // Exodus, EnSight, CGNS: the time step read (0-based); -1 = the last one. OpenFOAM: the index of the time
+  // directory read, in the time directories sorted by value ("0" included); -1 = the latest.
   int64_t time_step = -1;
   RawVolumeOptions raw;
 };
@@ -70,5 +73,8 @@ Dataset read_nrrd(const std::string& path);
 Dataset read_cgns(const std::string& path, int64_t time_step);
 // A .case file, or a .sos file whose servers' cases are read and concatenated; one step (time_step, -1 = last).
 Dataset read_ensight(const std::string& path, int64_t time_step);
+// A case directory (or a *.foam / *.OpenFOAM file or system/controlDict in it); decomposed cases (processor*/) are
+// read as pieces concatenated into one mesh. `time_step` indexes the sorted time directories, -1 = the latest.
+Dataset read_openfoam(const std::string& path, int64_t time_step);
 
 }  // namespace ugvr

@@ -4,6 +4,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
+#include "ugvr/io/openfoam_reader.h"
 
 namespace ugvr {
 
@@ -56,6 +57,7 @@ InputFormat detect_format(std::span<const std::string> paths) {
   if (paths.empty()) throw Error("no input file given");
   if (paths.size() > 2) throw Error("too many input files: give one file, or a PLOT3D grid file and solution file");
   if (paths.size() == 2) return InputFormat::Plot3d;
+  if (openfoam::is_openfoam_path(paths[0])) return InputFormat::OpenFoam;  // a directory: before InputFile opens it
   InputFile f(paths[0]);
   char head[64] = {};
   const size_t n = f.read_some_at(0, head, sizeof head);
@@ -86,6 +88,7 @@ Dataset read_dataset(std::span<const std::string> paths, const ReadOptions& opti
     case InputFormat::Nrrd: return read_nrrd(paths[0]);
     case InputFormat::Cgns: return read_cgns(paths[0], options.time_step);
     case InputFormat::EnSight: return read_ensight(paths[0], options.time_step);
+    case InputFormat::OpenFoam: return read_openfoam(paths[0], options.time_step);
   }
   throw Error("unreachable");
 }

@@ -1,0 +1,919 @@
+// OpenFOAM case reader (format notes in openfoam_reader.h).
+//
+// Model: the case's internal mesh is one UnstructuredMesh. Each OpenFOAM cell is the list of faces that name it as
+// owner or neighbour; it goes through PolyhedronDecomposer, which keeps hexahedra, prisms, pyramids and tetrahedra as
+// native cells and splits any other polyhedron conformingly (grid/polyhedra.h). Fields are cell-centred and stay cell
+// data (repeated on the pieces of a split cell); point fields (pointScalarField, ...) are vertex data. A decomposed
+// case (processor*/) is read piece by piece and concatenated in processor order: points on processor boundaries are
+// not merged, so they appear once per piece. One time directory is read (ReadOptions::time_step, an index into the
+// time directories sorted by value, 0 included; -1 = the latest); the others are listed in the dataset's notes.
+// cellZones become an Int32 cell field "cellZone" (the zone's index, -1 outside every zone).
+#include "ugvr/io/openfoam_reader.h"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cstring>
+#include <filesystem>
+#include <map>
+
+#include "ugvr/core/error.h"
+#include "ugvr/core/file.h"
+#include "ugvr/grid/dataset.h"
+#include "ugvr/grid/polyhedra.h"
+#include "ugvr/io/file_dataset.h"
+#include "ugvr/io/reader.h"
+
+namespace fs = std::filesystem;
+
+namespace ugvr {
+namespace openfoam {
+namespace {
+
+// gzip output beyond this ratio to its input cannot come from deflate (whose limit is about 1032:1): the stream is
+// corrupt, and refusing it bounds the memory a hostile file can claim.
+constexpr uint64_t kMaxInflateRatio = 1032;
+
+std::string inflate_gzip(const std::string& name, const std::string& in) {
+  z_stream z{};
+  if (inflateInit2(&z, 15 + 32) != Z_OK) throw Error("zlib: inflateInit2 failed");  // 32: gzip or zlib header
+  struct End {
+    z_stream* z;
+    ~End() { inflateEnd(z); }
+  } end{&z};
+  const uint64_t limit = kMaxInflateRatio * in.size() + 4096;
+  std::string out(std::min<uint64_t>(limit, std::max<uint64_t>(4 * in.size(), 4096)), '\0');
+  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
+  z.avail_in = uInt(std::min<uint64_t>(in.size(), UINT32_MAX));
+  uint64_t produced = 0;
+  for (;;) {
+    if (produced == out.size()) {
+      if (out.size() >= limit) fail_in(name, "gzip data inflates to more than " + std::to_string(limit) + " bytes");
+      out.resize(std::min<uint64_t>(limit, 2 * out.size()));
+    }
+    z.next_out = reinterpret_cast<Bytef*>(out.data() + produced);
+    z.avail_out = uInt(std::min<uint64_t>(out.size() - produced, UINT32_MAX));
+    const uInt before = z.avail_out;
+    const int r = inflate(&z, Z_NO_FLUSH);
+    produced += before - z.avail_out;
+    if (r == Z_STREAM_END) break;
+    if (r != Z_OK && r != Z_BUF_ERROR)
+      fail_at_offset(name, z.total_in, std::string("corrupt gzip data: ") + (z.msg ? z.msg : "inflate failed"));
+    if (r == Z_BUF_ERROR && z.avail_in == 0)
+      fail_at_offset(name, z.total_in, "gzip data is truncated: the file ends inside the compressed stream");
+  }
+  out.resize(produced);
+  return out;
+}
+
+bool is_delimiter(char c) {
+  return c == '(' || c == ')' || c == '{' || c == '}' || c == '[' || c == ']' || c == ';' || c == '"';
+}
+bool is_space(char c) { return c == ' ' || c == '\n' || c == '\r' || c == '\t' || c == '\f' || c == '\v'; }
+
+// Components of an OpenFOAM primitive type name; 0 for one that is not a fixed-size number tuple.
+int components_of(std::string_view type) {
+  if (type == "scalar" || type == "label" || type == "sphericalTensor") return 1;
+  if (type == "vector") return 3;
+  if (type == "symmTensor") return 6;
+  if (type == "tensor") return 9;
+  return 0;
+}
+
+}  // namespace
+
+FoamFile::FoamFile(const std::string& path) : name_(path) {
+  const InputFile file(path);
+  text_ = file.read_all(uint64_t(1) << 40);
+  if (text_.size() >= 2 && uint8_t(text_[0]) == 0x1f && uint8_t(text_[1]) == 0x8b) text_ = inflate_gzip(name_, text_);
+  parse_header();
+}
+
+FoamFile::FoamFile(std::string name, std::string bytes) : name_(std::move(name)), text_(std::move(bytes)) {
+  if (text_.size() >= 2 && uint8_t(text_[0]) == 0x1f && uint8_t(text_[1]) == 0x8b) text_ = inflate_gzip(name_, text_);
+  parse_header();
+}
+
+void FoamFile::fail(uint64_t at, const std::string& message) const {
+  at = std::min<uint64_t>(at, text_.size());
+  const uint64_t line = 1 + uint64_t(std::count(text_.begin(), text_.begin() + ptrdiff_t(at), '\n'));
+  fail_at_offset(name_, at, "line " + std::to_string(line) + ": " + message);
+}
+
+void FoamFile::skip_space() {
+  while (pos_ < text_.size()) {
+    const char c = text_[pos_];
+    if (is_space(c)) {
+      ++pos_;
+    } else if (c == '/' && pos_ + 1 < text_.size() && text_[pos_ + 1] == '/') {
+      const size_t e = text_.find('\n', pos_);
+      pos_ = e == std::string::npos ? text_.size() : e + 1;
+    } else if (c == '/' && pos_ + 1 < text_.size() && text_[pos_ + 1] == '*') {
+      const size_t e = text_.find("*/", pos_ + 2);
+      if (e == std::string::npos) fail(pos_, "unterminated /* comment");
+      pos_ = e + 2;
+    } else {
+      return;
+    }
+  }
+}
+
+bool FoamFile::at_end() {
+  skip_space();
+  return pos_ >= text_.size();
+}
+
+char FoamFile::peek() {
+  skip_space();
+  return pos_ < text_.size() ? text_[pos_] : '\0';
+}
+
+bool FoamFile::accept(char c) {
+  if (peek() != c || pos_ >= text_.size()) return false;
+  ++pos_;
+  return true;
+}
+
+void FoamFile::expect(char c, std::string_view what) {
+  if (!accept(c)) {
+    const size_t at = pos_;
+    fail(at, std::string("expected '") + c + "' " + std::string(what) +
+                 (at >= text_.size() ? ", found the end of the file" : std::string(", found '") + text_[at] + "'"));
+  }
+}
+
+// A word, number or quoted string (returned without its quotes).
+std::string_view FoamFile::word(std::string_view what) {
+  skip_space();
+  if (pos_ >= text_.size()) fail(pos_, "expected " + std::string(what) + ", found the end of the file");
+  if (text_[pos_] == '"') {
+    const size_t e = text_.find('"', pos_ + 1);
+    if (e == std::string::npos) fail(pos_, "unterminated string");
+    std::string_view s(text_.data() + pos_ + 1, e - pos_ - 1);
+    pos_ = e + 1;
+    return s;
+  }
+  const size_t start = pos_;
+  while (pos_ < text_.size() && !is_space(text_[pos_]) && !is_delimiter(text_[pos_]) &&
+         !(text_[pos_] == '/' && pos_ + 1 < text_.size() && (text_[pos_ + 1] == '/' || text_[pos_ + 1] == '*')))
+    ++pos_;
+  if (pos_ == start) fail(start, "expected " + std::string(what) + ", found '" + text_[start] + "'");
+  return {text_.data() + start, pos_ - start};
+}
+
+int64_t FoamFile::integer(std::string_view what) {
+  const size_t at = (skip_space(), pos_);
+  const std::string_view w = word(what);
+  int64_t v = 0;
+  const auto [p, ec] = std::from_chars(w.data(), w.data() + w.size(), v);
+  if (ec != std::errc() || p != w.data() + w.size())
+    fail(at, "expected " + std::string(what) + " (an integer), found '" + std::string(w.substr(0, 40)) + "'");
+  return v;
+}
+
+uint64_t FoamFile::count(std::string_view what) {
+  const size_t at = (skip_space(), pos_);
+  const int64_t v = integer(what);
+  if (v < 0) fail(at, std::string(what) + " is negative (" + std::to_string(v) + ")");
+  return uint64_t(v);
+}
+
+double FoamFile::number(std::string_view what) {
+  const size_t at = (skip_space(), pos_);
+  const std::string_view w = word(what);
+  double v = 0;
+  const auto [p, ec] = std::from_chars(w.data(), w.data() + w.size(), v);
+  // Out-of-range values (1e999) are refused too: OpenFOAM never writes them.
+  if (ec != std::errc() || p != w.data() + w.size())
+    fail(at, "expected " + std::string(what) + " (a number), found '" + std::string(w.substr(0, 40)) + "'");
+  return v;
+}
+
+std::string_view FoamFile::raw(uint64_t bytes, std::string_view what) {
+  if (bytes > text_.size() - pos_)
+    fail(pos_, std::string(what) + " needs " + std::to_string(bytes) + " bytes of binary data, only " +
+                   std::to_string(text_.size() - pos_) + " remain");
+  std::string_view s(text_.data() + pos_, size_t(bytes));
+  pos_ += size_t(bytes);
+  return s;
+}
+
+double FoamFile::binary_scalar(const char* p) const {
+  char b[8];
+  std::memcpy(b, p, size_t(header_.scalar_bytes));
+  if (header_.big_endian) std::reverse(b, b + header_.scalar_bytes);
+  if (header_.scalar_bytes == 4) {
+    float f;
+    std::memcpy(&f, b, 4);
+    return f;
+  }
+  double d;
+  std::memcpy(&d, b, 8);
+  return d;
+}
+
+int64_t FoamFile::binary_label(const char* p) const {
+  char b[8];
+  std::memcpy(b, p, size_t(header_.label_bytes));
+  if (header_.big_endian) std::reverse(b, b + header_.label_bytes);
+  if (header_.label_bytes == 4) {
+    int32_t v;
+    std::memcpy(&v, b, 4);
+    return v;
+  }
+  int64_t v;
+  std::memcpy(&v, b, 8);
+  return v;
+}
+
+void FoamFile::parse_header() {
+  const size_t at = (skip_space(), pos_);
+  if (word("the FoamFile header") != "FoamFile") fail(at, "not an OpenFOAM file: no FoamFile header");
+  expect('{', "after FoamFile");
+  while (!accept('}')) {
+    const size_t key_at = (skip_space(), pos_);
+    if (pos_ >= text_.size()) fail(pos_, "the FoamFile header is not closed");
+    const std::string key(word("a header keyword"));
+    std::string value;
+    while (!accept(';')) {
+      if (peek() == '}' || pos_ >= text_.size()) fail(key_at, "header entry '" + key + "' has no ';'");
+      value += (value.empty() ? "" : " ") + std::string(word("a header value"));
+    }
+    if (key == "format") {
+      if (value != "ascii" && value != "binary") fail(key_at, "format '" + value + "' is neither ascii nor binary");
+      header_.binary = value == "binary";
+    } else if (key == "class") {
+      header_.class_name = value;
+    } else if (key == "object") {
+      header_.object = value;
+    } else if (key == "arch") {
+      // "LSB;label=32;scalar=64": each part optional, the defaults OpenFOAM's own.
+      header_.big_endian = value.find("MSB") != std::string::npos;
+      for (const auto& [tag, dst] : {std::pair{"label=", &header_.label_bytes}, {"scalar=", &header_.scalar_bytes}}) {
+        const size_t p = value.find(tag);
+        if (p == std::string::npos) continue;
+        const std::string bits = value.substr(p + std::strlen(tag), 2);
+        if (bits != "32" && bits != "64") fail(key_at, "arch '" + value + "': " + tag + " must be 32 or 64");
+        *dst = bits == "32" ? 4 : 8;
+      }
+    }
+  }
+}
+
+std::vector<double> FoamFile::scalar_list(int components, std::string_view what, std::optional<uint64_t> expected) {
+  const size_t at = (skip_space(), pos_);
+  const uint64_t n = count(std::string(what) + " count");
+  if (expected && n != *expected)
+    fail(at, std::string(what) + " has " + std::to_string(n) + " values, expected " + std::to_string(*expected));
+  const uint64_t nc = uint64_t(components);
+  if (accept('{')) {  // N copies of one value: bounded by `expected`, never by the bytes
+    if (!expected) fail(at, std::string(what) + ": a uniform list 'N{value}' is not expected here");
+    std::vector<double> one(nc);
+    if (header_.binary) {
+      const std::string_view b = raw(nc * uint64_t(header_.scalar_bytes), what);
+      for (uint64_t c = 0; c < nc; ++c) one[c] = binary_scalar(b.data() + c * uint64_t(header_.scalar_bytes));
+    } else {
+      if (nc > 1) expect('(', "before a tuple");
+      for (uint64_t c = 0; c < nc; ++c) one[c] = number(what);
+      if (nc > 1) expect(')', "after a tuple");
+    }
+    expect('}', std::string("after the value of ") + std::string(what));
+    std::vector<double> out(n * nc);
+    for (uint64_t i = 0; i < n; ++i) std::copy(one.begin(), one.end(), out.begin() + ptrdiff_t(i * nc));
+    return out;
+  }
+  expect('(', std::string("to open ") + std::string(what));
+  std::vector<double> out;
+  if (header_.binary) {
+    const uint64_t each = nc * uint64_t(header_.scalar_bytes);
+    check_count_fits(name_, pos_, what, n, each, text_.size() - pos_);
+    const std::string_view b = raw(n * each, what);
+    out.resize(n * nc);
+    for (uint64_t i = 0; i < n * nc; ++i) out[i] = binary_scalar(b.data() + i * uint64_t(header_.scalar_bytes));
+    if (pos_ >= text_.size() || text_[pos_] != ')')
+      fail(pos_, std::string("expected ')' after the binary values of ") + std::string(what));
+    ++pos_;
+    return out;
+  }
+  // ASCII: a scalar takes at least 2 bytes ("0 "), a tuple "(0 0 0) " 2 + 2 per component.
+  check_count_fits(name_, pos_, what, n, nc > 1 ? 2 + 2 * nc : 2, text_.size() - pos_ + 1);
+  out.resize(n * nc);
+  for (uint64_t i = 0; i < n; ++i) {
+    if (nc > 1) expect('(', "before a tuple");
+    for (uint64_t c = 0; c < nc; ++c) out[i * nc + c] = number(what);
+    if (nc > 1) expect(')', "after a tuple");
+  }
+  expect(')', std::string("to close ") + std::string(what));
+  return out;
+}
+
+std::vector<int64_t> FoamFile::label_list(std::string_view what, int64_t max_label, bool allow_minus_one) {
+  const size_t at = (skip_space(), pos_);
+  const uint64_t n = count(std::string(what) + " count");
+  std::vector<int64_t> out;
+  auto check = [&](int64_t v, uint64_t where) {
+    if (v > max_label || v < (allow_minus_one ? -1 : 0))
+      fail(where, std::string(what) + ": label " + std::to_string(v) + " is outside 0.." + std::to_string(max_label));
+  };
+  if (accept('{')) fail(at, std::string(what) + ": a uniform list 'N{value}' is not expected here");
+  expect('(', std::string("to open ") + std::string(what));
+  if (header_.binary) {
+    const uint64_t each = uint64_t(header_.label_bytes);
+    check_count_fits(name_, pos_, what, n, each, text_.size() - pos_);
+    const size_t start = pos_;
+    const std::string_view b = raw(n * each, what);
+    out.resize(n);
+    for (uint64_t i = 0; i < n; ++i) {
+      out[i] = binary_label(b.data() + i * each);
+      check(out[i], start + i * each);
+    }
+    if (pos_ >= text_.size() || text_[pos_] != ')')
+      fail(pos_, std::string("expected ')' after the binary values of ") + std::string(what));
+    ++pos_;
+    return out;
+  }
+  check_count_fits(name_, pos_, what, n, 2, text_.size() - pos_ + 1);
+  out.resize(n);
+  for (uint64_t i = 0; i < n; ++i) {
+    const size_t where = (skip_space(), pos_);
+    out[i] = integer(what);
+    check(out[i], where);
+  }
+  expect(')', std::string("to close ") + std::string(what));
+  return out;
+}
+
+// Skips an entry's value: tokens up to the ';' that ends it, or one {...} dictionary. A binary list "List<T> N(" is
+// skipped by its byte size (its bytes are not tokens).
+void FoamFile::skip_value() {
+  int depth = 0;
+  int pending_components = 0;  // after "List<T>" in a binary file: T's components
+  for (;;) {
+    const char c = peek();
+    const size_t at = pos_;
+    if (pos_ >= text_.size()) fail(at, "the file ends inside an entry");
+    if (c == '{' || c == '(' || c == '[') {
+      ++pos_;
+      ++depth;
+    } else if (c == '}' || c == ')' || c == ']') {
+      if (depth == 0) fail(at, std::string("unbalanced '") + c + "'");
+      ++pos_;
+      if (--depth == 0 && c == '}') return;  // a dictionary ends the entry
+    } else if (c == ';') {
+      ++pos_;
+      if (depth == 0) return;
+    } else {
+      const std::string_view w = word("a value");
+      if (header_.binary && w.starts_with("List<") && w.ends_with(">")) {
+        pending_components = components_of(w.substr(5, w.size() - 6));
+        if (w == "List<label>") pending_components = -1;
+        continue;
+      }
+      if (header_.binary && pending_components != 0 && !w.empty() && (std::isdigit(uint8_t(w[0])) != 0)) {
+        int64_t n = 0;
+        std::from_chars(w.data(), w.data() + w.size(), n);
+        if (n < 0) fail(at, "negative list count");
+        const uint64_t each = pending_components < 0 ? uint64_t(header_.label_bytes)
+                                                     : uint64_t(pending_components) * uint64_t(header_.scalar_bytes);
+        if (peek() == '(') {
+          ++pos_;
+          check_count_fits(name_, pos_, "list", uint64_t(n), each, text_.size() - pos_);
+          raw(uint64_t(n) * each, "list");
+          expect(')', "after a binary list");
+        }
+      }
+      pending_components = 0;
+    }
+  }
+}
+
+std::vector<Vec3f> FoamFile::points() {
+  const std::vector<double> v = scalar_list(3, "points", std::nullopt);
+  std::vector<Vec3f> out(v.size() / 3);
+  for (size_t i = 0; i < out.size(); ++i) out[i] = Vec3f{float(v[3 * i]), float(v[3 * i + 1]), float(v[3 * i + 2])};
+  return out;
+}
+
+FaceList FoamFile::faces(uint64_t point_count) {
+  const int64_t max_point = int64_t(std::min<uint64_t>(point_count, UINT32_MAX)) - 1;
+  FaceList f;
+  if (header_.class_name == "faceCompactList") {
+    // Two lists: N+1 offsets into the second, the vertex labels of all faces.
+    const size_t at = (skip_space(), pos_);
+    // An offset cannot exceed the labels that follow, let alone the file's size (which also keeps the arithmetic
+    // below far from overflow).
+    std::vector<int64_t> offsets = label_list("face offsets", int64_t(text_.size()), false);
+    std::vector<int64_t> labels = label_list("face vertices", max_point, false);
+    if (offsets.empty()) fail(at, "faceCompactList has no offsets (at least the leading 0)");
+    if (offsets.front() != 0 || uint64_t(offsets.back()) != labels.size())
+      fail(at, "face offsets run from " + std::to_string(offsets.front()) + " to " + std::to_string(offsets.back()) +
+                   ", the vertex list holds " + std::to_string(labels.size()));
+    f.offsets.resize(offsets.size());
+    for (size_t i = 0; i < offsets.size(); ++i) {
+      if (i > 0 && offsets[i] - offsets[i - 1] < 3)
+        fail(at, "face " + std::to_string(i - 1) + " has " + std::to_string(offsets[i] - offsets[i - 1]) +
+                     " vertices (at least 3)");
+      f.offsets[i] = uint64_t(offsets[i]);
+    }
+    f.vertices.assign(labels.begin(), labels.end());
+    return f;
+  }
+  if (header_.class_name != "faceList")
+    fail(0, "class '" + header_.class_name + "' is neither faceList nor faceCompactList");
+  if (header_.binary) fail(0, "a binary faceList (not faceCompactList) is not an OpenFOAM layout");
+  const uint64_t n = count("face count");
+  expect('(', "to open the face list");
+  check_count_fits(name_, pos_, "face", n, 8, text_.size() - pos_ + 1);  // "3(0 1 2)"
+  f.offsets.reserve(n + 1);
+  f.vertices.reserve(4 * n);
+  for (uint64_t i = 0; i < n; ++i) {
+    const size_t at = (skip_space(), pos_);
+    const uint64_t k = count("face size");
+    if (k < 3) fail(at, "face " + std::to_string(i) + " has " + std::to_string(k) + " vertices (at least 3)");
+    check_count_fits(name_, pos_, "face vertex", k, 2, text_.size() - pos_ + 1);
+    expect('(', "to open a face");
+    for (uint64_t j = 0; j < k; ++j) {
+      const size_t where = (skip_space(), pos_);
+      const int64_t v = integer("a face vertex");
+      if (v < 0 || v > max_point)
+        fail(where, "face " + std::to_string(i) + ": vertex " + std::to_string(v) + " is outside 0.." +
+                        std::to_string(max_point));
+      f.vertices.push_back(uint32_t(v));
+    }
+    expect(')', "to close a face");
+    f.offsets.push_back(f.vertices.size());
+  }
+  expect(')', "to close the face list");
+  return f;
+}
+
+std::vector<int64_t> FoamFile::labels(int64_t max_label, bool allow_minus_one) {
+  return label_list(header_.object.empty() ? "labels" : header_.object, max_label, allow_minus_one);
+}
+
+std::vector<Patch> FoamFile::patches() {
+  const uint64_t n = count("patch count");
+  expect('(', "to open the patch list");
+  check_count_fits(name_, pos_, "patch", n, 4, text_.size() - pos_);
+  std::vector<Patch> out;
+  for (uint64_t i = 0; i < n; ++i) {
+    Patch p;
+    p.name = word("a patch name");
+    expect('{', "to open patch '" + p.name + "'");
+    while (!accept('}')) {
+      const size_t at = (skip_space(), pos_);
+      const std::string key(word("a patch keyword"));
+      if (key == "type") {
+        p.type = word("the patch type");
+        expect(';', "after the patch type");
+      } else if (key == "nFaces" || key == "startFace") {
+        (key == "nFaces" ? p.n_faces : p.start_face) = count(key);
+        expect(';', "after " + key);
+      } else {
+        (void)at;
+        skip_value();
+      }
+    }
+    out.push_back(std::move(p));
+  }
+  expect(')', "to close the patch list");
+  return out;
+}
+
+std::vector<CellZone> FoamFile::cell_zones(uint64_t cell_count) {
+  const uint64_t n = count("zone count");
+  expect('(', "to open the zone list");
+  check_count_fits(name_, pos_, "zone", n, 4, text_.size() - pos_);
+  std::vector<CellZone> out;
+  for (uint64_t i = 0; i < n; ++i) {
+    CellZone z;
+    z.name = word("a zone name");
+    expect('{', "to open zone '" + z.name + "'");
+    while (!accept('}')) {
+      const std::string key(word("a zone keyword"));
+      if (key == "cellLabels") {
+        // "cellLabels List<label> N(...)" (OpenFOAM's writers) or "cellLabels N(...)" (foamFormatConvert, ascii).
+        skip_space();
+        const size_t save = pos_;
+        if (word("cell labels") != "List<label>") pos_ = save;
+        const std::vector<int64_t> cells =
+            label_list("zone '" + z.name + "' cellLabels", int64_t(cell_count) - 1, false);
+        z.cells.assign(cells.begin(), cells.end());
+        expect(';', "after cellLabels");
+      } else {
+        skip_value();
+      }
+    }
+    out.push_back(std::move(z));
+  }
+  expect(')', "to close the zone list");
+  return out;
+}
+
+std::optional<FieldValues> FoamFile::internal_field(uint64_t tuples) {
+  int components = 0;
+  const std::string& cls = header_.class_name;
+  for (const char* prefix : {"vol", "point"}) {
+    if (cls.starts_with(prefix) && cls.ends_with("Field")) {
+      std::string t = cls.substr(std::strlen(prefix), cls.size() - std::strlen(prefix) - 5);
+      if (!t.empty()) t[0] = char(std::tolower(uint8_t(t[0])));
+      components = components_of(t);
+    }
+  }
+  if (components == 0) fail(0, "class '" + cls + "' is not a vol/point scalar, vector or tensor field");
+  while (!at_end()) {
+    const size_t at = pos_;
+    const std::string_view key = word("an entry keyword");
+    if (key.starts_with("#")) {  // a directive (#include "file", #inputMode merge): the rest of its line
+      const size_t e = text_.find('\n', pos_);
+      pos_ = e == std::string::npos ? text_.size() : e + 1;
+      continue;
+    }
+    if (key != "internalField") {
+      skip_value();
+      continue;
+    }
+    FieldValues f;
+    f.components = components;
+    const std::string_view kind = word("uniform or nonuniform");
+    if (kind == "uniform") {
+      std::vector<double> one(static_cast<size_t>(components));
+      if (components > 1) expect('(', "before a uniform tuple");
+      for (double& v : one) v = number("a uniform value");
+      if (components > 1) expect(')', "after a uniform tuple");
+      expect(';', "after the uniform value");
+      f.uniform = true;
+      f.values.resize(tuples * uint64_t(components));
+      for (uint64_t i = 0; i < tuples; ++i)
+        std::copy(one.begin(), one.end(), f.values.begin() + ptrdiff_t(i * uint64_t(components)));
+      return f;
+    }
+    if (kind != "nonuniform")
+      fail(at, "internalField is '" + std::string(kind.substr(0, 40)) + "', neither uniform nor nonuniform");
+    const size_t type_at = (skip_space(), pos_);
+    const std::string_view list_type = word("List<type>");
+    if (!list_type.starts_with("List<") || !list_type.ends_with(">") ||
+        components_of(list_type.substr(5, list_type.size() - 6)) != components)
+      fail(type_at, "internalField of a " + cls + " is a '" + std::string(list_type.substr(0, 40)) + "'");
+    f.values = scalar_list(components, "internalField", tuples);
+    expect(';', "after internalField");
+    return f;
+  }
+  return std::nullopt;
+}
+
+bool is_openfoam_path(const std::string& path) {
+  std::error_code ec;
+  const fs::path p(path);
+  if (fs::is_directory(p, ec)) {
+    if (fs::is_directory(p / "constant" / "polyMesh", ec)) return true;
+    for (const auto& e : fs::directory_iterator(p, ec))
+      if (e.path().filename().string().starts_with("processor") &&
+          fs::is_directory(e.path() / "constant" / "polyMesh", ec))
+        return true;
+    return false;
+  }
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return ext == ".foam" || ext == ".openfoam" || p.filename() == "controlDict";
+}
+
+}  // namespace openfoam
+
+namespace {
+
+using openfoam::FoamFile;
+
+// "X" or "X.gz" in `dir`; empty when neither exists.
+std::string find_file(const fs::path& dir, const std::string& name) {
+  std::error_code ec;
+  if (fs::is_regular_file(dir / name, ec)) return (dir / name).string();
+  if (fs::is_regular_file(dir / (name + ".gz"), ec)) return (dir / (name + ".gz")).string();
+  return {};
+}
+
+std::string need_file(const fs::path& dir, const std::string& name) {
+  std::string f = find_file(dir, name);
+  if (f.empty()) fail_in(dir.string(), "the case has no " + name + " (nor " + name + ".gz)");
+  return f;
+}
+
+struct TimeDir {
+  double value;
+  std::string name;
+};
+
+std::vector<TimeDir> time_dirs(const fs::path& dir) {
+  std::vector<TimeDir> out;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    if (!e.is_directory(ec)) continue;
+    const std::string n = e.path().filename().string();
+    double v = 0;
+    const auto [p, err] = std::from_chars(n.data(), n.data() + n.size(), v);
+    if (err == std::errc() && p == n.data() + n.size()) out.push_back({v, n});
+  }
+  std::sort(out.begin(), out.end(), [](const TimeDir& a, const TimeDir& b) { return a.value < b.value; });
+  return out;
+}
+
+// One piece (the case, or one processor directory) before it joins the dataset.
+struct Piece {
+  fs::path dir;
+  std::vector<Vec3f> points;
+  uint64_t point_count = 0;
+  openfoam::FaceList faces;
+  std::vector<int64_t> owner, neighbour;
+  uint64_t cells = 0;
+  std::vector<openfoam::Patch> patches;
+  std::vector<openfoam::CellZone> zones;
+  std::string format;  // "ascii" / "binary" of the faces file
+};
+
+Piece read_piece(const fs::path& dir, const std::string& time) {
+  Piece piece;
+  piece.dir = dir;
+  // A moving mesh writes its points (and with topology changes the whole polyMesh) into the time directory.
+  const fs::path constant = dir / "constant" / "polyMesh";
+  const fs::path moved = dir / time / "polyMesh";
+  const fs::path topo = !time.empty() && !find_file(moved, "faces").empty() ? moved : constant;
+  const fs::path geom = !time.empty() && !find_file(moved, "points").empty() ? moved : topo;
+  {
+    FoamFile f(need_file(geom, "points"));
+    piece.points = f.points();
+    piece.point_count = piece.points.size();
+  }
+  if (piece.points.size() > UINT32_MAX)
+    fail_in(geom.string(), "more than 2^32-1 points: an in-memory mesh is capped there");
+  {
+    FoamFile f(need_file(topo, "faces"));
+    piece.format = f.header().binary ? "binary" : "ascii";
+    piece.faces = f.faces(piece.points.size());
+  }
+  const uint64_t nf = piece.faces.size();
+  const std::string owner_path = need_file(topo, "owner");
+  {
+    FoamFile f(owner_path);
+    // A cell has at least one face: no cell label reaches the face count (which bounds what the cell arrays take).
+    piece.owner = f.labels(int64_t(nf) - 1, false);
+  }
+  if (piece.owner.size() != nf)
+    fail_in(owner_path,
+            "owner has " + std::to_string(piece.owner.size()) + " labels, the mesh " + std::to_string(nf) + " faces");
+  const std::string neighbour_path = need_file(topo, "neighbour");
+  {
+    FoamFile f(neighbour_path);
+    piece.neighbour = f.labels(int64_t(nf) - 1, true);  // older cases list every face, -1 on the boundary
+  }
+  if (piece.neighbour.size() > nf)
+    fail_in(neighbour_path, "neighbour has " + std::to_string(piece.neighbour.size()) + " labels, the mesh only " +
+                                std::to_string(nf) + " faces");
+  int64_t max_cell = -1;
+  for (int64_t c : piece.owner) max_cell = std::max(max_cell, c);
+  for (int64_t c : piece.neighbour) max_cell = std::max(max_cell, c);
+  piece.cells = uint64_t(max_cell + 1);
+  if (const std::string b = find_file(topo, "boundary"); !b.empty()) {
+    FoamFile f(b);
+    piece.patches = f.patches();
+    for (const auto& p : piece.patches)
+      if (p.start_face > nf || p.n_faces > nf - p.start_face)
+        fail_in(b, "patch '" + p.name + "' covers faces " + std::to_string(p.start_face) + "+" +
+                       std::to_string(p.n_faces) + ", the mesh has " + std::to_string(nf));
+  }
+  if (const std::string z = find_file(topo, "cellZones"); !z.empty()) {
+    FoamFile f(z);
+    piece.zones = f.cell_zones(piece.cells);
+  }
+  return piece;
+}
+
+// Each cell's faces (CSR over cells) and the cells to the decomposer, vertex indices shifted by `point_base`.
+void add_cells(const Piece& piece, uint32_t point_base, PolyhedronDecomposer& decomposer) {
+  const uint64_t nc = piece.cells;
+  std::vector<uint64_t> start(nc + 1, 0);
+  for (int64_t c : piece.owner) ++start[uint64_t(c) + 1];
+  for (int64_t c : piece.neighbour)
+    if (c >= 0) ++start[uint64_t(c) + 1];
+  for (uint64_t c = 0; c < nc; ++c) start[c + 1] += start[c];
+  std::vector<uint64_t> fill(start.begin(), start.end() - 1);
+  std::vector<uint64_t> cell_faces(start[nc]);
+  for (uint64_t f = 0; f < piece.owner.size(); ++f) cell_faces[fill[uint64_t(piece.owner[f])]++] = f;
+  for (uint64_t f = 0; f < piece.neighbour.size(); ++f)
+    if (piece.neighbour[f] >= 0) cell_faces[fill[uint64_t(piece.neighbour[f])]++] = f;
+  std::vector<uint32_t> sizes, verts;
+  for (uint64_t c = 0; c < nc; ++c) {
+    sizes.clear();
+    verts.clear();
+    for (uint64_t k = start[c]; k < start[c + 1]; ++k) {
+      const uint64_t f = cell_faces[k];
+      const uint64_t b = piece.faces.offsets[f], e = piece.faces.offsets[f + 1];
+      sizes.push_back(uint32_t(e - b));
+      for (uint64_t i = b; i < e; ++i) verts.push_back(piece.faces.vertices[i] + point_base);
+    }
+    decomposer.add_polyhedron(sizes, verts);
+  }
+}
+
+// Whether the file (plain or gzip) starts with a FoamFile header: other files in a time directory (notes, scripts
+// that tools leave there) are skipped, not refused.
+bool has_foam_header(const std::string& path) {
+  const InputFile file(path);
+  char head[2] = {};
+  if (file.read_some_at(0, head, 2) == 2 && uint8_t(head[0]) == 0x1f && uint8_t(head[1]) == 0x8b) return true;
+  std::string text(std::min<uint64_t>(file.size(), 4096), '\0');
+  text.resize(file.read_some_at(0, text.data(), text.size()));
+  return text.find("FoamFile") != std::string::npos;
+}
+
+std::string join_times(const std::vector<TimeDir>& times) {
+  std::string s;
+  for (const auto& t : times) s += (s.empty() ? "" : " ") + t.name;
+  return s;
+}
+
+}  // namespace
+
+Dataset read_openfoam(const std::string& path, int64_t time_step) {
+  std::error_code ec;
+  fs::path root(path);
+  if (!fs::is_directory(root, ec)) {
+    root = root.has_parent_path() ? root.parent_path() : fs::path(".");
+    if (root.filename() == "system") root = root.has_parent_path() ? root.parent_path() : fs::path(".");
+  }
+  const std::string case_name = fs::weakly_canonical(root, ec).filename().string();
+
+  // The pieces: processorN/ in N order, or the case itself. processor*/ wins unless the case directory holds a
+  // reconstructed mesh with at least as many time directories (after reconstructPar both exist and agree).
+  std::vector<std::pair<uint64_t, fs::path>> processors;
+  for (const auto& e : fs::directory_iterator(root, ec)) {
+    const std::string n = e.path().filename().string();
+    uint64_t k = 0;
+    if (n.size() > 9 && n.starts_with("processor") &&
+        std::from_chars(n.data() + 9, n.data() + n.size(), k).ptr == n.data() + n.size() &&
+        fs::is_directory(e.path() / "constant" / "polyMesh", ec))
+      processors.emplace_back(k, e.path());
+  }
+  if (ec) fail_in(path, "cannot list the case directory: " + ec.message());
+  std::sort(processors.begin(), processors.end());
+  const bool reconstructed = fs::is_directory(root / "constant" / "polyMesh", ec);
+  bool decomposed = !processors.empty();
+  if (decomposed && reconstructed && time_dirs(root).size() >= time_dirs(processors[0].second).size())
+    decomposed = false;
+  if (!decomposed && !reconstructed) fail_in(root.string(), "not an OpenFOAM case: no constant/polyMesh");
+  std::vector<fs::path> piece_dirs;
+  if (decomposed)
+    for (const auto& [k, p] : processors) piece_dirs.push_back(p);
+  else
+    piece_dirs.push_back(root);
+
+  std::vector<std::string> notes;
+  const std::vector<TimeDir> times = time_dirs(piece_dirs[0]);
+  std::string time;
+  if (!times.empty()) {
+    const int64_t n = int64_t(times.size());
+    if (time_step < -1 || time_step >= n)
+      fail_in(root.string(), "time step " + std::to_string(time_step) + " does not exist: the case has " +
+                                 std::to_string(n) + " time directories (0.." + std::to_string(n - 1) +
+                                 "): " + join_times(times));
+    const size_t k = size_t(time_step < 0 ? n - 1 : time_step);
+    time = times[k].name;
+    notes.push_back("time directories (" + std::to_string(n) + "): " + join_times(times) + "; read " + time +
+                    " (--time-step " + std::to_string(k) + ")");
+  } else {
+    notes.push_back("no time directories: the mesh only");
+  }
+
+  std::vector<Piece> pieces;
+  uint64_t total_points = 0;
+  for (const fs::path& d : piece_dirs) {
+    pieces.push_back(read_piece(d, time));
+    total_points += pieces.back().points.size();
+    if (total_points > UINT32_MAX) fail_in(d.string(), "more than 2^32-1 points in all: an in-memory mesh is capped");
+  }
+  if (decomposed)
+    notes.push_back("decomposed case: " + std::to_string(pieces.size()) +
+                    " processor directories read as pieces and concatenated; points on processor boundaries are "
+                    "not merged (each piece keeps its own copy)");
+
+  UnstructuredMesh mesh;
+  mesh.points.reserve(total_points);
+  for (const Piece& p : pieces) mesh.points.insert(mesh.points.end(), p.points.begin(), p.points.end());
+  PolyhedronDecomposer decomposer(mesh, root.string());
+  {
+    uint64_t base = 0;
+    for (Piece& p : pieces) {
+      add_cells(p, uint32_t(base), decomposer);
+      base += p.point_count;
+      // The topology is no longer needed; free it before the fields are read.
+      p.faces = {};
+      p.owner = {};
+      p.neighbour = {};
+      p.points = {};
+    }
+  }
+  mesh.validate(root.string());
+
+  FieldSet fields;
+  // cellZones: zone index per cell, -1 outside every zone (zone names are taken from the first piece).
+  if (!pieces[0].zones.empty()) {
+    std::vector<int32_t> zone;
+    zone.reserve(decomposer.input_cells());
+    std::string names;
+    for (size_t z = 0; z < pieces[0].zones.size(); ++z)
+      names += (z ? ", " : "") + std::to_string(z) + " = " + pieces[0].zones[z].name;
+    for (const Piece& p : pieces) {
+      const size_t first = zone.size();
+      zone.resize(first + p.cells, -1);
+      for (size_t z = 0; z < p.zones.size(); ++z)
+        for (uint64_t c : p.zones[z].cells) zone[first + c] = int32_t(z);
+    }
+    fields.add(decomposer.expand_cell_field(Field("cellZone", Association::Cell, DataArray::from(std::move(zone), 1))));
+    notes.push_back("cell field 'cellZone' (-1 outside every zone): " + names);
+  }
+
+  // Fields of the time directory, by name; a field missing from a piece is dropped with a note.
+  if (!time.empty()) {
+    std::map<std::string, std::vector<std::string>> files;  // field name -> file per piece
+    for (size_t k = 0; k < pieces.size(); ++k) {
+      for (const auto& e : fs::directory_iterator(pieces[k].dir / time, ec)) {
+        if (!e.is_regular_file(ec)) continue;
+        std::string n = e.path().filename().string();
+        if (n.ends_with(".gz")) n.resize(n.size() - 3);
+        if (n.empty() || n.starts_with(".") || n.ends_with("~") || n.ends_with(".orig")) continue;
+        auto& v = files[n];
+        v.resize(pieces.size());
+        v[k] = e.path().string();
+      }
+    }
+    std::vector<std::string> skipped;
+    for (const auto& [name, per_piece] : files) {
+      if (std::any_of(per_piece.begin(), per_piece.end(), [](const std::string& s) { return s.empty(); })) {
+        skipped.push_back(name + " (not in every processor directory)");
+        continue;
+      }
+      std::vector<double> values;
+      int components = 0;
+      std::optional<Association> assoc;
+      std::string why;
+      bool all_float32 = true;
+      for (size_t k = 0; k < pieces.size() && why.empty(); ++k) {
+        if (!has_foam_header(per_piece[k])) {
+          why = "not a FoamFile";
+          break;
+        }
+        FoamFile f(per_piece[k]);
+        all_float32 = all_float32 && f.header().binary && f.header().scalar_bytes == 4;
+        const std::string& cls = f.header().class_name;
+        const bool vol = cls.starts_with("vol"), point = cls.starts_with("point");
+        if (!(vol || point) || !cls.ends_with("Field")) {
+          why = cls.empty() ? "no class" : cls;
+          break;
+        }
+        // A point field has one tuple per point of its piece (the original points, before decomposition).
+        const std::optional<openfoam::FieldValues> v = f.internal_field(vol ? pieces[k].cells : pieces[k].point_count);
+        if (!v) {
+          why = "no internalField";
+          break;
+        }
+        components = v->components;
+        assoc = vol ? Association::Cell : Association::Vertex;
+        values.insert(values.end(), v->values.begin(), v->values.end());
+      }
+      if (!why.empty()) {
+        skipped.push_back(name + " (" + why + ")");
+        continue;
+      }
+      // Binary files written with scalar=32 keep float32 (fields keep their stored type); text and scalar=64 are
+      // double.
+      DataArray data;
+      if (all_float32) {
+        data = DataArray::from(std::vector<float>(values.begin(), values.end()), components);
+      } else {
+        data = DataArray::from(std::move(values), components);
+      }
+      Field field(name, *assoc, std::move(data));
+      fields.add(*assoc == Association::Cell ? decomposer.expand_cell_field(field)
+                                             : decomposer.expand_point_field(field));
+    }
+    if (!skipped.empty()) {
+      std::string s;
+      for (const auto& k : skipped) s += (s.empty() ? "" : ", ") + k;
+      notes.push_back("not read from " + time + ": " + s);
+    }
+  }
+
+  if (const std::string s = decomposer.summary(); !s.empty()) notes.push_back(s);
+  if (!pieces[0].patches.empty()) {
+    std::string s;
+    for (const auto& p : pieces[0].patches)
+      s += (s.empty() ? "" : ", ") + p.name + " (" + p.type + ", " + std::to_string(p.n_faces) + " faces)";
+    notes.push_back("boundary patches (not rendered: the boundary is derived from the cells): " + s);
+  }
+
+  Block block{case_name, std::move(mesh), std::move(fields)};
+  return single_block_dataset("OpenFOAM case (" + pieces[0].format + (decomposed ? ", decomposed" : "") + ")",
+                              root.string(), std::move(block), std::move(notes));
+}
+
+}  // namespace ugvr
