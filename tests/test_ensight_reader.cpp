@@ -98,7 +98,9 @@ TEST(EnSightSamples, EveryVolumeElementTypeInVtkOrder) {
   for (uint64_t i = 0; i < 8; ++i) {
     SCOPED_TRACE(i);
     EXPECT_GT(cell_volume(m, i), 0);
-    if (linear[i] > 0) EXPECT_NEAR(cell_volume(m, i), linear[i], 1e-6);
+    if (linear[i] > 0) {
+      EXPECT_NEAR(cell_volume(m, i), linear[i], 1e-6);
+    }
   }
   EXPECT_TRUE(has_warning(ds, "1 tria6"));
   const FieldSet& f = ds.blocks[0].fields;

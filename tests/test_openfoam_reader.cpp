@@ -27,7 +27,9 @@ namespace {
 std::string case_path(const std::string& name) { return std::string(UGVR_SOURCE_DIR) + "/tests/data/openfoam/" + name; }
 
 Dataset read_case(const std::string& name, int64_t time_step = -1) {
-  return read_dataset(std::vector<std::string>{case_path(name)}, {.time_step = time_step});
+  ReadOptions options;
+  options.time_step = time_step;
+  return read_dataset(std::vector<std::string>{case_path(name)}, options);
 }
 
 const UnstructuredMesh& mesh_of(const Dataset& ds) {

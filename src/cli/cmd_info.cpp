@@ -24,7 +24,7 @@ CLI::Option* add_input(CLI::App& cmd, std::vector<std::string>& inputs) {
 
 void add_read_options(CLI::App& cmd, ReadOptions& o) {
   cmd.add_option("--time-step", o.time_step,
-                 "Exodus, OpenFOAM: time step (OpenFOAM: time directory) to read (0-based; -1 = last)")
+                 "Exodus, CGNS, EnSight, OpenFOAM: time step (OpenFOAM: time directory) to read (0-based; -1 = last)")
       ->default_val(-1);
   cmd.add_option("--raw-dims", o.raw.dims, "Raw volume: point dimensions NX NY NZ");
   cmd.add_option("--raw-type", o.raw.type, "Raw volume: value type")

@@ -159,10 +159,10 @@ void register_view(CLI::App& app) {
       "readable grid (its store is built in the background and kept in the cache directory; the exact engine shows "
       "the grid meanwhile), or of the built-in demo");
   cmd->add_option("INPUT", opts->inputs,
-                  "A brick store (.ugvr), a grid file (.vtu .vtk .vts .msh .ugrid .e ...), or a PLOT3D grid file then "
-                  "its solution file")
+                  "A brick store (.ugvr), a grid file (.vtu .vtk .vts .msh .ugrid .e .cgns .case ...), an OpenFOAM case "
+                  "directory, or a PLOT3D grid file then its solution file")
       ->expected(0, 2)
-      ->check(CLI::ExistingFile);
+      ->check(CLI::ExistingPath);
   add_read_options(*cmd, opts->read);
   cmd->add_flag("--demo", opts->demo, "Show the built-in demo dataset (a generated mixed-cell wing, 200k cells)");
   cmd->add_option("--fields", opts->fields,

@@ -22,7 +22,7 @@ void register_view(CLI::App& app);
 // Adds the positional INPUT argument every reading subcommand takes: one file, or a PLOT3D grid file followed by
 // its solution file.
 CLI::Option* add_input(CLI::App& cmd, std::vector<std::string>& inputs);
-// Adds the reading options: --time-step (Exodus) and the --raw-* layout of headerless voxel volumes.
+// Adds the reading options: --time-step (Exodus, CGNS, EnSight, OpenFOAM) and the --raw-* layout of headerless voxel volumes.
 void add_read_options(CLI::App& cmd, ReadOptions& options);
 
 }  // namespace ugvr::cli
