@@ -14,6 +14,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/gen/generator.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/vtu_writer.h"
 
 namespace ugvr {
 namespace {
@@ -248,6 +249,24 @@ TEST(CgnsReader, PolyhedraWithNativeShapesComeBackNative) {
     const Field* g = read.blocks[0].fields.find(cell_field->name());
     ASSERT_NE(g, nullptr);
     EXPECT_EQ(g->data().get(17, 0), cell_field->data().get(17, 0));
+  }
+}
+
+// Round trip CGNS -> .vtu -> read (what `ugvr convert` does): the same cells and fields, polyhedra decomposed.
+TEST(CgnsReader, RoundTripThroughVtuKeepsCellsAndFields) {
+  ScratchDir dir;
+  const Dataset ds = small_mixed_mesh();
+  const std::string cgns = dir.file("mixed.cgns"), vtu = dir.file("mixed.vtu");
+  write_unstructured(cgns, ds, Layout::Polyhedra, CG_FILE_HDF5);
+  const Dataset read = read_dataset(std::vector<std::string>{cgns});
+  write_vtu(read, vtu);
+  const Dataset back = read_dataset(std::vector<std::string>{vtu});
+  ASSERT_EQ(back.blocks.size(), 1u);
+  EXPECT_EQ(std::get<UnstructuredMesh>(back.blocks[0].grid), std::get<UnstructuredMesh>(read.blocks[0].grid));
+  for (const Field& f : read.blocks[0].fields) {
+    const Field* g = back.blocks[0].fields.find(f.name());
+    ASSERT_NE(g, nullptr) << f.name();
+    EXPECT_EQ(g->data(), f.data()) << f.name();
   }
 }
 
