@@ -1,6 +1,6 @@
 // Issue 23: a cut larger than what the device will allocate (llvmpipe refused a 13,217-brick atlas that --gpu-memory's
 // default allowed: "out of GPU memory"). The engine finds the largest atlas the device does allocate, makes it the
-// budget, and chooses the cut again within it, in a still image and along a time-critical path. The device's refusal is
+// budget, and chooses the cut again within it, in a still image and in the time-critical path. The device's refusal is
 // injected with UGVR_ATLAS_MAX_BYTES.
 #include <gtest/gtest.h>
 #include <stdlib.h>
@@ -66,6 +66,16 @@ TEST(LodAtlasBudget, ACutOverWhatTheDeviceAllocatesIsChosenAgainWithinIt) {
       drawn += std::abs(p[0] - float(settings.background[0])) + std::abs(p[1] - float(settings.background[1])) > 0.02f;
     }
   EXPECT_GT(drawn, 48 * 48 / 10);
+
+  // The time-critical path (the viewer's): a fresh engine learns the device's limit inside a frame, and the frame's
+  // cut merges down to it instead of failing; refining at rest stays within it.
+  LodEngine fresh(store, *gl, LodOptions{});
+  TimeCriticalRenderer tc(fresh, TimeCriticalOptions{});
+  TimeCriticalFrame report;
+  const Image full = tc.full_quality(camera, tf, settings, &report);
+  EXPECT_LE(fresh.atlas_budget_bricks(), 40u);
+  EXPECT_LE(report.visible_nodes, fresh.atlas_budget_bricks());
+  EXPECT_EQ(full.width, 48);
   ::unsetenv("UGVR_ATLAS_MAX_BYTES");
 }
 
