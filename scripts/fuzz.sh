@@ -179,6 +179,12 @@ seed fuzz_exodus "$data"/exodus-misc/box-noglom.ex2 "$data"/exodus-misc/mesh_fs8
 # CGNS: the shared ADF sample (1 MB, above seed()'s size cap: copied as it is).
 mkdir -p "$corpus/fuzz_cgns/seeds"
 if [ -f "$data"/cgns-sqnz/sqnz_s.adf.cgns ]; then cp "$data"/cgns-sqnz/sqnz_s.adf.cgns "$corpus/fuzz_cgns/seeds/"; fi
+# ... and small ones of every section layout, ADF and HDF5, written by libcgns (fuzz/cgns_seeds.c).
+seeds_bin=$(mktemp)
+if cc fuzz/cgns_seeds.c -o "$seeds_bin" -lcgns -lm 2>/dev/null; then
+  (cd "$corpus/fuzz_cgns/seeds" && "$seeds_bin")
+fi
+rm -f "$seeds_bin"
 /usr/bin/python3 - "$corpus/fuzz_nrrd/seeds" <<'PY'
 import gzip, os, struct, sys
 out = sys.argv[1]
