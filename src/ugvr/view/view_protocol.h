@@ -39,6 +39,9 @@
 //   binary: the frame, JPEG while moving or refining, PNG once converged (lossless)
 //   text {"type":"error", "message":"FIELD: what is wrong"}   a rejected message; the session goes on
 //   text {"type":"progress", ...}  the background build of a store (ProgressInfo); a new "scene" follows "ready"
+//   text {"type":"view", "camera":{...}, "tf":{"rgb_points":[...],"opacity_points":[...]}}   the server moved the
+//       tab's view (ViewServer::set_view; either part may be absent; also after hello, once one was set): the page
+//       takes it as its own and sends nothing back
 //   status also carries "engine", "ram_bytes", "ram_budget", "atlas_bytes", "atlas_budget", "pending_bricks"
 #pragma once
 
