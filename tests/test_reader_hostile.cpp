@@ -8,6 +8,7 @@
 //   - EnSight Gold: geometry files cut short (binary and ASCII), absurd counts and Fortran record markers.
 //   - OpenFOAM cases with truncated lists, absurd counts, face indices out of range, cut binary and gzip files.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdint>
@@ -533,6 +534,26 @@ TEST(HostileReaders, OpenFoamBadListsAreRefusedNamingFileAndLine) {
     SCOPED_TRACE(e);
     ASSERT_FALSE(e.empty()) << c.file;
     for (const std::string& x : c.expected) EXPECT_NE(e.find(x), std::string::npos) << x;
+  }
+}
+
+// A file larger than half of the machine's memory is refused with advice before it is read (the reader holds a file
+// whole while parsing it). The file is sparse: no disk or memory is used.
+TEST(HostileReaders, OpenFoamFileLargerThanMemoryIsRefusedWithAdvice) {
+  ScratchDir dir;
+  const std::string root = openfoam_case_copy(dir, "cavity");
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  ASSERT_GT(pages, 0);
+  const std::string points = root + "/constant/polyMesh/points";
+  std::filesystem::resize_file(points, uint64_t(pages) * uint64_t(page) / 2 + (uint64_t(1) << 20));
+  try {
+    read_dataset(std::vector<std::string>{root});
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("points"), std::string::npos) << what;
+    EXPECT_NE(what.find("more than half of this machine's memory"), std::string::npos) << what;
+    EXPECT_NE(what.find("foamFormatConvert"), std::string::npos) << what;
   }
 }
 

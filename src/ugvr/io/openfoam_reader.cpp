@@ -10,6 +10,7 @@
 // cellZones become an Int32 cell field "cellZone" (the zone's index, -1 outside every zone).
 #include "ugvr/io/openfoam_reader.h"
 
+#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -20,6 +21,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
+#include "ugvr/core/memory.h"
 #include "ugvr/grid/dataset.h"
 #include "ugvr/grid/polyhedra.h"
 #include "ugvr/io/file_dataset.h"
@@ -34,6 +36,22 @@ namespace {
 // gzip output beyond this ratio to its input cannot come from deflate (whose limit is about 1032:1): the stream is
 // corrupt, and refusing it bounds the memory a hostile file can claim.
 constexpr uint64_t kMaxInflateRatio = 1032;
+
+// The reader holds one file whole while it parses it (it does not stream yet): a file, or a gzip file's inflated
+// text, larger than half of this machine's memory is refused with advice before anything is allocated for it.
+uint64_t file_memory_budget() {
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  if (pages <= 0 || page <= 0) return UINT64_MAX;
+  return uint64_t(pages) * uint64_t(page) / 2;
+}
+
+[[noreturn]] void fail_too_large(const std::string& name, const std::string& what, uint64_t bytes) {
+  fail_in(name, what + " " + format_bytes(bytes) + ", more than half of this machine's memory (" +
+                    format_bytes(2 * file_memory_budget()) +
+                    "): the OpenFOAM reader holds one file whole while it parses it. Write the case in binary "
+                    "(foamFormatConvert: about a third of ascii's size), decompose it (decomposePar: the processor "
+                    "files are read one at a time), or read it on a machine with more memory");
+}
 
 std::string inflate_gzip(const std::string& name, const std::string& in) {
   z_stream z{};
@@ -50,6 +68,8 @@ std::string inflate_gzip(const std::string& name, const std::string& in) {
   for (;;) {
     if (produced == out.size()) {
       if (out.size() >= limit) fail_in(name, "gzip data inflates to more than " + std::to_string(limit) + " bytes");
+      if (2 * out.size() > file_memory_budget())
+        fail_too_large(name, "gzip data inflates to more than", 2 * out.size());
       out.resize(std::min<uint64_t>(limit, 2 * out.size()));
     }
     z.next_out = reinterpret_cast<Bytef*>(out.data() + produced);
@@ -85,6 +105,7 @@ int components_of(std::string_view type) {
 
 FoamFile::FoamFile(const std::string& path) : name_(path) {
   const InputFile file(path);
+  if (file.size() > file_memory_budget()) fail_too_large(path, "is", file.size());
   text_ = file.read_all(uint64_t(1) << 40);
   if (text_.size() >= 2 && uint8_t(text_[0]) == 0x1f && uint8_t(text_[1]) == 0x8b) text_ = inflate_gzip(name_, text_);
   parse_header();
