@@ -8,6 +8,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <string>
 
 #include "ugvr/core/progress.h"
@@ -35,6 +37,28 @@ class MemFile {
 
  private:
   int fd_ = -1;
+};
+
+// The input as a real file at a per-process path (TMPDIR or /tmp), for readers whose library opens files by name
+// itself (netCDF, libcgns): a memfd's /proc path would not do for them. Removed on destruction.
+class PathFile {
+ public:
+  PathFile(const char* name, const char* extension, const uint8_t* data, size_t size) {
+    Progress::set_enabled(false);
+    const char* dir = std::getenv("TMPDIR");
+    path_ = std::string(dir && *dir ? dir : "/tmp") + "/ugvr-fuzz-" + name + "-" + std::to_string(getpid()) + extension;
+    FILE* f = std::fopen(path_.c_str(), "wb");
+    if (!f) __builtin_trap();
+    if (size && std::fwrite(data, 1, size, f) != size) __builtin_trap();
+    std::fclose(f);
+  }
+  ~PathFile() { std::remove(path_.c_str()); }
+  PathFile(const PathFile&) = delete;
+  PathFile& operator=(const PathFile&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
 };
 
 // Reads every point a cell names and every field's range.

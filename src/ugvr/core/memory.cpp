@@ -13,6 +13,12 @@ uint64_t peak_rss_bytes() {
   return uint64_t(u.ru_maxrss) * 1024;
 }
 
+uint64_t physical_memory_bytes() {
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  if (pages <= 0 || page <= 0) return UINT64_MAX;
+  return uint64_t(pages) * uint64_t(page);
+}
+
 uint64_t current_rss_bytes() {
   unsigned long size = 0, resident = 0;
   if (FILE* f = std::fopen("/proc/self/statm", "r")) {

@@ -283,8 +283,6 @@ std::vector<NamedValues> read_solutions(const CgnsFile& f, int B, int Z, const Z
     for (size_t a = 0; a < arrays.size(); ++a) {
       if (arrays[a].type == Character) continue;
       NamedValues v{arrays[a].name, assoc, {}};
-      // re-enter the node: read_core reads array a of the current node
-      f.check(cg_goto(f.fn(), B, "Zone_t", Z, "FlowSolution_t", s, "end"), sol_where);
       v.values = read_core(f, int(a) + 1, arrays[a], core, shape.index_dim, rind, sol_where);
       ++name_uses[v.name];
       values.push_back(std::move(v));

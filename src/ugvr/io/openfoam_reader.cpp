@@ -10,10 +10,10 @@
 // cellZones become an Int32 cell field "cellZone" (the zone's index, -1 outside every zone).
 #include "ugvr/io/openfoam_reader.h"
 
-#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
+#include <bit>
 #include <charconv>
 #include <cstring>
 #include <filesystem>
@@ -24,6 +24,7 @@
 #include "ugvr/core/memory.h"
 #include "ugvr/grid/dataset.h"
 #include "ugvr/grid/polyhedra.h"
+#include "ugvr/io/byte_swap.h"
 #include "ugvr/io/file_dataset.h"
 #include "ugvr/io/reader.h"
 
@@ -39,11 +40,7 @@ constexpr uint64_t kMaxInflateRatio = 1032;
 
 // The reader holds one file whole while it parses it (it does not stream yet): a file, or a gzip file's inflated
 // text, larger than half of this machine's memory is refused with advice before anything is allocated for it.
-uint64_t file_memory_budget() {
-  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
-  if (pages <= 0 || page <= 0) return UINT64_MAX;
-  return uint64_t(pages) * uint64_t(page) / 2;
-}
+uint64_t file_memory_budget() { return physical_memory_bytes() / 2; }
 
 [[noreturn]] void fail_too_large(const std::string& name, const std::string& what, uint64_t bytes) {
   fail_in(name, what + " " + format_bytes(bytes) + ", more than half of this machine's memory (" +
@@ -220,32 +217,28 @@ std::string_view FoamFile::raw(uint64_t bytes, std::string_view what) {
   return s;
 }
 
-double FoamFile::binary_scalar(const char* p) const {
-  char b[8];
-  std::memcpy(b, p, size_t(header_.scalar_bytes));
-  if (header_.big_endian) std::reverse(b, b + header_.scalar_bytes);
-  if (header_.scalar_bytes == 4) {
-    float f;
-    std::memcpy(&f, b, 4);
-    return f;
-  }
-  double d;
-  std::memcpy(&d, b, 8);
-  return d;
-}
-
-int64_t FoamFile::binary_label(const char* p) const {
-  char b[8];
-  std::memcpy(b, p, size_t(header_.label_bytes));
-  if (header_.big_endian) std::reverse(b, b + header_.label_bytes);
-  if (header_.label_bytes == 4) {
-    int32_t v;
+// One stored number of `bytes` (4 or 8) in the file's byte order, as the type the header says (F4 or F8).
+template <class F4, class F8>
+static auto stored_number(const char* p, int bytes, bool big_endian) -> decltype(F8{}) {
+  std::byte b[8];
+  std::memcpy(b, p, size_t(bytes));
+  if (big_endian != (std::endian::native == std::endian::big)) swap_bytes(b, 1, size_t(bytes));
+  if (bytes == 4) {
+    F4 v;
     std::memcpy(&v, b, 4);
     return v;
   }
-  int64_t v;
+  F8 v;
   std::memcpy(&v, b, 8);
   return v;
+}
+
+double FoamFile::binary_scalar(const char* p) const {
+  return stored_number<float, double>(p, header_.scalar_bytes, header_.big_endian);
+}
+
+int64_t FoamFile::binary_label(const char* p) const {
+  return stored_number<int32_t, int64_t>(p, header_.label_bytes, header_.big_endian);
 }
 
 void FoamFile::parse_header() {

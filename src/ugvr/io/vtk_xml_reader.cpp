@@ -583,11 +583,7 @@ constexpr size_t kMaxPvtuPieces = size_t(1) << 16;
 // The memory budget a .pvtu's pieces are checked against before reading: the machine's physical memory. The mesh
 // read from a piece takes about as much memory as the piece's file (float64 points become float32, base64 shrinks
 // by 3/4, compressed arrays grow), so pieces whose files add up to more than the memory cannot be read.
-uint64_t pvtu_memory_budget() {
-  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
-  if (pages <= 0 || page <= 0) return UINT64_MAX;
-  return uint64_t(pages) * uint64_t(page);
-}
+uint64_t pvtu_memory_budget() { return physical_memory_bytes(); }
 
 // The piece files a .pvtu lists, checked before any is read: a sane count, no file listed twice (it would be read
 // twice into one mesh, with coincident cells), and their total size within the memory budget. Without this, a .pvtu
