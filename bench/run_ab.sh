@@ -53,7 +53,7 @@ for name in blunt-fin lox-post; do
           UGVR_SHADER_DIR=$shaders "$bin" --quiet render "${run[@]}" --camera "bench/results/exact-render/$name-camera.json" \
             --tf "bench/results/exact-render/$name-tf.json" --size "$size" --frames "$frames" -o "$scratch/$which.pfm" \
             --stats "$scratch/stats.json"
-          "$py" -c "import json; s=json.load(open('$scratch/stats.json')); print(json.dumps({'bench':'ab','build':'$which','engine':'$engine','dataset':'$name','size':$size,'round':$r,'median_frame_seconds':s['median_frame_seconds'],'median_frame_cpu_seconds':s.get('median_frame_cpu_seconds',0),'readback_seconds':s.get('readback_seconds',0),'renderer':s.get('renderer','CPU %d threads' % s['threads'])}, separators=(',',':')))" |
+          "$py" -c "import json; s=json.load(open('$scratch/stats.json')); print(json.dumps({'bench':'ab','build':'$which','engine':'$engine','dataset':'$name','size':$size,'round':$r,'median_frame_seconds':s['median_frame_seconds'],'median_frame_cpu_seconds':s.get('median_frame_cpu_seconds',0),'readback_seconds':s.get('readback_seconds',0),'gpu_timer_seconds':s.get('gpu_timer_seconds',0),'renderer':s.get('renderer','CPU %d threads' % s['threads'])}, separators=(',',':')))" |
             tee -a "$results"
         done
         cmp -s "$scratch/A.pfm" "$scratch/B.pfm" && same=yes || same=no
@@ -75,8 +75,14 @@ for key in sorted({scene(r) for r in rows}):
     # The process's CPU time per frame: on a machine shared with other work, steadier than the wall time.
     cpu = {w: statistics.median(r.get("median_frame_cpu_seconds", 0) for r in rows if scene(r) == key and r["build"] == w)
            for w in "AB"}
+    # The ray-casting dispatch by the device's own clock (last frame's GL timer query; lod only): the readback,
+    # which dominates a large frame's wall time on a GPU, left out.
+    gt = {w: statistics.median(r.get("gpu_timer_seconds", 0) for r in rows if scene(r) == key and r["build"] == w)
+          for w in "AB"}
     print(json.dumps({"bench": "ab_summary", "engine": key[0], "dataset": key[1], "size": key[2], "a_seconds": m["A"],
                       "b_seconds": m["B"], "b_over_a": m["B"] / m["A"], "a_cpu_seconds": cpu["A"], "b_cpu_seconds": cpu["B"],
-                      "cpu_b_over_a": cpu["B"] / cpu["A"] if cpu["A"] > 0 else 0, "a_readback": rb["A"], "b_readback": rb["B"]},
+                      "cpu_b_over_a": cpu["B"] / cpu["A"] if cpu["A"] > 0 else 0, "a_readback": rb["A"], "b_readback": rb["B"],
+                      "a_gpu_timer": gt["A"], "b_gpu_timer": gt["B"],
+                      "gpu_timer_b_over_a": gt["B"] / gt["A"] if gt["A"] > 0 else 0},
                      separators=(",", ":")))
 EOF
