@@ -1,12 +1,15 @@
 // The exact engine's time-step switch against loading the mesh again (issue 18).
-//   bench_time_switch INPUT... [--field NAME] [--rounds N]
+//   bench_time_switch INPUT... [--field NAME] [--rounds N] [--size PIXELS (256)]
 // INPUT is any time series (an Exodus file, a .pvd, a .series, a numbered pattern, PLOT3D grid + solutions). Times,
 // each the median over N rounds that walk the steps 0, 1, ..., n-1, 0, ...:
 //   reload   read the step, build the walk mesh, bind the field (what a viewer without series support does)
 //   switch   ExactScene::set_step: read the step, compare its geometry (fingerprint, unless the format says static),
 //            swap the field values on the walk mesh built once
 //   bind     the field swap alone (the step already in memory): ExactEngine::set_field
-// Prints one JSON line; `speedup` = reload / switch.
+//   playback set_step after ExactScene::prefetch of that step and a --size frame of the current one (what `ugvr render
+//            --time` does): the read overlaps the frame, the switch waits only for what is left of it
+// Prints one JSON line; `speedup` = reload / switch, `speedup_playback` = reload / playback, `speedup_bind` = reload /
+// bind.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -34,10 +37,12 @@ double median(std::vector<double> v) {
 int main(int argc, char** argv) {
   std::vector<std::string> inputs;
   std::string field;
-  int rounds = 5;
+  int rounds = 5, size = 256;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--field") && i + 1 < argc) {
       field = argv[++i];
+    } else if (!std::strcmp(argv[i], "--size") && i + 1 < argc) {
+      size = std::max(1, std::atoi(argv[++i]));
     } else if (!std::strcmp(argv[i], "--rounds") && i + 1 < argc) {
       rounds = std::max(1, std::atoi(argv[++i]));
     } else {
@@ -71,15 +76,33 @@ int main(int argc, char** argv) {
       scene.engine.set_field(*scene.dataset, scene.bound.value_or(field));
       bind.push_back(seconds_since(t1));
     }
-    const double m_reload = median(reload), m_switch = median(sw), m_bind = median(bind);
+    // Playback: prefetch the next step, render this one, then switch.
+    std::vector<double> playback, frame;
+    RenderSettings settings;
+    settings.width = settings.height = size;
+    const Camera camera = default_camera(scene.engine.bounds());
+    const TransferFunction tf =
+        default_transfer_function(scene.engine.field_min(), scene.engine.field_max(), scene.engine.bounds());
+    for (int r = 0; r < rounds; ++r) {
+      const uint32_t next = uint32_t((scene.step + 1) % n);
+      scene.prefetch(next);
+      const auto t0 = std::chrono::steady_clock::now();
+      (void)scene.engine.render(camera, tf, settings);
+      frame.push_back(seconds_since(t0));
+      const auto t1 = std::chrono::steady_clock::now();
+      scene.set_step(next);
+      playback.push_back(seconds_since(t1));
+    }
+    const double m_reload = median(reload), m_switch = median(sw), m_bind = median(bind), m_playback = median(playback);
     std::printf(
         "{\"bench\":\"time_switch\",\"input\":\"%s\",\"kind\":\"%s\",\"steps\":%zu,\"cells\":%llu,\"field\":\"%s\","
-        "\"geometry\":\"%s\",\"rounds\":%d,\"reload_seconds\":%.4f,\"switch_seconds\":%.4f,\"bind_seconds\":%.4f,"
-        "\"speedup\":%.1f,\"speedup_bind\":%.1f,\"rebuilds\":%llu,\"peak_rss_bytes\":%llu}\n",
+        "\"geometry\":\"%s\",\"rounds\":%d,\"reload_seconds\":%.6f,\"switch_seconds\":%.6f,\"bind_seconds\":%.6f,"
+        "\"playback_seconds\":%.6f,\"frame_seconds\":%.4f,\"frame_size\":%d,\"speedup\":%.1f,\"speedup_playback\":%.1f,"
+        "\"speedup_bind\":%.1f,\"rebuilds\":%llu,\"peak_rss_bytes\":%llu}\n",
         inputs[0].c_str(), std::string(series_kind_name(series->kind)).c_str(), n, (unsigned long long)cells,
         scene.engine.field_name().c_str(), series->geometry == SeriesGeometry::Static ? "static" : "detected", rounds,
-        m_reload, m_switch, m_bind, m_reload / m_switch, m_reload / m_bind, (unsigned long long)scene.rebuilds,
-        (unsigned long long)peak_rss_bytes());
+        m_reload, m_switch, m_bind, m_playback, median(frame), size, m_reload / m_switch, m_reload / m_playback,
+        m_reload / m_bind, (unsigned long long)scene.rebuilds, (unsigned long long)peak_rss_bytes());
   } catch (const Error& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 1;

@@ -63,6 +63,12 @@ void require_file(const std::string& collection, const std::string& entry, const
 bool is_pvd(const std::string& p) { return extension_lower(p) == ".pvd"; }
 bool is_series_json(const std::string& p) { return extension_lower(p) == ".series"; }
 
+// A pattern names files; a file that exists under that very name (a '%' or '*' in a real name) is itself.
+bool names_a_pattern(const std::string& path) {
+  std::error_code ec;
+  return is_series_pattern(path) && !fs::exists(path, ec);
+}
+
 // A file a step names must be one dataset, not another series (which would nest time axes).
 void refuse_nested(const std::string& collection, const std::string& entry, const std::string& path) {
   if (is_pvd(path) || is_series_json(path))
@@ -241,7 +247,7 @@ TimeSeries list_plot3d(std::span<const std::string> inputs) {
   s.source = inputs[0];
   s.geometry = SeriesGeometry::Static;
   s.geometry_reason = "one PLOT3D grid file for every solution";
-  if (inputs.size() == 2 && is_series_pattern(inputs[1])) {
+  if (inputs.size() == 2 && names_a_pattern(inputs[1])) {
     for (auto& [number, file] : numbered_files(inputs[1])) s.steps.push_back({double(number), {inputs[0], file}, -1});
     return s;
   }
@@ -322,15 +328,15 @@ bool is_series_pattern(std::string_view path) {
 
 bool is_series_input(std::span<const std::string> inputs) {
   if (inputs.size() > 2) return true;  // PLOT3D grid + several solutions
-  if (inputs.size() == 2) return is_series_pattern(inputs[1]);
+  if (inputs.size() == 2) return names_a_pattern(inputs[1]);
   if (inputs.size() != 1) return false;
-  return is_pvd(inputs[0]) || is_series_json(inputs[0]) || is_series_pattern(inputs[0]);
+  return is_pvd(inputs[0]) || is_series_json(inputs[0]) || names_a_pattern(inputs[0]);
 }
 
 TimeSeries list_time_steps(std::span<const std::string> inputs, const ReadOptions& read) {
   if (inputs.empty()) throw Error("no input file given");
   TimeSeries s;
-  if (inputs.size() > 2 || (inputs.size() == 2 && is_series_pattern(inputs[1]))) {
+  if (inputs.size() > 2 || (inputs.size() == 2 && names_a_pattern(inputs[1]))) {
     s = list_plot3d(inputs);
   } else if (inputs.size() == 2) {  // PLOT3D grid and one solution
     s.source = inputs[0];
@@ -339,7 +345,7 @@ TimeSeries list_time_steps(std::span<const std::string> inputs, const ReadOption
     s = list_pvd(inputs[0]);
   } else if (is_series_json(inputs[0])) {
     s = list_series_json(inputs[0]);
-  } else if (is_series_pattern(inputs[0])) {
+  } else if (names_a_pattern(inputs[0])) {
     s = list_numbered(inputs[0]);
   } else {
     const std::string& path = inputs[0];
