@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 
 #include "test_data.h"
@@ -397,6 +399,23 @@ TEST(TimeSeries, CliInfoAndRenderAGeneratedSeries) {
   r = test::run_ugvr("render " + pvd + " --time all");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.out.find("an output image is required (or --time with --out DIR)"), std::string::npos) << r.out;
+  // With ffmpeg on PATH the frames become DIR/movie.mp4 (a stand-in ffmpeg records its arguments and writes the file).
+  const std::string bin = dir.file("bin");
+  std::filesystem::create_directories(bin);
+  write_text(bin + "/ffmpeg",
+             "#!/bin/sh\necho \"$@\" > \"$(dirname \"$0\")/args\"\nfor a; do last=$a; done\n"
+             ": > \"$last\"\n");
+  std::filesystem::permissions(bin + "/ffmpeg", std::filesystem::perms::owner_all);
+  const std::string old_path = std::getenv("PATH") ? std::getenv("PATH") : "";
+  setenv("PATH", (bin + ":" + old_path).c_str(), 1);
+  r = test::run_ugvr("render " + pvd + " --time all --out " + out + " --size 16");
+  setenv("PATH", old_path.c_str(), 1);
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_TRUE(std::filesystem::exists(out + "/movie.mp4"));
+  std::ifstream args_file(bin + "/args");
+  const std::string args((std::istreambuf_iterator<char>(args_file)), std::istreambuf_iterator<char>());
+  EXPECT_NE(args.find(out + "/time_%05d.png"), std::string::npos) << args;
+  EXPECT_NE(args.find("-pix_fmt yuv420p"), std::string::npos) << args;
   // --time-step reads one step of any series.
   r = test::run_ugvr("render " + pvd + " --time-step 0 -o " + dir.file("one.png") + " --size 16");
   EXPECT_EQ(r.status, 0) << r.out;
