@@ -67,10 +67,12 @@ void ExactScene::set_step(uint32_t i, const ProgressCallback& progress) {
   const uint64_t fingerprint = read.fingerprint;
   const bool same = !detect || fingerprint == geometry;
   if (!same) {
-    // Another mesh: the GPU engine holds a reference to the old walk mesh, so it goes first and is remade after.
+    // Another mesh, built before anything is replaced (a failure leaves the scene on its step). The GPU engine holds a
+    // reference to the old walk mesh, so it goes before the swap and is remade on the new one.
+    ExactEngine built = build_engine(*next, progress);
     const bool had_gpu = gpu_engine != nullptr;
     gpu_engine.reset();
-    engine = build_engine(*next, progress);
+    engine = std::move(built);
     if (had_gpu) gpu_engine = std::make_unique<ExactGpuEngine>(engine.walk_mesh(), gpu_gl, gpu_options);
     geometry = fingerprint;
     ++rebuilds;
