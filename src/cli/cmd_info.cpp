@@ -6,6 +6,8 @@
 #include "cli/commands.h"
 #include "ugvr/core/error.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/time_series.h"
+#include "ugvr/io/time_series_report.h"
 #include "ugvr/report/dataset_report.h"
 #include "ugvr/report/store_report.h"
 #include "ugvr/store/brick_store.h"
@@ -15,16 +17,24 @@ namespace ugvr::cli {
 CLI::Option* add_input(CLI::App& cmd, std::vector<std::string>& inputs) {
   return cmd
       .add_option("INPUT", inputs,
-                  "Input file (.vtu .pvtu .vts .vti .vtr .vtk ...), an OpenFOAM case directory, or a PLOT3D grid file "
-                  "then its solution file")
+                  "Input file (.vtu .pvtu .vts .vti .vtr .vtk ...), an OpenFOAM case directory, a PLOT3D grid file "
+                  "then its solution file(s), or a time series: NAME.pvd, NAME.series, or a numbered pattern "
+                  "'flow_%04d.vtu' / 'flow_*.vtu' (quoted; docs/time-series.md)")
       ->required()
-      ->expected(1, 2)
-      ->check(CLI::ExistingPath);
+      ->expected(1, 1 << 20)
+      ->check(CLI::Validator(
+          [](std::string& path) {
+            std::error_code ec;
+            if (std::filesystem::exists(path, ec) || is_series_pattern(path)) return std::string();
+            return "Path does not exist: " + path;
+          },
+          "PATH"));
 }
 
 void add_read_options(CLI::App& cmd, ReadOptions& o) {
   cmd.add_option("--time-step", o.time_step,
-                 "Exodus, CGNS, EnSight, OpenFOAM: time step (OpenFOAM: time directory) to read (0-based; -1 = last)")
+                 "Time series (Exodus, .pvd, .series, numbered files, PLOT3D solutions, CGNS, EnSight, OpenFOAM "
+                 "time directories): the step to read (0-based; -1 = last; `ugvr info` lists them)")
       ->default_val(-1);
   cmd.add_option("--raw-dims", o.raw.dims, "Raw volume: point dimensions NX NY NZ");
   cmd.add_option("--raw-type", o.raw.type, "Raw volume: value type")
@@ -94,11 +104,16 @@ void register_info(CLI::App& app) {
     const auto t0 = std::chrono::steady_clock::now();
     const Dataset ds = read_dataset(opts->inputs, opts->read);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const nlohmann::json report = dataset_report(ds, seconds, {.topology = opts->topology});
-    if (opts->json)
+    nlohmann::json report = dataset_report(ds, seconds, {.topology = opts->topology});
+    // The time axis: listed from headers and directories, not read (a single file is one step, not shown).
+    const TimeSeries series = list_time_steps(opts->inputs, opts->read);
+    if (series.kind != SeriesKind::Single) report["time"] = time_series_json(series);
+    if (opts->json) {
       std::printf("%s\n", report.dump(2).c_str());
-    else
+    } else {
       std::fputs(format_report_text(report).c_str(), stdout);
+      if (report.contains("time")) std::fputs(format_time_series_text(report["time"]).c_str(), stdout);
+    }
   });
 }
 

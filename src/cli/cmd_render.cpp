@@ -3,11 +3,13 @@
 // caster (a mesh) or the level-of-detail GPU ray caster (a brick store written by `ugvr build`).
 #include <tbb/global_control.h>
 #include <tbb/task_arena.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <functional>
@@ -24,6 +26,8 @@
 #include "ugvr/core/memory.h"
 #include "ugvr/core/progress.h"
 #include "ugvr/core/threads.h"
+#include "ugvr/io/time_series.h"
+#include "ugvr/octree/input.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/camera_path.h"
 #include "ugvr/render/image.h"
@@ -150,11 +154,131 @@ void render_frames_along_path(const Options& o, Renderer& renderer, FrameRequest
                path.empty() ? 0.0 : error_sum / double(path.size()), renderer.device().c_str());
 }
 
+// --time: the exact engine over a series, showing `step` first; the default field as open_renderer_default_field's.
+std::unique_ptr<Renderer> open_series_renderer(const std::shared_ptr<ExactScene>& scene, RendererOptions ro) {
+  if (ro.field.empty() && !scene->dataset->blocks.empty()) {
+    const std::vector<std::string> names = default_field_names(scene->dataset->blocks[0], 1);
+    if (!names.empty()) ro.field = names[0];
+  }
+  return make_renderer(scene, ro);
+}
+
+bool ffmpeg_on_path() {
+  const char* path = std::getenv("PATH");
+  for (std::string_view rest = path ? path : ""; !rest.empty();) {
+    const size_t colon = rest.find(':');
+    const std::string dir(rest.substr(0, colon));
+    if (!dir.empty() && access((dir + "/ffmpeg").c_str(), X_OK) == 0) return true;
+    rest = colon == std::string_view::npos ? std::string_view() : rest.substr(colon + 1);
+  }
+  return false;
+}
+
+std::string shell_quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+// --time: one image per selected step into --out (time_NNNNN.png, numbered by frame so that ffmpeg reads them in
+// order), DIR/steps.json (step, time, range, switch and frame seconds), and DIR/movie.mp4 when ffmpeg is there. The
+// colour range is global over the rendered steps (a first pass reading one step at a time) unless `per_step`.
+void render_time_steps(const Options& o, Renderer& renderer, ExactScene& scene, const std::vector<uint32_t>& steps,
+                       FrameRequest request, bool global_range, bool per_step) {
+  const TimeSeries& series = *scene.series;
+  std::filesystem::create_directories(o.out_dir);
+  const std::string selector = request.settings.field;
+  if (global_range) {
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    Progress progress("range over steps", steps.size());
+    for (size_t k = 0; k < steps.size(); ++k) {
+      Dataset other;
+      if (steps[k] != scene.step) other = read_time_step(series, steps[k]);
+      for (const Block& b : (steps[k] == scene.step ? *scene.dataset : other).blocks) {
+        const ScalarRef r = b.fields.scalar(selector);
+        const Range range = r.field->range(r.component);
+        lo = std::min(lo, range.min), hi = std::max(hi, range.max);
+      }
+      progress.set(k + 1);
+    }
+    if (std::isfinite(lo) && std::isfinite(hi) && lo < hi) request.tf.rescale(lo, hi);
+  }
+  nlohmann::json list = nlohmann::json::array();
+  std::vector<double> switch_seconds, frame_seconds;
+  Image image;
+  Progress progress("steps", steps.size());
+  for (size_t k = 0; k < steps.size(); ++k) {
+    const uint64_t changes = scene.swaps + scene.rebuilds;
+    scene.set_step(steps[k]);  // before render (which would switch too) so that a per-step range can be read
+    const bool switched = scene.swaps + scene.rebuilds != changes;
+    if (k + 1 < steps.size()) scene.prefetch(steps[k + 1]);  // read while this step renders
+    const FieldRange range = renderer.field_range();
+    if (per_step && std::isfinite(range.min) && std::isfinite(range.max) && range.min < range.max)
+      request.tf.rescale(range.min, range.max);
+    request.time_step = steps[k];
+    Frame f = renderer.render(request);
+    char name[32];
+    std::snprintf(name, sizeof name, "/time_%05zu.png", k);
+    write_png(o.out_dir + name, f.image);
+    if (switched) switch_seconds.push_back(scene.last_switch_seconds);
+    frame_seconds.push_back(f.stats.seconds);
+    list.push_back({{"frame", k},
+                    {"image", name + 1},
+                    {"step", steps[k]},
+                    {"time", series.steps[steps[k]].time},
+                    {"field_range", {range.min, range.max}},
+                    {"tf_range", {request.tf.range_min(), request.tf.range_max()}},
+                    {"switch_seconds", switched ? scene.last_switch_seconds : 0.0},
+                    {"rebuilt", switched && scene.last_switch_rebuilt},
+                    {"frame_seconds", f.stats.seconds}});
+    image = std::move(f.image);
+    progress.set(k + 1);
+  }
+  nlohmann::json j = {{"input", series.source},
+                      {"kind", std::string(series_kind_name(series.kind))},
+                      {"field", renderer.field_name()},
+                      {"range", per_step       ? "per-step"
+                                : global_range ? "global"
+                                               : "given"},
+                      {"median_switch_seconds", median(switch_seconds)},
+                      {"median_frame_seconds", median(frame_seconds)},
+                      {"steps", list}};
+  renderer.describe(j);
+  write_json_file(o.out_dir + "/steps.json", j);
+  if (!o.stats.empty()) write_json_file(o.stats, j);
+  if (!o.output.empty()) write_image(o.output, image);
+  bool movie = false;
+  if (steps.size() > 1 && ffmpeg_on_path()) {
+    // Even sizes for yuv420p; 10 steps a second.
+    const std::string cmd = "ffmpeg -loglevel error -y -framerate 10 -i " + shell_quote(o.out_dir + "/time_%05d.png") +
+                            " -vf 'pad=ceil(iw/2)*2:ceil(ih/2)*2' -pix_fmt yuv420p " +
+                            shell_quote(o.out_dir + "/movie.mp4");
+    movie = std::system(cmd.c_str()) == 0;
+    if (!movie) std::fprintf(stderr, "warning: ffmpeg failed; the images are in %s\n", o.out_dir.c_str());
+  }
+  if (Progress::enabled())
+    std::fprintf(stderr,
+                 "rendered %zu steps of %s into %s%s: field %s, step switch median %.4f s (%llu field swaps, %llu "
+                 "walk-mesh rebuilds), frame median %.3f s\n",
+                 steps.size(), series.source.c_str(), o.out_dir.c_str(), movie ? " (and movie.mp4)" : "",
+                 renderer.field_name().c_str(), median(switch_seconds), (unsigned long long)scene.swaps,
+                 (unsigned long long)scene.rebuilds, median(frame_seconds));
+}
+
 void run_render(const Options& o) {
   // Everything that can be checked without the data is checked first, so a typo fails in milliseconds.
   if (std::find(engine_names().begin(), engine_names().end(), o.engine) == engine_names().end())
     fail_flag("--engine", "unknown engine \"" + o.engine + "\" (valid: " + join(engine_names()) + ")");
-  check_extension(o.output, "-o", {".png", ".pfm"});
+  const bool timed = !o.time.empty();
+  if (o.output.empty() && !(timed && !o.out_dir.empty()))
+    fail_flag("-o", "an output image is required (or --time with --out DIR)");
+  if (!o.output.empty()) check_extension(o.output, "-o", {".png", ".pfm"});
+  if (timed && o.out_dir.empty()) fail_flag("--time", "needs --out DIR for the steps' images");
+  if (timed && (!o.path.empty() || !o.fps.empty())) fail_flag("--time", "cannot be combined with --path or --fps");
+  if (timed && (o.engine == "lod" || (o.inputs.size() == 1 && is_brick_store(o.inputs[0]))))
+    fail_flag("--time", "renders a series with the exact engine (a store holds one step)");
+  const bool per_step = o.range == "per-step";
+  if (per_step && !timed) fail_flag("--range", "per-step needs --time");
   if (!o.float_output.empty()) check_extension(o.float_output, "--float", {".pfm"});
   if (!o.camera.empty() && !o.view.empty()) fail_flag("--view", "cannot be combined with --camera");
   if (!o.view.empty() && std::find(kViews.begin(), kViews.end(), o.view) == kViews.end())
@@ -177,7 +301,7 @@ void run_render(const Options& o) {
     tf = with_flag("--tf", [&] { return builtin_preset(o.tf.empty() ? "viridis" : o.tf); });
   }
   std::optional<std::pair<double, double>> range;
-  if (!o.range.empty()) {
+  if (!o.range.empty() && !per_step) {
     const std::vector<double> r = parse_list(o.range, "--range", 2, 2, "MIN,MAX");
     if (!(r[0] < r[1])) fail_flag("--range", "MIN must be less than MAX");
     range = {r[0], r[1]};
@@ -197,8 +321,18 @@ void run_render(const Options& o) {
   const double fps = target_fps(o);
   RendererOptions ro = renderer_options(o, settings);
   OpenedInput opened;
-  std::unique_ptr<Renderer> renderer =
-      flag_errors([&] { return open_renderer_default_field(o.inputs, o.read, ro, &opened); });
+  std::shared_ptr<ExactScene> time_scene;
+  std::vector<uint32_t> steps;
+  if (timed) {
+    auto series = std::make_shared<const TimeSeries>(list_time_steps(o.inputs, o.read));
+    steps = parse_step_selection(o.time, series->size(), "--time");
+    time_scene = std::make_shared<ExactScene>(std::move(series), steps[0], ro.progress);
+    opened.warnings = time_scene->dataset->warnings;
+  }
+  std::unique_ptr<Renderer> renderer = flag_errors([&] {
+    return time_scene ? open_series_renderer(time_scene, ro)
+                      : open_renderer_default_field(o.inputs, o.read, ro, &opened);
+  });
   for (const std::string& w : opened.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   // Recorded in --stats so the settings reproduce the image; a selector the user gave ("velocity:x") is kept as is.
   const bool default_field = settings.field.empty();
@@ -238,6 +372,10 @@ void run_render(const Options& o) {
   request.tf = tf;
   request.settings = settings;
   request.target_fps = fps;
+  if (timed) {
+    render_time_steps(o, *renderer, *time_scene, steps, request, !range && !o.keep_range && !per_step, per_step);
+    return;
+  }
   if (ro.interactive) {
     render_frames_along_path(o, *renderer, request);
     return;

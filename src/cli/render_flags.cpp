@@ -139,7 +139,14 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
   RenderOptions* opts = &o;
   add_input(*cmd, opts->inputs);
   add_read_options(*cmd, opts->read);
-  cmd->add_option("-o,--output", opts->output, "Output image (.png or .pfm)")->required()->type_name("FILE");
+  cmd->add_option("-o,--output", opts->output, "Output image (.png or .pfm; required unless --time writes to --out)")
+      ->type_name("FILE");
+  cmd->add_option("--time", opts->time,
+                  "exact, a time series: render steps all|N|A:B[:S] (inclusive, stride S) as --out DIR/time_NNNNN.png "
+                  "(and DIR/steps.json, and DIR/movie.mp4 when ffmpeg is on PATH: skipped quietly otherwise); the "
+                  "walk mesh is built once for a static mesh; colour range global over these steps unless --range "
+                  "per-step or MIN,MAX")
+      ->type_name("SPEC");
   cmd->add_option("--size", opts->size, "Image size: N (square) or WxH (default 512, or from --settings)")
       ->type_name("N|WxH");
   cmd->add_option("--engine", opts->engine,
@@ -172,7 +179,9 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
                   "frames at the start) or a JSON list of cameras (one frame each, or keyframes resampled to --frames "
                   "frames); --stats then writes one JSON line per frame")
       ->type_name("SPEC|FILE");
-  cmd->add_option("--out", opts->out_dir, "lod: write every frame of --path as DIR/frame_NNNNN.png")->type_name("DIR");
+  cmd->add_option("--out", opts->out_dir,
+                  "lod: write every frame of --path as DIR/frame_NNNNN.png; --time: the directory of the steps' images")
+      ->type_name("DIR");
   cmd->add_option("--uploads-per-frame", opts->uploads_per_frame, "lod: bricks uploaded to the GPU per frame (64)")
       ->type_name("N");
   cmd->add_option("--error-weight", opts->error_weight,
@@ -195,8 +204,10 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
       ->type_name("NAME");
   cmd->add_flag("--keep-range", opts->keep_range,
                 "Keep the transfer function's own scalar range instead of rescaling it to the field's range");
-  cmd->add_option("--range", opts->range, "Rescale the transfer function to MIN,MAX (default: the field's range)")
-      ->type_name("MIN,MAX");
+  cmd->add_option("--range", opts->range,
+                  "Rescale the transfer function to MIN,MAX (default: the field's range; with --time over all the "
+                  "steps rendered), or per-step (--time: each step's own range)")
+      ->type_name("MIN,MAX|per-step");
   cmd->add_option("--unit-distance", opts->unit_distance,
                   "Scalar opacity unit distance (default: the --tf file's ScalarOpacityUnitDistance, else the "
                   "bounds diagonal / 10, so that the inside shows; ParaView uses the mean cell size)")

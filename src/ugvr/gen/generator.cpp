@@ -194,7 +194,7 @@ struct FlowSample {
 
 class Model {
  public:
-  Model(const GeneratePlan& plan, uint64_t seed) : p_(plan) {
+  Model(const GeneratePlan& plan, uint64_t seed, double time) : p_(plan), time_(time) {
     c0_ = std::sqrt(kSemiChord * kSemiChord - kSemiThickness * kSemiThickness);
     mu0_ = std::atanh(kSemiThickness / kSemiChord);
     cosh0_ = std::cosh(mu0_);
@@ -312,6 +312,7 @@ class Model {
   std::vector<double> z_, scale_, shift_;                    // per k
   std::vector<Wave> waves_;
   double shedding_phase_ = 0;
+  double time_ = 0;
 };
 
 FlowSample Model::flow(uint32_t i, uint32_t j, uint32_t k) const {
@@ -360,7 +361,8 @@ FlowSample Model::flow(uint32_t i, uint32_t j, uint32_t k) const {
   // after formation and decay downstream. A Gaussian vortex's influence is below 1e-9 of its peak beyond
   // sqrt(20) core radii, so only the vortices that near are summed (the cut is invisible in float output).
   const double spacing = 1.0 * s, xi_s = 0.5 * spacing;
-  const double phase = shedding_phase_ + 1.2 * z;
+  // Time moves every vortex downstream: a phase step of 2 is one pair spacing, so one unit of time is one period.
+  const double phase = shedding_phase_ + 1.2 * z - 2 * time_;
   const double reach = std::sqrt(20.0) * 0.2 * spacing * (1 + 0.04 * kFarField);
   double u_xi = 0, u_eta = 0, cp_v = 0;
   if (xi > xi_s - spacing - reach && std::abs(eta) < 0.15 * spacing * (1 + 0.05 * kFarField) + reach) {
@@ -611,7 +613,7 @@ GenerateStats generate_dataset(const GenerateOptions& options, const std::string
   GenerateStats stats;
   stats.plan = plan_generation(options);
   const GeneratePlan& p = stats.plan;
-  const Model model(p, options.seed);
+  const Model model(p, options.seed, options.time);
   const ScalarType index_type = vtu_connectivity_type(p.points);
   const std::vector<VtuArraySpec> specs = array_specs(p, index_type);
   uint64_t total_bytes = 0;
@@ -638,7 +640,7 @@ Dataset generate_in_memory(const GenerateOptions& options) {
     throw Error("generate: " + std::to_string(p.cells) + " cells is too many to build in memory (at most " +
                 std::to_string(kMaxInMemoryCells) + ")");
   }
-  const Model model(p, options.seed);
+  const Model model(p, options.seed, options.time);
   std::array<std::vector<std::byte>, kArrayCount> arrays;
   const Context ctx{p, model, RowIndex(p), [&](size_t a, std::span<const std::byte> bytes) {
                       arrays[a].insert(arrays[a].end(), bytes.begin(), bytes.end());

@@ -55,7 +55,10 @@ std::optional<GenCellKind> parse_gen_cell_kind(std::string_view name);
 struct GenerateOptions {
   uint64_t cells = 1'000'000;  // target number of output cells; the result is within a few % (exact dims: the plan)
   GenCellKind kind = GenCellKind::Hex;
-  uint64_t seed = 1;          // phases and directions of the fluctuations, phase of the vortex street
+  uint64_t seed = 1;  // phases and directions of the fluctuations, phase of the vortex street
+  // Time in shedding periods: the vortex street moves downstream by one vortex pair (a period) per unit, forming at
+  // the trailing edge and decaying downstream as it goes; the rest of the flow is steady. Same grid at any time.
+  double time = 0;
   Codec codec = Codec::None;  // compression of the .vtu appended data
   int level = 0;              // codec level, <= 0 for the codec's default
 };

@@ -32,6 +32,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/grid/polyhedra.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/step_lists.h"
 
 namespace ugvr {
 
@@ -531,6 +532,55 @@ Block read_unstructured_zone(const CgnsFile& f, int B, int Z, const std::string&
 }
 
 }  // namespace
+
+std::vector<double> list_cgns_times(const std::string& path) {
+  CgnsFile f(path);
+  int nbases = 0;
+  f.check(cg_nbases(f.fn(), &nbases), "bases");
+  for (int B = 1; B <= nbases; ++B) {
+    char base_name[33] = {};
+    int cell_dim = 0, phys_dim = 0, nzones = 0;
+    f.check(cg_base_read(f.fn(), B, base_name, &cell_dim, &phys_dim), "base " + std::to_string(B));
+    if (cell_dim != 3) continue;
+    f.check(cg_nzones(f.fn(), B, &nzones), base_name);
+    // The steps time_step indexes: the first zone's FlowSolutionPointers (solutions_to_read).
+    char iter_name[33] = {};
+    if (nzones < 1 || cg_ziter_read(f.fn(), B, 1, iter_name) != CG_OK) return {};
+    if (cg_goto(f.fn(), B, "Zone_t", 1, "ZoneIterativeData_t", 1, "end") != CG_OK) return {};
+    int narrays = 0;
+    if (cg_narrays(&narrays) != CG_OK) return {};
+    int64_t steps = 0;
+    for (int a = 1; a <= narrays && steps == 0; ++a) {
+      char name[33] = {};
+      DataType_t type;
+      int dim = 0;
+      cgsize_t extent[12] = {};
+      if (cg_array_info(a, name, &type, &dim, extent) == CG_OK && std::string(name) == "FlowSolutionPointers" &&
+          dim == 2 && extent[1] > 0)
+        steps = extent[1];
+    }
+    if (steps == 0) return {};
+    f.check_plausible(uint64_t(steps), std::string(base_name) + "/ZoneIterativeData/FlowSolutionPointers");
+    std::vector<double> times(static_cast<size_t>(steps));
+    for (size_t i = 0; i < times.size(); ++i) times[i] = double(i);
+    // The times: BaseIterativeData's TimeValues when it holds one per step, else the step index.
+    int nsteps = 0;
+    if (cg_biter_read(f.fn(), B, iter_name, &nsteps) == CG_OK && nsteps == steps &&
+        cg_goto(f.fn(), B, "BaseIterativeData_t", 1, "end") == CG_OK && cg_narrays(&narrays) == CG_OK) {
+      for (int a = 1; a <= narrays; ++a) {
+        char name[33] = {};
+        DataType_t type;
+        int dim = 0;
+        cgsize_t extent[12] = {};
+        if (cg_array_info(a, name, &type, &dim, extent) == CG_OK && std::string(name) == "TimeValues" && dim == 1 &&
+            extent[0] == steps && cg_array_read_as(a, RealDouble, times.data()) == CG_OK)
+          break;
+      }
+    }
+    return times;
+  }
+  return {};
+}
 
 Dataset read_cgns(const std::string& path, int64_t time_step) {
   CgnsFile f(path);

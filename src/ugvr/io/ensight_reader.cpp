@@ -62,6 +62,7 @@
 #include "ugvr/core/file.h"
 #include "ugvr/grid/polyhedra.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/step_lists.h"
 #include "ugvr/io/saturating_size.h"
 #include "ugvr/io/text_tokenizer.h"
 
@@ -1322,6 +1323,16 @@ Dataset read_ensight_sos(const std::string& path, int64_t time_step) {
 }
 
 }  // namespace
+
+std::vector<double> list_ensight_times(const std::string& path) {
+  // A .sos's servers share one time line, but finding their cases means parsing the .sos: not listed (one step).
+  if (extension_lower(path) == ".sos") return {};
+  const CaseFile c = parse_case(path);
+  const TimeSet* line = nullptr;  // the time set with the most steps, as EnsightCaseReader::choose_time
+  for (const auto& [id, t] : c.time_sets)
+    if (!line || t.times.size() > line->times.size()) line = &t;
+  return line ? line->times : std::vector<double>{};
+}
 
 Dataset read_ensight(const std::string& path, int64_t time_step) {
   if (extension_lower(path) == ".sos") return read_ensight_sos(path, time_step);

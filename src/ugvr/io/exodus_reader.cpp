@@ -51,6 +51,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/step_lists.h"
 
 namespace ugvr {
 namespace {
@@ -876,5 +877,14 @@ class ExodusReader {
 }  // namespace
 
 Dataset read_exodus(const std::string& path, int64_t time_step) { return ExodusReader(path, time_step).read(); }
+
+std::vector<double> list_exodus_times(const std::string& path) {
+  const NcFile nc(path);
+  const uint64_t steps = nc.dim_or("time_step", 0);
+  if (steps == 0) return {};
+  const int v = nc.require_var("time_whole", "the time values");
+  nc.expect_shape(v, "time_whole", {steps}, "(time_step)");
+  return nc.read_all<double>(v, "time_whole");
+}
 
 }  // namespace ugvr

@@ -27,6 +27,7 @@
 #include "ugvr/io/byte_swap.h"
 #include "ugvr/io/file_dataset.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/step_lists.h"
 
 namespace fs = std::filesystem;
 
@@ -746,17 +747,14 @@ std::string join_times(const std::vector<TimeDir>& times) {
   return s;
 }
 
-}  // namespace
-
-Dataset read_openfoam(const std::string& path, int64_t time_step) {
+// The case's root directory and its pieces: processorN/ in N order, or the case itself.
+std::vector<fs::path> case_piece_dirs(const std::string& path, fs::path& root) {
   std::error_code ec;
-  fs::path root(path);
+  root = fs::path(path);
   if (!fs::is_directory(root, ec)) {
     root = root.has_parent_path() ? root.parent_path() : fs::path(".");
     if (root.filename() == "system") root = root.has_parent_path() ? root.parent_path() : fs::path(".");
   }
-  const std::string case_name = fs::weakly_canonical(root, ec).filename().string();
-
   // The pieces: processorN/ in N order, or the case itself. processor*/ wins unless the case directory holds a
   // reconstructed mesh with at least as many time directories (after reconstructPar both exist and agree).
   std::vector<std::pair<uint64_t, fs::path>> processors;
@@ -780,6 +778,25 @@ Dataset read_openfoam(const std::string& path, int64_t time_step) {
     for (const auto& [k, p] : processors) piece_dirs.push_back(p);
   else
     piece_dirs.push_back(root);
+
+  return piece_dirs;
+}
+
+}  // namespace
+
+std::vector<double> list_openfoam_times(const std::string& path) {
+  fs::path root;
+  std::vector<double> out;
+  for (const TimeDir& t : time_dirs(case_piece_dirs(path, root)[0])) out.push_back(t.value);
+  return out;
+}
+
+Dataset read_openfoam(const std::string& path, int64_t time_step) {
+  fs::path root;
+  const std::vector<fs::path> piece_dirs = case_piece_dirs(path, root);
+  const bool decomposed = piece_dirs.front() != root;  // processor*/ pieces, not the case itself
+  std::error_code ec;
+  const std::string case_name = fs::weakly_canonical(root, ec).filename().string();
 
   std::vector<std::string> notes;
   const std::vector<TimeDir> times = time_dirs(piece_dirs[0]);

@@ -5,6 +5,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
 #include "ugvr/io/openfoam_reader.h"
+#include "ugvr/io/time_series.h"
 
 namespace ugvr {
 
@@ -69,6 +70,10 @@ InputFormat detect_format(std::span<const std::string> paths) {
 }
 
 Dataset read_dataset(std::span<const std::string> paths, const ReadOptions& options) {
+  if (is_series_input(paths)) {
+    const TimeSeries series = list_time_steps(paths, options);
+    return read_time_step(series, options.time_step < 0 ? series.size() - 1 : size_t(options.time_step));
+  }
   const InputFormat format = detect_format(paths);
   if (format != InputFormat::Plot3d && paths.size() > 1) {
     throw Error("two input files are only for PLOT3D (grid file, then solution file)");

@@ -29,7 +29,8 @@ void FrameStats::to_json(nlohmann::json& j) const {
 
 void check_supported(const FrameRequest& request, std::string_view engine) {
   if (request.time_step)
-    fail_in(std::string(engine) + " renderer", "time steps are not supported yet (one step is read per dataset)");
+    fail_in(std::string(engine) + " renderer",
+            "time steps are not supported yet (stores hold one step; the exact engine renders series)");
 }
 
 }  // namespace ugvr

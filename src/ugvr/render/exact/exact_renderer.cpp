@@ -3,6 +3,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
@@ -28,6 +29,67 @@ ExactEngine build_engine(const Dataset& dataset, const ProgressCallback& progres
 ExactScene::ExactScene(std::shared_ptr<const Dataset> data, const ProgressCallback& progress)
     : dataset(std::move(data)), engine(build_engine(*dataset, progress)) {}
 
+ExactScene::ExactScene(std::shared_ptr<const TimeSeries> s, uint32_t i, const ProgressCallback& progress)
+    : dataset(std::make_shared<const Dataset>(read_time_step(*s, i))),
+      engine(build_engine(*dataset, progress)),
+      series(std::move(s)),
+      step(i) {
+  if (series->geometry == SeriesGeometry::Detect) geometry = geometry_fingerprint(*dataset);
+}
+
+void ExactScene::prefetch(uint32_t i) {
+  if (!series || i >= series->size() || (ahead && ahead->first == i)) return;
+  if (ahead) ahead->second.wait();  // one read at a time
+  const std::shared_ptr<const TimeSeries> s = series;
+  ahead.emplace(i, std::async(std::launch::async, [s, i] {
+                  Prefetched p;
+                  p.dataset = std::make_shared<const Dataset>(read_time_step(*s, i));
+                  if (s->geometry == SeriesGeometry::Detect) p.fingerprint = geometry_fingerprint(*p.dataset);
+                  return p;
+                }));
+}
+
+void ExactScene::set_step(uint32_t i, const ProgressCallback& progress) {
+  if (!series) fail_in("exact engine", "a time step needs a time series (the input has one step)");
+  if (i == step) return;
+  const auto t0 = std::chrono::steady_clock::now();
+  const bool detect = series->geometry == SeriesGeometry::Detect;
+  Prefetched read;
+  if (ahead && ahead->first == i) {
+    auto f = std::move(ahead->second);
+    ahead.reset();
+    read = f.get();  // rethrows the read's error
+  } else {
+    read.dataset = std::make_shared<const Dataset>(read_time_step(*series, i));
+    if (detect) read.fingerprint = geometry_fingerprint(*read.dataset);
+  }
+  auto next = std::move(read.dataset);
+  const uint64_t fingerprint = read.fingerprint;
+  const bool same = !detect || fingerprint == geometry;
+  if (!same) {
+    // Another mesh, built before anything is replaced (a failure leaves the scene on its step). The GPU engine holds a
+    // reference to the old walk mesh, so it goes before the swap and is remade on the new one.
+    ExactEngine built = build_engine(*next, progress);
+    const bool had_gpu = gpu_engine != nullptr;
+    gpu_engine.reset();
+    engine = std::move(built);
+    if (had_gpu) gpu_engine = std::make_unique<ExactGpuEngine>(engine.walk_mesh(), gpu_gl, gpu_options);
+    geometry = fingerprint;
+    ++rebuilds;
+  } else {
+    ++swaps;
+  }
+  dataset = std::move(next);
+  step = i;
+  // The values come from the new step's dataset: rebind whatever was bound.
+  const std::optional<std::string> selector = bound;
+  bound.reset();
+  gpu_bound.reset();
+  if (selector) bind(*selector);
+  last_switch_rebuilt = !same;
+  last_switch_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 void ExactScene::bind(const std::string& selector) {
   if (bound && *bound == selector) return;
   engine.set_field(*dataset, selector);
@@ -36,7 +98,9 @@ void ExactScene::bind(const std::string& selector) {
 
 ExactGpuEngine& ExactScene::gpu(std::shared_ptr<const GlContext> gl, const ExactGpuOptions& options) {
   if (!gpu_engine) {
-    gpu_engine = std::make_unique<ExactGpuEngine>(engine.walk_mesh(), std::move(gl), options);
+    gpu_engine = std::make_unique<ExactGpuEngine>(engine.walk_mesh(), gl, options);
+    gpu_gl = std::move(gl);
+    gpu_options = options;
     gpu_bound.reset();
   }
   return *gpu_engine;
@@ -103,11 +167,11 @@ FieldRange ExactRenderer::field_range() const {
 Bounds ExactRenderer::bounds() const { return scene_->engine.bounds(); }
 
 Frame ExactRenderer::render(const FrameRequest& request) {
-  check_supported(request, "exact");
+  if (request.time_step) scene_->set_step(*request.time_step);
   if (request.settings.field != field_) set_field(request.settings.field);
   scene_->bind(field_);
-  const bool resting =
-      last_ && last_->camera == request.camera && last_->tf == request.tf && last_->settings == request.settings;
+  const bool resting = last_ && last_->camera == request.camera && last_->tf == request.tf &&
+                       last_->settings == request.settings && last_->time_step == request.time_step;
   last_ = request;
   const bool full = request.target_fps <= 0 || resting || request.full_quality;
   const int w = request.settings.width, h = request.settings.height;
@@ -153,6 +217,12 @@ void ExactRenderer::describe(nlohmann::json& j) const {
   j["engine_bytes"] = e.memory_bytes();
   j["engine_bytes_per_cell"] = cells ? double(e.memory_bytes()) / double(cells) : 0.0;
   j["device"] = device();
+  if (scene_->series) {
+    j["time_steps"] = scene_->series->size();
+    j["time_step"] = scene_->step;
+    j["time_step_swaps"] = scene_->swaps;
+    j["time_step_rebuilds"] = scene_->rebuilds;
+  }
   if (!on_gpu_ && !scene_->gpu_unavailable.empty()) j["gpu_unavailable"] = scene_->gpu_unavailable;
   if (on_gpu_) {
     const ExactGpuEngine& g = *scene_->gpu_engine;

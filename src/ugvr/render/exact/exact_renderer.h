@@ -4,16 +4,24 @@
 // own, with its own adaptive image scale, over one walk mesh. The scene's engine binds one field at a time; a
 // renderer binds the field its request names before drawing, so tabs on different fields take turns.
 //
+// Time series (io/time_series.h): a scene made from a series shows one step at a time. FrameRequest::time_step switches
+// it: the step is read, and when its geometry is the mesh's (known static by the format, or equal geometry
+// fingerprints) only the field values are swapped on the walk mesh built once; a step with other geometry rebuilds the
+// walk mesh (and the GPU engine's copy). A scene without a series rejects a time step.
+//
 // Interactive (a request with target_fps > 0): while the view moves, frames are drawn at a reduced scale that follows
 // the frame-rate target (sqrt(target time / measured time), damped, in [0.1, 1]) and magnified; the frame after the
 // view comes to rest, or one asked for at full quality, is the full-size exact image (converged).
 #pragma once
+#include <future>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "ugvr/gpu/gl_context.h"
 #include "ugvr/grid/dataset.h"
+#include "ugvr/io/time_series.h"
 #include "ugvr/render/exact/exact_engine.h"
 #include "ugvr/render/exact/exact_gpu_engine.h"
 #include "ugvr/render/renderer.h"
@@ -23,15 +31,40 @@ namespace ugvr {
 struct ExactScene {
   // Builds the walk mesh (seconds for millions of cells); `progress` sees the stage and may cancel.
   explicit ExactScene(std::shared_ptr<const Dataset> dataset, const ProgressCallback& progress = {});
+  // The scene of a series, showing step `step` (read here).
+  ExactScene(std::shared_ptr<const TimeSeries> series, uint32_t step, const ProgressCallback& progress = {});
   std::shared_ptr<const Dataset> dataset;
   ExactEngine engine;
   std::optional<std::string> bound;  // the selector bound now
   void bind(const std::string& selector);
 
+  // The series and the step shown (null: one dataset, no time axis).
+  std::shared_ptr<const TimeSeries> series;
+  uint32_t step = 0;
+  uint64_t geometry = 0;  // geometry_fingerprint of the dataset (computed only where the series must detect it)
+  // What the step switches did: field swaps on the same walk mesh, walk-mesh rebuilds, and the last switch's seconds
+  // (reading the step included) and whether it rebuilt.
+  uint64_t swaps = 0, rebuilds = 0;
+  double last_switch_seconds = 0;
+  bool last_switch_rebuilt = false;
+  // Shows step `i` (no-op when shown); throws ugvr::Error without a series or for a step out of range.
+  void set_step(uint32_t i, const ProgressCallback& progress = {});
+  // Reads step `i` (and its geometry fingerprint) on another thread, so that set_step(i) finds it read: playback reads
+  // the next step while this one renders. One step ahead; another prefetch waits for this one first. A read error
+  // surfaces in set_step(i).
+  void prefetch(uint32_t i);
+  struct Prefetched {
+    std::shared_ptr<const Dataset> dataset;
+    uint64_t fingerprint = 0;
+  };
+  std::optional<std::pair<uint32_t, std::future<Prefetched>>> ahead;
+
   // The GPU engine over the same walk mesh, made on first use; its field follows the CPU engine's binding.
   std::unique_ptr<ExactGpuEngine> gpu_engine;
-  std::optional<std::string> gpu_bound;  // the selector whose values the GPU holds
-  std::string gpu_unavailable;           // why `--device auto` stayed on the CPU (empty: it did not try)
+  std::optional<std::string> gpu_bound;     // the selector whose values the GPU holds
+  std::string gpu_unavailable;              // why `--device auto` stayed on the CPU (empty: it did not try)
+  std::shared_ptr<const GlContext> gpu_gl;  // what the GPU engine was made with, to remake it for a new mesh
+  ExactGpuOptions gpu_options;
   // Makes the GPU engine on `gl` (throws ugvr::Error when the mesh does not fit or GL fails).
   ExactGpuEngine& gpu(std::shared_ptr<const GlContext> gl, const ExactGpuOptions& options);
   // `--device auto`: the GPU engine on `gl` when it is hardware and the mesh fits there (llvmpipe is slower than the
