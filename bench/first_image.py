@@ -40,9 +40,9 @@ def main():
     ap.add_argument("store")
     ap.add_argument("--wait", type=float, default=0, help="seconds to wait for the store after the first image")
     ap.add_argument("--timeout", type=float, default=900)
-    ap.add_argument("flags", nargs=argparse.REMAINDER)
-    args = ap.parse_args()
-    flags = [f for f in args.flags if f != "--"]
+    argv = sys.argv[1:]
+    flags = argv[argv.index("--") + 1:] if "--" in argv else []
+    args = ap.parse_args(argv[:argv.index("--")] if "--" in argv else argv)
     for p in (args.store, args.store + ".lock"):
         if os.path.exists(p):
             os.remove(p)
@@ -51,6 +51,7 @@ def main():
     server = subprocess.Popen([args.ugvr, "view", args.mesh, "--store", args.store, "--port", "0"] + flags,
                               stdout=subprocess.PIPE, stderr=log, text=True)
     out = {"bench": "first_image", "mesh": os.path.basename(args.mesh), "flags": " ".join(flags)}
+    seen = {}
     try:
         line = server.stdout.readline()
         out["url_s"] = round(time.monotonic() - start, 3)
@@ -60,7 +61,7 @@ def main():
         ws = WebSocket(m.group(1), int(m.group(2)), "/ws")
         ws.sock.settimeout(args.timeout)
         ws.send_json({"type": "hello", "width": 512, "height": 512})
-        seen, first, ready, last_status = {}, None, None, {}
+        first, ready, last_status = None, None, {}
         while True:
             text, data = ws.recv()
             now = round(time.monotonic() - start, 3)
@@ -89,9 +90,11 @@ def main():
                         break
             if first is not None and now - first > args.wait:
                 break
+    except BaseException as e:  # what was measured so far is still worth printing (Ctrl-C included)
+        out["error"] = repr(e)
+    finally:
         out["progress_first_seen_s"] = seen
         out["peak_rss_bytes"] = hwm(server.pid)
-    finally:
         server.terminate()
         server.wait(timeout=120)
     print(json.dumps(out))
