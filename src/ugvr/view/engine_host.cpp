@@ -92,8 +92,9 @@ std::optional<EngineHost::LoadReport> EngineHost::poll_load() {
   switch (st.stage) {
     case GridLoad::Stage::Reading: r.progress = {"read", st.label, st.fraction, note + "reading the grid"}; return r;
     case GridLoad::Stage::Failed:
-      if (build_) {
-        // The store's build goes on: the viewer shows the store when it is done, without the exact engine.
+      if (build_ || lod_) {
+        // The store's build goes on (or its store is shown already): the viewer shows the store, without the exact
+        // engine.
         notice_ = note + "no exact preview (" + st.error + ")";
         load_.reset();
         return std::nullopt;
