@@ -70,7 +70,7 @@ def main():
                     first = now
                     out["first_image_s"] = first
                     out["first_image_engine"] = last_status.get("engine")
-                    if args.wait <= 0:
+                    if args.wait <= 0 or ready is not None:  # the store was shown first (the out-of-core path)
                         break
                 if first is not None and now - first > args.wait:
                     break
