@@ -81,7 +81,12 @@ class WebSocket:
             op = b0 & 0x0F
             if op == 8:
                 raise RuntimeError("server closed the socket")
-            if op in (9, 10):  # ping / pong: not expected from this server; skip
+            if op == 9:  # ping: the server's keep-alive (Beast closes a socket idle 300 s without a pong)
+                mask = os.urandom(4)
+                self.sock.sendall(bytes([0x8A, 0x80 | len(data)]) + mask +
+                                  bytes(b ^ mask[i & 3] for i, b in enumerate(data)))
+                continue
+            if op == 10:
                 continue
             if op != 0:
                 opcode = op

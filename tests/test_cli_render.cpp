@@ -258,6 +258,49 @@ TEST_F(CliRender, LodEngineRendersABrickStore) {
   EXPECT_NE(m.out.find(".ugvr"), std::string::npos) << m.out;
 }
 
+// --time-budget S (issue 24): one still image from what fits in S seconds, reading included, and --stats says what
+// was drawn. With time to spare the exact image is the one without a budget; with none, the probe's small image,
+// magnified to the requested size; a store's cut is refined frame by frame.
+TEST_F(CliRender, EngineTimeBudgetDrawsWhatFitsAndSaysWhat) {
+  const std::string view = " --size 128x96 --view iso";
+  render_ok("-o " + file("plain.pfm") + view);
+  render_ok("-o " + file("ample.pfm") + view + " --time-budget 300 --stats " + file("ample.json"));
+  const json ample = json::parse(read_bytes(file("ample.json")));
+  EXPECT_EQ(ample["time_budget"]["drew"], "exact image at full size") << ample["time_budget"].dump();
+  EXPECT_EQ(ample["time_budget"]["scale"], 1.0);
+  EXPECT_EQ(ample["time_budget"]["within_budget"], true);
+  EXPECT_EQ(read_bytes(file("ample.pfm")), read_bytes(file("plain.pfm"))) << "the same exact image";
+
+  render_ok("-o " + file("tight.pfm") + view + " --time-budget 0.000001 --stats " + file("tight.json"));
+  const json tight = json::parse(read_bytes(file("tight.json")));
+  EXPECT_EQ(tight["time_budget"]["within_budget"], false);
+  EXPECT_EQ(tight["time_budget"]["scale"], 0.5) << "the probe: 64 pixels on the longer side";
+  EXPECT_NE(tight["time_budget"]["drew"].get<std::string>().find("scale 0.500 (64 x 48), magnified to 128 x 96"),
+            std::string::npos)
+      << tight["time_budget"].dump();
+  const Image small = read_pfm(file("tight.pfm"));
+  EXPECT_EQ(small.width, 128);
+  EXPECT_EQ(small.height, 96);
+  EXPECT_GE(compare_images(small, read_pfm(file("plain.pfm"))).psnr_db, 20.0) << "the same picture, coarser";
+
+  const std::string store = file("budget.ugvr");
+  ASSERT_EQ(run_ugvr("build " + data() + " --fields pressure --brick 8 --max-depth 3 -o " + store).status, 0);
+  const CommandResult lod =
+      run_ugvr("render " + store + " -o " + file("lod.png") + view + " --time-budget 30 --stats " + file("lod.json"));
+  ASSERT_EQ(lod.status, 0) << lod.out;
+  const json l = json::parse(read_bytes(file("lod.json")));
+  EXPECT_EQ(l["engine"], "lod");
+  EXPECT_GE(l["time_budget"]["frames"].get<int>(), 1);
+  EXPECT_NE(l["time_budget"]["drew"].get<std::string>().find("level-of-detail cut of "), std::string::npos)
+      << l["time_budget"].dump();
+
+  for (const std::string& bad : {std::string(" --time-budget 0"), std::string(" --time-budget 5 --fps 10")}) {
+    const CommandResult e = render("-o " + file("x.png") + bad);
+    EXPECT_EQ(e.status, 1) << bad << "\n" << e.out;
+    EXPECT_NE(e.out.find("--time-budget"), std::string::npos) << bad << "\n" << e.out;
+  }
+}
+
 // Time-critical rendering along a path: one stats line per frame; once the camera rests the image converges to the
 // full-quality single image of the same view.
 TEST_F(CliRender, LodPathConvergesWhenTheCameraRests) {

@@ -25,6 +25,7 @@
 #include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/core/memory.h"
+#include "ugvr/core/progress.h"
 #include "ugvr/grid/dataset.h"
 #include "ugvr/grid/structured_cells.h"
 #include "ugvr/grid/structured_grid.h"
@@ -886,6 +887,210 @@ TEST(ViewServer, AFailedBuildIsReportedAndTheExactEngineGoesOn) {
   ASSERT_TRUE(f.status);
   EXPECT_EQ((*f.status)["engine"], "exact");
   EXPECT_EQ(image_size(f.bytes), std::make_pair(40, 24));
+}
+
+// Serve first, load after (issue 24): the server listens before the grid is read; a tab that connects meanwhile gets
+// the load's progress ("read" with the reader's own fraction), then, when the exact engine can draw, the scene and a
+// first image while the store is still being built (held here), then the store.
+TEST(ViewServer, ServesBeforeReadingThenShowsProgressAndAFirstImageWhileTheStoreIsBuilt) {
+  const std::filesystem::path store = shared().dir / "served-first.ugvr";
+  std::filesystem::remove(store);
+  std::unique_ptr<ViewServer> server;  // before the gates, so that it is destroyed after they open
+  BuildGate reading, build;
+  {
+    ViewServerOptions o;
+    o.store = store.string();
+    o.load = [f = reading.hold()] {
+      // A reader's progress, as vtk_xml_reader reports it, then the read waits for the test.
+      Progress p("reading box.vtu", 10);
+      p.set(5);
+      f();
+      return std::make_shared<Dataset>(make_box());
+    };
+    o.fields = {"wave"};
+    o.build = small_build();
+    o.before_build = build.hold();
+    // Constructed on another thread: if the constructor waited for the read it would never return.
+    auto made = std::async(std::launch::async, [o] { return std::make_unique<ViewServer>(o); });
+    ASSERT_EQ(made.wait_for(std::chrono::seconds(60)), std::future_status::ready) << "the server waited for the read";
+    try {
+      server = made.get();
+    } catch (const Error& e) {
+      reading.open();
+      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
+      FAIL() << "cannot start the server: " << e.what();
+    }
+  }
+  EXPECT_EQ(http_get(server->port(), "/").status, 200) << "the page is served while the grid is read";
+  Client c(server->port());
+  c.send(R"({"type":"hello","width":48,"height":40})");
+  bool scene_early = false;
+  const std::optional<json> read = read_text_until(c, [&](const json& j) {
+    scene_early |= j["type"] == "scene";
+    return j["type"] == "progress" && j["stage"] == "read" && j["fraction"] == 0.5;
+  });
+  ASSERT_TRUE(read) << "no reading progress";
+  EXPECT_EQ((*read)["label"], "reading box.vtu");
+  EXPECT_FALSE(scene_early) << "a scene before there is anything to draw";
+  EXPECT_NE(server->progress().find("\"read\""), std::string::npos) << server->progress();
+
+  reading.open();
+  // The store's build starts once the grid is read (and is held); the walk mesh is built beside it; then the scene
+  // and the first image, from the exact engine, while the build still runs.
+  std::vector<std::string> stages;
+  const std::optional<json> scene = read_text_until(c, [&](const json& j) {
+    if (j["type"] == "progress") stages.push_back(j["stage"].get<std::string>() + "/" + j["label"].get<std::string>());
+    return j["type"] == "scene";
+  });
+  ASSERT_TRUE(scene);
+  EXPECT_EQ((*scene)["engine"], "exact");
+  for (const std::string& st : stages) EXPECT_TRUE(st.rfind("read/", 0) == 0 || st.rfind("build/", 0) == 0) << st;
+  const Frame first = read_frame(c);
+  ASSERT_TRUE(first.status);
+  EXPECT_EQ((*first.status)["engine"], "exact");
+  EXPECT_EQ(image_size(first.bytes), std::make_pair(48, 40)) << "the tab's size from its hello, said before the scene";
+  EXPECT_FALSE(std::filesystem::exists(store)) << "the build was held: the first image came before the store";
+  EXPECT_NE(server->progress().find("\"build\""), std::string::npos) << server->progress();
+
+  build.open();
+  const std::optional<json> lod = read_text_until(c, [](const json& j) { return j["type"] == "scene"; });
+  ASSERT_TRUE(lod);
+  EXPECT_EQ((*lod)["engine"], "lod");
+  EXPECT_EQ((*lod)["camera"], (*scene)["camera"]);
+}
+
+// A grid that cannot be read: the page is told why ("failed"), and so is the caller (on_failure); nothing draws.
+TEST(ViewServer, AGridThatCannotBeReadIsReportedToThePageAndTheCaller) {
+  std::promise<std::string> failed;
+  std::future<std::string> said = failed.get_future();
+  std::unique_ptr<ViewServer> server;
+  BuildGate reading;
+  {
+    ViewServerOptions o;
+    o.store = (shared().dir / "never-built.ugvr").string();
+    o.load = [f = reading.hold()]() -> std::shared_ptr<const Dataset> {
+      f();
+      throw Error("broken.vtu: not a VTK XML file");
+    };
+    o.on_failure = [&failed](const std::string& m) { failed.set_value(m); };
+    try {
+      server = std::make_unique<ViewServer>(o);
+    } catch (const Error& e) {
+      reading.open();
+      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
+      FAIL() << "cannot start the server: " << e.what();
+    }
+  }
+  Client c(server->port());
+  c.send(R"({"type":"hello","width":32,"height":32})");
+  reading.open();
+  const std::optional<json> j = read_text_until(c, [](const json& m) {
+    EXPECT_NE(m["type"], "scene");
+    return m["type"] == "progress" && m["stage"] == "failed";
+  });
+  ASSERT_TRUE(j);
+  EXPECT_NE((*j)["message"].get<std::string>().find("broken.vtu: not a VTK XML file"), std::string::npos) << j->dump();
+  ASSERT_EQ(said.wait_for(std::chrono::seconds(30)), std::future_status::ready);
+  EXPECT_NE(said.get().find("broken.vtu"), std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(shared().dir / "never-built.ugvr"));
+}
+
+// Over the memory budget the grid is never read: its store is built out of core from the .vtu, the page says why
+// from the first progress on, and the store's scene is the first one.
+TEST(ViewServer, AGridOverTheBudgetIsShownFromItsStoreBuiltOutOfCore) {
+  const std::filesystem::path dir = shared().dir / "out-of-core";
+  std::filesystem::create_directories(dir);
+  const std::string mesh = (dir / "wing.vtu").string();
+  ASSERT_EQ(test::run_ugvr("generate --cells 3000 --kind tet -o " + mesh).status, 0);
+  std::unique_ptr<ViewServer> server;
+  BuildGate build;
+  {
+    ViewServerOptions o;
+    o.store = (dir / "wing.ugvr").string();
+    o.out_of_core_input = mesh;
+    o.out_of_core_budget = uint64_t(256) << 20;
+    o.notice = "the grid would take about 9 GiB in memory, over the memory budget";
+    o.build = small_build();
+    o.before_build = build.hold();
+    try {
+      server = std::make_unique<ViewServer>(o);
+    } catch (const Error& e) {
+      build.open();
+      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
+      FAIL() << "cannot start the server: " << e.what();
+    }
+  }
+  Client c(server->port());
+  c.send(R"({"type":"hello","width":32,"height":32})");
+  const std::optional<json> p = read_text_until(c, [](const json& m) { return m["type"] == "progress"; });
+  ASSERT_TRUE(p);
+  EXPECT_EQ((*p)["stage"], "build");
+  EXPECT_NE((*p)["message"].get<std::string>().find("over the memory budget"), std::string::npos) << p->dump();
+  build.open();
+  const Frame f = read_frame(c);
+  ASSERT_TRUE(f.scene && f.status);
+  EXPECT_EQ((*f.scene)["engine"], "lod");
+  EXPECT_EQ((*f.scene)["engines"].size(), 1u) << "no exact engine: the grid was not read";
+  EXPECT_EQ((*f.status)["engine"], "lod");
+}
+
+// `ugvr view` prints its URL before it reads the grid: a file that turns out unreadable is reported after the URL,
+// and the viewer then exits non-zero.
+TEST(CliView, PrintsTheUrlBeforeReadingAndExitsNonZeroOnAnUnreadableGrid) {
+  const std::filesystem::path dir = shared().dir / "cli-bad";
+  std::filesystem::create_directories(dir);
+  const std::string bad = (dir / "broken.vtu").string();
+  {
+    std::FILE* f = std::fopen(bad.c_str(), "w");
+    ASSERT_TRUE(f);
+    std::fputs("<VTKFile type=\"UnstructuredGrid\"><UnstructuredGrid><Piece NumberOfPoints=\"4\"", f);
+    std::fclose(f);
+  }
+  const std::string out = shell("UGVR_CACHE_DIR=" + (dir / "cache").string() + " timeout 120 " +
+                                std::string(UGVR_BINARY) + " view " + bad + " --size 64 2>&1; echo rc=$?");
+  if (out.find("OpenGL") != std::string::npos && std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << out;
+  const size_t url = out.find("ugvr view: serving http://127.0.0.1:");
+  const size_t error = out.find("broken.vtu", out.find("ugvr: error:"));
+  ASSERT_NE(url, std::string::npos) << out;
+  ASSERT_NE(error, std::string::npos) << out;
+  EXPECT_LT(url, error) << "the URL comes first\n" << out;
+  EXPECT_EQ(out.find("rc=0"), std::string::npos) << out;
+  EXPECT_NE(out.find("rc=1"), std::string::npos) << out;
+}
+
+// The budget decision end to end: a small budget (the flag, or the variable) makes `ugvr view` skip the exact preview
+// and build the store out of core, saying why; the store then appears in the cache.
+TEST(CliView, AGridOverTheMemoryBudgetIsBuiltOutOfCoreAndTheViewerSaysWhy) {
+  const std::filesystem::path dir = shared().dir / "cli-budget";
+  std::filesystem::create_directories(dir);
+  const std::string mesh = (dir / "tets.vtu").string();
+  ASSERT_EQ(test::run_ugvr("generate --cells 3000 --kind tet -o " + mesh).status, 0);
+  for (const std::string& how : std::vector<std::string>{"--memory-budget 100kB", "env"}) {
+    SCOPED_TRACE(how);
+    const std::string cache = (dir / (how == "env" ? "cache-env" : "cache-flag")).string();
+    const std::string log = cache + ".txt";
+    const std::string env = how == "env" ? "UGVR_VIEW_MEMORY_BUDGET=100kB " : "";
+    const std::string flag = how == "env" ? "" : how;
+    const std::string r =
+        shell(env + "UGVR_CACHE_DIR=" + cache + " timeout 120 " + std::string(UGVR_BINARY) + " view " + mesh +
+              " --size 64 --max-depth 3 " + flag + " > " + log + " 2>&1 & pid=$!; for i in $(seq 1200); do ls " +
+              cache + "/tets-*.ugvr >/dev/null 2>&1 && break; sleep 0.1; done; kill -TERM $pid; wait $pid; " +
+              "echo rc=$?; cat " + log);
+    if (r.find("OpenGL") != std::string::npos && std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << r;
+    EXPECT_NE(r.find("rc=0"), std::string::npos) << r;
+    EXPECT_NE(r.find("over the memory budget of 97.7 KiB (" +
+                     std::string(how == "env" ? "UGVR_VIEW_MEMORY_BUDGET" : "--memory-budget") + ")"),
+              std::string::npos)
+        << r;
+    EXPECT_NE(r.find(" cells, "), std::string::npos) << "estimated from the header's counts\n" << r;
+    EXPECT_NE(r.find("out of core"), std::string::npos) << r;
+    size_t stores = 0;
+    for (const auto& e : std::filesystem::directory_iterator(cache)) stores += e.path().extension() == ".ugvr";
+    EXPECT_EQ(stores, 1u) << r;
+  }
+  // Within the budget (the default here: half of the machine's memory) the grid is read for the exact preview.
+  const std::string fits = test::run_ugvr("view " + mesh + " --memory-budget 10x").out;
+  EXPECT_NE(fits.find("--memory-budget"), std::string::npos) << fits;
 }
 
 }  // namespace

@@ -227,6 +227,16 @@ function showStatus() {
       (s.converged ? "full quality" : `${refining}  scale ${s.scale.toFixed(2)}`);
 }
 
+// The stages of loading a grid and building its store (view_protocol.h, "progress"): reading the file, the exact
+// engine's walk mesh (the first image waits for it), the store's build; the server's message says the rest (why the
+// store is built out of core, what the first image waits for).
+function progressText(m) {
+  const percent = `${Math.round(100 * (m.fraction || 0))}%`;
+  if (m.stage === "read") return `reading ${percent}`;
+  if (m.label === "walk mesh") return "building walk mesh";
+  return `building store: ${m.label ? m.label + " " : ""}${percent}`;
+}
+
 function showProgress(m) {
   const line = $("progress");
   if (m.stage === "ready") {
@@ -239,16 +249,16 @@ function showProgress(m) {
   if (m.stage === "failed") {
     line.className = "error";
     $("progress-bar").hidden = true;
-    $("progress-text").textContent = `building store failed: ${m.message}`;
-    lastError = `error: building store failed: ${m.message}`;
+    $("progress-text").textContent = m.message;
+    lastError = `error: ${m.message}`;
     showStatus();
     return;
   }
   line.className = "";
   $("progress-bar").hidden = false;
   $("progress-bar").value = Math.min(1, Math.max(0, m.fraction || 0));
-  $("progress-text").textContent = `building store: ${m.label} ${Math.round(100 * (m.fraction || 0))}%` +
-      (m.message ? `  ${m.message}` : "");
+  $("progress-text").textContent = progressText(m) + (m.message ? `  ${m.message}` : "");
+  if (!lastStatus && !lastError) statusBar.textContent = "waiting for the first image…";
 }
 
 // ---- messages from the server ----
@@ -330,7 +340,11 @@ function onView(m) {
 }
 
 ws.onopen = () => send({ type: "hello", ...canvasSize() });
-ws.onclose = () => { lastError = "disconnected"; showStatus(); };
+ws.onclose = () => {
+  // A grid that failed to load stops the server: its message stays, not just "disconnected".
+  lastError = progress && progress.stage === "failed" ? `error: ${progress.message} (the viewer stopped)` : "disconnected";
+  showStatus();
+};
 ws.onmessage = async (event) => {
   if (typeof event.data !== "string") {
     const status = lastStatus;

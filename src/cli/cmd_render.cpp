@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -265,11 +266,85 @@ void render_time_steps(const Options& o, Renderer& renderer, ExactScene& scene, 
                  (unsigned long long)scene.rebuilds, median(frame_seconds));
 }
 
-void run_render(const Options& o) {
+// --time-budget S (issue 24): a still image from what can be drawn within S seconds of the command's start, reading
+// and preparing the input included. The exact engine draws a probe at a small size, then the largest image whose
+// estimated time (time grows with the pixel count) fits what is left, magnified to the requested size; the level of
+// detail engine refines its time-critical cut frame after frame while the next frame still fits. `report` says
+// what was drawn (--stats "time_budget").
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+Frame render_within_budget(Renderer& renderer, FrameRequest request, double budget, Clock::time_point start,
+                           nlohmann::json& report) {
+  const int w = request.settings.width, h = request.settings.height;
+  report = {{"seconds", budget}, {"open_seconds", seconds_since(start)}};
+  Frame frame;
+  std::string drew;
+  if (renderer.engine() == "lod") {
+    int frames = 0;
+    double left = budget - seconds_since(start);
+    do {
+      // The time-critical cut aims at the time left for this frame (at least a frame a second's worth of detail).
+      request.target_fps = 1 / std::clamp(left, 0.05, 1.0);
+      frame = renderer.render(request);
+      ++frames;
+      left = budget - seconds_since(start);
+    } while (!frame.stats.converged && left > frame.stats.seconds);
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "level-of-detail cut of %llu nodes after %d frames, %s, texel error %.2f px",
+                  (unsigned long long)frame.stats.cut_nodes, frames,
+                  frame.stats.converged ? "converged" : "still refining", frame.stats.texel_error);
+    drew = buf;
+    report["frames"] = frames;
+  } else {
+    request.target_fps = 0;
+    // A probe at most 64 pixels a side measures the time per pixel.
+    const double probe = std::min(1.0, 64.0 / std::max(w, h));
+    const auto sized = [&](double scale) {
+      FrameRequest r = request;
+      r.settings.width = std::max(1, int(std::lround(w * scale)));
+      r.settings.height = std::max(1, int(std::lround(h * scale)));
+      Frame f = renderer.render(r);
+      f.stats.scale = scale;
+      return f;
+    };
+    frame = sized(probe);
+    const double per_full = frame.stats.seconds / (probe * probe);  // the full size's estimated time
+    const double left = budget - seconds_since(start);
+    double scale = probe;
+    if (probe < 1 && left > 0 && per_full > 0) {
+      scale = std::clamp(std::sqrt(left / per_full), probe, 1.0);
+      if (scale > probe) frame = sized(scale > 0.97 ? 1.0 : scale);
+    }
+    scale = frame.stats.scale;
+    if (frame.image.width != w || frame.image.height != h) frame.image = resize_bilinear(frame.image, w, h);
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "exact image at scale %.3f (%d x %d), magnified to %d x %d", scale,
+                  std::max(1, int(std::lround(w * scale))), std::max(1, int(std::lround(h * scale))), w, h);
+    drew = scale == 1 ? "exact image at full size" : std::string(buf);
+    report["scale"] = scale;
+    report["probe_scale"] = probe;
+  }
+  report["total_seconds"] = seconds_since(start);
+  report["within_budget"] = report["total_seconds"].get<double>() <= budget;
+  report["drew"] = drew;
+  if (Progress::enabled())
+    std::fprintf(stderr, "time budget %.3g s: %s, in %.3g s%s\n", budget, drew.c_str(),
+                 report["total_seconds"].get<double>(),
+                 report["within_budget"].get<bool>() ? "" : " (over: reading and preparing the input took longer)");
+  return frame;
+}
+
+void run_render(const Options& o, std::optional<double> time_budget) {
+  const Clock::time_point start = Clock::now();
+  if (time_budget && !(*time_budget > 0)) fail_flag("--time-budget", "must be > 0 seconds");
+  if (time_budget && (!o.path.empty() || !o.fps.empty()))
+    fail_flag("--time-budget", "makes one still image: no --path or --fps");
   // Everything that can be checked without the data is checked first, so a typo fails in milliseconds.
   if (std::find(engine_names().begin(), engine_names().end(), o.engine) == engine_names().end())
     fail_flag("--engine", "unknown engine \"" + o.engine + "\" (valid: " + join(engine_names()) + ")");
   const bool timed = !o.time.empty();
+  if (timed && time_budget) fail_flag("--time-budget", "makes one still image: no --time");
   if (o.output.empty() && !(timed && !o.out_dir.empty()))
     fail_flag("-o", "an output image is required (or --time with --out DIR)");
   if (!o.output.empty()) check_extension(o.output, "-o", {".png", ".pfm"});
@@ -320,6 +395,10 @@ void run_render(const Options& o) {
 
   const double fps = target_fps(o);
   RendererOptions ro = renderer_options(o, settings);
+  // The time budget refines a store's cut frame by frame (time-critical); a mesh is drawn by the exact engine.
+  const bool store_input = o.inputs.size() == 1 && std::filesystem::path(o.inputs[0]).extension() == ".ugvr";
+  const bool budget_lod = time_budget && (o.engine == "lod" || (o.engine == "auto" && store_input));
+  if (budget_lod) ro.interactive = true;
   OpenedInput opened;
   std::shared_ptr<ExactScene> time_scene;
   std::vector<uint32_t> steps;
@@ -376,7 +455,7 @@ void run_render(const Options& o) {
     render_time_steps(o, *renderer, *time_scene, steps, request, !range && !o.keep_range && !per_step, per_step);
     return;
   }
-  if (ro.interactive) {
+  if (ro.interactive && !budget_lod) {
     render_frames_along_path(o, *renderer, request);
     return;
   }
@@ -384,7 +463,17 @@ void run_render(const Options& o) {
   Image image;
   FrameStats last;
   std::vector<double> frame_seconds, frame_cpu_seconds;
+  nlohmann::json budget_report;
   for (int f = 0; f < frames; ++f) {
+    if (time_budget) {  // one image (--frames does not apply)
+      const double cpu0 = process_cpu_seconds();
+      Frame frame = render_within_budget(*renderer, request, *time_budget, start, budget_report);
+      frame_cpu_seconds.push_back(process_cpu_seconds() - cpu0);
+      frame_seconds.push_back(frame.stats.seconds);
+      image = std::move(frame.image);
+      last = std::move(frame.stats);
+      break;
+    }
     const double cpu0 = process_cpu_seconds();
     Frame frame = renderer->render(request);
     frame_cpu_seconds.push_back(process_cpu_seconds() - cpu0);
@@ -393,11 +482,12 @@ void run_render(const Options& o) {
     last = std::move(frame.stats);
   }
   // The first frame pays for page faults and cold caches; benchmarks want the steady state.
-  const double median_seconds =
-      frames > 1 ? median(std::vector<double>(frame_seconds.begin() + 1, frame_seconds.end())) : frame_seconds[0];
+  const double median_seconds = frame_seconds.size() > 1
+                                    ? median(std::vector<double>(frame_seconds.begin() + 1, frame_seconds.end()))
+                                    : frame_seconds[0];
   const double median_cpu_seconds =
-      frames > 1 ? median(std::vector<double>(frame_cpu_seconds.begin() + 1, frame_cpu_seconds.end()))
-                 : frame_cpu_seconds[0];
+      frame_cpu_seconds.size() > 1 ? median(std::vector<double>(frame_cpu_seconds.begin() + 1, frame_cpu_seconds.end()))
+                                   : frame_cpu_seconds[0];
   const int threads_used = worker_threads();
 
   write_image(o.output, image);
@@ -427,6 +517,7 @@ void run_render(const Options& o) {
     };
     renderer->describe(j);
     if (last.detail) last.detail->to_json(j);
+    if (time_budget) j["time_budget"] = budget_report;
     write_json_file(o.stats, j);
   }
 
@@ -449,7 +540,15 @@ void register_render(CLI::App& app) {
       "Render a volume image of a dataset (exact CPU ray casting) or of a brick store (level-of-detail GPU ray "
       "casting): emission-absorption, MIP or isosurfaces, with ParaView's camera, colour map and opacity conventions");
   add_render_flags(*cmd, *opts);
-  cmd->callback([opts] { run_render(*opts); });
+  auto time_budget = std::make_shared<double>(0);
+  CLI::Option* budget = cmd->add_option(
+      "--time-budget", *time_budget,
+      "Seconds for the whole command, reading included: a still image of what can be drawn in that time (a mesh: "
+      "the exact image at the size that fits, magnified; a store: the time-critical cut refined while it fits); "
+      "--stats says what was drawn (\"time_budget\")");
+  cmd->callback([opts, time_budget, budget] {
+    run_render(*opts, budget->count() ? std::optional<double>(*time_budget) : std::nullopt);
+  });
 }
 
 }  // namespace ugvr::cli

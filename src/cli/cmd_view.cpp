@@ -4,22 +4,27 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <thread>
 
 #include "cli/cli_numbers.h"
 #include "cli/commands.h"
 #include "cli/demo_scene.h"
 #include "ugvr/core/error.h"
+#include "ugvr/core/memory.h"
 #include "ugvr/gen/generator.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/transfer_function.h"
 #include "ugvr/store/brick_store.h"
+#include "ugvr/view/memory_budget.h"
 #include "ugvr/view/view_protocol.h"
 #include "ugvr/view/view_server.h"
 #include "ugvr/view/view_store.h"
@@ -41,6 +46,7 @@ struct Options {
   int port = 0;
   uint64_t gpu_memory = uint64_t(2) << 30;
   uint64_t ram_memory = uint64_t(1) << 30;
+  uint64_t memory_budget = 0;  // --memory-budget (view/memory_budget.h); 0: not given
 };
 
 bool is_store(const std::vector<std::string>& inputs) {
@@ -110,8 +116,9 @@ void run_view(const Options& o) {
   } else {
     vo.build = o.build;
     vo.build.inputs = o.inputs.empty() ? std::vector<std::string>{"ugvr view --demo"} : o.inputs;
-    // Leave a core to the exact engine's preview frames while the store is built.
-    vo.build.threads = std::max(1, int(std::thread::hardware_concurrency()) - 1);
+    // Every core: on 2 cores, leaving one to the exact preview's frames halved the build (measured: issue 24), and the
+    // preview's frames are few and short at a reduced scale while the view moves.
+    vo.build.threads = 0;
     GenerateOptions demo;
     demo.cells = kDemoCells, demo.kind = GenCellKind::Mixed;
     // The demo shows the wing and its vortex street by pressure (as scripts/demo.sh renders it); velocity is there to
@@ -124,20 +131,57 @@ void run_view(const Options& o) {
                    : view::cached_store_path(o.inputs, fields, vo.build);
     if (store_opens(vo.store)) {
       std::fprintf(stderr, "ugvr view: showing the brick store built earlier, %s\n", vo.store.c_str());
-    } else {
-      auto dataset = std::make_shared<Dataset>(o.demo ? generate_in_memory(demo) : read_dataset(o.inputs, o.read));
-      vo.fields = fields.empty() ? view::default_view_fields(*dataset) : fields;
-      vo.dataset = std::move(dataset);
+    } else if (o.demo) {
+      vo.fields = fields;
+      vo.load = [demo] { return std::make_shared<Dataset>(generate_in_memory(demo)); };
       std::fprintf(stderr, "ugvr view: building the brick store %s in the background\n", vo.store.c_str());
+    } else {
+      // Never in core unless it fits: the estimate is made before anything is read (view/memory_budget.h).
+      std::string budget_source;
+      const uint64_t budget = view::view_memory_budget(
+          o.memory_budget ? std::optional<uint64_t>(o.memory_budget) : std::nullopt, &budget_source);
+      const view::InCoreEstimate need = view::estimate_in_core(o.inputs);
+      vo.fields = fields;
+      if (need.bytes <= budget) {
+        vo.load = [inputs = o.inputs, read = o.read] { return std::make_shared<Dataset>(read_dataset(inputs, read)); };
+        std::fprintf(stderr, "ugvr view: building the brick store %s in the background\n", vo.store.c_str());
+      } else {
+        const std::string why = "the grid would take about " + format_bytes(need.bytes) + " in memory (" + need.basis +
+                                "), over the memory budget of " + format_bytes(budget) + " (" + budget_source + ")";
+        if (o.inputs.size() != 1 || std::filesystem::path(o.inputs[0]).extension() != ".vtu")
+          fail_in(o.inputs[0], why +
+                                   "; only a .vtu file is built out of core: convert it (`ugvr convert`) on a larger "
+                                   "machine, or raise the budget with --memory-budget or $" +
+                                   view::kViewMemoryBudgetEnv);
+        vo.out_of_core_input = o.inputs[0];
+        vo.out_of_core_budget = budget;
+        vo.notice = why + ": no exact preview; the store is built out of core and shown when done";
+        std::fprintf(stderr, "ugvr view: %s\n", vo.notice.c_str());
+        std::fprintf(stderr, "ugvr view: building the brick store %s out of core\n", vo.store.c_str());
+      }
     }
   }
 
   // Blocked before any thread starts, so that every thread inherits the mask and only sigwait below sees them.
+  // SIGUSR1 is the viewer's own: the grid could not be loaded (on_failure below).
   sigset_t signals;
   sigemptyset(&signals);
   sigaddset(&signals, SIGINT);
   sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGUSR1);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  // A grid that cannot be loaded leaves the viewer nothing to show: it says why in the page and here, then exits
+  // non-zero (a script or a user waiting on it learns it failed; a page already open keeps the message).
+  auto failure = std::make_shared<std::string>();
+  auto failure_mutex = std::make_shared<std::mutex>();
+  vo.on_failure = [failure, failure_mutex](const std::string& message) {
+    {
+      std::lock_guard lock(*failure_mutex);
+      *failure = message;
+    }
+    ::kill(::getpid(), SIGUSR1);
+  };
 
   view::ViewServer server(std::move(vo));
   // Printed even with --quiet: it is the command's output (scripts read the URL from it).
@@ -145,6 +189,13 @@ void run_view(const Options& o) {
   std::fflush(stdout);
   int sig = 0;
   sigwait(&signals, &sig);
+  if (sig == SIGUSR1) {
+    // Time for the pages to receive the "failed" progress before the sockets close.
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    server.stop();
+    std::lock_guard lock(*failure_mutex);
+    throw Error(*failure);
+  }
   std::fprintf(stderr, "ugvr view: stopping\n");
   server.stop();
 }
@@ -158,9 +209,10 @@ void register_view(CLI::App& app) {
       "Serve an interactive browser viewer at http://127.0.0.1:PORT/ until interrupted: of a brick store, or of any "
       "readable grid (its store is built in the background and kept in the cache directory; the exact engine shows "
       "the grid meanwhile), or of the built-in demo");
-  cmd->add_option("INPUT", opts->inputs,
-                  "A brick store (.ugvr), a grid file (.vtu .vtk .vts .msh .ugrid .e .cgns .case ...), an OpenFOAM case "
-                  "directory, or a PLOT3D grid file then its solution file")
+  cmd->add_option(
+         "INPUT", opts->inputs,
+         "A brick store (.ugvr), a grid file (.vtu .vtk .vts .msh .ugrid .e .cgns .case ...), an OpenFOAM case "
+         "directory, or a PLOT3D grid file then its solution file")
       ->expected(0, 2)
       ->check(CLI::ExistingPath);
   add_read_options(*cmd, opts->read);
@@ -175,6 +227,11 @@ void register_view(CLI::App& app) {
   cmd->add_flag("--free-grid", opts->free_grid,
                 "Free the grid and its exact engine once its store is built and shown (saves their memory; the page "
                 "then offers only the level-of-detail engine)");
+  cmd->add_option("--memory-budget", opts->memory_budget,
+                  "RAM the viewer may hold a grid in (e.g. 8GiB; default: half of the machine's memory, or "
+                  "$UGVR_VIEW_MEMORY_BUDGET): a grid estimated larger is not read, its store is built out of core "
+                  "(.vtu) and shown when done")
+      ->transform(CLI::AsSizeValue(true));
   cmd->add_option("--error", opts->build.error, "Build: split threshold relative to each field's range")
       ->check(CLI::Range(0.0, 1.0))
       ->default_val(opts->build.error);

@@ -328,6 +328,16 @@ test("progress lines and a second scene message (a background build finishing)",
   const before = await waitConverged(page, CONVERGE_MS);
   // The server's messages, delivered to the page's own handler (`ws`: app.js's socket).
   const deliver = (m) => page.evaluate((text) => ws.onmessage({ data: text }), JSON.stringify(m));
+  // Loading a grid (issue 24): reading, the walk mesh, then the store's build, with the server's reason when the grid
+  // is over the memory budget.
+  await deliver({ type: "progress", stage: "read", label: "reading big.vtu", fraction: 0.17, message: "reading the grid" });
+  assert.match(await page.locator("#progress").textContent(), /reading 17%/);
+  await deliver({ type: "progress", stage: "build", label: "walk mesh", fraction: 0, message: "" });
+  assert.match(await page.locator("#progress").textContent(), /building walk mesh/);
+  await deliver({ type: "progress", stage: "build", label: "cells to disk", fraction: 0.5,
+                  message: "over the memory budget of 11.8 GiB" });
+  assert.match(await page.locator("#progress").textContent(),
+               /building store: cells to disk 50%.*over the memory budget of 11\.8 GiB/);
   await deliver({ type: "progress", stage: "build", label: "bricks", fraction: 0.42, message: "" });
   assert.match(await page.locator("#progress").textContent(), /building store: bricks 42%/);
   assert.equal(await page.locator("#progress").isVisible(), true);

@@ -27,8 +27,8 @@ trap 'rm -rf "$tmp"' EXIT
 "$ugvr" --quiet build "$tmp/mixed.vtu" -o "$tmp/mixed.ugvr" --fields pressure,velocity --brick 8 --max-depth 4 >/dev/null
 # Run in this process (not under `node --test`, which runs the file in a child) and stopped before ctest's TIMEOUT, so
 # that the signal reaches node, which then stops `ugvr view` and Chromium.
-UGVR="$ugvr" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 5 85 node --test-reporter=spec "$here/viewer.test.mjs"
+UGVR="$ugvr" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 5 300 node --test-reporter=spec "$here/viewer.test.mjs"
 # The page's controls (TF editor, field picker, clip, files, ...), against a viewer of their own.
-UGVR="$ugvr" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 5 85 node --test-reporter=spec "$here/controls.test.mjs"
+UGVR="$ugvr" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 5 300 node --test-reporter=spec "$here/controls.test.mjs"
 # The engine picker, against a viewer of the mesh itself (exact engine, then its store built in $tmp).
-UGVR="$ugvr" UGVR_MESH="$tmp/mixed.vtu" timeout -k 5 85 node --test-reporter=spec "$here/engine.test.mjs"
+UGVR="$ugvr" UGVR_MESH="$tmp/mixed.vtu" timeout -k 5 300 node --test-reporter=spec "$here/engine.test.mjs"

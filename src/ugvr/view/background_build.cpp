@@ -12,6 +12,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/core/progress.h"
 #include "ugvr/octree/input.h"
+#include "ugvr/octree/out_of_core.h"
 
 namespace ugvr::view {
 
@@ -48,7 +49,16 @@ BackgroundBuild::BackgroundBuild(std::shared_ptr<const Dataset> dataset, std::ve
   options.cancel = &cancel_;
   thread_ = std::thread([this, dataset = std::move(dataset), fields = std::move(fields), options, before]() mutable {
     if (before) before();
-    run(std::move(dataset), std::move(fields), options);
+    run(std::move(dataset), {}, std::move(fields), options);
+  });
+}
+
+BackgroundBuild::BackgroundBuild(OutOfCore input, std::vector<std::string> fields, OctreeBuildOptions options,
+                                 std::string path, std::function<void()> before)
+    : path_(std::move(path)) {
+  thread_ = std::thread([this, input = std::move(input), fields = std::move(fields), options, before]() mutable {
+    if (before) before();
+    run(nullptr, input, std::move(fields), options);
   });
 }
 
@@ -62,10 +72,15 @@ BackgroundBuild::State BackgroundBuild::state() const {
   return state_;
 }
 
-void BackgroundBuild::run(std::shared_ptr<const Dataset> dataset, std::vector<std::string> fields,
-                          OctreeBuildOptions options) {
+void BackgroundBuild::run(std::shared_ptr<const Dataset> dataset, const OutOfCore& out_of_core,
+                          std::vector<std::string> fields, OctreeBuildOptions options) {
   // This build's own progress (not the process-wide observer: another build may run beside it).
-  options.progress = [this](const std::string& label, double fraction) {
+  const bool in_core = dataset != nullptr;
+  options.progress = [this, in_core](const std::string& label, double fraction) {
+    // The out-of-core build takes no cancel flag: it stops here instead, at its next report (the exception unwinds
+    // it like its own errors do: its scratch folder and temporary store are removed). Never at a step's final
+    // report (fraction 1), which may come from a destructor.
+    if (!in_core && cancel_ && fraction < 1) throw Error("octree build cancelled");
     std::lock_guard lock(mutex_);
     state_.label = label;
     state_.fraction = fraction;
@@ -90,8 +105,12 @@ void BackgroundBuild::run(std::shared_ptr<const Dataset> dataset, std::vector<st
       state_.reused = true;
       return;
     }
-    const OctreeInput input = prepare_octree_input(*dataset, fields);
-    build_octree(input, options, path_);
+    if (in_core) {
+      const OctreeInput input = prepare_octree_input(*dataset, fields);
+      build_octree(input, options, path_);
+    } else {
+      build_octree_out_of_core(out_of_core.vtu, fields, options, out_of_core.memory_budget, path_);
+    }
     std::lock_guard lock(mutex_);
     state_.stage = Stage::Done;
     state_.fraction = 1;

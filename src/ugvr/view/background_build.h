@@ -33,6 +33,14 @@ class BackgroundBuild {
   // `before` (tests) runs on the build's thread before it starts.
   BackgroundBuild(std::shared_ptr<const Dataset> dataset, std::vector<std::string> fields, OctreeBuildOptions options,
                   std::string path, std::function<void()> before = {});
+  // The same from a .vtu file that is never held in memory: build_octree_out_of_core (octree/out_of_core.h) within
+  // `memory_budget` bytes. `fields` as its selectors (empty: its default). Cancelled at its next progress report.
+  struct OutOfCore {
+    std::string vtu;
+    uint64_t memory_budget = 0;
+  };
+  BackgroundBuild(OutOfCore input, std::vector<std::string> fields, OctreeBuildOptions options, std::string path,
+                  std::function<void()> before = {});
   // Cancels the build if it is still running and waits for its thread (a cancelled build writes nothing).
   ~BackgroundBuild();
   BackgroundBuild(const BackgroundBuild&) = delete;
@@ -42,7 +50,9 @@ class BackgroundBuild {
   const std::string& path() const { return path_; }
 
  private:
-  void run(std::shared_ptr<const Dataset> dataset, std::vector<std::string> fields, OctreeBuildOptions options);
+  // One of `dataset` (in core) and `out_of_core.vtu`.
+  void run(std::shared_ptr<const Dataset> dataset, const OutOfCore& out_of_core, std::vector<std::string> fields,
+           OctreeBuildOptions options);
 
   std::string path_;
   std::atomic<bool> cancel_{false};

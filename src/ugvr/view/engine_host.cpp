@@ -62,26 +62,80 @@ struct EngineHost::Tab {
 EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options)) {
   gl_ = std::make_shared<GlContext>(options_.gpu);
   renderer_ = gl_->renderer();
-  if (!options_.dataset) {
+  notice_ = options_.notice;
+  if (!options_.out_of_core_input.empty()) {
+    // Never in memory: nothing draws until the store is built (then switch_to_store shows it).
+    BackgroundBuild::OutOfCore input{options_.out_of_core_input, options_.out_of_core_budget};
+    build_ = std::make_unique<BackgroundBuild>(std::move(input), options_.fields, options_.build, options_.store,
+                                               options_.before_build);
+    return;
+  }
+  if (!options_.dataset && !options_.load) {
     lod_ = open_store(options_, gl_);
     scene_ = lod_scene();
     return;
   }
-  SceneInfo sc;
-  // The fields as the store will name them ("velocity:magnitude"), with their ranges; also validates them (NaN,
-  // missing) before anything is served.
-  std::vector<std::string> names;
-  {
-    const OctreeInput input = prepare_octree_input(*options_.dataset, options_.fields);
-    for (size_t i = 0; i < input.fields.size(); ++i) {
-      const BrickStoreField& f = input.fields[i];
-      const ScalarRef& ref = input.scalars[i];
-      sc.fields.push_back({f.name, f.min, f.max, field_histogram(*ref.field, ref.component, kHistogramBins)});
-      names.push_back(f.name);
-    }
-    sc.bounds = input.bounds;
+  // The grid is read (unless given) and prepared on the load's thread while the viewer serves; the store's build
+  // starts as soon as its fields are known (poll_load).
+  std::function<std::shared_ptr<const Dataset>()> load = options_.load;
+  if (options_.dataset) load = [dataset = options_.dataset] { return dataset; };
+  options_.load = {};
+  options_.dataset.reset();  // the load holds it; finish_load puts it back
+  load_ = std::make_unique<GridLoad>(std::move(load), options_.fields, kHistogramBins);
+}
+
+std::optional<EngineHost::LoadReport> EngineHost::poll_load() {
+  if (!load_) return std::nullopt;
+  const GridLoad::State st = load_->state();
+  LoadReport r;
+  const std::string note = notice_.empty() ? "" : notice_ + "; ";
+  switch (st.stage) {
+    case GridLoad::Stage::Reading: r.progress = {"read", st.label, st.fraction, note + "reading the grid"}; return r;
+    case GridLoad::Stage::Failed:
+      if (build_ || lod_) {
+        // The store's build goes on (or its store is shown already): the viewer shows the store, without the exact
+        // engine.
+        notice_ = note + "no exact preview (" + st.error + ")";
+        load_.reset();
+        return std::nullopt;
+      }
+      r.failed = true;
+      r.progress = {"failed", "", 0, "loading the grid failed: " + st.error};
+      load_.reset();
+      return r;
+    case GridLoad::Stage::Fields:
+    case GridLoad::Stage::Done: break;
   }
-  exact_ = std::make_shared<ExactScene>(options_.dataset);
+  if (!build_started_) {
+    build_started_ = true;
+    const GridLoad::Grid& grid = load_->grid();
+    build_ = std::make_unique<BackgroundBuild>(grid.dataset, grid.names, options_.build, options_.store,
+                                               options_.before_build);
+  }
+  r.ready = st.stage == GridLoad::Stage::Done;
+  r.progress = {"build", "walk mesh", st.fraction, note + "building the walk mesh (the first image)"};
+  return r;
+}
+
+void EngineHost::finish_load() {
+  const GridLoad::Grid grid = load_->grid();
+  std::shared_ptr<ExactScene> exact = load_->exact();
+  load_.reset();
+  if (lod_ && options_.free_grid) return;  // the store is already shown, and the grid is not wanted beside it
+  options_.dataset = grid.dataset;
+  exact_ = std::move(exact);
+  // The exact engine on a hardware GPU when the grid fits there (docs/exact-engine.md), else on the CPU (llvmpipe
+  // is slower than the CPU engine); a failure says why in the log and falls back.
+  if (!exact_->use_gpu_if_it_pays(gl_, {}) && !gl_->software())
+    std::fprintf(stderr, "ugvr view: exact engine on the CPU: %s\n", exact_->gpu_unavailable.c_str());
+  exact_renderer_ = exact_->gpu_engine ? "exact engine (GPU: " + gl_->renderer() + ")" : "exact engine (CPU)";
+  if (lod_) {  // the store was built first: the exact engine is one more to pick
+    scene_.engines = engines();
+    return;
+  }
+  SceneInfo sc;
+  sc.fields = grid.fields;
+  sc.bounds = grid.bounds;
   sc.field = first_varying(sc.fields);
   sc.camera = options_.camera.value_or(default_camera(sc.bounds, 30));
   sc.tf = options_.tf;
@@ -89,20 +143,14 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
   sc.background = options_.background;
   sc.fps = options_.fps;
   sc.width = options_.width, sc.height = options_.height;
-  // The exact engine on a hardware GPU when the grid fits there (docs/exact-engine.md), else on the CPU (llvmpipe
-  // is slower than the CPU engine); a failure says why in the log and falls back.
-  if (!exact_->use_gpu_if_it_pays(gl_, {}) && !gl_->software())
-    std::fprintf(stderr, "ugvr view: exact engine on the CPU: %s\n", exact_->gpu_unavailable.c_str());
-  exact_renderer_ = exact_->gpu_engine ? "exact engine (GPU: " + gl_->renderer() + ")" : "exact engine (CPU)";
   sc.renderer = exact_renderer_;
   sc.engine = kExactEngine;
   sc.engines = engines();
   scene_ = std::move(sc);
-  build_ =
-      std::make_unique<BackgroundBuild>(options_.dataset, names, options_.build, options_.store, options_.before_build);
 }
 
 EngineHost::~EngineHost() {
+  load_.reset();   // stops the walk mesh (a read under way finishes first)
   build_.reset();  // cancels a build still running
   tabs_.clear();
   exact_.reset();
@@ -139,16 +187,21 @@ std::optional<EngineHost::BuildReport> EngineHost::build_report() const {
   const BackgroundBuild::State st = build_->state();
   BuildReport r;
   r.stage = st.stage;
+  const std::string note = notice_.empty() ? "" : notice_ + "; ";
+  // While the walk mesh is built beside the store, the page is told that the first image waits for it.
+  const std::string walk = load_ ? "the walk mesh for the first image and " : "";
   if (st.stage == BackgroundBuild::Stage::Running)
-    r.progress = {"build", st.label, st.fraction, "building the brick store " + options_.store};
+    r.progress = {"build", st.label, st.fraction, note + "building " + walk + "the brick store " + options_.store};
   else if (st.stage == BackgroundBuild::Stage::Failed)
     r.progress = {"failed", st.label, st.fraction, "building the store failed: " + st.error};
   return r;
 }
 
 std::optional<ProgressInfo> EngineHost::initial_progress() const {
+  const std::string note = notice_.empty() ? "" : notice_ + "; ";
+  if (load_) return ProgressInfo{"read", "", 0, note + "reading the grid"};
   if (!build_) return std::nullopt;
-  return ProgressInfo{"build", "", 0, "building the brick store " + options_.store};
+  return ProgressInfo{"build", "", 0, note + "building the brick store " + options_.store};
 }
 
 void EngineHost::drop_build() { build_.reset(); }
@@ -167,9 +220,10 @@ EngineHost::Switch EngineHost::switch_to_store() {
     exact_.reset();            // frees the walk mesh
     options_.dataset.reset();  // and the grid (the scene above held it too)
   }
+  const bool had_scene = has_scene();
   const Camera camera = scene_.camera;
   scene_ = lod_scene();
-  scene_.camera = camera;  // the reset view stays the same
+  if (had_scene) scene_.camera = camera;  // the reset view stays the same
   // Every tab moves to the store (the server resets the tabs' picks to the scene's engine).
   for (auto& [id, tab] : tabs_) *tab = Tab{};
   return {true, {"ready", "", 1, "showing the brick store " + options_.store}};

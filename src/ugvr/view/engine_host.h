@@ -18,6 +18,7 @@
 
 #include "ugvr/view/background_build.h"
 #include "ugvr/view/frame_scheduler.h"
+#include "ugvr/view/grid_load.h"
 #include "ugvr/view/view_protocol.h"
 #include "ugvr/view/view_server.h"
 
@@ -31,18 +32,35 @@ namespace ugvr::view {
 
 class EngineHost {
  public:
-  // Creates the GL context; opens options.store, or, with options.dataset, reads the grid's fields (validating them)
-  // and starts building its store. Throws ugvr::Error.
+  // Creates the GL context and opens options.store; or, with options.dataset or options.load, starts loading the grid
+  // (grid_load.h: read, fields, walk mesh) on a thread of its own, and, with options.out_of_core_input, building its
+  // store out of core. Quick: the slow work goes on while the viewer serves (poll_load). Throws ugvr::Error (GL, the
+  // store).
   explicit EngineHost(ViewServerOptions options);
   ~EngineHost();  // cancels a build still running; then the tabs' renderers, the engines, the GL context
   EngineHost(const EngineHost&) = delete;
   EngineHost& operator=(const EngineHost&) = delete;
 
-  // The scene the tabs are shown now (fields, bounds, the reset camera, the engine).
+  // The scene the tabs are shown now (fields, bounds, the reset camera, the engine). Only once has_scene(): before,
+  // while the grid is read and prepared (or its store built out of core) there is nothing to draw.
   const SceneInfo& scene() const { return scene_; }
+  bool has_scene() const { return !scene_.engine.empty(); }
+  const std::string& gl_renderer() const { return renderer_; }
+
+  // Loading the grid. Cheap (under the server's lock): reports the load's stage, and starts the store's build once
+  // the fields are known. `ready`: the exact engine can draw; call finish_load() (without the lock), then the scene is
+  // there. `failed`: the load failed (progress says why); the viewer has nothing to show.
+  struct LoadReport {
+    bool ready = false, failed = false;
+    ProgressInfo progress;  // "read" (reading), "build" (the walk mesh and the store's build), "failed"
+  };
+  std::optional<LoadReport> poll_load();
+  // The exact engine over the loaded grid (moved to a hardware GPU where it pays) becomes the scene.
+  void finish_load();
 
   // The background build: while one runs its progress is polled.
   bool building() const { return build_ != nullptr; }
+  bool loading() const { return load_ != nullptr; }
   struct BuildReport {
     BackgroundBuild::Stage stage = BackgroundBuild::Stage::Running;
     ProgressInfo progress;  // for the page: "build" while running, "failed"; nothing to say when done
@@ -88,6 +106,9 @@ class EngineHost {
   std::shared_ptr<ExactScene> exact_;              // the grid and its walk mesh (none for a viewer of a store)
   std::map<uint64_t, std::unique_ptr<Tab>> tabs_;  // each tab's renderer and frame counters
   std::unique_ptr<BackgroundBuild> build_;
+  std::unique_ptr<GridLoad> load_;  // the grid being read and prepared; null once done (or never)
+  std::string notice_;              // options.notice: said with every progress of the load
+  bool build_started_ = false;      // the store's build was started from the loaded grid
 };
 
 }  // namespace ugvr::view

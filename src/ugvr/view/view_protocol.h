@@ -38,7 +38,10 @@
 //         on the wire)
 //   binary: the frame, JPEG while moving or refining, PNG once converged (lossless)
 //   text {"type":"error", "message":"FIELD: what is wrong"}   a rejected message; the session goes on
-//   text {"type":"progress", ...}  the background build of a store (ProgressInfo); a new "scene" follows "ready"
+//   text {"type":"progress", ...}  loading the grid and the background build of its store (ProgressInfo); a new
+//         "scene" follows "ready". A viewer of a grid serves before it reads it: its first messages after hello are
+//         progress ("read", then "build"), and the first "scene" comes when an engine can draw (none before it: frames
+//         only follow a scene). At most one every 250 ms, except a stage's end
 //   text {"type":"view", "camera":{...}, "tf":{"rgb_points":[...],"opacity_points":[...]}}   the server moved the
 //       tab's view (ViewServer::set_view; either part may be absent; also after hello, once one was set): the page
 //       takes it as its own and sends nothing back
@@ -183,8 +186,12 @@ struct FrameStatus {
 };
 std::string status_message(const FrameStatus& s);
 
-// {"type":"progress", "stage":"read"|"build"|"ready"|"failed", "label", "fraction", "message"}: building the brick
-// store of a grid file in the background (`ugvr view MESH`); "ready" comes just before the new scene message.
+// {"type":"progress", "stage":"read"|"build"|"ready"|"failed", "label", "fraction", "message"}: loading a grid file
+// and building its brick store in the background (`ugvr view MESH`): "read" while the file is read (label: the
+// reader's step); "build" while the exact engine's walk mesh (label "walk mesh") and then the store are built (label:
+// the builder's step); "failed" when loading or building failed (message: why); "ready" just before the new scene
+// message of the store. `message` also says why the store is built out of core when the grid is over the memory
+// budget (view/memory_budget.h).
 struct ProgressInfo {
   std::string stage;
   std::string label;  // the step now under way ("subdivide", "bricks", ...)

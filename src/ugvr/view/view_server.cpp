@@ -41,7 +41,8 @@ struct ForgetTabs {  // tabs that closed: their renderers go
   std::vector<uint64_t> tabs;
 };
 struct SwitchToStore {};  // the background build is done
-using Turn = std::variant<Idle, ForgetTabs, SwitchToStore, FrameJob>;
+struct FinishLoad {};     // the grid is loaded and its walk mesh built: the exact engine can draw
+using Turn = std::variant<Idle, ForgetTabs, SwitchToStore, FinishLoad, FrameJob>;
 
 }  // namespace
 
@@ -96,6 +97,11 @@ struct ViewServer::Impl final : HttpHost {
   }
   std::function<void()> perform(const ForgetTabs& t);
   std::function<void()> perform(const SwitchToStore&);
+  std::function<void()> perform(const FinishLoad&);
+  void broadcast_progress(const ProgressInfo& p, bool at_once);
+  std::string gl_renderer;                    // the render thread's GL_RENDERER (published before serving)
+  bool scene_shown = false;                   // a scene was published: tabs have something to draw
+  std::optional<Camera> camera_before_scene;  // current_view()'s camera until then
   std::function<void()> perform(const FrameJob& job);
   void publish_scene(bool announce);
   void broadcast(const std::vector<std::string>& texts);
@@ -170,8 +176,9 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
     options.dataset.reset();  // the engine host holds the grid, until its store is shown
     engine = std::make_unique<EngineHost>(std::move(engine_options));
     std::lock_guard lock(mutex);
+    gl_renderer = engine->gl_renderer();
     if (const std::optional<ProgressInfo> p = engine->initial_progress()) progress_text = progress_message(*p);
-    publish_scene(false);
+    if (engine->has_scene()) publish_scene(false);
   } catch (...) {
     started.set_exception(std::current_exception());
     return;
@@ -183,8 +190,8 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
     const Turn turn = next_turn();
     if (std::holds_alternative<Idle>(turn)) {
       // Every path here holds the lock since `stopping` was last read, so stop()'s notification cannot be lost.
-      if (engine->building())
-        wake.wait_for(lock, std::chrono::milliseconds(250));  // the build's progress is polled
+      if (engine->building() || engine->loading())
+        wake.wait_for(lock, std::chrono::milliseconds(250));  // the load's and the build's progress are polled
       else
         wake.wait(lock);
       continue;
@@ -207,27 +214,54 @@ Turn ViewServer::Impl::next_turn() {
     for (uint64_t id : gone) sockets.erase(id);
     return ForgetTabs{std::move(gone)};
   }
+  if (const std::optional<EngineHost::LoadReport> load = engine->poll_load()) {
+    if (load->failed) {
+      broadcast_progress(load->progress, true);
+      if (options.on_failure) options.on_failure(load->progress.message);
+    } else if (load->ready) {
+      return FinishLoad{};
+    } else if (load->progress.stage == "read") {
+      broadcast_progress(load->progress, false);  // then the build's progress says the rest (the walk mesh too)
+    }
+  }
   if (const std::optional<EngineHost::BuildReport> build = engine->build_report()) {
     switch (build->stage) {
-      case BackgroundBuild::Stage::Running: {
-        const std::string text = progress_message(build->progress);
-        if (text != progress_text && Clock::now() - last_progress > std::chrono::milliseconds(250)) {
-          progress_text = text;
-          last_progress = Clock::now();
-          broadcast({progress_text});
-        }
-        break;
-      }
+      case BackgroundBuild::Stage::Running: broadcast_progress(build->progress, false); break;
       case BackgroundBuild::Stage::Failed:
-        progress_text = progress_message(build->progress);
-        broadcast({progress_text});
-        engine->drop_build();  // the exact engine goes on showing the grid
+        broadcast_progress(build->progress, true);
+        engine->drop_build();  // the exact engine goes on showing the grid (if there is one)
+        if (!engine->has_scene() && !engine->loading() && options.on_failure)
+          options.on_failure(build->progress.message);  // the store path alone: nothing left to show
         break;
       case BackgroundBuild::Stage::Done: return SwitchToStore{};
     }
   }
+  if (!engine->has_scene()) return Idle{};  // nothing draws yet: tabs that said hello wait for the scene
   if (std::optional<FrameJob> job = scheduler.next()) return std::move(*job);
   return Idle{};
+}
+
+// Under the lock: a progress message to every tab, at most one every 250 ms unless `at_once` (a stage's end).
+void ViewServer::Impl::broadcast_progress(const ProgressInfo& p, bool at_once) {
+  const std::string text = progress_message(p);
+  if (text == progress_text) return;
+  if (!at_once && Clock::now() - last_progress < std::chrono::milliseconds(250)) return;
+  progress_text = text;
+  last_progress = Clock::now();
+  broadcast({progress_text});
+}
+
+// Without the lock: moves the exact engine to a GPU where that pays. Then every tab is shown the grid.
+std::function<void()> ViewServer::Impl::perform(const FinishLoad&) {
+  engine->finish_load();
+  return [this] {
+    // What the page says now: the store's build, if it still runs (without the walk mesh, which is done).
+    progress_text.clear();
+    if (const std::optional<EngineHost::BuildReport> b = engine->build_report();
+        b && b->stage == BackgroundBuild::Stage::Running)
+      progress_text = progress_message(b->progress);
+    publish_scene(true);
+  };
 }
 
 // Without the lock (a renderer joins its cache's threads).
@@ -241,7 +275,11 @@ std::function<void()> ViewServer::Impl::perform(const SwitchToStore&) {
   const EngineHost::Switch done = engine->switch_to_store();
   return [this, done] {
     progress_text = progress_message(done.progress);
-    if (!done.opened) return broadcast({progress_text});
+    if (!done.opened) {
+      broadcast({progress_text});
+      if (!engine->has_scene() && options.on_failure) options.on_failure(done.progress.message);
+      return;
+    }
     publish_scene(true);
     progress_text.clear();
   };
@@ -275,8 +313,19 @@ std::function<void()> ViewServer::Impl::perform(const FrameJob& job) {
 void ViewServer::Impl::publish_scene(bool announce) {
   scene = engine->scene();
   scene_text = scene_message(scene);
+  const bool first = !scene_shown;
+  scene_shown = true;
   if (!announce) return;
   for (TabState& tab : scheduler.tabs()) {
+    if (first) {
+      // The tab opened before there was a scene: it starts from the scene's view now, at the size it said.
+      ViewState v = initial_view(scene);
+      v.ready = tab.view.ready;
+      v.generation = tab.view.generation;
+      v.request.width = tab.view.request.width, v.request.height = tab.view.request.height;
+      apply_view_set(v);
+      tab.view = std::move(v);
+    }
     // Ranges may differ (store vs dataset): the tab's transfer function is composed again over the new ones.
     tab.view.request.tf = compose_tf(tab.view, scene);
     // Every tab moves to the new scene's engine; it may pick the other again afterwards.
@@ -289,8 +338,12 @@ void ViewServer::Impl::publish_scene(bool announce) {
 
 // Under the lock: to every tab that has said hello.
 void ViewServer::Impl::broadcast(const std::vector<std::string>& texts) {
+  std::vector<std::string> said;  // an empty text is nothing to say (no progress)
+  for (const std::string& t : texts)
+    if (!t.empty()) said.push_back(t);
+  if (said.empty()) return;
   for (const TabState& tab : scheduler.tabs())
-    if (tab.view.ready) post_texts(ioc, socket_of(tab.id), texts);
+    if (tab.view.ready) post_texts(ioc, socket_of(tab.id), said);
 }
 
 ViewServer::ViewServer(ViewServerOptions options) : impl_(std::make_unique<Impl>()) {
@@ -301,6 +354,10 @@ ViewServer::ViewServer(ViewServerOptions options) : impl_(std::make_unique<Impl>
   if (ec) fail_in("--host", "\"" + I.options.host + "\" is not an IP address");
   I.loopback = address.is_loopback();
   I.token_ = I.options.token.empty() && !I.loopback ? random_token() : I.options.token;
+  if (I.options.camera)
+    I.camera_before_scene = I.options.camera;
+  else if (I.options.dataset)
+    I.camera_before_scene = default_camera(I.options.dataset->bounds(), 30);
 
   std::promise<void> started;
   std::future<void> ready = started.get_future();
@@ -345,13 +402,24 @@ void ViewServer::stop() {
 
 uint16_t ViewServer::port() const { return impl_->port; }
 const std::string& ViewServer::token() const { return impl_->token_; }
-std::string ViewServer::renderer() const { return impl_->scene.renderer; }
+std::string ViewServer::renderer() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->scene_shown ? impl_->scene.renderer : impl_->gl_renderer;
+}
+
+std::string ViewServer::progress() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->progress_text;
+}
 
 ViewServer::View ViewServer::current_view() const {
   Impl& I = *impl_;
   std::lock_guard lock(I.mutex);
   if (const TabState* tab = I.scheduler.find(I.last_active)) return {tab->view.request.camera, tab->view.request.tf};
   ViewState v = initial_view(I.scene);
+  // Before the grid is loaded there is no scene yet: its camera will be the given one, or the default over the grid's
+  // bounds (known when the grid was given in memory).
+  if (!I.scene_shown && I.camera_before_scene) v.request.camera = *I.camera_before_scene;
   I.apply_view_set(v);
   return {v.request.camera, v.request.tf};
 }

@@ -40,8 +40,22 @@ struct ViewServerOptions {
   // background (background_build.h) from `fields` with `build`, and the exact engine shows the dataset meanwhile
   // (render/exact/exact_renderer.h); when the build is done every tab switches to the store, keeping its view, and
   // may switch back to the exact engine ("engine" message) unless `free_grid`.
+  //
+  // The server listens first and loads after: the dataset's fields, its exact engine's walk mesh and the store's
+  // build are all prepared on threads of their own while the page already shows their progress ("progress"
+  // messages); the first scene message comes when an engine can draw.
   std::string store;
   std::shared_ptr<const Dataset> dataset;
+  // Instead of `dataset`: called on a thread of its own once the server listens, to read the grid (its progress is
+  // the readers' own, core/progress.h). What it throws reaches the page and `on_failure`.
+  std::function<std::shared_ptr<const Dataset>()> load;
+  // Instead of `dataset` or `load`: a .vtu file that is not read in memory (it would not fit): its store is built out
+  // of core (octree/out_of_core.h) within `out_of_core_budget` bytes, and nothing draws until it is done.
+  std::string out_of_core_input;
+  uint64_t out_of_core_budget = 0;
+  std::string notice;  // said in the page with every progress while loading (why the store path alone, ...)
+  // Called (on the render thread) when the grid cannot be loaded (a bad file): the viewer has nothing to show.
+  std::function<void(const std::string& message)> on_failure;
   std::vector<std::string> fields;  // with `dataset`: field selectors to build (empty: default_view_fields)
   // With `dataset`: free the grid and its exact engine once the store is shown (every tab then has only the
   // level-of-detail engine). Kept by default, so that each tab can switch between the engines; the cost is the
@@ -67,7 +81,8 @@ struct ViewServerOptions {
 
 class ViewServer {
  public:
-  // Opens the store on the render thread, then listens. Throws ugvr::Error (store, GPU, address in use).
+  // Opens the store (or starts loading the grid) on the render thread, then listens. Throws ugvr::Error (store, GPU,
+  // address in use); an error in loading the grid comes later (on_failure, and a "failed" progress message).
   explicit ViewServer(ViewServerOptions options);
   ~ViewServer();  // stop()
   ViewServer(const ViewServer&) = delete;
@@ -77,6 +92,8 @@ class ViewServer {
   const std::string& token() const;  // empty when none is required
   std::string url() const;           // http://HOST:PORT/[?token=TOKEN]
   std::string renderer() const;      // GL_RENDERER of the render thread's context
+  // The latest progress message of loading the grid or building its store (empty: none); tests.
+  std::string progress() const;
   // Stops serving: closes the listener and the sessions and joins the threads. Idempotent.
   void stop();
 

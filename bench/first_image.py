@@ -1,0 +1,104 @@
+#!/usr/bin/env python3
+"""Time to the first image of `ugvr view MESH` (issue 24): starts the viewer on a mesh with a fresh store path, and
+measures from the process's start
+
+  - url_s: the URL printed (the server listens);
+  - the progress messages a tab gets (stage, label, fraction, first time each stage/label is seen);
+  - first_image_s: the first frame (a binary WebSocket message after hello);
+  - ready_s: the store shown (progress "ready"), if it comes within --wait seconds after the first image;
+  - peak_rss_bytes: the viewer's VmHWM at the end.
+
+The tab connects as soon as the URL is printed and says hello at 512x512. Uses bench/view_socket_check.py's
+standard-library WebSocket client. Prints one JSON line.
+
+Usage: first_image.py UGVR MESH STORE [--wait S] [-- VIEW_FLAGS...]
+"""
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from view_socket_check import WebSocket  # noqa: E402
+
+
+def hwm(pid):
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("ugvr")
+    ap.add_argument("mesh")
+    ap.add_argument("store")
+    ap.add_argument("--wait", type=float, default=0, help="seconds to wait for the store after the first image")
+    ap.add_argument("--timeout", type=float, default=900)
+    argv = sys.argv[1:]
+    flags = argv[argv.index("--") + 1:] if "--" in argv else []
+    args = ap.parse_args(argv[:argv.index("--")] if "--" in argv else argv)
+    for p in (args.store, args.store + ".lock"):
+        if os.path.exists(p):
+            os.remove(p)
+    start = time.monotonic()
+    log = open(args.store + ".log", "w")
+    server = subprocess.Popen([args.ugvr, "view", args.mesh, "--store", args.store, "--port", "0"] + flags,
+                              stdout=subprocess.PIPE, stderr=log, text=True)
+    out = {"bench": "first_image", "mesh": os.path.basename(args.mesh), "flags": " ".join(flags)}
+    seen = {}
+    try:
+        line = server.stdout.readline()
+        out["url_s"] = round(time.monotonic() - start, 3)
+        m = re.search(r"http://([^:/]+):(\d+)(/\S*)", line)
+        if not m:
+            raise RuntimeError("no URL in: " + line)
+        ws = WebSocket(m.group(1), int(m.group(2)), "/ws")
+        ws.sock.settimeout(args.timeout)
+        ws.send_json({"type": "hello", "width": 512, "height": 512})
+        first, ready, last_status = None, None, {}
+        while True:
+            text, data = ws.recv()
+            now = round(time.monotonic() - start, 3)
+            if not text:
+                if first is None:
+                    first = now
+                    out["first_image_s"] = first
+                    out["first_image_engine"] = last_status.get("engine")
+                    if args.wait <= 0 or ready is not None:  # the store was shown first (the out-of-core path)
+                        break
+                if first is not None and now - first > args.wait:
+                    break
+                continue
+            msg = json.loads(data)
+            if msg["type"] == "status":
+                last_status = msg
+            elif msg["type"] == "progress":
+                key = msg["stage"] + ("/" + msg["label"] if msg["label"] else "")
+                seen.setdefault(key, now)
+                if msg["stage"] == "failed":
+                    raise RuntimeError(msg["message"])
+                if msg["stage"] == "ready":
+                    ready = now
+                    out["ready_s"] = ready
+                    if first is not None:
+                        break
+            if first is not None and now - first > args.wait:
+                break
+    except BaseException as e:  # what was measured so far is still worth printing (Ctrl-C included)
+        out["error"] = repr(e)
+    finally:
+        out["progress_first_seen_s"] = seen
+        out["peak_rss_bytes"] = hwm(server.pid)
+        server.terminate()
+        server.wait(timeout=120)
+    print(json.dumps(out))
+
+
+if __name__ == "__main__":
+    main()

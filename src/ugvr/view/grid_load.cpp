@@ -1,0 +1,96 @@
+#include "ugvr/view/grid_load.h"
+
+#include <exception>
+
+#include "ugvr/core/error.h"
+#include "ugvr/core/progress.h"
+#include "ugvr/octree/input.h"
+#include "ugvr/render/exact/exact_renderer.h"
+#include "ugvr/view/field_histogram.h"
+#include "ugvr/view/view_store.h"
+
+namespace ugvr::view {
+
+GridLoad::GridLoad(std::function<std::shared_ptr<const Dataset>()> load, std::vector<std::string> fields,
+                   int histogram_bins) {
+  thread_ = std::thread([this, load = std::move(load), fields = std::move(fields), histogram_bins] {
+    run(load, fields, histogram_bins);
+  });
+}
+
+GridLoad::~GridLoad() {
+  cancel_ = true;
+  if (thread_.joinable()) thread_.join();
+}
+
+GridLoad::State GridLoad::state() const {
+  std::lock_guard lock(mutex_);
+  return state_;
+}
+
+std::shared_ptr<ExactScene> GridLoad::exact() const {
+  std::lock_guard lock(mutex_);
+  return exact_;
+}
+
+void GridLoad::set(Stage stage, const std::string& label, double fraction) {
+  std::lock_guard lock(mutex_);
+  state_.stage = stage;
+  state_.label = label;
+  state_.fraction = fraction;
+}
+
+void GridLoad::run(const std::function<std::shared_ptr<const Dataset>()>& load, const std::vector<std::string>& fields,
+                   int bins) {
+  try {
+    // The readers report to the process-wide observer only (they have no caller-given one); nothing else of the viewer
+    // runs a Progress while the grid is read (the store's build starts after it, with an observer of its own).
+    Progress::set_observer([this](const std::string& label, double fraction) {
+      std::lock_guard lock(mutex_);
+      if (state_.stage == Stage::Reading) state_.label = label, state_.fraction = fraction;
+    });
+    std::shared_ptr<const Dataset> dataset;
+    try {
+      dataset = load();
+    } catch (...) {
+      Progress::set_observer({});
+      throw;
+    }
+    Progress::set_observer({});
+    if (!dataset) throw Error("the grid loader returned nothing");
+    if (cancel_) return;
+
+    Grid grid;
+    grid.dataset = dataset;
+    const std::vector<std::string> selectors = fields.empty() ? default_view_fields(*dataset) : fields;
+    {
+      // Validates the fields (NaN, missing) before anything is built from them.
+      const OctreeInput input = prepare_octree_input(*dataset, selectors);
+      for (size_t i = 0; i < input.fields.size(); ++i) {
+        const BrickStoreField& f = input.fields[i];
+        const ScalarRef& ref = input.scalars[i];
+        grid.fields.push_back({f.name, f.min, f.max, field_histogram(*ref.field, ref.component, bins)});
+        grid.names.push_back(f.name);
+      }
+      grid.bounds = input.bounds;
+    }
+    grid_ = std::move(grid);
+    set(Stage::Fields, "walk mesh", 0);
+
+    auto exact = std::make_shared<ExactScene>(dataset, [this](std::string_view, double fraction) {
+      std::lock_guard lock(mutex_);
+      state_.fraction = fraction;
+      return !cancel_.load();
+    });
+    std::lock_guard lock(mutex_);
+    exact_ = std::move(exact);
+    state_.stage = Stage::Done;
+    state_.fraction = 1;
+  } catch (const std::exception& e) {
+    std::lock_guard lock(mutex_);
+    state_.stage = Stage::Failed;
+    state_.error = e.what();
+  }
+}
+
+}  // namespace ugvr::view

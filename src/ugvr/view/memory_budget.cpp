@@ -1,0 +1,132 @@
+#include "ugvr/view/memory_budget.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "ugvr/core/error.h"
+#include "ugvr/core/memory.h"
+
+namespace ugvr::view {
+namespace {
+
+namespace fs = std::filesystem;
+
+uint64_t size_on_disk(const std::string& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    uint64_t total = 0;
+    for (auto it = fs::recursive_directory_iterator(path, ec); !ec && it != fs::recursive_directory_iterator();
+         it.increment(ec))
+      if (it->is_regular_file(ec)) total += it->file_size(ec);
+    return total;
+  }
+  const uint64_t size = fs::file_size(path, ec);
+  if (ec) fail_in(path, "cannot read its size: " + ec.message());
+  return size;
+}
+
+// The value of `name="N"` in `tag`, or nullopt.
+std::optional<uint64_t> attribute(const std::string& tag, const std::string& name) {
+  const size_t at = tag.find(" " + name + "=\"");
+  if (at == std::string::npos) return std::nullopt;
+  const char* begin = tag.c_str() + at + name.size() + 3;
+  char* end = nullptr;
+  const unsigned long long v = std::strtoull(begin, &end, 10);
+  if (end == begin || *end != '"') return std::nullopt;
+  return uint64_t(v);
+}
+
+// A .vtu's counts from its first <Piece> tag, when that is in its first 64 KiB.
+std::optional<std::pair<uint64_t, uint64_t>> vtu_counts(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string head(64 * 1024, '\0');
+  in.read(head.data(), std::streamsize(head.size()));
+  head.resize(size_t(in.gcount()));
+  const size_t piece = head.find("<Piece ");
+  if (piece == std::string::npos) return std::nullopt;
+  const size_t close = head.find('>', piece);
+  if (close == std::string::npos) return std::nullopt;
+  const std::string tag = head.substr(piece, close - piece);
+  const auto points = attribute(tag, "NumberOfPoints"), cells = attribute(tag, "NumberOfCells");
+  if (!points || !cells) return std::nullopt;
+  return std::make_pair(*points, *cells);
+}
+
+}  // namespace
+
+InCoreEstimate estimate_in_core(const std::vector<std::string>& inputs) {
+  InCoreEstimate e;
+  for (const std::string& path : inputs) e.input_bytes += size_on_disk(path);
+  if (inputs.size() == 1 && fs::path(inputs[0]).extension() == ".vtu") {
+    if (const auto counts = vtu_counts(inputs[0])) {
+      e.points = counts->first, e.cells = counts->second;
+      e.bytes = uint64_t(double(e.cells) * kViewBytesPerCell + double(e.points) * kViewBytesPerPoint);
+      e.basis = std::to_string(e.cells) + " cells, " + std::to_string(e.points) + " points";
+      return e;
+    }
+  }
+  e.bytes = uint64_t(double(e.input_bytes) * kViewBytesPerInputByte);
+  e.basis = format_bytes(e.input_bytes) + " on disk";
+  return e;
+}
+
+uint64_t parse_byte_size(const std::string& text, const std::string& what) {
+  const auto bad = [&] {
+    fail_in(what, "\"" + text + "\" is not a byte size (a number of bytes, or with a unit: 512MiB, 12GiB, 800MB)");
+  };
+  size_t i = 0;
+  while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
+  const char* begin = text.c_str() + i;
+  char* end = nullptr;
+  const double v = std::strtod(begin, &end);
+  if (end == begin || !std::isfinite(v) || v < 0) bad();
+  std::string unit;
+  for (const char* c = end; *c; ++c)
+    if (!std::isspace(static_cast<unsigned char>(*c))) unit += char(std::tolower(static_cast<unsigned char>(*c)));
+  static const std::pair<const char*, double> units[] = {{"", 1},
+                                                         {"b", 1},
+                                                         {"k", 1e3},
+                                                         {"kb", 1e3},
+                                                         {"kib", 1024.0},
+                                                         {"m", 1e6},
+                                                         {"mb", 1e6},
+                                                         {"mib", 1048576.0},
+                                                         {"g", 1e9},
+                                                         {"gb", 1e9},
+                                                         {"gib", 1073741824.0},
+                                                         {"t", 1e12},
+                                                         {"tb", 1e12},
+                                                         {"tib", 1099511627776.0}};
+  for (const auto& [name, scale] : units)
+    if (unit == name) {
+      const double bytes = v * scale;
+      if (bytes >= 18e18) bad();
+      return uint64_t(bytes);
+    }
+  bad();
+  return 0;
+}
+
+uint64_t view_memory_budget(std::optional<uint64_t> flag, std::string* source) {
+  if (flag) {
+    if (source) *source = "--memory-budget";
+    return *flag;
+  }
+  if (const char* env = std::getenv(kViewMemoryBudgetEnv); env && *env) {
+    if (source) *source = kViewMemoryBudgetEnv;
+    return parse_byte_size(env, kViewMemoryBudgetEnv);
+  }
+  const uint64_t ram = physical_memory_bytes();
+  if (ram == UINT64_MAX) {
+    if (source) *source = "no budget (the system does not say its memory size)";
+    return UINT64_MAX;
+  }
+  if (source) *source = "half of the machine's " + format_bytes(ram);
+  return uint64_t(double(ram) * kViewMemoryFraction);
+}
+
+}  // namespace ugvr::view
