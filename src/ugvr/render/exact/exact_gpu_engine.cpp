@@ -182,6 +182,10 @@ Image ExactGpuEngine::render(const Camera& camera, const TransferFunction& tf, c
   tf.validate("transfer function");
   if (settings.iso_values.size() > size_t(exact_gpu::EXACT_MAX_ISO))
     fail_in("exact engine (GPU)", "at most " + std::to_string(exact_gpu::EXACT_MAX_ISO) + " isovalues");
+  if (!settings.slices.empty() || settings.hide_volume != HideVolume::None)
+    fail_in("exact engine (GPU)",
+            "slices (--slice, --hide-volume) are drawn by the CPU engine (--device cpu) and the LOD engine, not yet "
+            "on the GPU");
   const auto t0 = std::chrono::steady_clock::now();
   I.gl->make_current();
   const int w = settings.width, h = settings.height;
