@@ -317,8 +317,6 @@ TEST(ExactSlice, CompositedInDepthOrderWithTheVolume) {
   }
 }
 
-// The GPU exact engine does not draw slices yet: it says so instead of drawing the volume alone.
-// (A CPU-only check would not reach it; see test_exact_gpu.cpp for the engine's own tests.)
 
 // ---- The LOD engine against the exact one ----
 
