@@ -1,7 +1,8 @@
 // The LOD engine's fidelity against the exact engine for one view (issue 25): PSNR and SSIM of the whole image, and
 // the seam metric, the mean error on pixels along the projected borders between cut nodes of different levels divided
 // by the mean error on the other covered pixels (about 1: no seam; well above 1: the level changes show).
-//   bench_lod_seams STORE FIELD CAMERA.json TF.json CUT EXACT.pfm LOD.pfm [MASK.png] [R,G,B]
+//   bench_lod_seams [--plane PX,PY,PZ,NX,NY,NZ] STORE FIELD CAMERA.json TF.json CUT EXACT.pfm LOD.pfm [MASK.png]
+//   [R,G,B]
 // CAMERA.json and TF.json are what `ugvr render --save-camera --save-tf` wrote for the LOD image (the transfer
 // function as rendered: rescaled, with its unit distance), so the cut chosen here is the one the render used
 // (select_cut with the engine's defaults: transfer-function culling on, no node budget; the store must fit the
@@ -17,6 +18,10 @@
 // to compare with. A coarse face next to finer nodes finds a finer one at its centre, a fine face next to a coarse
 // one the coarse one. Covered: a pixel where either image differs from the background by more than 1/255.
 // The per-pixel error is the mean absolute difference of R, G, B.
+// With --plane PX,PY,PZ,NX,NY,NZ first (a slice, docs/slices.md, rendered with the volume hidden), the border pixels
+// are those along the lines where the plane crosses the faces between levels (the seams a slice could show), not the
+// faces' edges; and the cut is chosen as the engine chooses it for a frame with slices (no transfer-function culling
+// or weighting: the slice shows transparent data too).
 // Seen through a volume, the level changes inside it all project somewhere; the seams the issue saw (the demo's
 // checkerboard) lie on the data's boundary, where an opaque wall layer meets the box. So a second ratio, "wall", counts
 // only the border edges lying in a face of the data's bounding box (the demo's floor and top), against the same
@@ -25,6 +30,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -117,8 +123,21 @@ void mark_segment(std::vector<char>& mask, int w, int h, double ax, double ay, d
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::optional<std::array<double, 6>> slice_plane;
+  if (argc > 2 && std::string(argv[1]) == "--plane") {
+    std::array<double, 6> p{};
+    if (std::sscanf(argv[2], "%lf,%lf,%lf,%lf,%lf,%lf", &p[0], &p[1], &p[2], &p[3], &p[4], &p[5]) != 6) {
+      std::fprintf(stderr, "--plane: expected PX,PY,PZ,NX,NY,NZ\n");
+      return 1;
+    }
+    slice_plane = p;
+    argv += 2, argc -= 2;
+  }
   if (argc < 8) {
-    std::fprintf(stderr, "usage: %s STORE FIELD CAMERA.json TF.json CUT EXACT.pfm LOD.pfm [MASK.png]\n", argv[0]);
+    std::fprintf(
+        stderr,
+        "usage: %s [--plane PX,PY,PZ,NX,NY,NZ] STORE FIELD CAMERA.json TF.json CUT EXACT.pfm LOD.pfm [MASK.png]\n",
+        argv[0]);
     return 2;
   }
   try {
@@ -133,6 +152,7 @@ int main(int argc, char** argv) {
     const int w = exact.width, h = exact.height;
     CutOptions co;
     co.field = uint32_t(field);
+    if (slice_plane) co.tf_cull = false, co.tf_error = false;  // as LodEngine::render with slices
     const Cut cut = select_cut(store, spec, camera, w, h, tf, co);
 
     std::vector<char> in_cut(store.node_count(), 0);
@@ -172,6 +192,24 @@ int main(int argc, char** argv) {
             q[u] = (k == 1 || k == 2) ? b.hi[u] : b.lo[u];
             q[v] = (k >= 2) ? b.hi[v] : b.lo[v];
             corner[k] = q;
+          }
+          if (slice_plane) {
+            // Where the plane crosses the face: the points where it crosses the face's edges (two, unless it only
+            // touches the face).
+            const Vec3d pp{(*slice_plane)[0], (*slice_plane)[1], (*slice_plane)[2]},
+                pn{(*slice_plane)[3], (*slice_plane)[4], (*slice_plane)[5]};
+            std::vector<Vec3d> hits;
+            for (int k = 0; k < 4; ++k) {
+              const Vec3d a = corner[k], e = corner[(k + 1) % 4];
+              const double da = dot(a - pp, pn), de = dot(e - pp, pn);
+              if ((da < 0) != (de < 0)) hits.push_back(a + (e - a) * (da / (da - de)));
+            }
+            double ax, ay, bx, by;
+            Vec3d p = hits.size() >= 2 ? hits[0] : Vec3d{}, q = hits.size() >= 2 ? hits[1] : Vec3d{};
+            if (hits.size() >= 2 && clip_to_box(p, q, store.layout().data) && proj.project(p, ax, ay) &&
+                proj.project(q, bx, by) && std::hypot(bx - ax, by - ay) >= kMinEdgePixels)
+              mark_segment(border, w, h, ax, ay, bx, by, 1.0);
+            continue;
           }
           for (int k = 0; k < 4; ++k) {
             Vec3d p = corner[k], q = corner[(k + 1) % 4];

@@ -58,6 +58,11 @@ const int EXACT_TILES_BINDING = 15;
 const int EXACT_COUNTERS_BINDING = 16;
 const int EXACT_OPTICAL_BINDING = 17;  // 16 storage blocks in all: the most GL guarantees a compute shader
 const int EXACT_FRAME_BLOCK_BINDING = 18;
+// Slices (SLICES variants; render_settings.h Slice): one row of EXACT_SLICE_TEXELS colours per slice over its range,
+// rgba32f, linear along a row. EXACT_MAX_SLICES is render_settings.h's kMaxSlices (a macro: it sizes block arrays).
+const int EXACT_SLICE_TEXTURE_BINDING = 19;
+const int EXACT_SLICE_TEXELS = 1024;
+#define EXACT_MAX_SLICES 8
 
 const int EXACT_COUNTER_RAYS_HIT = 0;
 const int EXACT_COUNTER_STEPS_LO = 1;  // cell steps, 64 bits in two words
@@ -93,13 +98,18 @@ layout(std140, binding = EXACT_FRAME_BLOCK_BINDING) uniform ExactFrame {
   ivec4 u_counts;      // 272 cell count, iso count, chunk shift, -
   vec4 u_params;       // 288 overlay opacity, iso opacity, 1 - early-termination opacity, -
   vec4 u_tf_map;       // 304 x, y: TF texture coordinate = value x + y
-  vec4 u_iso[EXACT_MAX_ISO / 4];  // 320 isovalues, ascending
+  vec4 u_iso[EXACT_MAX_ISO / 4];          // 320 isovalues, ascending
+  ivec4 u_slice_info;                     // 384 x: slice count, y: hide_volume (0 none, 1 front, 2 back, 3 all)
+  vec4 u_slice_map[EXACT_MAX_SLICES];     // 400 x, y: slice i's colour-table coordinate = value x + y; z: opacity
+  ivec4 u_slice_pad;                      // 528 (u_slice_plane starts on 32 bytes)
+  dvec4 u_slice_plane[EXACT_MAX_SLICES];  // 544 xyz: unit normal, w: dot(normal, point)
 };
 
 #ifdef __cplusplus
 static_assert(sizeof(dvec4) == 32 && sizeof(vec4) == 16 && sizeof(uvec4) == 16 && sizeof(ivec4) == 16);
 static_assert(offsetof(ExactFrame, u_type_begin) == 192 && offsetof(ExactFrame, u_iso) == 320);
-static_assert(sizeof(ExactFrame) == 384);
+static_assert(offsetof(ExactFrame, u_slice_info) == 384 && offsetof(ExactFrame, u_slice_map) == 400);
+static_assert(offsetof(ExactFrame, u_slice_plane) == 544 && sizeof(ExactFrame) == 800);
 
 }  // namespace ugvr::exact_gpu
 #endif

@@ -26,6 +26,9 @@
 #ifndef TETS_ONLY
 #define TETS_ONLY 0
 #endif
+#ifndef SLICES
+#define SLICES 0  // cutting planes (u_slice_*; docs/slices.md)
+#endif
 #ifndef VOLUME_LIGHTING
 #define VOLUME_LIGHTING 0  // compile time: without it (and outside isosurfaces) no gradient code, no registers for it
 #endif
@@ -338,11 +341,38 @@ void iso_crossings(float a, float b, int k, real ta, real tb, int normal_face, i
   }
 }
 
-// One linear piece of the field along the ray inside the current cell.
-void piece(real ta, real tb, float sa, float sb, int k) {
-  if (tb <= g_t_lo || ta >= g_t_hi || !(tb > ta)) return;
-  if (ta < g_t_lo) sa = sa + (sb - sa) * float((g_t_lo - ta) / (tb - ta)), ta = g_t_lo;
-  if (tb > g_t_hi) sb = sa + (sb - sa) * float((g_t_hi - ta) / (tb - ta)), tb = g_t_hi;
+#if SLICES
+// Slices, as the CPU engine draws them (exact_engine.cpp RayTracer::piece): the crossings ahead of the ray, sorted,
+// split the pieces; the field at a crossing by the cell's own interpolant; the volume only in [g_vol_lo, g_vol_hi].
+layout(binding = EXACT_SLICE_TEXTURE_BINDING) uniform sampler2D u_slice_colors;
+real g_st[EXACT_MAX_SLICES];
+int g_si[EXACT_MAX_SLICES];
+int g_ns = 0, g_sj = 0;
+real g_vol_lo, g_vol_hi;
+
+// The field of the current cell at t: `linear` (the piece's value there) is exact in a tetrahedron and for cell data.
+float slice_value(int k, real t, float linear) {
+  if (k == 0 || u_flags.x != 0) return linear;
+  need_monomials(k);
+  real3 rst;
+  if (!inverse_map(g_origin + g_dir * t, real3(CENTER[k]), 1e-9, rst)) return linear;
+  return float(field_at(rst));
+}
+
+vec3 slice_color(int i, float v) {
+  float u = clamp(v * u_slice_map[i].x + u_slice_map[i].y, 0.0, 1.0);
+  return texture(u_slice_colors, vec2((u * float(EXACT_SLICE_TEXELS - 1) + 0.5) / float(EXACT_SLICE_TEXELS),
+                                      (float(i) + 0.5) / float(EXACT_MAX_SLICES))).rgb;
+}
+#endif
+
+// One linear piece of the volume inside the current cell (where hide_volume lets it show).
+void volume_piece(real ta, real tb, float sa, float sb, int k) {
+#if SLICES
+  if (tb <= g_vol_lo || ta >= g_vol_hi || !(tb > ta)) return;
+  if (ta < g_vol_lo) sa = sa + (sb - sa) * float((g_vol_lo - ta) / (tb - ta)), ta = g_vol_lo;
+  if (tb > g_vol_hi) sb = sa + (sb - sa) * float((g_vol_hi - ta) / (tb - ta)), tb = g_vol_hi;
+#endif
 #if MODE == EXACT_MODE_EA
   float shade = 1.0;
   if (VOLUME_LIGHTING != 0 && sa != sb) {
@@ -359,6 +389,30 @@ void piece(real ta, real tb, float sa, float sb, int k) {
   if (sa == sb || isnan(sa) || isnan(sb)) return;
   iso_crossings(sa, sb, k, ta, tb, -1, ivec3(0));
 #endif
+}
+
+// One linear piece of the field along the ray inside the current cell; the slices it crosses split it (a crossing
+// belongs to the piece with ta <= t < tb; one behind ta lies where the ray was outside the mesh).
+void piece(real ta, real tb, float sa, float sb, int k) {
+  if (tb <= g_t_lo || ta >= g_t_hi || !(tb > ta)) return;
+  if (ta < g_t_lo) sa = sa + (sb - sa) * float((g_t_lo - ta) / (tb - ta)), ta = g_t_lo;
+  if (tb > g_t_hi) sb = sa + (sb - sa) * float((g_t_hi - ta) / (tb - ta)), tb = g_t_hi;
+#if SLICES
+  while (g_sj < g_ns && g_st[g_sj] < tb) {
+    real tp = g_st[g_sj];
+    int i = g_si[g_sj];
+    ++g_sj;
+    if (tp < ta) continue;
+    float sp = sa + (sb - sa) * float((tp - ta) / (tb - ta));
+    volume_piece(ta, tp, sa, sp, k);
+    if (done()) return;
+    float v = slice_value(k, tp, sp);
+    if (!isnan(v)) composite_surface(slice_color(i, v), u_slice_map[i].z);
+    if (done()) return;
+    ta = tp, sa = sp;
+  }
+#endif
+  volume_piece(ta, tb, sa, sb, k);
 }
 
 // ---- the walk ------------------------------------------------------------------------------------------------------
@@ -594,6 +648,28 @@ void main() {
     else if (dot(u_clip.xyz, origin) - u_clip.w < 0.0)
       g_t_hi = -INF;
   }
+#if SLICES
+  g_vol_lo = -INF, g_vol_hi = u_slice_info.y == 3 ? -INF : INF;
+  for (int i = 0; i < u_slice_info.x; ++i) {
+    dvec4 pl = u_slice_plane[i];
+    double nd = dot(pl.xyz, dir), g0 = dot(pl.xyz, origin) - pl.w;
+    if (u_slice_info.y == 1 || u_slice_info.y == 2) {
+      double sg = u_slice_info.y == 2 ? 1.0 : -1.0;  // keep sg · (dot(n, p) - w) >= 0
+      if (sg * nd > 0.0)
+        g_vol_lo = max(g_vol_lo, real(-g0 / nd));
+      else if (sg * nd < 0.0)
+        g_vol_hi = min(g_vol_hi, real(-g0 / nd));
+      else if (sg * g0 < 0.0)
+        g_vol_hi = -INF;
+    }
+    if (nd == 0.0) continue;
+    real ts = real((pl.w - dot(pl.xyz, origin)) / nd);
+    if (!(ts >= g_t_lo && ts <= g_t_hi)) continue;
+    int j = g_ns++;
+    for (; j > 0 && g_st[j - 1] > ts; --j) g_st[j] = g_st[j - 1], g_si[j] = g_si[j - 1];
+    g_st[j] = ts, g_si[j] = i;
+  }
+#endif
   g_stop_transmittance = u_params.z;
   g_mip_max = -FLOAT_INF;
 
@@ -669,7 +745,12 @@ void main() {
       if (u_flags.x != 0) {
         float s_next = values[next_cell];
 #if MODE == EXACT_MODE_ISO
-        if (s_in != s_next && t_in >= g_t_lo && t_in <= g_t_hi && !isnan(s_in) && !isnan(s_next))
+#if SLICES
+        bool shown = t_in >= g_vol_lo && t_in <= g_vol_hi;
+#else
+        const bool shown = true;
+#endif
+        if (shown && s_in != s_next && t_in >= g_t_lo && t_in <= g_t_hi && !isnan(s_in) && !isnan(s_next))
           iso_crossings(s_in, s_next, k, t_in, t_in, o.face, o.corners);
 #endif
         s_in = s_next;
@@ -684,10 +765,10 @@ void main() {
 
   vec4 result = g_acc;
 #if MODE == EXACT_MODE_MIP
-  result = vec4(0, 0, 0, 1);
+  // g_acc holds the slices alone (nothing without them); the maximum is drawn behind them.
   if (g_mip_hit) {
     vec4 c = tf_lookup(g_mip_max);
-    result = vec4(c.rgb * c.a, 1.0 - c.a);
+    result = vec4(g_acc.rgb + g_acc.a * c.rgb * c.a, g_acc.a * (1.0 - c.a));
   }
 #endif
   imageStore(u_out, pixel, result);

@@ -30,6 +30,9 @@
 #ifndef FACES
 #define FACES 0  // the store keeps the mesh's boundary faces per node: clip at them (below)
 #endif
+#ifndef SLICES
+#define SLICES 0  // cutting planes (u_slice_*; docs/slices.md)
+#endif
 
 layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE) in;
 
@@ -40,6 +43,28 @@ layout(binding = PREINT_TEXTURE_BINDING) uniform sampler1D u_preint;
 layout(std430, binding = TREE_BUFFER_BINDING) readonly buffer Tree { uvec2 tree[]; };
 layout(std430, binding = STATE_BUFFER_BINDING) readonly buffer State { uint node_state[]; };
 layout(std430, binding = COUNTERS_BUFFER_BINDING) buffer Counters { uint counters[]; };
+
+#if SLICES
+// Slices (LaMar 2000, ch. 6; docs/slices.md). Where the ray crosses a plane is made a sample point of whichever node
+// holds it, like the faces below: the volume segment ends there, the brick is sampled there (trilinear, the same
+// texel data as the volume, so the slice and the volume agree), and the slice is composited at that depth with its
+// own colour map and opacity before the volume behind it. Levels: the sample is the cut node's own brick, whose
+// border texels a coarser neighbour shares (octree-build.md); a seam between levels is the difference of two
+// trilinear reconstructions of one field, which bench/bench_lod_seams measures (docs/slices.md for the figure).
+layout(binding = SLICE_TEXTURE_BINDING) uniform sampler2D u_slice_colors;
+float g_st[LOD_MAX_SLICES];  // the ray's crossings ahead, ascending (t from base)
+int g_si[LOD_MAX_SLICES];    // their slice
+int g_ns;                    // how many
+
+void composite_slice(int i, float value, inout vec3 radiance, inout float transmittance) {
+  vec4 m = u_slice_map[i];
+  float u = clamp(value * m.x + m.y, 0.0, 1.0);
+  vec3 color = texture(u_slice_colors, vec2((u * (float(SLICE_TEXELS) - 1.0) + 0.5) / float(SLICE_TEXELS),
+                                            (float(i) + 0.5) / float(LOD_MAX_SLICES))).rgb;
+  radiance += transmittance * m.z * color;
+  transmittance *= 1.0 - m.z;
+}
+#endif
 
 #if FACES
 // The exact boundary (Muigg 2008, section 5.1.2; docs/lod-engine.md, "Exact boundary"): a node the mesh boundary
@@ -405,6 +430,33 @@ void main() {
     else if (df < 0.0) t_end = min(t_end, -f0 / df);
     else if (f0 < 0.0) t_end = -1.0;
   }
+#if SLICES
+  // The crossings in [t, t_end], sorted; the volume shows in [vol_lo, vol_hi] only (hide_volume: front keeps each
+  // plane's negative side, back its positive side). Each bound is a crossing, hence a sample: a segment between two
+  // samples is wholly in or out, decided at its middle.
+  g_ns = 0;
+  float vol_lo = u_hide_volume == 3 ? 1.0 : -3.0e38, vol_hi = u_hide_volume == 3 ? -1.0 : 3.0e38;
+  for (int i = 0; i < u_slice_count; ++i) {
+    float f0 = dot(u_slice_plane[i].xyz, base) + u_slice_plane[i].w, df = dot(u_slice_plane[i].xyz, dir);
+    if (u_hide_volume == 1 || u_hide_volume == 2) {
+      float sg = u_hide_volume == 2 ? 1.0 : -1.0;  // keep sg · f >= 0
+      if (sg * df > 0.0) vol_lo = max(vol_lo, -f0 / df);
+      else if (sg * df < 0.0) vol_hi = min(vol_hi, -f0 / df);
+      else if (sg * f0 < 0.0) vol_hi = -1.0, vol_lo = 1.0;
+    }
+    if (df == 0.0) continue;
+    float ts = -f0 / df;
+    if (!(ts >= t && ts <= t_end)) continue;
+    int j = g_ns++;
+    for (; j > 0 && g_st[j - 1] > ts; --j) {
+      g_st[j] = g_st[j - 1];
+      g_si[j] = g_si[j - 1];
+    }
+    g_st[j] = ts;
+    g_si[j] = i;
+  }
+  int sj = 0;  // the next crossing to pass
+#endif
 #if OVERLAY
   // Like the exact engine's faces: crossings between the ray's start and end only. A ray that starts at the root
   // cell's entry starts outside the data; one that starts at the eye or the clip plane starts in whatever state V has
@@ -458,6 +510,9 @@ void main() {
     t_exit = max(t_exit, t + u_nudge);
     if (state == NODE_SKIP || state == NODE_DESCEND) {
       have_prev = false;
+#if SLICES
+      while (sj < g_ns && g_st[sj] < t_exit) ++sj;  // outside the data: no slice
+#endif
 #if OVERLAY
       if (ov_inside) {  // leaving the data for an empty octant: the crossing lies before t
         composite_overlay(boundary_crossing(ov_t, t, true), dir_world, radiance, transmittance);
@@ -508,6 +563,9 @@ void main() {
     for (float sb = tstart;;) {
       vec3 c = c0 + c1 * sb;
       vec2 vb = texture(u_atlas, c).rg;
+#if SLICES
+      float stencil_b = vb.g;  // before the faces' state replaces it (below)
+#endif
       ++samples;
       bool first = sb == tstart;
 #if FACES
@@ -559,7 +617,13 @@ void main() {
         bool ga = va.g >= 0.5, gb = vb.g >= 0.5;
         float ua = va.r * u_tf_map.x + u_tf_map.y, ub = vb.r * u_tf_map.x + u_tf_map.y;
         vec4 ib = integral_at(ub);
-        if (!first && (ga || gb)) {
+#if SLICES
+        float tmid = 0.5 * (sa + sb);
+        bool shown = tmid >= vol_lo && tmid <= vol_hi;
+#else
+        const bool shown = true;
+#endif
+        if (!first && (ga || gb) && shown) {
           float len = sb - sa;
           vec4 mean;
           if (ga && gb && abs(ub - ua) >= 0.5 / (float(TF_TEXELS) - 1.0)) {
@@ -592,7 +656,11 @@ void main() {
         ia = ib;
       }
 #elif MODE == LOD_MODE_MIP
+#if SLICES
+      if (vb.g >= 0.5 && sb >= vol_lo && sb <= vol_hi) mip_max = max(mip_max, vb.r);
+#else
       if (vb.g >= 0.5) mip_max = max(mip_max, vb.r);
+#endif
 #else
       if (vb.g < 0.5) {
         have_prev = false;
@@ -603,6 +671,9 @@ void main() {
             float iso = iso_value(up ? i : u_iso_count - 1 - i);
             if ((prev_value < iso) == (vb.r < iso)) continue;
             float th = prev_t + (iso - prev_value) / (vb.r - prev_value) * (sb - prev_t);
+#if SLICES
+            if (th < vol_lo || th > vol_hi) continue;
+#endif
             vec3 ch = c0 + c1 * max(th, t);  // a crossing just before this brick: its entry
             vec3 color = shade_surface(tf_at(iso).rgb, gradient_at(ch, voxel), dir_world);
             radiance += transmittance * u_iso_opacity * color;
@@ -641,6 +712,15 @@ void main() {
         fstate = next;
       }
 #endif
+#if SLICES
+      // The slices at this sample (it was put on their crossing): inside the data, the brick's value there. Inside:
+      // where the stencil is wholly valid, even if the faces' state says otherwise (a seam of the mesh, such as an
+      // O-grid's cut, has faces on both sides whose crossings may leave the state wrong over a segment: too short to
+      // see in the volume, a crack in a slice); near the boundary (the stencil strictly between), the faces' state.
+      bool slice_inside = stencil_b >= 0.999 || (stencil_b > 0.001 && vb.g >= 0.5);
+      for (; sj < g_ns && g_st[sj] <= sb; ++sj)
+        if (slice_inside) composite_slice(g_si[sj], vb.r, radiance, transmittance);
+#endif
       if (transmittance <= u_min_transmittance || sb >= t_exit) break;
       sa = sb;
       va = vb;
@@ -650,13 +730,17 @@ void main() {
         k += 1.0;
         sb = min(k * step, t_exit);
       } while (!(sb > sa));
+      float sb_grid = sb;
 #if FACES
       if (fstate >= 0 && fj < g_nh && g_fh[fj] < sb) {
-        k -= 1.0;  // the grid point stays ahead
         sb = max(g_fh[fj], sa);
         if (!(sb > sa)) sb = min(sa + u_nudge, t_exit);
       }
 #endif
+#if SLICES
+      if (sj < g_ns && g_st[sj] < sb) sb = g_st[sj];  // > sa: those up to sa are passed
+#endif
+      if (sb < sb_grid) k -= 1.0;  // the grid point stays ahead
     }
 #if FACES
     if (!restart) break;
@@ -681,11 +765,11 @@ void main() {
 
   vec4 result = vec4(radiance, transmittance);
 #if MODE == LOD_MODE_MIP
-  result = vec4(0.0, 0.0, 0.0, 1.0);
+  // radiance and transmittance hold the slices alone (none without SLICES); the maximum is drawn behind them.
   if (mip_max >= 0.0) {
     vec4 tf = tf_at(mip_max);
     float a = 1.0 - exp(-tf.a * u_unit_distance);
-    result = vec4(tf.rgb * a, 1.0 - a);
+    result = vec4(radiance + transmittance * tf.rgb * a, transmittance * (1.0 - a));
   }
 #endif
   imageStore(u_out, pix, result);

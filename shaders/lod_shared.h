@@ -67,6 +67,12 @@ const int FACE_REF_BUFFER_BINDING = 9;   // uint per reference: a triangle index
 const int FACE_TRI_BUFFER_BINDING = 10;  // float[9] per triangle: corners in normalised coordinates, outward order
 const uint FACE_OVERFLOW = 0xFFFFFFFFu;  // store_format::kBoundaryOverflow
 const int MAX_FACE_HITS = 8;  // face crossings kept per ray and node (more: the rest of the node is lost to the state)
+// Slices (SLICES variants; render_settings.h Slice): their colour tables, one row of SLICE_TEXELS per slice over the
+// slice's own range (texel i at u = i / (SLICE_TEXELS - 1)), rgba32f, linear along a row. LOD_MAX_SLICES is
+// render_settings.h's kMaxSlices, a macro so that it sizes the block's arrays in both languages.
+const int SLICE_TEXTURE_BINDING = 11;
+const int SLICE_TEXELS = 1024;
+#define LOD_MAX_SLICES 8
 
 const uint TREE_CHILD_MASK = 0xFFu;  // the child mask in a tree entry's y
 const uint TREE_LEVEL_SHIFT = 8u;    // the node's level above it
@@ -127,6 +133,12 @@ layout(std140, binding = FRAME_BLOCK_BINDING) uniform LodFrame {
   bool32 u_clip;              // 168
   int u_unused;               // 172 (padding: u_iso starts on 16 bytes)
   vec4 u_iso[MAX_ISO / 4];    // 176 normalised isovalues, ascending, 4 per vec4 (a float[] would take 16 bytes each)
+  vec4 u_slice_plane[LOD_MAX_SLICES];  // 240 slice i: dot(xyz, p) + w = 0, p normalised, xyz a unit normal there
+  vec4 u_slice_map[LOD_MAX_SLICES];    // 368 slice i: colour-table coordinate = value · x + y; z its opacity
+  int u_slice_count;                   // 496 (read only by SLICES variants)
+  int u_hide_volume;                   // 500 0 none, 1 front, 2 back, 3 all (render_settings.h HideVolume)
+  int u_unused2;                       // 504
+  int u_unused3;                       // 508
 };
 
 #ifdef __cplusplus
@@ -140,7 +152,9 @@ static_assert(offsetof(LodFrame, u_root_size) % 16 == 0 && offsetof(LodFrame, u_
 static_assert(offsetof(LodFrame, u_slots) % 16 == 0 && offsetof(LodFrame, u_clip_plane) % 16 == 0);
 static_assert(offsetof(LodFrame, u_size) % 8 == 0 && offsetof(LodFrame, u_half) % 8 == 0);
 static_assert(offsetof(LodFrame, u_tf_map) % 8 == 0 && offsetof(LodFrame, u_iso) % 16 == 0);
-static_assert(sizeof(LodFrame) == 240 && offsetof(LodFrame, u_iso) + sizeof(LodFrame::u_iso) == sizeof(LodFrame));
+static_assert(offsetof(LodFrame, u_iso) + sizeof(LodFrame::u_iso) == offsetof(LodFrame, u_slice_plane));
+static_assert(offsetof(LodFrame, u_slice_plane) % 16 == 0 && offsetof(LodFrame, u_slice_map) % 16 == 0);
+static_assert(offsetof(LodFrame, u_slice_count) == 496 && sizeof(LodFrame) == 512);
 static_assert(MAX_ISO % 4 == 0 && sizeof(LodFrame::u_iso) == MAX_ISO * sizeof(float));
 
 }  // namespace ugvr::lod_gpu

@@ -187,6 +187,29 @@ TEST(ExactGpu, ModesOnTheMixedMesh) {
   }
 }
 
+// Slices (docs/slices.md) as the CPU engine draws them: two planes through the mixed mesh (the field at each by the
+// cell's own interpolant, here in every cell type), one with its own colour map and range, with the volume hidden in
+// front of them. One frame, small: llvmpipe compiles and runs this shader slowly (MIP, isosurfaces and the other
+// hide_volume cases share the code, and the CPU engine's own tests cover them).
+TEST(ExactGpu, SlicesOnTheMixedMesh) {
+  REQUIRE_GL(gl);
+  const Dataset& ds = mixed_mesh();
+  ExactEngine engine(ds);
+  engine.set_field(ds, ds.blocks[0].fields[0].name());
+  const Bounds b = engine.bounds();
+  const Vec3d c = (b.lo + b.hi) * 0.5;
+  Scene s = default_scene(engine, "iso", 64);
+  s.settings.slices = {
+      Slice{c, {0.2, 0.3, 1}, 0.8, "", std::nullopt},
+      Slice{c + Vec3d{0.1 * (b.hi.x - b.lo.x), 0, 0},
+            {1, 0.1, 0},
+            0.6,
+            "cool-warm",
+            std::array<double, 2>{engine.field_min(), 0.5 * (engine.field_min() + engine.field_max())}}};
+  s.settings.hide_volume = HideVolume::Front;
+  expect_match(compare_engines(engine, gl, s), "slices, volume hidden in front");
+}
+
 TEST(ExactGpu, CameraInsideTheMesh) {
   REQUIRE_GL(gl);
   const Dataset& ds = mixed_mesh();

@@ -195,12 +195,20 @@ TEST(LodGpuContract, DriverLaysOutTheFrameBlockAsTheCppStruct) {
                                        UGVR_MEMBER(u_lighting),
                                        UGVR_MEMBER(u_clip),
                                        UGVR_MEMBER(u_unused),
-                                       Member{"u_iso[0]", offsetof(lod_gpu::LodFrame, u_iso)}};
+                                       Member{"u_iso[0]", offsetof(lod_gpu::LodFrame, u_iso)},
+                                       Member{"u_slice_plane[0]", offsetof(lod_gpu::LodFrame, u_slice_plane)},
+                                       Member{"u_slice_map[0]", offsetof(lod_gpu::LodFrame, u_slice_map)},
+                                       UGVR_MEMBER(u_slice_count),
+                                       UGVR_MEMBER(u_hide_volume),
+                                       UGVR_MEMBER(u_unused2),
+                                       UGVR_MEMBER(u_unused3)};
   const std::vector<std::vector<std::pair<std::string, std::string>>> variants = {
       {{"MODE", "0"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "0"}},
       {{"MODE", "0"}, {"VOLUME_LIGHTING", "1"}, {"OVERLAY", "1"}},
       {{"MODE", "1"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "0"}},
-      {{"MODE", "2"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "1"}}};
+      {{"MODE", "2"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "1"}},
+      {{"MODE", "0"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "1"}, {"SLICES", "1"}},
+      {{"MODE", "1"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "0"}, {"SLICES", "1"}}};
   for (const auto& defines : variants) {
     SCOPED_TRACE("MODE " + defines[0].second + " OVERLAY " + defines[2].second);
     const ComputeProgram p("lod_raycast.comp", defines);
@@ -223,7 +231,7 @@ TEST(LodGpuContract, DriverLaysOutTheFrameBlockAsTheCppStruct) {
       glGetProgramResourceiv(p.id(), GL_UNIFORM, index, 3, properties, 3, nullptr, values);
       EXPECT_EQ(values[0], GLint(m.offset)) << m.name;
       EXPECT_EQ(values[1], GLint(block)) << m.name;
-      if (std::string(m.name) == "u_iso[0]") {
+      if (std::string(m.name).ends_with("[0]")) {  // the vec4 arrays: u_iso, u_slice_plane, u_slice_map
         EXPECT_EQ(values[2], GLint(sizeof(lod_gpu::vec4)));
       }
     }

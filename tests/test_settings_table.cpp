@@ -66,6 +66,14 @@ const std::map<std::string, Example>& examples() {
       {"early_termination_opacity", {"0.5", 0.5, 0.5, 0.5}},
       {"sample_step", {"0.01", 0.01, 0.01, 0.01}},
       {"boundary_overlay_opacity", {"0.5", 0.5, 0.5, 0.5}},
+      {"slices",
+       {"0,0,0,1,0,0",
+        json::array(
+            {{{"point", {0, 0, 0}}, {"normal", {1, 0, 0}}, {"opacity", 1}, {"color_map", ""}, {"range", nullptr}}}),
+        json::array({{{"point", {0.5, 0, 0}}, {"normal", {0, 0, 1}}}}),
+        json::array(
+            {{{"point", {0.5, 0, 0}}, {"normal", {0, 0, 1}}, {"opacity", 1}, {"color_map", ""}, {"range", nullptr}}})}},
+      {"hide_volume", {"front", "front", "back", "back"}},
   };
   return m;
 }

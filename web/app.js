@@ -298,6 +298,7 @@ function onScene(m) {
     $("fps-value").textContent = String(view.fps);
   }
   if (!m.presets.includes(view.preset)) view.preset = m.preset;
+  ugvrSlices.onScene();  // slices.js: the planes' colour maps and bounds
   view.engine = null;  // a new scene: the server moved every tab to its engine
   showEngine();
   $("preset").replaceChildren(...m.presets.map((p) => new Option(p, p, p === view.preset, p === view.preset)));

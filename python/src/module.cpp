@@ -635,6 +635,14 @@ RenderSettings settings_from(const Options& o) {
     if (length(plane.normal) == 0) fail_in("clip", "the normal NX, NY, NZ must be non-zero");
     s.clip_plane = plane;
   }
+  // slices=: the list as render_settings.h's JSON form (python/ugvr/__init__.py turns tuples into it), added to those
+  // of settings= like --slice; errors name "slices".
+  if (o.has("slices_json")) {
+    const std::vector<Slice> added =
+        settings_from_json(json{{"slices", json::parse(o.str("slices_json"))}}, "slices").slices;
+    s.slices.insert(s.slices.end(), added.begin(), added.end());
+  }
+  if (o.has("hide_volume")) s.hide_volume = parse_hide_volume(o.str("hide_volume"), "hide_volume");
   if (o.has("boundary_opacity")) s.boundary_overlay_opacity = fraction(o, "boundary_opacity");
   if (o.has("early_termination")) s.early_termination_opacity = o.number("early_termination");
   if (o.has("sample_step")) s.sample_step = o.number("sample_step");

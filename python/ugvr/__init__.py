@@ -324,12 +324,26 @@ def _source(source):
     return _paths(source)
 
 
+def _slice(s):
+    """A slices= item as render_settings.h's JSON form: a dict as it is, else (px, py, pz, nx, ny, nz[, opacity])."""
+    if isinstance(s, dict):
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in s.items()}
+    v = [float(x) for x in s]
+    if len(v) not in (6, 7):
+        raise Error("slices: expected (px, py, pz, nx, ny, nz[, opacity]) or a dict, found %r" % (s,))
+    out = {"point": v[0:3], "normal": v[3:6]}
+    if len(v) == 7:
+        out["opacity"] = v[6]
+    return out
+
+
 def render(source, field=None, view=None, camera=None, view_angle=None, tf=None, tf_name=None, keep_range=False,
            range=None, unit_distance=None, size=None, engine="auto", device="auto", exact_precision="double",
            mode=None, iso=None, iso_opacity=None, clip=None, boundary_opacity=None, lighting=None,
            no_lighting=False, volume_lighting=None, background=None, early_termination=None, sample_step=None,
            settings=None, threads=None, cut="pixels:1", gpu="auto", gpu_memory=None, ram_memory=None,
-           step_voxels=None, time_step=None, dtype="uint8", progress=None, **read_options):
+           step_voxels=None, time_step=None, dtype="uint8", progress=None, slices=None, hide_volume=None,
+           **read_options):
     """One image of a Dataset, a Store, or a file (path or [grid, solution]), as `ugvr render` draws it.
 
     Keywords are `ugvr render`'s flags: field="NAME[:x|y|z|k|magnitude]", view="+x|-x|+y|-y|+z|-z|iso",
@@ -339,6 +353,9 @@ def render(source, field=None, view=None, camera=None, view_angle=None, tf=None,
     nz), boundary_opacity=, lighting=False (--no-lighting), volume_lighting=True, background=(r, g, b[, a]),
     early_termination=, sample_step=, settings=file|dict, threads=N, and for a store cut=, gpu=, gpu_memory=,
     ram_memory=, step_voxels=. dtype="float32" returns the float image (before 8-bit rounding).
+    slices=[(px, py, pz, nx, ny, nz[, opacity]) or {"point": .., "normal": .., "opacity": .., "color_map": NAME,
+    "range": (lo, hi)}, ...] draws cutting planes (--slice; docs/slices.md), hide_volume="none|front|back|all"
+    where the volume is hidden around them (--hide-volume).
 
     progress(stage, fraction) is called (with the GIL) during long work -- the exact engine's walk mesh, built on a
     Dataset's first render -- and cancels it by returning False (ugvr.Error "cancelled"). The GIL is released while rendering, so other Python
@@ -352,6 +369,10 @@ def render(source, field=None, view=None, camera=None, view_angle=None, tf=None,
         settings = None
     elif settings is not None:
         settings = _os.fspath(settings)
+    if slices is not None:
+        import json
+        options["slices_json"] = json.dumps([_slice(s) for s in slices])
+    options.update(hide_volume=hide_volume)
     options.update(field=field, view=view, camera=_camera(camera), view_angle=view_angle, tf=_tf(tf), tf_name=tf_name,
                    keep_range=keep_range, range=range, unit_distance=unit_distance, size=_size(size), engine=engine,
                    device=device, exact_precision=exact_precision, mode=mode, iso=iso, iso_opacity=iso_opacity,

@@ -125,6 +125,32 @@ RenderSettings settings_from_flags(const RenderOptions& o) {
       if (c < 0 || c > 1) fail_flag("--background", "components must be in [0, 1]");
     s.background = {b[0], b[1], b[2], b.size() == 4 ? b[3] : 1.0};
   }
+  // --slice adds planes to those of --settings; --slice-map and --slice-range apply to the added ones.
+  const size_t first_flag_slice = s.slices.size();
+  for (const std::string& text : o.slices) {
+    const std::vector<double> v = parse_list(text, "--slice", 6, 7, "PX,PY,PZ,NX,NY,NZ[,OPACITY]");
+    Slice sl{{v[0], v[1], v[2]}, {v[3], v[4], v[5]}, v.size() == 7 ? v[6] : 1.0, "", std::nullopt};
+    if (length(sl.normal) == 0) fail_flag("--slice", "the normal NX,NY,NZ must be non-zero");
+    if (!(sl.opacity > 0 && sl.opacity <= 1)) fail_flag("--slice", "OPACITY must be in (0, 1], found " + text);
+    s.slices.push_back(sl);
+  }
+  if (s.slices.size() > kMaxSlices) fail_flag("--slice", "at most " + std::to_string(kMaxSlices) + " slices");
+  if (!o.slice_map.empty()) {
+    const std::vector<std::string> maps = builtin_preset_names();
+    if (o.slice_map != "volume" && std::find(maps.begin(), maps.end(), o.slice_map) == maps.end())
+      fail_flag("--slice-map", "unknown colour map \"" + o.slice_map + "\" (expected volume or " + join(maps) + ")");
+    for (size_t i = first_flag_slice; i < s.slices.size(); ++i)
+      s.slices[i].color_map = o.slice_map == "volume" ? "" : o.slice_map;
+  }
+  if (!o.slice_range.empty()) {
+    const size_t colon = o.slice_range.find(':');
+    if (colon == std::string::npos) fail_flag("--slice-range", "expected A:B, found \"" + o.slice_range + "\"");
+    const double a = parse_number(std::string_view(o.slice_range).substr(0, colon), "--slice-range");
+    const double b = parse_number(std::string_view(o.slice_range).substr(colon + 1), "--slice-range");
+    if (!(a < b)) fail_flag("--slice-range", "expected A < B, found \"" + o.slice_range + "\"");
+    for (size_t i = first_flag_slice; i < s.slices.size(); ++i) s.slices[i].range = std::array<double, 2>{a, b};
+  }
+  if (!o.hide_volume.empty()) s.hide_volume = parse_hide_volume(o.hide_volume, "--hide-volume");
   with_flag("--settings", [&] { s.validate(o.settings.empty() ? "render settings" : o.settings); });
   return s;
 }
@@ -232,6 +258,19 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
   cmd->add_option("--early-termination", opts->early_termination, setting_help("early_termination_opacity"))
       ->type_name("A");
   cmd->add_option("--sample-step", opts->sample_step, setting_help("sample_step"))->type_name("S");
+  cmd->add_option("--slice", opts->slices,
+                  "Cutting plane PX,PY,PZ,NX,NY,NZ[,OPACITY] drawn with the volume, colour-mapped (repeatable; "
+                  "docs/slices.md)")
+      ->type_name("PX,PY,PZ,NX,NY,NZ[,A]");
+  cmd->add_option("--slice-map", opts->slice_map,
+                  "Colour map of the --slice planes: volume (the transfer function's colours, default) or " +
+                      join(builtin_preset_names()))
+      ->type_name("NAME");
+  cmd->add_option("--slice-range", opts->slice_range, "Scalar range of the --slice colour map (default the volume's)")
+      ->type_name("A:B");
+  cmd->add_option("--hide-volume", opts->hide_volume,
+                  "Hide the volume around the slices: front (the side each normal points to), back, all or none")
+      ->type_name("WHERE");
   cmd->add_option("--settings", opts->settings, "Render settings JSON; the flags above override it")->type_name("FILE");
   cmd->add_option("--float", opts->float_output, "Also write the image as a float .pfm")->type_name("FILE");
   cmd->add_option("--stats", opts->stats, "Write timings, counters and the camera and settings used as JSON")

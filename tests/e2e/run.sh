@@ -2,7 +2,7 @@
 # End-to-end tests of the `ugvr view` browser viewer in headless Chromium (ctest ViewerE2E, tests/CMakeLists.txt).
 # Usage: run.sh UGVR_BINARY
 # Builds a small store in a temporary directory, installs playwright-core (package-lock.json) when node_modules is
-# missing, then runs viewer.test.mjs, controls.test.mjs and engine.test.mjs, each of which starts `ugvr view` itself. Exit 77 (ctest: skipped) only when node or
+# missing, then runs viewer.test.mjs, controls.test.mjs, slices.test.mjs and engine.test.mjs, each of which starts `ugvr view` itself. Exit 77 (ctest: skipped) only when node or
 # Chromium is absent; any other problem fails.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
@@ -30,5 +30,7 @@ trap 'rm -rf "$tmp"' EXIT
 UGVR="$ugvr" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 5 300 node --test-reporter=spec "$here/viewer.test.mjs"
 # The page's controls (TF editor, field picker, clip, files, ...), against a viewer of their own.
 UGVR="$ugvr" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 5 300 node --test-reporter=spec "$here/controls.test.mjs"
+# Cutting planes (web/slices.js), against a viewer of their own.
+UGVR="$ugvr" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 5 300 node --test-reporter=spec "$here/slices.test.mjs"
 # The engine picker, against a viewer of the mesh itself (exact engine, then its store built in $tmp).
 UGVR="$ugvr" UGVR_MESH="$tmp/mixed.vtu" timeout -k 5 300 node --test-reporter=spec "$here/engine.test.mjs"

@@ -3,7 +3,9 @@
 //   {"width": 512, "height": 512, "background": [r, g, b, a], "mode": "emission_absorption" | "mip" | "isosurface",
 //    "field": "NAME[:component]", "iso_values": [..], "clip_plane": {"point": [x,y,z], "normal": [x,y,z]} | null,
 //    "iso_opacity": 1, "lighting": true, "volume_lighting": false, "early_termination_opacity": 0.99,
-//    "sample_step": 0, "boundary_overlay_opacity": 0}
+//    "sample_step": 0, "boundary_overlay_opacity": 0,
+//    "slices": [{"point": [x,y,z], "normal": [x,y,z], "opacity": 1, "color_map": "", "range": null | [lo, hi]}],
+//    "hide_volume": "none" | "front" | "back" | "all"}
 #pragma once
 
 #include <array>
@@ -28,6 +30,31 @@ struct ClipPlane {
   bool operator==(const ClipPlane&) const = default;
 };
 
+// A cutting plane drawn through the volume (LaMar 2000, ch. 6; ParaView's Slice): the field on the plane, colour-mapped
+// and composited at the plane's depth together with the volume, only where the plane is inside the data. The plane is
+// flat-coloured (not lit), so its pixels read the field's value through the colour map exactly.
+struct Slice {
+  Vec3d point;
+  Vec3d normal;        // non-zero; its direction also says which side hide_volume "front" means
+  double opacity = 1;  // in (0, 1]: 1 opaque, below shows the volume behind it
+  // "": the volume's transfer-function colours; else a built-in preset name (transfer_function.h: "viridis", ...).
+  std::string color_map;
+  // The scalar range the colour map spans; none: the volume transfer function's range.
+  std::optional<std::array<double, 2>> range;
+  bool operator==(const Slice&) const = default;
+};
+
+inline constexpr size_t kMaxSlices = 8;  // the GPU engines keep the planes in a fixed uniform array
+
+// Where the volume is drawn when there are slices. A plane's "front" is the side its normal points to. front: the
+// volume shows only behind every slice (each plane's negative side; ParaView users get the same with a clip on the
+// volume alone), back: only in front of every slice, all: slices alone. With no slices front and back hide nothing.
+// A separate setting rather than the clip plane because the clip plane also cuts the slices and the boundary overlay.
+enum class HideVolume { None, Front, Back, All };
+std::string_view hide_volume_name(HideVolume h);
+// "none", "front", "back", "all"; throws ugvr::Error naming `source`.
+HideVolume parse_hide_volume(std::string_view text, std::string_view source);
+
 struct ImageSize {
   int width = 0, height = 0;
   bool operator==(const ImageSize&) const = default;
@@ -48,10 +75,13 @@ struct RenderSettings {
   double early_termination_opacity = 0.99;  // stop a ray once its accumulated opacity reaches this
   double sample_step = 0;                   // world units between samples; 0 = the engine picks from cell size
   double boundary_overlay_opacity = 0;      // opacity of the dataset's outer boundary drawn over the image; 0 = off
+  std::vector<Slice> slices;                // at most kMaxSlices
+  HideVolume hide_volume = HideVolume::None;
 
   // Throws ugvr::Error "SOURCE: key "K": message": size in [1, 16384], background in [0, 1], isosurface mode
   // needs iso_values, all numbers finite, clip normal non-zero, early termination in (0, 1], step >= 0,
-  // overlay opacity in [0, 1].
+  // overlay opacity in [0, 1], at most kMaxSlices slices each with a finite point, a finite non-zero normal, opacity
+  // in (0, 1], a built-in colour map or "" and a finite range lo < hi (errors name "slices[i].KEY").
   void validate(std::string_view source) const;
   bool operator==(const RenderSettings&) const = default;
 };

@@ -7,6 +7,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
 #include "ugvr/core/json_file.h"
+#include "ugvr/render/transfer_function.h"
 
 namespace ugvr {
 namespace {
@@ -61,7 +62,55 @@ int parse_side(std::string_view digits, std::string_view text, std::string_view 
   return v;
 }
 
+std::string slice_key(size_t i, std::string_view key) {
+  return "slices[" + std::to_string(i) + "]" + (key.empty() ? "" : "." + std::string(key));
+}
+
+Slice slice_of(const nlohmann::json& j, size_t i, std::string_view source) {
+  if (!j.is_object() || !j.contains("point") || !j.contains("normal"))
+    fail_key(source, slice_key(i, ""),
+             "expected {\"point\": [x, y, z], \"normal\": [x, y, z], \"opacity\": A, \"color_map\": NAME, "
+             "\"range\": [lo, hi] | null}");
+  Slice s;
+  for (const auto& [key, v] : j.items()) {
+    if (key == "point") {
+      s.point = vec_of(v, source, slice_key(i, key));
+    } else if (key == "normal") {
+      s.normal = vec_of(v, source, slice_key(i, key));
+    } else if (key == "opacity") {
+      s.opacity = number_of(v, source, slice_key(i, key));
+    } else if (key == "color_map") {
+      if (!v.is_string()) fail_key(source, slice_key(i, key), "expected a string");
+      s.color_map = v.get<std::string>();
+    } else if (key == "range") {
+      if (v.is_null()) continue;
+      const std::vector<double> r = numbers_of(v, source, slice_key(i, key));
+      if (r.size() != 2) fail_key(source, slice_key(i, key), "expected [lo, hi] or null");
+      s.range = std::array<double, 2>{r[0], r[1]};
+    } else {
+      fail_key(source, slice_key(i, key), "unknown slice key (expected point, normal, opacity, color_map, range)");
+    }
+  }
+  return s;
+}
+
 }  // namespace
+
+std::string_view hide_volume_name(HideVolume h) {
+  switch (h) {
+    case HideVolume::None: return "none";
+    case HideVolume::Front: return "front";
+    case HideVolume::Back: return "back";
+    case HideVolume::All: return "all";
+  }
+  return "?";
+}
+
+HideVolume parse_hide_volume(std::string_view text, std::string_view source) {
+  for (HideVolume h : {HideVolume::None, HideVolume::Front, HideVolume::Back, HideVolume::All})
+    if (text == hide_volume_name(h)) return h;
+  fail_in(source, "expected none, front, back or all, found \"" + std::string(text) + "\"");
+}
 
 std::string_view render_mode_name(RenderMode m) {
   switch (m) {
@@ -92,6 +141,24 @@ void RenderSettings::validate(std::string_view source) const {
   if (!(sample_step >= 0) || !std::isfinite(sample_step)) fail_key(source, "sample_step", "must be finite and >= 0");
   if (!(boundary_overlay_opacity >= 0 && boundary_overlay_opacity <= 1))
     fail_key(source, "boundary_overlay_opacity", "must be in [0, 1]");
+  if (slices.size() > kMaxSlices) fail_key(source, "slices", "at most " + std::to_string(kMaxSlices) + " slices");
+  const std::vector<std::string> maps = builtin_preset_names();
+  for (size_t i = 0; i < slices.size(); ++i) {
+    const Slice& sl = slices[i];
+    if (!finite(sl.point)) fail_key(source, slice_key(i, "point"), "must be finite");
+    if (!finite(sl.normal) || !(length(sl.normal) > 0))
+      fail_key(source, slice_key(i, "normal"), "must be finite and non-zero");
+    if (!(sl.opacity > 0 && sl.opacity <= 1)) fail_key(source, slice_key(i, "opacity"), "must be in (0, 1]");
+    if (!sl.color_map.empty() && std::find(maps.begin(), maps.end(), sl.color_map) == maps.end()) {
+      std::string names;
+      for (const std::string& n : maps) names += (names.empty() ? "" : ", ") + n;
+      fail_key(source, slice_key(i, "color_map"),
+               "unknown colour map \"" + sl.color_map + "\" (expected \"\" for the volume's, or one of " + names + ")");
+    }
+    if (sl.range &&
+        !(std::isfinite((*sl.range)[0]) && std::isfinite((*sl.range)[1]) && (*sl.range)[0] < (*sl.range)[1]))
+      fail_key(source, slice_key(i, "range"), "must be finite with lo < hi");
+  }
 }
 
 nlohmann::json settings_to_json(const RenderSettings& s) {
@@ -108,6 +175,17 @@ nlohmann::json settings_to_json(const RenderSettings& s) {
                       {"early_termination_opacity", s.early_termination_opacity},
                       {"sample_step", s.sample_step},
                       {"boundary_overlay_opacity", s.boundary_overlay_opacity}};
+  j["slices"] = nlohmann::json::array();
+  for (const Slice& sl : s.slices) {
+    nlohmann::json r = nullptr;
+    if (sl.range) r = {(*sl.range)[0], (*sl.range)[1]};
+    j["slices"].push_back({{"point", {sl.point.x, sl.point.y, sl.point.z}},
+                           {"normal", {sl.normal.x, sl.normal.y, sl.normal.z}},
+                           {"opacity", sl.opacity},
+                           {"color_map", sl.color_map},
+                           {"range", r}});
+  }
+  j["hide_volume"] = hide_volume_name(s.hide_volume);
   if (s.clip_plane) {
     const ClipPlane& c = *s.clip_plane;
     j["clip_plane"] = {{"point", {c.point.x, c.point.y, c.point.z}}, {"normal", {c.normal.x, c.normal.y, c.normal.z}}};
@@ -154,6 +232,13 @@ RenderSettings settings_from_json(const nlohmann::json& j, std::string_view sour
       s.sample_step = number_of(v, source, key);
     } else if (key == "boundary_overlay_opacity") {
       s.boundary_overlay_opacity = number_of(v, source, key);
+    } else if (key == "slices") {
+      if (!v.is_array()) fail_key(source, key, "expected an array of slices");
+      s.slices.clear();
+      for (size_t i = 0; i < v.size(); ++i) s.slices.push_back(slice_of(v[i], i, source));
+    } else if (key == "hide_volume") {
+      if (!v.is_string()) fail_key(source, key, "expected \"none\", \"front\", \"back\" or \"all\"");
+      s.hide_volume = parse_hide_volume(v.get<std::string>(), std::string(source) + ": key \"hide_volume\"");
     } else {
       fail_key(source, key, "unknown render setting");
     }

@@ -24,7 +24,7 @@ std::string number_text(double v) {
 constexpr std::string_view kCanvasSize =
     "viewer: the canvas's size, sent in the \"hello\" and \"resize\" messages, not a setting";
 
-const std::array<RenderSettingInfo, 13> kTable = {{
+const std::array<RenderSettingInfo, 15> kTable = {{
     {"width", "--size", "", "", "Image width in pixels", "", SettingInterval{1, kMaxImageSide}, kCanvasSize},
     {"height", "--size", "", "", "Image height in pixels", "", SettingInterval{1, kMaxImageSide}, kCanvasSize},
     {"background", "--background", "background", "background", "Background colour R,G,B[,A]",
@@ -52,6 +52,14 @@ const std::array<RenderSettingInfo, 13> kTable = {{
      SettingInterval{0, kInf}, ""},
     {"boundary_overlay_opacity", "--boundary-opacity", "boundary_opacity", "boundary",
      "Opacity of the dataset's outer boundary drawn over the image (0: off)", "", SettingInterval{0, 1}, ""},
+    {"slices", "--slice", "slices", "", "Cutting planes drawn with the volume, colour-mapped (docs/slices.md)",
+     "up to 8, each a finite point, a finite non-zero normal, opacity in (0, 1], a built-in colour map or the "
+     "volume's, a range lo < hi or the volume's (the flag: PX,PY,PZ,NX,NY,NZ[,OPACITY], repeated; --slice-map, "
+     "--slice-range)",
+     std::nullopt, "page: web/slices.js's own panel (planes added, dragged and turned), not one control"},
+    {"hide_volume", "--hide-volume", "hide_volume", "", "Where the volume is hidden around the slices",
+     "none (default), front (the side each slice's normal points to), back or all", std::nullopt,
+     "page: web/slices.js's own panel, not one control"},
 }};
 
 }  // namespace

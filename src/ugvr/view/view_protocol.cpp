@@ -185,6 +185,12 @@ SettingsMessage parse_settings(const json& j) {
     for (size_t i = 0; i < 3; ++i) c[i] = setting_number(v[i], "background");
     m.background = c;
   }
+  // As in a settings file (render_settings.h), errors naming the key: "slices: key "slices[0].normal": ...".
+  if (j.contains("slices")) m.slices = settings_from_json(json{{"slices", j["slices"]}}, "slices").slices;
+  if (j.contains("hide_volume")) {
+    const json& v = j["hide_volume"];
+    m.hide_volume = parse_hide_volume(v.is_string() ? v.get<std::string>() : v.dump(), "hide_volume");
+  }
   return m;
 }
 

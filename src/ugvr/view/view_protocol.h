@@ -12,7 +12,9 @@
 //       values (ParaView's flat layout, at most kMaxTfPoints points each); "opacity" in [0, 1] scales the opacity
 //   {"type":"settings", "mode":"ea"|"mip"|"iso", "iso_value":V, "step_voxels":S, "fps":F, "full_quality":true,
 //    "field":NAME, "boundary_opacity":A, "clip":{"point":[x,y,z],"normal":[x,y,z]}|null, "iso_opacity":A,
-//    "lighting":B, "volume_lighting":B, "early_termination_opacity":A, "sample_step":D, "background":[r,g,b]}
+//    "lighting":B, "volume_lighting":B, "early_termination_opacity":A, "sample_step":D, "background":[r,g,b],
+//    "slices":[{"point":[x,y,z],"normal":[x,y,z],"opacity":A,"color_map":NAME,"range":[lo,hi]|null}...],
+//    "hide_volume":"none"|"front"|"back"|"all"}
 //       every key optional: step in (0, 8] voxels (the resting step), fps in [0, 240] (0: every frame at full
 //       quality), full_quality asks for one converged frame of the current view now; field one of the scene's
 //       fields (a non-empty name of at most kMaxFieldName bytes; switching resets explicit transfer-function
@@ -21,7 +23,9 @@
 //       iso_opacity in [0, 1] (each isosurface's); lighting true/false (headlight shading of isosurfaces and the
 //       boundary); volume_lighting true/false (emission-absorption shaded by the gradient); early_termination_opacity
 //       in (0, 1] (a ray stops at this opacity); sample_step in world units, >= 0 (0: the engine's level of detail,
-//       step_voxels); background [r, g, b] in [0, 1] (opaque: frames are JPEG while moving). These are
+//       step_voxels); background [r, g, b] in [0, 1] (opaque: frames are JPEG while moving); slices: the whole
+//       list of cutting planes (replaces the tab's; [] removes them; render_settings.h Slice, at most kMaxSlices,
+//       web/slices.js sends it), hide_volume where the volume is hidden around them. These are
 //       RenderSettings fields: src/ugvr/render/settings_table.h maps each to its message key and gives the ranges
 //   {"type":"engine", "engine":"exact"|"lod"}   which engine draws this tab: the exact engine over the grid, or the
 //       level-of-detail engine over the brick store; it must be one of the scene's "engines" (view_request.h rejects
@@ -101,6 +105,8 @@ struct SettingsMessage {
   std::optional<double> early_termination_opacity;
   std::optional<double> sample_step;
   std::optional<std::array<double, 4>> background;  // alpha always 1
+  std::optional<std::vector<Slice>> slices;         // the whole list
+  std::optional<HideVolume> hide_volume;
 };
 
 // The engines a tab can be drawn by (SceneInfo::engines says which this viewer has).

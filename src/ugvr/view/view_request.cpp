@@ -89,6 +89,8 @@ void apply_message(ViewState& state, const ClientMessage& m, const SceneInfo& sc
     if (set->early_termination_opacity) rs.early_termination_opacity = *set->early_termination_opacity;
     if (set->sample_step) rs.sample_step = *set->sample_step;
     if (set->background) rs.background = *set->background;
+    if (set->slices) rs.slices = *set->slices;
+    if (set->hide_volume) rs.hide_volume = *set->hide_volume;
     rs.validate("settings");
     if (set->step_voxels) r.step_voxels = *set->step_voxels;
     if (set->fps) r.fps = *set->fps;

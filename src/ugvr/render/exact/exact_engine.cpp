@@ -87,6 +87,14 @@ struct ExactEngine::Impl {
 
 namespace {
 
+// A slice as the rays see it: the plane dot(n, p) = d and the colour map over the slice's range.
+struct SlicePlane {
+  Vec3d n;
+  double d = 0;
+  double opacity = 1;
+  TransferFunction colors;  // only color() is used
+};
+
 // Everything one render() needs, shared read-only by the tiles.
 struct Scene {
   const std::vector<float>& values;  // the bound field, per vertex or per cell
@@ -98,7 +106,22 @@ struct Scene {
   std::vector<double> iso_ascending;
   double tolerance_abs;  // nonlinear tolerance in scalar units
   double reentry_slack;  // distance within which a re-entry counts as continuing where the ray left
+  std::vector<SlicePlane> slices;
 };
+
+// The interval [lo, hi] of t where o + t d satisfies dot(n, p) - c >= 0 (keep_positive) or <= 0, intersected into
+// [lo, hi]; a ray parallel to the plane on the wrong side empties it.
+void keep_half_space(Vec3d n, double c, Vec3d o, Vec3d d, bool keep_positive, double& lo, double& hi) {
+  const double sign = keep_positive ? 1 : -1;
+  const double nd = sign * dot(n, d), g0 = sign * (dot(n, o) - c);
+  if (nd > 0) {
+    lo = std::max(lo, -g0 / nd);
+  } else if (nd < 0) {
+    hi = std::min(hi, -g0 / nd);
+  } else if (g0 < 0) {
+    hi = -kInf;
+  }
+}
 
 // The state of one ray.
 class RayTracer {
@@ -122,6 +145,21 @@ class RayTracer {
       }
     }
     view_dir_ = frame.dir * -1.0;
+    // Slices: where the ray crosses each plane inside [t_lo, t_hi], in depth order; the volume's own interval.
+    vol_lo_ = -kInf, vol_hi_ = kInf;
+    if (s.hide_volume == HideVolume::All) vol_hi_ = -kInf;
+    for (size_t i = 0; i < scene.slices.size(); ++i) {
+      const SlicePlane& sl = scene.slices[i];
+      if (s.hide_volume == HideVolume::Front || s.hide_volume == HideVolume::Back)
+        keep_half_space(sl.n, sl.d, frame.origin, frame.dir, s.hide_volume == HideVolume::Back, vol_lo_, vol_hi_);
+      const double nd = dot(sl.n, frame.dir);
+      if (nd == 0) continue;
+      const double t = (sl.d - dot(sl.n, frame.origin)) / nd;
+      if (t >= t_lo_ && t <= t_hi_) slice_t_[slice_count_] = t, slice_index_[slice_count_++] = uint8_t(i);
+    }
+    for (int i = 1; i < slice_count_; ++i)  // insertion sort: at most kMaxSlices
+      for (int j = i; j > 0 && slice_t_[j] < slice_t_[j - 1]; --j)
+        std::swap(slice_t_[j], slice_t_[j - 1]), std::swap(slice_index_[j], slice_index_[j - 1]);
     mode_ = s.mode;
     stop_opacity_ = s.early_termination_opacity;
     max_steps_ = 4 * uint64_t(scene.mesh.cell_count()) + 16;
@@ -151,6 +189,8 @@ class RayTracer {
   template <CellType T>
   void cell_segment(uint32_t cell, double t0, double t1, double s0, double s1, const Crossing& exit);
   void piece(double ta, double tb, double sa, double sb, uint32_t cell, int k);
+  void volume_piece(double ta, double tb, double sa, double sb, uint32_t cell, int k);
+  double value_at(uint32_t cell, int k, double t, double linear) const;
   Vec3d gradient_at(uint32_t cell, int k, double t) const;
   Vec3d triangle_normal(uint32_t cell, int k, int face, const std::array<uint8_t, 3>& corners) const;
   void overlay(uint32_t cell, int k, int face, const std::array<uint8_t, 3>& corners, double t);
@@ -184,6 +224,11 @@ class RayTracer {
   double mip_max_ = -kInf;
   bool mip_hit_ = false;
   bool lost_ = false;
+  // The slice crossings ahead of the ray (sorted by t) and the part of the ray where the volume shows.
+  double slice_t_[kMaxSlices];
+  uint8_t slice_index_[kMaxSlices];
+  int slice_count_ = 0, next_slice_ = 0;
+  double vol_lo_ = -kInf, vol_hi_ = kInf;
   // Projections of the current cell's vertices, and of the previous cell's (which shares the entry face with it):
   // a tetrahedron entered through a face then needs one new projection instead of four.
   ProjectedVertex proj_buffer_[2][kMaxCellVertices];
@@ -195,13 +240,13 @@ class RayTracer {
   int proj_count_ = 0;
 };
 
+// In MIP mode acc_ holds only the slices (composited in depth order); the maximum is drawn behind them.
 RayAccumulator RayTracer::result() const {
-  if (mode_ != RenderMode::Mip) return acc_;
-  RayAccumulator out;
-  if (!mip_hit_) return out;
+  if (mode_ != RenderMode::Mip || !mip_hit_) return acc_;
+  RayAccumulator out = acc_;
   const double a = sc_.tf.opacity(mip_max_);
-  out.radiance = sc_.tf.color(mip_max_) * a;
-  out.transmittance = 1 - a;
+  out.radiance = out.radiance + sc_.tf.color(mip_max_) * (a * acc_.transmittance);
+  out.transmittance = acc_.transmittance * (1 - a);
   return out;
 }
 
@@ -386,11 +431,51 @@ void RayTracer::composite_iso_crossings(double a, double b, NormalAt normal_at) 
   }
 }
 
-// One linear piece of the field along the ray inside `cell`: s goes from sa at ta to sb at tb.
+// The field of `cell` at distance t along the ray, by the cell's own interpolant: `linear` (the piece's value there)
+// is already exact in a tetrahedron and for cell data; other cells invert their isoparametric map.
+double RayTracer::value_at(uint32_t cell, int k, double t, double linear) const {
+  if (sc_.per_cell || k == 0) return linear;
+  const uint32_t* vid = m_.cell_vertices(cell, k);
+  return with_cell_type(kAllCellTypes[k], [&](auto tag) {
+    constexpr CellType T = decltype(tag)::value;
+    constexpr int n = kVertexCount<T>;
+    Vec3d v[n];
+    double s[n];
+    for (int i = 0; i < n; ++i) v[i] = to_double(m_.points[vid[i]]), s[i] = sc_.values[vid[i]];
+    Vec3d rst;
+    if (!inverse_map<T>(v, frame_.at(t), parametric_center<T>(), rst)) return linear;
+    return interpolate<T>(rst, s);
+  });
+}
+
+// One linear piece of the field along the ray inside `cell`: s goes from sa at ta to sb at tb. The slices the piece
+// crosses split it: the volume in front, then the slice at its depth, then the rest.
 void RayTracer::piece(double ta, double tb, double sa, double sb, uint32_t cell, int k) {
   if (tb <= t_lo_ || ta >= t_hi_ || !(tb > ta)) return;
   if (ta < t_lo_) sa = sa + (sb - sa) * (t_lo_ - ta) / (tb - ta), ta = t_lo_;
   if (tb > t_hi_) sb = sa + (sb - sa) * (t_hi_ - ta) / (tb - ta), tb = t_hi_;
+  // Each crossing belongs to the piece with ta <= t < tb, so a plane through a face is drawn once; one behind ta lies
+  // where the ray was outside the mesh and is not drawn.
+  while (next_slice_ < slice_count_ && slice_t_[next_slice_] < tb) {
+    const double tp = slice_t_[next_slice_];
+    const SlicePlane& sl = sc_.slices[slice_index_[next_slice_++]];
+    if (tp < ta) continue;
+    const double sp = sa + (sb - sa) * (tp - ta) / (tb - ta);
+    volume_piece(ta, tp, sa, sp, cell, k);
+    if (done()) return;
+    const double v = value_at(cell, k, tp, sp);
+    if (!std::isnan(v)) composite_surface(acc_, sl.colors.color(v), sl.opacity);
+    if (done()) return;
+    ta = tp, sa = sp;
+  }
+  volume_piece(ta, tb, sa, sb, cell, k);
+}
+
+// A linear piece of the volume, restricted to where hide_volume lets it show.
+void RayTracer::volume_piece(double ta, double tb, double sa, double sb, uint32_t cell, int k) {
+  if (tb <= vol_lo_ || ta >= vol_hi_ || !(tb > ta)) return;
+  if (ta < vol_lo_) sa = sa + (sb - sa) * (vol_lo_ - ta) / (tb - ta), ta = vol_lo_;
+  if (tb > vol_hi_) sb = sa + (sb - sa) * (vol_hi_ - ta) / (tb - ta), tb = vol_hi_;
   switch (mode_) {
     case RenderMode::EmissionAbsorption: {
       double shade = 1;
@@ -415,6 +500,7 @@ void RayTracer::piece(double ta, double tb, double sa, double sb, uint32_t cell,
 // of isosurface lying on that face.
 void RayTracer::face_jump(double s_before, double s_after, double t, uint32_t cell, int k, const Crossing& x) {
   if (mode_ != RenderMode::Isosurface || s_before == s_after || t < t_lo_ || t > t_hi_) return;
+  if (t < vol_lo_ || t > vol_hi_) return;
   if (std::isnan(s_before) || std::isnan(s_after)) return;
   composite_iso_crossings(s_before, s_after, [&](double) { return triangle_normal(cell, k, x.face, x.corners); });
 }
@@ -692,7 +778,17 @@ Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, cons
   std::vector<double> iso = settings.iso_values;
   std::sort(iso.begin(), iso.end());
   const double diagonal = length(I.mesh.bounds.size());
-  const Scene scene{I.values, I.per_cell, I.mesh, table, tf, settings, iso, tolerance_abs(tf), 1e-7 * diagonal};
+  Scene scene{I.values, I.per_cell, I.mesh, table, tf, settings, iso, tolerance_abs(tf), 1e-7 * diagonal, {}};
+  for (const Slice& sl : settings.slices) {
+    TransferFunction colors = sl.color_map.empty() ? tf : builtin_preset(sl.color_map);
+    if (sl.range)
+      colors.rescale((*sl.range)[0], (*sl.range)[1]);
+    else if (!sl.color_map.empty())
+      colors.rescale(tf.range_min(), tf.range_max());
+    // The plane with a unit normal, so that the volume's half-spaces and the crossings share one scale.
+    const Vec3d n = sl.normal * (1 / length(sl.normal));
+    scene.slices.push_back({n, dot(n, sl.point), sl.opacity, std::move(colors)});
+  }
 
   const int width = settings.width, height = settings.height;
   const CameraRays rays(camera, width, height);

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <map>
 #include <optional>
+#include <tuple>
 
 #include "exact_shared.h"  // shaders/exact_shared.h: what the engine and shaders/exact_walk.comp agree on
 #include "ugvr/core/error.h"
@@ -67,27 +68,29 @@ struct ExactGpuEngine::Impl {
   std::vector<GlBuffer> conn, nbr;
   GlBuffer points, quad_split, values, boundary, boxes, tiles, counters, optical, frame_block, readback;
   GlTexture tf_texture, out_texture;
+  GlTexture slice_texture;  // the slices' colour tables (EXACT_SLICE_TEXTURE_BINDING), created on first use
   int out_w = 0, out_h = 0;
   bool per_cell = false, have_values = false;
   uint64_t mesh_bytes = 0, frame_bytes = 0, values_bytes = 0, tf_bytes = 0;
-  std::optional<TransferFunction> uploaded_tf;              // what the optical table and the TF texture hold
-  std::map<std::pair<int, bool>, ComputeProgram> programs;  // by (mode, volume lighting)
+  std::optional<TransferFunction> uploaded_tf;                     // what the optical table and the TF texture hold
+  std::map<std::tuple<int, bool, bool>, ComputeProgram> programs;  // by (mode, volume lighting, slices)
   std::unique_ptr<GlTimerQuery> timer;
   double bin_seconds = 0, gpu_seconds = 0;
 
   Impl(const WalkMesh& m, std::shared_ptr<const GlContext> g, ExactGpuOptions o)
       : mesh(m), gl(std::move(g)), options(o) {}
 
-  ComputeProgram& program_for(int mode, bool volume_lighting) {
-    auto it = programs.find({mode, volume_lighting});
+  ComputeProgram& program_for(int mode, bool volume_lighting, bool slices = false) {
+    auto it = programs.find({mode, volume_lighting, slices});
     if (it == programs.end()) {
       const bool tets_only = mesh.type_begin[1] == mesh.cell_count();
       ComputeProgram p("exact_walk.comp", {{"MODE", std::to_string(mode)},
                                            {"EXACT_DOUBLE", options.double_precision ? "1" : "0"},
                                            {"TETS_ONLY", tets_only ? "1" : "0"},
-                                           {"VOLUME_LIGHTING", volume_lighting ? "1" : "0"}});
+                                           {"VOLUME_LIGHTING", volume_lighting ? "1" : "0"},
+                                           {"SLICES", slices ? "1" : "0"}});
       check_contract(p);
-      it = programs.emplace(std::make_pair(mode, volume_lighting), std::move(p)).first;
+      it = programs.emplace(std::make_tuple(mode, volume_lighting, slices), std::move(p)).first;
     }
     return it->second;
   }
@@ -276,12 +279,44 @@ Image ExactGpuEngine::render(const Camera& camera, const TransferFunction& tf, c
   float iso_f[exact_gpu::EXACT_MAX_ISO] = {};
   for (size_t i = 0; i < iso.size(); ++i) iso_f[i] = float(iso[i]);
   std::memcpy(f.u_iso, iso_f, sizeof iso_f);
+  // Slices: unit normals (the CPU engine's planes, so that both find the same crossings), a colour table each over
+  // its range (the volume's transfer function or a built-in preset).
+  static_assert(EXACT_MAX_SLICES == kMaxSlices);
+  const bool slices = !settings.slices.empty() || settings.hide_volume != HideVolume::None;
+  f.u_slice_info = {int(settings.slices.size()), int(settings.hide_volume), 0, 0};
+  if (slices && !I.slice_texture.id()) {
+    I.slice_texture = GlTexture(GL_TEXTURE_2D);
+    glTextureStorage2D(I.slice_texture.id(), 1, GL_RGBA32F, exact_gpu::EXACT_SLICE_TEXELS, EXACT_MAX_SLICES);
+    glTextureParameteri(I.slice_texture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(I.slice_texture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(I.slice_texture.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(I.slice_texture.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  }
+  for (size_t i = 0; i < settings.slices.size(); ++i) {
+    const Slice& sl = settings.slices[i];
+    const Vec3d n = sl.normal * (1 / length(sl.normal));
+    f.u_slice_plane[i] = d4(n, dot(n, sl.point));
+    TransferFunction colors = sl.color_map.empty() ? tf : builtin_preset(sl.color_map);
+    const double r_lo = sl.range ? (*sl.range)[0] : lo, r_hi = sl.range ? (*sl.range)[1] : hi;
+    if (!sl.color_map.empty() || sl.range) colors.rescale(r_lo, r_hi);
+    f.u_slice_map[i] = {r_hi > r_lo ? float(1 / (r_hi - r_lo)) : 0.0f,
+                        r_hi > r_lo ? float(-r_lo / (r_hi - r_lo)) : 0.0f, float(sl.opacity), 0};
+    const int n_texels = exact_gpu::EXACT_SLICE_TEXELS;
+    std::vector<float> row(size_t(n_texels) * 4);
+    for (int t = 0; t < n_texels; ++t) {
+      const Vec3d c = colors.color(r_lo + (r_hi - r_lo) * double(t) / double(n_texels - 1));
+      row[size_t(t) * 4 + 0] = float(c.x), row[size_t(t) * 4 + 1] = float(c.y);
+      row[size_t(t) * 4 + 2] = float(c.z), row[size_t(t) * 4 + 3] = 1.0f;
+    }
+    glTextureSubImage2D(I.slice_texture.id(), 0, 0, GLint(i), n_texels, 1, GL_RGBA, GL_FLOAT, row.data());
+  }
   I.frame_block.upload(&f, sizeof f);
 
   const int mode = settings.mode == RenderMode::Mip          ? EXACT_MODE_MIP
                    : settings.mode == RenderMode::Isosurface ? EXACT_MODE_ISO
                                                              : EXACT_MODE_EA;
-  const ComputeProgram& program = I.program_for(mode, mode == EXACT_MODE_EA && settings.volume_lighting);
+  const ComputeProgram& program = I.program_for(mode, mode == EXACT_MODE_EA && settings.volume_lighting, slices);
+  if (slices) glBindTextureUnit(exact_gpu::EXACT_SLICE_TEXTURE_BINDING, I.slice_texture.id());
   glUseProgram(program.id());
   glBindBufferBase(GL_UNIFORM_BUFFER, exact_gpu::EXACT_FRAME_BLOCK_BINDING, I.frame_block.id());
   glBindImageTexture(exact_gpu::EXACT_OUT_IMAGE_BINDING, I.out_texture.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);

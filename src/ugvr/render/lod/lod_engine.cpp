@@ -86,9 +86,9 @@ struct LodEngine::Impl {
   const GlContext& gl;
   LodOptions options;
   uint32_t field = 0;
-  // By (mode, volume lighting, boundary overlay): compile-time variants.
-  std::map<std::tuple<int, bool, bool>, ComputeProgram> programs;
-  ComputeProgram& program_for(int mode, bool volume_lighting, bool overlay);
+  // By (mode, volume lighting, boundary overlay, slices): compile-time variants.
+  std::map<std::tuple<int, bool, bool, bool>, ComputeProgram> programs;
+  ComputeProgram& program_for(int mode, bool volume_lighting, bool overlay, bool slices = false);
   GlBuffer tree, state, counters, readback;
   // The boundary faces (store format version 4), static; `faces` false: the store has none, and the shader is compiled
   // without them (FACES 0: the stencil alone, at no cost).
@@ -96,6 +96,7 @@ struct LodEngine::Impl {
   GlBuffer face_nodes, face_refs, face_tris;
   GlBuffer frame_block;  // the uniform block LodFrame
   GlTexture tf_texture, preint_texture, out_texture;
+  GlTexture slice_texture;  // the slices' colour tables (lod_shared.h SLICE_TEXTURE_BINDING), created on first use
   std::unique_ptr<GlTimerQuery> timer;  // created on first use (the context is current then)
   int out_w = 0, out_h = 0;
   BrickAtlas atlas;
@@ -113,17 +114,19 @@ struct LodEngine::Impl {
   void upload_transfer_function(const TransferFunction& tf);
   lod_gpu::LodFrame frame_parameters(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
                                      bool overlay) const;
+  void upload_slice_colors(const TransferFunction& tf, const RenderSettings& settings);
 };
 
-ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, bool overlay) {
-  auto it = programs.find({mode, volume_lighting, overlay});
+ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, bool overlay, bool slices) {
+  auto it = programs.find({mode, volume_lighting, overlay, slices});
   if (it == programs.end()) {
     ComputeProgram p("lod_raycast.comp", {{"MODE", std::to_string(mode)},
                                           {"VOLUME_LIGHTING", volume_lighting ? "1" : "0"},
                                           {"OVERLAY", overlay ? "1" : "0"},
-                                          {"FACES", faces ? "1" : "0"}});
+                                          {"FACES", faces ? "1" : "0"},
+                                          {"SLICES", slices ? "1" : "0"}});
     check_contract(p);
-    it = programs.emplace(std::make_tuple(mode, volume_lighting, overlay), std::move(p)).first;
+    it = programs.emplace(std::make_tuple(mode, volume_lighting, overlay, slices), std::move(p)).first;
   }
   return it->second;
 }
@@ -279,7 +282,47 @@ lod_gpu::LodFrame LodEngine::Impl::frame_parameters(const Camera& camera, const 
   if (settings.clip_plane) f.u_clip_plane = normalised_plane(*settings.clip_plane, root);
   f.u_overlay_opacity = overlay ? float(settings.boundary_overlay_opacity) : 0.0f;
   f.u_nudge = float(2e-6 * std::max({root_size.x, root_size.y, root_size.z}));
+  // Slices: the planes as the clip plane is passed; each colour table spans the slice's range (or the transfer
+  // function's), reached from the normalised value as u_tf_map reaches the transfer function's table.
+  static_assert(LOD_MAX_SLICES == kMaxSlices);
+  f.u_slice_count = int(settings.slices.size());
+  f.u_hide_volume = int(settings.hide_volume);
+  for (size_t i = 0; i < settings.slices.size(); ++i) {
+    const Slice& sl = settings.slices[i];
+    f.u_slice_plane[i] = normalised_plane(ClipPlane{sl.point, sl.normal}, root);
+    const double r_lo = sl.range ? (*sl.range)[0] : tf.range_min();
+    const double r_w = (sl.range ? (*sl.range)[1] : tf.range_max()) - r_lo;
+    f.u_slice_map[i] = {r_w > 0 ? float((f_hi - f_lo) / r_w) : 0.0f, r_w > 0 ? float((f_lo - r_lo) / r_w) : 0.0f,
+                        float(sl.opacity), 0.0f};
+  }
   return f;
+}
+
+// One row of SLICE_TEXELS colours per slice over its range: the volume's transfer function or a built-in preset.
+void LodEngine::Impl::upload_slice_colors(const TransferFunction& tf, const RenderSettings& settings) {
+  if (!slice_texture.id()) {
+    slice_texture = GlTexture(GL_TEXTURE_2D);
+    glTextureStorage2D(slice_texture.id(), 1, GL_RGBA32F, lod_gpu::SLICE_TEXELS, LOD_MAX_SLICES);
+    glTextureParameteri(slice_texture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(slice_texture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(slice_texture.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(slice_texture.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  }
+  const int n = lod_gpu::SLICE_TEXELS;
+  std::vector<float> row(size_t(n) * 4);
+  for (size_t i = 0; i < settings.slices.size(); ++i) {
+    const Slice& sl = settings.slices[i];
+    TransferFunction colors = sl.color_map.empty() ? tf : builtin_preset(sl.color_map);
+    const double r_lo = sl.range ? (*sl.range)[0] : tf.range_min();
+    const double r_hi = sl.range ? (*sl.range)[1] : tf.range_max();
+    if (!sl.color_map.empty() || sl.range) colors.rescale(r_lo, r_hi);
+    for (int k = 0; k < n; ++k) {
+      const Vec3d c = colors.color(r_lo + (r_hi - r_lo) * double(k) / double(n - 1));
+      row[size_t(k) * 4 + 0] = float(c.x), row[size_t(k) * 4 + 1] = float(c.y);
+      row[size_t(k) * 4 + 2] = float(c.z), row[size_t(k) * 4 + 3] = 1.0f;
+    }
+    glTextureSubImage2D(slice_texture.id(), 0, 0, GLint(i), n, 1, GL_RGBA, GL_FLOAT, row.data());
+  }
 }
 
 LodEngine::LodEngine(const std::string& store_path, const GlContext& gl, LodOptions options)
@@ -370,6 +413,9 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   // The overlay draws the boundary of the drawn nodes' data: a node transparent under the transfer function still
   // holds data, and dropping it would put a false boundary around it.
   co.tf_cull = !boundary_overlay_on(settings);
+  // A slice shows the field where the volume is transparent too: no node may be dropped or left coarse for being
+  // transparent (or uniform) under the transfer function; the cut is then the plain screen-size criterion.
+  if (!settings.slices.empty()) co.tf_cull = false, co.tf_error = false;
   I.tf_errors.set_field(I.field);
   I.tf_errors.update(tf);
   co.tf_errors = &I.tf_errors;
@@ -461,7 +507,12 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
                    : settings.mode == RenderMode::Isosurface ? LOD_MODE_ISO
                                                              : LOD_MODE_EA;
   const bool overlay = boundary_overlay_on(settings);
-  const ComputeProgram& program = I.program_for(mode, mode == LOD_MODE_EA && settings.volume_lighting, overlay);
+  const bool slices = !settings.slices.empty() || settings.hide_volume != HideVolume::None;
+  const ComputeProgram& program = I.program_for(mode, mode == LOD_MODE_EA && settings.volume_lighting, overlay, slices);
+  if (slices) {
+    I.upload_slice_colors(tf, settings);
+    glBindTextureUnit(lod_gpu::SLICE_TEXTURE_BINDING, I.slice_texture.id());
+  }
   glUseProgram(program.id());
   const lod_gpu::LodFrame frame = I.frame_parameters(camera, tf, settings, overlay);
   I.frame_block.upload(&frame, sizeof frame);

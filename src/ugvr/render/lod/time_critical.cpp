@@ -53,10 +53,14 @@ struct TimeCriticalRenderer::Impl {
 
   // The boundary overlay bounds the data the cut draws: then nothing may be dropped for being transparent under the
   // transfer function (lod_engine.h).
+  // Slices likewise, and no node may stay coarse for being transparent or uniform under it (tf_error off).
   void cull_for(const RenderSettings& settings) {
-    if (cut.options().tf_cull != boundary_overlay_on(settings)) return;
+    const bool tf_cull = !boundary_overlay_on(settings) && settings.slices.empty();
+    const bool tf_error = settings.slices.empty();
+    if (cut.options().tf_cull == tf_cull && cut.options().tf_error == tf_error) return;
     ActiveCutOptions co = cut.options();
-    co.tf_cull = !boundary_overlay_on(settings);
+    co.tf_cull = tf_cull;
+    co.tf_error = tf_error;
     cut.set_options(co);
   }
 };
