@@ -83,6 +83,7 @@ struct ExactEngine::Impl {
   double field_min = 0, field_max = 1;
   double nonlinear_tolerance = 1e-3;
   double build_seconds = 0;
+  std::optional<Bounds> clip_box;
 };
 
 namespace {
@@ -98,7 +99,25 @@ struct Scene {
   std::vector<double> iso_ascending;
   double tolerance_abs;  // nonlinear tolerance in scalar units
   double reentry_slack;  // distance within which a re-entry counts as continuing where the ray left
+  const std::optional<Bounds>& clip_box;
 };
+
+// Limits [t_lo, t_hi] to the stretch of the ray inside `box` (slabs). The same plane value gives the same t bit for
+// bit in the two boxes that share it, so the stretches of neighbouring boxes meet exactly.
+void clip_to_box(const RayFrame& frame, const Bounds& box, double& t_lo, double& t_hi) {
+  const double o[3] = {frame.origin.x, frame.origin.y, frame.origin.z};
+  const double d[3] = {frame.dir.x, frame.dir.y, frame.dir.z};
+  const double lo[3] = {box.lo.x, box.lo.y, box.lo.z}, hi[3] = {box.hi.x, box.hi.y, box.hi.z};
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0) {
+      if (o[a] < lo[a] || o[a] >= hi[a]) t_hi = -kInf;  // parallel to the slab, outside it (half-open: one box owns it)
+      continue;
+    }
+    double t0 = (lo[a] - o[a]) / d[a], t1 = (hi[a] - o[a]) / d[a];
+    if (t0 > t1) std::swap(t0, t1);
+    t_lo = std::max(t_lo, t0), t_hi = std::min(t_hi, t1);
+  }
+}
 
 // The state of one ray.
 class RayTracer {
@@ -121,6 +140,7 @@ class RayTracer {
         t_hi_ = -kInf;  // parallel to the plane, on the removed side
       }
     }
+    if (scene.clip_box) clip_to_box(frame, *scene.clip_box, t_lo_, t_hi_);
     view_dir_ = frame.dir * -1.0;
     mode_ = s.mode;
     stop_opacity_ = s.early_termination_opacity;
@@ -664,6 +684,8 @@ void ExactEngine::set_nonlinear_tolerance(double relative) {
   if (!(relative > 0) || !std::isfinite(relative)) fail_in("exact engine", "nonlinear tolerance must be > 0");
   impl_->nonlinear_tolerance = relative;
 }
+void ExactEngine::set_clip_box(std::optional<Bounds> box) { impl_->clip_box = box; }
+const std::optional<Bounds>& ExactEngine::clip_box() const { return impl_->clip_box; }
 Bounds ExactEngine::bounds() const { return impl_->mesh.bounds; }
 uint64_t ExactEngine::cell_count() const { return impl_->mesh.cell_count(); }
 uint64_t ExactEngine::point_count() const { return impl_->mesh.points.size(); }
@@ -692,7 +714,8 @@ Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, cons
   std::vector<double> iso = settings.iso_values;
   std::sort(iso.begin(), iso.end());
   const double diagonal = length(I.mesh.bounds.size());
-  const Scene scene{I.values, I.per_cell, I.mesh, table, tf, settings, iso, tolerance_abs(tf), 1e-7 * diagonal};
+  const Scene scene{I.values, I.per_cell,        I.mesh,          table,     tf, settings,
+                    iso,      tolerance_abs(tf), 1e-7 * diagonal, I.clip_box};
 
   const int width = settings.width, height = settings.height;
   const CameraRays rays(camera, width, height);
