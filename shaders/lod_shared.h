@@ -127,6 +127,8 @@ layout(std140, binding = FRAME_BLOCK_BINDING) uniform LodFrame {
   bool32 u_clip;              // 168
   int u_unused;               // 172 (padding: u_iso starts on 16 bytes)
   vec4 u_iso[MAX_ISO / 4];    // 176 normalised isovalues, ascending, 4 per vec4 (a float[] would take 16 bytes each)
+  vec4 u_box_lo;              // 240 data-parallel rendering (src/ugvr/mpi): only t inside the box [lo, hi] (xyz,
+  vec4 u_box_hi;              // 256 normalised) is drawn; read only when u_box_lo.w > 0.5
 };
 
 #ifdef __cplusplus
@@ -140,7 +142,8 @@ static_assert(offsetof(LodFrame, u_root_size) % 16 == 0 && offsetof(LodFrame, u_
 static_assert(offsetof(LodFrame, u_slots) % 16 == 0 && offsetof(LodFrame, u_clip_plane) % 16 == 0);
 static_assert(offsetof(LodFrame, u_size) % 8 == 0 && offsetof(LodFrame, u_half) % 8 == 0);
 static_assert(offsetof(LodFrame, u_tf_map) % 8 == 0 && offsetof(LodFrame, u_iso) % 16 == 0);
-static_assert(sizeof(LodFrame) == 240 && offsetof(LodFrame, u_iso) + sizeof(LodFrame::u_iso) == sizeof(LodFrame));
+static_assert(offsetof(LodFrame, u_iso) + sizeof(LodFrame::u_iso) == offsetof(LodFrame, u_box_lo));
+static_assert(sizeof(LodFrame) == 272 && offsetof(LodFrame, u_box_hi) == 256);
 static_assert(MAX_ISO % 4 == 0 && sizeof(LodFrame::u_iso) == MAX_ISO * sizeof(float));
 
 }  // namespace ugvr::lod_gpu

@@ -195,7 +195,9 @@ TEST(LodGpuContract, DriverLaysOutTheFrameBlockAsTheCppStruct) {
                                        UGVR_MEMBER(u_lighting),
                                        UGVR_MEMBER(u_clip),
                                        UGVR_MEMBER(u_unused),
-                                       Member{"u_iso[0]", offsetof(lod_gpu::LodFrame, u_iso)}};
+                                       Member{"u_iso[0]", offsetof(lod_gpu::LodFrame, u_iso)},
+                                       UGVR_MEMBER(u_box_lo),
+                                       UGVR_MEMBER(u_box_hi)};
   const std::vector<std::vector<std::pair<std::string, std::string>>> variants = {
       {{"MODE", "0"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "0"}},
       {{"MODE", "0"}, {"VOLUME_LIGHTING", "1"}, {"OVERLAY", "1"}},

@@ -105,6 +105,7 @@ struct LodEngine::Impl {
   // The most slots the device has agreed to allocate, once it refused more than --gpu-memory allows (llvmpipe caps a
   // texture at 1 GiB, below the default budget); UINT64_MAX until then.
   uint64_t device_slots = UINT64_MAX;
+  std::optional<Bounds> clip_box;  // set_clip_box
 
   Impl(const std::string& path, const GlContext& g, LodOptions o) : store(path), gl(g), options(o) {}
   uint64_t budget_slots() const;
@@ -279,6 +280,15 @@ lod_gpu::LodFrame LodEngine::Impl::frame_parameters(const Camera& camera, const 
   if (settings.clip_plane) f.u_clip_plane = normalised_plane(*settings.clip_plane, root);
   f.u_overlay_opacity = overlay ? float(settings.boundary_overlay_opacity) : 0.0f;
   f.u_nudge = float(2e-6 * std::max({root_size.x, root_size.y, root_size.z}));
+  if (clip_box) {
+    // Normalised, and kept within [-1, 2] (the root cell is [0, 1]): no infinities reach the shader.
+    auto norm = [&](double v, double lo, double size) { return float(std::clamp((v - lo) / size, -1.0, 2.0)); };
+    const Bounds& b = *clip_box;
+    f.u_box_lo = {norm(b.lo.x, root.lo.x, root_size.x), norm(b.lo.y, root.lo.y, root_size.y),
+                  norm(b.lo.z, root.lo.z, root_size.z), 1.0f};
+    f.u_box_hi = {norm(b.hi.x, root.lo.x, root_size.x), norm(b.hi.y, root.lo.y, root_size.y),
+                  norm(b.hi.z, root.lo.z, root_size.z), 0.0f};
+  }
   return f;
 }
 
@@ -354,6 +364,7 @@ void LodEngine::set_field(std::string_view name) {
 const std::string& LodEngine::field_name() const { return impl_->store.layout().fields[impl_->field].name; }
 double LodEngine::field_min() const { return impl_->store.layout().fields[impl_->field].min; }
 double LodEngine::field_max() const { return impl_->store.layout().fields[impl_->field].max; }
+void LodEngine::set_clip_box(std::optional<Bounds> box) { impl_->clip_box = box; }
 Bounds LodEngine::bounds() const { return impl_->store.layout().data; }
 uint64_t LodEngine::node_count() const { return impl_->store.node_count(); }
 uint32_t LodEngine::resolution() const { return impl_->store.resolution(); }
