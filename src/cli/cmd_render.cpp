@@ -30,6 +30,10 @@
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/renderer_factory.h"
 #include "ugvr/render/transfer_function.h"
+#ifdef UGVR_HAVE_MPI
+#include "ugvr/mpi/mpi_renderer.h"
+#include "ugvr/mpi/mpi_session.h"
+#endif
 
 namespace ugvr::cli {
 namespace {
@@ -197,8 +201,19 @@ void run_render(const Options& o) {
   const double fps = target_fps(o);
   RendererOptions ro = renderer_options(o, settings);
   OpenedInput opened;
-  std::unique_ptr<Renderer> renderer =
-      flag_errors([&] { return open_renderer_default_field(o.inputs, o.read, ro, &opened); });
+  // Under mpirun every rank renders its part and rank 0 alone gets the composited frame, writes and reports
+  // (docs/mpi.md).
+  bool writer = true;
+  std::unique_ptr<Renderer> renderer = flag_errors([&] {
+#ifdef UGVR_HAVE_MPI
+    if (mpi::active()) {
+      writer = mpi::rank() == 0;
+      if (!writer) Progress::set_enabled(false);
+      return mpi::open_renderer(o.inputs, o.read, ro, &opened);
+    }
+#endif
+    return open_renderer_default_field(o.inputs, o.read, ro, &opened);
+  });
   for (const std::string& w : opened.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   // Recorded in --stats so the settings reproduce the image; a selector the user gave ("velocity:x") is kept as is.
   const bool default_field = settings.field.empty();
@@ -262,6 +277,7 @@ void run_render(const Options& o) {
                  : frame_cpu_seconds[0];
   const int threads_used = worker_threads();
 
+  if (!writer) return;
   write_image(o.output, image);
   if (!o.float_output.empty()) write_pfm(o.float_output, image);
 
