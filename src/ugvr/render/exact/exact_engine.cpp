@@ -592,6 +592,9 @@ uint32_t RayTracer::step(uint32_t cell, int entry_face, double& t_in, double& s_
 bool RayTracer::advance() {
   if (finished_) return false;
   if (!done() && !lost_) {
+    // Past the end of a clip box's range nothing more is drawn: no need to walk on. (Not for the clip plane alone,
+    // whose walk the GPU engine mirrors step for step.)
+    if (sc_.clip_box && in_walk_ && t_in_ > t_hi_) in_walk_ = false, next_entry_ = entry_count_;
     if (in_walk_) {
       walk_step();
       return true;
