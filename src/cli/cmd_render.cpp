@@ -245,8 +245,8 @@ void run_render(const Options& o) {
   if (!unit_distance) unit_distance = default_unit_distance(bounds);
   tf.opacity_unit_distance = *unit_distance;
 
-  if (!o.save_camera.empty()) write_camera(o.save_camera, camera);
-  if (!o.save_tf.empty()) write_paraview_preset(o.save_tf, tf);
+  if (writer && !o.save_camera.empty()) write_camera(o.save_camera, camera);
+  if (writer && !o.save_tf.empty()) write_paraview_preset(o.save_tf, tf);
 
   FrameRequest request;
   request.camera = camera;

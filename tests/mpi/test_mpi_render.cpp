@@ -140,6 +140,13 @@ TEST_F(MpiRender, AFailingRankEndsTheJobWithItsMessage) {
   EXPECT_FALSE(std::filesystem::exists(file("t.png")));
 }
 
+TEST_F(MpiRender, MipIsRefusedNotComposited) {
+  ASSERT_EQ(test::run_ugvr("generate --cells 1000 --kind tet -o " + file("t.vtu")).status, 0);
+  const CommandResult r = mpirun(2, "render " + file("t.vtu") + " --mode mip --size 32 -o " + file("t.png"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("mip is not supported under MPI"), std::string::npos) << r.out;
+}
+
 TEST_F(MpiRender, ABadFileOnTheCommandLineEndsTheJob) {
   const CommandResult r = mpirun(4, "render " + file("missing.vtu") + " --threads 1 --size 32 -o " + file("m.png"));
   EXPECT_NE(r.status, 0);

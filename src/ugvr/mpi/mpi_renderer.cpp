@@ -62,6 +62,9 @@ class MpiRenderer final : public Renderer {
   Frame render(const FrameRequest& request) override {
     if (const char* fail = std::getenv("UGVR_MPI_FAIL_RANK"); fail && std::atoi(fail) == rank())
       fail_in("UGVR_MPI_FAIL_RANK", "rank " + std::to_string(rank()) + " fails on purpose");
+    // A maximum intensity projection composes by the maximum of the ranks' values, not by blending their colours.
+    if (request.settings.mode == RenderMode::Mip)
+      throw OptionError("mode", "mip is not supported under MPI yet (ranks' maxima would need max compositing)");
     const auto t0 = std::chrono::steady_clock::now();
     FrameRequest mine = request;
     mine.settings.background = {0, 0, 0, 0};

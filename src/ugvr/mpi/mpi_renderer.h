@@ -19,7 +19,8 @@ namespace ugvr::mpi {
 
 // Opens `inputs` on every rank as open_renderer_default_field does (the same default field), wrapped in the
 // compositing renderer. Exact engine on the CPU only (options.device "gpu" is an OptionError("device")); the LOD
-// engine for a store, one cut per frame. Interactive sessions are not supported yet (OptionError("fps")).
+// engine for a store, one cut per frame. Interactive sessions (OptionError("fps")) and MIP (OptionError("mode"), thrown
+// by render) are not supported yet.
 // UGVR_MPI_FAIL_RANK=k makes rank k throw in its first render (the tests' failing rank).
 std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, const ReadOptions& read,
                                         RendererOptions options, OpenedInput* opened = nullptr);
