@@ -384,7 +384,19 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   I.tf_errors.set_field(I.field);
   I.tf_errors.update(tf);
   co.tf_errors = &I.tf_errors;
+  // With a clip box only the nodes that meet it are drawn (the rays sample nothing outside it): a rank of a
+  // data-parallel job uploads its part of the cut, not all of it.
+  auto in_box = [&](Cut& c) {
+    if (!I.clip_box) return;
+    const Bounds& box = *I.clip_box;
+    std::erase_if(c.nodes, [&](uint64_t n) {
+      const Bounds b = I.store.bounds(n);
+      return b.hi.x < box.lo.x || b.lo.x > box.hi.x || b.hi.y < box.lo.y || b.lo.y > box.hi.y || b.hi.z < box.lo.z ||
+             b.lo.z > box.hi.z;
+    });
+  };
   Cut cut = select_cut(I.store, cut_spec, camera, settings.width, settings.height, tf, co);
+  in_box(cut);
   st.cut_seconds = seconds_since(t0);
   BrickResidency from_store(I.store, I.slot_table);  // no RAM tier: the bricks are read here
   Image image;
@@ -394,6 +406,7 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
     // The device allocates less than the budget: the cut again, within what it does allocate (once).
     co.max_nodes = I.budget_slots();
     cut = select_cut(I.store, cut_spec, camera, settings.width, settings.height, tf, co);
+    in_box(cut);
     image = render_nodes(camera, tf, settings, cut.nodes, from_store, &st);
   }
   st.cut_nodes = cut.nodes.size();

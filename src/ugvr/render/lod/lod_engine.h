@@ -115,7 +115,8 @@ class LodEngine {
 
   // Data-parallel rendering (src/ugvr/mpi, docs/mpi.md): only the stretch of each ray inside `box` (world
   // coordinates; faces may be infinite) is drawn, so the images of boxes that tile space compose front to back into
-  // the whole image (up to where samples fall). Not a user setting. nullopt (the default): whole rays.
+  // the whole image (up to where samples fall); render() draws only the cut's nodes that meet the box. Not a user
+  // setting. nullopt (the default): whole rays.
   void set_clip_box(std::optional<Bounds> box);
   Bounds bounds() const;  // the dataset's bounds
   uint64_t node_count() const;
