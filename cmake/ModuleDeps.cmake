@@ -2,7 +2,7 @@
 # own. docs/architecture.md draws this graph. The build checks every #include "ugvr/MODULE/..." against it
 # (check_module_deps.cmake): an include across a line not listed here fails the build, so the layering stays what the
 # table says; change the table (and the picture) on purpose when a module really needs another.
-set(UGVR_MODULES core grid io gen refine report store octree gpu render view api)
+set(UGVR_MODULES core grid io gen refine report store octree gpu render view api mpi)
 set(UGVR_DEPS_core "")
 set(UGVR_DEPS_grid core)
 set(UGVR_DEPS_io core grid)
@@ -15,3 +15,4 @@ set(UGVR_DEPS_gpu core)
 set(UGVR_DEPS_render core grid io gpu store)
 set(UGVR_DEPS_view core grid io gpu store octree render)
 set(UGVR_DEPS_api core grid io store octree render)
+set(UGVR_DEPS_mpi core grid io gpu store octree render)

@@ -23,6 +23,8 @@ PACKAGES=(
   python3-vtk9 python3-meshio         # ugvr.from_vtk / from_meshio and their tests; the PyVista-style bench
   jupyter-nbconvert python3-ipykernel # executes docs/python-demo.ipynb in CI
   chromium                            # headless browser for the viewer's end-to-end tests (tests/e2e; node + npm too)
+  libopenmpi-dev openmpi-bin          # `mpirun -np N ugvr render` (docs/mpi.md): ~13 s to install
+  paraview-dev                        # IceT, the sort-last compositor (ParaView 5.11's; docs/mpi.md): ~90 s to install
 )
 
 missing=()

@@ -430,6 +430,13 @@ void main() {
     else if (df < 0.0) t_end = min(t_end, -f0 / df);
     else if (f0 < 0.0) t_end = -1.0;
   }
+  if (u_box_lo.w > 0.5) {
+    // This rank's kd-tree box (src/ugvr/mpi): a t-range limit like the clip plane's, so neighbouring boxes' ranges
+    // meet at the same t (the same float plane, the same arithmetic).
+    vec3 ba = (u_box_lo.xyz - base) * inv_dir, bb = (u_box_hi.xyz - base) * inv_dir;
+    t = max(t, max(max(min(ba.x, bb.x), min(ba.y, bb.y)), min(ba.z, bb.z)));
+    t_end = min(t_end, min(min(max(ba.x, bb.x), max(ba.y, bb.y)), max(ba.z, bb.z)));
+  }
 #if SLICES
   // The crossings in [t, t_end], sorted; the volume shows in [vol_lo, vol_hi] only (hide_volume: front keeps each
   // plane's negative side, back its positive side). Each bound is a crossing, hence a sample: a segment between two

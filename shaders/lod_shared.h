@@ -139,6 +139,8 @@ layout(std140, binding = FRAME_BLOCK_BINDING) uniform LodFrame {
   int u_hide_volume;                   // 500 0 none, 1 front, 2 back, 3 all (render_settings.h HideVolume)
   int u_unused2;                       // 504
   int u_unused3;                       // 508
+  vec4 u_box_lo;                        // 512 data-parallel rendering (src/ugvr/mpi): only t inside the box
+  vec4 u_box_hi;                        // 528 [lo, hi] (xyz, normalised) is drawn; read only when u_box_lo.w > 0.5
 };
 
 #ifdef __cplusplus
@@ -154,7 +156,8 @@ static_assert(offsetof(LodFrame, u_size) % 8 == 0 && offsetof(LodFrame, u_half) 
 static_assert(offsetof(LodFrame, u_tf_map) % 8 == 0 && offsetof(LodFrame, u_iso) % 16 == 0);
 static_assert(offsetof(LodFrame, u_iso) + sizeof(LodFrame::u_iso) == offsetof(LodFrame, u_slice_plane));
 static_assert(offsetof(LodFrame, u_slice_plane) % 16 == 0 && offsetof(LodFrame, u_slice_map) % 16 == 0);
-static_assert(offsetof(LodFrame, u_slice_count) == 496 && sizeof(LodFrame) == 512);
+static_assert(offsetof(LodFrame, u_slice_count) == 496 && offsetof(LodFrame, u_box_lo) == 512);
+static_assert(sizeof(LodFrame) == 544 && offsetof(LodFrame, u_box_hi) == 528);
 static_assert(MAX_ISO % 4 == 0 && sizeof(LodFrame::u_iso) == MAX_ISO * sizeof(float));
 
 }  // namespace ugvr::lod_gpu

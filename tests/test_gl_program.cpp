@@ -201,7 +201,9 @@ TEST(LodGpuContract, DriverLaysOutTheFrameBlockAsTheCppStruct) {
                                        UGVR_MEMBER(u_slice_count),
                                        UGVR_MEMBER(u_hide_volume),
                                        UGVR_MEMBER(u_unused2),
-                                       UGVR_MEMBER(u_unused3)};
+                                       UGVR_MEMBER(u_unused3),
+                                       UGVR_MEMBER(u_box_lo),
+                                       UGVR_MEMBER(u_box_hi)};
   const std::vector<std::vector<std::pair<std::string, std::string>>> variants = {
       {{"MODE", "0"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "0"}},
       {{"MODE", "0"}, {"VOLUME_LIGHTING", "1"}, {"OVERLAY", "1"}},

@@ -35,6 +35,10 @@
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/renderer_factory.h"
 #include "ugvr/render/transfer_function.h"
+#ifdef UGVR_HAVE_MPI
+#include "ugvr/mpi/mpi_renderer.h"
+#include "ugvr/mpi/mpi_session.h"
+#endif
 
 namespace ugvr::cli {
 namespace {
@@ -345,6 +349,10 @@ void run_render(const Options& o, std::optional<double> time_budget) {
     fail_flag("--engine", "unknown engine \"" + o.engine + "\" (valid: " + join(engine_names()) + ")");
   const bool timed = !o.time.empty();
   if (timed && time_budget) fail_flag("--time-budget", "makes one still image: no --time");
+#ifdef UGVR_HAVE_MPI
+  if (mpi::active() && (timed || time_budget))
+    fail_flag(timed ? "--time" : "--time-budget", "is not supported under mpirun yet (docs/mpi.md)");
+#endif
   if (o.output.empty() && !(timed && !o.out_dir.empty()))
     fail_flag("-o", "an output image is required (or --time with --out DIR)");
   if (!o.output.empty()) check_extension(o.output, "-o", {".png", ".pfm"});
@@ -408,9 +416,19 @@ void run_render(const Options& o, std::optional<double> time_budget) {
     time_scene = std::make_shared<ExactScene>(std::move(series), steps[0], ro.progress);
     opened.warnings = time_scene->dataset->warnings;
   }
+  // Under mpirun every rank renders its part and rank 0 alone gets the composited frame, writes and reports
+  // (docs/mpi.md).
+  bool writer = true;
   std::unique_ptr<Renderer> renderer = flag_errors([&] {
-    return time_scene ? open_series_renderer(time_scene, ro)
-                      : open_renderer_default_field(o.inputs, o.read, ro, &opened);
+    if (time_scene) return open_series_renderer(time_scene, ro);
+#ifdef UGVR_HAVE_MPI
+    if (mpi::active()) {
+      writer = mpi::rank() == 0;
+      if (!writer) Progress::set_enabled(false);
+      return mpi::open_renderer(o.inputs, o.read, ro, &opened);
+    }
+#endif
+    return open_renderer_default_field(o.inputs, o.read, ro, &opened);
   });
   for (const std::string& w : opened.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   // Recorded in --stats so the settings reproduce the image; a selector the user gave ("velocity:x") is kept as is.
@@ -443,8 +461,8 @@ void run_render(const Options& o, std::optional<double> time_budget) {
   if (!unit_distance) unit_distance = default_unit_distance(bounds);
   tf.opacity_unit_distance = *unit_distance;
 
-  if (!o.save_camera.empty()) write_camera(o.save_camera, camera);
-  if (!o.save_tf.empty()) write_paraview_preset(o.save_tf, tf);
+  if (writer && !o.save_camera.empty()) write_camera(o.save_camera, camera);
+  if (writer && !o.save_tf.empty()) write_paraview_preset(o.save_tf, tf);
 
   FrameRequest request;
   request.camera = camera;
@@ -490,6 +508,7 @@ void run_render(const Options& o, std::optional<double> time_budget) {
                                    : frame_cpu_seconds[0];
   const int threads_used = worker_threads();
 
+  if (!writer) return;
   write_image(o.output, image);
   if (!o.float_output.empty()) write_pfm(o.float_output, image);
 

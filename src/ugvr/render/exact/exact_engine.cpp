@@ -83,6 +83,7 @@ struct ExactEngine::Impl {
   double field_min = 0, field_max = 1;
   double nonlinear_tolerance = 1e-3;
   double build_seconds = 0;
+  std::optional<Bounds> clip_box;
 };
 
 namespace {
@@ -106,6 +107,7 @@ struct Scene {
   std::vector<double> iso_ascending;
   double tolerance_abs;  // nonlinear tolerance in scalar units
   double reentry_slack;  // distance within which a re-entry counts as continuing where the ray left
+  const std::optional<Bounds>& clip_box;
   std::vector<SlicePlane> slices;
 };
 
@@ -120,6 +122,23 @@ void keep_half_space(Vec3d n, double c, Vec3d o, Vec3d d, bool keep_positive, do
     hi = std::min(hi, -g0 / nd);
   } else if (g0 < 0) {
     hi = -kInf;
+  }
+}
+
+// Limits [t_lo, t_hi] to the stretch of the ray inside `box` (slabs). The same plane value gives the same t bit for
+// bit in the two boxes that share it, so the stretches of neighbouring boxes meet exactly.
+void clip_to_box(const RayFrame& frame, const Bounds& box, double& t_lo, double& t_hi) {
+  const double o[3] = {frame.origin.x, frame.origin.y, frame.origin.z};
+  const double d[3] = {frame.dir.x, frame.dir.y, frame.dir.z};
+  const double lo[3] = {box.lo.x, box.lo.y, box.lo.z}, hi[3] = {box.hi.x, box.hi.y, box.hi.z};
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0) {
+      if (o[a] < lo[a] || o[a] >= hi[a]) t_hi = -kInf;  // parallel to the slab, outside it (half-open: one box owns it)
+      continue;
+    }
+    double t0 = (lo[a] - o[a]) / d[a], t1 = (hi[a] - o[a]) / d[a];
+    if (t0 > t1) std::swap(t0, t1);
+    t_lo = std::max(t_lo, t0), t_hi = std::min(t_hi, t1);
   }
 }
 
@@ -144,6 +163,7 @@ class RayTracer {
         t_hi_ = -kInf;  // parallel to the plane, on the removed side
       }
     }
+    if (scene.clip_box) clip_to_box(frame, *scene.clip_box, t_lo_, t_hi_);
     view_dir_ = frame.dir * -1.0;
     // Slices: where the ray crosses each plane inside [t_lo, t_hi], in depth order; the volume's own interval.
     vol_lo_ = -kInf, vol_hi_ = kInf;
@@ -658,6 +678,9 @@ uint32_t RayTracer::step(uint32_t cell, int entry_face, double& t_in, double& s_
 bool RayTracer::advance() {
   if (finished_) return false;
   if (!done() && !lost_) {
+    // Past the end of a clip box's range nothing more is drawn: no need to walk on. (Not for the clip plane alone,
+    // whose walk the GPU engine mirrors step for step.)
+    if (sc_.clip_box && in_walk_ && t_in_ > t_hi_) in_walk_ = false, next_entry_ = entry_count_;
     if (in_walk_) {
       walk_step();
       return true;
@@ -750,6 +773,8 @@ void ExactEngine::set_nonlinear_tolerance(double relative) {
   if (!(relative > 0) || !std::isfinite(relative)) fail_in("exact engine", "nonlinear tolerance must be > 0");
   impl_->nonlinear_tolerance = relative;
 }
+void ExactEngine::set_clip_box(std::optional<Bounds> box) { impl_->clip_box = box; }
+const std::optional<Bounds>& ExactEngine::clip_box() const { return impl_->clip_box; }
 Bounds ExactEngine::bounds() const { return impl_->mesh.bounds; }
 uint64_t ExactEngine::cell_count() const { return impl_->mesh.cell_count(); }
 uint64_t ExactEngine::point_count() const { return impl_->mesh.points.size(); }
@@ -778,7 +803,7 @@ Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, cons
   std::vector<double> iso = settings.iso_values;
   std::sort(iso.begin(), iso.end());
   const double diagonal = length(I.mesh.bounds.size());
-  Scene scene{I.values, I.per_cell, I.mesh, table, tf, settings, iso, tolerance_abs(tf), 1e-7 * diagonal, {}};
+  Scene scene{I.values, I.per_cell, I.mesh, table, tf, settings, iso, tolerance_abs(tf), 1e-7 * diagonal, I.clip_box, {}};
   for (const Slice& sl : settings.slices) {
     TransferFunction colors = sl.color_map.empty() ? tf : builtin_preset(sl.color_map);
     if (sl.range)

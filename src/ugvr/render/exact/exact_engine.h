@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -60,6 +61,13 @@ class ExactEngine {
   // Largest deviation, in scalar units relative to the transfer function's range, allowed between the field along
   // a ray inside a non-tetrahedral cell and the piecewise-linear function the integrator uses. Default 1e-3.
   void set_nonlinear_tolerance(double relative);
+
+  // Data-parallel rendering (src/ugvr/mpi, docs/mpi.md): only the stretch of each ray inside `box` is integrated (and
+  // surfaces drawn), so the images of boxes that tile space compose front to back into the whole image. Faces may be
+  // infinite (an outer box of a kd-tree). Not a user setting: the renderer interface does not carry it. nullopt (the
+  // default): whole rays.
+  void set_clip_box(std::optional<Bounds> box);
+  const std::optional<Bounds>& clip_box() const;
 
   Bounds bounds() const;
   uint64_t cell_count() const;

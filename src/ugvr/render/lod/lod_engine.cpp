@@ -106,6 +106,7 @@ struct LodEngine::Impl {
   // The most slots the device has agreed to allocate, once it refused more than --gpu-memory allows (llvmpipe caps a
   // texture at 1 GiB, below the default budget); UINT64_MAX until then.
   uint64_t device_slots = UINT64_MAX;
+  std::optional<Bounds> clip_box;  // set_clip_box
 
   Impl(const std::string& path, const GlContext& g, LodOptions o) : store(path), gl(g), options(o) {}
   uint64_t budget_slots() const;
@@ -295,6 +296,15 @@ lod_gpu::LodFrame LodEngine::Impl::frame_parameters(const Camera& camera, const 
     f.u_slice_map[i] = {r_w > 0 ? float((f_hi - f_lo) / r_w) : 0.0f, r_w > 0 ? float((f_lo - r_lo) / r_w) : 0.0f,
                         float(sl.opacity), 0.0f};
   }
+  if (clip_box) {
+    // Normalised, and kept within [-1, 2] (the root cell is [0, 1]): no infinities reach the shader.
+    auto norm = [&](double v, double lo, double size) { return float(std::clamp((v - lo) / size, -1.0, 2.0)); };
+    const Bounds& b = *clip_box;
+    f.u_box_lo = {norm(b.lo.x, root.lo.x, root_size.x), norm(b.lo.y, root.lo.y, root_size.y),
+                  norm(b.lo.z, root.lo.z, root_size.z), 1.0f};
+    f.u_box_hi = {norm(b.hi.x, root.lo.x, root_size.x), norm(b.hi.y, root.lo.y, root_size.y),
+                  norm(b.hi.z, root.lo.z, root_size.z), 0.0f};
+  }
   return f;
 }
 
@@ -397,6 +407,7 @@ void LodEngine::set_field(std::string_view name) {
 const std::string& LodEngine::field_name() const { return impl_->store.layout().fields[impl_->field].name; }
 double LodEngine::field_min() const { return impl_->store.layout().fields[impl_->field].min; }
 double LodEngine::field_max() const { return impl_->store.layout().fields[impl_->field].max; }
+void LodEngine::set_clip_box(std::optional<Bounds> box) { impl_->clip_box = box; }
 Bounds LodEngine::bounds() const { return impl_->store.layout().data; }
 uint64_t LodEngine::node_count() const { return impl_->store.node_count(); }
 uint32_t LodEngine::resolution() const { return impl_->store.resolution(); }
@@ -419,7 +430,19 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   I.tf_errors.set_field(I.field);
   I.tf_errors.update(tf);
   co.tf_errors = &I.tf_errors;
+  // With a clip box only the nodes that meet it are drawn (the rays sample nothing outside it): a rank of a
+  // data-parallel job uploads its part of the cut, not all of it.
+  auto in_box = [&](Cut& c) {
+    if (!I.clip_box) return;
+    const Bounds& box = *I.clip_box;
+    std::erase_if(c.nodes, [&](uint64_t n) {
+      const Bounds b = I.store.bounds(n);
+      return b.hi.x < box.lo.x || b.lo.x > box.hi.x || b.hi.y < box.lo.y || b.lo.y > box.hi.y || b.hi.z < box.lo.z ||
+             b.lo.z > box.hi.z;
+    });
+  };
   Cut cut = select_cut(I.store, cut_spec, camera, settings.width, settings.height, tf, co);
+  in_box(cut);
   st.cut_seconds = seconds_since(t0);
   BrickResidency from_store(I.store, I.slot_table);  // no RAM tier: the bricks are read here
   Image image;
@@ -429,6 +452,7 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
     // The device allocates less than the budget: the cut again, within what it does allocate (once).
     co.max_nodes = I.budget_slots();
     cut = select_cut(I.store, cut_spec, camera, settings.width, settings.height, tf, co);
+    in_box(cut);
     image = render_nodes(camera, tf, settings, cut.nodes, from_store, &st);
   }
   st.cut_nodes = cut.nodes.size();

@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -112,6 +113,11 @@ class LodEngine {
   // Sample step in voxels of each node when RenderSettings.sample_step is 0 (progressive refinement refines it).
   void set_step_voxels(double step);
 
+  // Data-parallel rendering (src/ugvr/mpi, docs/mpi.md): only the stretch of each ray inside `box` (world
+  // coordinates; faces may be infinite) is drawn, so the images of boxes that tile space compose front to back into
+  // the whole image (up to where samples fall); render() draws only the cut's nodes that meet the box. Not a user
+  // setting. nullopt (the default): whole rays.
+  void set_clip_box(std::optional<Bounds> box);
   Bounds bounds() const;  // the dataset's bounds
   uint64_t node_count() const;
   uint32_t resolution() const;

@@ -1,0 +1,146 @@
+#include "ugvr/mpi/mpi_renderer.h"
+
+#include <mpi.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <nlohmann/json.hpp>
+
+#include "ugvr/core/error.h"
+#include "ugvr/mpi/kd_partition.h"
+#include "ugvr/mpi/mpi_compositor.h"
+#include "ugvr/mpi/mpi_session.h"
+#include "ugvr/octree/input.h"
+#include "ugvr/render/exact/walk_mesh.h"
+
+namespace ugvr::mpi {
+namespace {
+
+// The compositing renderer's own figures (--stats), then the rank's engine's.
+struct MpiFrameStats : EngineFrameStats {
+  int ranks = 1;
+  std::string compositor;
+  double render_seconds_max = 0, render_seconds_min = 0;  // the ranks' engine time: the slowest decides
+  double composite_seconds = 0;                           // rank 0's time in the compositor
+  std::shared_ptr<const EngineFrameStats> rank0;
+  void to_json(nlohmann::json& j) const override {
+    if (rank0) rank0->to_json(j);
+    j["mpi"] = {{"ranks", ranks},
+                {"compositor", compositor},
+                {"render_seconds_max", render_seconds_max},
+                {"render_seconds_min", render_seconds_min},
+                {"composite_seconds", composite_seconds}};
+  }
+};
+
+class MpiRenderer final : public Renderer {
+ public:
+  MpiRenderer(std::unique_ptr<Renderer> local, KdTree tree) : local_(std::move(local)), tree_(std::move(tree)) {}
+  std::string_view engine() const override { return local_->engine(); }
+  std::string device() const override { return local_->device() + ", " + std::to_string(size()) + " MPI ranks"; }
+  void set_field(std::string_view name) override { local_->set_field(name); }
+  const std::string& field_name() const override { return local_->field_name(); }
+  FieldRange field_range() const override { return local_->field_range(); }
+  Bounds bounds() const override { return local_->bounds(); }
+  void describe(nlohmann::json& j) const override {
+    local_->describe(j);
+    j["mpi_ranks"] = size();
+  }
+  std::string summary(const FrameStats& last) const override {
+    const auto* s = dynamic_cast<const MpiFrameStats*>(last.detail.get());
+    FrameStats local = last;
+    local.detail = s ? s->rank0 : nullptr;
+    std::string out = local_->summary(local);
+    if (s)
+      out += ", " + std::to_string(s->ranks) + " ranks (render " + std::to_string(s->render_seconds_min) + "-" +
+             std::to_string(s->render_seconds_max) + " s, " + s->compositor + " " +
+             std::to_string(s->composite_seconds) + " s)";
+    return out;
+  }
+
+  Frame render(const FrameRequest& request) override {
+    if (const char* fail = std::getenv("UGVR_MPI_FAIL_RANK"); fail && std::atoi(fail) == rank())
+      fail_in("UGVR_MPI_FAIL_RANK", "rank " + std::to_string(rank()) + " fails on purpose");
+    // A maximum intensity projection composes by the maximum of the ranks' values, not by blending their colours.
+    if (request.settings.mode == RenderMode::Mip)
+      throw OptionError("mode", "mip is not supported under MPI yet (ranks' maxima would need max compositing)");
+    const auto t0 = std::chrono::steady_clock::now();
+    FrameRequest mine = request;
+    mine.settings.background = {0, 0, 0, 0};
+    mine.settings.early_termination_opacity = 1;  // opacity in front of this box is unknown here
+    mine.target_fps = 0;
+    Frame local = local_->render(mine);
+    const int width = request.settings.width, height = request.settings.height;
+    if (local.image.width != width || local.image.height != height)
+      fail_in("mpi", "a rank drew " + std::to_string(local.image.width) + "x" + std::to_string(local.image.height) +
+                         ", not the requested size");
+    double seconds[2] = {local.stats.seconds, -local.stats.seconds}, extremes[2] = {0, 0};
+    MPI_Allreduce(seconds, extremes, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    unsigned long long samples = local.stats.samples, total_samples = 0;
+    MPI_Allreduce(&samples, &total_samples, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+
+    const std::vector<int> order = tree_.visibility_order(request.camera);
+    auto stats = std::make_shared<MpiFrameStats>();
+    stats->ranks = size();
+    stats->compositor = compositor_name();
+    stats->render_seconds_max = extremes[0], stats->render_seconds_min = -extremes[1];
+    stats->rank0 = local.stats.detail;
+    std::vector<float> blended = composite(premultiplied(local.image), width, height, order, &stats->composite_seconds);
+
+    Frame frame;
+    frame.stats = local.stats;
+    frame.stats.samples = total_samples;
+    frame.stats.detail = stats;
+    if (rank() == 0) frame.image = apply_background(blended, width, height, request.settings.background);
+    frame.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return frame;
+  }
+
+ private:
+  std::unique_ptr<Renderer> local_;
+  KdTree tree_;
+};
+
+}  // namespace
+
+std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, const ReadOptions& read,
+                                        RendererOptions options, OpenedInput* opened) {
+  if (options.interactive) throw OptionError("fps", "interactive rendering (--fps, --path) is not supported under MPI");
+  const bool store = inputs.size() == 1 && is_brick_store(inputs[0]);
+  const bool lod = options.engine == "lod" || (options.engine == "auto" && store);
+  if (lod) {
+    if (!store) throw OptionError("engine", "the lod engine renders one brick store (.ugvr, made by `ugvr build`)");
+    auto gl = std::shared_ptr<GlContext>();
+    try {
+      gl = std::make_shared<GlContext>(options.gpu);
+    } catch (const Error& e) {
+      throw OptionError("gpu", e.what());
+    }
+    auto scene = std::make_shared<LodScene>(inputs[0], std::move(gl), options.lod);
+    // Balanced by the octree's leaves: they are small where the data is detailed, so equal counts are about equal
+    // numbers of bricks to draw.
+    const BrickStoreReader& reader = scene->engine.store();
+    std::vector<Vec3d> centres;
+    for (uint64_t n = 0; n < reader.nodes().size(); ++n)
+      if (reader.nodes()[n].is_leaf()) centres.push_back(reader.bounds(n).center());
+    KdTree tree = build_kd_tree(std::move(centres), size());
+    scene->engine.set_clip_box(tree.boxes[size_t(rank())]);
+    return std::make_unique<MpiRenderer>(make_renderer(scene, options), std::move(tree));
+  }
+  if (store) throw OptionError("engine", "a brick store (.ugvr) renders with the lod engine");
+  if (options.device == "gpu") throw OptionError("device", "under MPI the exact engine renders on the CPU");
+  options.device = "cpu";
+  auto dataset = std::make_shared<Dataset>(read_dataset(inputs, read));
+  if (opened) opened->warnings = dataset->warnings;
+  if (options.field.empty() && !dataset->blocks.empty()) {
+    const std::vector<std::string> names = default_field_names(dataset->blocks[0], 1);
+    if (!names.empty()) options.field = names[0];
+  }
+  auto scene = std::make_shared<ExactScene>(std::move(dataset), options.progress);
+  KdTree tree = build_kd_tree(cell_centroids(scene->engine.walk_mesh()), size());
+  scene->engine.set_clip_box(tree.boxes[size_t(rank())]);
+  return std::make_unique<MpiRenderer>(make_renderer(scene, options), std::move(tree));
+}
+
+}  // namespace ugvr::mpi

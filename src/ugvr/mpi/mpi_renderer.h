@@ -1,0 +1,28 @@
+// `mpirun -np N ugvr render ...`: data-parallel rendering with sort-last compositing (docs/mpi.md).
+//
+// Every rank opens the whole input (reading only its part is future work: docs/mpi.md), builds the same kd-tree over
+// the cells' centroids (kd_partition.h) and renders only the stretch of each ray inside its own box, into a
+// premultiplied image over a transparent background with early ray termination off (a rank cannot know what lies in
+// front of it). The images are blended front to back in the tree's visibility order (mpi_compositor.h) and the
+// background applied once, on rank 0, which alone gets the frame. Emission-absorption splits exactly at the boxes'
+// faces, so the result is the one-rank image up to rounding.
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ugvr/io/reader.h"
+#include "ugvr/render/renderer.h"
+#include "ugvr/render/renderer_factory.h"
+
+namespace ugvr::mpi {
+
+// Opens `inputs` on every rank as open_renderer_default_field does (the same default field), wrapped in the
+// compositing renderer. Exact engine on the CPU only (options.device "gpu" is an OptionError("device")); the LOD
+// engine for a store, one cut per frame. Interactive sessions (OptionError("fps")) and MIP (OptionError("mode"), thrown
+// by render) are not supported yet.
+// UGVR_MPI_FAIL_RANK=k makes rank k throw in its first render (the tests' failing rank).
+std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, const ReadOptions& read,
+                                        RendererOptions options, OpenedInput* opened = nullptr);
+
+}  // namespace ugvr::mpi
