@@ -110,6 +110,9 @@ void register_build(CLI::App& app) {
                                 {"samples_per_second", samples_per_second},
                                 {"store_bytes", s.store_bytes},
                                 {"tf_error_table_bytes", s.tf_error_table_bytes},
+                                {"boundary_bytes", s.boundary_bytes},
+                                {"boundary_triangles", s.boundary_triangles},
+                                {"boundary_seconds", s.boundary_seconds},
                                 {"peak_rss_bytes", peak_rss_bytes()}};
       std::printf("%s\n", j.dump().c_str());
     } else {
@@ -121,6 +124,7 @@ void register_build(CLI::App& app) {
           opts->build.resolution, opts->build.resolution, format_bytes(s.store_bytes).c_str(), s.seconds,
           s.subdivide_seconds, s.brick_seconds, samples_per_second, format_bytes(peak_rss_bytes()).c_str());
     }
+    if (!s.boundary_note.empty()) std::fprintf(stderr, "warning: %s\n", s.boundary_note.c_str());
     if (!out_of_core && peak_rss_bytes() > opts->memory) {
       std::fprintf(stderr,
                    "warning: peak memory %s exceeded --memory %s: this build holds the mesh and its cell lists in "
