@@ -659,7 +659,7 @@ TEST(OctreeOutOfCore, SoupBoundaryEqualsTheMeshBoundary) {
     write_vtu(*ds, vtu);
     const Dataset back = read_dataset(std::vector<std::string>{vtu});
     const auto& mesh = std::get<UnstructuredMesh>(back.blocks.at(0).grid);
-    const std::vector<BoundaryTriangle> expected = mesh_boundary_triangles(mesh);
+    const std::vector<MeshFaceTriangle> expected = mesh_boundary_triangles(mesh);
     VtuCellSource source(vtu, {});
     const std::string soup = dir.file("soup");
     uint64_t cells = 0;
@@ -670,7 +670,7 @@ TEST(OctreeOutOfCore, SoupBoundaryEqualsTheMeshBoundary) {
     }
     SoupBoundaryStats st;
     // Budget 1: buckets of the 64 KiB minimum, so the 990 hexahedra's 5,940 faces spread over several.
-    const std::vector<BoundaryTriangle> got =
+    const std::vector<MeshFaceTriangle> got =
         soup_boundary_triangles(soup, source.layout(), cells, 1, dir.file(""), {}, &st);
     ASSERT_EQ(got.size(), expected.size());
     EXPECT_EQ(std::memcmp(got.data(), expected.data(), got.size() * sizeof(got[0])), 0);

@@ -50,7 +50,7 @@ bool triangle_box_overlap(const Vec3d& a, const Vec3d& b, const Vec3d& c, const 
   return true;
 }
 
-void append_face_triangles(int size, const uint32_t* ids, const Vec3f* positions, std::vector<BoundaryTriangle>& out) {
+void append_face_triangles(int size, const uint32_t* ids, const Vec3f* positions, std::vector<MeshFaceTriangle>& out) {
   if (size == 3) {
     out.push_back({positions[0], positions[1], positions[2]});
     return;
@@ -67,9 +67,9 @@ void append_face_triangles(int size, const uint32_t* ids, const Vec3f* positions
   }
 }
 
-std::vector<BoundaryTriangle> mesh_boundary_triangles(const UnstructuredMesh& mesh) {
+std::vector<MeshFaceTriangle> mesh_boundary_triangles(const UnstructuredMesh& mesh) {
   const MeshTopology topo = build_topology(mesh);
-  std::vector<BoundaryTriangle> tris;
+  std::vector<MeshFaceTriangle> tris;
   tris.reserve(topo.boundary.size() * 2);
   for (uint64_t packed : topo.boundary) {
     const uint64_t cell = face_cell(packed);
@@ -93,14 +93,14 @@ StoreBoundary store_boundary_faces(const UnstructuredMesh& mesh, const Bounds& r
     return {};
   }
   const auto start = std::chrono::steady_clock::now();
-  const std::vector<BoundaryTriangle> tris = mesh_boundary_triangles(mesh);
+  const std::vector<MeshFaceTriangle> tris = mesh_boundary_triangles(mesh);
   const double topology_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   StoreBoundary out = store_boundary_faces(tris, root, nodes, max_per_node, stats);
   if (stats) stats->seconds += topology_seconds;
   return out;
 }
 
-StoreBoundary store_boundary_faces(std::span<const BoundaryTriangle> tris, const Bounds& root,
+StoreBoundary store_boundary_faces(std::span<const MeshFaceTriangle> tris, const Bounds& root,
                                    std::span<const OctreeNode> nodes, uint32_t max_per_node, BoundaryFaceStats* stats) {
   const auto start = std::chrono::steady_clock::now();
   StoreBoundary out;

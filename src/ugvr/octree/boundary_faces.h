@@ -47,20 +47,20 @@ bool triangle_box_overlap(const Vec3d& a, const Vec3d& b, const Vec3d& c, const 
 
 // One boundary triangle: its corners in world coordinates, ordered so that (p1 - p0) x (p2 - p0) points out of the
 // mesh.
-using BoundaryTriangle = std::array<Vec3f, 3>;
+using MeshFaceTriangle = std::array<Vec3f, 3>;
 
 // Appends the triangles of one boundary face given its corners in the cell's face order (cell_info(type).faces),
 // their vertex ids and positions: a triangle as it is, a quadrilateral split along the diagonal through its
 // lexicographically smallest corner (ties by id), as the exact engine splits it. Shared by the in-core and the
 // out-of-core builders (octree/soup_boundary.h), so both give the same triangles.
-void append_face_triangles(int size, const uint32_t* ids, const Vec3f* positions, std::vector<BoundaryTriangle>& out);
+void append_face_triangles(int size, const uint32_t* ids, const Vec3f* positions, std::vector<MeshFaceTriangle>& out);
 
 // The mesh's boundary (grid/topology.h) as triangles, in the order of its faces (cell, then local face).
-std::vector<BoundaryTriangle> mesh_boundary_triangles(const UnstructuredMesh& mesh);
+std::vector<MeshFaceTriangle> mesh_boundary_triangles(const UnstructuredMesh& mesh);
 
 // The boundary section for `nodes` (the whole tree, node 0 the root covering `root`) from the boundary's triangles.
 // An empty result (no nodes) when there are no triangles or max_per_node is 0.
-StoreBoundary store_boundary_faces(std::span<const BoundaryTriangle> triangles, const Bounds& root,
+StoreBoundary store_boundary_faces(std::span<const MeshFaceTriangle> triangles, const Bounds& root,
                                    std::span<const OctreeNode> nodes, uint32_t max_per_node = kBoundaryFacesPerNode,
                                    BoundaryFaceStats* stats = nullptr);
 // The same for a mesh in memory.

@@ -546,7 +546,7 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   // assigned to the nodes once the tree is known. Their node lists take about 150 bytes a triangle at the end (the
   // section, and each triangle in double precision while it is tested against boxes): more than half of the budget,
   // and the store keeps the stencil's boundary, with a note saying so.
-  std::vector<BoundaryTriangle> boundary_triangles;
+  std::vector<MeshFaceTriangle> boundary_triangles;
   OctreeBuildStats stats;
   if (options.boundary_faces_per_node > 0) {
     const auto boundary_start = std::chrono::steady_clock::now();
@@ -582,7 +582,7 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
       uint64_t(options.resolution) * options.resolution * options.resolution * (4 * uint64_t(layout.fields.size()) + 1);
   const uint64_t reserve =
       (uint64_t(48) << 20) + workers * ((uint64_t(18) << 20) + 8 * uint64_t(options.max_depth + 1) * brick_bytes);
-  const uint64_t held = reserve + boundary_triangles.size() * sizeof(BoundaryTriangle);
+  const uint64_t held = reserve + boundary_triangles.size() * sizeof(MeshFaceTriangle);
   const uint64_t available = memory_budget > held ? memory_budget - held : 0;
   const size_t preload = size_t(std::max<uint64_t>(available / (12 * workers), uint64_t(64) << 10));
   stats.cells = cells;

@@ -92,7 +92,7 @@ std::vector<FaceRecord> read_bucket(const std::string& path, uint64_t records) {
 
 }  // namespace
 
-std::vector<BoundaryTriangle> soup_boundary_triangles(const std::string& soup_path, const SoupLayout& layout,
+std::vector<MeshFaceTriangle> soup_boundary_triangles(const std::string& soup_path, const SoupLayout& layout,
                                                       uint64_t cells, uint64_t memory_budget,
                                                       const std::string& temp_dir, const Progress::Observer& observer,
                                                       SoupBoundaryStats* stats) {
@@ -156,10 +156,10 @@ std::vector<BoundaryTriangle> soup_boundary_triangles(const std::string& soup_pa
   st.boundary_faces = boundary.size();
 
   // 3. The boundary faces' triangles, from their cells' records, in (cell, face) order as in core.
-  std::vector<std::pair<uint64_t, BoundaryTriangle>> keyed;
+  std::vector<std::pair<uint64_t, MeshFaceTriangle>> keyed;
   {
     Progress progress("boundary: triangles", cells, observer);
-    std::vector<BoundaryTriangle> tris;
+    std::vector<MeshFaceTriangle> tris;
     SoupReader reader(soup_path, layout);
     const std::byte* p = nullptr;
     uint64_t seen = 0;
@@ -177,7 +177,7 @@ std::vector<BoundaryTriangle> soup_boundary_triangles(const std::string& soup_pa
         }
         tris.clear();
         append_face_triangles(face.size, ids.data(), pos.data(), tris);
-        for (const BoundaryTriangle& t : tris) keyed.emplace_back(*it, t);
+        for (const MeshFaceTriangle& t : tris) keyed.emplace_back(*it, t);
       }
       if (++seen % 65536 == 0) progress.set(seen);
     }
@@ -186,7 +186,7 @@ std::vector<BoundaryTriangle> soup_boundary_triangles(const std::string& soup_pa
   boundary = {};
   // Stable: a quadrilateral's two triangles keep their order.
   std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  std::vector<BoundaryTriangle> out(keyed.size());
+  std::vector<MeshFaceTriangle> out(keyed.size());
   for (size_t i = 0; i < keyed.size(); ++i) out[i] = keyed[i].second;
   if (stats) *stats = st;
   return out;

@@ -31,7 +31,7 @@ struct SoupBoundaryStats {
 };
 
 // `cells`: the records in the soup (to size the buckets). `observer`: progress of the three passes.
-std::vector<BoundaryTriangle> soup_boundary_triangles(const std::string& soup_path, const SoupLayout& layout,
+std::vector<MeshFaceTriangle> soup_boundary_triangles(const std::string& soup_path, const SoupLayout& layout,
                                                       uint64_t cells, uint64_t memory_budget,
                                                       const std::string& temp_dir, const Progress::Observer& observer,
                                                       SoupBoundaryStats* stats = nullptr);
