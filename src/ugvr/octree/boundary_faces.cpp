@@ -4,6 +4,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "ugvr/core/error.h"
@@ -67,8 +68,10 @@ void append_face_triangles(int size, const uint32_t* ids, const Vec3f* positions
   }
 }
 
-std::vector<MeshFaceTriangle> mesh_boundary_triangles(const UnstructuredMesh& mesh) {
-  const MeshTopology topo = build_topology(mesh);
+std::vector<MeshFaceTriangle> mesh_boundary_triangles(const UnstructuredMesh& mesh, const MeshTopology* topology) {
+  std::optional<MeshTopology> own;
+  if (!topology) topology = &own.emplace(build_topology(mesh));
+  const MeshTopology& topo = *topology;
   std::vector<MeshFaceTriangle> tris;
   tris.reserve(topo.boundary.size() * 2);
   for (uint64_t packed : topo.boundary) {
@@ -87,13 +90,13 @@ std::vector<MeshFaceTriangle> mesh_boundary_triangles(const UnstructuredMesh& me
 }
 
 StoreBoundary store_boundary_faces(const UnstructuredMesh& mesh, const Bounds& root, std::span<const OctreeNode> nodes,
-                                   uint32_t max_per_node, BoundaryFaceStats* stats) {
+                                   uint32_t max_per_node, BoundaryFaceStats* stats, const MeshTopology* topology) {
   if (max_per_node == 0 || nodes.empty()) {
     if (stats) *stats = {};
     return {};
   }
   const auto start = std::chrono::steady_clock::now();
-  const std::vector<MeshFaceTriangle> tris = mesh_boundary_triangles(mesh);
+  const std::vector<MeshFaceTriangle> tris = mesh_boundary_triangles(mesh, topology);
   const double topology_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   StoreBoundary out = store_boundary_faces(tris, root, nodes, max_per_node, stats);
   if (stats) stats->seconds += topology_seconds;

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "ugvr/core/vec.h"
+#include "ugvr/grid/topology.h"
 #include "ugvr/grid/unstructured_mesh.h"
 #include "ugvr/store/brick_store.h"
 
@@ -56,7 +57,9 @@ using MeshFaceTriangle = std::array<Vec3f, 3>;
 void append_face_triangles(int size, const uint32_t* ids, const Vec3f* positions, std::vector<MeshFaceTriangle>& out);
 
 // The mesh's boundary (grid/topology.h) as triangles, in the order of its faces (cell, then local face).
-std::vector<MeshFaceTriangle> mesh_boundary_triangles(const UnstructuredMesh& mesh);
+// `topology`: the mesh's, when the caller has it (else it is built here).
+std::vector<MeshFaceTriangle> mesh_boundary_triangles(const UnstructuredMesh& mesh,
+                                                      const MeshTopology* topology = nullptr);
 
 // The boundary section for `nodes` (the whole tree, node 0 the root covering `root`) from the boundary's triangles.
 // An empty result (no nodes) when there are no triangles or max_per_node is 0.
@@ -65,6 +68,7 @@ StoreBoundary store_boundary_faces(std::span<const MeshFaceTriangle> triangles, 
                                    BoundaryFaceStats* stats = nullptr);
 // The same for a mesh in memory.
 StoreBoundary store_boundary_faces(const UnstructuredMesh& mesh, const Bounds& root, std::span<const OctreeNode> nodes,
-                                   uint32_t max_per_node = kBoundaryFacesPerNode, BoundaryFaceStats* stats = nullptr);
+                                   uint32_t max_per_node = kBoundaryFacesPerNode, BoundaryFaceStats* stats = nullptr,
+                                   const MeshTopology* topology = nullptr);
 
 }  // namespace ugvr

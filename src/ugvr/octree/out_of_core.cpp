@@ -519,6 +519,10 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
                                           const OctreeBuildOptions& options, uint64_t memory_budget,
                                           const std::string& path) {
   validate_build_options(options);
+  if (options.leaf_cells)
+    throw Error(
+        "keeping the leaves' cells (--cells) is not supported by the out-of-core build yet: build in core "
+        "(a larger --memory) or without --cells");
   const auto start = std::chrono::steady_clock::now();
   std::optional<tbb::global_control> threads;
   if (options.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(options.threads));
