@@ -1,7 +1,7 @@
 // libFuzzer target for the brick store reader: the input is a whole .ugvr file. Opening validates the header, field
-// records, node table and TF-error table (checksums and every constrained value); then every brick is decoded. Most
-// mutations stop at a checksum; seeds from `ugvr build` with the checksums intact reach the validation of values.
-// Only ugvr::Error may escape.
+// records, node table and TF-error table (checksums and every constrained value); then every brick and cell block is
+// decoded. Most mutations stop at a checksum; seeds from `ugvr build` with the checksums intact reach the validation of
+// values. Only ugvr::Error may escape.
 #include <vector>
 
 #include "fuzz_support.h"
@@ -25,6 +25,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
           // A node without a brick, or a corrupt block: reported properly.
         }
       }
+    // The leaves' cells (format version 5): each block checked as it is read.
+    for (uint64_t n = 0; store.has_cells() && n < store.node_count() && n < 64; ++n) {
+      if (store.cell_block(n).offset == 0) continue;
+      try {
+        const ugvr::NodeCells cells = store.read_cells(n);
+        sink = sink + cells.points[0].x + float(cells.connectivity.back());
+      } catch (const ugvr::Error&) {
+        // A corrupt block: reported properly.
+      }
+    }
     (void)sink;
   } catch (const ugvr::Error&) {
     // Malformed input reported properly.

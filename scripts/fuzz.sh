@@ -241,7 +241,8 @@ for name, (kind, text) in files.items():
     open(os.path.join(out, name), "wb").write(bytes([kind]) + text.encode())
 PY
 
-# Brick stores: small ones built by ugvr itself (quantised and float, one and two fields).
+# Brick stores: small ones built by ugvr itself (quantised and float, one and two fields, and one keeping its leaves'
+# cells).
 if [ -n "${UGVR:-}" ] && [ -x "${UGVR:-}" ]; then
   mkdir -p "$corpus/fuzz_store/seeds"
   tmp=$(mktemp -d)
@@ -249,6 +250,7 @@ if [ -n "${UGVR:-}" ] && [ -x "${UGVR:-}" ]; then
   "$UGVR" --quiet build "$tmp/g.vtu" -o "$corpus/fuzz_store/seeds/q16.ugvr" --brick 8 --max-depth 2 >/dev/null
   "$UGVR" --quiet build "$tmp/g.vtu" -o "$corpus/fuzz_store/seeds/f32.ugvr" --brick 8 --max-depth 1 --float32 \
     --fields pressure,velocity >/dev/null
+  "$UGVR" --quiet build "$tmp/g.vtu" -o "$corpus/fuzz_store/seeds/cells.ugvr" --brick 4 --max-depth 1 --cells >/dev/null
   rm -rf "$tmp"
 fi
 

@@ -761,7 +761,7 @@ TEST(BrickStore, DocumentedLayout) {
     return v;
   };
   EXPECT_EQ(f.substr(0, 8), std::string("\x89UBS\r\n\x1a\n", 8));
-  EXPECT_EQ(u32(8), 4u);
+  EXPECT_EQ(u32(8), 5u);
   const uint32_t header_size = u32(12);
   EXPECT_EQ(u32(16), 8u);
   EXPECT_EQ(u32(20), 3u);
@@ -780,10 +780,10 @@ TEST(BrickStore, DocumentedLayout) {
   EXPECT_EQ(u32(172), uint32_t(crc32(0, reinterpret_cast<const Bytef*>(h.data()), uInt(h.size()))));
   EXPECT_EQ(u32(168),
             uint32_t(crc32(0, reinterpret_cast<const Bytef*>(f.data() + u64(152)), uInt(f.size() - u64(152)))));
-  // Version 3: the transfer-function error table's record, version 4: the boundary faces' record (neither written
-  // here: all zero), then the field records, "pressure" first.
-  EXPECT_EQ(f.substr(176, 24 + 40), std::string(24 + 40, '\0'));
-  const size_t fr = 240;
+  // Version 3: the transfer-function error table's record, version 4: the boundary faces' record, version 5: the
+  // cells' record (none written here: all zero), then the field records, "pressure" first.
+  EXPECT_EQ(f.substr(176, 24 + 40 + 32), std::string(24 + 40 + 32, '\0'));
+  const size_t fr = 272;
   EXPECT_EQ(f64(fr), -3.0);
   EXPECT_EQ(f64(fr + 8), 3.0);
   EXPECT_EQ(f[fr + 16], 0);
@@ -967,11 +967,11 @@ TEST_F(BrickStoreCorruption, WrongMagicOrVersion) {
   f = good_;
   patch_u32(f, 8, 1);  // a store of the previous format: its blocks quantize each brick on a grid of its own
   write_file(bad_, f);
-  expect_open_error(bad_, {"byte 8", "version 1", "reads versions 2 to 4", "rebuild"});
+  expect_open_error(bad_, {"byte 8", "version 1", "reads versions 2 to 5", "rebuild"});
   f = good_;
-  patch_u32(f, 8, 5);
+  patch_u32(f, 8, 6);
   write_file(bad_, f);
-  expect_open_error(bad_, {"byte 8", "version 5", "newer"});
+  expect_open_error(bad_, {"byte 8", "version 6", "newer"});
 }
 
 TEST_F(BrickStoreCorruption, FlippedHeaderOrNodeTableByte) {
@@ -1115,15 +1115,15 @@ std::string older_store(std::string f, uint32_t version, uint64_t at, uint64_t b
   return f;
 }
 
-// A version 2 store (before the table): without the 24-byte TfErrorHeaderRecord and the 40-byte BoundaryHeaderRecord.
-// It must still open, with neither.
+// A version 2 store (before the table): without the 24-byte TfErrorHeaderRecord, the 40-byte BoundaryHeaderRecord and
+// the 32-byte CellsHeaderRecord. It must still open, with none of them.
 TEST(BrickStore, Version2StoresStillOpen) {
   ScratchDir dir;
   const TestStore t = make_test_store(8, 3);
   const std::string path = dir.file("v4.ugvr");
   write_test_store(t, path);
   const std::string v2 = dir.file("v2.ugvr");
-  write_file(v2, older_store(read_file(path), 2, 176, 24 + 40, t.nodes.size()));
+  write_file(v2, older_store(read_file(path), 2, 176, 24 + 40 + 32, t.nodes.size()));
   const BrickStoreReader s(v2);
   EXPECT_EQ(s.header().version, 2u);
   EXPECT_FALSE(s.has_tf_errors());
@@ -1131,17 +1131,33 @@ TEST(BrickStore, Version2StoresStillOpen) {
   check_store(t, s);
 }
 
-// A version 3 store (before the boundary faces): without the BoundaryHeaderRecord. It opens, with no faces.
+// A version 3 store (before the boundary faces): without the BoundaryHeaderRecord and the CellsHeaderRecord. It opens,
+// with no faces.
 TEST(BrickStore, Version3StoresStillOpen) {
   ScratchDir dir;
   const TestStore t = make_test_store(8, 3);
   const std::string path = dir.file("v4.ugvr");
   write_test_store(t, path);
   const std::string v3 = dir.file("v3.ugvr");
-  write_file(v3, older_store(read_file(path), 3, 200, 40, t.nodes.size()));
+  write_file(v3, older_store(read_file(path), 3, 200, 40 + 32, t.nodes.size()));
   const BrickStoreReader s(v3);
   EXPECT_EQ(s.header().version, 3u);
   EXPECT_FALSE(s.has_boundary());
+  check_store(t, s);
+}
+
+// A version 4 store (before the cells): without the CellsHeaderRecord. It opens, with no cells.
+TEST(BrickStore, Version4StoresStillOpen) {
+  ScratchDir dir;
+  const TestStore t = make_test_store(8, 3);
+  const std::string path = dir.file("v5.ugvr");
+  write_test_store(t, path);
+  const std::string v4 = dir.file("v4.ugvr");
+  write_file(v4, older_store(read_file(path), 4, 240, 32, t.nodes.size()));
+  const BrickStoreReader s(v4);
+  EXPECT_EQ(s.header().version, 4u);
+  EXPECT_FALSE(s.has_cells());
+  EXPECT_EQ(s.cell_block(0).offset, 0u);
   check_store(t, s);
 }
 

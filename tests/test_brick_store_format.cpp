@@ -102,6 +102,16 @@ std::map<std::string, std::vector<Member>> struct_members() {
         UGVR_MEMBER(BoundaryHeaderRecord, triangle_count), UGVR_MEMBER(BoundaryHeaderRecord, reference_count),
         UGVR_MEMBER(BoundaryHeaderRecord, max_per_node), UGVR_MEMBER(BoundaryHeaderRecord, section_crc),
         UGVR_MEMBER(BoundaryHeaderRecord, virtual_nodes), UGVR_MEMBER(BoundaryHeaderRecord, reserved)}},
+      {"CellsHeaderRecord",
+       {UGVR_MEMBER(CellsHeaderRecord, index_offset), UGVR_MEMBER(CellsHeaderRecord, index_size),
+        UGVR_MEMBER(CellsHeaderRecord, total_cells), UGVR_MEMBER(CellsHeaderRecord, index_crc),
+        UGVR_MEMBER(CellsHeaderRecord, block_count)}},
+      {"CellBlockRecord",
+       {UGVR_MEMBER(CellBlockRecord, offset), UGVR_MEMBER(CellBlockRecord, size), UGVR_MEMBER(CellBlockRecord, crc)}},
+      {"CellBlockHeader",
+       {UGVR_MEMBER(CellBlockHeader, cell_count), UGVR_MEMBER(CellBlockHeader, point_count),
+        UGVR_MEMBER(CellBlockHeader, vertex_references), UGVR_MEMBER(CellBlockHeader, face_slots),
+        UGVR_MEMBER(CellBlockHeader, field_count), UGVR_MEMBER(CellBlockHeader, reserved)}},
       {"TfErrorEntry",
        {UGVR_MEMBER(TfErrorEntry, bound), UGVR_MEMBER(TfErrorEntry, spread), UGVR_MEMBER(TfErrorEntry, weight),
         UGVR_MEMBER(TfErrorEntry, reserved)}},
@@ -318,10 +328,10 @@ class BrickStoreFormatFile : public ::testing::TestWithParam<Variant> {
   uint64_t table() const { return bytes_.size() - SmallStore::kNodes * kRecordSize; }
 
   // Field records of 24, 48 and 32 bytes (names of 1, 21 and 10 bytes); node records of 48 + 3 × 24 bytes.
-  // Version 4: the TfErrorHeaderRecord (24 bytes) and the BoundaryHeaderRecord (40) between the header record and the
-  // field records.
-  static constexpr uint64_t kFieldAt[3] = {240, 240 + 24, 240 + 24 + 48};
-  static constexpr uint64_t kHeaderSize = 240 + 24 + 48 + 32;
+  // Version 5: the TfErrorHeaderRecord (24 bytes), the BoundaryHeaderRecord (40) and the CellsHeaderRecord (32)
+  // between the header record and the field records.
+  static constexpr uint64_t kFieldAt[3] = {272, 272 + 24, 272 + 24 + 48};
+  static constexpr uint64_t kHeaderSize = 272 + 24 + 48 + 32;
   static constexpr uint64_t kRecordSize = 48 + 3 * 24;
 
   test::ScratchDir dir_;
@@ -388,6 +398,14 @@ TEST_P(BrickStoreFormatFile, HeaderMembersAtTheirDocumentedOffsets) {
   EXPECT_MEMBER(db, bh, section_crc, 0);
   EXPECT_MEMBER(db, bh, virtual_nodes, 0);
   EXPECT_MEMBER(db, bh, reserved, 0);
+  // Nor cells.
+  const CellsHeaderRecord ch = record<CellsHeaderRecord>(240);
+  DocRecord dc(bytes_, doc_["CellsHeaderRecord"], 240);
+  EXPECT_MEMBER(dc, ch, index_offset, 0);
+  EXPECT_MEMBER(dc, ch, index_size, 0);
+  EXPECT_MEMBER(dc, ch, total_cells, 0);
+  EXPECT_MEMBER(dc, ch, index_crc, 0);
+  EXPECT_MEMBER(dc, ch, block_count, 0);
 }
 
 TEST_P(BrickStoreFormatFile, FieldRecordsAtTheirDocumentedOffsets) {

@@ -263,7 +263,7 @@ TEST(CliInfo, BrickStoreText) {
   const std::string path = build_store(dir);
   const test::CommandResult r = run("info " + path);
   EXPECT_EQ(r.status, 0) << r.out;
-  expect_contains(r.out, {"format:   ugvr brick store, version 4", "bounds:   [", "root:     [",
+  expect_contains(r.out, {"format:   ugvr brick store, version 5", "bounds:   [", "root:     [",
                           "bricks:   8 x 8 x 8 samples, quant16",
                           "octree:   ", "  level 0: 1 node, 0 leaves, 1 with a brick", "bytes:    file ", "node table ",
                           "smaller than the bricks as float32", "fields:", "  vertex density (quant16): [0.2, 1]",
@@ -276,7 +276,7 @@ TEST(CliInfo, BrickStoreJson) {
   const std::string path = build_store(dir);
   const json r = info(path);
   EXPECT_EQ(r["format"], "ugvr brick store");
-  EXPECT_EQ(r["version"], 4);
+  EXPECT_EQ(r["version"], 5);
   EXPECT_EQ(r["sources"], json({path}));
   EXPECT_EQ(r["brick"], 8);
   EXPECT_EQ(r["encoding"]["samples"], "quant16");

@@ -25,6 +25,7 @@
 #include "ugvr/octree/cell_box_overlap.h"
 #include "ugvr/octree/data_points.h"
 #include "ugvr/octree/out_of_core.h"
+#include "ugvr/octree/soup_boundary.h"
 #include "ugvr/octree/split.h"
 #include "ugvr/octree/vtu_cells.h"
 #include "ugvr/store/brick_pad.h"
@@ -524,6 +525,30 @@ void expect_same_store(const BrickStoreReader& in_core, const BrickStoreReader& 
   }
 }
 
+// The same boundary section: the same triangles in the same order, and each node (by place) listing the same ones,
+// its virtual nodes (numbered in another order out of core) compared by octant.
+void expect_same_boundary(const BrickStoreReader& in_core, const BrickStoreReader& ooc) {
+  const StoreBoundary &a = in_core.boundary(), &b = ooc.boundary();
+  ASSERT_EQ(a.triangles.size(), b.triangles.size());
+  ASSERT_FALSE(a.triangles.empty());
+  EXPECT_EQ(std::memcmp(a.triangles.data(), b.triangles.data(), a.triangles.size() * sizeof(a.triangles[0])), 0);
+  EXPECT_EQ(a.refs.size(), b.refs.size());
+  EXPECT_EQ(a.nodes.size(), b.nodes.size());
+  EXPECT_EQ(a.max_per_node, b.max_per_node);
+  auto same_entry = [&](auto& self, uint64_t ea, uint64_t eb, bool leaf) -> void {
+    const store_format::BoundaryNodeEntry &x = a.nodes[ea], &y = b.nodes[eb];
+    ASSERT_EQ(x.count, y.count) << "entry " << ea;
+    if (x.count == store_format::kBoundaryOverflow) {
+      if (leaf)
+        for (uint32_t o = 0; o < 8; ++o) self(self, x.first + o, y.first + o, true);
+      return;
+    }
+    for (uint32_t r = 0; r < x.count; ++r) EXPECT_EQ(a.refs[x.first + r], b.refs[y.first + r]) << "entry " << ea;
+  };
+  const auto pa = nodes_by_place(in_core), pb = nodes_by_place(ooc);
+  for (const auto& [place, ia] : pa) same_entry(same_entry, ia, pb.at(place), in_core.node(ia).is_leaf());
+}
+
 TEST(OctreeOutOfCore, SameStoreAsInCore) {
   ScratchDir dir;
   const std::string vtu = dir.file("syn.vtu");
@@ -551,6 +576,17 @@ TEST(OctreeOutOfCore, SameStoreAsInCore) {
     expect_same_store(BrickStoreReader(dir.file("in.ugvr")), store);
     check_tree(store, in, /*check_overlaps=*/false);
     expect_exact(check_samples(store, in, false), "out of core");
+    // A budget this small cannot hold the boundary's triangles: the store keeps the stencil's boundary and says why.
+    EXPECT_FALSE(store.has_boundary());
+    EXPECT_NE(b.boundary_note.find("memory budget"), std::string::npos) << b.boundary_note;
+    // With room, the same boundary section as in core.
+    const OctreeBuildStats c = build_octree_out_of_core(vtu, fields, o, uint64_t(256) << 20, dir.file("ooc.ugvr"));
+    EXPECT_TRUE(c.boundary_note.empty()) << c.boundary_note;
+    EXPECT_EQ(c.boundary_triangles, a.boundary_triangles);
+    EXPECT_EQ(c.boundary_bytes, a.boundary_bytes);
+    const BrickStoreReader roomy(dir.file("ooc.ugvr"));
+    expect_same_store(BrickStoreReader(dir.file("in.ugvr")), roomy);
+    expect_same_boundary(BrickStoreReader(dir.file("in.ugvr")), roomy);
   }
   // Nothing is left beside the output.
   size_t files = 0;
@@ -588,6 +624,68 @@ TEST(OctreeOutOfCore, PointsInSlicesGiveTheSameCells) {
   EXPECT_EQ(bytes[0], bytes[1]);
   // The corner files are gone.
   EXPECT_FALSE(std::filesystem::exists(dir.file("corners-0")));
+}
+
+// The boundary found from a soup equals the one found from the mesh in memory (grid/topology.h), triangle for
+// triangle: quadrilaterals split alike, faces met more than twice counted as boundary, with faces in many buckets.
+TEST(OctreeOutOfCore, SoupBoundaryEqualsTheMeshBoundary) {
+  ScratchDir dir;
+  Dataset hexes = with_cells(synthetic_dataset(10, 4), StructuredCellShape::Hexahedra);
+  Dataset dup;  // two hexahedra and a copy of the first: its shared face is met three times
+  {
+    Block b;
+    b.name = "dup";
+    UnstructuredMesh m;
+    for (int z = 0; z < 2; ++z)
+      for (int y = 0; y < 2; ++y)
+        for (int x = 0; x < 3; ++x) m.points.push_back({float(x), float(y), float(z)});
+    auto id = [](int x, int y, int z) { return uint32_t(x + 3 * (y + 2 * z)); };
+    for (int c : {0, 1, 0}) {
+      const uint32_t v[8] = {id(c, 0, 0), id(c + 1, 0, 0), id(c + 1, 1, 0), id(c, 1, 0),
+                             id(c, 0, 1), id(c + 1, 0, 1), id(c + 1, 1, 1), id(c, 1, 1)};
+      m.add_cell(CellType::Hexahedron, v);
+    }
+    std::vector<float> values(12);
+    for (size_t i = 0; i < values.size(); ++i) values[i] = float(i);
+    b.fields.add(Field("f", Association::Vertex, DataArray::from(std::move(values), 1)));
+    b.grid = std::move(m);
+    dup.sources = {"dup"};
+    dup.blocks.push_back(std::move(b));
+  }
+  int k = 0;
+  for (const Dataset* ds : {&hexes, &dup}) {
+    SCOPED_TRACE("dataset " + std::to_string(k));
+    const std::string vtu = dir.file("m" + std::to_string(k++) + ".vtu");
+    write_vtu(*ds, vtu);
+    const Dataset back = read_dataset(std::vector<std::string>{vtu});
+    const auto& mesh = std::get<UnstructuredMesh>(back.blocks.at(0).grid);
+    const std::vector<MeshFaceTriangle> expected = mesh_boundary_triangles(mesh);
+    VtuCellSource source(vtu, {});
+    const std::string soup = dir.file("soup");
+    uint64_t cells = 0;
+    {
+      SoupWriter w(soup, source.layout());
+      cells = source.write_soup(w, uint64_t(1) << 30, dir.file(""));
+      w.close();
+    }
+    SoupBoundaryStats st;
+    // Budget 1: buckets of the 64 KiB minimum, so the 990 hexahedra's 5,940 faces spread over several.
+    const std::vector<MeshFaceTriangle> got =
+        soup_boundary_triangles(soup, source.layout(), cells, 1, dir.file(""), {}, &st);
+    ASSERT_EQ(got.size(), expected.size());
+    EXPECT_EQ(std::memcmp(got.data(), expected.data(), got.size() * sizeof(got[0])), 0);
+    EXPECT_EQ(st.faces, 6 * cells);
+    if (ds == &hexes) {
+      EXPECT_GT(st.buckets, 1u);
+      EXPECT_EQ(st.nonmanifold_faces, 0u);
+      EXPECT_EQ(got.size(), 2u * 2 * (10 * 11 + 11 * 9 + 10 * 9));  // a 10 x 11 x 9 block: 2 triangles a quad
+    } else {
+      EXPECT_EQ(st.nonmanifold_faces, 3u);
+      EXPECT_EQ(st.boundary_faces, 5u + 3);  // cell 1's five outer faces, and the shared one three times
+    }
+    for (const auto& e : std::filesystem::directory_iterator(dir.file("")))
+      EXPECT_EQ(e.path().filename().string().rfind("faces-", 0), std::string::npos) << e.path();
+  }
 }
 
 TEST(OctreeOutOfCore, RejectsWhatItCannotRead) {

@@ -57,6 +57,9 @@ void register_build(CLI::App& app) {
                 "Stream the cells through temporary files next to the output instead of loading the mesh (one .vtu "
                 "input; chosen by itself when the .vtu is larger than 40% of --memory)");
   cmd->add_flag("--json", opts->json, "Print the summary as one JSON object (for benchmarks)");
+  cmd->add_flag("--cells", opts->build.leaf_cells,
+                "Also keep each leaf's cells (the mesh's own cells overlapping it, for exact rendering per node; in "
+                "core only, for now)");
   cmd->add_flag("--no-tf-errors", opts->no_tf_errors,
                 "Leave out the transfer-function error table (44 bytes per node and field; renderers then rank nodes "
                 "by texel size alone)");
@@ -110,6 +113,13 @@ void register_build(CLI::App& app) {
                                 {"samples_per_second", samples_per_second},
                                 {"store_bytes", s.store_bytes},
                                 {"tf_error_table_bytes", s.tf_error_table_bytes},
+                                {"boundary_bytes", s.boundary_bytes},
+                                {"boundary_triangles", s.boundary_triangles},
+                                {"boundary_seconds", s.boundary_seconds},
+                                {"cell_blocks", s.cell_blocks},
+                                {"leaf_cells", s.leaf_cells},
+                                {"cell_bytes", s.cell_bytes},
+                                {"cell_seconds", s.cell_seconds},
                                 {"peak_rss_bytes", peak_rss_bytes()}};
       std::printf("%s\n", j.dump().c_str());
     } else {
@@ -121,6 +131,7 @@ void register_build(CLI::App& app) {
           opts->build.resolution, opts->build.resolution, format_bytes(s.store_bytes).c_str(), s.seconds,
           s.subdivide_seconds, s.brick_seconds, samples_per_second, format_bytes(peak_rss_bytes()).c_str());
     }
+    if (!s.boundary_note.empty()) std::fprintf(stderr, "warning: %s\n", s.boundary_note.c_str());
     if (!out_of_core && peak_rss_bytes() > opts->memory) {
       std::fprintf(stderr,
                    "warning: peak memory %s exceeded --memory %s: this build holds the mesh and its cell lists in "

@@ -4,6 +4,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "ugvr/core/error.h"
@@ -50,46 +51,76 @@ bool triangle_box_overlap(const Vec3d& a, const Vec3d& b, const Vec3d& c, const 
   return true;
 }
 
-StoreBoundary store_boundary_faces(const UnstructuredMesh& mesh, const Bounds& root, std::span<const OctreeNode> nodes,
-                                   uint32_t max_per_node, BoundaryFaceStats* stats) {
-  const auto start = std::chrono::steady_clock::now();
-  StoreBoundary out;
-  BoundaryFaceStats st;
-  if (max_per_node == 0 || nodes.empty()) return out;
-  if (nodes.size() >= kBoundaryOverflow) throw Error("too many nodes for the boundary face section");
+void append_face_triangles(int size, const uint32_t* ids, const Vec3f* positions, std::vector<MeshFaceTriangle>& out) {
+  if (size == 3) {
+    out.push_back({positions[0], positions[1], positions[2]});
+    return;
+  }
+  int smallest = 0;
+  for (int i = 1; i < 4; ++i)
+    if (position_less(positions[i], positions[smallest], ids[i], ids[smallest])) smallest = i;
+  if (smallest == 1 || smallest == 3) {
+    out.push_back({positions[0], positions[1], positions[3]});
+    out.push_back({positions[1], positions[2], positions[3]});
+  } else {
+    out.push_back({positions[0], positions[1], positions[2]});
+    out.push_back({positions[0], positions[2], positions[3]});
+  }
+}
 
-  // The boundary as triangles in the root cell's normalised coordinates, outward (right-hand) order.
-  const MeshTopology topo = build_topology(mesh);
-  const Vec3d size = root.size();
-  auto normalised = [&](uint32_t v) {
-    const Vec3f p = mesh.points[v];
-    return Vec3d{(double(p.x) - root.lo.x) / size.x, (double(p.y) - root.lo.y) / size.y,
-                 (double(p.z) - root.lo.z) / size.z};
-  };
-  std::vector<std::array<uint32_t, 3>> tris;
+std::vector<MeshFaceTriangle> mesh_boundary_triangles(const UnstructuredMesh& mesh, const MeshTopology* topology) {
+  std::optional<MeshTopology> own;
+  if (!topology) topology = &own.emplace(build_topology(mesh));
+  const MeshTopology& topo = *topology;
+  std::vector<MeshFaceTriangle> tris;
   tris.reserve(topo.boundary.size() * 2);
   for (uint64_t packed : topo.boundary) {
     const uint64_t cell = face_cell(packed);
     const CellFace face = cell_info(mesh.cell_types[cell]).faces[face_local(packed)];
     const auto vs = mesh.cell(cell);
-    std::array<uint32_t, 4> f{};
-    for (int i = 0; i < face.size; ++i) f[size_t(i)] = vs[face.v[size_t(i)]];
-    if (face.size == 3) {
-      tris.push_back({f[0], f[1], f[2]});
-      continue;
+    std::array<uint32_t, 4> ids{};
+    std::array<Vec3f, 4> p{};
+    for (int i = 0; i < face.size; ++i) {
+      ids[size_t(i)] = vs[face.v[size_t(i)]];
+      p[size_t(i)] = mesh.points[ids[size_t(i)]];
     }
-    int smallest = 0;
-    for (int i = 1; i < 4; ++i)
-      if (position_less(mesh.points[f[size_t(i)]], mesh.points[f[size_t(smallest)]], f[size_t(i)], f[size_t(smallest)]))
-        smallest = i;
-    if (smallest == 1 || smallest == 3) {
-      tris.push_back({f[0], f[1], f[3]});
-      tris.push_back({f[1], f[2], f[3]});
-    } else {
-      tris.push_back({f[0], f[1], f[2]});
-      tris.push_back({f[0], f[2], f[3]});
-    }
+    append_face_triangles(face.size, ids.data(), p.data(), tris);
   }
+  return tris;
+}
+
+StoreBoundary store_boundary_faces(const UnstructuredMesh& mesh, const Bounds& root, std::span<const OctreeNode> nodes,
+                                   uint32_t max_per_node, BoundaryFaceStats* stats, const MeshTopology* topology) {
+  if (max_per_node == 0 || nodes.empty()) {
+    if (stats) *stats = {};
+    return {};
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const std::vector<MeshFaceTriangle> tris = mesh_boundary_triangles(mesh, topology);
+  const double topology_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  StoreBoundary out = store_boundary_faces(tris, root, nodes, max_per_node, stats);
+  if (stats) stats->seconds += topology_seconds;
+  return out;
+}
+
+StoreBoundary store_boundary_faces(std::span<const MeshFaceTriangle> tris, const Bounds& root,
+                                   std::span<const OctreeNode> nodes, uint32_t max_per_node, BoundaryFaceStats* stats) {
+  const auto start = std::chrono::steady_clock::now();
+  StoreBoundary out;
+  BoundaryFaceStats st;
+  if (max_per_node == 0 || nodes.empty()) {
+    if (stats) *stats = st;
+    return out;
+  }
+  if (nodes.size() >= kBoundaryOverflow) throw Error("too many nodes for the boundary face section");
+  if (tris.size() >= kBoundaryOverflow) throw Error("too many boundary triangles for the boundary face section");
+
+  // The triangles in the root cell's normalised coordinates.
+  const Vec3d size = root.size();
+  auto normalised = [&](Vec3f p) {
+    return Vec3d{(double(p.x) - root.lo.x) / size.x, (double(p.y) - root.lo.y) / size.y,
+                 (double(p.z) - root.lo.z) / size.z};
+  };
   st.triangles = tris.size();
   if (tris.empty()) {
     if (stats) *stats = st;

@@ -13,10 +13,13 @@
 // below it; a cell still over the cap there lists all of its triangles).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "ugvr/core/vec.h"
+#include "ugvr/grid/topology.h"
 #include "ugvr/grid/unstructured_mesh.h"
 #include "ugvr/store/brick_store.h"
 
@@ -43,9 +46,29 @@ struct BoundaryFaceStats {
 // Does triangle (a, b, c) overlap the closed box? Touching counts.
 bool triangle_box_overlap(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Bounds& box);
 
-// The boundary section for `nodes` (the whole tree, node 0 the root covering `root`). An empty result (no nodes) when
-// the mesh has no boundary faces or max_per_node is 0.
+// One boundary triangle: its corners in world coordinates, ordered so that (p1 - p0) x (p2 - p0) points out of the
+// mesh.
+using MeshFaceTriangle = std::array<Vec3f, 3>;
+
+// Appends the triangles of one boundary face given its corners in the cell's face order (cell_info(type).faces),
+// their vertex ids and positions: a triangle as it is, a quadrilateral split along the diagonal through its
+// lexicographically smallest corner (ties by id), as the exact engine splits it. Shared by the in-core and the
+// out-of-core builders (octree/soup_boundary.h), so both give the same triangles.
+void append_face_triangles(int size, const uint32_t* ids, const Vec3f* positions, std::vector<MeshFaceTriangle>& out);
+
+// The mesh's boundary (grid/topology.h) as triangles, in the order of its faces (cell, then local face).
+// `topology`: the mesh's, when the caller has it (else it is built here).
+std::vector<MeshFaceTriangle> mesh_boundary_triangles(const UnstructuredMesh& mesh,
+                                                      const MeshTopology* topology = nullptr);
+
+// The boundary section for `nodes` (the whole tree, node 0 the root covering `root`) from the boundary's triangles.
+// An empty result (no nodes) when there are no triangles or max_per_node is 0.
+StoreBoundary store_boundary_faces(std::span<const MeshFaceTriangle> triangles, const Bounds& root,
+                                   std::span<const OctreeNode> nodes, uint32_t max_per_node = kBoundaryFacesPerNode,
+                                   BoundaryFaceStats* stats = nullptr);
+// The same for a mesh in memory.
 StoreBoundary store_boundary_faces(const UnstructuredMesh& mesh, const Bounds& root, std::span<const OctreeNode> nodes,
-                                   uint32_t max_per_node = kBoundaryFacesPerNode, BoundaryFaceStats* stats = nullptr);
+                                   uint32_t max_per_node = kBoundaryFacesPerNode, BoundaryFaceStats* stats = nullptr,
+                                   const MeshTopology* topology = nullptr);
 
 }  // namespace ugvr

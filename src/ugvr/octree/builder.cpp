@@ -19,6 +19,7 @@
 #include "ugvr/octree/build_parts.h"
 #include "ugvr/octree/data_points.h"
 #include "ugvr/octree/downsample.h"
+#include "ugvr/octree/node_cells.h"
 #include "ugvr/octree/node_error.h"
 #include "ugvr/octree/split.h"
 #include "ugvr/octree/subdivide.h"
@@ -198,9 +199,21 @@ OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions
   }
   stats.subdivide_seconds = seconds_since(start);
   count_tree_shape(shape.nodes, stats);
+  // The face topology, when the leaves keep their cells: built once for them and the boundary faces.
+  std::optional<MeshTopology> topology;
+  if (options.leaf_cells) topology.emplace(build_topology(mesh));
 
   const BrickStoreLayout layout = store_layout(options, input.fields, lattice.root, input.bounds, false);
   BrickStoreWriter writer(path, layout);
+  if (options.leaf_cells) {
+    // Before the bricks, which drop each leaf's cell list once sampled.
+    const auto cells_start = std::chrono::steady_clock::now();
+    const LeafCellStats cs = write_leaf_cells(writer, mesh, *topology, input.scalars, shape.nodes, shape.leaf_cells);
+    stats.cell_blocks = cs.blocks;
+    stats.leaf_cells = cs.cells;
+    stats.cell_bytes = cs.bytes;
+    stats.cell_seconds = seconds_since(cells_start);
+  }
   const auto bricks_start = std::chrono::steady_clock::now();
   {
     Progress progress("bricks", stats.nodes, options.progress);
@@ -212,8 +225,8 @@ OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions
     stats.bricks = pass.bricks();
     stats.sampler_seconds = pass.sampler_seconds();
     BoundaryFaceStats bst;
-    const StoreBoundary boundary =
-        store_boundary_faces(mesh, lattice.root, shape.nodes, options.boundary_faces_per_node, &bst);
+    const StoreBoundary boundary = store_boundary_faces(
+        mesh, lattice.root, shape.nodes, options.boundary_faces_per_node, &bst, topology ? &*topology : nullptr);
     stats.boundary_bytes = boundary.bytes();
     stats.boundary_triangles = bst.triangles;
     stats.boundary_overflow_nodes = bst.overflow_nodes;

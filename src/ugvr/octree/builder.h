@@ -52,9 +52,11 @@ struct OctreeBuildOptions {
   // Write the transfer-function error table (store/brick_store_format.h, TfErrorEntry): 44 bytes per node and field.
   bool tf_errors = true;
   // Keep the mesh's boundary faces with the nodes they cross (octree/boundary_faces.h), up to this many per node; 0:
-  // none (the renderer's boundary is then the stencil's alone). The in-core build only: the out-of-core one keeps
-  // none yet.
+  // none (the renderer's boundary is then the stencil's alone). Both builders (out of core: octree/soup_boundary.h).
   uint32_t boundary_faces_per_node = kBoundaryFacesPerNode;
+  // Keep each leaf's cells in the store (octree/node_cells.h, format version 5), for exact rendering per node (the
+  // [hybrid] issue). The in-core build only, for now.
+  bool leaf_cells = false;
 };
 
 struct OctreeBuildStats {
@@ -76,6 +78,12 @@ struct OctreeBuildStats {
   uint64_t boundary_bytes = 0;  // of store_bytes: the boundary faces (nodes × 8 + references × 4 + triangles × 36)
   uint64_t boundary_triangles = 0, boundary_overflow_nodes = 0;
   double boundary_seconds = 0;  // finding them, of `seconds`
+  // Why the store has no boundary faces although they were asked for (out of core: over the memory budget); empty
+  // otherwise.
+  std::string boundary_note;
+  // The leaves' cells (leaf_cells): blocks, cells over all blocks (a cell in several leaves counts in each), bytes.
+  uint64_t cell_blocks = 0, leaf_cells = 0, cell_bytes = 0;
+  double cell_seconds = 0;
 };
 
 // The root cell: a cube with the data's lower corner and its largest extent. A cube keeps voxels isotropic, so a

@@ -25,6 +25,7 @@
 #include "ugvr/octree/data_points.h"
 #include "ugvr/octree/downsample.h"
 #include "ugvr/octree/node_error.h"
+#include "ugvr/octree/soup_boundary.h"
 #include "ugvr/octree/split.h"
 #include "ugvr/octree/vtu_cells.h"
 #include "ugvr/store/brick_pad.h"
@@ -518,6 +519,10 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
                                           const OctreeBuildOptions& options, uint64_t memory_budget,
                                           const std::string& path) {
   validate_build_options(options);
+  if (options.leaf_cells)
+    throw Error(
+        "keeping the leaves' cells (--cells) is not supported by the out-of-core build yet: build in core "
+        "(a larger --memory) or without --cells");
   const auto start = std::chrono::steady_clock::now();
   std::optional<tbb::global_control> threads;
   if (options.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(options.threads));
@@ -541,6 +546,29 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   }
   const Bounds data_bounds = source.bounds();
 
+  // The boundary's triangles (octree/soup_boundary.h), found while the budget is free and held through the build;
+  // assigned to the nodes once the tree is known. Their node lists take about 150 bytes a triangle at the end (the
+  // section, and each triangle in double precision while it is tested against boxes): more than half of the budget,
+  // and the store keeps the stencil's boundary, with a note saying so.
+  std::vector<MeshFaceTriangle> boundary_triangles;
+  OctreeBuildStats stats;
+  if (options.boundary_faces_per_node > 0) {
+    const auto boundary_start = std::chrono::steady_clock::now();
+    SoupBoundaryStats bst;
+    boundary_triangles = soup_boundary_triangles(root_file, source.layout(), cells, memory_budget, temp_path.string(),
+                                                 options.progress, &bst);
+    const uint64_t need = boundary_triangles.size() * uint64_t(150);
+    if (need > memory_budget / 2) {
+      stats.boundary_note =
+          "the mesh boundary's " + std::to_string(boundary_triangles.size()) + " triangles need about " +
+          std::to_string(need >> 20) +
+          " MiB, over half of the memory budget: the store keeps the stencil's boundary (a budget of " +
+          std::to_string((2 * need >> 20) + 1) + " MiB or more keeps the exact one)";
+      boundary_triangles = {};
+    }
+    stats.boundary_seconds = seconds_since(boundary_start);
+  }
+
   BrickLattice lattice;
   lattice.root = octree_root(data_bounds);
   lattice.resolution = options.resolution;
@@ -558,9 +586,9 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
       uint64_t(options.resolution) * options.resolution * options.resolution * (4 * uint64_t(layout.fields.size()) + 1);
   const uint64_t reserve =
       (uint64_t(48) << 20) + workers * ((uint64_t(18) << 20) + 8 * uint64_t(options.max_depth + 1) * brick_bytes);
-  const uint64_t available = memory_budget > reserve ? memory_budget - reserve : 0;
+  const uint64_t held = reserve + boundary_triangles.size() * sizeof(MeshFaceTriangle);
+  const uint64_t available = memory_budget > held ? memory_budget - held : 0;
   const size_t preload = size_t(std::max<uint64_t>(available / (12 * workers), uint64_t(64) << 10));
-  OctreeBuildStats stats;
   stats.cells = cells;
   stats.subdivide_seconds = seconds_since(start);  // here: writing the cells to disk
   const auto bricks_start = std::chrono::steady_clock::now();
@@ -575,8 +603,17 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
     stats.leaves_in_pieces = build.leaves_in_pieces();
     stats.point_passes = source.passes();
     stats.sampler_seconds = build.sampler_seconds();
+    const auto boundary_start = std::chrono::steady_clock::now();
+    BoundaryFaceStats bst;
+    const StoreBoundary boundary =
+        store_boundary_faces(boundary_triangles, lattice.root, nodes, options.boundary_faces_per_node, &bst);
+    boundary_triangles = {};
+    stats.boundary_bytes = boundary.bytes();
+    stats.boundary_triangles = bst.triangles;
+    stats.boundary_overflow_nodes = bst.overflow_nodes;
+    stats.boundary_seconds += seconds_since(boundary_start);
     writer.commit(nodes, build.errors(),
-                  options.tf_errors ? build.tf_errors() : std::vector<store_format::TfErrorEntry>{});
+                  options.tf_errors ? build.tf_errors() : std::vector<store_format::TfErrorEntry>{}, &boundary);
   }
   stats.brick_seconds = seconds_since(bricks_start);
   count_tree_shape(nodes, stats);

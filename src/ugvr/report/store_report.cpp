@@ -97,6 +97,9 @@ json bytes_json(const BrickStoreReader& s, uint64_t block_bytes, uint64_t bricks
   const uint64_t r = s.resolution();
   const uint64_t float32 = bricks * s.field_count() * r * r * r * sizeof(float);
   const uint64_t table = h.node_count * h.node_record_size;
+  // The leaves' cells (format version 5): their blocks and their index.
+  uint64_t cells = s.cells_header().index_size;
+  for (uint64_t id = 0; s.has_cells() && id < s.node_count(); ++id) cells += s.cell_block(id).size;
   return {{"file", s.file_size()},
           {"header", h.header_size},
           {"blocks", block_bytes},
@@ -104,8 +107,11 @@ json bytes_json(const BrickStoreReader& s, uint64_t block_bytes, uint64_t bricks
           {"provenance", h.provenance_size},
           {"tf_errors", s.tf_error_header().table_size},         // the transfer-function error table (format version 3)
           {"boundary_faces", s.boundary_header().section_size},  // the boundary faces (format version 4)
+          {"cells", cells},
+          {"cell_blocks", s.cells_header().block_count},
+          {"leaf_cells", s.cells_header().total_cells},
           {"unreferenced", s.file_size() - h.header_size - block_bytes - table - h.provenance_size -
-                               s.tf_error_header().table_size - s.boundary_header().section_size},
+                               s.tf_error_header().table_size - s.boundary_header().section_size - cells},
           {"float32", float32},
           {"ratio", block_bytes ? double(float32) / double(block_bytes) : 0.0}};
 }
@@ -194,6 +200,9 @@ std::string format_store_report_text(const nlohmann::json& r) {
     << bytes_text(b["blocks"]) << ", node table " << bytes_text(b["node_table"]);
   if (b["tf_errors"].get<uint64_t>() > 0) o << ", transfer-function error table " << bytes_text(b["tf_errors"]);
   if (b["boundary_faces"].get<uint64_t>() > 0) o << ", boundary faces " << bytes_text(b["boundary_faces"]);
+  if (b["cells"].get<uint64_t>() > 0)
+    o << ", cells " << bytes_text(b["cells"]) << " (" << fmt_count(b["leaf_cells"]) << " in "
+      << fmt_count(b["cell_blocks"]) << " leaves)";
   if (b["unreferenced"].get<uint64_t>() > 0) o << ", " << fmt_count(b["unreferenced"]) << " unreferenced";
   o << "\n          blocks " << fmt_ratio(b["ratio"]) << "x smaller than the bricks as float32 ("
     << format_bytes(b["float32"]) << ")\n";

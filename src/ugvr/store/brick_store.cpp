@@ -1,6 +1,7 @@
 #include "ugvr/store/brick_store.h"
 
 #include <zlib.h>
+#include <zstd.h>
 
 #include <algorithm>
 #include <bit>
@@ -17,6 +18,9 @@ namespace ugvr {
 namespace {
 
 using store_format::BoundaryHeaderRecord;
+using store_format::CellBlockHeader;
+using store_format::CellBlockRecord;
+using store_format::CellsHeaderRecord;
 using store_format::field_record_size;
 using store_format::FieldRecord;
 using store_format::header_records_size;
@@ -264,6 +268,102 @@ void BrickStoreWriter::add_brick(uint64_t node, std::span<const float* const> fi
   append(node, encode(fields, mask));
 }
 
+namespace {
+
+// The sizes of a cell block's arrays, from its header (the layout in store/brick_store_format.h).
+struct CellBlockSizes {
+  uint64_t ids, types, connectivity, across, points, values, total;
+};
+CellBlockSizes cell_block_sizes(const CellBlockHeader& h, uint64_t value_count) {
+  CellBlockSizes z;
+  z.ids = 8 * uint64_t(h.cell_count);
+  z.types = (uint64_t(h.cell_count) + 3) / 4 * 4;
+  z.connectivity = 4 * uint64_t(h.vertex_references);
+  z.across = 4 * uint64_t(h.face_slots);
+  z.points = 12 * uint64_t(h.point_count);
+  z.values = 4 * value_count;
+  z.total = sizeof(CellBlockHeader) + z.ids + z.types + z.connectivity + z.across + z.points + z.values;
+  return z;
+}
+
+// Values a cell block holds for the store's fields: per field V (vertex) or C (cell).
+uint64_t cell_value_count(const BrickStoreLayout& layout, uint64_t cells, uint64_t points) {
+  uint64_t n = 0;
+  for (const BrickStoreField& f : layout.fields) n += f.association == Association::Cell ? cells : points;
+  return n;
+}
+
+// The largest cell block, decoded: far above a leaf's cells (a 32³ brick's leaf holds thousands), so that a corrupt
+// frame cannot make the reader allocate without bound.
+constexpr uint64_t kMaxCellBlockBytes = uint64_t(1) << 30;
+
+}  // namespace
+
+EncodedCells BrickStoreWriter::encode_cells(const NodeCells& c) const {
+  const uint64_t C = c.ids.size(), V = c.points.size();
+  auto bad = [&](const std::string& what) { fail_in(path_, "encode_cells: " + what); };
+  if (C == 0 || V == 0) bad("a cell block needs cells and points");
+  if (c.types.size() != C) bad("one type per cell expected");
+  uint64_t refs = 0, faces = 0;
+  for (CellType t : c.types) {
+    refs += cell_vertex_count(t);
+    faces += cell_face_count(t);
+  }
+  if (c.connectivity.size() != refs || c.across.size() != faces) bad("connectivity or faces do not match the types");
+  if (c.values.size() != cell_value_count(layout_, C, V)) bad("values do not match the store's fields");
+  if (C > 0xFFFFFFF0u || V > 0xFFFFFFF0u || refs > 0xFFFFFFFFu || faces > 0xFFFFFFFFu) bad("too many cells");
+  CellBlockHeader h;
+  h.cell_count = uint32_t(C);
+  h.point_count = uint32_t(V);
+  h.vertex_references = uint32_t(refs);
+  h.face_slots = uint32_t(faces);
+  h.field_count = uint32_t(layout_.fields.size());
+  const CellBlockSizes z = cell_block_sizes(h, c.values.size());
+  if (z.total > kMaxCellBlockBytes) bad("a cell block of " + std::to_string(z.total) + " bytes is too large");
+  std::vector<std::byte> raw(z.total, std::byte{0});
+  std::byte* p = raw.data();
+  write_record(p, h);
+  p += sizeof h;
+  std::memcpy(p, c.ids.data(), z.ids);
+  p += z.ids;
+  for (uint64_t i = 0; i < C; ++i) p[i] = std::byte(uint8_t(c.types[i]));
+  p += z.types;
+  std::memcpy(p, c.connectivity.data(), z.connectivity);
+  p += z.connectivity;
+  std::memcpy(p, c.across.data(), z.across);
+  p += z.across;
+  std::memcpy(p, c.points.data(), z.points);
+  p += z.points;
+  std::memcpy(p, c.values.data(), z.values);
+  EncodedCells out;
+  out.bytes.resize(ZSTD_compressBound(raw.size()));
+  const size_t n = ZSTD_compress(out.bytes.data(), out.bytes.size(), raw.data(), raw.size(), 3);
+  if (ZSTD_isError(n)) bad(std::string("zstd: ") + ZSTD_getErrorName(n));
+  out.bytes.resize(n);
+  out.crc = crc32_of(out.bytes.data(), out.bytes.size());
+  out.cells = uint32_t(C);
+  return out;
+}
+
+void BrickStoreWriter::append_cells(uint64_t node, const EncodedCells& cells) {
+  std::lock_guard lock(mutex_);
+  if (done_) fail_in(path_, "cells appended after commit() or after a failed write");
+  if (node >= kMaxNodeId) fail_in(path_, "node id " + std::to_string(node) + " is absurdly large");
+  if (cells.bytes.empty() || cells.bytes.size() > 0xFFFFFFFFu) fail_in(path_, "append_cells: no or too many bytes");
+  if (node >= cell_blocks_.size()) cell_blocks_.resize(std::max<size_t>(size_t(node) + 1, cell_blocks_.size() * 3 / 2));
+  if (cell_blocks_[node].offset) fail_in(path_, "node " + std::to_string(node) + " already has cells");
+  const uint64_t offset = out_->position();
+  try {
+    out_->write(cells.bytes.data(), cells.bytes.size());
+  } catch (...) {
+    done_ = true;
+    throw;
+  }
+  cell_blocks_[node] = {offset, uint32_t(cells.bytes.size()), cells.crc};
+  total_cells_ += cells.cells;
+  block_bytes_ += cells.bytes.size();
+}
+
 void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const FieldError> errors,
                               std::span<const TfErrorEntry> tf_errors, const StoreBoundary* boundary) {
   std::lock_guard lock(mutex_);
@@ -298,6 +398,11 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
       fail_in(path_, "commit: a brick was appended for node " + std::to_string(id) + " but the tree has " +
                          std::to_string(count) + " nodes");
     }
+  }
+  for (uint64_t id = count; id < cell_blocks_.size(); ++id) {
+    if (cell_blocks_[id].offset)
+      fail_in(path_, "commit: cells were appended for node " + std::to_string(id) + " but the tree has " +
+                         std::to_string(count) + " nodes");
   }
   placed_.resize(count);
   sizes_.resize(count * nf);
@@ -356,6 +461,19 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
     out_->write(p0, n0);
     out_->write(p1, n1);
     out_->write(p2, n2);
+  }
+  // The cells' index (format version 5): one record per node.
+  CellsHeaderRecord cells_header;
+  if (!cell_blocks_.empty()) {
+    cell_blocks_.resize(count);
+    cells_header.index_offset = out_->position();
+    cells_header.index_size = count * sizeof(CellBlockRecord);
+    cells_header.total_cells = total_cells_;
+    cells_header.block_count = uint32_t(std::count_if(cell_blocks_.begin(), cell_blocks_.end(),
+                                                      [](const CellBlockRecord& r) { return r.offset != 0; }));
+    const auto* p = reinterpret_cast<const std::byte*>(cell_blocks_.data());
+    cells_header.index_crc = crc32_of(p, cells_header.index_size);
+    out_->write(p, cells_header.index_size);
   }
   uint32_t provenance_size = 0;
   if (!layout_.provenance.empty()) {
@@ -429,6 +547,8 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
   std::vector<std::byte> h(header_size_, std::byte{0});
   write_record(h.data() + sizeof(HeaderRecord), tf_header);
   write_record(h.data() + sizeof(HeaderRecord) + sizeof(TfErrorHeaderRecord), boundary_header);
+  write_record(h.data() + sizeof(HeaderRecord) + sizeof(TfErrorHeaderRecord) + sizeof(BoundaryHeaderRecord),
+               cells_header);
   size_t at = header_records_size(kBrickStoreVersion);
   for (const BrickStoreField& f : layout_.fields) {
     FieldRecord r;
@@ -457,6 +577,7 @@ BrickStoreReader::BrickStoreReader(std::string path) : file_(std::move(path)) {
   read_provenance();
   read_tf_errors();
   read_boundary();
+  read_cells_index();
   check_nodes();
 }
 
@@ -531,6 +652,117 @@ void BrickStoreReader::read_boundary() {
              "boundary triangle " + std::to_string(t) + " has a corner that is not finite");
     }
   }
+}
+
+// The cells' index, if any (version 5): between the blocks and the provenance record, its checksum in its header
+// record; each entry's block must lie among the blocks (the blocks themselves are checked when read).
+void BrickStoreReader::read_cells_index() {
+  const CellsHeaderRecord& c = cells_header_;
+  if (c.index_offset == 0 && c.index_size == 0) return;
+  const std::string& name = file_.path();
+  const uint64_t at = sizeof(HeaderRecord) + sizeof(TfErrorHeaderRecord) + sizeof(BoundaryHeaderRecord);
+  if (c.index_size != node_count() * sizeof(CellBlockRecord))
+    fail_at_offset(name, at + offsetof(CellsHeaderRecord, index_size),
+                   "cell index of " + std::to_string(c.index_size) + " bytes; expected " +
+                       std::to_string(node_count() * sizeof(CellBlockRecord)) + " for " + std::to_string(node_count()) +
+                       " nodes");
+  const uint64_t end = node_table_offset_ - header_.provenance_size;
+  if (c.index_offset < header_.header_size || c.index_offset > end || c.index_size > end - c.index_offset)
+    fail_at_offset(name, at + offsetof(CellsHeaderRecord, index_offset),
+                   "cell index at offset " + std::to_string(c.index_offset) +
+                       " does not fit between the header and the node table");
+  std::vector<CellBlockRecord> index(static_cast<size_t>(node_count()));
+  file_.read_at(c.index_offset, index.data(), c.index_size);
+  if (const uint32_t crc = crc32_of(index.data(), c.index_size); crc != c.index_crc)
+    fail_at_offset(name, c.index_offset,
+                   "cell index checksum mismatch (stored " + hex32(c.index_crc) + ", computed " + hex32(crc) +
+                       "): the index is corrupt");
+  uint32_t blocks = 0;
+  for (uint64_t id = 0; id < index.size(); ++id) {
+    const CellBlockRecord& r = index[id];
+    if (r.offset == 0 && r.size == 0) continue;
+    if (r.offset < header_.header_size || r.size == 0 || r.offset > c.index_offset ||
+        r.size > c.index_offset - r.offset)
+      fail_at_offset(name, c.index_offset + id * sizeof(CellBlockRecord),
+                     "cell block of node " + std::to_string(id) + " (offset " + std::to_string(r.offset) + ", " +
+                         std::to_string(r.size) + " bytes) does not lie among the blocks");
+    ++blocks;
+  }
+  if (blocks != c.block_count)
+    fail_at_offset(name, at + offsetof(CellsHeaderRecord, block_count),
+                   std::to_string(c.block_count) + " cell blocks declared, the index has " + std::to_string(blocks));
+  cell_blocks_ = std::move(index);
+}
+
+CellBlockRecord BrickStoreReader::cell_block(uint64_t node) const {
+  if (node >= node_count()) fail_in(file_.path(), "node " + std::to_string(node) + " out of range");
+  return cell_blocks_.empty() ? CellBlockRecord{} : cell_blocks_[node];
+}
+
+NodeCells BrickStoreReader::read_cells(uint64_t node) const {
+  const std::string& name = file_.path();
+  const CellBlockRecord r = cell_block(node);
+  if (r.offset == 0) fail_in(name, "node " + std::to_string(node) + " keeps no cells");
+  auto fail = [&](const std::string& what) {
+    fail_at_offset(name, r.offset, "cell block of node " + std::to_string(node) + ": " + what);
+  };
+  std::vector<std::byte> frame(r.size);
+  file_.read_at(r.offset, frame.data(), frame.size());
+  if (const uint32_t crc = crc32_of(frame.data(), frame.size()); crc != r.crc)
+    fail("checksum mismatch (stored " + hex32(r.crc) + ", computed " + hex32(crc) + "): the block is corrupt");
+  const unsigned long long raw_size = ZSTD_getFrameContentSize(frame.data(), frame.size());
+  if (raw_size == ZSTD_CONTENTSIZE_ERROR || raw_size == ZSTD_CONTENTSIZE_UNKNOWN || raw_size > kMaxCellBlockBytes ||
+      raw_size < sizeof(CellBlockHeader))
+    fail("not a zstd frame of a valid size");
+  std::vector<std::byte> raw(static_cast<size_t>(raw_size));
+  const size_t got = ZSTD_decompress(raw.data(), raw.size(), frame.data(), frame.size());
+  if (ZSTD_isError(got) || got != raw.size()) fail("the zstd frame does not decode");
+  const CellBlockHeader h = read_record<CellBlockHeader>(raw.data());
+  const uint64_t C = h.cell_count, V = h.point_count;
+  if (C == 0 || V == 0 || h.field_count != field_count())
+    fail(std::to_string(C) + " cells, " + std::to_string(V) + " points, " + std::to_string(h.field_count) +
+         " fields (the store has " + std::to_string(field_count()) + ")");
+  const CellBlockSizes z = cell_block_sizes(h, cell_value_count(layout_, C, V));
+  if (z.total != raw.size())
+    fail("its arrays take " + std::to_string(z.total) + " bytes, the block holds " + std::to_string(raw.size()));
+  NodeCells c;
+  const std::byte* p = raw.data() + sizeof h;
+  c.ids.resize(C);
+  std::memcpy(c.ids.data(), p, z.ids);
+  p += z.ids;
+  c.types.resize(C);
+  uint64_t refs = 0, faces = 0;
+  for (uint64_t i = 0; i < C; ++i) {
+    const uint8_t t = uint8_t(p[i]);
+    if (!is_valid_cell_type(t)) fail("cell " + std::to_string(i) + " has type " + std::to_string(t));
+    c.types[i] = CellType(t);
+    refs += cell_vertex_count(c.types[i]);
+    faces += cell_face_count(c.types[i]);
+    if (i > 0 && c.ids[i] <= c.ids[i - 1]) fail("cell ids are not ascending at cell " + std::to_string(i));
+  }
+  p += z.types;
+  if (refs != h.vertex_references || faces != h.face_slots) fail("the types do not match the array sizes");
+  c.connectivity.resize(refs);
+  std::memcpy(c.connectivity.data(), p, z.connectivity);
+  p += z.connectivity;
+  for (uint32_t v : c.connectivity)
+    if (v >= V) fail("a vertex index " + std::to_string(v) + " past the " + std::to_string(V) + " points");
+  c.across.resize(faces);
+  std::memcpy(c.across.data(), p, z.across);
+  p += z.across;
+  for (uint32_t a : c.across)
+    if (a >= C && a != store_format::kCellAcrossBoundary && a != store_format::kCellAcrossOutside)
+      fail("a face names cell " + std::to_string(a) + " of " + std::to_string(C));
+  c.points.resize(V);
+  std::memcpy(c.points.data(), p, z.points);
+  p += z.points;
+  for (const Vec3f& q : c.points)
+    if (!std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z)) fail("a point is not finite");
+  c.values.resize(z.values / 4);
+  std::memcpy(c.values.data(), p, z.values);
+  for (float v : c.values)
+    if (!std::isfinite(v)) fail("a value is not finite");
+  return c;
 }
 
 // The transfer-function error table, if any: between the blocks and the provenance record, its checksum in its header
@@ -627,6 +859,9 @@ std::vector<std::byte> BrickStoreReader::read_header() {
   if (h.version >= 4)
     boundary_header_ =
         read_record<BoundaryHeaderRecord>(bytes.data() + sizeof(HeaderRecord) + sizeof(TfErrorHeaderRecord));
+  if (h.version >= 5)
+    cells_header_ = read_record<CellsHeaderRecord>(bytes.data() + sizeof(HeaderRecord) + sizeof(TfErrorHeaderRecord) +
+                                                   sizeof(BoundaryHeaderRecord));
 
   // From here on the header is as the writer wrote it; the checks guard against a writer of another make.
   BrickStoreLayout& l = layout_;

@@ -41,6 +41,7 @@
 
 #include "ugvr/core/file.h"
 #include "ugvr/core/vec.h"
+#include "ugvr/grid/cell_type.h"
 #include "ugvr/grid/field.h"
 #include "ugvr/store/brick_codec.h"
 #include "ugvr/store/brick_store_format.h"
@@ -130,6 +131,29 @@ struct StoreBoundary {
   }
 };
 
+// The cells a node keeps (format version 5, store_format::CellBlockRecord has the layout): small mesh of its own, the
+// cells overlapping the node with their vertices renumbered into `points`, each face saying what lies across it, and
+// the store's fields at those points or cells. Built by octree/node_cells.h, for the [hybrid] issue's exact cells.
+struct NodeCells {
+  std::vector<uint64_t> ids;           // per cell: its id in the input mesh, ascending
+  std::vector<CellType> types;         // per cell
+  std::vector<uint32_t> connectivity;  // per cell its type's vertex count, indices into points
+  std::vector<uint32_t> across;        // per cell face (cell_info(type).faces order): a cell index here,
+                                       // store_format::kCellAcrossBoundary or kCellAcrossOutside
+  std::vector<Vec3f> points;
+  std::vector<float> values;  // per store field in order: points.size() values (vertex field) or ids.size() (cell)
+
+  size_t cell_count() const { return ids.size(); }
+  bool operator==(const NodeCells&) const = default;
+};
+
+// A node's cell block, encoded (BrickStoreWriter::encode_cells, on any thread) and ready to append.
+struct EncodedCells {
+  std::vector<std::byte> bytes;  // one zstd frame
+  uint32_t crc = 0;
+  uint32_t cells = 0;
+};
+
 // One node's bricks, encoded (by BrickStoreWriter::encode, on any thread) and ready to append.
 struct EncodedBrick {
   std::vector<std::byte> bytes;  // the F blocks back to back; empty: the node has no valid sample, so no brick
@@ -160,6 +184,11 @@ class BrickStoreWriter {
   // encode() then append().
   void add_brick(uint64_t node, std::span<const float* const> fields, const uint8_t* mask);
 
+  // Encodes a node's cells (checked against the store's fields). Thread-safe and I/O-free.
+  EncodedCells encode_cells(const NodeCells& cells) const;
+  // Appends node `node`'s cell block. Thread-safe; a node gets at most one.
+  void append_cells(uint64_t node, const EncodedCells& cells);
+
   // Writes the node table and the header, syncs and renames the file into place. `nodes` is the whole tree (node 0
   // the root); `errors` has nodes.size() × F entries, node-major (empty: all zero). Validates the tree and that every
   // appended brick belongs to a node of it; on error nothing is committed and the writer is unusable.
@@ -184,9 +213,11 @@ class BrickStoreWriter {
   uint32_t header_size_ = 0;
   std::unique_ptr<AtomicOutputFile> out_;
   mutable std::mutex mutex_;
-  std::vector<Placed> placed_;          // by node id
-  std::vector<uint32_t> sizes_, crcs_;  // node × F
-  std::vector<float> lo_, hi_;          // node × F
+  std::vector<Placed> placed_;                              // by node id
+  std::vector<uint32_t> sizes_, crcs_;                      // node × F
+  std::vector<float> lo_, hi_;                              // node × F
+  std::vector<store_format::CellBlockRecord> cell_blocks_;  // by node id; offset 0: none
+  uint64_t total_cells_ = 0;
   uint64_t block_bytes_ = 0;
   bool done_ = false;  // committed, or failed: no more writes
 };
@@ -227,6 +258,15 @@ class BrickStoreReader {
   const StoreBoundary& boundary() const { return boundary_; }
   const store_format::BoundaryHeaderRecord& boundary_header() const { return boundary_header_; }
 
+  // The cells kept per node (version 5 stores built with them): the index is verified at open, each block when read.
+  bool has_cells() const { return !cell_blocks_.empty(); }
+  const store_format::CellsHeaderRecord& cells_header() const { return cells_header_; }
+  // Where node `node`'s block is (offset 0: the node keeps no cells, or the store none).
+  store_format::CellBlockRecord cell_block(uint64_t node) const;
+  // Reads and checks node `node`'s cells: checksum, sizes, every index in range, positions and values finite. Throws
+  // ugvr::Error naming the file, node and offset. Thread-safe.
+  NodeCells read_cells(uint64_t node) const;
+
   // Decodes field `field` of node `node` into samples (R³ floats, x fastest) and, unless null, mask (R³ bytes, 1 =
   // data). One pread of the block, checksum verified. Thread-safe: per-thread scratch, no shared mutable state.
   // Throws ugvr::Error for a node without brick or a corrupt block (naming the file, node, field and offset).
@@ -246,6 +286,7 @@ class BrickStoreReader {
   void read_provenance();
   void read_tf_errors();
   void read_boundary();
+  void read_cells_index();
   void check_nodes();
   void check_node_stats(uint64_t id, uint32_t f) const;
   void check_node_field(uint64_t node, uint32_t field) const;
@@ -256,6 +297,8 @@ class BrickStoreReader {
   std::vector<store_format::TfErrorEntry> tf_errors_;  // node × F; empty: none
   store_format::BoundaryHeaderRecord boundary_header_;
   StoreBoundary boundary_;
+  store_format::CellsHeaderRecord cells_header_;
+  std::vector<store_format::CellBlockRecord> cell_blocks_;  // by node id; empty: none
   BrickStoreLayout layout_;
   uint64_t node_table_offset_ = 0;
   std::vector<BrickNode> nodes_;

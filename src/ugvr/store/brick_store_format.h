@@ -4,12 +4,15 @@
 // mean for the octree (coordinates, child order, ranges) is in store/brick_store.h, how a block's payload is coded in
 // store/brick_codec.h.
 //
-//   [HeaderRecord] [TfErrorHeaderRecord] [BoundaryHeaderRecord] [FieldRecord, name, padding] × F   the header,
-//                                                        header_size bytes (version 2 stores have neither of the
-//                                                        two middle records, version 3 stores no BoundaryHeaderRecord)
-//   [BlockRecord, payload] × (F per node with a brick)  the blocks, in the order the writer appended them
+//   [HeaderRecord] [TfErrorHeaderRecord] [BoundaryHeaderRecord] [CellsHeaderRecord] [FieldRecord, name, padding] × F
+//                                                        the header, header_size bytes (version 2 stores have none
+//                                                        of the three middle records, version 3 only the first,
+//                                                        version 4 the first two)
+//   [BlockRecord, payload] × (F per node with a brick)  the blocks, in the order the writer appended them, and
+//   [cell block]                                        the nodes' cell blocks among them, if any (version 5)
 //   [TfErrorEntry × F] × N                              the transfer-function error table, if any (version 3)
 //   [BoundaryNodeEntry × N, uint32 × R, BoundaryTriangleRecord × T]  the boundary faces, if any (version 4)
+//   [CellBlockRecord × N]                               where each node's cells are, if any (version 5)
 //   [provenance text, crc32]                            if any
 //   [NodeRecord, NodeFieldRecord × F] × N               the node table, in node id order, ending the file
 //
@@ -35,8 +38,9 @@ static_assert(std::endian::native == std::endian::little, "the brick store is re
 // Version 3 adds the transfer-function error table (TfErrorHeaderRecord, TfErrorEntry); version 2 stores, which
 // lack it, are still read (a renderer then falls back to the stored error_max). Version 4 adds the mesh's boundary
 // faces per node (BoundaryHeaderRecord); version 2 and 3 stores, which lack them, are still read (the renderer then
-// takes the boundary from the validity stencil alone, as before).
-inline constexpr uint32_t kBrickStoreVersion = 4;
+// takes the boundary from the validity stencil alone, as before). Version 5 adds the cells of the nodes that keep them
+// (CellsHeaderRecord: the [hybrid] issue's exact cells per node); version 2 to 4 stores have none.
+inline constexpr uint32_t kBrickStoreVersion = 5;
 inline constexpr uint32_t kOldestReadableBrickStoreVersion = 2;
 
 namespace store_format {
@@ -146,9 +150,52 @@ struct BoundaryTriangleRecord {
   float p[9] = {};  // 0  x0 y0 z0 x1 y1 z1 x2 y2 z2
 };
 
+// Version 5: follows the BoundaryHeaderRecord (the field records start at byte 272); covered by header_crc. Where the
+// cells of the nodes that keep them lie (Muigg 2007: exact cells where they matter, resampled bricks elsewhere; the
+// builder keeps them for the leaves, octree/node_cells.h): an index of one CellBlockRecord per node, in node id order,
+// written with the node table's other sections; the blocks themselves are appended among the brick blocks as the
+// builder makes them.
+struct CellsHeaderRecord {
+  uint64_t index_offset = 0;  //  0  file offset of node 0's CellBlockRecord; 0: the store keeps no cells
+  uint64_t index_size = 0;    //  8  bytes: N × 16 (0 without)
+  uint64_t total_cells = 0;   // 16  the blocks' cell counts summed (a cell in several nodes counts once in each)
+  uint32_t index_crc = 0;     // 24  crc32 (zlib) of the index's bytes
+  uint32_t block_count = 0;   // 28  nodes with a cell block
+};
+
+// Where one node's cells are. A block is one zstd frame (whatever the store's brick codec) whose content is a
+// CellBlockHeader and then, back to back, with no padding:
+//   uint64 × C            each cell's id in the input mesh (ascending)
+//   uint8 × C             each cell's type (VTK id: 10 tetra, 12 hexahedron, 13 wedge, 14 pyramid), then zeros to a
+//                         multiple of 4 bytes
+//   uint32 × K            the cells' vertices, as indices into this block's points, each cell's in its type's order
+//                         (K = the sum of the types' vertex counts)
+//   uint32 × S            per cell face, in cell_info(type).faces order (S = the sum of the face counts): the cell
+//                         across as an index into this block's cells, kCellAcrossBoundary (the face is on the mesh's
+//                         boundary) or kCellAcrossOutside (the cell across is not in this node)
+//   float32 × 3V          the points' positions (x, y, z), world coordinates as in the input
+//   float32 × ...         per store field in field order: V values for a vertex field, C for a cell field
+struct CellBlockRecord {
+  uint64_t offset = 0;  //  0  file offset of the block; 0: the node keeps no cells
+  uint32_t size = 0;    //  8  bytes of the block (compressed)
+  uint32_t crc = 0;     // 12  crc32 (zlib) of the block's bytes
+};
+struct CellBlockHeader {
+  uint32_t cell_count = 0;         //  0  C >= 1
+  uint32_t point_count = 0;        //  4  V >= 1
+  uint32_t vertex_references = 0;  //  8  K
+  uint32_t face_slots = 0;         // 12  S
+  uint32_t field_count = 0;        // 16  the store's F
+  uint32_t reserved = 0;           // 20  0
+};
+inline constexpr uint32_t kCellAcrossBoundary = 0xFFFFFFFFu;
+inline constexpr uint32_t kCellAcrossOutside = 0xFFFFFFFEu;
+
 // Bytes of the records before the field records, by format version.
 constexpr uint32_t header_records_size(uint32_t version) {
-  return uint32_t(version >= 4   ? 176 + sizeof(TfErrorHeaderRecord) + sizeof(BoundaryHeaderRecord)
+  return uint32_t(version >= 5
+                      ? 176 + sizeof(TfErrorHeaderRecord) + sizeof(BoundaryHeaderRecord) + sizeof(CellsHeaderRecord)
+                  : version >= 4 ? 176 + sizeof(TfErrorHeaderRecord) + sizeof(BoundaryHeaderRecord)
                   : version >= 3 ? 176 + sizeof(TfErrorHeaderRecord)
                                  : 176);
 }
@@ -335,6 +382,25 @@ UGVR_RECORD_AT(BoundaryHeaderRecord, reserved, 36);
 static_assert(header_records_size(4) == 240 && header_records_size(4) % 8 == 0);
 static_assert(sizeof(BoundaryNodeEntry) == 8 && sizeof(BoundaryTriangleRecord) == 36);
 static_assert(std::is_trivially_copyable_v<BoundaryTriangleRecord> && std::is_trivially_copyable_v<BoundaryNodeEntry>);
+
+static_assert(std::is_trivially_copyable_v<CellsHeaderRecord> && sizeof(CellsHeaderRecord) == 32);
+UGVR_RECORD_AT(CellsHeaderRecord, index_offset, 0);
+UGVR_RECORD_AT(CellsHeaderRecord, index_size, 8);
+UGVR_RECORD_AT(CellsHeaderRecord, total_cells, 16);
+UGVR_RECORD_AT(CellsHeaderRecord, index_crc, 24);
+UGVR_RECORD_AT(CellsHeaderRecord, block_count, 28);
+static_assert(header_records_size(5) == 272);
+static_assert(std::is_trivially_copyable_v<CellBlockRecord> && sizeof(CellBlockRecord) == 16);
+UGVR_RECORD_AT(CellBlockRecord, offset, 0);
+UGVR_RECORD_AT(CellBlockRecord, size, 8);
+UGVR_RECORD_AT(CellBlockRecord, crc, 12);
+static_assert(std::is_trivially_copyable_v<CellBlockHeader> && sizeof(CellBlockHeader) == 24);
+UGVR_RECORD_AT(CellBlockHeader, cell_count, 0);
+UGVR_RECORD_AT(CellBlockHeader, point_count, 4);
+UGVR_RECORD_AT(CellBlockHeader, vertex_references, 8);
+UGVR_RECORD_AT(CellBlockHeader, face_slots, 12);
+UGVR_RECORD_AT(CellBlockHeader, field_count, 16);
+UGVR_RECORD_AT(CellBlockHeader, reserved, 20);
 
 static_assert(std::is_trivially_copyable_v<TfErrorEntry> && std::is_standard_layout_v<TfErrorEntry>);
 static_assert(sizeof(TfErrorEntry) == 44);

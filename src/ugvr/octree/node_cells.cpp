@@ -1,0 +1,75 @@
+#include "ugvr/octree/node_cells.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <unordered_map>
+
+#include "ugvr/core/error.h"
+
+namespace ugvr {
+
+NodeCells gather_node_cells(const UnstructuredMesh& mesh, const MeshTopology& topology,
+                            std::span<const ScalarRef> scalars, std::span<const uint64_t> cells) {
+  NodeCells out;
+  out.ids.assign(cells.begin(), cells.end());
+  if (!std::is_sorted(out.ids.begin(), out.ids.end())) throw Error("gather_node_cells: cell ids are not ascending");
+  // Points in order of first use, so that a block's points follow its cells.
+  std::unordered_map<uint32_t, uint32_t> local;
+  local.reserve(cells.size() * 2);
+  std::vector<uint32_t> global;
+  out.types.reserve(cells.size());
+  for (uint64_t c : cells) {
+    out.types.push_back(mesh.cell_types[c]);
+    for (uint32_t v : mesh.cell(c)) {
+      auto [it, fresh] = local.try_emplace(v, uint32_t(global.size()));
+      if (fresh) global.push_back(v);
+      out.connectivity.push_back(it->second);
+    }
+  }
+  for (uint64_t i = 0; i < cells.size(); ++i) {
+    const uint64_t c = cells[i];
+    const uint32_t faces = cell_face_count(mesh.cell_types[c]);
+    for (uint32_t f = 0; f < faces; ++f) {
+      const uint64_t across = topology.neighbor(c, f);
+      if (across == kNoNeighbor) {
+        out.across.push_back(store_format::kCellAcrossBoundary);
+        continue;
+      }
+      const auto it = std::lower_bound(out.ids.begin(), out.ids.end(), face_cell(across));
+      out.across.push_back(it != out.ids.end() && *it == face_cell(across) ? uint32_t(it - out.ids.begin())
+                                                                           : store_format::kCellAcrossOutside);
+    }
+  }
+  out.points.reserve(global.size());
+  for (uint32_t v : global) out.points.push_back(mesh.points[v]);
+  for (const ScalarRef& s : scalars) {
+    if (s.field->association() == Association::Cell) {
+      for (uint64_t c : cells) out.values.push_back(float(s.field->scalar(c, s.component)));
+    } else {
+      for (uint32_t v : global) out.values.push_back(float(s.field->scalar(v, s.component)));
+    }
+  }
+  return out;
+}
+
+LeafCellStats write_leaf_cells(BrickStoreWriter& writer, const UnstructuredMesh& mesh, const MeshTopology& topology,
+                               std::span<const ScalarRef> scalars, std::span<const OctreeNode> nodes,
+                               std::span<const std::vector<uint64_t>> leaf_cells) {
+  std::atomic<uint64_t> blocks{0}, cells{0}, bytes{0};
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nodes.size(), 16), [&](const tbb::blocked_range<uint64_t>& r) {
+    for (uint64_t id = r.begin(); id != r.end(); ++id) {
+      if (!nodes[id].is_leaf() || id >= leaf_cells.size() || leaf_cells[id].empty()) continue;
+      const EncodedCells e = writer.encode_cells(gather_node_cells(mesh, topology, scalars, leaf_cells[id]));
+      writer.append_cells(id, e);
+      blocks += 1;
+      cells += e.cells;
+      bytes += e.bytes.size();
+    }
+  });
+  return {blocks.load(), cells.load(), bytes.load()};
+}
+
+}  // namespace ugvr

@@ -1,0 +1,33 @@
+// The cells a node keeps in the store (format version 5, store_format::CellBlockRecord; the [hybrid] issue, after
+// Muigg 2007: exact cells where they matter, resampled bricks elsewhere). A leaf keeps every cell overlapping it (its
+// candidate list from the subdivision, octree/subdivide.h: replicated across node borders), renumbered into a small
+// mesh of its own: its points, each cell's vertices as local indices, and per face what lies across — a cell of the
+// same node (a local index), nothing (the mesh's boundary), or a cell the node does not keep (the ray leaves the node
+// there and continues in a neighbour's cells). The store's fields come along at the points (vertex fields) or cells
+// (cell fields), as the same scalars the bricks sample.
+#pragma once
+
+#include <cstdint>
+#include <span>
+
+#include "ugvr/grid/field.h"
+#include "ugvr/grid/topology.h"
+#include "ugvr/grid/unstructured_mesh.h"
+#include "ugvr/store/brick_store.h"
+
+namespace ugvr {
+
+// The node's cells from a mesh in memory. `cells`: ascending cell ids; `scalars`: the store's fields in order.
+NodeCells gather_node_cells(const UnstructuredMesh& mesh, const MeshTopology& topology,
+                            std::span<const ScalarRef> scalars, std::span<const uint64_t> cells);
+
+struct LeafCellStats {
+  uint64_t blocks = 0, cells = 0, bytes = 0;
+};
+
+// Appends every leaf's cell block (shape.leaf_cells[id] of each leaf id), leaves in parallel.
+LeafCellStats write_leaf_cells(BrickStoreWriter& writer, const UnstructuredMesh& mesh, const MeshTopology& topology,
+                               std::span<const ScalarRef> scalars, std::span<const OctreeNode> nodes,
+                               std::span<const std::vector<uint64_t>> leaf_cells);
+
+}  // namespace ugvr
