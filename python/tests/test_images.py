@@ -206,3 +206,24 @@ def test_camera_and_tf_objects(small_vtu):
     assert ugvr.TransferFunction.from_json(edited.tf.to_json()) == edited.tf
     with pytest.raises(ugvr.Error, match="opacity_points"):
         band.opacity_points = [(0, 0), (-1, 0.5)]  # not increasing
+
+
+def test_slices_are_bit_identical_and_change_the_image(cli, tmp_path, small_vtu, scene_files):
+    """slices= and hide_volume= (docs/slices.md) give --slice and --hide-volume's image, and a plane through the mesh
+    changes it."""
+    camera, tf = scene_files
+    flags = ["--camera", camera, "--tf", tf]
+    ref = cli_image(cli, tmp_path, [small_vtu], *flags, "--slice", "3,0,1,0,0.3,1,0.8", "--hide-volume", "front")
+    img = ugvr.render(small_vtu, camera=camera, tf=tf, size=SIZE, slices=[(3, 0, 1, 0, 0.3, 1, 0.8)],
+                      hide_volume="front")
+    assert np.array_equal(img.array, ref)
+    plain = ugvr.render(small_vtu, camera=camera, tf=tf, size=SIZE)
+    assert (plain.array != img.array).any(axis=2).mean() > 0.01
+    # The dict form, with its own colour map.
+    d = ugvr.render(small_vtu, camera=camera, tf=tf, size=SIZE,
+                    slices=[{"point": [3, 0, 1], "normal": [0, 0.3, 1], "opacity": 0.8}], hide_volume="front")
+    assert np.array_equal(d.array, ref)
+    with pytest.raises(ugvr.Error, match="slices"):
+        ugvr.render(small_vtu, size=SIZE, slices=[(3, 0, 1)])
+    with pytest.raises(ugvr.Error, match="opacity"):
+        ugvr.render(small_vtu, size=SIZE, slices=[(3, 0, 1, 0, 0, 1, 2.0)])
