@@ -27,7 +27,7 @@ const ugvrTime = (() => {
     if (!panel) return;
     const t = times[step];
     $('.time-label').textContent =
-        times.length ? `step ${step + 1} of ${times.length}, t = ${Number.isInteger(t) ? t : t.toPrecision(4)}` : '';
+        times.length ? `step ${step + 1} of ${times.length}, t = ${Number(t.toPrecision(4))}` : '';
     $('.time-play').textContent = playing ? 'pause' : 'play';
   }
 
