@@ -7,6 +7,7 @@ set(assets "index.html|/index.html|text/html\; charset=utf-8"
            "tf_editor.js|/tf_editor.js|text/javascript\; charset=utf-8"
            "files.js|/files.js|text/javascript\; charset=utf-8"
            "slices.js|/slices.js|text/javascript\; charset=utf-8"
+           "time_panel.js|/time_panel.js|text/javascript\; charset=utf-8"
            "style.css|/style.css|text/css\; charset=utf-8")
 set(arrays "")
 set(table "")

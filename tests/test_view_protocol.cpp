@@ -351,6 +351,77 @@ TEST(ViewRequest, EngineMustBeOneTheSceneOffers) {
   EXPECT_EQ(s.request.engine, "exact") << "unchanged";
 }
 
+// The time message (a series' step, web/time_panel.js): parsed strictly, then checked against the scene's steps;
+// a scene without a time axis rejects it. The scene and status messages carry the steps and the step shown.
+TEST(ViewProtocol, TimeMessage) {
+  const ClientMessage m = parse_client_message(R"({"type":"time","step":3,"playing":true})");
+  ASSERT_TRUE(std::holds_alternative<TimeMessage>(m));
+  EXPECT_EQ(std::get<TimeMessage>(m).step, 3u);
+  EXPECT_TRUE(std::get<TimeMessage>(m).playing);
+  EXPECT_FALSE(std::get<TimeMessage>(parse_client_message(R"({"type":"time","step":0})")).playing);
+  const std::pair<std::string, std::string> bad[] = {
+      {R"({"type":"time"})", "step"},
+      {R"({"type":"time","step":-1})", "step"},
+      {R"({"type":"time","step":1.5})", "step"},
+      {R"({"type":"time","step":"2"})", "step"},
+      {R"({"type":"time","step":4294967296})", "step"},
+      {R"({"type":"time","step":1,"playing":1})", "playing"},
+      {R"({"type":"time","step":1,"time":0.5})", "time"},
+  };
+  for (const auto& [text, field] : bad) {
+    try {
+      parse_client_message(text);
+      ADD_FAILURE() << "accepted " << text;
+    } catch (const Error& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(field + ":", 0), 0u) << text << " -> " << e.what();
+    }
+  }
+
+  SceneInfo scene = two_field_scene();
+  ViewState one = initial_view(scene);
+  EXPECT_FALSE(one.request.time_step.has_value()) << "no time axis: no step asked for";
+  try {
+    apply_message(one, parse_client_message(R"({"type":"time","step":0})"), scene);
+    ADD_FAILURE() << "a scene of one step accepted a time step";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("step: this viewer shows one step (the input is not a time series)"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(nlohmann::json::parse(scene_message(scene)).count("time"), 0u);
+
+  scene.times = {0, 0.5, 1.0};
+  scene.time_step = 1;
+  const nlohmann::json sj = nlohmann::json::parse(scene_message(scene));
+  EXPECT_EQ(sj["time"]["count"], 3);
+  EXPECT_EQ(sj["time"]["times"], nlohmann::json({0, 0.5, 1.0}));
+  EXPECT_EQ(sj["time"]["step"], 1);
+  ViewState s = initial_view(scene);
+  EXPECT_EQ(s.request.time_step, 1u) << "a new tab asks for the scene's step";
+  const ViewState before = s;
+  try {
+    apply_message(s, parse_client_message(R"({"type":"time","step":3})"), scene);
+    ADD_FAILURE() << "accepted a step past the end";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("step: step 3 is out of range (the series has 3 steps: 0 to 2)"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(s.request.time_step, before.request.time_step);
+  EXPECT_EQ(s.generation, before.generation);
+  apply_message(s, parse_client_message(R"({"type":"time","step":2,"playing":true})"), scene);
+  EXPECT_EQ(s.request.time_step, 2u);
+  EXPECT_TRUE(s.request.playing);
+  EXPECT_EQ(s.generation, before.generation + 1);
+
+  FrameStatus st;
+  EXPECT_EQ(nlohmann::json::parse(status_message(st)).count("time_step"), 0u) << "no time axis: not said";
+  st.time_step = 2, st.time = 1.0;
+  const nlohmann::json j = nlohmann::json::parse(status_message(st));
+  EXPECT_EQ(j["time_step"], 2);
+  EXPECT_EQ(j["time"], 1.0);
+}
+
 TEST(ViewJpeg, EncodesAnyImageSize) {
   Image im(17, 5);  // odd sizes: chroma subsampling pads internally
   for (int y = 0; y < im.height; ++y)

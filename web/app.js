@@ -216,7 +216,8 @@ function showStatus() {
   const cache = s.ram_budget !== undefined
     ? `RAM ${mib(s.ram_bytes)}/${mib(s.ram_budget)} MiB  GPU ${mib(s.atlas_bytes)}/${mib(s.atlas_budget)} MiB  ` : "";
   const refining = s.pending_bricks ? `refining… ${s.pending_bricks} bricks pending` : "refining…";
-  const frame = `${s.engine ?? "lod"}  ${s.width}×${s.height}  ${rate}frame ${(s.frame_seconds * 1000).toFixed(0)} ms  `;
+  const time = s.time_step !== undefined ? `step ${s.time_step} (t = ${s.time})  ` : "";
+  const frame = `${s.engine ?? "lod"}  ${time}${s.width}×${s.height}  ${rate}frame ${(s.frame_seconds * 1000).toFixed(0)} ms  `;
   // The exact engine has no cut, texel error or brick caches: its frames are exact, at a reduced scale while moving.
   if (s.engine === "exact") {
     statusBar.textContent = frame + (s.converged ? "full quality" : `moving  scale ${s.scale.toFixed(2)}`);
@@ -299,6 +300,7 @@ function onScene(m) {
   }
   if (!m.presets.includes(view.preset)) view.preset = m.preset;
   ugvrSlices.onScene();  // slices.js: the planes' colour maps and bounds
+  ugvrTime.onScene(m);   // time_panel.js: a time series' slider and playback
   view.engine = null;  // a new scene: the server moved every tab to its engine
   showEngine();
   $("preset").replaceChildren(...m.presets.map((p) => new Option(p, p, p === view.preset, p === view.preset)));
@@ -361,6 +363,7 @@ ws.onmessage = async (event) => {
     if (status) drawnLog.push({ n: framesDrawn, converged: status.converged, request: status.request, format: status.format });
     if (drawnLog.length > 200) drawnLog.shift();
     showStatus();
+    ugvrTime.onFrame(status);  // time_panel.js: playing moves on once this step is drawn
     if (pngWanted && status && status.converged && status.request >= messagesSent) savePng();
     return;
   }

@@ -20,6 +20,7 @@
 #include "ugvr/core/memory.h"
 #include "ugvr/gen/generator.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/time_series.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/transfer_function.h"
@@ -111,7 +112,34 @@ void run_view(const Options& o) {
     }
   }
 
-  if (is_store(o.inputs)) {
+  // A time series of several steps (a .pvd, .series, numbered files, or a multi-step file such as Exodus): the exact
+  // engine alone, with a time slider (no store: a store holds one step).
+  std::shared_ptr<const TimeSeries> series;
+  if (!o.demo && !is_store(o.inputs)) {
+    if (is_series_input(o.inputs)) {
+      series = std::make_shared<const TimeSeries>(list_time_steps(o.inputs, o.read));
+    } else {
+      try {
+        series = std::make_shared<const TimeSeries>(list_time_steps(o.inputs, o.read));
+      } catch (const Error&) {
+        // Not listable: read as one dataset below, whose load reports the error in the page.
+      }
+    }
+    if (series && series->size() < 2) series.reset();
+  }
+  if (series) {
+    // --time-step N starts there (default: the first step, the start of playback).
+    const int64_t step = o.read.time_step < 0 ? 0 : o.read.time_step;
+    if (step >= int64_t(series->size()))
+      fail_in("--time-step", std::to_string(step) + " is out of range: " + series->source + " has " +
+                                 std::to_string(series->size()) + " steps");
+    vo.series = series;
+    vo.time_step = uint32_t(step);
+    vo.fields = o.fields;
+    std::fprintf(stderr, "ugvr view: %s: %zu time steps (%s), shown by the exact engine from step %lld\n",
+                 series->source.c_str(), series->size(), std::string(series_kind_name(series->kind)).c_str(),
+                 static_cast<long long>(step));
+  } else if (is_store(o.inputs)) {
     vo.store = o.inputs[0];
   } else {
     vo.build = o.build;

@@ -2,7 +2,7 @@
 # End-to-end tests of the `ugvr view` browser viewer in headless Chromium (ctest ViewerE2E, tests/CMakeLists.txt).
 # Usage: run.sh UGVR_BINARY
 # Builds a small store in a temporary directory, installs playwright-core (package-lock.json) when node_modules is
-# missing, then runs viewer.test.mjs, controls.test.mjs, slices.test.mjs and engine.test.mjs, each of which starts `ugvr view` itself. Exit 77 (ctest: skipped) only when node or
+# missing, then runs viewer.test.mjs, controls.test.mjs, slices.test.mjs, engine.test.mjs and time.test.mjs, each of which starts `ugvr view` itself. Exit 77 (ctest: skipped) only when node or
 # Chromium is absent; any other problem fails.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
@@ -24,6 +24,7 @@ fi
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/ugvr-e2e.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT
 "$ugvr" --quiet generate --cells 20000 --kind mixed -o "$tmp/mixed.vtu" >/dev/null
+"$ugvr" --quiet generate --cells 20000 --time-steps 4 -o "$tmp/wake.pvd" >/dev/null
 "$ugvr" --quiet build "$tmp/mixed.vtu" -o "$tmp/mixed.ugvr" --fields pressure,velocity --brick 8 --max-depth 4 >/dev/null
 # Run in this process (not under `node --test`, which runs the file in a child) and stopped before ctest's TIMEOUT, so
 # that the signal reaches node, which then stops `ugvr view` and Chromium.
@@ -34,3 +35,5 @@ UGVR="$ugvr" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 5 300 node --test-reporter=
 UGVR="$ugvr" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 5 300 node --test-reporter=spec "$here/slices.test.mjs"
 # The engine picker, against a viewer of the mesh itself (exact engine, then its store built in $tmp).
 UGVR="$ugvr" UGVR_MESH="$tmp/mixed.vtu" timeout -k 5 300 node --test-reporter=spec "$here/engine.test.mjs"
+# The time panel (web/time_panel.js), against a viewer of a 4-step series.
+UGVR="$ugvr" UGVR_SERIES="$tmp/wake.pvd" timeout -k 5 300 node --test-reporter=spec "$here/time.test.mjs"

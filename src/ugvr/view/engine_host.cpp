@@ -70,6 +70,13 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
                                                options_.before_build);
     return;
   }
+  if (options_.series) {
+    // A series is shown by the exact engine alone: a brick store holds one step (docs/time-series.md), so none is
+    // built.
+    build_started_ = true;
+    load_ = std::make_unique<GridLoad>(options_.series, options_.time_step, options_.fields, kHistogramBins);
+    return;
+  }
   if (!options_.dataset && !options_.load) {
     lod_ = open_store(options_, gl_);
     scene_ = lod_scene();
@@ -146,6 +153,9 @@ void EngineHost::finish_load() {
   sc.renderer = exact_renderer_;
   sc.engine = kExactEngine;
   sc.engines = engines();
+  if (options_.series)
+    for (const TimeStep& t : options_.series->steps) sc.times.push_back(t.time);
+  sc.time_step = options_.time_step;
   scene_ = std::move(sc);
 }
 
@@ -262,7 +272,11 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   fr.target_fps = job.target_fps;
   fr.full_quality = job.full_quality;
   fr.step_voxels = request.step_voxels;
+  const bool timed = engine == kExactEngine && exact_ && exact_->series;
+  if (timed) fr.time_step = request.time_step.value_or(scene_.time_step);
   ugvr::Frame f = tab.renderer->render(fr);
+  // Playing: the next step is read while this frame is encoded and sent (the switch then costs the field swap).
+  if (timed && request.playing) exact_->prefetch((*fr.time_step + 1) % uint32_t(exact_->series->size()));
   const Image& image = f.image;
   const bool converged = f.stats.converged;
   FrameStatus st;
@@ -274,6 +288,7 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   st.ram_bytes = f.stats.ram_bytes, st.ram_budget = f.stats.ram_budget;
   st.atlas_bytes = f.stats.gpu_bytes, st.atlas_budget = f.stats.gpu_budget;
   st.pending_bricks = f.stats.pending;
+  if (timed) st.time_step = exact_->step, st.time = exact_->series->steps[exact_->step].time;
   const std::vector<unsigned char> encoded = converged ? png_bytes(image) : jpeg_bytes(image);
   auto bytes = std::make_shared<const std::string>(encoded.begin(), encoded.end());
   const Clock::time_point now = Clock::now();

@@ -1,5 +1,6 @@
 #include "ugvr/view/grid_load.h"
 
+#include <algorithm>
 #include <exception>
 
 #include "ugvr/core/error.h"
@@ -13,6 +14,15 @@ namespace ugvr::view {
 
 GridLoad::GridLoad(std::function<std::shared_ptr<const Dataset>()> load, std::vector<std::string> fields,
                    int histogram_bins) {
+  thread_ = std::thread([this, load = std::move(load), fields = std::move(fields), histogram_bins] {
+    run(load, fields, histogram_bins);
+  });
+}
+
+GridLoad::GridLoad(std::shared_ptr<const TimeSeries> series, uint32_t step, std::vector<std::string> fields,
+                   int histogram_bins)
+    : series_(std::move(series)), step_(step) {
+  auto load = [s = series_, step] { return std::make_shared<const Dataset>(read_time_step(*s, step)); };
   thread_ = std::thread([this, load = std::move(load), fields = std::move(fields), histogram_bins] {
     run(load, fields, histogram_bins);
   });
@@ -74,14 +84,37 @@ void GridLoad::run(const std::function<std::shared_ptr<const Dataset>()>& load, 
       }
       grid.bounds = input.bounds;
     }
+    if (series_) {
+      // The global colour range: every other step read in turn (one in memory at a time, as `ugvr render --time`
+      // does), its ranges united into the shown step's. Progress says which step.
+      for (uint32_t i = 0; i < series_->size() && !cancel_; ++i) {
+        if (i == step_) continue;
+        set(Stage::Reading, "time range: step " + std::to_string(i + 1) + " of " + std::to_string(series_->size()),
+            double(i) / double(series_->size()));
+        const Dataset other = read_time_step(*series_, i);
+        const OctreeInput input = prepare_octree_input(other, grid.names);
+        for (size_t f = 0; f < input.fields.size(); ++f) {
+          grid.fields[f].min = std::min(grid.fields[f].min, input.fields[f].min);
+          grid.fields[f].max = std::max(grid.fields[f].max, input.fields[f].max);
+        }
+      }
+      if (cancel_) return;
+    }
     grid_ = std::move(grid);
     set(Stage::Fields, "walk mesh", 0);
 
-    auto exact = std::make_shared<ExactScene>(dataset, [this](std::string_view, double fraction) {
+    const ProgressCallback walk_progress = [this](std::string_view, double fraction) {
       std::lock_guard lock(mutex_);
       state_.fraction = fraction;
       return !cancel_.load();
-    });
+    };
+    auto exact = std::make_shared<ExactScene>(dataset, walk_progress);
+    if (series_) {
+      // A series' scene over the step already read (ExactScene(series, step) would read it again).
+      exact->series = series_;
+      exact->step = step_;
+      if (series_->geometry == SeriesGeometry::Detect) exact->geometry = geometry_fingerprint(*dataset);
+    }
     std::lock_guard lock(mutex_);
     exact_ = std::move(exact);
     state_.stage = Stage::Done;

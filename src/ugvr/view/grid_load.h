@@ -19,6 +19,7 @@
 
 #include "ugvr/core/vec.h"
 #include "ugvr/grid/dataset.h"
+#include "ugvr/io/time_series.h"
 #include "ugvr/view/view_protocol.h"
 
 namespace ugvr {
@@ -47,6 +48,11 @@ class GridLoad {
   // `load` returns the grid (it may throw: the error becomes State::error); `fields` as ViewServerOptions::fields
   // (empty: default_view_fields). `histogram_bins`: of each field's histogram.
   GridLoad(std::function<std::shared_ptr<const Dataset>()> load, std::vector<std::string> fields, int histogram_bins);
+  // A time series shown from step `step`: that step is read (stage Reading), then every other step in turn, one in
+  // memory at a time (stage Fields is published after: the fields' ranges are the union over the steps, so that the
+  // colours mean the same at every step; the histograms are step `step`'s), then the walk mesh is built.
+  GridLoad(std::shared_ptr<const TimeSeries> series, uint32_t step, std::vector<std::string> fields,
+           int histogram_bins);
   // Waits for the thread: a read under way is not interrupted (the walk mesh is: it stops at its next step).
   ~GridLoad();
   GridLoad(const GridLoad&) = delete;
@@ -61,6 +67,9 @@ class GridLoad {
  private:
   void run(const std::function<std::shared_ptr<const Dataset>()>& load, const std::vector<std::string>& fields,
            int bins);
+
+  std::shared_ptr<const TimeSeries> series_;  // null: one dataset
+  uint32_t step_ = 0;
   void set(Stage stage, const std::string& label, double fraction);
 
   std::atomic<bool> cancel_{false};

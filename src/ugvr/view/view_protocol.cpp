@@ -227,7 +227,24 @@ ClientMessage parse_client_message(std::string_view text) {
                  "expected \"exact\" or \"lod\", found " + v.dump(-1, ' ', false, json::error_handler_t::replace));
     return EngineMessage{name};
   }
-  fail_field("type", "unknown message type \"" + type + "\" (expected hello, resize, camera, tf, settings or engine)");
+  if (type == "time") {
+    check_keys(j, {"step", "playing"});
+    if (!j.contains("step")) fail_field("step", "missing");
+    const json& v = j["step"];
+    // An integer step, not a time: the page's slider moves over the steps (the scene lists their times).
+    if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > int64_t(UINT32_MAX))
+      fail_field("step", "expected a step index (an integer >= 0), found " +
+                             v.dump(-1, ' ', false, json::error_handler_t::replace));
+    TimeMessage m;
+    m.step = uint32_t(v.get<int64_t>());
+    if (j.contains("playing")) {
+      if (!j["playing"].is_boolean()) fail_field("playing", "expected true or false");
+      m.playing = j["playing"].get<bool>();
+    }
+    return m;
+  }
+  fail_field("type",
+             "unknown message type \"" + type + "\" (expected hello, resize, camera, tf, settings, engine or time)");
 }
 
 std::string error_message(std::string_view message) {
@@ -237,27 +254,28 @@ std::string error_message(std::string_view message) {
 }
 
 std::string status_message(const FrameStatus& s) {
-  return json{{"type", "status"},
-              {"seq", s.seq},
-              {"request", s.request},
-              {"format", s.png ? "png" : "jpeg"},
-              {"width", s.width},
-              {"height", s.height},
-              {"fps", s.fps},
-              {"frame_seconds", s.frame_seconds},
-              {"cut_nodes", s.cut_nodes},
-              {"visible_nodes", s.visible_nodes},
-              {"texel_error", s.texel_error},
-              {"max_texel_error", s.max_texel_error},
-              {"scale", s.scale},
-              {"converged", s.converged},
-              {"engine", s.engine},
-              {"ram_bytes", s.ram_bytes},
-              {"ram_budget", s.ram_budget},
-              {"atlas_bytes", s.atlas_bytes},
-              {"atlas_budget", s.atlas_budget},
-              {"pending_bricks", s.pending_bricks}}
-      .dump();
+  json j{{"type", "status"},
+         {"seq", s.seq},
+         {"request", s.request},
+         {"format", s.png ? "png" : "jpeg"},
+         {"width", s.width},
+         {"height", s.height},
+         {"fps", s.fps},
+         {"frame_seconds", s.frame_seconds},
+         {"cut_nodes", s.cut_nodes},
+         {"visible_nodes", s.visible_nodes},
+         {"texel_error", s.texel_error},
+         {"max_texel_error", s.max_texel_error},
+         {"scale", s.scale},
+         {"converged", s.converged},
+         {"engine", s.engine},
+         {"ram_bytes", s.ram_bytes},
+         {"ram_budget", s.ram_budget},
+         {"atlas_bytes", s.atlas_bytes},
+         {"atlas_budget", s.atlas_budget},
+         {"pending_bricks", s.pending_bricks}};
+  if (s.time_step >= 0) j["time_step"] = s.time_step, j["time"] = s.time;
+  return j.dump();
 }
 
 std::string progress_message(const ProgressInfo& p) {
@@ -332,6 +350,8 @@ std::string scene_message(const SceneInfo& scene) {
          {"renderers", renderers},
          {"limits", {{"min_side", kMinViewSide}, {"max_side", kMaxViewSide}, {"max_fps", kMaxFps}}}};
   if (scene.tf) j["tf"] = tf_points_json(*scene.tf);
+  if (!scene.times.empty())
+    j["time"] = {{"count", scene.times.size()}, {"times", scene.times}, {"step", scene.time_step}};
   return j.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 

@@ -30,11 +30,15 @@
 //   {"type":"engine", "engine":"exact"|"lod"}   which engine draws this tab: the exact engine over the grid, or the
 //       level-of-detail engine over the brick store; it must be one of the scene's "engines" (view_request.h rejects
 //       the others), and a tab that never sends one is drawn by the scene's "engine"
+//   {"type":"time", "step":N, "playing":B}   shows step N (an integer in [0, count)) of a time series (the scene's
+//       "time"); "playing" (optional, default false): the page is playing, so the server reads the next step ahead
+//       while this one renders. A scene without a time axis rejects it ("step: ...")
 //
 // Server -> client:
 //   text {"type":"scene", ...}   after hello: field, range, fields (with histograms), bounds, the initial camera,
 //         presets and their colours, limits, the engines a tab may pick and each one's renderer label; again when the
-//         server switches engine (a background build finished: every tab moves to "lod")
+//         server switches engine (a background build finished: every tab moves to "lod"); a time series adds
+//         "time":{"count", "times":[t...], "step"} (the step new tabs show; the field ranges are over every step)
 //   text {"type":"status", "seq", "request", "format":"jpeg"|"png", "width", "height", "fps", "frame_seconds",
 //         "cut_nodes", "visible_nodes", "texel_error", "max_texel_error", "scale", "converged"}   describes the
 //         binary frame that follows it; "request" counts the client messages accepted (not rejected) before the
@@ -49,7 +53,8 @@
 //   text {"type":"view", "camera":{...}, "tf":{"rgb_points":[...],"opacity_points":[...]}}   the server moved the
 //       tab's view (ViewServer::set_view; either part may be absent; also after hello, once one was set): the page
 //       takes it as its own and sends nothing back
-//   status also carries "engine", "ram_bytes", "ram_budget", "atlas_bytes", "atlas_budget", "pending_bricks"
+//   status also carries "time_step" and "time" (a time series: the step the frame shows), "engine", "ram_bytes",
+//   "ram_budget", "atlas_bytes", "atlas_budget", "pending_bricks"
 #pragma once
 
 #include <array>
@@ -116,7 +121,12 @@ struct EngineMessage {
   std::string engine;  // kExactEngine or kLodEngine
 };
 
-using ClientMessage = std::variant<SizeMessage, CameraMessage, TfMessage, SettingsMessage, EngineMessage>;
+struct TimeMessage {
+  uint32_t step = 0;     // checked against the scene's step count by apply_message (view_request.h)
+  bool playing = false;  // the page plays: the next step is read ahead
+};
+
+using ClientMessage = std::variant<SizeMessage, CameraMessage, TfMessage, SettingsMessage, EngineMessage, TimeMessage>;
 
 // One engine a tab may be drawn by, and its renderer's label for the page: "exact engine (CPU)", "exact engine (GPU:
 // NAME)", or the GL_RENDERER the level-of-detail engine draws with.
@@ -151,6 +161,9 @@ struct SceneInfo {
   // The background new tabs start from (the demo's is dark); none: RenderSettings' default. A page that picks one
   // sends it in a settings message.
   std::optional<std::array<double, 4>> background;
+  // A time series' steps (their times, in order; empty: no time axis, a single step) and the step new tabs show.
+  std::vector<double> times;
+  uint32_t time_step = 0;
 
   // The field called `name` (empty: `field`; a vector's name alone: its "NAME:magnitude"), or null.
   const FieldInfo* find_field(std::string_view name) const;
@@ -189,6 +202,8 @@ struct FrameStatus {
   uint64_t ram_bytes = 0, ram_budget = 0;      // this tab's RAM brick cache: resident decoded bricks, and its budget
   uint64_t atlas_bytes = 0, atlas_budget = 0;  // the GPU atlas (shared by all tabs)
   uint64_t pending_bricks = 0;                 // bricks the refinement waits for (queued or loading from disk)
+  int64_t time_step = -1;                      // the series' step shown (-1: no time axis)
+  double time = 0;                             // its time
 };
 std::string status_message(const FrameStatus& s);
 

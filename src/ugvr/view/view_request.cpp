@@ -15,6 +15,8 @@ ViewState initial_view(const SceneInfo& scene) {
   s.request.fps = scene.fps;
   s.request.settings.field = scene.field;
   if (scene.background) s.request.settings.background = *scene.background;
+  // Each tab asks for its step explicitly: the tabs share one exact scene, which shows the step the frame asks for.
+  if (!scene.times.empty()) s.request.time_step = scene.time_step;
   s.tf_preset = scene.preset;
   if (scene.tf) {
     s.tf_colors = scene.tf->color_points;
@@ -106,6 +108,14 @@ void apply_message(ViewState& state, const ClientMessage& m, const SceneInfo& sc
       fail_in("engine", "\"" + engine->engine + "\" is not available: " + why + " (engines: " + names + ")");
     }
     r.engine = engine->engine;
+  } else if (const auto* time = std::get_if<TimeMessage>(&m)) {
+    if (scene.times.empty()) fail_in("step", "this viewer shows one step (the input is not a time series)");
+    if (time->step >= scene.times.size())
+      fail_in("step", "step " + std::to_string(time->step) + " is out of range (the series has " +
+                          std::to_string(scene.times.size()) + " steps: 0 to " +
+                          std::to_string(scene.times.size() - 1) + ")");
+    r.time_step = time->step;
+    r.playing = time->playing;
   }
   ++s.generation;
   state = std::move(s);

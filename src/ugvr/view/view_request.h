@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,10 @@ struct ViewRequest {
   double fps = 10;
   double step_voxels = 0.5;
   std::string engine;  // the engine the tab picked ("engine" message); empty: the scene's (SceneInfo::engine)
+  // The series' step to show ("time" message; none: the scene's, SceneInfo::time_step), and whether the page plays
+  // (the next step is read ahead).
+  std::optional<uint32_t> time_step;
+  bool playing = false;
 };
 
 struct ViewState {
@@ -44,8 +49,8 @@ ViewState initial_view(const SceneInfo& scene);
 TransferFunction compose_tf(const ViewState& state, const SceneInfo& scene);
 // Applies one message. A settings "field" must name one of scene.fields; switching to another field drops explicit
 // transfer-function points (the preset is rescaled to the new range) and moves iso values outside the new range to
-// its middle. An engine must be one of scene.engines. Throws ugvr::Error "FIELD: ..." and leaves `state` unchanged
-// when the result is invalid.
+// its middle. An engine must be one of scene.engines; a time step one of scene.times. Throws ugvr::Error "FIELD: ..."
+// and leaves `state` unchanged when the result is invalid.
 void apply_message(ViewState& state, const ClientMessage& message, const SceneInfo& scene);
 
 }  // namespace ugvr::view

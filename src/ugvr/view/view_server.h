@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "ugvr/grid/dataset.h"
+#include "ugvr/io/time_series.h"
 #include "ugvr/octree/builder.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/transfer_function.h"
@@ -52,6 +53,11 @@ struct ViewServerOptions {
   // Instead of `dataset` or `load`: a .vtu file that is not read in memory (it would not fit): its store is built out
   // of core (octree/out_of_core.h) within `out_of_core_budget` bytes, and nothing draws until it is done.
   std::string out_of_core_input;
+  // Instead of `dataset` or `load`: a time series of more than one step (io/time_series.h), shown by the exact engine
+  // only (a brick store holds one step, so none is built), starting at step `time_step`. Each tab picks its step
+  // ("time" message); the colour range is the union over every step, read one at a time before the first image.
+  std::shared_ptr<const TimeSeries> series;
+  uint32_t time_step = 0;
   uint64_t out_of_core_budget = 0;
   std::string notice;  // said in the page with every progress while loading (why the store path alone, ...)
   // Called (on the render thread) when the grid cannot be loaded (a bad file): the viewer has nothing to show.
