@@ -1,6 +1,7 @@
 #include "ugvr/mpi/mpi_renderer.h"
 
 #include <mpi.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
@@ -23,6 +24,9 @@ struct MpiFrameStats : EngineFrameStats {
   std::string compositor;
   double render_seconds_max = 0, render_seconds_min = 0;  // the ranks' engine time: the slowest decides
   double composite_seconds = 0;                           // rank 0's time in the compositor
+  // Per rank (rank order): the engine's render time, the bytes its structures hold (the exact engine's walk mesh and
+  // field: its part under MPI; 0 where the engine does not say) and the process's peak resident set so far.
+  std::vector<double> rank_render_seconds, rank_engine_bytes, rank_peak_rss_bytes;
   std::shared_ptr<const EngineFrameStats> rank0;
   void to_json(nlohmann::json& j) const override {
     if (rank0) rank0->to_json(j);
@@ -30,13 +34,20 @@ struct MpiFrameStats : EngineFrameStats {
                 {"compositor", compositor},
                 {"render_seconds_max", render_seconds_max},
                 {"render_seconds_min", render_seconds_min},
-                {"composite_seconds", composite_seconds}};
+                {"composite_seconds", composite_seconds},
+                {"rank_render_seconds", rank_render_seconds},
+                {"rank_engine_bytes", rank_engine_bytes},
+                {"rank_peak_rss_bytes", rank_peak_rss_bytes}};
   }
 };
 
 class MpiRenderer final : public Renderer {
  public:
-  MpiRenderer(std::unique_ptr<Renderer> local, KdTree tree) : local_(std::move(local)), tree_(std::move(tree)) {}
+  MpiRenderer(std::unique_ptr<Renderer> local, KdTree tree) : local_(std::move(local)), tree_(std::move(tree)) {
+    nlohmann::json j;
+    local_->describe(j);
+    if (j.contains("engine_bytes") && j["engine_bytes"].is_number()) engine_bytes_ = j["engine_bytes"].get<double>();
+  }
   std::string_view engine() const override { return local_->engine(); }
   std::string device() const override { return local_->device() + ", " + std::to_string(size()) + " MPI ranks"; }
   void set_field(std::string_view name) override { local_->set_field(name); }
@@ -80,12 +91,23 @@ class MpiRenderer final : public Renderer {
     unsigned long long samples = local.stats.samples, total_samples = 0;
     MPI_Allreduce(&samples, &total_samples, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
 
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);  // ru_maxrss in KiB on Linux
+    const double mine_figures[3] = {local.stats.seconds, engine_bytes_, double(usage.ru_maxrss) * 1024.0};
+    std::vector<double> all_figures(rank() == 0 ? 3 * size_t(size()) : 0);
+    MPI_Gather(mine_figures, 3, MPI_DOUBLE, all_figures.data(), 3, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+
     const std::vector<int> order = tree_.visibility_order(request.camera);
     auto stats = std::make_shared<MpiFrameStats>();
     stats->ranks = size();
     stats->compositor = compositor_name();
     stats->render_seconds_max = extremes[0], stats->render_seconds_min = -extremes[1];
     stats->rank0 = local.stats.detail;
+    for (size_t r = 0; r * 3 < all_figures.size(); ++r) {
+      stats->rank_render_seconds.push_back(all_figures[3 * r]);
+      stats->rank_engine_bytes.push_back(all_figures[3 * r + 1]);
+      stats->rank_peak_rss_bytes.push_back(all_figures[3 * r + 2]);
+    }
     std::vector<float> blended = composite(premultiplied(local.image), width, height, order, &stats->composite_seconds);
 
     Frame frame;
@@ -100,6 +122,7 @@ class MpiRenderer final : public Renderer {
  private:
   std::unique_ptr<Renderer> local_;
   KdTree tree_;
+  double engine_bytes_ = 0;
 };
 
 }  // namespace
@@ -139,7 +162,13 @@ std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, 
   }
   auto scene = std::make_shared<ExactScene>(std::move(dataset), options.progress);
   KdTree tree = build_kd_tree(cell_centroids(scene->engine.walk_mesh()), size());
-  scene->engine.set_clip_box(tree.boxes[size_t(rank())]);
+  // Each rank keeps only the cells that meet its box: its rays enter at its part's faces instead of walking the
+  // cells in front of the box (and the rank holds about 1/N of the walk mesh). The tree above is built from the whole
+  // mesh first, identically on every rank. One rank keeps all (its box is infinite), as before.
+  if (size() > 1)
+    scene->engine.restrict_to_box(tree.boxes[size_t(rank())]);
+  else
+    scene->engine.set_clip_box(tree.boxes[size_t(rank())]);
   return std::make_unique<MpiRenderer>(make_renderer(scene, options), std::move(tree));
 }
 
