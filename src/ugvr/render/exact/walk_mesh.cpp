@@ -243,6 +243,10 @@ WalkMeshPart restrict_walk_mesh(const WalkMesh& m, const Bounds& box) {
       for (int f = 0; f < cell_face_count(kAllCellTypes[k]); ++f)
         if (nb[f] == kWalkBoundary) append_boundary_face(w, c, uint32_t(f));
     }
+  // Grown by push_back: give back the slack (the part's memory is what a rank holds).
+  w.points.shrink_to_fit(), w.connectivity.shrink_to_fit(), w.neighbors.shrink_to_fit();
+  w.quad_split.shrink_to_fit(), w.boundary.shrink_to_fit();
+  part.cell_source.shrink_to_fit(), part.point_source.shrink_to_fit();
   w.point_base = m.point_base;
   w.block_type_begin = m.block_type_begin;
   w.bounds = m.bounds;
