@@ -1,11 +1,14 @@
 #include "ugvr/mpi/mpi_renderer.h"
 
 #include <mpi.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
+#include <ctime>
 #include <nlohmann/json.hpp>
+#include <string_view>
 
 #include "ugvr/core/error.h"
 #include "ugvr/mpi/kd_partition.h"
@@ -17,12 +20,24 @@
 namespace ugvr::mpi {
 namespace {
 
+double process_cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
 // The compositing renderer's own figures (--stats), then the rank's engine's.
 struct MpiFrameStats : EngineFrameStats {
   int ranks = 1;
   std::string compositor;
   double render_seconds_max = 0, render_seconds_min = 0;  // the ranks' engine time: the slowest decides
   double composite_seconds = 0;                           // rank 0's time in the compositor
+  // Per rank (rank order): the engine's render time (wall and this process's CPU: on an oversubscribed machine the
+  // CPU time is the rank's own work), its samples (the exact engine: cells entered, a measure of work that no load
+  // changes), the bytes its structures hold (the exact engine's walk mesh and field: its part under MPI; 0 where
+  // the engine does not say) and the process's peak resident set so far.
+  std::vector<double> rank_render_seconds, rank_render_cpu_seconds, rank_samples, rank_engine_bytes,
+      rank_peak_rss_bytes;
   std::shared_ptr<const EngineFrameStats> rank0;
   void to_json(nlohmann::json& j) const override {
     if (rank0) rank0->to_json(j);
@@ -30,13 +45,22 @@ struct MpiFrameStats : EngineFrameStats {
                 {"compositor", compositor},
                 {"render_seconds_max", render_seconds_max},
                 {"render_seconds_min", render_seconds_min},
-                {"composite_seconds", composite_seconds}};
+                {"composite_seconds", composite_seconds},
+                {"rank_render_seconds", rank_render_seconds},
+                {"rank_render_cpu_seconds", rank_render_cpu_seconds},
+                {"rank_samples", rank_samples},
+                {"rank_engine_bytes", rank_engine_bytes},
+                {"rank_peak_rss_bytes", rank_peak_rss_bytes}};
   }
 };
 
 class MpiRenderer final : public Renderer {
  public:
-  MpiRenderer(std::unique_ptr<Renderer> local, KdTree tree) : local_(std::move(local)), tree_(std::move(tree)) {}
+  MpiRenderer(std::unique_ptr<Renderer> local, KdTree tree) : local_(std::move(local)), tree_(std::move(tree)) {
+    nlohmann::json j;
+    local_->describe(j);
+    if (j.contains("engine_bytes") && j["engine_bytes"].is_number()) engine_bytes_ = j["engine_bytes"].get<double>();
+  }
   std::string_view engine() const override { return local_->engine(); }
   std::string device() const override { return local_->device() + ", " + std::to_string(size()) + " MPI ranks"; }
   void set_field(std::string_view name) override { local_->set_field(name); }
@@ -70,7 +94,9 @@ class MpiRenderer final : public Renderer {
     mine.settings.background = {0, 0, 0, 0};
     mine.settings.early_termination_opacity = 1;  // opacity in front of this box is unknown here
     mine.target_fps = 0;
+    const double cpu0 = process_cpu_seconds();
     Frame local = local_->render(mine);
+    const double cpu_seconds = process_cpu_seconds() - cpu0;
     const int width = request.settings.width, height = request.settings.height;
     if (local.image.width != width || local.image.height != height)
       fail_in("mpi", "a rank drew " + std::to_string(local.image.width) + "x" + std::to_string(local.image.height) +
@@ -80,12 +106,27 @@ class MpiRenderer final : public Renderer {
     unsigned long long samples = local.stats.samples, total_samples = 0;
     MPI_Allreduce(&samples, &total_samples, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
 
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);  // ru_maxrss in KiB on Linux
+    constexpr int kFigures = 5;
+    const double mine_figures[kFigures] = {local.stats.seconds, cpu_seconds, double(local.stats.samples), engine_bytes_,
+                                           double(usage.ru_maxrss) * 1024.0};
+    std::vector<double> all_figures(rank() == 0 ? kFigures * size_t(size()) : 0);
+    MPI_Gather(mine_figures, kFigures, MPI_DOUBLE, all_figures.data(), kFigures, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+
     const std::vector<int> order = tree_.visibility_order(request.camera);
     auto stats = std::make_shared<MpiFrameStats>();
     stats->ranks = size();
     stats->compositor = compositor_name();
     stats->render_seconds_max = extremes[0], stats->render_seconds_min = -extremes[1];
     stats->rank0 = local.stats.detail;
+    for (size_t i = 0; i < all_figures.size(); i += kFigures) {
+      stats->rank_render_seconds.push_back(all_figures[i]);
+      stats->rank_render_cpu_seconds.push_back(all_figures[i + 1]);
+      stats->rank_samples.push_back(all_figures[i + 2]);
+      stats->rank_engine_bytes.push_back(all_figures[i + 3]);
+      stats->rank_peak_rss_bytes.push_back(all_figures[i + 4]);
+    }
     std::vector<float> blended = composite(premultiplied(local.image), width, height, order, &stats->composite_seconds);
 
     Frame frame;
@@ -100,6 +141,7 @@ class MpiRenderer final : public Renderer {
  private:
   std::unique_ptr<Renderer> local_;
   KdTree tree_;
+  double engine_bytes_ = 0;
 };
 
 }  // namespace
@@ -139,7 +181,15 @@ std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, 
   }
   auto scene = std::make_shared<ExactScene>(std::move(dataset), options.progress);
   KdTree tree = build_kd_tree(cell_centroids(scene->engine.walk_mesh()), size());
-  scene->engine.set_clip_box(tree.boxes[size_t(rank())]);
+  // Each rank keeps only the cells that meet its box: its rays enter at its part's faces instead of walking the
+  // cells in front of the box (and the rank holds about 1/N of the walk mesh). The tree above is built from the whole
+  // mesh first, identically on every rank. One rank keeps all (its box is infinite), as before. UGVR_MPI_WHOLE_MESH=1
+  // keeps the whole mesh on every rank (the clip box alone): the benchmark's baseline (bench/run_mpi_exact.sh).
+  const char* whole = std::getenv("UGVR_MPI_WHOLE_MESH");
+  if (size() > 1 && !(whole && std::string_view(whole) == "1"))
+    scene->engine.restrict_to_box(tree.boxes[size_t(rank())]);
+  else
+    scene->engine.set_clip_box(tree.boxes[size_t(rank())]);
   return std::make_unique<MpiRenderer>(make_renderer(scene, options), std::move(tree));
 }
 

@@ -84,6 +84,11 @@ struct ExactEngine::Impl {
   double nonlinear_tolerance = 1e-3;
   double build_seconds = 0;
   std::optional<Bounds> clip_box;
+  // After restrict_to_box: the source index of each kept cell and point, and the source mesh's sizes (set_field
+  // reads the dataset in the source numbering, then gathers).
+  bool restricted = false;
+  std::vector<uint32_t> cell_source, point_source;
+  uint64_t source_points = 0, source_cells = 0;
 };
 
 namespace {
@@ -738,7 +743,7 @@ void ExactEngine::set_field(const Dataset& dataset, std::string_view selector) {
       fail_in("exact engine", "field \"" + name + "\" is per vertex in some blocks and per cell in others");
   std::vector<float> values;
   if (assoc == Association::Vertex) {
-    values.resize(I.mesh.points.size());
+    values.resize(I.restricted ? I.source_points : I.mesh.points.size());
     for (size_t b = 0; b < refs.size(); ++b) {
       const uint64_t n = grid_point_count(dataset.blocks[b].grid);
       const uint64_t base = I.mesh.point_base[b];
@@ -748,7 +753,7 @@ void ExactEngine::set_field(const Dataset& dataset, std::string_view selector) {
       });
     }
   } else {
-    values.resize(I.mesh.cell_count());
+    values.resize(I.restricted ? I.source_cells : I.mesh.cell_count());
     for (size_t b = 0; b < refs.size(); ++b) {
       const std::vector<uint32_t> order = block_cell_order(dataset, I.mesh, b);
       for (uint64_t c = 0; c < order.size(); ++c)
@@ -759,6 +764,12 @@ void ExactEngine::set_field(const Dataset& dataset, std::string_view selector) {
   for (float v : values)
     if (!std::isnan(v)) lo = std::min(lo, double(v)), hi = std::max(hi, double(v));
   if (lo > hi) lo = hi = 0;  // all NaN
+  if (I.restricted) {        // the range above is the whole mesh's; keep the part's values
+    const std::vector<uint32_t>& source = assoc == Association::Cell ? I.cell_source : I.point_source;
+    std::vector<float> part(source.size());
+    for (size_t i = 0; i < source.size(); ++i) part[i] = values[source[i]];
+    values = std::move(part);
+  }
   I.values = std::move(values);
   I.per_cell = assoc == Association::Cell;
   I.field_name = name;
@@ -775,11 +786,30 @@ void ExactEngine::set_nonlinear_tolerance(double relative) {
 }
 void ExactEngine::set_clip_box(std::optional<Bounds> box) { impl_->clip_box = box; }
 const std::optional<Bounds>& ExactEngine::clip_box() const { return impl_->clip_box; }
+void ExactEngine::restrict_to_box(const Bounds& box) {
+  Impl& I = *impl_;
+  if (I.restricted) fail_in("exact engine", "restrict_to_box: the engine already holds only a part of its mesh");
+  WalkMeshPart part = restrict_walk_mesh(I.mesh, box);
+  if (I.bound) {
+    const std::vector<uint32_t>& source = I.per_cell ? part.cell_source : part.point_source;
+    std::vector<float> values(source.size());
+    for (size_t i = 0; i < source.size(); ++i) values[i] = I.values[source[i]];
+    I.values = std::move(values);
+  }
+  I.source_points = I.mesh.points.size();
+  I.source_cells = I.mesh.cell_count();
+  I.mesh = std::move(part.mesh);
+  I.cell_source = std::move(part.cell_source);
+  I.point_source = std::move(part.point_source);
+  I.restricted = true;
+  I.clip_box = box;
+}
 Bounds ExactEngine::bounds() const { return impl_->mesh.bounds; }
 uint64_t ExactEngine::cell_count() const { return impl_->mesh.cell_count(); }
 uint64_t ExactEngine::point_count() const { return impl_->mesh.points.size(); }
 uint64_t ExactEngine::memory_bytes() const {
-  return impl_->mesh.memory_bytes() + impl_->values.capacity() * sizeof(float);
+  return impl_->mesh.memory_bytes() + impl_->values.capacity() * sizeof(float) +
+         (impl_->cell_source.capacity() + impl_->point_source.capacity()) * sizeof(uint32_t);
 }
 double ExactEngine::build_seconds() const { return impl_->build_seconds; }
 const WalkMesh& ExactEngine::walk_mesh() const { return impl_->mesh; }
@@ -803,7 +833,8 @@ Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, cons
   std::vector<double> iso = settings.iso_values;
   std::sort(iso.begin(), iso.end());
   const double diagonal = length(I.mesh.bounds.size());
-  Scene scene{I.values, I.per_cell, I.mesh, table, tf, settings, iso, tolerance_abs(tf), 1e-7 * diagonal, I.clip_box, {}};
+  Scene scene{I.values, I.per_cell,        I.mesh,          table,      tf, settings,
+              iso,      tolerance_abs(tf), 1e-7 * diagonal, I.clip_box, {}};
   for (const Slice& sl : settings.slices) {
     TransferFunction colors = sl.color_map.empty() ? tf : builtin_preset(sl.color_map);
     if (sl.range)

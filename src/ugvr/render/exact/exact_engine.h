@@ -68,6 +68,12 @@ class ExactEngine {
   // default): whole rays.
   void set_clip_box(std::optional<Bounds> box);
   const std::optional<Bounds>& clip_box() const;
+  // Data-parallel rendering with a part of the mesh: keeps only the cells whose bounding boxes meet `box`
+  // (restrict_walk_mesh in walk_mesh.h; the faces where the mesh was cut become faces rays enter through) and sets
+  // the clip box to `box`, so the image is the whole mesh's clipped to the box while the rays walk only this part.
+  // The bound field (and any set_field after) keeps the whole mesh's range, so every part maps colours alike; bounds()
+  // stays the whole mesh's. Once per engine; throws ugvr::Error on a second call.
+  void restrict_to_box(const Bounds& box);
 
   Bounds bounds() const;
   uint64_t cell_count() const;

@@ -40,6 +40,21 @@ bool position_less(Vec3f a, Vec3f b, uint32_t ia, uint32_t ib) {
   return ia < ib;
 }
 
+// Appends face f of cell c to the boundary as one or two triangles (quadrilaterals split by quad_split).
+void append_boundary_face(WalkMesh& w, uint32_t c, uint32_t f) {
+  const int k = w.type_index(c);
+  const CellFace face = cell_info(kAllCellTypes[k]).faces[f];
+  if (face.size == 3) {
+    w.boundary.push_back({c, uint8_t(f), {0, 1, 2}});
+  } else if (w.quad_split_13(c, int(f))) {
+    w.boundary.push_back({c, uint8_t(f), {0, 1, 3}});
+    w.boundary.push_back({c, uint8_t(f), {1, 2, 3}});
+  } else {
+    w.boundary.push_back({c, uint8_t(f), {0, 1, 2}});
+    w.boundary.push_back({c, uint8_t(f), {0, 2, 3}});
+  }
+}
+
 }  // namespace
 
 uint64_t WalkMesh::memory_bytes() const {
@@ -159,22 +174,83 @@ WalkMesh build_walk_mesh(const Dataset& dataset) {
   // Boundary triangles, in cell order.
   w.boundary.reserve(topo.boundary.size() * 2);
   for (uint64_t packed : topo.boundary) {
-    const uint32_t c = uint32_t(face_cell(packed));
-    const uint32_t f = face_local(packed);
-    const int k = w.type_index(c);
-    const CellFace face = cell_info(kAllCellTypes[k]).faces[f];
-    if (face.size == 3) {
-      w.boundary.push_back({c, uint8_t(f), {0, 1, 2}});
-    } else if (w.quad_split_13(c, int(f))) {
-      w.boundary.push_back({c, uint8_t(f), {0, 1, 3}});
-      w.boundary.push_back({c, uint8_t(f), {1, 2, 3}});
-    } else {
-      w.boundary.push_back({c, uint8_t(f), {0, 1, 2}});
-      w.boundary.push_back({c, uint8_t(f), {0, 2, 3}});
-    }
+    append_boundary_face(w, uint32_t(face_cell(packed)), face_local(packed));
   }
   w.boundary.shrink_to_fit();
   return w;
+}
+
+WalkMeshPart restrict_walk_mesh(const WalkMesh& m, const Bounds& box) {
+  WalkMeshPart part;
+  WalkMesh& w = part.mesh;
+  const uint32_t n = m.cell_count();
+  // Closed overlap of the cell's bounding box with the box (whose faces may be infinite): a cell touching the box
+  // is kept, so no point of the box is left uncovered.
+  std::vector<uint8_t> keep(n, 0);
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 1 << 14), [&](const tbb::blocked_range<uint32_t>& r) {
+    for (uint32_t c = r.begin(); c != r.end(); ++c) {
+      const int k = m.type_index(c);
+      const uint32_t* v = m.cell_vertices(c, k);
+      Bounds cb;
+      for (int i = 0; i < cell_vertex_count(kAllCellTypes[k]); ++i) cb.add(to_double(m.points[v[i]]));
+      keep[c] = cb.lo.x <= box.hi.x && cb.hi.x >= box.lo.x && cb.lo.y <= box.hi.y && cb.hi.y >= box.lo.y &&
+                cb.lo.z <= box.hi.z && cb.hi.z >= box.lo.z;
+    }
+  });
+  std::vector<uint32_t> new_of(n, kWalkBoundary);
+  for (int k = 0; k < 4; ++k) {
+    w.type_begin[k] = uint32_t(part.cell_source.size());
+    for (uint32_t c = m.type_begin[k]; c < m.type_begin[k + 1]; ++c)
+      if (keep[c]) new_of[c] = uint32_t(part.cell_source.size()), part.cell_source.push_back(c);
+  }
+  w.type_begin[4] = uint32_t(part.cell_source.size());
+  keep = {};
+
+  // The kept cells' vertices, compacted in their old order.
+  std::vector<uint32_t> point_new(m.points.size(), kWalkBoundary);
+  for (uint32_t c : part.cell_source) {
+    const int k = m.type_index(c);
+    const uint32_t* v = m.cell_vertices(c, k);
+    for (int i = 0; i < cell_vertex_count(kAllCellTypes[k]); ++i) point_new[v[i]] = 0;
+  }
+  for (uint32_t p = 0; p < uint32_t(m.points.size()); ++p)
+    if (point_new[p] == 0) {
+      point_new[p] = uint32_t(part.point_source.size());
+      part.point_source.push_back(p);
+      w.points.push_back(m.points[p]);
+    }
+
+  for (int k = 0; k < 4; ++k) {
+    const int nv = cell_vertex_count(kAllCellTypes[k]), nf = cell_face_count(kAllCellTypes[k]);
+    w.conn_begin[k] = w.connectivity.size();
+    w.face_begin[k] = w.neighbors.size();
+    for (uint32_t c = w.type_begin[k]; c < w.type_begin[k + 1]; ++c) {
+      const uint32_t old = part.cell_source[c];
+      const uint32_t* v = m.cell_vertices(old, k);
+      for (int i = 0; i < nv; ++i) w.connectivity.push_back(point_new[v[i]]);
+      const uint32_t* nb = m.cell_neighbors(old, k);
+      for (int f = 0; f < nf; ++f) {
+        const uint32_t across = nb[f] == kWalkBoundary ? kWalkBoundary : new_of[nb[f] >> 3];
+        w.neighbors.push_back(across == kWalkBoundary ? kWalkBoundary : (across << 3) | (nb[f] & 7));
+      }
+      if (k > 0) w.quad_split.push_back(m.quad_split[old - m.type_begin[1]]);
+    }
+  }
+  // The part's boundary: the mesh's own faces and the faces where it was cut.
+  for (int k = 0; k < 4; ++k)
+    for (uint32_t c = w.type_begin[k]; c < w.type_begin[k + 1]; ++c) {
+      const uint32_t* nb = w.cell_neighbors(c, k);
+      for (int f = 0; f < cell_face_count(kAllCellTypes[k]); ++f)
+        if (nb[f] == kWalkBoundary) append_boundary_face(w, c, uint32_t(f));
+    }
+  // Grown by push_back: give back the slack (the part's memory is what a rank holds).
+  w.points.shrink_to_fit(), w.connectivity.shrink_to_fit(), w.neighbors.shrink_to_fit();
+  w.quad_split.shrink_to_fit(), w.boundary.shrink_to_fit();
+  part.cell_source.shrink_to_fit(), part.point_source.shrink_to_fit();
+  w.point_base = m.point_base;
+  w.block_type_begin = m.block_type_begin;
+  w.bounds = m.bounds;
+  return part;
 }
 
 std::vector<uint32_t> block_cell_order(const Dataset& dataset, const WalkMesh& mesh, size_t block) {

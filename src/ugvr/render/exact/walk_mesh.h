@@ -68,6 +68,20 @@ struct WalkMesh {
 // for an empty dataset or more than kMaxWalkCells cells.
 WalkMesh build_walk_mesh(const Dataset& dataset);
 
+// One rank's part of a walk mesh (data-parallel rendering, docs/mpi.md): the cells whose bounding boxes meet the
+// closed box `box`, renumbered in their old order (so still sorted by type) with their vertices compacted. Faces to
+// dropped cells become boundary faces (triangulated as the cell's quad_split says, like the mesh's own boundary), so
+// rays enter the part where it was cut as they enter the mesh. Every point of the box inside the mesh lies in a kept
+// cell, so the part covers box ∩ mesh and a renderer clipped to the box draws what the whole mesh draws there.
+// The part's point_base and block_type_begin still describe the source mesh's numbering (what a dataset's fields
+// are laid out by); cell_source[c] / point_source[p] give the source index of the part's cell c / point p. bounds
+// stay the whole mesh's (every rank frames the same camera).
+struct WalkMeshPart {
+  WalkMesh mesh;
+  std::vector<uint32_t> cell_source, point_source;
+};
+WalkMeshPart restrict_walk_mesh(const WalkMesh& mesh, const Bounds& box);
+
 // For a block, the engine cell index of each of its cells in the order the block's cell field lists them (for
 // structured blocks: only cells kept after IBLANK, in structured order, with the dropped ones marked kWalkBoundary).
 std::vector<uint32_t> block_cell_order(const Dataset& dataset, const WalkMesh& mesh, size_t block);
