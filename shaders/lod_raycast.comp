@@ -33,6 +33,9 @@
 #ifndef SLICES
 #define SLICES 0  // cutting planes (u_slice_*; docs/slices.md)
 #endif
+#ifndef TRICUBIC
+#define TRICUBIC 0  // isosurfaces on the cubic B-spline of the bricks' samples (LOD_MODE_ISO only; docs/tricubic.md)
+#endif
 
 layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE) in;
 
@@ -294,6 +297,78 @@ vec3 gradient_at(vec3 c, vec3 h) {
   g.z = texture(u_atlas, c + vec3(0, 0, u_atlas_inv.z)).r - texture(u_atlas, c - vec3(0, 0, u_atlas_inv.z)).r;
   return g / (2.0 * h);
 }
+
+#if TRICUBIC
+// The uniform cubic B-spline whose coefficients are the brick's samples (LaMar 2000 ch. 3, without the prefilter:
+// docs/tricubic.md says why), evaluated with 8 linear fetches (Sigg & Hadwiger 2005): along each axis the four
+// weights of the 4-texel stencil are positive, so each pair (w0, w1), (w2, w3) is one linear fetch between two texels
+// at h = the pair's centre of mass, weighted by g = the pair's sum. The first derivative has weights of one sign per
+// pair as well (dw0, dw1 <= 0 <= dw2, dw3), so a partial derivative is 8 fetches too. The stencil reaches one texel
+// beyond the cell: at a brick's border that is its 1-texel apron, which repeats the border sample (brick_pad.h), so
+// the spline there is that of the clamped brick, not of the neighbour's data (the seam docs/tricubic.md describes).
+// axis_weights: x in texel units (texel k's centre at k + 0.5); g0, g1 the pair weights, h0, h1 the pair positions
+// (texel units), of the value (deriv false) or of the derivative d/dx (deriv true).
+void axis_weights(vec3 x, bvec3 deriv, out vec3 g0, out vec3 g1, out vec3 h0, out vec3 h1) {
+  vec3 xs = x - 0.5;
+  vec3 i = floor(xs), f = xs - i;
+  vec3 f2 = f * f, f3 = f2 * f, r = 1.0 - f;
+  vec3 w0 = r * r * r / 6.0, w1 = (3.0 * f3 - 6.0 * f2 + 4.0) / 6.0;
+  vec3 w2 = (-3.0 * f3 + 3.0 * f2 + 3.0 * f + 1.0) / 6.0, w3 = f3 / 6.0;
+  vec3 d0 = -0.5 * r * r, d1 = 0.5 * f * (3.0 * f - 4.0), d2 = 0.5 * r * (3.0 * f + 1.0), d3 = 0.5 * f2;
+  w0 = mix(w0, d0, deriv);
+  w1 = mix(w1, d1, deriv);
+  w2 = mix(w2, d2, deriv);
+  w3 = mix(w3, d3, deriv);
+  g0 = w0 + w1;  // value: >= 1/6; derivative: in [-5/8, -1/2], never 0
+  g1 = w2 + w3;
+  h0 = i - 0.5 + w1 / g0;
+  h1 = i + 1.5 + w3 / g1;
+}
+
+// The spline (value and stencil, or a partial derivative per texel when deriv has that axis) at atlas coordinate c.
+vec2 cubic_at(vec3 c, bvec3 deriv) {
+  vec3 g0, g1, h0, h1;
+  axis_weights(c / u_atlas_inv, deriv, g0, g1, h0, h1);
+  h0 *= u_atlas_inv;
+  h1 *= u_atlas_inv;
+  vec2 v00 = g0.x * texture(u_atlas, vec3(h0.x, h0.y, h0.z)).rg + g1.x * texture(u_atlas, vec3(h1.x, h0.y, h0.z)).rg;
+  vec2 v10 = g0.x * texture(u_atlas, vec3(h0.x, h1.y, h0.z)).rg + g1.x * texture(u_atlas, vec3(h1.x, h1.y, h0.z)).rg;
+  vec2 v01 = g0.x * texture(u_atlas, vec3(h0.x, h0.y, h1.z)).rg + g1.x * texture(u_atlas, vec3(h1.x, h0.y, h1.z)).rg;
+  vec2 v11 = g0.x * texture(u_atlas, vec3(h0.x, h1.y, h1.z)).rg + g1.x * texture(u_atlas, vec3(h1.x, h1.y, h1.z)).rg;
+  return g0.z * (g0.y * v00 + g1.y * v10) + g1.z * (g0.y * v01 + g1.y * v11);
+}
+
+// The spline's analytic gradient, world units (h: the node's voxel size, world), 24 fetches: only at a surface.
+vec3 cubic_gradient(vec3 c, vec3 h) {
+  return vec3(cubic_at(c, bvec3(true, false, false)).r, cubic_at(c, bvec3(false, true, false)).r,
+              cubic_at(c, bvec3(false, false, true)).r) /
+         h;
+}
+
+// The crossing of iso between ta (value fa) and tb (fb) on opposite sides, on the spline along the ray (atlas point
+// c0 + c1 t): regula falsi with the Illinois fix (the end that stays twice has its residual halved, so neither end
+// sticks), 4 steps of 8 fetches; then the secant through the last bracket.
+float cubic_crossing(float ta, float fa, float tb, float fb, float iso, vec3 c0, vec3 c1) {
+  float ra = fa - iso, rb = fb - iso;
+  int side = 0;
+  for (int it = 0; it < 4; ++it) {
+    float tm = ta + ra / (ra - rb) * (tb - ta);
+    float rm = cubic_at(c0 + c1 * tm, bvec3(false)).r - iso;
+    if ((rm < 0.0) == (ra < 0.0)) {
+      ta = tm;
+      ra = rm;
+      if (side == -1) rb *= 0.5;
+      side = -1;
+    } else {
+      tb = tm;
+      rb = rm;
+      if (side == 1) ra *= 0.5;
+      side = 1;
+    }
+  }
+  return ra == rb ? 0.5 * (ta + tb) : ta + ra / (ra - rb) * (tb - ta);
+}
+#endif
 
 vec3 shade_surface(vec3 color, vec3 g, vec3 view) {
   float len = length(g);
@@ -569,7 +644,11 @@ void main() {
 #endif
     for (float sb = tstart;;) {
       vec3 c = c0 + c1 * sb;
+#if TRICUBIC
+      vec2 vb = cubic_at(c, bvec3(false));  // value and stencil on the spline (the stencil: smooth, same threshold)
+#else
       vec2 vb = texture(u_atlas, c).rg;
+#endif
 #if SLICES
       float stencil_b = vb.g;  // before the faces' state replaces it (below)
 #endif
@@ -677,12 +756,22 @@ void main() {
           for (int i = 0; i < u_iso_count; ++i) {
             float iso = iso_value(up ? i : u_iso_count - 1 - i);
             if ((prev_value < iso) == (vb.r < iso)) continue;
+#if TRICUBIC
+            // Bracketed by the samples, located on the spline (a crossing of the previous node's last segment has
+            // prev_t at this node's entry t, up to rounding: searched from t in this node's brick).
+            float th = cubic_crossing(max(prev_t, t), prev_value, sb, vb.r, iso, c0, c1);
+#else
             float th = prev_t + (iso - prev_value) / (vb.r - prev_value) * (sb - prev_t);
+#endif
 #if SLICES
             if (th < vol_lo || th > vol_hi) continue;
 #endif
             vec3 ch = c0 + c1 * max(th, t);  // a crossing just before this brick: its entry
+#if TRICUBIC
+            vec3 color = shade_surface(tf_at(iso).rgb, cubic_gradient(ch, voxel), dir_world);
+#else
             vec3 color = shade_surface(tf_at(iso).rgb, gradient_at(ch, voxel), dir_world);
+#endif
             radiance += transmittance * u_iso_opacity * color;
             transmittance *= 1.0 - u_iso_opacity;
           }

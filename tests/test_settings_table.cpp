@@ -74,6 +74,7 @@ const std::map<std::string, Example>& examples() {
         json::array(
             {{{"point", {0.5, 0, 0}}, {"normal", {0, 0, 1}}, {"opacity", 1}, {"color_map", ""}, {"range", nullptr}}})}},
       {"hide_volume", {"front", "front", "back", "back"}},
+      {"interpolation", {"tricubic", "tricubic", "tricubic", "tricubic"}},
   };
   return m;
 }

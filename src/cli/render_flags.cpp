@@ -119,6 +119,7 @@ RenderSettings settings_from_flags(const RenderOptions& o) {
   if (!o.sample_step.empty()) s.sample_step = parse_setting(o.sample_step, "--sample-step", "sample_step");
   if (o.no_lighting) s.lighting = false;
   if (o.volume_lighting) s.volume_lighting = true;
+  if (!o.interpolation.empty()) s.interpolation = parse_interpolation(o.interpolation, "--interpolation");
   if (!o.background.empty()) {
     const std::vector<double> b = parse_list(o.background, "--background", 3, 4, "R,G,B or R,G,B,A");
     for (double c : b)
@@ -271,6 +272,10 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
   cmd->add_option("--hide-volume", opts->hide_volume,
                   "Hide the volume around the slices: front (the side each normal points to), back, all or none")
       ->type_name("WHERE");
+  cmd->add_option("--interpolation", opts->interpolation,
+                  "Isosurfaces in the lod engine: trilinear (default) or tricubic (cubic B-spline, smooth normals; "
+                  "docs/tricubic.md)")
+      ->type_name("trilinear|tricubic");
   cmd->add_option("--settings", opts->settings, "Render settings JSON; the flags above override it")->type_name("FILE");
   cmd->add_option("--float", opts->float_output, "Also write the image as a float .pfm")->type_name("FILE");
   cmd->add_option("--stats", opts->stats, "Write timings, counters and the camera and settings used as JSON")

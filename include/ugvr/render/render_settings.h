@@ -5,7 +5,7 @@
 //    "iso_opacity": 1, "lighting": true, "volume_lighting": false, "early_termination_opacity": 0.99,
 //    "sample_step": 0, "boundary_overlay_opacity": 0,
 //    "slices": [{"point": [x,y,z], "normal": [x,y,z], "opacity": 1, "color_map": "", "range": null | [lo, hi]}],
-//    "hide_volume": "none" | "front" | "back" | "all"}
+//    "hide_volume": "none" | "front" | "back" | "all", "interpolation": "trilinear" | "tricubic"}
 #pragma once
 
 #include <array>
@@ -55,6 +55,15 @@ std::string_view hide_volume_name(HideVolume h);
 // "none", "front", "back", "all"; throws ugvr::Error naming `source`.
 HideVolume parse_hide_volume(std::string_view text, std::string_view source);
 
+// How the LOD engine reconstructs the field between a brick's samples for isosurfaces (docs/tricubic.md): trilinear
+// (C0; normals by central differences) or the cubic B-spline of the samples (C2; the surface is found on it and its
+// normals are its analytic gradient). Other modes and the exact engine (which interpolates each cell exactly) ignore
+// it.
+enum class Interpolation { Trilinear, Tricubic };
+std::string_view interpolation_name(Interpolation i);
+// "trilinear", "tricubic"; throws ugvr::Error naming `source`.
+Interpolation parse_interpolation(std::string_view text, std::string_view source);
+
 struct ImageSize {
   int width = 0, height = 0;
   bool operator==(const ImageSize&) const = default;
@@ -77,6 +86,7 @@ struct RenderSettings {
   double boundary_overlay_opacity = 0;      // opacity of the dataset's outer boundary drawn over the image; 0 = off
   std::vector<Slice> slices;                // at most kMaxSlices
   HideVolume hide_volume = HideVolume::None;
+  Interpolation interpolation = Interpolation::Trilinear;
 
   // Throws ugvr::Error "SOURCE: key "K": message": size in [1, 16384], background in [0, 1], isosurface mode
   // needs iso_values, all numbers finite, clip normal non-zero, early termination in (0, 1], step >= 0,

@@ -112,6 +112,14 @@ HideVolume parse_hide_volume(std::string_view text, std::string_view source) {
   fail_in(source, "expected none, front, back or all, found \"" + std::string(text) + "\"");
 }
 
+std::string_view interpolation_name(Interpolation i) { return i == Interpolation::Tricubic ? "tricubic" : "trilinear"; }
+
+Interpolation parse_interpolation(std::string_view text, std::string_view source) {
+  for (Interpolation i : {Interpolation::Trilinear, Interpolation::Tricubic})
+    if (text == interpolation_name(i)) return i;
+  fail_in(source, "expected trilinear or tricubic, found \"" + std::string(text) + "\"");
+}
+
 std::string_view render_mode_name(RenderMode m) {
   switch (m) {
     case RenderMode::EmissionAbsorption: return "emission_absorption";
@@ -186,6 +194,7 @@ nlohmann::json settings_to_json(const RenderSettings& s) {
                            {"range", r}});
   }
   j["hide_volume"] = hide_volume_name(s.hide_volume);
+  j["interpolation"] = interpolation_name(s.interpolation);
   if (s.clip_plane) {
     const ClipPlane& c = *s.clip_plane;
     j["clip_plane"] = {{"point", {c.point.x, c.point.y, c.point.z}}, {"normal", {c.normal.x, c.normal.y, c.normal.z}}};
@@ -239,6 +248,9 @@ RenderSettings settings_from_json(const nlohmann::json& j, std::string_view sour
     } else if (key == "hide_volume") {
       if (!v.is_string()) fail_key(source, key, "expected \"none\", \"front\", \"back\" or \"all\"");
       s.hide_volume = parse_hide_volume(v.get<std::string>(), std::string(source) + ": key \"hide_volume\"");
+    } else if (key == "interpolation") {
+      if (!v.is_string()) fail_key(source, key, "expected \"trilinear\" or \"tricubic\"");
+      s.interpolation = parse_interpolation(v.get<std::string>(), std::string(source) + ": key \"interpolation\"");
     } else {
       fail_key(source, key, "unknown render setting");
     }

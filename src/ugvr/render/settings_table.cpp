@@ -24,7 +24,7 @@ std::string number_text(double v) {
 constexpr std::string_view kCanvasSize =
     "viewer: the canvas's size, sent in the \"hello\" and \"resize\" messages, not a setting";
 
-const std::array<RenderSettingInfo, 15> kTable = {{
+const std::array<RenderSettingInfo, 16> kTable = {{
     {"width", "--size", "", "", "Image width in pixels", "", SettingInterval{1, kMaxImageSide}, kCanvasSize},
     {"height", "--size", "", "", "Image height in pixels", "", SettingInterval{1, kMaxImageSide}, kCanvasSize},
     {"background", "--background", "background", "background", "Background colour R,G,B[,A]",
@@ -60,6 +60,9 @@ const std::array<RenderSettingInfo, 15> kTable = {{
     {"hide_volume", "--hide-volume", "hide_volume", "", "Where the volume is hidden around the slices",
      "none (default), front (the side each slice's normal points to), back or all", std::nullopt,
      "page: web/slices.js's own panel, not one control"},
+    {"interpolation", "--interpolation", "", "", "Reconstruction between voxels for isosurfaces (lod engine)",
+     "trilinear (default) or tricubic (cubic B-spline, analytic normals; docs/tricubic.md)", std::nullopt,
+     "viewer: not yet (issue 22 part 1 added it to the CLI and the JSON settings only)"},
 }};
 
 }  // namespace

@@ -86,9 +86,9 @@ struct LodEngine::Impl {
   const GlContext& gl;
   LodOptions options;
   uint32_t field = 0;
-  // By (mode, volume lighting, boundary overlay, slices): compile-time variants.
-  std::map<std::tuple<int, bool, bool, bool>, ComputeProgram> programs;
-  ComputeProgram& program_for(int mode, bool volume_lighting, bool overlay, bool slices = false);
+  // By (mode, volume lighting, boundary overlay, slices, tricubic): compile-time variants.
+  std::map<std::tuple<int, bool, bool, bool, bool>, ComputeProgram> programs;
+  ComputeProgram& program_for(int mode, bool volume_lighting, bool overlay, bool slices = false, bool tricubic = false);
   GlBuffer tree, state, counters, readback;
   // The boundary faces (store format version 4), static; `faces` false: the store has none, and the shader is compiled
   // without them (FACES 0: the stencil alone, at no cost).
@@ -118,16 +118,17 @@ struct LodEngine::Impl {
   void upload_slice_colors(const TransferFunction& tf, const RenderSettings& settings);
 };
 
-ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, bool overlay, bool slices) {
-  auto it = programs.find({mode, volume_lighting, overlay, slices});
+ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, bool overlay, bool slices, bool tricubic) {
+  auto it = programs.find({mode, volume_lighting, overlay, slices, tricubic});
   if (it == programs.end()) {
     ComputeProgram p("lod_raycast.comp", {{"MODE", std::to_string(mode)},
                                           {"VOLUME_LIGHTING", volume_lighting ? "1" : "0"},
                                           {"OVERLAY", overlay ? "1" : "0"},
                                           {"FACES", faces ? "1" : "0"},
-                                          {"SLICES", slices ? "1" : "0"}});
+                                          {"SLICES", slices ? "1" : "0"},
+                                          {"TRICUBIC", tricubic ? "1" : "0"}});
     check_contract(p);
-    it = programs.emplace(std::make_tuple(mode, volume_lighting, overlay, slices), std::move(p)).first;
+    it = programs.emplace(std::make_tuple(mode, volume_lighting, overlay, slices, tricubic), std::move(p)).first;
   }
   return it->second;
 }
@@ -532,7 +533,10 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
                                                              : LOD_MODE_EA;
   const bool overlay = boundary_overlay_on(settings);
   const bool slices = !settings.slices.empty() || settings.hide_volume != HideVolume::None;
-  const ComputeProgram& program = I.program_for(mode, mode == LOD_MODE_EA && settings.volume_lighting, overlay, slices);
+  // Tricubic interpolation is an isosurface variant only (docs/tricubic.md); the other modes ignore the setting.
+  const bool tricubic = mode == LOD_MODE_ISO && settings.interpolation == Interpolation::Tricubic;
+  const ComputeProgram& program =
+      I.program_for(mode, mode == LOD_MODE_EA && settings.volume_lighting, overlay, slices, tricubic);
   if (slices) {
     I.upload_slice_colors(tf, settings);
     glBindTextureUnit(lod_gpu::SLICE_TEXTURE_BINDING, I.slice_texture.id());
