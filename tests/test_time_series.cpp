@@ -351,7 +351,9 @@ TEST(TimeSeries, GeneratorMovesTheVortexStreet) {
   EXPECT_GT(differ, pa->tuples() / 100) << "the wake changes";
   EXPECT_LT(differ, pa->tuples()) << "the rest of the flow is steady";
   g.time = 1.0;
-  const Field* pc = generate_in_memory(g).blocks[0].fields.find("pressure");
+  const Dataset c = generate_in_memory(g);  // kept: pc points into it
+  const Field* pc = c.blocks[0].fields.find("pressure");
+  ASSERT_TRUE(pc);
   double worst = 0;
   for (uint64_t i = 0; i < pa->tuples(); ++i) worst = std::max(worst, std::abs(pa->scalar(i, 0) - pc->scalar(i, 0)));
   EXPECT_LT(worst, 1e-5) << "one period later the street is where it was: a series of N steps loops";
