@@ -139,8 +139,8 @@ layout(std140, binding = FRAME_BLOCK_BINDING) uniform LodFrame {
   int u_hide_volume;                   // 500 0 none, 1 front, 2 back, 3 all (render_settings.h HideVolume)
   int u_unused2;                       // 504
   int u_unused3;                       // 508
-  vec4 u_box_lo;                        // 512 data-parallel rendering (src/ugvr/mpi): only t inside the box
-  vec4 u_box_hi;                        // 528 [lo, hi] (xyz, normalised) is drawn; read only when u_box_lo.w > 0.5
+  vec4 u_box_lo;                       // 512 data-parallel rendering (src/ugvr/mpi): only t inside the box
+  vec4 u_box_hi;                       // 528 [lo, hi] (xyz, normalised) is drawn; read only when u_box_lo.w > 0.5
 };
 
 #ifdef __cplusplus

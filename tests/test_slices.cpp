@@ -317,7 +317,6 @@ TEST(ExactSlice, CompositedInDepthOrderWithTheVolume) {
   }
 }
 
-
 // ---- The LOD engine against the exact one ----
 
 struct GlShared {

@@ -62,8 +62,8 @@
 #include "ugvr/core/file.h"
 #include "ugvr/grid/polyhedra.h"
 #include "ugvr/io/reader.h"
-#include "ugvr/io/step_lists.h"
 #include "ugvr/io/saturating_size.h"
+#include "ugvr/io/step_lists.h"
 #include "ugvr/io/text_tokenizer.h"
 
 namespace ugvr {
