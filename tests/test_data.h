@@ -33,14 +33,14 @@ inline std::string data_dir() {
 
 inline std::string data_path(const std::string& relative) { return data_dir() + "/" + relative; }
 
-// Runs the ugvr binary with `args` (stderr merged into the output); returns its exit status and output.
+// What a command printed (stderr merged into the output) and its exit status.
 struct CommandResult {
   int status;
   std::string out;
 };
-inline CommandResult run_ugvr(const std::string& args) {
-  const std::string cmd = std::string(UGVR_BINARY) + " --quiet " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
+// Runs a shell command line.
+inline CommandResult run_command(const std::string& command) {
+  FILE* p = popen((command + " 2>&1").c_str(), "r");
   if (!p) return {-1, "popen failed"};
   std::string out;
   char buf[4096];
@@ -48,6 +48,10 @@ inline CommandResult run_ugvr(const std::string& args) {
   while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
   const int status = pclose(p);
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+// Runs the ugvr binary with `args`.
+inline CommandResult run_ugvr(const std::string& args) {
+  return run_command(std::string(UGVR_BINARY) + " --quiet " + args);
 }
 
 // A fresh scratch directory per test, removed when the test ends.

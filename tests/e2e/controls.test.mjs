@@ -4,8 +4,7 @@
 import assert from "node:assert/strict";
 import { readFile } from "node:fs/promises";
 import { after, before, test } from "node:test";
-import { canvasPixels, cameraMoved, changedFraction, drag, launchBrowser, startViewer, stopViewer, viewerState,
-         waitConverged, waitFor } from "./lib.mjs";
+import { cameraMoved, canvasPixels, changedFraction, drag, launchBrowser, openPage, startViewer, stopViewer, viewerState, waitConverged, waitFor } from "./lib.mjs";
 
 const UGVR = process.env.UGVR, STORE = process.env.UGVR_STORE;
 if (!UGVR || !STORE) throw new Error("set UGVR (the ugvr binary) and UGVR_STORE (a .ugvr store); run.sh does");
@@ -34,10 +33,7 @@ const sameCamera = (a, b) =>
 before(async () => {
   viewer = await startViewer(UGVR, STORE);
   browser = await launchBrowser();
-  context = await browser.newContext({ viewport: VIEWPORT, acceptDownloads: true });
-  page = await context.newPage();
-  page.on("pageerror", (e) => console.error(`page error: ${e.message}`));
-  await page.goto(viewer.url);
+  ({ context, page } = await openPage(browser, viewer.url, { viewport: VIEWPORT, acceptDownloads: true }));
   await waitConverged(page, CONVERGE_MS);
 });
 

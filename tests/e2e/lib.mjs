@@ -61,6 +61,15 @@ export function launchBrowser() {
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
 // Polls fn (async, returns a truthy value when done) every intervalMs until it is truthy or timeoutMs passes.
+// A new context of `browser` (newContext's options) with one page opened at `url`; the page's errors go to stderr.
+export async function openPage(browser, url, contextOptions) {
+  const context = await browser.newContext(contextOptions);
+  const page = await context.newPage();
+  page.on("pageerror", (e) => console.error(`page error: ${e.message}`));
+  await page.goto(url);
+  return { context, page };
+}
+
 export async function waitFor(what, fn, timeoutMs, intervalMs = 50) {
   const start = Date.now();
   let last;

@@ -3,7 +3,7 @@
 // against its own `ugvr view` of the store.
 import assert from "node:assert/strict";
 import { after, before, test } from "node:test";
-import { canvasPixels, changedFraction, launchBrowser, startViewer, stopViewer, waitConverged } from "./lib.mjs";
+import { canvasPixels, changedFraction, launchBrowser, openPage, startViewer, stopViewer, waitConverged } from "./lib.mjs";
 
 const UGVR = process.env.UGVR, STORE = process.env.UGVR_STORE;
 if (!UGVR || !STORE) throw new Error("set UGVR (the ugvr binary) and UGVR_STORE (a .ugvr store); run.sh does");
@@ -23,10 +23,7 @@ const setRange = (locator, value) =>
 before(async () => {
   viewer = await startViewer(UGVR, STORE);
   browser = await launchBrowser();
-  const context = await browser.newContext({ viewport: { width: 720, height: 520 } });
-  page = await context.newPage();
-  page.on("pageerror", (e) => console.error(`page error: ${e.message}`));
-  await page.goto(viewer.url);
+  ({ page } = await openPage(browser, viewer.url, { viewport: { width: 720, height: 520 } }));
   await waitConverged(page, CONVERGE_MS);
 });
 

@@ -3,7 +3,7 @@
 // shows and the image changes; play advances through the steps to the last (loop off) and stops there. Run by run.sh.
 import assert from "node:assert/strict";
 import { after, before, test } from "node:test";
-import { canvasPixels, changedFraction, launchBrowser, startViewer, stopViewer, waitConverged, waitFor } from "./lib.mjs";
+import { canvasPixels, changedFraction, launchBrowser, openPage, startViewer, stopViewer, waitConverged, waitFor } from "./lib.mjs";
 
 const UGVR = process.env.UGVR, SERIES = process.env.UGVR_SERIES;
 if (!UGVR || !SERIES) throw new Error("set UGVR (the ugvr binary) and UGVR_SERIES (a .pvd series); run.sh does");
@@ -17,10 +17,7 @@ const timeMessages = async () => (await page.evaluate(() => window.ugvrViewer.lo
 before(async () => {
   viewer = await startViewer(UGVR, SERIES);
   browser = await launchBrowser();
-  const context = await browser.newContext({ viewport: { width: 720, height: 560 } });
-  page = await context.newPage();
-  page.on("pageerror", (e) => console.error(`page error: ${e.message}`));
-  await page.goto(viewer.url);
+  ({ page } = await openPage(browser, viewer.url, { viewport: { width: 720, height: 560 } }));
   await waitConverged(page, CONVERGE_MS);
 });
 

@@ -2,7 +2,6 @@
 // the 1-rank image, and a failing rank ends the job with its message. Built and registered only with UGVR_MPI. One
 // thread per rank (--threads 1); llvmpipe for the LOD engine.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <algorithm>
 #include <cmath>
@@ -19,24 +18,13 @@ namespace {
 
 using test::CommandResult;
 
-CommandResult run_shell(const std::string& cmd) {
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return {-1, "popen failed"};
-  std::string out;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
-
 // `ranks` processes of `ugvr ARGS` under mpirun, killed after 120 s (a hang fails the test rather than the suite).
 CommandResult mpirun(int ranks, const std::string& args) {
   // Open MPI refuses root unless told (CI containers run as root); one thread per rank.
   setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
   setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
-  return run_shell("timeout 120 " + std::string(UGVR_MPIEXEC) + " --oversubscribe -np " + std::to_string(ranks) + " " +
-                   UGVR_BINARY + " --quiet " + args);
+  return test::run_command("timeout 120 " + std::string(UGVR_MPIEXEC) + " --oversubscribe -np " +
+                           std::to_string(ranks) + " " + UGVR_BINARY + " --quiet " + args);
 }
 
 class MpiRender : public ::testing::Test {
