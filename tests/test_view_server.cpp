@@ -30,6 +30,7 @@
 #include "ugvr/grid/structured_cells.h"
 #include "ugvr/grid/structured_grid.h"
 #include "ugvr/octree/builder.h"
+#include "ugvr/view/tab_memory.h"
 #include "ugvr/view/view_server.h"
 
 namespace ugvr::view {
@@ -608,6 +609,72 @@ TEST(ViewServer, AHelloFloodWithoutReadingKeepsTheServerSmall) {
     (void)before, (void)after;
 #endif
   }
+}
+
+// Issue 23: every tab's allocations (outgoing queue, canvas, RAM brick cache) are charged against one server-wide
+// budget: a tab past it is refused with the reason, a later tab gets a smaller cache, a canvas too large is refused,
+// and a tab that leaves gives its charge back.
+TEST(ViewServer, TabsShareOneMemoryBudget) {
+  constexpr uint64_t MiB = uint64_t(1) << 20;
+  const uint64_t fixed = kTabQueueBytes + canvas_bytes(512, 512);  // at the page's initial size
+  std::unique_ptr<ViewServer> server;
+  {
+    ViewServerOptions o;
+    o.store = shared().store;
+    o.ram_per_session = 64 * MiB;
+    o.tabs_memory = (fixed + 64 * MiB) + (fixed + 40 * MiB);
+    try {
+      server = std::make_unique<ViewServer>(o);
+    } catch (const Error& e) {
+      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
+      FAIL() << "cannot start the server: " << e.what();
+    }
+  }
+  auto ram_budget = [](Client& c) {  // at the size the tab was admitted with, so that its charge stays
+    c.send(R"({"type":"hello","width":512,"height":512})");
+    const Frame f = read_frame(c);
+    return f.status ? (*f.status)["ram_budget"].get<uint64_t>() : 0;
+  };
+  auto upgrade = [&]() -> HttpReply {
+    net::io_context ioc;
+    tcp::socket s(ioc);
+    s.connect({net::ip::make_address("127.0.0.1"), server->port()});
+    set_receive_timeout(s, 30);
+    http::request<http::empty_body> req(http::verb::get, "/ws", 11);
+    req.set(http::field::host, "127.0.0.1:" + std::to_string(server->port()));
+    req.set(http::field::upgrade, "websocket");
+    req.set(http::field::connection, "upgrade");
+    req.set(http::field::sec_websocket_key, "dGhlIHNhbXBsZSBub25jZQ==");
+    req.set(http::field::sec_websocket_version, "13");
+    http::write(s, req);
+    beast::flat_buffer buffer;
+    http::response<http::string_body> res;
+    http::read(s, buffer, res);
+    return {int(res.result_int()), res.body(), ""};
+  };
+  auto a = std::make_unique<Client>(server->port());
+  EXPECT_EQ(ram_budget(*a), 64 * MiB);
+  Client b(server->port());
+  EXPECT_EQ(ram_budget(b), 40 * MiB) << "the second tab's cache is what the budget has left";
+  const HttpReply refused = upgrade();
+  EXPECT_EQ(refused.status, 503);
+  EXPECT_NE(refused.body.find("--tabs-memory"), std::string::npos) << refused.body;
+  // A canvas past the budget is refused; the tab goes on at its size.
+  b.send(R"({"type":"resize","width":4096,"height":4096})");
+  EXPECT_NE(read_error(b).find("4096x4096"), std::string::npos);
+  // The first tab leaves: a new one is admitted (the charge is given back when the socket closes).
+  a.reset();
+  bool admitted = false;
+  for (int attempt = 0; attempt < 100 && !admitted; ++attempt) {
+    try {
+      Client c(server->port());
+      admitted = true;
+      EXPECT_EQ(ram_budget(c), 64 * MiB);
+    } catch (const beast::system_error&) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+  }
+  EXPECT_TRUE(admitted) << "no tab admitted after one left";
 }
 
 // The Python API's live view (Viewer.camera / Viewer.tf): current_view reports what the tab that moved last shows;

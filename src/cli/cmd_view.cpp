@@ -48,6 +48,7 @@ struct Options {
   uint64_t gpu_memory = uint64_t(2) << 30;
   uint64_t ram_memory = uint64_t(1) << 30;
   uint64_t memory_budget = 0;  // --memory-budget (view/memory_budget.h); 0: not given
+  uint64_t tabs_memory = 0;    // --tabs-memory (view/tab_memory.h); 0: the memory budget
 };
 
 bool is_store(const std::vector<std::string>& inputs) {
@@ -75,6 +76,9 @@ void run_view(const Options& o) {
   vo.gpu = o.gpu;
   vo.gpu_memory = o.gpu_memory;
   vo.ram_per_session = o.ram_memory;
+  vo.tabs_memory = o.tabs_memory ? o.tabs_memory
+                                 : view::view_memory_budget(o.memory_budget ? std::optional<uint64_t>(o.memory_budget)
+                                                                            : std::nullopt);
   vo.free_grid = o.free_grid;
   const ImageSize size = parse_size(o.size, "--size");
   if (size.width < view::kMinViewSide || size.width > view::kMaxViewSide || size.height < view::kMinViewSide ||
@@ -278,6 +282,11 @@ void register_view(CLI::App& app) {
       ->default_str("512");
   add_gpu_memory_flags(*cmd, opts->gpu, opts->gpu_memory, opts->ram_memory,
                        "per browser tab: what a resting view can refine to");
+  cmd->add_option("--tabs-memory", opts->tabs_memory,
+                  "RAM all browser tabs together may hold: each tab's canvas, outgoing queue and RAM brick cache "
+                  "(e.g. 4GiB; default: --memory-budget). A tab that does not fit is refused; later tabs get less "
+                  "than --ram-memory when it runs short")
+      ->transform(CLI::AsSizeValue(true));
   cmd->add_option("--fps", opts->fps, "Frame-rate target while interacting (0: every frame at full quality)")
       ->default_str("10");
   cmd->callback([opts] { run_view(*opts); });

@@ -253,7 +253,7 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   if (!tab.renderer || tab.engine != engine) {
     RendererOptions ro;
     ro.interactive = true;
-    ro.time_critical.ram_budget_bytes = options_.ram_per_session;
+    ro.time_critical.ram_budget_bytes = job.ram_budget ? job.ram_budget : options_.ram_per_session;
     ro.time_critical.loader_threads = 2;
     ro.gl_context = gl_;  // the exact engine runs on the GPU where there is a hardware one (device auto)
     // The old renderer goes first: a level-of-detail session joins its loader threads and drops its RAM cache.

@@ -47,6 +47,7 @@ std::optional<FrameJob> FrameScheduler::next() {
     FrameJob job;
     job.tab = t.id;
     job.request = t.view.request;
+    job.ram_budget = t.ram_budget;
     job.generation = t.view.generation;
     job.full_quality = t.view.full_quality;
     job.resting = t.view.generation == t.rendered_generation;

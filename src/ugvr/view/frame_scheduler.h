@@ -25,6 +25,7 @@ struct TabState {
   bool converged = false;            // its last frame was converged (or failed: not retried until the view changes)
   uint64_t rendered_generation = 0;  // view.generation its last frame showed
   bool closed = false;               // its socket has gone; remove_closed() drops it
+  uint64_t ram_budget = 0;           // its RAM brick cache's budget (tab_memory.h); 0: the engine host's default
 };
 
 // A tab wants a frame: it said hello, has none on the wire, and its view changed, or is still refining, or it asked
@@ -42,6 +43,7 @@ struct FrameJob {
   bool resting = false;       // the view is the one the tab's previous frame showed
   size_t streaming = 1;       // tabs streaming now (at least 1, this one)
   double target_fps = 0;      // the frame-rate target of the tab's controller: request.fps x streaming
+  uint64_t ram_budget = 0;    // TabState::ram_budget
 };
 
 class FrameScheduler {

@@ -8,6 +8,8 @@
 #include <utility>
 #include <boost/asio.hpp>
 // clang-format on
+#include <malloc.h>
+
 #include <chrono>
 #include <condition_variable>
 #include <functional>
@@ -23,7 +25,9 @@
 #include "ugvr/view/engine_host.h"
 #include "ugvr/view/frame_scheduler.h"
 #include "ugvr/view/http_routes.h"
+#include "ugvr/view/memory_budget.h"
 #include "ugvr/view/security_policy.h"
+#include "ugvr/view/tab_memory.h"
 #include "ugvr/view/view_protocol.h"
 #include "ugvr/view/view_request.h"
 #include "ugvr/view/ws_session.h"
@@ -57,6 +61,7 @@ struct ViewServer::Impl final : HttpHost {
   FrameScheduler scheduler;
   std::map<uint64_t, std::weak_ptr<WsSession>> sockets;  // of the scheduler's tabs
   std::set<uint64_t> opening;                            // tabs admitted, their WebSocket handshake not done yet
+  std::optional<TabMemory> tab_memory;                   // every tab's allocations, charged from admission to close
   // set_view: what every tab was moved to, and what new tabs start from (after the scene's own), with its message.
   std::optional<Camera> camera_set;
   std::optional<TransferFunction> tf_set;
@@ -119,6 +124,10 @@ struct ViewServer::Impl final : HttpHost {
     if (!why.empty()) return std::nullopt;
     TabState tab;
     tab.id = next_id++;
+    // Charged before the handshake, like the tab limit: the canvas at the page's initial size until hello says more.
+    const std::optional<TabCharge> charge = tab_memory->admit(tab.id, options.width, options.height, why);
+    if (!charge) return std::nullopt;
+    tab.ram_budget = charge->cache;
     opening.insert(tab.id);
     tab.view = initial_view(scene);
     apply_view_set(tab.view);
@@ -135,6 +144,21 @@ struct ViewServer::Impl final : HttpHost {
     std::lock_guard lock(mutex);
     TabState* tab = scheduler.find(id);
     if (!tab) return replies;  // closed meanwhile
+    if (const auto* size = std::get_if<SizeMessage>(&message)) {
+      std::string why;
+      if (!tab_memory->resize(id, size->width, size->height, why)) {
+        replies.push_back(error_message(why));
+        if (!size->hello) return replies;
+        // A hello too large still says hello (at the size the tab was admitted with), so that the page is served.
+        SizeMessage admitted = *size;
+        admitted.width = tab->view.request.width, admitted.height = tab->view.request.height;
+        apply_message(tab->view, admitted, scene);
+        for (const std::string* t : {&scene_text, &progress_text, &view_text})
+          if (!t->empty()) replies.push_back(*t);
+        wake.notify_all();
+        return replies;
+      }
+    }
     apply_message(tab->view, message, scene);
     if (std::holds_alternative<CameraMessage>(message) || std::holds_alternative<TfMessage>(message)) last_active = id;
     // After hello: the scene, a build's progress, and the view set_view moved the tabs to (the page takes it after
@@ -154,6 +178,7 @@ struct ViewServer::Impl final : HttpHost {
     std::lock_guard lock(mutex);
     opening.erase(id);
     scheduler.close(id);
+    tab_memory->release(id);
     wake.notify_all();
   }
 };
@@ -267,6 +292,9 @@ std::function<void()> ViewServer::Impl::perform(const FinishLoad&) {
 // Without the lock (a renderer joins its cache's threads).
 std::function<void()> ViewServer::Impl::perform(const ForgetTabs& t) {
   for (uint64_t id : t.tabs) engine->forget(id);
+  // A tab's RAM cache is many brick-sized blocks that glibc keeps in its arenas after they are freed: hand them back
+  // to the system, so that the memory of tabs that left is returned, not only reusable.
+  malloc_trim(0);
   return [] {};
 }
 
@@ -354,6 +382,8 @@ ViewServer::ViewServer(ViewServerOptions options) : impl_(std::make_unique<Impl>
   if (ec) fail_in("--host", "\"" + I.options.host + "\" is not an IP address");
   I.loopback = address.is_loopback();
   I.token_ = I.options.token.empty() && !I.loopback ? random_token() : I.options.token;
+  I.tab_memory.emplace(I.options.tabs_memory ? I.options.tabs_memory : view_memory_budget(std::nullopt),
+                       I.options.ram_per_session);
   if (I.options.camera)
     I.camera_before_scene = I.options.camera;
   else if (I.options.dataset)

@@ -79,7 +79,10 @@ struct ViewServerOptions {
   uint16_t port = 0;                    // 0: a free port
   std::string gpu = "auto";             // GlContext device
   uint64_t gpu_memory = uint64_t(2) << 30;       // atlas budget (shared by the sessions)
-  uint64_t ram_per_session = uint64_t(1) << 30;  // each session's RAM brick cache
+  uint64_t ram_per_session = uint64_t(1) << 30;  // each session's RAM brick cache (less when tabs_memory is short)
+  // Every tab's allocations together (tab_memory.h): outgoing queue, canvas, RAM brick cache. 0: the viewer's memory
+  // budget (memory_budget.h: $UGVR_VIEW_MEMORY_BUDGET, else half of physical memory).
+  uint64_t tabs_memory = 0;
   int width = 512, height = 512;                 // the page's initial canvas size (scene message)
   double fps = 10;                               // initial frame-rate target of each session
   std::string token;                             // forced token (tests); empty: random when not loopback

@@ -1,6 +1,7 @@
 #include "ugvr/view/ws_session.h"
 
 #include "ugvr/core/error.h"
+#include "ugvr/view/tab_memory.h"
 
 namespace ugvr::view {
 namespace {
@@ -16,8 +17,8 @@ constexpr size_t kHardMessageLimit = 1 << 20;
 // without reading must not grow the server's memory).
 constexpr size_t kMaxQueuedReplies = 64;
 // Bytes queued for a client that does not read (frames are sent one at a time, texts coalesced): past this the
-// client is dropped rather than letting the server's memory grow.
-constexpr size_t kMaxQueuedBytes = size_t(16) << 20;
+// client is dropped rather than letting the server's memory grow. Charged to the tab (tab_memory.h).
+constexpr size_t kMaxQueuedBytes = kTabQueueBytes;
 
 }  // namespace
 
