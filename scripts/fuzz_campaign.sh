@@ -26,6 +26,8 @@ campaign() {  # target
   local name=$1 bin dir execs=0 cpu=0 wall0 crashes=0 before after log
   bin=$(pwd)/build-fuzz/fuzz/$name
   dir=$corpus/$name
+  local extra=()  # the committed regression inputs seed the campaign too
+  [ -d "fuzz/regression/$name" ] && extra+=("$(pwd)/fuzz/regression/$name")
   mkdir -p "$dir/work" "$dir/seeds"
   before=$(find "$dir/work" -type f | wc -l)
   wall0=$(date +%s)
@@ -36,7 +38,7 @@ campaign() {  # target
     local times rc=0
     times=$(mktemp)
     (cd "$dir" && /usr/bin/time -f "%U %S" -o "$times" "$bin" -max_total_time="$round" -max_len=262144 \
-      -rss_limit_mb=4096 -timeout=10 -print_final_stats=1 work seeds >>"$log" 2>&1) || rc=$?
+      -rss_limit_mb=4096 -timeout=10 -print_final_stats=1 work seeds "${extra[@]}" >>"$log" 2>&1) || rc=$?
     read -r user sys <"$times" || true
     rm -f "$times"
     cpu=$((cpu + $(printf '%.0f' "$(echo "($user + $sys) * 100" | bc)")))

@@ -136,6 +136,25 @@ TEST(ViewFrameScheduler, FullQualityAsksForOneFrameAtRest) {
   EXPECT_FALSE(s.next());
 }
 
+// Issue 18: while a tab plays a time series, each step gets one frame and no refinement (the next step's request
+// follows the frame at once); when it pauses, the step shown is refined as usual.
+TEST(ViewFrameScheduler, APlayingTabGetsOneFramePerStep) {
+  FrameScheduler s;
+  s.add(ready_tab(1));
+  s.find(1)->view.request.playing = true;
+  ASSERT_TRUE(turn(s, false));  // not converged
+  EXPECT_FALSE(s.next()) << "no refinement frame while playing";
+  EXPECT_FALSE(is_streaming(*s.find(1)));
+  change_view(s, 1);  // the next step
+  ASSERT_TRUE(turn(s, false));
+  EXPECT_FALSE(s.next());
+  s.find(1)->view.request.playing = false;  // paused: a message, so the view changes
+  change_view(s, 1);
+  ASSERT_TRUE(turn(s, false));
+  EXPECT_TRUE(turn(s, true)) << "refined at rest";
+  EXPECT_FALSE(s.next());
+}
+
 TEST(ViewFrameScheduler, AFailedFrameIsNotRetriedUntilTheViewChanges) {
   FrameScheduler s;
   s.add(ready_tab(1));

@@ -6,7 +6,11 @@ namespace ugvr::view {
 namespace {
 
 bool wants_more(const TabState& t) {
-  return !(t.view.generation == t.rendered_generation && t.converged && !t.view.full_quality);
+  const bool drawn = t.view.generation == t.rendered_generation;
+  // A tab playing a time series is not refined: its next request (the next step) comes as soon as this step's frame
+  // is shown, and a refinement frame drawn meanwhile would only delay it. Pausing (playing false) refines as usual.
+  if (drawn && t.view.request.playing && !t.view.full_quality) return false;
+  return !(drawn && t.converged && !t.view.full_quality);
 }
 
 }  // namespace

@@ -28,8 +28,8 @@ struct TabState {
   uint64_t ram_budget = 0;           // its RAM brick cache's budget (tab_memory.h); 0: the engine host's default
 };
 
-// A tab wants a frame: it said hello, has none on the wire, and its view changed, or is still refining, or it asked
-// for full quality.
+// A tab wants a frame: it said hello, has none on the wire, and its view changed, or is still refining (not while it
+// plays a time series: each step is drawn once, at the interactive quality), or it asked for full quality.
 bool wants_frame(const TabState& tab);
 // A tab streams frames: as wants_frame, a frame on the wire or not. These tabs share the frame budget.
 bool is_streaming(const TabState& tab);

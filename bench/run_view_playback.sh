@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Playback of a time series in `ugvr view` (issue 18): the viewer on a generated 24-step series (the demo wing's
+# vortex street, `ugvr generate --time-steps 24`) and on mug.e (21 steps), driven by bench/view_playback.mjs with the
+# step changing every frame at RATE steps a second; one JSON line per dataset to bench/results/view_playback.jsonl.
+# The must-show: gap (frame-to-frame) p95 <= 1.5 x 1/RATE.
+# Usage: bench/run_view_playback.sh [SCRATCH=/tmp/ugvr-playback]
+#   UGVR (build/ugvr), UGVR_DATA (../shared/data), CELLS (generated series, 200000), SIZE (512), RATE (10),
+#   RUN_SECONDS (30), DATASETS ("generated mug"). Needs node >= 20.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scratch=${1:-/tmp/ugvr-playback}
+ugvr=${UGVR:-build/ugvr}
+data=${UGVR_DATA:-../shared/data}
+cells=${CELLS:-200000} size=${SIZE:-512} rate=${RATE:-10} seconds=${RUN_SECONDS:-30}
+datasets=${DATASETS:-generated mug}
+jsonl=bench/results/view_playback.jsonl
+mkdir -p "$scratch" bench/results
+commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
+for name in $datasets; do
+  case $name in
+    generated)
+      input=$scratch/wake.pvd
+      [ -f "$input" ] || "$ugvr" --quiet generate -o "$input" --cells "$cells" --time-steps 24 ;;
+    mug) input=$data/exodus-misc/mug.e ;;
+    *) echo "unknown dataset $name" >&2; exit 1 ;;
+  esac
+  [ -e "$input" ] || { echo "skipped $name: $input is missing" >&2; continue; }
+  log=$scratch/view.log
+  "$ugvr" view "$input" --port 0 --fps "$rate" >"$log" 2>&1 &
+  pid=$!
+  trap 'kill $pid 2>/dev/null || true' EXIT
+  for _ in $(seq 600); do grep -q 'serving http' "$log" && break; sleep 0.1; done
+  url=$(sed -n 's/.*serving \(http[^ ]*\).*/\1/p' "$log" | head -1)
+  [ -n "$url" ] || { cat "$log" >&2; exit 1; }
+  renderer=$(sed -n 's/.*serving http[^ ]* (\(.*\))$/\1/p' "$log" | head -1)
+  ws=$(echo "$url" | sed 's|^http://\([^/]*\)/\(.*\)$|ws://\1/ws\2|')
+  node --experimental-websocket --no-warnings bench/view_playback.mjs "$ws" "$seconds" "$size" "$rate" >"$scratch/out.json"
+  kill $pid
+  wait $pid 2>/dev/null || true
+  /usr/bin/python3 -c "import json,sys; j=json.loads(open('$scratch/out.json').read()); j.update(bench='view_playback', dataset='$name', renderer='$renderer', commit='$commit', date='$(date -u +%FT%TZ)', load=$(cut -d' ' -f1 /proc/loadavg)); print(json.dumps(j, separators=(',', ':')))" |
+    tee -a "$jsonl"
+done
