@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <optional>
 #include <vector>
 
 #include "ugvr/gpu/gl_context.h"
@@ -57,6 +58,10 @@ struct EngineHost::Tab {
   double shown_fps = 0;
   Clock::time_point last;
   bool counting = false;  // the previous frame was part of an interaction (not converged): fps is measured
+  // Playing a time series: what a step costs beyond its render (the field swap, encoding, the trip to the page and
+  // back with the next step's request), averaged, and when the previous step's render started.
+  double step_overhead = 0, last_render_seconds = 0;
+  std::optional<Clock::time_point> step_started;
 };
 
 EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options)) {
@@ -274,7 +279,24 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   fr.step_voxels = request.step_voxels;
   const bool timed = engine == kExactEngine && exact_ && exact_->series;
   if (timed) fr.time_step = request.time_step.value_or(scene_.time_step);
+  // Playing, a step's period is its render plus the step's overhead: the render is given what the period at the
+  // target rate leaves (at least 20 ms), so that the steps, not only the renders, come at the target rate.
+  const bool playing = timed && request.playing && !job.full_quality;
+  const Clock::time_point render_start = Clock::now();
+  if (playing && job.target_fps > 0 && tab.step_overhead > 0)
+    fr.target_fps = 1 / std::max(0.02, 1 / job.target_fps - tab.step_overhead);
   ugvr::Frame f = tab.renderer->render(fr);
+  if (playing) {
+    if (tab.step_started) {
+      const double period = std::chrono::duration<double>(render_start - *tab.step_started).count();
+      const double overhead = std::max(0.0, period - tab.last_render_seconds);
+      tab.step_overhead = tab.step_overhead > 0 ? 0.7 * tab.step_overhead + 0.3 * overhead : overhead;
+    }
+    tab.step_started = render_start;
+    tab.last_render_seconds = f.stats.seconds;
+  } else {
+    tab.step_started.reset();
+  }
   // Playing: the next step is read while this frame is encoded and sent (the switch then costs the field swap).
   if (timed && request.playing) exact_->prefetch((*fr.time_step + 1) % uint32_t(exact_->series->size()));
   const Image& image = f.image;
