@@ -29,6 +29,7 @@
 #include "ugvr/api/default_field.h"
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
+#include "ugvr/core/json_file.h"
 #include "ugvr/core/memory.h"
 #include "ugvr/core/progress.h"
 #include "ugvr/gen/generator.h"
@@ -613,7 +614,7 @@ double fraction(const Options& o, const char* key) {
 RenderSettings settings_from(const Options& o) {
   RenderSettings s;
   if (o.has("settings")) s = read_render_settings(o.str("settings"));
-  if (o.has("settings_json")) s = settings_from_json(json::parse(o.str("settings_json")), "settings");
+  if (o.has("settings_json")) s = settings_from_json(parse_json_text(o.str("settings_json"), "settings"), "settings");
   if (o.has("size")) {
     const std::vector<double> size = to_doubles(o.get("size"), "size", 2, 2);
     for (double v : size)
@@ -639,7 +640,7 @@ RenderSettings settings_from(const Options& o) {
   // of settings= like --slice; errors name "slices".
   if (o.has("slices_json")) {
     const std::vector<Slice> added =
-        settings_from_json(json{{"slices", json::parse(o.str("slices_json"))}}, "slices").slices;
+        settings_from_json(json{{"slices", parse_json_text(o.str("slices_json"), "slices")}}, "slices").slices;
     s.slices.insert(s.slices.end(), added.begin(), added.end());
   }
   if (o.has("hide_volume")) s.hide_volume = parse_hide_volume(o.str("hide_volume"), "hide_volume");
@@ -1324,8 +1325,8 @@ PYBIND11_MODULE(_ugvr, m) {
       .def_static(
           "from_json",
           [](py::handle j) {
-            return camera_from_json(py::isinstance<py::str>(j) ? json::parse(j.cast<std::string>()) : to_json(j),
-                                    "camera");
+            return camera_from_json(
+                py::isinstance<py::str>(j) ? parse_json_text(j.cast<std::string>(), "camera") : to_json(j), "camera");
           },
           py::arg("json"), "A camera from its JSON (a dict or a string), validated as `ugvr render --camera`")
       .def_static("read", &read_camera, py::arg("path"))

@@ -5,13 +5,17 @@
 
 namespace ugvr {
 
+nlohmann::json parse_json_text(std::string_view text, std::string_view name) {
+  try {
+    return nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    fail_in(name, std::string("invalid JSON: ") + e.what());
+  }
+}
+
 nlohmann::json read_json_file(const std::string& path) {
   const InputFile in(path);
-  try {
-    return nlohmann::json::parse(in.read_all(uint64_t(1) << 24));
-  } catch (const nlohmann::json::parse_error& e) {
-    fail_in(in.name(), std::string("invalid JSON: ") + e.what());
-  }
+  return parse_json_text(in.read_all(uint64_t(1) << 24), in.name());
 }
 
 void write_json_file(const std::string& path, const nlohmann::json& j) {

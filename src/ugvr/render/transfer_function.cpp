@@ -205,12 +205,7 @@ void TransferFunction::validate(std::string_view source) const {
 }
 
 std::vector<TransferFunction> parse_paraview_presets(std::string_view json_text, std::string_view source) {
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(json_text);
-  } catch (const nlohmann::json::parse_error& e) {
-    fail_in(source, std::string("invalid JSON: ") + e.what());
-  }
+  const nlohmann::json j = parse_json_text(json_text, source);
   std::vector<TransferFunction> out;
   if (j.is_array()) {
     if (j.empty()) fail_in(source, "the preset array is empty");
