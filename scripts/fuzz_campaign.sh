@@ -39,7 +39,8 @@ campaign() {  # target
     times=$(mktemp)
     (cd "$dir" && /usr/bin/time -f "%U %S" -o "$times" "$bin" -max_total_time="$round" -max_len=262144 \
       -rss_limit_mb=4096 -timeout=10 -print_final_stats=1 work seeds "${extra[@]}" >>"$log" 2>&1) || rc=$?
-    read -r user sys <"$times" || true
+    # The last line: /usr/bin/time puts "Command exited with non-zero status N" before it when the fuzzer fails.
+    read -r user sys < <(tail -n 1 "$times") || true
     rm -f "$times"
     cpu=$((cpu + $(printf '%.0f' "$(echo "($user + $sys) * 100" | bc)")))
     execs=$((execs + $(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | tail -n 1 | grep -o '[0-9]*$' || echo 0)))
