@@ -396,6 +396,10 @@ TEST(ViewProtocol, TimeMessage) {
   EXPECT_EQ(sj["time"]["count"], 3);
   EXPECT_EQ(sj["time"]["times"], nlohmann::json({0, 0.5, 1.0}));
   EXPECT_EQ(sj["time"]["step"], 1);
+  EXPECT_EQ(sj["time"].count("play"), 0u) << "paused unless --play";
+  scene.play_rate = 12;
+  EXPECT_EQ(nlohmann::json::parse(scene_message(scene))["time"]["play"], 12.0);
+  scene.play_rate = 0;
   ViewState s = initial_view(scene);
   EXPECT_EQ(s.request.time_step, 1u) << "a new tab asks for the scene's step";
   const ViewState before = s;

@@ -133,6 +133,12 @@ const ugvrTime = (() => {
         step = Math.min(m.time.step, times.length - 1);
         $('.time-slider').value = String(step);
         label();
+        // `ugvr view --play R`: the page starts playing (looping) at R steps a second.
+        if (m.time.play > 0) {
+          rate = m.time.play;
+          $('.time-rate').value = String(rate);
+          setPlaying(true);
+        }
       } else {
         go(Math.min(step, times.length - 1));  // a new scene: the tab asks for its step again
       }

@@ -49,6 +49,7 @@ struct Options {
   uint64_t ram_memory = uint64_t(1) << 30;
   uint64_t memory_budget = 0;  // --memory-budget (view/memory_budget.h); 0: not given
   uint64_t tabs_memory = 0;    // --tabs-memory (view/tab_memory.h); 0: the memory budget
+  double play = 0;             // --play: steps a second a new tab starts playing at (0: paused)
 };
 
 bool is_store(const std::vector<std::string>& inputs) {
@@ -87,6 +88,9 @@ void run_view(const Options& o) {
                           std::to_string(view::kMaxViewSide) + "]");
   vo.width = size.width, vo.height = size.height;
   vo.fps = parse_number(o.fps, "--fps");
+  if (!(o.play >= 0) || o.play > view::kMaxFps)
+    fail_in("--play", "must be in [0, " + std::to_string(int(view::kMaxFps)) + "] steps a second (0: paused)");
+  vo.play_rate = o.play;
   if (!(vo.fps >= 0) || vo.fps > view::kMaxFps)
     fail_in("--fps", "must be in [0, " + std::to_string(int(view::kMaxFps)) + "]");
   validate_build_options(o.build);
@@ -287,6 +291,10 @@ void register_view(CLI::App& app) {
                   "(e.g. 4GiB; default: --memory-budget). A tab that does not fit is refused; later tabs get less "
                   "than --ram-memory when it runs short")
       ->transform(CLI::AsSizeValue(true));
+  cmd->add_option("--play", opts->play,
+                  "A time series: every new tab starts playing the steps, looping, at this many a second (the page's "
+                  "pause button stops it)")
+      ->type_name("RATE");
   cmd->add_option("--fps", opts->fps, "Frame-rate target while interacting (0: every frame at full quality)")
       ->default_str("10");
   cmd->callback([opts] { run_view(*opts); });

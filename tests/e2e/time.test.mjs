@@ -97,3 +97,24 @@ test("play advances through the steps and stops at the last without loop", async
   await waitConverged(page, CONVERGE_MS);
   assert.equal((await page.evaluate(() => window.ugvrViewer.status)).time_step, 3);
 });
+
+test("ugvr view --play starts a new tab playing", async () => {
+  const playing = await startViewer(UGVR, SERIES, ["--play", "20"]);
+  try {
+    const { context, page: p } = await openPage(browser, playing.url, { viewport: { width: 480, height: 400 } });
+    const scene = await waitFor("the scene", () => p.evaluate(() => window.ugvrViewer.scene), CONVERGE_MS, 50);
+    assert.equal(scene.time.play, 20, "the scene carries the rate");
+    const seen = new Set();
+    await waitFor("the page to play through several steps by itself", async () => {
+      const s = await p.evaluate(() => window.ugvrViewer.status);
+      if (s && s.time_step !== undefined) seen.add(s.time_step);
+      return seen.size >= 3;
+    }, CONVERGE_MS, 20);
+    const t = await p.evaluate(() => window.ugvrTime.state);
+    assert.equal(t.playing, true, "still playing (loop on)");
+    assert.equal(await p.locator("#time .time-rate").inputValue(), "20");
+    await context.close();
+  } finally {
+    await stopViewer(playing);
+  }
+});

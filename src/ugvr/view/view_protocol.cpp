@@ -350,8 +350,10 @@ std::string scene_message(const SceneInfo& scene) {
          {"renderers", renderers},
          {"limits", {{"min_side", kMinViewSide}, {"max_side", kMaxViewSide}, {"max_fps", kMaxFps}}}};
   if (scene.tf) j["tf"] = tf_points_json(*scene.tf);
-  if (!scene.times.empty())
+  if (!scene.times.empty()) {
     j["time"] = {{"count", scene.times.size()}, {"times", scene.times}, {"step", scene.time_step}};
+    if (scene.play_rate > 0) j["time"]["play"] = scene.play_rate;
+  }
   return j.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 

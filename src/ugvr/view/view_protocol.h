@@ -38,7 +38,8 @@
 //   text {"type":"scene", ...}   after hello: field, range, fields (with histograms), bounds, the initial camera,
 //         presets and their colours, limits, the engines a tab may pick and each one's renderer label; again when the
 //         server switches engine (a background build finished: every tab moves to "lod"); a time series adds
-//         "time":{"count", "times":[t...], "step"} (the step new tabs show; the field ranges are over every step)
+//         "time":{"count", "times":[t...], "step"} (the step new tabs show; the field ranges are over every step),
+//         and "play": R when the page should start playing at R steps a second (`ugvr view --play`)
 //   text {"type":"status", "seq", "request", "format":"jpeg"|"png", "width", "height", "fps", "frame_seconds",
 //         "cut_nodes", "visible_nodes", "texel_error", "max_texel_error", "scale", "converged"}   describes the
 //         binary frame that follows it; "request" counts the client messages accepted (not rejected) before the
@@ -164,6 +165,7 @@ struct SceneInfo {
   // A time series' steps (their times, in order; empty: no time axis, a single step) and the step new tabs show.
   std::vector<double> times;
   uint32_t time_step = 0;
+  double play_rate = 0;  // > 0: new tabs start playing the steps at this many a second (`ugvr view --play`)
 
   // The field called `name` (empty: `field`; a vector's name alone: its "NAME:magnitude"), or null.
   const FieldInfo* find_field(std::string_view name) const;

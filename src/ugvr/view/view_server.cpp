@@ -340,6 +340,7 @@ std::function<void()> ViewServer::Impl::perform(const FrameJob& job) {
 // again with the new engine.
 void ViewServer::Impl::publish_scene(bool announce) {
   scene = engine->scene();
+  scene.play_rate = options.play_rate;
   scene_text = scene_message(scene);
   const bool first = !scene_shown;
   scene_shown = true;

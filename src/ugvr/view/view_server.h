@@ -83,9 +83,10 @@ struct ViewServerOptions {
   // Every tab's allocations together (tab_memory.h): outgoing queue, canvas, RAM brick cache. 0: the viewer's memory
   // budget (memory_budget.h: $UGVR_VIEW_MEMORY_BUDGET, else half of physical memory).
   uint64_t tabs_memory = 0;
-  int width = 512, height = 512;                 // the page's initial canvas size (scene message)
-  double fps = 10;                               // initial frame-rate target of each session
-  std::string token;                             // forced token (tests); empty: random when not loopback
+  int width = 512, height = 512;  // the page's initial canvas size (scene message)
+  double fps = 10;                // initial frame-rate target of each session
+  double play_rate = 0;           // a time series: > 0 starts every new tab playing at this many steps a second
+  std::string token;              // forced token (tests); empty: random when not loopback
 };
 
 class ViewServer {
