@@ -11,6 +11,21 @@
 namespace ugvr {
 namespace {
 
+// The first drawn piece's engine figures, then the pieces' own: their cut sizes (the sum as `cut_nodes`).
+struct PieceFrameStats : EngineFrameStats {
+  std::shared_ptr<const EngineFrameStats> first;
+  std::vector<int> pieces;          // drawn, in visibility order
+  std::vector<uint64_t> cut_nodes;  // per drawn piece, same order
+  void to_json(nlohmann::json& j) const override {
+    if (first) first->to_json(j);
+    uint64_t sum = 0;
+    for (uint64_t n : cut_nodes) sum += n;
+    j["cut_nodes"] = sum;
+    j["pieces_drawn"] = pieces;
+    j["piece_cut_nodes"] = cut_nodes;
+  }
+};
+
 class PieceRenderer final : public Renderer {
  public:
   PieceRenderer(const PieceIndex& index, std::vector<int> pieces, std::vector<std::unique_ptr<Renderer>> renderers)
@@ -32,10 +47,13 @@ class PieceRenderer final : public Renderer {
   }
   std::string summary(const FrameStats& last) const override {
     FrameStats first = last;
-    first.detail = first_detail_;
+    const auto* d = dynamic_cast<const PieceFrameStats*>(last.detail.get());
+    first.detail = d ? d->first : nullptr;
+    const int front = d && !d->pieces.empty() ? d->pieces[0] : pieces_[0];
+    const size_t i = size_t(std::find(pieces_.begin(), pieces_.end(), front) - pieces_.begin());
     return std::to_string(pieces_.size()) + " of " + std::to_string(total_) + " pieces (" +
-           std::to_string(last.cut_nodes) + " nodes in all); piece " + std::to_string(pieces_[0]) + ": " +
-           renderers_[0]->summary(first);
+           std::to_string(last.cut_nodes) + " cut nodes in all); front piece " + std::to_string(front) + ": " +
+           renderers_[std::min(i, renderers_.size() - 1)]->summary(first);
   }
 
   Frame render(const FrameRequest& request) override {
@@ -49,6 +67,7 @@ class PieceRenderer final : public Renderer {
     std::vector<float> blended;
     Frame out;
     out.stats.engine = "lod";
+    auto detail = std::make_shared<PieceFrameStats>();
     for (int piece : tree_.visibility_order(request.camera)) {
       const auto it = std::find(pieces_.begin(), pieces_.end(), piece);
       if (it == pieces_.end()) continue;
@@ -65,9 +84,11 @@ class PieceRenderer final : public Renderer {
       out.stats.visible_nodes += f.stats.visible_nodes;
       out.stats.gpu_bytes += f.stats.gpu_bytes;
       out.stats.gpu_budget += f.stats.gpu_budget;
-      if (i == 0) out.stats.detail = f.stats.detail;
+      if (!detail->first) detail->first = f.stats.detail;
+      detail->pieces.push_back(piece);
+      detail->cut_nodes.push_back(f.stats.cut_nodes);
     }
-    first_detail_ = out.stats.detail;
+    out.stats.detail = detail;
     out.image = apply_background(blended, width, height, request.settings.background);
     out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return out;
@@ -78,7 +99,6 @@ class PieceRenderer final : public Renderer {
   std::vector<int> pieces_;
   std::vector<std::unique_ptr<Renderer>> renderers_;
   int total_ = 0;
-  std::shared_ptr<const EngineFrameStats> first_detail_;
 };
 
 }  // namespace
