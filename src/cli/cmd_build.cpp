@@ -166,6 +166,7 @@ void register_build(CLI::App& app) {
                 "Leave out the transfer-function error table (44 bytes per node and field; renderers then rank nodes "
                 "by texel size alone)");
   cmd->callback([opts] {
+    if (opts->ghost_level != 0 && opts->pieces == 0) throw Error("--ghost-level applies with --pieces only");
     if (opts->pieces > 0) {
       build_pieces(*opts);
       return;

@@ -156,6 +156,18 @@ TEST_F(Pieces, AMissingOrDamagedPieceIsNamed) {
   r = test::run_ugvr("info " + file("P.json"));
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.out.find("piece-2.ugvr is missing"), std::string::npos) << r.out;
+  // An index of another version, and one cut short, are refused naming the index.
+  std::string index = slurp(file("P.json"));
+  const size_t v = index.find("\"version\": 1");
+  ASSERT_NE(v, std::string::npos);
+  std::ofstream(file("V.json")) << index.substr(0, v) << "\"version\": 2" << index.substr(v + 12);
+  r = test::run_ugvr("render " + file("V.json") + " --size 32 -o " + file("v.png"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("V.json: piece index: version 2"), std::string::npos) << r.out;
+  std::ofstream(file("T.json")) << index.substr(0, index.size() / 2);
+  r = test::run_ugvr("info " + file("T.json"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("T.json: invalid JSON"), std::string::npos) << r.out;
 }
 
 TEST_F(Pieces, BadPieceCountsAndOutOfCoreAreRefused) {
@@ -169,6 +181,9 @@ TEST_F(Pieces, BadPieceCountsAndOutOfCoreAreRefused) {
   r = test::run_ugvr("build " + file("t.vtu") + " --pieces 4 --out-of-core -o " + file("P.json"));
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.out.find("--out-of-core is not supported"), std::string::npos) << r.out;
+  r = test::run_ugvr("build " + file("t.vtu") + " --ghost-level 2 -o " + file("G.ugvr"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("--ghost-level applies with --pieces only"), std::string::npos) << r.out;
   EXPECT_FALSE(std::filesystem::exists(file("P.json")));
 }
 

@@ -33,7 +33,7 @@ class IndexReader {
   [[noreturn]] void fail(const std::string& what) const { fail_in(path_, "piece index: " + what); }
 
   const nlohmann::json& key(const nlohmann::json& j, const char* name, const std::string& where) const {
-    if (!j.is_object() || !j.contains(name)) fail(where + ": no \"" + name + "\"");
+    if (!j.is_object() || !j.contains(name)) fail((where.empty() ? "" : where + ": ") + "no \"" + name + "\"");
     return j[name];
   }
   double number(const nlohmann::json& j, const std::string& where) const {
@@ -65,17 +65,17 @@ class IndexReader {
 };
 
 // Checks that `node` is a kd subtree whose leaves are pieces [first, first + count) in order; returns count.
-int check_subtree(const KdTree& tree, int node, int first, std::vector<int>& depth_guard, const IndexReader& r) {
+int check_subtree(const KdTree& tree, int node, int first, std::vector<int>& seen, const IndexReader& r) {
   if (node < 0 || size_t(node) >= tree.nodes.size()) r.fail("tree: a child index out of range");
-  if (depth_guard[size_t(node)]++) r.fail("tree: node " + std::to_string(node) + " is reached twice");
+  if (seen[size_t(node)]++) r.fail("tree: node " + std::to_string(node) + " is reached twice");
   const KdNode& n = tree.nodes[size_t(node)];
   if (n.axis < 0) {
     if (n.part != first)
       r.fail("tree: the leaves do not list the pieces in order (piece " + std::to_string(n.part) + ")");
     return 1;
   }
-  const int left = check_subtree(tree, n.child[0], first, depth_guard, r);
-  const int right = check_subtree(tree, n.child[1], first + left, depth_guard, r);
+  const int left = check_subtree(tree, n.child[0], first, seen, r);
+  const int right = check_subtree(tree, n.child[1], first + left, seen, r);
   return left + right;
 }
 
@@ -147,18 +147,18 @@ PieceIndex read_piece_index(const std::string& path) {
   const IndexReader r(path);
   if (!j.is_object() || !j.contains("format") || j["format"] != kFormat)
     r.fail(std::string("no \"format\": \"") + kFormat + "\"");
-  const uint64_t version = r.count(r.key(j, "version", "index"), "version");
+  const uint64_t version = r.count(r.key(j, "version", ""), "version");
   if (version != uint64_t(kPieceIndexVersion))
     r.fail("version " + std::to_string(version) + " (this ugvr reads version " + std::to_string(kPieceIndexVersion) +
            ")");
   PieceIndex index;
   index.path = path;
-  index.bounds = r.box(r.key(j, "bounds", "index"), false, "bounds");
-  index.root = r.box(r.key(j, "root", "index"), false, "root");
-  index.brick = uint32_t(r.count(r.key(j, "brick", "index"), "brick"));
-  index.ghost_margin = r.number(r.key(j, "ghost_margin", "index"), "ghost_margin");
-  index.ghost_level = int(std::min<uint64_t>(r.count(r.key(j, "ghost_level", "index"), "ghost_level"), 1u << 20));
-  const nlohmann::json& fields = r.key(j, "fields", "index");
+  index.bounds = r.box(r.key(j, "bounds", ""), false, "bounds");
+  index.root = r.box(r.key(j, "root", ""), false, "root");
+  index.brick = uint32_t(r.count(r.key(j, "brick", ""), "brick"));
+  index.ghost_margin = r.number(r.key(j, "ghost_margin", ""), "ghost_margin");
+  index.ghost_level = int(std::min<uint64_t>(r.count(r.key(j, "ghost_level", ""), "ghost_level"), 1u << 20));
+  const nlohmann::json& fields = r.key(j, "fields", "");
   if (!fields.is_array() || fields.empty()) r.fail("fields: not a non-empty array");
   for (size_t f = 0; f < fields.size(); ++f) {
     const std::string where = "fields[" + std::to_string(f) + "]";
@@ -173,7 +173,7 @@ PieceIndex read_piece_index(const std::string& path) {
     field.max = r.number(r.key(fields[f], "max", where), where + ".max");
     index.fields.push_back(std::move(field));
   }
-  const nlohmann::json& pieces = r.key(j, "pieces", "index");
+  const nlohmann::json& pieces = r.key(j, "pieces", "");
   if (!pieces.is_array()) r.fail("pieces: not an array");
   const int n = int(pieces.size());
   if (n < 1 || n > kMaxPieces || (n & (n - 1)) != 0) r.fail("pieces: the count must be a power of two up to 4096");
@@ -190,7 +190,7 @@ PieceIndex read_piece_index(const std::string& path) {
     info.store_bytes = r.count(r.key(p, "store_bytes", where), where + ".store_bytes");
     index.pieces.push_back(std::move(info));
   }
-  const nlohmann::json& tree = r.key(j, "tree", "index");
+  const nlohmann::json& tree = r.key(j, "tree", "");
   if (!tree.is_array() || tree.size() != size_t(2 * n - 1)) r.fail("tree: not an array of 2 * pieces - 1 nodes");
   for (size_t i = 0; i < tree.size(); ++i) {
     const std::string where = "tree[" + std::to_string(i) + "]";
