@@ -431,8 +431,10 @@ void run_render(const Options& o, std::optional<double> time_budget) {
     }
 #endif
     // A partitioned store's index (`ugvr build --pieces`): every piece in this process (docs/mpi.md).
-    if (o.inputs.size() == 1 && is_piece_index(o.inputs[0]))
+    if (o.inputs.size() == 1 && is_piece_index(o.inputs[0])) {
+      if (time_budget) fail_flag("--time-budget", "is not supported for a partitioned store yet (docs/mpi.md)");
       return open_piece_renderer(read_piece_index(o.inputs[0]), {}, ro);
+    }
     return open_renderer_default_field(o.inputs, o.read, ro, &opened);
   });
   for (const std::string& w : opened.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());

@@ -131,6 +131,13 @@ TEST_F(Pieces, BuildUnderMpirunGivesTheSameIndexAndImage) {
 TEST_F(Pieces, AMissingOrDamagedPieceIsNamed) {
   ASSERT_EQ(test::run_ugvr("generate --cells 2000 --kind tet -o " + file("t.vtu")).status, 0);
   ASSERT_EQ(test::run_ugvr("build " + file("t.vtu") + " --brick 16 --pieces 4 -o " + file("P.json")).status, 0);
+  // What a partitioned store does not do yet is refused, not ignored.
+  CommandResult u = test::run_ugvr("render " + file("P.json") + " --size 32 --time-budget 1 -o " + file("b.png"));
+  EXPECT_NE(u.status, 0);
+  EXPECT_NE(u.out.find("--time-budget"), std::string::npos) << u.out;
+  u = test::run_ugvr("render " + file("P.json") + " --size 32 --engine exact -o " + file("b.png"));
+  EXPECT_NE(u.status, 0);
+  EXPECT_NE(u.out.find("renders with the lod engine"), std::string::npos) << u.out;
   // 3 ranks cannot share 4 pieces.
   CommandResult r = mpirun(3, "render " + file("P.json") + " --size 32 -o " + file("x.png"));
   EXPECT_NE(r.status, 0);
