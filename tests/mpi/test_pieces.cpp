@@ -138,6 +138,9 @@ TEST_F(Pieces, AMissingOrDamagedPieceIsNamed) {
   u = test::run_ugvr("render " + file("P.json") + " --size 32 --engine exact -o " + file("b.png"));
   EXPECT_NE(u.status, 0);
   EXPECT_NE(u.out.find("renders with the lod engine"), std::string::npos) << u.out;
+  u = test::run_ugvr("render " + file("P.json") + " --size 32 --mode mip -o " + file("b.png"));
+  EXPECT_NE(u.status, 0);
+  EXPECT_NE(u.out.find("mip is not supported for a partitioned store"), std::string::npos) << u.out;
   // 3 ranks cannot share 4 pieces.
   CommandResult r = mpirun(3, "render " + file("P.json") + " --size 32 -o " + file("x.png"));
   EXPECT_NE(r.status, 0);

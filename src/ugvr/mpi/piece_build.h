@@ -11,7 +11,8 @@
 //    that fills a lattice point without data reads its 26 neighbours (one voxel more); the root's voxel is the largest.
 //    A point within the margin lies only in cells whose bounding box meets the grown box, all of which the piece
 //    holds, in their original order (the sampler takes the lowest id among the cells containing a point), so its
-//    sample and validity are the whole store's bit for bit, at every level.
+//    sample and validity are the whole store's bit for bit, at every level. (The sampler counts a point within 1e-8
+//    of a cell's parametric domain as inside it; only at the margin's very edge could a cell left out claim one.)
 //  - boundary faces: the piece's boundary is the mesh's inside the grown box plus the ghost layer's outer faces,
 //    which lie outside the grown box (a cell left out has a bounding box missing it), so no ray clipped to the box
 //    crosses one; the shader's inside/outside rule sees a valid mesh's boundary either way.

@@ -57,6 +57,11 @@ class PieceRenderer final : public Renderer {
   }
 
   Frame render(const FrameRequest& request) override {
+    // A maximum intensity projection composes by the maximum of the pieces' values, not by blending their colours.
+    if (request.settings.mode == RenderMode::Mip)
+      throw OptionError("mode",
+                        "mip is not supported for a partitioned store yet (pieces' maxima would need max "
+                        "compositing)");
     const auto t0 = std::chrono::steady_clock::now();
     FrameRequest mine = request;
     mine.settings.background = {0, 0, 0, 0};
