@@ -1,3 +1,4 @@
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -7,11 +8,102 @@
 #include "cli/dataset_input.h"
 #include "ugvr/core/error.h"
 #include "ugvr/core/memory.h"
+#include "ugvr/core/progress.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/mpi/piece_build.h"
 #include "ugvr/octree/builder.h"
 #include "ugvr/octree/out_of_core.h"
+#ifdef UGVR_HAVE_MPI
+#include "ugvr/mpi/mpi_session.h"
+#endif
 
 namespace ugvr::cli {
+
+namespace {
+
+// `--pieces N`: the kd split, then this rank's pieces one after another (rank r of R builds r, r + R, ...), each in
+// core from the mesh read once; rank 0 writes the index when every rank is done.
+template <class Options>
+void build_pieces(Options& o) {
+  check_piece_count(o.pieces);
+  if (extension_lower(o.output) != ".json")
+    throw Error(o.output + ": with --pieces the output is the index, a .json file (the stores go in NAME.d/)");
+  if (o.out_of_core)
+    throw Error(
+        "--pieces with --out-of-core is not supported: the out-of-core builder streams one whole .vtu and takes the "
+        "root cube and field ranges from it, and every piece needs the whole mesh's (docs/mpi.md); the pieces are "
+        "built in core from the mesh read once");
+  int rank = 0, ranks = 1;
+#ifdef UGVR_HAVE_MPI
+  rank = mpi::rank(), ranks = mpi::size();
+  if (rank != 0) Progress::set_enabled(false);
+#endif
+  if (o.float32) o.build.encoding.samples = SampleEncoding::Float32;
+  o.build.tf_errors = !o.no_tf_errors;
+  o.build.inputs = o.input.files;
+  validate_build_options(o.build);
+  const auto t0 = std::chrono::steady_clock::now();
+  auto since = [](std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+  };
+  const Dataset ds = read_dataset_input(o.input);
+  const OctreeInput input = prepare_octree_input(ds, o.fields);
+  const double read_seconds = since(t0);
+  const auto t1 = std::chrono::steady_clock::now();
+  const PiecePlan plan = plan_pieces(input, o.pieces, o.build.resolution, o.ghost_level);
+  const double plan_seconds = since(t1);
+  std::filesystem::create_directories(piece_folder(o.output));
+  nlohmann::json built = nlohmann::json::array();
+  for (int k = rank; k < o.pieces; k += ranks) {
+    const auto tk = std::chrono::steady_clock::now();
+    const std::string path = (std::filesystem::path(o.output).parent_path() / piece_store_name(o.output, k)).string();
+    const OctreeBuildStats s = build_piece(input, plan, k, o.build, path);
+    built.push_back({{"piece", k},
+                     {"store", path},
+                     {"cells", plan.cells[size_t(k)]},
+                     {"ghost_cells", plan.ghost_cells[size_t(k)]},
+                     {"nodes", s.nodes},
+                     {"store_bytes", s.store_bytes},
+                     {"seconds", since(tk)},
+                     {"peak_rss_bytes", peak_rss_bytes()}});
+    if (!o.json)
+      std::printf("piece %d: %s, %llu cells + %llu ghost, %llu nodes, %s in %.2f s, peak RSS %s\n", k, path.c_str(),
+                  (unsigned long long)plan.cells[size_t(k)], (unsigned long long)plan.ghost_cells[size_t(k)],
+                  (unsigned long long)s.nodes, format_bytes(s.store_bytes).c_str(), since(tk),
+                  format_bytes(peak_rss_bytes()).c_str());
+  }
+#ifdef UGVR_HAVE_MPI
+  mpi::barrier();  // every piece written before the index names them
+#endif
+  uint64_t total_bytes = 0;
+  if (rank == 0) {
+    const PieceIndex index = make_piece_index(input, plan, o.output, o.build.resolution);
+    write_piece_index(o.output, index);
+    for (const PieceInfo& p : index.pieces) total_bytes += p.store_bytes;
+  }
+  if (o.json) {
+    const nlohmann::json j = {{"output", o.output},
+                              {"rank", rank},
+                              {"ranks", ranks},
+                              {"pieces", o.pieces},
+                              {"cells", input.mesh->cell_count()},
+                              {"ghost_margin", plan.ghost_margin},
+                              {"ghost_level", plan.ghost_level},
+                              {"read_seconds", read_seconds},
+                              {"plan_seconds", plan_seconds},
+                              {"built", built},
+                              {"store_bytes_total", total_bytes},
+                              {"seconds", since(t0)},
+                              {"peak_rss_bytes", peak_rss_bytes()}};
+    std::printf("%s\n", j.dump().c_str());
+  } else if (rank == 0) {
+    std::printf("wrote %s: %d pieces, %s in all, ghost margin %.4g, in %.2f s (read %.2f s, kd split %.2f s)\n",
+                o.output.c_str(), o.pieces, format_bytes(total_bytes).c_str(), plan.ghost_margin, since(t0),
+                read_seconds, plan_seconds);
+  }
+}
+
+}  // namespace
 
 void register_build(CLI::App& app) {
   struct Options {
@@ -21,6 +113,7 @@ void register_build(CLI::App& app) {
     OctreeBuildOptions build;
     uint64_t memory = uint64_t(1) << 30;
     bool float32 = false, json = false, out_of_core = false, no_tf_errors = false;
+    int pieces = 0, ghost_level = 0;
   };
   auto opts = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -57,6 +150,15 @@ void register_build(CLI::App& app) {
                 "Stream the cells through temporary files next to the output instead of loading the mesh (one .vtu "
                 "input; chosen by itself when the .vtu is larger than 40% of --memory)");
   cmd->add_flag("--json", opts->json, "Print the summary as one JSON object (for benchmarks)");
+  cmd->add_option(
+         "--pieces", opts->pieces,
+         "Partition into N stores (a power of two up to 4096) by a kd-tree balanced by cells, each with a ghost "
+         "layer, named by the index -o OUT.json (docs/mpi.md); under mpirun rank r builds pieces r, r+R, ...")
+      ->check(CLI::Range(1, kMaxPieces));
+  cmd->add_option("--ghost-level", opts->ghost_level,
+                  "With --pieces: the coarsest level whose samples inside each piece equal the whole store's; the "
+                  "ghost layer is two voxels of that level (0: every level, the widest layer)")
+      ->default_val(0);
   cmd->add_flag("--cells", opts->build.leaf_cells,
                 "Also keep each leaf's cells (the mesh's own cells overlapping it, for exact rendering per node; in "
                 "core only, for now)");
@@ -64,6 +166,11 @@ void register_build(CLI::App& app) {
                 "Leave out the transfer-function error table (44 bytes per node and field; renderers then rank nodes "
                 "by texel size alone)");
   cmd->callback([opts] {
+    if (opts->ghost_level != 0 && opts->pieces == 0) throw Error("--ghost-level applies with --pieces only");
+    if (opts->pieces > 0) {
+      build_pieces(*opts);
+      return;
+    }
     if (extension_lower(opts->output) != ".ugvr") throw Error(opts->output + ": the output must be a .ugvr file");
     if (opts->float32) opts->build.encoding.samples = SampleEncoding::Float32;
     opts->build.tf_errors = !opts->no_tf_errors;

@@ -1,13 +1,17 @@
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <optional>
 
 #include "cli/commands.h"
 #include "ugvr/core/error.h"
+#include "ugvr/core/json_file.h"
+#include "ugvr/core/memory.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/time_series.h"
 #include "ugvr/io/time_series_report.h"
+#include "ugvr/mpi/piece_index.h"
 #include "ugvr/report/dataset_report.h"
 #include "ugvr/report/store_report.h"
 #include "ugvr/store/brick_store.h"
@@ -71,6 +75,54 @@ void store_info(const std::string& path, bool json, bool verify) {
   }
 }
 
+// `ugvr info INDEX.json`: a partitioned store's index (docs/mpi.md): its pieces, boxes, cells and stores, each store
+// opened (a missing or damaged one fails naming its file); --verify checks every piece's bricks.
+void piece_index_info(const std::string& path, bool json, bool verify) {
+  const PieceIndex index = read_piece_index(path);
+  nlohmann::json report = read_json_file(path);
+  report["index"] = path;
+  uint64_t bytes = 0, cells = 0, ghost = 0, nodes = 0;
+  for (int k = 0; k < index.count(); ++k) {
+    const BrickStoreReader store(index.store_path(k));
+    if (verify) {
+      const StoreVerification v = verify_store(store);
+      if (!v.ok()) fail_in(index.store_path(k), "piece " + std::to_string(k) + ": " + v.errors.front());
+    }
+    report["pieces"][size_t(k)]["nodes"] = store.nodes().size();
+    nodes += store.nodes().size();
+    bytes += index.pieces[size_t(k)].store_bytes;
+    cells += index.pieces[size_t(k)].cells;
+    ghost += index.pieces[size_t(k)].ghost_cells;
+  }
+  if (json) {
+    std::printf("%s\n", report.dump(2).c_str());
+    return;
+  }
+  auto box = [](const Bounds& b) {
+    auto c = [](double v) { return std::isfinite(v) ? std::to_string(v) : std::string(v < 0 ? "-inf" : "inf"); };
+    return "[" + c(b.lo.x) + ", " + c(b.hi.x) + "] x [" + c(b.lo.y) + ", " + c(b.hi.y) + "] x [" + c(b.lo.z) + ", " +
+           c(b.hi.z) + "]";
+  };
+  std::printf("partitioned store (index version %d): %s\n", kPieceIndexVersion, path.c_str());
+  std::printf("  pieces: %d (kd-tree, balanced by cells), %llu cells, %llu ghost cells (%.1f%%), %llu nodes, %s\n",
+              index.count(), (unsigned long long)cells, (unsigned long long)ghost,
+              cells ? 100.0 * double(ghost) / double(cells) : 0.0, (unsigned long long)nodes,
+              format_bytes(bytes).c_str());
+  std::printf("  bounds: %s\n  brick: %u, ghost margin: %g (exact from level %d)\n", box(index.bounds).c_str(),
+              index.brick, index.ghost_margin, index.ghost_level);
+  for (const BrickStoreField& f : index.fields)
+    std::printf("  field %s (%s): %g .. %g\n", f.name.c_str(), f.association == Association::Vertex ? "vertex" : "cell",
+                f.min, f.max);
+  for (int k = 0; k < index.count(); ++k) {
+    const PieceInfo& p = index.pieces[size_t(k)];
+    std::printf("  piece %d: %s, %llu cells + %llu ghost, %llu nodes, %s, box %s\n", k, p.store.c_str(),
+                (unsigned long long)p.cells, (unsigned long long)p.ghost_cells,
+                (unsigned long long)report["pieces"][size_t(k)]["nodes"].get<uint64_t>(),
+                format_bytes(p.store_bytes).c_str(), box(p.box).c_str());
+  }
+  if (verify) std::printf("  verified: every piece's bricks\n");
+}
+
 }  // namespace
 
 void register_info(CLI::App& app) {
@@ -93,6 +145,11 @@ void register_info(CLI::App& app) {
   cmd->add_flag("--verify", opts->verify,
                 "Brick store: read every brick, check its checksum and decode it; fails naming the first bad one");
   cmd->callback([opts] {
+    if (opts->inputs.size() == 1 && is_piece_index(opts->inputs[0])) {
+      if (opts->topology) throw Error(opts->inputs[0] + ": --topology describes a mesh, not a partitioned store");
+      piece_index_info(opts->inputs[0], opts->json, opts->verify);
+      return;
+    }
     // A directory (an OpenFOAM case) is no store; is_brick_store_path would try to open it as a file.
     if (opts->inputs.size() == 1 && !std::filesystem::is_directory(opts->inputs[0]) &&
         is_brick_store_path(opts->inputs[0])) {

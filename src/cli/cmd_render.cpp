@@ -28,6 +28,8 @@
 #include "ugvr/core/progress.h"
 #include "ugvr/core/threads.h"
 #include "ugvr/io/time_series.h"
+#include "ugvr/mpi/piece_index.h"
+#include "ugvr/mpi/piece_renderer.h"
 #include "ugvr/octree/input.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/camera_path.h"
@@ -428,6 +430,11 @@ void run_render(const Options& o, std::optional<double> time_budget) {
       return mpi::open_renderer(o.inputs, o.read, ro, &opened);
     }
 #endif
+    // A partitioned store's index (`ugvr build --pieces`): every piece in this process (docs/mpi.md).
+    if (o.inputs.size() == 1 && is_piece_index(o.inputs[0])) {
+      if (time_budget) fail_flag("--time-budget", "is not supported for a partitioned store yet (docs/mpi.md)");
+      return open_piece_renderer(read_piece_index(o.inputs[0]), {}, ro);
+    }
     return open_renderer_default_field(o.inputs, o.read, ro, &opened);
   });
   for (const std::string& w : opened.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <string>
 
+#include "mpi_fixtures.h"
 #include "test_data.h"
 #include "ugvr/render/image.h"
 
@@ -17,15 +18,7 @@ namespace ugvr {
 namespace {
 
 using test::CommandResult;
-
-// `ranks` processes of `ugvr ARGS` under mpirun, killed after 120 s (a hang fails the test rather than the suite).
-CommandResult mpirun(int ranks, const std::string& args) {
-  // Open MPI refuses root unless told (CI containers run as root); one thread per rank.
-  setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
-  setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
-  return test::run_command("timeout 120 " + std::string(UGVR_MPIEXEC) + " --oversubscribe -np " +
-                           std::to_string(ranks) + " " + UGVR_BINARY + " --quiet " + args);
-}
+using test::mpirun;
 
 class MpiRender : public ::testing::Test {
  protected:
@@ -66,35 +59,7 @@ TEST_F(MpiRender, ExactMixedCellsFourRanksEqualOne) {
 // A U-shaped block of hexahedra (a slot cut out of a cube): rays leave the data and enter it again, and the kd-tree's
 // planes cut through the gap.
 TEST_F(MpiRender, ExactNonConvexFourRanksEqualOne) {
-  const int n = 8;
-  std::ofstream out(file("u.vtk"));
-  out << "# vtk DataFile Version 3.0\nU\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS " << (n + 1) * (n + 1) * (n + 1)
-      << " double\n";
-  auto id = [&](int i, int j, int k) { return (k * (n + 1) + j) * (n + 1) + i; };
-  for (int k = 0; k <= n; ++k)
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i) out << i << " " << j << " " << k << "\n";
-  std::vector<std::array<int, 8>> cells;
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        if (i >= 2 && i < 6 && k >= 3) continue;  // the slot
-        cells.push_back({id(i, j, k), id(i + 1, j, k), id(i + 1, j + 1, k), id(i, j + 1, k), id(i, j, k + 1),
-                         id(i + 1, j, k + 1), id(i + 1, j + 1, k + 1), id(i, j + 1, k + 1)});
-      }
-  out << "CELLS " << cells.size() << " " << cells.size() * 9 << "\n";
-  for (const auto& c : cells) {
-    out << 8;
-    for (int v : c) out << " " << v;
-    out << "\n";
-  }
-  out << "CELL_TYPES " << cells.size() << "\n";
-  for (size_t c = 0; c < cells.size(); ++c) out << "12\n";
-  out << "POINT_DATA " << (n + 1) * (n + 1) * (n + 1) << "\nSCALARS s double 1\nLOOKUP_TABLE default\n";
-  for (int k = 0; k <= n; ++k)
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i) out << std::sin(0.7 * i) * std::cos(0.5 * j) + 0.1 * k << "\n";
-  out.close();
+  test::write_u_shaped_mesh(file("u.vtk"));
   // Looking into the slot from the side, so rays cross the gap.
   EXPECT_GE(psnr_4_vs_1(file("u.vtk"), "--size 96 --engine exact --view +y"), 60);
   EXPECT_GE(psnr_4_vs_1(file("u.vtk"), "--size 96 --engine exact"), 60);

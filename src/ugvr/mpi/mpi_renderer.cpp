@@ -14,6 +14,8 @@
 #include "ugvr/mpi/kd_partition.h"
 #include "ugvr/mpi/mpi_compositor.h"
 #include "ugvr/mpi/mpi_session.h"
+#include "ugvr/mpi/piece_index.h"
+#include "ugvr/mpi/piece_renderer.h"
 #include "ugvr/octree/input.h"
 #include "ugvr/render/exact/walk_mesh.h"
 
@@ -149,6 +151,19 @@ class MpiRenderer final : public Renderer {
 std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, const ReadOptions& read,
                                         RendererOptions options, OpenedInput* opened) {
   if (options.interactive) throw OptionError("fps", "interactive rendering (--fps, --path) is not supported under MPI");
+  if (inputs.size() == 1 && is_piece_index(inputs[0])) {
+    // A partitioned store: rank r of R draws the kd subtree of pieces [r N/R, (r+1) N/R), whose union is a box, and
+    // the ranks composite in the order of the tree cut above those subtrees.
+    const PieceIndex index = read_piece_index(inputs[0]);
+    const int n = index.count(), ranks = size();
+    if (n % ranks != 0 || (ranks & (ranks - 1)) != 0)
+      fail_in(inputs[0], std::to_string(ranks) + " ranks cannot share its " + std::to_string(n) +
+                             " pieces: the rank count must be a power of two that divides the piece count");
+    KdTree ranks_tree = group_tree(index.tree, ranks);
+    std::vector<int> mine;
+    for (int k = rank() * (n / ranks); k < (rank() + 1) * (n / ranks); ++k) mine.push_back(k);
+    return std::make_unique<MpiRenderer>(open_piece_renderer(index, std::move(mine), options), std::move(ranks_tree));
+  }
   const bool store = inputs.size() == 1 && is_brick_store(inputs[0]);
   const bool lod = options.engine == "lod" || (options.engine == "auto" && store);
   if (lod) {

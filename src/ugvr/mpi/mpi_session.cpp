@@ -49,6 +49,10 @@ int size() {
   return s;
 }
 
+void barrier() {
+  if (active()) MPI_Barrier(MPI_COMM_WORLD);
+}
+
 void abort_job(const std::string& message, int code) {
   std::fprintf(stderr, "ugvr: rank %d of %d: %s\n", rank(), size(), message.c_str());
   std::fflush(stderr);

@@ -17,6 +17,10 @@ bool active();  // initialised and not finalised
 int rank();     // 0 when not active
 int size();     // 1 when not active
 
+// MPI_Barrier on MPI_COMM_WORLD (a no-op when not active): `ugvr build --pieces` waits for every rank's pieces
+// before rank 0 writes the index.
+void barrier();
+
 // Ends the whole job from one rank: prints "ugvr: rank R of N: message" to stderr and calls MPI_Abort, which
 // takes every other rank down (they may be waiting in a collective: a plain exit would leave them hanging).
 [[noreturn]] void abort_job(const std::string& message, int code);

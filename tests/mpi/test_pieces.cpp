@@ -1,0 +1,201 @@
+// Partitioned stores (`ugvr build --pieces N`, src/ugvr/mpi/piece_*.h, docs/mpi.md): 4 ranks rendering a 4- or
+// 8-piece index, and one process rendering every piece, equal one rank rendering the whole store; a missing or
+// damaged piece is named; the build under mpirun gives the same index and images.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "mpi_fixtures.h"
+#include "test_data.h"
+#include "ugvr/render/image.h"
+
+namespace ugvr {
+namespace {
+
+using test::CommandResult;
+using test::mpirun;
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+class Pieces : public ::testing::Test {
+ protected:
+  std::string file(const std::string& name) const { return dir_.file(name); }
+
+  // Builds INPUT whole (W.ugvr) and in 4 and 8 pieces (P4.json, P8.json) with the same options.
+  void build_all(const std::string& input, const std::string& build_flags) {
+    const CommandResult whole = test::run_ugvr("build " + input + " " + build_flags + " -o " + file("W.ugvr"));
+    ASSERT_EQ(whole.status, 0) << whole.out;
+    for (int n : {4, 8}) {
+      const std::string index = file("P" + std::to_string(n) + ".json");
+      const CommandResult r =
+          test::run_ugvr("build " + input + " " + build_flags + " --pieces " + std::to_string(n) + " -o " + index);
+      ASSERT_EQ(r.status, 0) << r.out;
+      const nlohmann::json j = nlohmann::json::parse(slurp(index));
+      EXPECT_EQ(j["format"], "ugvr-pieces");
+      EXPECT_EQ(j["version"], 1);
+      ASSERT_EQ(j["pieces"].size(), size_t(n));
+      uint64_t owned = 0;
+      for (const auto& p : j["pieces"]) {
+        owned += p["cells"].get<uint64_t>();
+        EXPECT_TRUE(std::filesystem::exists(file(p["store"].get<std::string>()))) << p["store"];
+      }
+      const CommandResult info = test::run_ugvr("info " + index);
+      ASSERT_EQ(info.status, 0) << info.out;
+      EXPECT_NE(info.out.find(std::to_string(n) + " (kd-tree"), std::string::npos) << info.out;
+      // Every cell is owned by exactly one piece (its centroid's box): checked against the mesh's count by the caller.
+      cells_ = owned;
+    }
+  }
+
+  // The lower PSNR of: 4 ranks on the 4-piece index, 4 ranks on the 8-piece index, and one plain process on the
+  // 8-piece index, each against one rank on the whole store.
+  double psnr_pieces_vs_whole(const std::string& flags) {
+    const std::string common = " --threads 1 " + flags;
+    CommandResult r =
+        mpirun(1, "render " + file("W.ugvr") + common + " -o " + file("w.png") + " --float " + file("w.pfm"));
+    EXPECT_EQ(r.status, 0) << r.out;
+    if (r.status != 0) return 0;
+    const Image whole = read_pfm(file("w.pfm"));
+    double worst = 1e9;
+    for (const char* run : {"4:P4", "4:P8", "0:P8"}) {
+      const int ranks = run[0] - '0';
+      const std::string index = file(std::string(run + 2) + ".json"), out = file(std::string("o") + run[0] + (run + 2));
+      const std::string args = "render " + index + common + " -o " + out + ".png --float " + out + ".pfm";
+      r = ranks ? mpirun(ranks, args) : test::run_ugvr(args);
+      EXPECT_EQ(r.status, 0) << r.out;
+      if (r.status != 0) return 0;
+      const ImageDifference d = compare_images(read_pfm(out + ".pfm"), whole);
+      std::printf("%s (%d ranks) vs the whole store on 1 rank: psnr %.2f dB, max %.3g\n", run + 2, ranks, d.psnr_db,
+                  d.max_abs);
+      worst = std::min(worst, d.psnr_db);
+    }
+    return worst;
+  }
+  test::ScratchDir dir_;
+  uint64_t cells_ = 0;
+};
+
+TEST_F(Pieces, OxygenPostFourRanksEqualTheWholeStore) {
+  UGVR_REQUIRE_DATA("lox-post/postxyz.bin");
+  const std::string input = test::data_path("lox-post/postxyz.bin") + " " + test::data_path("lox-post/postq.bin");
+  build_all(input, "--brick 16 --max-depth 3");
+  EXPECT_EQ(cells_, 102675u);
+  EXPECT_GE(psnr_pieces_vs_whole("--size 128"), 50);
+}
+
+TEST_F(Pieces, MixedMeshFourRanksEqualTheWholeStore) {
+  ASSERT_EQ(test::run_ugvr("generate --cells 4000 --kind mixed -o " + file("mixed.vtu")).status, 0);
+  build_all(file("mixed.vtu"), "--brick 16 --max-depth 4");
+  EXPECT_GE(psnr_pieces_vs_whole("--size 96"), 50);
+}
+
+// The U-shaped mesh: rays leave the data and enter it again, and the kd planes cut through the slot.
+TEST_F(Pieces, NonConvexMeshFourRanksEqualTheWholeStore) {
+  test::write_u_shaped_mesh(file("u.vtk"), 16);
+  build_all(file("u.vtk"), "--brick 16 --max-depth 4");
+  EXPECT_GE(psnr_pieces_vs_whole("--size 96 --view +y"), 50);
+  EXPECT_GE(psnr_pieces_vs_whole("--size 96"), 50);
+}
+
+TEST_F(Pieces, BuildUnderMpirunGivesTheSameIndexAndImage) {
+  ASSERT_EQ(test::run_ugvr("generate --cells 2000 --kind tet -o " + file("t.vtu")).status, 0);
+  const CommandResult one = test::run_ugvr("build " + file("t.vtu") + " --brick 16 --pieces 4 -o " + file("A.json"));
+  ASSERT_EQ(one.status, 0) << one.out;
+  const CommandResult two = mpirun(2, "build " + file("t.vtu") + " --brick 16 --pieces 4 -o " + file("B.json"));
+  ASSERT_EQ(two.status, 0) << two.out;
+  // Blocks land in a store in the order parallel bricks finish, so files differ byte for byte between any two builds;
+  // the stores' images may not.
+  for (const char* name : {"A", "B"}) {
+    const CommandResult r =
+        test::run_ugvr("render " + file(std::string(name) + ".json") + " --size 64 --view +z -o " +
+                       file(std::string(name) + ".png") + " --float " + file(std::string(name) + ".pfm"));
+    ASSERT_EQ(r.status, 0) << r.out;
+  }
+  const ImageDifference d = compare_images(read_pfm(file("A.pfm")), read_pfm(file("B.pfm")));
+  EXPECT_EQ(d.max_abs, 0);
+  std::string a = slurp(file("A.json")), b = slurp(file("B.json"));
+  EXPECT_NE(a.find("A.d/piece-3.ugvr"), std::string::npos);
+  // The same index (tree, boxes, cells, ranges, store sizes) but for the folder's name.
+  for (size_t p = 0; (p = b.find("B.d/", p)) != std::string::npos;) b.replace(p, 4, "A.d/");
+  EXPECT_EQ(a, b);
+}
+
+TEST_F(Pieces, AMissingOrDamagedPieceIsNamed) {
+  ASSERT_EQ(test::run_ugvr("generate --cells 2000 --kind tet -o " + file("t.vtu")).status, 0);
+  ASSERT_EQ(test::run_ugvr("build " + file("t.vtu") + " --brick 16 --pieces 4 -o " + file("P.json")).status, 0);
+  // What a partitioned store does not do yet is refused, not ignored.
+  CommandResult u = test::run_ugvr("render " + file("P.json") + " --size 32 --time-budget 1 -o " + file("b.png"));
+  EXPECT_NE(u.status, 0);
+  EXPECT_NE(u.out.find("--time-budget"), std::string::npos) << u.out;
+  u = test::run_ugvr("render " + file("P.json") + " --size 32 --engine exact -o " + file("b.png"));
+  EXPECT_NE(u.status, 0);
+  EXPECT_NE(u.out.find("renders with the lod engine"), std::string::npos) << u.out;
+  u = test::run_ugvr("render " + file("P.json") + " --size 32 --mode mip -o " + file("b.png"));
+  EXPECT_NE(u.status, 0);
+  EXPECT_NE(u.out.find("mip is not supported for a partitioned store"), std::string::npos) << u.out;
+  // 3 ranks cannot share 4 pieces.
+  CommandResult r = mpirun(3, "render " + file("P.json") + " --size 32 -o " + file("x.png"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("3 ranks cannot share its 4 pieces"), std::string::npos) << r.out;
+  // A damaged piece: cut short.
+  const std::string piece1 = file("P.d/piece-1.ugvr");
+  std::filesystem::resize_file(piece1, std::filesystem::file_size(piece1) / 2);
+  r = mpirun(4, "render " + file("P.json") + " --size 32 -o " + file("d.png"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.status, 124) << "the job hung until the timeout:\n" << r.out;
+  EXPECT_NE(r.out.find("piece-1.ugvr"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(file("d.png")));
+  // A missing piece: every rank reads the index and names it before rendering.
+  std::filesystem::remove(file("P.d/piece-2.ugvr"));
+  r = mpirun(4, "render " + file("P.json") + " --size 32 -o " + file("m.png"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.status, 124) << "the job hung until the timeout:\n" << r.out;
+  EXPECT_NE(r.out.find("piece 2's store"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("piece-2.ugvr is missing"), std::string::npos) << r.out;
+  r = test::run_ugvr("render " + file("P.json") + " --size 32 -o " + file("m.png"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("piece-2.ugvr is missing"), std::string::npos) << r.out;
+  r = test::run_ugvr("info " + file("P.json"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("piece-2.ugvr is missing"), std::string::npos) << r.out;
+  // An index of another version, and one cut short, are refused naming the index.
+  std::string index = slurp(file("P.json"));
+  const size_t v = index.find("\"version\": 1");
+  ASSERT_NE(v, std::string::npos);
+  std::ofstream(file("V.json")) << index.substr(0, v) << "\"version\": 2" << index.substr(v + 12);
+  r = test::run_ugvr("render " + file("V.json") + " --size 32 -o " + file("v.png"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("V.json: piece index: version 2"), std::string::npos) << r.out;
+  std::ofstream(file("T.json")) << index.substr(0, index.size() / 2);
+  r = test::run_ugvr("info " + file("T.json"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("T.json: invalid JSON"), std::string::npos) << r.out;
+}
+
+TEST_F(Pieces, BadPieceCountsAndOutOfCoreAreRefused) {
+  ASSERT_EQ(test::run_ugvr("generate --cells 1000 --kind tet -o " + file("t.vtu")).status, 0);
+  CommandResult r = test::run_ugvr("build " + file("t.vtu") + " --pieces 6 -o " + file("P.json"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("power of two"), std::string::npos) << r.out;
+  r = test::run_ugvr("build " + file("t.vtu") + " --pieces 4 -o " + file("P.ugvr"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("a .json file"), std::string::npos) << r.out;
+  r = test::run_ugvr("build " + file("t.vtu") + " --pieces 4 --out-of-core -o " + file("P.json"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("--out-of-core is not supported"), std::string::npos) << r.out;
+  r = test::run_ugvr("build " + file("t.vtu") + " --ghost-level 2 -o " + file("G.ugvr"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("--ghost-level applies with --pieces only"), std::string::npos) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(file("P.json")));
+}
+
+}  // namespace
+}  // namespace ugvr
