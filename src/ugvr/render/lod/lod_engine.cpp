@@ -19,6 +19,8 @@
 #include "ugvr/render/gpu_readback.h"
 #include "ugvr/render/lod/brick_atlas.h"
 #include "ugvr/render/lod/brick_residency.h"
+#include "ugvr/render/lod/cell_cache.h"
+#include "ugvr/render/lod/hybrid_select.h"
 #include "ugvr/render/lod/tf_error.h"
 #include "ugvr/store/brick_store.h"
 
@@ -86,9 +88,10 @@ struct LodEngine::Impl {
   const GlContext& gl;
   LodOptions options;
   uint32_t field = 0;
-  // By (mode, volume lighting, boundary overlay, slices, tricubic): compile-time variants.
-  std::map<std::tuple<int, bool, bool, bool, bool>, ComputeProgram> programs;
-  ComputeProgram& program_for(int mode, bool volume_lighting, bool overlay, bool slices = false, bool tricubic = false);
+  // By (mode, volume lighting, boundary overlay, slices, tricubic, hybrid): compile-time variants.
+  std::map<std::tuple<int, bool, bool, bool, bool, bool>, ComputeProgram> programs;
+  ComputeProgram& program_for(int mode, bool volume_lighting, bool overlay, bool slices = false, bool tricubic = false,
+                              bool hybrid = false);
   GlBuffer tree, state, counters, readback;
   // The boundary faces (store format version 4), static; `faces` false: the store has none, and the shader is compiled
   // without them (FACES 0: the stencil alone, at no cost).
@@ -107,6 +110,12 @@ struct LodEngine::Impl {
   // texture at 1 GiB, below the default budget); UINT64_MAX until then.
   uint64_t device_slots = UINT64_MAX;
   std::optional<Bounds> clip_box;  // set_clip_box
+  // Hybrid rendering: the cell cache (created on the first hybrid frame) and the exact nodes render() granted for the
+  // render_nodes call it makes (node, cache entry); empty otherwise.
+  std::unique_ptr<CellCache> cells;
+  std::vector<std::pair<uint64_t, uint32_t>> exact_now;
+  void choose_exact(const std::vector<uint64_t>& cut, const Camera& camera, const RenderSettings& settings,
+                    LodRenderStats& st);
 
   Impl(const std::string& path, const GlContext& g, LodOptions o) : store(path), gl(g), options(o) {}
   uint64_t budget_slots() const;
@@ -118,17 +127,20 @@ struct LodEngine::Impl {
   void upload_slice_colors(const TransferFunction& tf, const RenderSettings& settings);
 };
 
-ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, bool overlay, bool slices, bool tricubic) {
-  auto it = programs.find({mode, volume_lighting, overlay, slices, tricubic});
+ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, bool overlay, bool slices, bool tricubic,
+                                             bool hybrid) {
+  auto it = programs.find({mode, volume_lighting, overlay, slices, tricubic, hybrid});
   if (it == programs.end()) {
     ComputeProgram p("lod_raycast.comp", {{"MODE", std::to_string(mode)},
                                           {"VOLUME_LIGHTING", volume_lighting ? "1" : "0"},
                                           {"OVERLAY", overlay ? "1" : "0"},
                                           {"FACES", faces ? "1" : "0"},
                                           {"SLICES", slices ? "1" : "0"},
-                                          {"TRICUBIC", tricubic ? "1" : "0"}});
+                                          {"TRICUBIC", tricubic ? "1" : "0"},
+                                          {"HYBRID", hybrid ? "1" : "0"}});
     check_contract(p);
-    it = programs.emplace(std::make_tuple(mode, volume_lighting, overlay, slices, tricubic), std::move(p)).first;
+    it =
+        programs.emplace(std::make_tuple(mode, volume_lighting, overlay, slices, tricubic, hybrid), std::move(p)).first;
   }
   return it->second;
 }
@@ -283,6 +295,11 @@ lod_gpu::LodFrame LodEngine::Impl::frame_parameters(const Camera& camera, const 
   f.u_clip = settings.clip_plane ? 1 : 0;
   if (settings.clip_plane) f.u_clip_plane = normalised_plane(*settings.clip_plane, root);
   f.u_overlay_opacity = overlay ? float(settings.boundary_overlay_opacity) : 0.0f;
+  // Hybrid: the non-linear cells' tolerance as the exact engine takes it by default (1e-3 of the transfer function's
+  // range, exact_engine.cpp), in the units the cells' values are stored in (the field's range).
+  const double tol_scale = tf_width > 0 ? tf_width : f_hi - f_lo;
+  f.u_cell_tolerance = f_hi > f_lo ? float(1e-3 * tol_scale / (f_hi - f_lo)) : 0.0f;
+  f.u_cell_data = store.layout().fields[field].association == Association::Cell ? 1 : 0;
   f.u_nudge = float(2e-6 * std::max({root_size.x, root_size.y, root_size.z}));
   // Slices: the planes as the clip plane is passed; each colour table spans the slice's range (or the transfer
   // function's), reached from the normalised value as u_tf_map reaches the transfer function's table.
@@ -334,6 +351,40 @@ void LodEngine::Impl::upload_slice_colors(const TransferFunction& tf, const Rend
     }
     glTextureSubImage2D(slice_texture.id(), 0, 0, GLint(i), n, 1, GL_RGBA, GL_FLOAT, row.data());
   }
+}
+
+// Hybrid rendering: which of the cut's nodes are drawn by their cells this frame (hybrid_select.h, cell_cache.h).
+void LodEngine::Impl::choose_exact(const std::vector<uint64_t>& cut, const Camera& camera,
+                                   const RenderSettings& settings, LodRenderStats& st) {
+  exact_now.clear();
+  if (!options.hybrid) return;
+  st.hybrid = true;
+  if (!store.has_cells()) {
+    st.hybrid_off = "the store keeps no cells (ugvr build --cells)";
+  } else if (settings.mode != RenderMode::EmissionAbsorption) {
+    st.hybrid_off = "exact cells are drawn in emission-absorption mode only";
+  } else if (boundary_overlay_on(settings) || !settings.slices.empty() || settings.hide_volume != HideVolume::None) {
+    st.hybrid_off = "exact cells are drawn without the boundary overlay and slices only";
+  }
+  if (!st.hybrid_off.empty()) return;
+  const auto t0 = std::chrono::steady_clock::now();
+  const uint64_t budget = options.cell_budget_bytes ? options.cell_budget_bytes : options.atlas_budget_bytes / 4;
+  if (!cells || cells->budget_bytes() != budget) cells = std::make_unique<CellCache>(store, budget);
+  const std::vector<ExactCandidate> cand =
+      exact_candidates(store, cut, camera, settings.width, settings.height, tf_errors);
+  std::vector<uint64_t> order;
+  order.reserve(cand.size());
+  for (const ExactCandidate& c : cand) order.push_back(c.node);
+  const CellCache::Grant g = cells->grant(order, field, options.max_exact_nodes);
+  for (size_t i = 0; i < g.nodes.size(); ++i) exact_now.emplace_back(g.nodes[i], g.entries[i]);
+  st.exact_candidates = cand.size();
+  st.exact_nodes = g.nodes.size();
+  st.exact_cells = g.cells;
+  st.cell_bytes = g.bytes;
+  st.cell_budget_bytes = budget;
+  st.cells_prepared = g.prepared;
+  st.cell_budget_full = g.budget_full;
+  st.cells_seconds = seconds_since(t0);
 }
 
 LodEngine::LodEngine(const std::string& store_path, const GlContext& gl, LodOptions options)
@@ -447,13 +498,19 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   st.cut_seconds = seconds_since(t0);
   BrickResidency from_store(I.store, I.slot_table);  // no RAM tier: the bricks are read here
   Image image;
+  struct ClearExact {
+    Impl& impl;
+    ~ClearExact() { impl.exact_now.clear(); }
+  } clear_exact{I};
   try {
+    I.choose_exact(cut.nodes, camera, settings, st);
     image = render_nodes(camera, tf, settings, cut.nodes, from_store, &st);
   } catch (const AtlasRefused&) {
     // The device allocates less than the budget: the cut again, within what it does allocate (once).
     co.max_nodes = I.budget_slots();
     cut = select_cut(I.store, cut_spec, camera, settings.width, settings.height, tf, co);
     in_box(cut);
+    I.choose_exact(cut.nodes, camera, settings, st);
     image = render_nodes(camera, tf, settings, cut.nodes, from_store, &st);
   }
   st.cut_nodes = cut.nodes.size();
@@ -476,6 +533,7 @@ void LodEngine::set_step_voxels(double step) {
   if (!(step > 0) || !std::isfinite(step)) fail_in("lod engine", "step must be > 0 voxels");
   impl_->options.step_voxels = step;
 }
+void LodEngine::set_max_exact_nodes(uint64_t n) { impl_->options.max_exact_nodes = n; }
 
 Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
                               std::span<const uint64_t> nodes, LodRenderStats* stats) {
@@ -514,6 +572,14 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
          p = I.store.node(p).parent)
       state[p] = lod_gpu::NODE_DESCEND;
   }
+  // Exact nodes (render() granted them for this cut): drawn by their cells. Their bricks stay loaded all the same, so
+  // that a node whose grant ends draws at once.
+  const bool hybrid = !I.exact_now.empty();
+  for (const auto& [n, entry] : I.exact_now) {
+    if (state[n] >= lod_gpu::NODE_DESCEND || entry >= lod_gpu::NODE_EXACT)
+      fail_in("lod engine", "exact node " + std::to_string(n) + " is not a node of the cut");
+    state[n] = lod_gpu::NODE_EXACT | entry;
+  }
   I.state.upload(state.data(), state.size() * sizeof(uint32_t));
   st.load_seconds = seconds_since(t1);
   st.atlas_bytes = I.atlas.bytes();
@@ -536,7 +602,8 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   // Tricubic interpolation is an isosurface variant only (docs/tricubic.md); the other modes ignore the setting.
   const bool tricubic = mode == LOD_MODE_ISO && settings.interpolation == Interpolation::Tricubic;
   const ComputeProgram& program =
-      I.program_for(mode, mode == LOD_MODE_EA && settings.volume_lighting, overlay, slices, tricubic);
+      I.program_for(mode, mode == LOD_MODE_EA && settings.volume_lighting, overlay, slices, tricubic, hybrid);
+  if (hybrid) I.cells->bind();
   if (slices) {
     I.upload_slice_colors(tf, settings);
     glBindTextureUnit(lod_gpu::SLICE_TEXTURE_BINDING, I.slice_texture.id());
@@ -575,6 +642,7 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   glGetNamedBufferSubData(I.counters.id(), 0, sizeof counted, counted);
   st.samples = counted[lod_gpu::COUNTER_SAMPLES];
   st.bricks_entered = counted[lod_gpu::COUNTER_BRICKS];
+  st.cell_steps = counted[lod_gpu::COUNTER_CELL_STEPS];
 
   const auto t3 = std::chrono::steady_clock::now();
   Image image = read_back_composited(I.readback, I.out_texture, w, h, settings.background, "lod engine");

@@ -62,6 +62,21 @@ void LodFrameStats::to_json(nlohmann::json& j) const {
   j["readback_seconds"] = st.readback_seconds;
   j["atlas_bytes"] = st.atlas_bytes;
   j["atlas_slots"] = st.atlas_slots;
+  if (st.hybrid) {
+    nlohmann::json h;
+    h["off"] = st.hybrid_off.empty() ? nlohmann::json(nullptr) : nlohmann::json(st.hybrid_off);
+    h["candidates"] = st.exact_candidates;
+    h["exact_nodes"] = st.exact_nodes;
+    h["exact_fraction"] = st.cut_nodes ? double(st.exact_nodes) / double(st.cut_nodes) : 0.0;
+    h["exact_cells"] = st.exact_cells;
+    h["cell_bytes"] = st.cell_bytes;
+    h["cell_budget_bytes"] = st.cell_budget_bytes;
+    h["cell_budget_full"] = st.cell_budget_full;
+    h["cells_prepared"] = st.cells_prepared;
+    h["cells_seconds"] = st.cells_seconds;
+    h["cell_steps"] = st.cell_steps;
+    j["hybrid"] = std::move(h);
+  }
 }
 
 void InteractiveLodFrameStats::to_json(nlohmann::json& j) const {
@@ -139,7 +154,7 @@ Frame LodRenderer::render(const FrameRequest& request) {
   Frame f;
   f.image = engine.render(request.camera, request.tf, request.settings, cut_, &detail->render);
   const LodRenderStats& st = detail->render;
-  f.stats.engine = "lod";
+  f.stats.engine = std::string(this->engine());
   f.stats.seconds = st.render_seconds;
   f.stats.samples = st.samples;
   f.stats.cut_nodes = st.cut_nodes;
@@ -158,7 +173,23 @@ std::string LodRenderer::summary(const FrameStats& last) const {
                 cut_spec_name(cut_).c_str(), (unsigned long long)st.cut_nodes, st.max_level, st.mean_level,
                 st.budget_limited ? ", limited by --gpu-memory" : "", st.gpu_seconds,
                 format_bytes(st.atlas_bytes).c_str(), scene_->gl->renderer().c_str());
-  return buf;
+  std::string out = buf;
+  if (st.hybrid) {
+    // How much is exact (hybrid rendering): nodes, of the candidates (visible nodes with cells), cells, memory.
+    if (!st.hybrid_off.empty()) {
+      out += "; no exact cells: " + st.hybrid_off;
+    } else {
+      std::snprintf(buf, sizeof buf,
+                    "; exact %llu of %llu nodes with cells (%.1f%% of the cut), %llu cells, %s of %s%s",
+                    (unsigned long long)st.exact_nodes, (unsigned long long)st.exact_candidates,
+                    st.cut_nodes ? 100.0 * double(st.exact_nodes) / double(st.cut_nodes) : 0.0,
+                    (unsigned long long)st.exact_cells, format_bytes(st.cell_bytes).c_str(),
+                    format_bytes(st.cell_budget_bytes).c_str(),
+                    st.cell_budget_full ? ", cell budget full (--gpu-cell-memory)" : "");
+      out += buf;
+    }
+  }
+  return out;
 }
 
 // --- time-critical session
