@@ -297,23 +297,26 @@ vec4 integral_at(float u) {
 // boundary, ends the walk. The ray enters the node's cells at the first entering crossing of those faces (the node's
 // entry triangles, tested exactly as the exact engine tests its boundary), walks, re-enters after each exit, and only
 // the stretch [t, t_exit] of the node counts (Muigg's F18: the ray's segment clamped to the node's box, so that
-// neighbouring nodes, exact or resampled, meet without a seam or an overlap: both clamp at the same float t). The
-// pieces are integrated with the bricks' pre-integration table, so exact and resampled nodes share one transfer
-// function integration and one compositing state. The walk's frame: origin `base`, direction dir / |dir|
-// (normalised coordinates), so that walk t = |dir| × the LOD shader's t.
+// neighbouring nodes, exact or resampled, meet without a seam or an overlap: both clamp at the same float t), into
+// the one compositing state of the ray. The pieces are integrated in closed form as the exact engine integrates them
+// (shaders/optical.glsl: the same transfer function model as the bricks' pre-integration table, without its float
+// difference quotients, which cost a cell's short pieces 5 to 10 dB against the exact engine; docs/hybrid.md). The
+// walk's frame: origin `base`, direction dir / |dir| (normalised coordinates), so that walk t = |dir| × the LOD
+// shader's t.
 #define real float
 #define real3 vec3
 layout(std430, binding = CELL_NODE_BUFFER_BINDING) readonly buffer CellNodes { uvec4 cell_node[]; };
 layout(std430, binding = CELL_INT_BUFFER_BINDING) readonly buffer CellInts { uint cell_ints[]; };
 layout(std430, binding = CELL_FLOAT_BUFFER_BINDING) readonly buffer CellFloats { float cell_floats[]; };
 #include "cell_walk.glsl"
+#define OPTICAL_TABLE_BINDING CELL_OPTICAL_BUFFER_BINDING
+#include "optical.glsl"
 
 // The current node's record (render/lod/cell_cache.h CellNodeRecord): [0] first local cell of each type, [1] where
 // each type's connectivity starts in cell_ints, [2] each type's neighbours, [3] (first point's float index, first
 // value's float index, first quad-split word, first entry triangle's uint index), [4] (entry triangles, cells, -, -).
 uvec4 g_cn[CELL_NODE_UVEC4S];
 float g_len;         // |dir|: walk t = g_len × t
-float g_piece_step;  // the node level's sample step (world): the longest piece integrated at once
 uint g_cell_steps = 0u;
 
 int type_index(uint c) { return c < g_cn[0].y ? 0 : c < g_cn[0].z ? 1 : c < g_cn[0].w ? 2 : 3; }
@@ -334,37 +337,13 @@ float vertex_value(uint id) { return cell_floats[g_cn[3].y + id]; }
 float cell_value(uint c) { return cell_floats[g_cn[3].y + c]; }
 real nonlinear_tolerance() { return u_cell_tolerance; }
 
-// A linear piece of the (normalised) field, clamped to the node's stretch [g_t_lo, g_t_hi], integrated as the bricks'
-// segments are (pre-integration), in parts no longer than the node level's step (the table's colour leaves out the
-// attenuation inside a part: second order in its optical depth, as for the samples).
+// A linear piece of the field, clamped to the node's stretch [g_t_lo, g_t_hi] and integrated in closed form.
+int g_hint = -1;
 void piece(real ta, real tb, float sa, float sb, int k) {
   if (tb <= g_t_lo || ta >= g_t_hi || !(tb > ta)) return;
   if (ta < g_t_lo) sa = sa + (sb - sa) * float((g_t_lo - ta) / (tb - ta)), ta = g_t_lo;
   if (tb > g_t_hi) sb = sa + (sb - sa) * float((g_t_hi - ta) / (tb - ta)), tb = g_t_hi;
-  if (isnan(sa) || isnan(sb)) return;
-  float len = float(tb - ta) / g_len;
-  int parts = clamp(int(ceil(len / g_piece_step)), 1, 256);
-  float part = len / float(parts);
-  float ua = sa * u_tf_map.x + u_tf_map.y, du = (sb - sa) * u_tf_map.x / float(parts);
-  vec4 ia = integral_at(ua);
-  for (int i = 0; i < parts && !done(); ++i) {
-    float ub = ua + du;
-    vec4 ib = integral_at(ub);
-    vec4 mean;
-    if (abs(ub - ua) >= 0.5 / (float(TF_TEXELS) - 1.0)) {
-      mean = (ib - ia) / (ub - ua);
-    } else {
-      vec4 p = texture(u_tf, (clamp(0.5 * (ua + ub), 0.0, 1.0) * (float(TF_TEXELS) - 1.0) + 0.5) / float(TF_TEXELS));
-      mean = vec4(p.rgb * p.a, p.a);
-    }
-    if (mean.a > 0.0) {
-      float a = 1.0 - exp(-mean.a * part);
-      g_acc.rgb += g_acc.a * a * (mean.rgb / mean.a);
-      g_acc.a *= 1.0 - a;
-    }
-    ua = ub;
-    ia = ib;
-  }
+  optical_integrate(sa, sb, float(tb - ta) / g_len, 1.0, g_acc, g_hint);
 }
 
 // The ray's frame (ray_frame.h, Duff et al. 2017) for the walk, once per ray.
@@ -791,7 +770,6 @@ void main() {
 #if HYBRID
     if ((state & NODE_EXACT) != 0u) {
       g_acc = vec4(radiance, transmittance);
-      g_piece_step = u_fixed_step ? u_step0 : u_step0 / float(1 << level);
       walk_node(state & ~NODE_EXACT, t, min(t_exit, t_end));
       radiance = g_acc.rgb, transmittance = g_acc.a;
       ++bricks;

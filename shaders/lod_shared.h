@@ -78,8 +78,9 @@ const int SLICE_TEXELS = 1024;
 // representation, as render/lod/cell_cache.h lays them out (CellNodeRecord per resident node; the walk's arrays).
 const int CELL_NODE_BUFFER_BINDING = 12;   // uvec4 × CELL_NODE_UVEC4S per resident node: cell_cache.h CellNodeRecord
 const int CELL_INT_BUFFER_BINDING = 13;    // uint: connectivity, neighbours, quad splits, entry triangles
-const int CELL_FLOAT_BUFFER_BINDING = 14;  // float: points (normalised coordinates), values (normalised to the field)
+const int CELL_FLOAT_BUFFER_BINDING = 14;  // float: points (normalised coordinates), values (the field's own)
 const int CELL_NODE_UVEC4S = 5;
+const int CELL_OPTICAL_BUFFER_BINDING = 15;  // the exact engine's optical table (shaders/optical.glsl) for the cells
 // A node state with this bit set (and below NODE_DESCEND) is a cut node drawn by its cells; the bits below are its
 // entry in the cell cache.
 const uint NODE_EXACT = 0x80000000u;
@@ -148,7 +149,7 @@ layout(std140, binding = FRAME_BLOCK_BINDING) uniform LodFrame {
   vec4 u_slice_map[LOD_MAX_SLICES];    // 368 slice i: colour-table coordinate = value · x + y; z its opacity
   int u_slice_count;                   // 496 (read only by SLICES variants)
   int u_hide_volume;                   // 500 0 none, 1 front, 2 back, 3 all (render_settings.h HideVolume)
-  float u_cell_tolerance;              // 504 HYBRID: non-linear cells' tolerance, in units of the field's range
+  float u_cell_tolerance;              // 504 HYBRID: non-linear cells' tolerance, in the field's units
   int u_cell_data;                     // 508 HYBRID: the field is per cell (else per vertex)
   vec4 u_box_lo;                       // 512 data-parallel rendering (src/ugvr/mpi): only t inside the box
   vec4 u_box_hi;                       // 528 [lo, hi] (xyz, normalised) is drawn; read only when u_box_lo.w > 0.5

@@ -11,7 +11,9 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "test_data.h"
 #include "ugvr/core/error.h"
@@ -27,6 +29,9 @@
 
 namespace ugvr {
 namespace {
+
+using test::CommandResult;
+using test::run_ugvr;
 
 struct Fixture {
   std::filesystem::path dir;
@@ -110,10 +115,12 @@ TEST(Hybrid, PreparedNodeCellsAreClosed) {
       EXPECT_GE(p.floats[i], -1e-6f);
       EXPECT_LE(p.floats[i], 1.0f + 1e-6f);
     }
-    // Values normalised to the field's range.
+    // The field's values, within its range.
+    const BrickStoreField& fd = store.layout().fields[0];
+    EXPECT_EQ(p.floats.size(), 3 * p.points + p.points);  // pressure is a vertex field
     for (size_t i = 3 * p.points; i < p.floats.size(); ++i) {
-      EXPECT_GE(p.floats[i], -1e-6f);
-      EXPECT_LE(p.floats[i], 1.0f + 1e-6f);
+      EXPECT_GE(p.floats[i], float(fd.min) - 1e-6f);
+      EXPECT_LE(p.floats[i], float(fd.max) + 1e-6f);
     }
     ++nodes;
   }
@@ -156,6 +163,7 @@ TEST(Hybrid, ConvergesToTheExactEngine) {
   std::printf("hybrid vs exact %.2f dB, voxels vs exact %.2f dB (%llu of %llu cut nodes exact, %llu cells)\n", p_hybrid,
               p_voxels, (unsigned long long)st.exact_nodes, (unsigned long long)st.cut_nodes,
               (unsigned long long)st.exact_cells);
+  // Measured on llvmpipe: 94.9 dB hybrid, 58.9 dB voxels.
   EXPECT_GE(p_hybrid, 45.0);
   EXPECT_GT(p_hybrid, p_voxels + 3.0);
 
@@ -202,9 +210,47 @@ TEST(Hybrid, NoSeamsAtNodeBorders) {
     std::printf("%s: %.2f dB, max %.4f\n", view, d.psnr_db, d.max_abs);
     // An axis-aligned view puts rays along node faces: a seam (a stretch counted twice or skipped) would show as a
     // line of pixels far off the reference.
-    EXPECT_GE(d.psnr_db, 40.0) << view;
-    EXPECT_LT(d.max_abs, 0.1) << view;
+    // Measured on llvmpipe: 84.8, 79.5 and 121.6 dB, max 0.005 (rays grazing the floor's cell faces in float).
+    EXPECT_GE(d.psnr_db, 60.0) << view;
+    EXPECT_LT(d.max_abs, 0.02) << view;
   }
+}
+
+// `ugvr render STORE --engine hybrid`: the cut is the leaves, the stats say how much is exact; a store without cells
+// renders its voxels and says why.
+TEST(Hybrid, CommandLine) {
+  REQUIRE_GL();
+  const Fixture& f = fixture();
+  const std::string stats = (f.dir / "hybrid-stats.json").string(), png = (f.dir / "hybrid.png").string();
+  const CommandResult r =
+      run_ugvr("render " + f.store + " --engine hybrid --size 48x48 --stats " + stats + " -o " + png);
+  ASSERT_EQ(r.status, 0) << r.out;
+  std::ifstream in(stats);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["engine"], "hybrid");
+  EXPECT_EQ(j["cut"], "leaves");
+  ASSERT_TRUE(j.contains("hybrid")) << j.dump();
+  EXPECT_TRUE(j["hybrid"]["off"].is_null());
+  EXPECT_GT(j["hybrid"]["exact_nodes"].get<uint64_t>(), 0u);
+  EXPECT_EQ(j["hybrid"]["exact_nodes"], j["hybrid"]["candidates"]);
+  EXPECT_GT(j["hybrid"]["cell_budget_bytes"].get<uint64_t>(), 0u);
+
+  // A tiny cell budget: fewer nodes exact, and the stats say the budget is full.
+  const CommandResult small = run_ugvr("render " + f.store + " --engine hybrid --gpu-cell-memory 4KiB --size 48x48 " +
+                                       "--stats " + stats + " -o " + png);
+  ASSERT_EQ(small.status, 0) << small.out;
+  std::ifstream in2(stats);
+  const nlohmann::json k = nlohmann::json::parse(in2);
+  EXPECT_TRUE(k["hybrid"]["cell_budget_full"].get<bool>());
+  EXPECT_LT(k["hybrid"]["exact_nodes"].get<uint64_t>(), j["hybrid"]["exact_nodes"].get<uint64_t>());
+  EXPECT_LE(k["hybrid"]["cell_bytes"].get<uint64_t>(), uint64_t(4096));
+
+  // Not a store: refused with the engine's name.
+  const std::string vtu = (f.dir / "small.vtu").string();
+  ASSERT_EQ(run_ugvr("generate --cells 1000 -o " + vtu).status, 0);
+  const CommandResult mesh = run_ugvr("render " + vtu + " --engine hybrid -o " + png);
+  EXPECT_NE(mesh.status, 0);
+  EXPECT_NE(mesh.out.find("hybrid engine renders one brick store"), std::string::npos) << mesh.out;
 }
 
 }  // namespace

@@ -50,7 +50,8 @@ PreparedNodeCells prepare_node_cells(const BrickStoreReader& store, uint64_t nod
     p.ints.push_back(b.cell << 3 | b.local_face);
     p.ints.push_back(uint32_t(b.corners[0]) | uint32_t(b.corners[1]) << 2 | uint32_t(b.corners[2]) << 4);
   }
-  // Positions normalised to the root cell, as the LOD shader's rays are; values to the field's range, as the bricks'.
+  // Positions normalised to the root cell, as the LOD shader's rays are; values as stored (the optical table takes the
+  // field's own units).
   const Bounds& root = layout.root;
   const Vec3d size = root.size();
   p.floats.reserve(w.points.size() * 3 + std::max<size_t>(w.points.size(), p.cells));
@@ -63,16 +64,14 @@ PreparedNodeCells prepare_node_cells(const BrickStoreReader& store, uint64_t nod
   for (uint32_t f = 0; f < field; ++f)
     offset += layout.fields[f].association == Association::Cell ? nc.ids.size() : nc.points.size();
   const BrickStoreField& fd = layout.fields[field];
-  const double lo = fd.min, width = fd.max - fd.min;
-  auto norm = [&](float v) { return width > 0 ? float((double(v) - lo) / width) : 0.0f; };
   if (fd.association == Association::Cell) {
     const std::vector<uint32_t> order = block_cell_order(ds, w, 0);
     std::vector<float> values(p.cells, 0.0f);
     for (size_t c = 0; c < order.size(); ++c)
-      if (order[c] != kWalkBoundary) values[order[c]] = norm(nc.values[offset + c]);
+      if (order[c] != kWalkBoundary) values[order[c]] = nc.values[offset + c];
     p.floats.insert(p.floats.end(), values.begin(), values.end());
   } else {
-    for (size_t v = 0; v < nc.points.size(); ++v) p.floats.push_back(norm(nc.values[offset + v]));
+    for (size_t v = 0; v < nc.points.size(); ++v) p.floats.push_back(nc.values[offset + v]);
   }
   return p;
 }

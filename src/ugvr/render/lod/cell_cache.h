@@ -6,7 +6,7 @@
 // replicated across node borders) and are turned into a walk mesh of their own (render/exact/walk_mesh.h: sorted by
 // type, neighbours as cell << 3 | face, quadrilateral diagonals by the exact engine's rule, and the faces whose
 // neighbour the node does not keep or the mesh lacks as the node's entry triangles), with positions normalised to the
-// octree's root cell and values normalised to the field's range (what the bricks hold), both float.
+// octree's root cell and the field's values as stored, both float.
 //
 // GPU layout: three storage buffers, the nodes granted this frame back to back in priority order.
 //   CellNodeRecord × nodes (CELL_NODE_BUFFER_BINDING), uvec4[5] each:
@@ -19,7 +19,7 @@
 //   uint (CELL_INT_BUFFER_BINDING), per node: connectivity (local point indices), neighbours (local cell << 3 | face,
 //     0xFFFFFFFF: none in the node), quad splits (one byte per non-tetrahedral cell, four to a word), entry triangles
 //     (two words each: cell << 3 | face; corner0 | corner1 << 2 | corner2 << 4)
-//   float (CELL_FLOAT_BUFFER_BINDING), per node: points (x, y, z normalised), values (normalised to the field's range)
+//   float (CELL_FLOAT_BUFFER_BINDING), per node: points (x, y, z normalised), values (the field's own units)
 //
 // Residency: decoded and prepared nodes are kept in RAM, least recently granted dropped first beyond twice the budget;
 // the GPU buffers hold exactly the granted set and are rewritten when it changes (a transfer-function edit or a

@@ -22,6 +22,7 @@
 #include "ugvr/render/lod/cell_cache.h"
 #include "ugvr/render/lod/hybrid_select.h"
 #include "ugvr/render/lod/tf_error.h"
+#include "ugvr/render/optical_table.h"
 #include "ugvr/store/brick_store.h"
 
 namespace ugvr {
@@ -114,6 +115,8 @@ struct LodEngine::Impl {
   // render_nodes call it makes (node, cache entry); empty otherwise.
   std::unique_ptr<CellCache> cells;
   std::vector<std::pair<uint64_t, uint32_t>> exact_now;
+  GlBuffer optical;                            // the exact engine's optical table, for the cells (optical.glsl)
+  std::optional<TransferFunction> optical_tf;  // what it holds
   void choose_exact(const std::vector<uint64_t>& cut, const Camera& camera, const RenderSettings& settings,
                     LodRenderStats& st);
 
@@ -296,9 +299,8 @@ lod_gpu::LodFrame LodEngine::Impl::frame_parameters(const Camera& camera, const 
   if (settings.clip_plane) f.u_clip_plane = normalised_plane(*settings.clip_plane, root);
   f.u_overlay_opacity = overlay ? float(settings.boundary_overlay_opacity) : 0.0f;
   // Hybrid: the non-linear cells' tolerance as the exact engine takes it by default (1e-3 of the transfer function's
-  // range, exact_engine.cpp), in the units the cells' values are stored in (the field's range).
-  const double tol_scale = tf_width > 0 ? tf_width : f_hi - f_lo;
-  f.u_cell_tolerance = f_hi > f_lo ? float(1e-3 * tol_scale / (f_hi - f_lo)) : 0.0f;
+  // range, ExactEngine::tolerance_abs), in the field's units as the cells' values are.
+  f.u_cell_tolerance = float(1e-3 * (tf_width > 0 ? tf_width : std::max(f_hi - f_lo, 1e-30)));
   f.u_cell_data = store.layout().fields[field].association == Association::Cell ? 1 : 0;
   f.u_nudge = float(2e-6 * std::max({root_size.x, root_size.y, root_size.z}));
   // Slices: the planes as the clip plane is passed; each colour table spans the slice's range (or the transfer
@@ -603,7 +605,15 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   const bool tricubic = mode == LOD_MODE_ISO && settings.interpolation == Interpolation::Tricubic;
   const ComputeProgram& program =
       I.program_for(mode, mode == LOD_MODE_EA && settings.volume_lighting, overlay, slices, tricubic, hybrid);
-  if (hybrid) I.cells->bind();
+  if (hybrid) {
+    I.cells->bind();
+    if (!I.optical_tf || !(*I.optical_tf == tf)) {
+      const std::vector<float> packed = OpticalTable(tf).pack_for_gpu();
+      I.optical.upload(packed.data(), packed.size() * sizeof(float));
+      I.optical_tf = tf;
+    }
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::CELL_OPTICAL_BUFFER_BINDING, I.optical.id());
+  }
   if (slices) {
     I.upload_slice_colors(tf, settings);
     glBindTextureUnit(lod_gpu::SLICE_TEXTURE_BINDING, I.slice_texture.id());
