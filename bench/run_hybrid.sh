@@ -5,7 +5,8 @@
 # 0.9 over 10 % of the field's range, unit distance diagonal / 200). Per scene: the exact engine's image (CPU), the
 # voxel image (`--engine lod --cut leaves`) and the converged hybrid image (`--engine hybrid`: every visible leaf with
 # cells exact while --gpu-cell-memory allows), PSNR of each against the exact image (`ugvr compare`), median frame
-# time over FRAMES frames, and the three side by side (bench/side_by_side.py).
+# time over FRAMES frames (the exact engine's: one frame on the CPU, when its image is made), and the three side by
+# side (bench/side_by_side.py).
 # Usage: bench/run_hybrid.sh LABEL [OUT_DIR=SCRATCH/LABEL] [SCRATCH=/tmp/ugvr-hybrid]
 #   UGVR (default build/ugvr), UGVR_DATA (default ../shared/data), SCENES ("blunt-fin lox-post"), SIZE (512),
 #   FRAMES (3), PYTHON (python3), EXTRA (more flags for both LOD renders, e.g. "--gpu 0").
@@ -58,8 +59,9 @@ for name in $scenes; do
   store="$scratch/$name-cells.ugvr"
   [ -f "$store" ] || "$ugvr" --quiet build "${inputs[@]}" --fields "$field" --cells -o "$store"
   ref="$scratch/$name-exact.pfm"
-  [ -f "$ref" ] || "$ugvr" --quiet render "${inputs[@]}" --engine exact --device cpu "${view[@]}" \
-    -o "$scratch/$name-exact.png" --float "$ref"
+  [ -f "$ref" ] && [ -f "$scratch/$name-exact-stats.json" ] ||
+    "$ugvr" --quiet render "${inputs[@]}" --engine exact --device cpu "${view[@]}" \
+      -o "$scratch/$name-exact.png" --float "$ref" --stats "$scratch/$name-exact-stats.json"
   cp "$scratch/$name-exact.png" "$outdir/$name-exact.png"
   for engine in lod hybrid; do
     cut=(); [ $engine = lod ] && cut=(--cut leaves)
@@ -73,6 +75,8 @@ for name in $scenes; do
 import json, sys
 scratch, name, label = sys.argv[1:4]
 out = {"bench": "hybrid", "label": label, "scene": name}
+s = json.load(open(f"{scratch}/{name}-exact-stats.json"))
+out["exact_cpu"] = {"median_frame_seconds": s["median_frame_seconds"], "threads": s.get("threads")}
 for e in ("lod", "hybrid"):
     s = json.load(open(f"{scratch}/{name}-{e}-stats.json"))
     c = json.load(open(f"{scratch}/{name}-{e}-cmp.json"))
