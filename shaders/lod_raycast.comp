@@ -358,6 +358,37 @@ void walk_frame(vec3 base, vec3 dir) {
   g_stop_transmittance = u_min_transmittance;
 }
 
+// The handover from one exact node to the next along the ray (both exact): the cell the walk was in when it passed
+// the node's end, by its id in the input mesh, and how the ray entered it (face, corners as slots of the cell's
+// vertices, barycentric weights, t, value). A cell crossing a node border is kept by both nodes, so the next node
+// looks it up (binary search over its ids) and goes on from there instead of searching its entry triangles: the
+// same cell, entered the same way, gives the same pieces, clamped on either side of the border.
+bool g_carry = false;
+uvec2 g_carry_id;
+int g_carry_face;
+ivec3 g_carry_slots;
+real3 g_carry_lambda;
+real g_carry_t;
+float g_carry_s;
+
+uvec2 cell_global_id(uint c) { return uvec2(cell_ints[g_cn[4].z + 2u * c], cell_ints[g_cn[4].z + 2u * c + 1u]); }
+
+// The node's cell whose input-mesh id is `id`, or 0xFFFFFFFF.
+uint find_cell(uvec2 id) {
+  uint lo = 0u, hi = g_cn[4].y;
+  while (lo < hi) {
+    uint mid = (lo + hi) >> 1;
+    uint c = cell_ints[g_cn[4].w + mid];
+    uvec2 m = cell_global_id(c);
+    if (m == id) return c;
+    if (m.y < id.y || (m.y == id.y && m.x < id.x))
+      lo = mid + 1u;
+    else
+      hi = mid;
+  }
+  return 0xFFFFFFFFu;
+}
+
 // Walks cache entry `entry` over the ray's stretch [t0, t1] (LOD t), compositing into g_acc.
 void walk_node(uint entry, float t0, float t1) {
   for (int i = 0; i < CELL_NODE_UVEC4S; ++i) g_cn[i] = cell_node[entry * uint(CELL_NODE_UVEC4S) + uint(i)];
@@ -367,47 +398,64 @@ void walk_node(uint entry, float t0, float t1) {
   uint prev_tri = 0xFFFFFFFFu;
   uint steps = 0u, max_steps = 4u * g_cn[4].y + 16u;
   const real slack = 1e-6;
+  uint carried = g_carry ? find_cell(g_carry_id) : 0xFFFFFFFFu;
+  g_carry = false;
   while (!done()) {
-    // The first entering crossing after (prev_t, prev_tri) in (t, triangle) order, not before the last exit.
-    uint best = 0xFFFFFFFFu;
-    real best_t = INF;
-    real3 best_lambda = real3(0.0);
-    real min_t = entered ? last_exit - slack : -INF;
-    for (uint i = 0u; i < g_cn[4].x; ++i) {
-      uint b0 = cell_ints[g_cn[3].w + 2u * i], b1 = cell_ints[g_cn[3].w + 2u * i + 1u];
-      uint c = b0 >> 3;
-      int k = type_index(c);
-      ivec4 fv = FACE_V[k * 6 + int(b0 & 7u)];
-      ivec3 cr = ivec3(int(b1 & 3u), int((b1 >> 2) & 3u), int((b1 >> 4) & 3u));
-      real3 a = project(point_at(vertex_id(c, k, fv[cr.x]))), b = project(point_at(vertex_id(c, k, fv[cr.y])));
-      real3 d = project(point_at(vertex_id(c, k, fv[cr.z])));
-      real e_ab = edge_side(a, b), e_bc = edge_side(b, d), e_ca = edge_side(d, a);
-      precise real sum = e_ab + e_bc + e_ca;
-      if (!(e_ab <= 0.0 && e_bc <= 0.0 && e_ca <= 0.0 && sum < 0.0)) continue;
-      precise real3 lambda = real3(e_bc / sum, e_ca / sum, e_ab / sum);
-      precise real t = lambda.x * a.z + lambda.y * b.z + lambda.z * d.z;
-      if (t < min_t || t < prev_t || (t == prev_t && i <= prev_tri && prev_tri != 0xFFFFFFFFu)) continue;
-      if (t < best_t || (t == best_t && i < best)) best = i, best_t = t, best_lambda = lambda;
-    }
-    if (best == 0xFFFFFFFFu || best_t >= g_t_hi) return;
-    prev_t = best_t, prev_tri = best;
-    entered = true;
-    uint b0 = cell_ints[g_cn[3].w + 2u * best], b1 = cell_ints[g_cn[3].w + 2u * best + 1u];
-    uint cell = b0 >> 3;
-    int entry_face = int(b0 & 7u);
-    ivec3 corners = ivec3(int(b1 & 3u), int((b1 >> 2) & 3u), int((b1 >> 4) & 3u));
-    int k = type_index(cell);
-    load_cell(cell, k);
-    g_monomials_built = false;
-    Crossing x;
-    x.face = entry_face, x.corners = corners, x.lambda = best_lambda, x.t = best_t;
-    real t_in = best_t;
-    float s_in = scalar_at_face(cell, k, x);
-    {
+    uint cell;
+    int k, entry_face;
+    real t_in;
+    float s_in;
+    if (carried != 0xFFFFFFFFu) {
+      cell = carried;
+      carried = 0xFFFFFFFFu;
+      k = type_index(cell);
+      load_cell(cell, k);
+      for (int i = 0; i < 3; ++i) g_entry_ids[i] = g_vid[g_carry_slots[i]];
+      g_entry_lambda = g_carry_lambda;
+      entry_face = g_carry_face;
+      t_in = g_carry_t;
+      s_in = g_carry_s;
+      entered = true;
+    } else {
+      // The first entering crossing after (prev_t, prev_tri) in (t, triangle) order, not before the last exit.
+      uint best = 0xFFFFFFFFu;
+      real best_t = INF;
+      real3 best_lambda = real3(0.0);
+      real min_t = entered ? last_exit - slack : -INF;
+      for (uint i = 0u; i < g_cn[4].x; ++i) {
+        uint b0 = cell_ints[g_cn[3].w + 2u * i], b1 = cell_ints[g_cn[3].w + 2u * i + 1u];
+        uint c = b0 >> 3;
+        int kc = type_index(c);
+        ivec4 fv = FACE_V[kc * 6 + int(b0 & 7u)];
+        ivec3 cr = ivec3(int(b1 & 3u), int((b1 >> 2) & 3u), int((b1 >> 4) & 3u));
+        real3 a = project(point_at(vertex_id(c, kc, fv[cr.x]))), b = project(point_at(vertex_id(c, kc, fv[cr.y])));
+        real3 d = project(point_at(vertex_id(c, kc, fv[cr.z])));
+        real e_ab = edge_side(a, b), e_bc = edge_side(b, d), e_ca = edge_side(d, a);
+        precise real sum = e_ab + e_bc + e_ca;
+        if (!(e_ab <= 0.0 && e_bc <= 0.0 && e_ca <= 0.0 && sum < 0.0)) continue;
+        precise real3 lambda = real3(e_bc / sum, e_ca / sum, e_ab / sum);
+        precise real t = lambda.x * a.z + lambda.y * b.z + lambda.z * d.z;
+        if (t < min_t || t < prev_t || (t == prev_t && i <= prev_tri && prev_tri != 0xFFFFFFFFu)) continue;
+        if (t < best_t || (t == best_t && i < best)) best = i, best_t = t, best_lambda = lambda;
+      }
+      if (best == 0xFFFFFFFFu || best_t >= g_t_hi) return;
+      prev_t = best_t, prev_tri = best;
+      entered = true;
+      uint b0 = cell_ints[g_cn[3].w + 2u * best], b1 = cell_ints[g_cn[3].w + 2u * best + 1u];
+      cell = b0 >> 3;
+      entry_face = int(b0 & 7u);
+      ivec3 corners = ivec3(int(b1 & 3u), int((b1 >> 2) & 3u), int((b1 >> 4) & 3u));
+      k = type_index(cell);
+      load_cell(cell, k);
+      Crossing x;
+      x.face = entry_face, x.corners = corners, x.lambda = best_lambda, x.t = best_t;
+      t_in = best_t;
+      s_in = scalar_at_face(cell, k, x);
       ivec4 fv = FACE_V[k * 6 + entry_face];
       for (int i = 0; i < 3; ++i) g_entry_ids[i] = g_vid[fv[corners[i]]];
       g_entry_lambda = best_lambda;
     }
+    g_monomials_built = false;
     int stall = 0;
     while (!done()) {
       ++g_cell_steps;
@@ -417,6 +465,21 @@ void walk_node(uint entry, float t0, float t1) {
       bool stalled = !(t_out > t_in);
       float s_out = scalar_at_face(cell, k, o);
       cell_segment(cell, k, t_in, t_out, s_in, s_out, o);
+      if (t_out >= g_t_hi) {
+        // Past the node's stretch: the next node goes on, in this cell if it is exact too.
+        g_carry = true;
+        g_carry_id = cell_global_id(cell);
+        g_carry_face = entry_face;
+        for (int i = 0; i < 3; ++i) {
+          int j = 0;
+          while (j < VERTEX_COUNT[k] - 1 && g_vid[j] != g_entry_ids[i]) ++j;
+          g_carry_slots[i] = j;
+        }
+        g_carry_lambda = g_entry_lambda;
+        g_carry_t = t_in;
+        g_carry_s = s_in;
+        return;
+      }
       {
         ivec4 fv = FACE_V[k * 6 + o.face];
         for (int i = 0; i < 3; ++i) g_entry_ids[i] = g_vid[fv[o.corners[i]]];
@@ -424,7 +487,6 @@ void walk_node(uint entry, float t0, float t1) {
       }
       t_in = t_out;
       s_in = s_out;
-      if (t_in >= g_t_hi) return;  // past the node's stretch: the next node goes on
       stall = stalled ? stall + 1 : 0;
       if (stall > MAX_STALL_STEPS || ++steps > max_steps) return;
       uint next = neighbor(cell, k, o.face);
@@ -752,6 +814,9 @@ void main() {
     vec3 tx = ((lo + mix(vec3(0.0), vec3(size), greaterThan(safe_dir, vec3(0.0)))) - base) * inv_dir;
     float t_exit = min(min(tx.x, tx.y), min(tx.z, t_end));
     t_exit = max(t_exit, t + u_nudge);
+#if HYBRID
+    if (state >= NODE_DESCEND || (state & NODE_EXACT) == 0u) g_carry = false;  // a handover only between exact nodes
+#endif
     if (state == NODE_SKIP || state == NODE_DESCEND) {
       have_prev = false;
 #if SLICES

@@ -50,6 +50,19 @@ PreparedNodeCells prepare_node_cells(const BrickStoreReader& store, uint64_t nod
     p.ints.push_back(b.cell << 3 | b.local_face);
     p.ints.push_back(uint32_t(b.corners[0]) | uint32_t(b.corners[1]) << 2 | uint32_t(b.corners[2]) << 4);
   }
+  // The cells' ids in the input mesh (per walk cell, low word then high word), and the walk cells in ascending id
+  // order: the next exact node along a ray finds the cell a walk leaves the node in (the shader's handover).
+  const std::vector<uint32_t> order = block_cell_order(ds, w, 0);
+  if (order.size() != nc.ids.size()) fail_in(store.path(), "node " + std::to_string(node) + ": cells lost");
+  p.id_begin = uint32_t(p.ints.size());
+  p.ints.resize(p.ints.size() + 2 * size_t(p.cells), 0u);
+  for (size_t c = 0; c < order.size(); ++c) {
+    if (order[c] >= p.cells) fail_in(store.path(), "node " + std::to_string(node) + ": a cell the walk mesh dropped");
+    p.ints[p.id_begin + 2 * size_t(order[c])] = uint32_t(nc.ids[c]);
+    p.ints[p.id_begin + 2 * size_t(order[c]) + 1] = uint32_t(nc.ids[c] >> 32);
+  }
+  p.order_begin = uint32_t(p.ints.size());
+  p.ints.insert(p.ints.end(), order.begin(), order.end());
   // Positions normalised to the root cell, as the LOD shader's rays are; values as stored (the optical table takes the
   // field's own units).
   const Bounds& root = layout.root;
@@ -65,7 +78,6 @@ PreparedNodeCells prepare_node_cells(const BrickStoreReader& store, uint64_t nod
     offset += layout.fields[f].association == Association::Cell ? nc.ids.size() : nc.points.size();
   const BrickStoreField& fd = layout.fields[field];
   if (fd.association == Association::Cell) {
-    const std::vector<uint32_t> order = block_cell_order(ds, w, 0);
     std::vector<float> values(p.cells, 0.0f);
     for (size_t c = 0; c < order.size(); ++c)
       if (order[c] != kWalkBoundary) values[order[c]] = nc.values[offset + c];
@@ -133,7 +145,7 @@ CellCache::Grant CellCache::grant(std::span<const uint64_t> candidates, uint32_t
       for (int k = 0; k < 4; ++k) node_words.push_back(ib + p.conn_begin[size_t(k)]);
       for (int k = 0; k < 4; ++k) node_words.push_back(ib + p.face_begin[size_t(k)]);
       node_words.insert(node_words.end(), {fb, fb + 3 * p.points, ib + p.quad_begin, ib + p.entry_begin});
-      node_words.insert(node_words.end(), {p.entry_count, p.cells, p.points, 0u});
+      node_words.insert(node_words.end(), {p.entry_count, p.cells, ib + p.id_begin, ib + p.order_begin});
       all_ints.insert(all_ints.end(), p.ints.begin(), p.ints.end());
       all_floats.insert(all_floats.end(), p.floats.begin(), p.floats.end());
     }

@@ -15,10 +15,11 @@
 //     [2] where each type's neighbours start in the uint buffer (absolute)
 //     [3] first point (float index of its x), first value (float index), first quad-split word, first entry
 //         triangle (uint index)
-//     [4] entry triangles, cells, points, 0
+//     [4] entry triangles, cells, first id word, first word of the id order
 //   uint (CELL_INT_BUFFER_BINDING), per node: connectivity (local point indices), neighbours (local cell << 3 | face,
 //     0xFFFFFFFF: none in the node), quad splits (one byte per non-tetrahedral cell, four to a word), entry triangles
-//     (two words each: cell << 3 | face; corner0 | corner1 << 2 | corner2 << 4)
+//     (two words each: cell << 3 | face; corner0 | corner1 << 2 | corner2 << 4), the cells' ids in the input mesh
+//     (two words each, low then high), the cells in ascending id order (the handover between exact nodes)
 //   float (CELL_FLOAT_BUFFER_BINDING), per node: points (x, y, z normalised), values (the field's own units)
 //
 // Residency: decoded and prepared nodes are kept in RAM, least recently granted dropped first beyond twice the budget;
@@ -40,6 +41,7 @@ namespace ugvr {
 struct PreparedNodeCells {
   std::array<uint32_t, 4> type_begin{}, conn_begin{}, face_begin{};  // conn/face: relative to `ints`
   uint32_t quad_begin = 0, entry_begin = 0, entry_count = 0;         // relative to `ints`
+  uint32_t id_begin = 0, order_begin = 0;                            // relative to `ints`
   uint32_t cells = 0, points = 0;
   std::vector<uint32_t> ints;
   std::vector<float> floats;  // points.size() * 3 normalised coordinates, then the values
