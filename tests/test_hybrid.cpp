@@ -8,6 +8,7 @@
 // voxel image of the same store is further away.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -24,6 +25,7 @@
 #include "ugvr/render/exact/exact_engine.h"
 #include "ugvr/render/image.h"
 #include "ugvr/render/lod/cell_cache.h"
+#include "ugvr/render/lod/hybrid_select.h"
 #include "ugvr/render/lod/lod_engine.h"
 #include "ugvr/store/brick_store.h"
 
@@ -214,6 +216,57 @@ TEST(Hybrid, NoSeamsAtNodeBorders) {
     EXPECT_GE(d.psnr_db, 60.0) << view;
     EXPECT_LT(d.max_abs, 0.02) << view;
   }
+}
+
+// Degree of interest: with a focus range only nodes whose values meet it get exact cells, and nodes of zero interest
+// load no cells at all (none is read from the store); the rest of the image stays the voxels'.
+TEST(Hybrid, FocusLoadsNoCellsOutside) {
+  REQUIRE_GL();
+  const Fixture& f = fixture();
+  const TransferFunction tf = test_tf(f);
+  const RenderSettings rs = test_settings();
+  const BrickStoreReader store(f.store);
+  const Camera cam = camera_preset("iso", store.layout().data);
+  const CutSpec leaves{CutSpec::Kind::Leaves, 0};
+  LodOptions ho;
+  ho.hybrid = true;
+  // Without focus: every candidate exact. The focus range then reaches from the lowest of their minima to below the
+  // median: the candidates whose values all lie above it are left out.
+  LodEngine all(f.store, *f.gl, ho);
+  all.set_field("pressure");
+  LodRenderStats sa;
+  all.render(cam, tf, rs, leaves, &sa);
+  std::vector<float> mins;
+  for (uint64_t n : all.cell_nodes_in_ram()) mins.push_back(store.stats(n, 0).min);
+  ASSERT_GE(mins.size(), 4u);
+  std::sort(mins.begin(), mins.end());
+  const double lo = mins.front(), hi = 0.5 * (double(mins[mins.size() / 2 - 1]) + double(mins[mins.size() / 2]));
+  ASSERT_LT(lo, hi);
+
+  ho.focus = parse_focus("pressure:" + std::to_string(lo) + ":" + std::to_string(hi));
+  LodEngine focused(f.store, *f.gl, ho);
+  focused.set_field("pressure");
+  LodRenderStats st;
+  focused.render(cam, tf, rs, leaves, &st);
+  EXPECT_GT(st.exact_nodes, 0u);
+  EXPECT_GT(st.focus_excluded, 0u);
+  EXPECT_EQ(sa.exact_nodes, st.exact_nodes + st.focus_excluded);
+  // Zero-interest nodes load no cells: every node read from the store meets the range.
+  const std::vector<uint64_t> loaded = focused.cell_nodes_in_ram();
+  EXPECT_EQ(loaded.size(), st.exact_nodes);
+  for (uint64_t n : loaded) {
+    const FieldStats& s = store.stats(n, 0);
+    EXPECT_TRUE(double(s.min) <= hi && double(s.max) >= lo) << "node " << n << " [" << s.min << ", " << s.max << "]";
+  }
+}
+
+TEST(Hybrid, ParseFocus) {
+  const std::vector<FocusRange> f = parse_focus("pressure:-1:2.5,velocity:magnitude:0:1e3");
+  ASSERT_EQ(f.size(), 2u);
+  EXPECT_EQ(f[0], (FocusRange{"pressure", -1, 2.5}));
+  EXPECT_EQ(f[1], (FocusRange{"velocity:magnitude", 0, 1000}));
+  for (const char* bad : {"", "pressure", "pressure:1", "pressure:2:1", ":1:2", "p:a:2", "p:1:2,", "p:1:inf"})
+    EXPECT_THROW(parse_focus(bad), Error) << bad;
 }
 
 // `ugvr render STORE --engine hybrid`: the cut is the leaves, the stats say how much is exact; a store without cells

@@ -196,6 +196,10 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
       ->default_str("pixels:1")
       ->type_name("SPEC");
   add_gpu_memory_flags(*cmd, opts->gpu, opts->gpu_memory, opts->ram_memory, "lod: along --path");
+  cmd->add_option("--focus", opts->focus,
+                  "hybrid: exact cells only where FIELD's values meet [MIN, MAX] (several: comma-separated, any of "
+                  "them); elsewhere voxels")
+      ->type_name("FIELD:MIN:MAX[,...]");
   add_byte_size_option(*cmd, "--gpu-cell-memory", opts->gpu_cell_memory,
                        "hybrid: GPU memory for exact cells (e.g. 256MiB); default a quarter of --gpu-memory", "0");
   cmd->add_option("--step-voxels", opts->step_voxels, "lod: sample step in voxels of each node (default 0.5)")

@@ -175,6 +175,13 @@ CellCache::Grant CellCache::grant(std::span<const uint64_t> candidates, uint32_t
   return g;
 }
 
+std::vector<uint64_t> CellCache::nodes_in_ram() const {
+  std::vector<uint64_t> out;
+  for (const auto& [n, e] : ram_) out.push_back(n);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 void CellCache::bind() const {
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::CELL_NODE_BUFFER_BINDING, nodes_buf_.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::CELL_INT_BUFFER_BINDING, ints_buf_.id());

@@ -72,6 +72,7 @@ class CellCache {
   void bind() const;  // the three buffers at their bindings (lod_shared.h)
   uint64_t budget_bytes() const { return budget_; }
   uint64_t ram_bytes() const { return ram_bytes_; }
+  std::vector<uint64_t> nodes_in_ram() const;  // ascending
 
  private:
   const PreparedNodeCells& get(uint64_t node, uint32_t field, bool& fresh);

@@ -372,8 +372,9 @@ void LodEngine::Impl::choose_exact(const std::vector<uint64_t>& cut, const Camer
   const auto t0 = std::chrono::steady_clock::now();
   const uint64_t budget = options.cell_budget_bytes ? options.cell_budget_bytes : options.atlas_budget_bytes / 4;
   if (!cells || cells->budget_bytes() != budget) cells = std::make_unique<CellCache>(store, budget);
+  const std::vector<ResolvedFocus> focus = resolve_focus(store, options.focus);
   const std::vector<ExactCandidate> cand =
-      exact_candidates(store, cut, camera, settings.width, settings.height, tf_errors);
+      exact_candidates(store, cut, camera, settings.width, settings.height, tf_errors, focus, &st.focus_excluded);
   std::vector<uint64_t> order;
   order.reserve(cand.size());
   for (const ExactCandidate& c : cand) order.push_back(c.node);
@@ -536,6 +537,9 @@ void LodEngine::set_step_voxels(double step) {
   impl_->options.step_voxels = step;
 }
 void LodEngine::set_max_exact_nodes(uint64_t n) { impl_->options.max_exact_nodes = n; }
+std::vector<uint64_t> LodEngine::cell_nodes_in_ram() const {
+  return impl_->cells ? impl_->cells->nodes_in_ram() : std::vector<uint64_t>{};
+}
 
 Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
                               std::span<const uint64_t> nodes, LodRenderStats* stats) {

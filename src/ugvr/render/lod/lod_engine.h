@@ -25,6 +25,7 @@
 #include "ugvr/render/camera.h"
 #include "ugvr/render/image.h"
 #include "ugvr/render/lod/brick_residency.h"
+#include "ugvr/render/lod/hybrid_select.h"
 #include "ugvr/render/lod/lod_cut.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/transfer_function.h"
@@ -57,6 +58,7 @@ struct LodRenderStats {
   bool hybrid = false;
   std::string hybrid_off;
   uint64_t exact_candidates = 0, exact_nodes = 0, exact_cells = 0;
+  uint64_t focus_excluded = 0;  // nodes with cells left resampled for zero interest (--focus)
   uint64_t cell_bytes = 0, cell_budget_bytes = 0, cells_prepared = 0, cell_steps = 0;
   bool cell_budget_full = false;
   double cells_seconds = 0;  // choosing, reading, preparing and uploading cells
@@ -83,6 +85,8 @@ struct LodOptions {
   bool hybrid = false;
   uint64_t cell_budget_bytes = 0;
   uint64_t max_exact_nodes = UINT64_MAX;
+  // Degree of interest (hybrid_select.h): only nodes whose value ranges meet one of these get exact cells.
+  std::vector<FocusRange> focus;
 };
 
 class LodEngine {
@@ -131,6 +135,9 @@ class LodEngine {
   void set_step_voxels(double step);
   // Hybrid rendering: at most `n` exact nodes from the next frame on (0: voxels only).
   void set_max_exact_nodes(uint64_t n);
+  // Hybrid rendering: the nodes whose cells are prepared in RAM (read from the store), ascending; empty before the
+  // first hybrid frame.
+  std::vector<uint64_t> cell_nodes_in_ram() const;
 
   // Data-parallel rendering (src/ugvr/mpi, docs/mpi.md): only the stretch of each ray inside `box` (world
   // coordinates; faces may be infinite) is drawn, so the images of boxes that tile space compose front to back into

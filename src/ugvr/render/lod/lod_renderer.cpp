@@ -66,6 +66,7 @@ void LodFrameStats::to_json(nlohmann::json& j) const {
     nlohmann::json h;
     h["off"] = st.hybrid_off.empty() ? nlohmann::json(nullptr) : nlohmann::json(st.hybrid_off);
     h["candidates"] = st.exact_candidates;
+    h["focus_excluded"] = st.focus_excluded;
     h["exact_nodes"] = st.exact_nodes;
     h["exact_fraction"] = st.cut_nodes ? double(st.exact_nodes) / double(st.cut_nodes) : 0.0;
     h["exact_cells"] = st.exact_cells;
