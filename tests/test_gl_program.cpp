@@ -107,7 +107,7 @@ TEST(GlProgramIncludes, NestedIncludesExpandOnceWithTheirOwnSourceNumbers) {
   dir.write("b.h", "float b() { return 1.0; }\n");
   std::vector<std::string> files;
   const std::string src = preprocess_shader("main.comp", {}, files);
-  ASSERT_EQ(files.size(), 4u);  // and optical.glsl, which the cells integrate with
+  ASSERT_EQ(files.size(), 3u);
   EXPECT_NE(files[1].find("a.h"), std::string::npos);
   EXPECT_NE(files[2].find("b.h"), std::string::npos);
   // b.h inside a.h (file 2), then back to a.h's line 2 (file 1), then main.comp's line 3 (b.h again: nothing) and 4.
@@ -151,13 +151,14 @@ TEST(GlProgramIncludes, MissingIncludeOrCycleNamesTheIncludingLine) {
 }
 
 // The real ray caster, with the shared header as its source string 1 (the engine's compile errors name it) and the
-// cell walk it shares with the exact engine (HYBRID variants) as string 2.
+// cell walk it shares with the exact engine (HYBRID variants) as string 2, the exact engine's optical table as 3.
 TEST(LodGpuContract, RayCasterIncludesTheSharedHeader) {
   std::vector<std::string> files;
   const std::string src = preprocess_shader("lod_raycast.comp", {{"MODE", "2"}}, files);
   ASSERT_EQ(files.size(), 4u);  // and optical.glsl, which the cells integrate with
   EXPECT_NE(files[1].find("lod_shared.h"), std::string::npos) << files[1];
   EXPECT_NE(files[2].find("cell_walk.glsl"), std::string::npos) << files[2];
+  EXPECT_NE(files[3].find("optical.glsl"), std::string::npos) << files[3];
   EXPECT_NE(src.find("uniform LodFrame {"), std::string::npos);
 }
 
