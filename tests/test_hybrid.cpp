@@ -27,6 +27,7 @@
 #include "ugvr/render/lod/cell_cache.h"
 #include "ugvr/render/lod/hybrid_select.h"
 #include "ugvr/render/lod/lod_engine.h"
+#include "ugvr/render/lod/time_critical.h"
 #include "ugvr/store/brick_store.h"
 
 namespace ugvr {
@@ -258,6 +259,52 @@ TEST(Hybrid, FocusLoadsNoCellsOutside) {
     const FieldStats& s = store.stats(n, 0);
     EXPECT_TRUE(double(s.min) <= hi && double(s.max) >= lo) << "node " << n << " [" << s.min << ", " << s.max << "]";
   }
+}
+
+// Progressive refinement (Callahan 2006) in the time-critical session: while the view moves no node is exact; once it
+// rests and the cut has converged, exact_batch more nodes turn exact per frame in priority order, every frame shown,
+// and the session reports convergence only when every candidate is exact; a move starts again with none.
+TEST(Hybrid, ProgressiveRefinementAtRest) {
+  REQUIRE_GL();
+  const Fixture& f = fixture();
+  const TransferFunction tf = test_tf(f);
+  const RenderSettings rs = test_settings();
+  LodOptions ho;
+  ho.hybrid = true;
+  LodEngine engine(f.store, *f.gl, ho);
+  engine.set_field("pressure");
+  TimeCriticalOptions tco;
+  tco.target_fps = 1000;  // a budget while moving
+  tco.exact_batch = 4;
+  tco.pixels = 0.05;  // the converged cut: the leaves, as the still image's
+  TimeCriticalRenderer session(engine, tco);
+  const BrickStoreReader store(f.store);
+  Camera cam = camera_preset("iso", store.layout().data);
+  std::vector<uint64_t> exact;
+  bool converged = false;
+  TimeCriticalFrame fr;
+  for (int i = 0; i < 60 && !converged; ++i) {
+    session.frame(cam, tf, rs, &fr);
+    exact.push_back(fr.render.exact_nodes);
+    converged = fr.converged;
+  }
+  ASSERT_TRUE(converged);
+  EXPECT_EQ(exact.front(), 0u);  // the first frame is not at rest
+  EXPECT_EQ(fr.render.exact_nodes, fr.render.exact_candidates);
+  EXPECT_GT(fr.render.exact_nodes, 8u);
+  // Batch by batch: each resting frame adds at most 4, never fewer nodes than the frame before (until all).
+  size_t grew = 0;
+  for (size_t i = 1; i < exact.size(); ++i) {
+    EXPECT_GE(exact[i], exact[i - 1]);
+    EXPECT_LE(exact[i], exact[i - 1] + 4);
+    grew += exact[i] > exact[i - 1];
+  }
+  EXPECT_GE(grew, 3u);
+  // A move: no exact node in the moving frame.
+  cam.position = cam.position + Vec3d{0.01, 0, 0};
+  session.frame(cam, tf, rs, &fr);
+  EXPECT_EQ(fr.render.exact_nodes, 0u);
+  EXPECT_FALSE(fr.converged);
 }
 
 TEST(Hybrid, ParseFocus) {

@@ -117,8 +117,8 @@ struct LodEngine::Impl {
   std::vector<std::pair<uint64_t, uint32_t>> exact_now;
   GlBuffer optical;                            // the exact engine's optical table, for the cells (optical.glsl)
   std::optional<TransferFunction> optical_tf;  // what it holds
-  void choose_exact(const std::vector<uint64_t>& cut, const Camera& camera, const RenderSettings& settings,
-                    LodRenderStats& st);
+  void choose_exact(std::span<const uint64_t> cut, const Camera& camera, const RenderSettings& settings,
+                    LodRenderStats& st, uint64_t max_nodes = UINT64_MAX);
 
   Impl(const std::string& path, const GlContext& g, LodOptions o) : store(path), gl(g), options(o) {}
   uint64_t budget_slots() const;
@@ -356,8 +356,8 @@ void LodEngine::Impl::upload_slice_colors(const TransferFunction& tf, const Rend
 }
 
 // Hybrid rendering: which of the cut's nodes are drawn by their cells this frame (hybrid_select.h, cell_cache.h).
-void LodEngine::Impl::choose_exact(const std::vector<uint64_t>& cut, const Camera& camera,
-                                   const RenderSettings& settings, LodRenderStats& st) {
+void LodEngine::Impl::choose_exact(std::span<const uint64_t> cut, const Camera& camera, const RenderSettings& settings,
+                                   LodRenderStats& st, uint64_t max_nodes) {
   exact_now.clear();
   if (!options.hybrid) return;
   st.hybrid = true;
@@ -378,7 +378,7 @@ void LodEngine::Impl::choose_exact(const std::vector<uint64_t>& cut, const Camer
   std::vector<uint64_t> order;
   order.reserve(cand.size());
   for (const ExactCandidate& c : cand) order.push_back(c.node);
-  const CellCache::Grant g = cells->grant(order, field, options.max_exact_nodes);
+  const CellCache::Grant g = cells->grant(order, field, std::min(options.max_exact_nodes, max_nodes));
   for (size_t i = 0; i < g.nodes.size(); ++i) exact_now.emplace_back(g.nodes[i], g.entries[i]);
   st.exact_candidates = cand.size();
   st.exact_nodes = g.nodes.size();
@@ -537,6 +537,18 @@ void LodEngine::set_step_voxels(double step) {
   impl_->options.step_voxels = step;
 }
 void LodEngine::set_max_exact_nodes(uint64_t n) { impl_->options.max_exact_nodes = n; }
+bool LodEngine::hybrid() const { return impl_->options.hybrid; }
+void LodEngine::prepare_exact(std::span<const uint64_t> nodes, const Camera& camera, const TransferFunction& tf,
+                              const RenderSettings& settings, uint64_t max_nodes, LodRenderStats* stats) {
+  Impl& I = *impl_;
+  I.gl.make_current();
+  I.tf_errors.set_field(I.field);
+  I.tf_errors.update(tf);
+  LodRenderStats st;
+  if (stats) st = *stats;
+  I.choose_exact(nodes, camera, settings, st, max_nodes);
+  if (stats) *stats = st;
+}
 std::vector<uint64_t> LodEngine::cell_nodes_in_ram() const {
   return impl_->cells ? impl_->cells->nodes_in_ram() : std::vector<uint64_t>{};
 }
@@ -657,6 +669,7 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   st.samples = counted[lod_gpu::COUNTER_SAMPLES];
   st.bricks_entered = counted[lod_gpu::COUNTER_BRICKS];
   st.cell_steps = counted[lod_gpu::COUNTER_CELL_STEPS];
+  I.exact_now.clear();  // a grant holds for one frame
 
   const auto t3 = std::chrono::steady_clock::now();
   Image image = read_back_composited(I.readback, I.out_texture, w, h, settings.background, "lod engine");

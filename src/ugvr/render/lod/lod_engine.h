@@ -135,6 +135,12 @@ class LodEngine {
   void set_step_voxels(double step);
   // Hybrid rendering: at most `n` exact nodes from the next frame on (0: voxels only).
   void set_max_exact_nodes(uint64_t n);
+  // Hybrid rendering (LodOptions::hybrid): whether it is on; and, for a cut the caller draws next with render_nodes
+  // (the time-critical session), exact cells for at most `max_nodes` of its nodes in priority order (the grant holds
+  // for that one call). Fills the hybrid figures of *stats, which the caller then passes to render_nodes.
+  bool hybrid() const;
+  void prepare_exact(std::span<const uint64_t> nodes, const Camera& camera, const TransferFunction& tf,
+                     const RenderSettings& settings, uint64_t max_nodes, LodRenderStats* stats);
   // Hybrid rendering: the nodes whose cells are prepared in RAM (read from the store), ascending; empty before the
   // first hybrid frame.
   std::vector<uint64_t> cell_nodes_in_ram() const;

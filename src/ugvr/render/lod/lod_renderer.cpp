@@ -37,6 +37,25 @@ nlohmann::json unlimited_or(uint64_t v) {
   return v == std::numeric_limits<uint64_t>::max() ? nlohmann::json(nullptr) : nlohmann::json(v);
 }
 
+// How much of the frame was exact (hybrid rendering), as the object "hybrid"; nothing when hybrid is off.
+void hybrid_json(const LodRenderStats& st, nlohmann::json& j) {
+  if (!st.hybrid) return;
+  nlohmann::json h;
+  h["off"] = st.hybrid_off.empty() ? nlohmann::json(nullptr) : nlohmann::json(st.hybrid_off);
+  h["candidates"] = st.exact_candidates;
+  h["focus_excluded"] = st.focus_excluded;
+  h["exact_nodes"] = st.exact_nodes;
+  h["exact_fraction"] = st.cut_nodes ? double(st.exact_nodes) / double(st.cut_nodes) : 0.0;
+  h["exact_cells"] = st.exact_cells;
+  h["cell_bytes"] = st.cell_bytes;
+  h["cell_budget_bytes"] = st.cell_budget_bytes;
+  h["cell_budget_full"] = st.cell_budget_full;
+  h["cells_prepared"] = st.cells_prepared;
+  h["cells_seconds"] = st.cells_seconds;
+  h["cell_steps"] = st.cell_steps;
+  j["hybrid"] = std::move(h);
+}
+
 }  // namespace
 
 LodScene::LodScene(const std::string& store_path, std::shared_ptr<const GlContext> context, LodOptions lod_options)
@@ -62,22 +81,7 @@ void LodFrameStats::to_json(nlohmann::json& j) const {
   j["readback_seconds"] = st.readback_seconds;
   j["atlas_bytes"] = st.atlas_bytes;
   j["atlas_slots"] = st.atlas_slots;
-  if (st.hybrid) {
-    nlohmann::json h;
-    h["off"] = st.hybrid_off.empty() ? nlohmann::json(nullptr) : nlohmann::json(st.hybrid_off);
-    h["candidates"] = st.exact_candidates;
-    h["focus_excluded"] = st.focus_excluded;
-    h["exact_nodes"] = st.exact_nodes;
-    h["exact_fraction"] = st.cut_nodes ? double(st.exact_nodes) / double(st.cut_nodes) : 0.0;
-    h["exact_cells"] = st.exact_cells;
-    h["cell_bytes"] = st.cell_bytes;
-    h["cell_budget_bytes"] = st.cell_budget_bytes;
-    h["cell_budget_full"] = st.cell_budget_full;
-    h["cells_prepared"] = st.cells_prepared;
-    h["cells_seconds"] = st.cells_seconds;
-    h["cell_steps"] = st.cell_steps;
-    j["hybrid"] = std::move(h);
-  }
+  hybrid_json(st, j);
 }
 
 void InteractiveLodFrameStats::to_json(nlohmann::json& j) const {
@@ -109,6 +113,7 @@ void InteractiveLodFrameStats::to_json(nlohmann::json& j) const {
   j["gpu_seconds"] = f.render.gpu_seconds;
   j["gpu_timer_seconds"] = f.render.gpu_timer_seconds;
   j["samples"] = f.render.samples;
+  hybrid_json(f.render, j);
 }
 
 // --- shared by both forms
@@ -226,7 +231,7 @@ Frame InteractiveLodRenderer::render(const FrameRequest& request) {
   f.image = request.full_quality ? session_->full_quality(request.camera, request.tf, request.settings, &tf)
                                  : session_->frame(request.camera, request.tf, request.settings, &tf);
   FrameStats& s = f.stats;
-  s.engine = "lod";
+  s.engine = std::string(this->engine());
   s.seconds = tf.seconds;
   s.converged = tf.converged || request.full_quality;
   s.resting = tf.resting;
