@@ -36,6 +36,12 @@
 #ifndef TRICUBIC
 #define TRICUBIC 0  // isosurfaces on the cubic B-spline of the bricks' samples (LOD_MODE_ISO only; docs/tricubic.md)
 #endif
+#ifndef HYBRID
+#define HYBRID 0  // exact cells in the nodes granted them (emission-absorption without overlay; docs/hybrid.md)
+#endif
+#if HYBRID && (MODE != LOD_MODE_EA || OVERLAY)
+#error HYBRID is an emission-absorption variant without the boundary overlay
+#endif
 
 layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE) in;
 
@@ -281,6 +287,221 @@ vec4 g_tf_lo, g_tf_hi;
 vec4 integral_at(float u) {
   vec4 v = texture(u_preint, (clamp(u, 0.0, 1.0) * (float(TF_TEXELS) - 1.0) + 0.5) / float(TF_TEXELS));
   return v + g_tf_lo * min(u, 0.0) + g_tf_hi * max(u - 1.0, 0.0);
+}
+#endif
+
+#if HYBRID
+// Exact nodes (Muigg 2007; docs/hybrid.md). A cut node whose state has NODE_EXACT is drawn by walking its own cells,
+// the exact engine's walk (cell_walk.glsl, in float): the cells overlapping the node, replicated across node borders
+// (store format version 5), with their own neighbours; a face whose neighbour the node does not keep, or the mesh's
+// boundary, ends the walk. The ray enters the node's cells at the first entering crossing of those faces (the node's
+// entry triangles, tested exactly as the exact engine tests its boundary), walks, re-enters after each exit, and only
+// the stretch [t, t_exit] of the node counts (Muigg's F18: the ray's segment clamped to the node's box, so that
+// neighbouring nodes, exact or resampled, meet without a seam or an overlap: both clamp at the same float t), into
+// the one compositing state of the ray. The pieces are integrated in closed form as the exact engine integrates them
+// (shaders/optical.glsl: the same transfer function model as the bricks' pre-integration table, without its float
+// difference quotients, which cost a cell's short pieces 5 to 10 dB against the exact engine; docs/hybrid.md). The
+// walk's frame: origin `base`, direction dir / |dir| (normalised coordinates), so that walk t = |dir| × the LOD
+// shader's t.
+#define real float
+#define real3 vec3
+layout(std430, binding = CELL_NODE_BUFFER_BINDING) readonly buffer CellNodes { uvec4 cell_node[]; };
+layout(std430, binding = CELL_INT_BUFFER_BINDING) readonly buffer CellInts { uint cell_ints[]; };
+layout(std430, binding = CELL_FLOAT_BUFFER_BINDING) readonly buffer CellFloats { float cell_floats[]; };
+#include "cell_walk.glsl"
+#define OPTICAL_TABLE_BINDING CELL_OPTICAL_BUFFER_BINDING
+#include "optical.glsl"
+
+// The current node's record (render/lod/cell_cache.h CellNodeRecord): [0] first local cell of each type, [1] where
+// each type's connectivity starts in cell_ints, [2] each type's neighbours, [3] (first point's float index, first
+// value's float index, first quad-split word, first entry triangle's uint index), [4] (entry triangles, cells, -, -).
+uvec4 g_cn[CELL_NODE_UVEC4S];
+float g_len;         // |dir|: walk t = g_len × t
+uint g_cell_steps = 0u;
+
+int type_index(uint c) { return c < g_cn[0].y ? 0 : c < g_cn[0].z ? 1 : c < g_cn[0].w ? 2 : 3; }
+uint vertex_id(uint c, int k, int i) {
+  return cell_ints[g_cn[1][k] + (c - g_cn[0][k]) * uint(VERTEX_COUNT[k]) + uint(i)];
+}
+uint neighbor(uint c, int k, int f) { return cell_ints[g_cn[2][k] + (c - g_cn[0][k]) * uint(FACE_COUNT[k]) + uint(f)]; }
+bool quad_split_13(uint c, int f) {
+  uint i = c - g_cn[0].y;
+  return ((cell_ints[g_cn[3].z + (i >> 2)] >> (8u * (i & 3u) + uint(f))) & 1u) != 0u;
+}
+vec3 point_at(uint id) {
+  uint b = g_cn[3].x + 3u * id;
+  return vec3(cell_floats[b], cell_floats[b + 1u], cell_floats[b + 2u]);
+}
+bool cell_data() { return u_cell_data != 0; }
+float vertex_value(uint id) { return cell_floats[g_cn[3].y + id]; }
+float cell_value(uint c) { return cell_floats[g_cn[3].y + c]; }
+real nonlinear_tolerance() { return u_cell_tolerance; }
+
+// A linear piece of the field, clamped to the node's stretch [g_t_lo, g_t_hi] and integrated in closed form.
+int g_hint = -1;
+void piece(real ta, real tb, float sa, float sb, int k) {
+  if (tb <= g_t_lo || ta >= g_t_hi || !(tb > ta)) return;
+  if (ta < g_t_lo) sa = sa + (sb - sa) * float((g_t_lo - ta) / (tb - ta)), ta = g_t_lo;
+  if (tb > g_t_hi) sb = sa + (sb - sa) * float((g_t_hi - ta) / (tb - ta)), tb = g_t_hi;
+  optical_integrate(sa, sb, float(tb - ta) / g_len, 1.0, g_acc, g_hint);
+}
+
+// The ray's frame (ray_frame.h, Duff et al. 2017) for the walk, once per ray.
+void walk_frame(vec3 base, vec3 dir) {
+  g_len = length(dir);
+  vec3 d = dir / g_len;
+  float sgn = d.z < 0.0 ? -1.0 : 1.0;
+  float fa = -1.0 / (sgn + d.z);
+  float fb = d.x * d.y * fa;
+  vec3 e1 = vec3(1.0 + sgn * d.x * d.x * fa, sgn * fb, -sgn * d.x);
+  g_origin = base, g_dir = d, g_e1 = e1, g_e2 = cross(d, e1);
+  g_stop_transmittance = u_min_transmittance;
+}
+
+// The handover from one exact node to the next along the ray (both exact): the cell the walk was in when it passed
+// the node's end, by its id in the input mesh, and how the ray entered it (face, corners as slots of the cell's
+// vertices, barycentric weights, t, value). A cell crossing a node border is kept by both nodes, so the next node
+// looks it up (binary search over its ids) and goes on from there instead of searching its entry triangles: the
+// same cell, entered the same way, gives the same pieces, clamped on either side of the border.
+bool g_carry = false;
+uvec2 g_carry_id;
+int g_carry_face;
+ivec3 g_carry_slots;
+real3 g_carry_lambda;
+real g_carry_t;
+float g_carry_s;
+
+uvec2 cell_global_id(uint c) { return uvec2(cell_ints[g_cn[4].z + 2u * c], cell_ints[g_cn[4].z + 2u * c + 1u]); }
+
+// The node's cell whose input-mesh id is `id`, or 0xFFFFFFFF.
+uint find_cell(uvec2 id) {
+  uint lo = 0u, hi = g_cn[4].y;
+  while (lo < hi) {
+    uint mid = (lo + hi) >> 1;
+    uint c = cell_ints[g_cn[4].w + mid];
+    uvec2 m = cell_global_id(c);
+    if (m == id) return c;
+    if (m.y < id.y || (m.y == id.y && m.x < id.x))
+      lo = mid + 1u;
+    else
+      hi = mid;
+  }
+  return 0xFFFFFFFFu;
+}
+
+// Walks cache entry `entry` over the ray's stretch [t0, t1] (LOD t), compositing into g_acc.
+void walk_node(uint entry, float t0, float t1) {
+  for (int i = 0; i < CELL_NODE_UVEC4S; ++i) g_cn[i] = cell_node[entry * uint(CELL_NODE_UVEC4S) + uint(i)];
+  g_t_lo = g_len * t0, g_t_hi = g_len * t1;
+  bool entered = false;
+  real last_exit = -INF, prev_t = -INF;
+  uint prev_tri = 0xFFFFFFFFu;
+  uint steps = 0u, max_steps = 4u * g_cn[4].y + 16u;
+  const real slack = 1e-6;
+  uint carried = g_carry ? find_cell(g_carry_id) : 0xFFFFFFFFu;
+  g_carry = false;
+  while (!done()) {
+    uint cell;
+    int k, entry_face;
+    real t_in;
+    float s_in;
+    if (carried != 0xFFFFFFFFu) {
+      cell = carried;
+      carried = 0xFFFFFFFFu;
+      k = type_index(cell);
+      load_cell(cell, k);
+      for (int i = 0; i < 3; ++i) g_entry_ids[i] = g_vid[g_carry_slots[i]];
+      g_entry_lambda = g_carry_lambda;
+      entry_face = g_carry_face;
+      t_in = g_carry_t;
+      s_in = g_carry_s;
+      entered = true;
+    } else {
+      // The first entering crossing after (prev_t, prev_tri) in (t, triangle) order, not before the last exit.
+      uint best = 0xFFFFFFFFu;
+      real best_t = INF;
+      real3 best_lambda = real3(0.0);
+      real min_t = entered ? last_exit - slack : -INF;
+      for (uint i = 0u; i < g_cn[4].x; ++i) {
+        uint b0 = cell_ints[g_cn[3].w + 2u * i], b1 = cell_ints[g_cn[3].w + 2u * i + 1u];
+        uint c = b0 >> 3;
+        int kc = type_index(c);
+        ivec4 fv = FACE_V[kc * 6 + int(b0 & 7u)];
+        ivec3 cr = ivec3(int(b1 & 3u), int((b1 >> 2) & 3u), int((b1 >> 4) & 3u));
+        real3 a = project(point_at(vertex_id(c, kc, fv[cr.x]))), b = project(point_at(vertex_id(c, kc, fv[cr.y])));
+        real3 d = project(point_at(vertex_id(c, kc, fv[cr.z])));
+        real e_ab = edge_side(a, b), e_bc = edge_side(b, d), e_ca = edge_side(d, a);
+        precise real sum = e_ab + e_bc + e_ca;
+        if (!(e_ab <= 0.0 && e_bc <= 0.0 && e_ca <= 0.0 && sum < 0.0)) continue;
+        precise real3 lambda = real3(e_bc / sum, e_ca / sum, e_ab / sum);
+        precise real t = lambda.x * a.z + lambda.y * b.z + lambda.z * d.z;
+        if (t < min_t || t < prev_t || (t == prev_t && i <= prev_tri && prev_tri != 0xFFFFFFFFu)) continue;
+        if (t < best_t || (t == best_t && i < best)) best = i, best_t = t, best_lambda = lambda;
+      }
+      if (best == 0xFFFFFFFFu || best_t >= g_t_hi) return;
+      prev_t = best_t, prev_tri = best;
+      entered = true;
+      uint b0 = cell_ints[g_cn[3].w + 2u * best], b1 = cell_ints[g_cn[3].w + 2u * best + 1u];
+      cell = b0 >> 3;
+      entry_face = int(b0 & 7u);
+      ivec3 corners = ivec3(int(b1 & 3u), int((b1 >> 2) & 3u), int((b1 >> 4) & 3u));
+      k = type_index(cell);
+      load_cell(cell, k);
+      Crossing x;
+      x.face = entry_face, x.corners = corners, x.lambda = best_lambda, x.t = best_t;
+      t_in = best_t;
+      s_in = scalar_at_face(cell, k, x);
+      ivec4 fv = FACE_V[k * 6 + entry_face];
+      for (int i = 0; i < 3; ++i) g_entry_ids[i] = g_vid[fv[corners[i]]];
+      g_entry_lambda = best_lambda;
+    }
+    g_monomials_built = false;
+    int stall = 0;
+    while (!done()) {
+      ++g_cell_steps;
+      Crossing o;
+      exit_of(cell, k, entry_face, o);
+      real t_out = max(o.t, t_in);
+      bool stalled = !(t_out > t_in);
+      float s_out = scalar_at_face(cell, k, o);
+      cell_segment(cell, k, t_in, t_out, s_in, s_out, o);
+      if (t_out >= g_t_hi) {
+        // Past the node's stretch: the next node goes on, in this cell if it is exact too.
+        g_carry = true;
+        g_carry_id = cell_global_id(cell);
+        g_carry_face = entry_face;
+        for (int i = 0; i < 3; ++i) {
+          int j = 0;
+          while (j < VERTEX_COUNT[k] - 1 && g_vid[j] != g_entry_ids[i]) ++j;
+          g_carry_slots[i] = j;
+        }
+        g_carry_lambda = g_entry_lambda;
+        g_carry_t = t_in;
+        g_carry_s = s_in;
+        return;
+      }
+      {
+        ivec4 fv = FACE_V[k * 6 + o.face];
+        for (int i = 0; i < 3; ++i) g_entry_ids[i] = g_vid[fv[o.corners[i]]];
+        g_entry_lambda = o.lambda;
+      }
+      t_in = t_out;
+      s_in = s_out;
+      stall = stalled ? stall + 1 : 0;
+      if (stall > MAX_STALL_STEPS || ++steps > max_steps) return;
+      uint next = neighbor(cell, k, o.face);
+      if (next == 0xFFFFFFFFu) {  // the mesh's boundary or a cell the node does not keep
+        last_exit = t_in;
+        break;
+      }
+      cell = next >> 3;
+      entry_face = int(next & 7u);
+      k = type_index(cell);
+      if (cell_data()) s_in = cell_value(cell);
+      load_cell(cell, k);
+      g_monomials_built = false;
+    }
+  }
 }
 #endif
 
@@ -560,6 +781,9 @@ void main() {
   g_tf_lo = vec4(end_lo.rgb * end_lo.a, end_lo.a);
   g_tf_hi = vec4(end_hi.rgb * end_hi.a, end_hi.a);
 #endif
+#if HYBRID
+  walk_frame(base, dir);
+#endif
   for (int guard = 0; guard < 65536 && t < t_end && transmittance > u_min_transmittance; ++guard) {
     // Point location: descend from the root to the cut node (or empty region) just past t.
     vec3 p = base + dir * (t + u_nudge);
@@ -590,6 +814,9 @@ void main() {
     vec3 tx = ((lo + mix(vec3(0.0), vec3(size), greaterThan(safe_dir, vec3(0.0)))) - base) * inv_dir;
     float t_exit = min(min(tx.x, tx.y), min(tx.z, t_end));
     t_exit = max(t_exit, t + u_nudge);
+#if HYBRID
+    if (state >= NODE_DESCEND || (state & NODE_EXACT) == 0u) g_carry = false;  // a handover only between exact nodes
+#endif
     if (state == NODE_SKIP || state == NODE_DESCEND) {
       have_prev = false;
 #if SLICES
@@ -605,6 +832,16 @@ void main() {
       t = t_exit;
       continue;
     }
+#if HYBRID
+    if ((state & NODE_EXACT) != 0u) {
+      g_acc = vec4(radiance, transmittance);
+      walk_node(state & ~NODE_EXACT, t, min(t_exit, t_end));
+      radiance = g_acc.rgb, transmittance = g_acc.a;
+      ++bricks;
+      t = t_exit;
+      continue;
+    }
+#endif
 
     // The atlas coordinate is affine in t inside one node: c(t) = c0 + c1 · t.
     vec3 scale = vec3(float(u_resolution - 1) / size) * u_atlas_inv;
@@ -871,4 +1108,7 @@ void main() {
   imageStore(u_out, pix, result);
   atomicAdd(counters[COUNTER_SAMPLES], samples);
   atomicAdd(counters[COUNTER_BRICKS], bricks);
+#if HYBRID
+  if (g_cell_steps > 0u) atomicAdd(counters[COUNTER_CELL_STEPS], g_cell_steps);
+#endif
 }

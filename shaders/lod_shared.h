@@ -74,6 +74,17 @@ const int SLICE_TEXTURE_BINDING = 11;
 const int SLICE_TEXELS = 1024;
 #define LOD_MAX_SLICES 8
 
+// Hybrid rendering (HYBRID variants, MODE LOD_MODE_EA; docs/hybrid.md): the cells of the cut nodes granted an exact
+// representation, as render/lod/cell_cache.h lays them out (CellNodeRecord per resident node; the walk's arrays).
+const int CELL_NODE_BUFFER_BINDING = 12;   // uvec4 × CELL_NODE_UVEC4S per resident node: cell_cache.h CellNodeRecord
+const int CELL_INT_BUFFER_BINDING = 13;    // uint: connectivity, neighbours, quad splits, entry triangles
+const int CELL_FLOAT_BUFFER_BINDING = 14;  // float: points (normalised coordinates), values (the field's own)
+const int CELL_NODE_UVEC4S = 5;
+const int CELL_OPTICAL_BUFFER_BINDING = 15;  // the exact engine's optical table (shaders/optical.glsl) for the cells
+// A node state with this bit set (and below NODE_DESCEND) is a cut node drawn by its cells; the bits below are its
+// entry in the cell cache.
+const uint NODE_EXACT = 0x80000000u;
+
 const uint TREE_CHILD_MASK = 0xFFu;  // the child mask in a tree entry's y
 const uint TREE_LEVEL_SHIFT = 8u;    // the node's level above it
 
@@ -81,9 +92,10 @@ const uint TREE_LEVEL_SHIFT = 8u;    // the node's level above it
 const uint NODE_DESCEND = 0xFFFFFFFEu;  // an ancestor of cut nodes: descend to the child at the ray's position
 const uint NODE_SKIP = 0xFFFFFFFFu;     // neither drawn nor an ancestor: culled or empty, the ray passes
 
-const int COUNTER_SAMPLES = 0;  // texture samples of the volume, summed over rays
-const int COUNTER_BRICKS = 1;   // node traversals (bricks entered), summed over rays
-const int COUNTER_COUNT = 2;
+const int COUNTER_SAMPLES = 0;     // texture samples of the volume, summed over rays
+const int COUNTER_BRICKS = 1;      // node traversals (bricks entered), summed over rays
+const int COUNTER_CELL_STEPS = 2;  // cells walked in exact nodes (HYBRID), summed over rays
+const int COUNTER_COUNT = 3;
 
 // Texels of the transfer-function table and of its integrals, over the transfer function's own range: texel i at
 // u = i / (TF_TEXELS - 1) of it. The integrals' texel i holds (∫ c·τ du, ∫ τ du) from u = 0 to u_i (lod_engine.cpp).
@@ -137,8 +149,8 @@ layout(std140, binding = FRAME_BLOCK_BINDING) uniform LodFrame {
   vec4 u_slice_map[LOD_MAX_SLICES];    // 368 slice i: colour-table coordinate = value · x + y; z its opacity
   int u_slice_count;                   // 496 (read only by SLICES variants)
   int u_hide_volume;                   // 500 0 none, 1 front, 2 back, 3 all (render_settings.h HideVolume)
-  int u_unused2;                       // 504
-  int u_unused3;                       // 508
+  float u_cell_tolerance;              // 504 HYBRID: non-linear cells' tolerance, in the field's units
+  int u_cell_data;                     // 508 HYBRID: the field is per cell (else per vertex)
   vec4 u_box_lo;                       // 512 data-parallel rendering (src/ugvr/mpi): only t inside the box
   vec4 u_box_hi;                       // 528 [lo, hi] (xyz, normalised) is drawn; read only when u_box_lo.w > 0.5
 };

@@ -150,12 +150,15 @@ TEST(GlProgramIncludes, MissingIncludeOrCycleNamesTheIncludingLine) {
   }
 }
 
-// The real ray caster, with the shared header as its source string 1 (the engine's compile errors name it).
+// The real ray caster, with the shared header as its source string 1 (the engine's compile errors name it) and the
+// cell walk it shares with the exact engine (HYBRID variants) as string 2, the exact engine's optical table as 3.
 TEST(LodGpuContract, RayCasterIncludesTheSharedHeader) {
   std::vector<std::string> files;
   const std::string src = preprocess_shader("lod_raycast.comp", {{"MODE", "2"}}, files);
-  ASSERT_EQ(files.size(), 2u);
+  ASSERT_EQ(files.size(), 4u);  // and optical.glsl, which the cells integrate with
   EXPECT_NE(files[1].find("lod_shared.h"), std::string::npos) << files[1];
+  EXPECT_NE(files[2].find("cell_walk.glsl"), std::string::npos) << files[2];
+  EXPECT_NE(files[3].find("optical.glsl"), std::string::npos) << files[3];
   EXPECT_NE(src.find("uniform LodFrame {"), std::string::npos);
 }
 
@@ -200,8 +203,8 @@ TEST(LodGpuContract, DriverLaysOutTheFrameBlockAsTheCppStruct) {
                                        Member{"u_slice_map[0]", offsetof(lod_gpu::LodFrame, u_slice_map)},
                                        UGVR_MEMBER(u_slice_count),
                                        UGVR_MEMBER(u_hide_volume),
-                                       UGVR_MEMBER(u_unused2),
-                                       UGVR_MEMBER(u_unused3),
+                                       UGVR_MEMBER(u_cell_tolerance),
+                                       UGVR_MEMBER(u_cell_data),
                                        UGVR_MEMBER(u_box_lo),
                                        UGVR_MEMBER(u_box_hi)};
   const std::vector<std::vector<std::pair<std::string, std::string>>> variants = {

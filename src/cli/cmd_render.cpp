@@ -79,6 +79,14 @@ RendererOptions renderer_options(const Options& o, const RenderSettings& setting
     r.time_critical.resting_step_voxels = r.lod.step_voxels;
   }
   r.cut = with_flag("--cut", [&] { return parse_cut_spec(o.cut); });
+  // hybrid: the still image at convergence draws every visible leaf with cells exact (within --gpu-cell-memory), so
+  // its cut is the leaves unless --cut says otherwise.
+  if (!o.focus.empty() && o.engine != "hybrid") fail_flag("--focus", "chooses exact cells: --engine hybrid only");
+  if (o.engine == "hybrid") {
+    r.lod.cell_budget_bytes = o.gpu_cell_memory;
+    if (!o.focus.empty()) r.lod.focus = with_flag("--focus", [&] { return parse_focus(o.focus); });
+    if (o.cut.empty() || o.cut == "pixels:1") r.cut = CutSpec{CutSpec::Kind::Leaves, 0};
+  }
   TimeCriticalOptions& tc = r.time_critical;
   tc.ram_budget_bytes = o.ram_memory;
   if (!o.uploads_per_frame.empty())

@@ -177,8 +177,8 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
   cmd->add_option("--size", opts->size, "Image size: N (square) or WxH (default 512, or from --settings)")
       ->type_name("N|WxH");
   cmd->add_option("--engine", opts->engine,
-                  "Rendering engine: exact (CPU, a mesh), lod (GPU, a .ugvr brick store) or auto (lod for a .ugvr "
-                  "input, else exact)")
+                  "Rendering engine: exact (CPU, a mesh), lod (GPU, a .ugvr brick store), hybrid (lod drawing the "
+                  "cells of a store built with --cells where they matter) or auto (lod for a .ugvr input, else exact)")
       ->default_str("auto")
       ->type_name("NAME");
   cmd->add_option("--device", opts->device,
@@ -196,6 +196,12 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
       ->default_str("pixels:1")
       ->type_name("SPEC");
   add_gpu_memory_flags(*cmd, opts->gpu, opts->gpu_memory, opts->ram_memory, "lod: along --path");
+  cmd->add_option("--focus", opts->focus,
+                  "hybrid: exact cells only where FIELD's values meet [MIN, MAX] (several: comma-separated, any of "
+                  "them); elsewhere voxels")
+      ->type_name("FIELD:MIN:MAX[,...]");
+  add_byte_size_option(*cmd, "--gpu-cell-memory", opts->gpu_cell_memory,
+                       "hybrid: GPU memory for exact cells (e.g. 256MiB); default a quarter of --gpu-memory", "0");
   cmd->add_option("--step-voxels", opts->step_voxels, "lod: sample step in voxels of each node (default 0.5)")
       ->type_name("F");
   cmd->add_option("--fps", opts->fps, "lod: target frame rate held along --path (time-critical level of detail)")

@@ -28,7 +28,7 @@ std::unique_ptr<Renderer> bound(std::unique_ptr<R> r, const RendererOptions& opt
 }  // namespace
 
 const std::vector<std::string>& engine_names() {
-  static const std::vector<std::string> names = {"auto", "exact", "lod"};
+  static const std::vector<std::string> names = {"auto", "exact", "lod", "hybrid"};
   return names;
 }
 
@@ -83,12 +83,19 @@ std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, 
     throw OptionError("engine", "unknown engine \"" + options.engine + "\" (valid: " + valid + ")");
   }
   const bool store = inputs.size() == 1 && is_brick_store(inputs[0]);
-  const bool lod = options.engine == "lod" || (options.engine == "auto" && store);
-  if (!lod && store) throw OptionError("engine", "a brick store (.ugvr) renders with the lod engine");
+  const bool hybrid = options.engine == "hybrid";
+  const bool lod = options.engine == "lod" || hybrid || (options.engine == "auto" && store);
+  if (!lod && store) throw OptionError("engine", "a brick store (.ugvr) renders with the lod or hybrid engine");
   if (lod) {
-    if (!store) throw OptionError("engine", "the lod engine renders one brick store (.ugvr, made by `ugvr build`)");
+    if (!store)
+      throw OptionError("engine", "the " + options.engine +
+                                      " engine renders one brick store (.ugvr, made by `ugvr build`" +
+                                      (hybrid ? " --cells)" : ")"));
     auto gl = for_option("gpu", [&] { return std::make_shared<GlContext>(options.gpu); });
-    return make_renderer(std::make_shared<LodScene>(inputs[0], std::move(gl), options.lod), options);
+    LodOptions lo = options.lod;
+    // hybrid: the LOD engine drawing exact cells where the store keeps them (docs/hybrid.md).
+    if (hybrid) lo.hybrid = true;
+    return make_renderer(std::make_shared<LodScene>(inputs[0], std::move(gl), lo), options);
   }
   auto dataset = std::make_shared<Dataset>(read_dataset(inputs, read));
   if (opened) opened->warnings = dataset->warnings;

@@ -19,7 +19,10 @@
 #include "ugvr/render/gpu_readback.h"
 #include "ugvr/render/lod/brick_atlas.h"
 #include "ugvr/render/lod/brick_residency.h"
+#include "ugvr/render/lod/cell_cache.h"
+#include "ugvr/render/lod/hybrid_select.h"
 #include "ugvr/render/lod/tf_error.h"
+#include "ugvr/render/optical_table.h"
 #include "ugvr/store/brick_store.h"
 
 namespace ugvr {
@@ -86,9 +89,10 @@ struct LodEngine::Impl {
   const GlContext& gl;
   LodOptions options;
   uint32_t field = 0;
-  // By (mode, volume lighting, boundary overlay, slices, tricubic): compile-time variants.
-  std::map<std::tuple<int, bool, bool, bool, bool>, ComputeProgram> programs;
-  ComputeProgram& program_for(int mode, bool volume_lighting, bool overlay, bool slices = false, bool tricubic = false);
+  // By (mode, volume lighting, boundary overlay, slices, tricubic, hybrid): compile-time variants.
+  std::map<std::tuple<int, bool, bool, bool, bool, bool>, ComputeProgram> programs;
+  ComputeProgram& program_for(int mode, bool volume_lighting, bool overlay, bool slices = false, bool tricubic = false,
+                              bool hybrid = false);
   GlBuffer tree, state, counters, readback;
   // The boundary faces (store format version 4), static; `faces` false: the store has none, and the shader is compiled
   // without them (FACES 0: the stencil alone, at no cost).
@@ -107,6 +111,14 @@ struct LodEngine::Impl {
   // texture at 1 GiB, below the default budget); UINT64_MAX until then.
   uint64_t device_slots = UINT64_MAX;
   std::optional<Bounds> clip_box;  // set_clip_box
+  // Hybrid rendering: the cell cache (created on the first hybrid frame) and the exact nodes render() granted for the
+  // render_nodes call it makes (node, cache entry); empty otherwise.
+  std::unique_ptr<CellCache> cells;
+  std::vector<std::pair<uint64_t, uint32_t>> exact_now;
+  GlBuffer optical;                            // the exact engine's optical table, for the cells (optical.glsl)
+  std::optional<TransferFunction> optical_tf;  // what it holds
+  void choose_exact(std::span<const uint64_t> cut, const Camera& camera, const RenderSettings& settings,
+                    LodRenderStats& st, uint64_t max_nodes = UINT64_MAX);
 
   Impl(const std::string& path, const GlContext& g, LodOptions o) : store(path), gl(g), options(o) {}
   uint64_t budget_slots() const;
@@ -118,17 +130,20 @@ struct LodEngine::Impl {
   void upload_slice_colors(const TransferFunction& tf, const RenderSettings& settings);
 };
 
-ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, bool overlay, bool slices, bool tricubic) {
-  auto it = programs.find({mode, volume_lighting, overlay, slices, tricubic});
+ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, bool overlay, bool slices, bool tricubic,
+                                             bool hybrid) {
+  auto it = programs.find({mode, volume_lighting, overlay, slices, tricubic, hybrid});
   if (it == programs.end()) {
     ComputeProgram p("lod_raycast.comp", {{"MODE", std::to_string(mode)},
                                           {"VOLUME_LIGHTING", volume_lighting ? "1" : "0"},
                                           {"OVERLAY", overlay ? "1" : "0"},
                                           {"FACES", faces ? "1" : "0"},
                                           {"SLICES", slices ? "1" : "0"},
-                                          {"TRICUBIC", tricubic ? "1" : "0"}});
+                                          {"TRICUBIC", tricubic ? "1" : "0"},
+                                          {"HYBRID", hybrid ? "1" : "0"}});
     check_contract(p);
-    it = programs.emplace(std::make_tuple(mode, volume_lighting, overlay, slices, tricubic), std::move(p)).first;
+    it =
+        programs.emplace(std::make_tuple(mode, volume_lighting, overlay, slices, tricubic, hybrid), std::move(p)).first;
   }
   return it->second;
 }
@@ -283,6 +298,10 @@ lod_gpu::LodFrame LodEngine::Impl::frame_parameters(const Camera& camera, const 
   f.u_clip = settings.clip_plane ? 1 : 0;
   if (settings.clip_plane) f.u_clip_plane = normalised_plane(*settings.clip_plane, root);
   f.u_overlay_opacity = overlay ? float(settings.boundary_overlay_opacity) : 0.0f;
+  // Hybrid: the non-linear cells' tolerance as the exact engine takes it by default (1e-3 of the transfer function's
+  // range, ExactEngine::tolerance_abs), in the field's units as the cells' values are.
+  f.u_cell_tolerance = float(1e-3 * (tf_width > 0 ? tf_width : std::max(f_hi - f_lo, 1e-30)));
+  f.u_cell_data = store.layout().fields[field].association == Association::Cell ? 1 : 0;
   f.u_nudge = float(2e-6 * std::max({root_size.x, root_size.y, root_size.z}));
   // Slices: the planes as the clip plane is passed; each colour table spans the slice's range (or the transfer
   // function's), reached from the normalised value as u_tf_map reaches the transfer function's table.
@@ -334,6 +353,41 @@ void LodEngine::Impl::upload_slice_colors(const TransferFunction& tf, const Rend
     }
     glTextureSubImage2D(slice_texture.id(), 0, 0, GLint(i), n, 1, GL_RGBA, GL_FLOAT, row.data());
   }
+}
+
+// Hybrid rendering: which of the cut's nodes are drawn by their cells this frame (hybrid_select.h, cell_cache.h).
+void LodEngine::Impl::choose_exact(std::span<const uint64_t> cut, const Camera& camera, const RenderSettings& settings,
+                                   LodRenderStats& st, uint64_t max_nodes) {
+  exact_now.clear();
+  if (!options.hybrid) return;
+  st.hybrid = true;
+  if (!store.has_cells()) {
+    st.hybrid_off = "the store keeps no cells (ugvr build --cells)";
+  } else if (settings.mode != RenderMode::EmissionAbsorption) {
+    st.hybrid_off = "exact cells are drawn in emission-absorption mode only";
+  } else if (boundary_overlay_on(settings) || !settings.slices.empty() || settings.hide_volume != HideVolume::None) {
+    st.hybrid_off = "exact cells are drawn without the boundary overlay and slices only";
+  }
+  if (!st.hybrid_off.empty()) return;
+  const auto t0 = std::chrono::steady_clock::now();
+  const uint64_t budget = options.cell_budget_bytes ? options.cell_budget_bytes : options.atlas_budget_bytes / 4;
+  if (!cells || cells->budget_bytes() != budget) cells = std::make_unique<CellCache>(store, budget);
+  const std::vector<ResolvedFocus> focus = resolve_focus(store, options.focus);
+  const std::vector<ExactCandidate> cand =
+      exact_candidates(store, cut, camera, settings.width, settings.height, tf_errors, focus, &st.focus_excluded);
+  std::vector<uint64_t> order;
+  order.reserve(cand.size());
+  for (const ExactCandidate& c : cand) order.push_back(c.node);
+  const CellCache::Grant g = cells->grant(order, field, std::min(options.max_exact_nodes, max_nodes));
+  for (size_t i = 0; i < g.nodes.size(); ++i) exact_now.emplace_back(g.nodes[i], g.entries[i]);
+  st.exact_candidates = cand.size();
+  st.exact_nodes = g.nodes.size();
+  st.exact_cells = g.cells;
+  st.cell_bytes = g.bytes;
+  st.cell_budget_bytes = budget;
+  st.cells_prepared = g.prepared;
+  st.cell_budget_full = g.budget_full;
+  st.cells_seconds = seconds_since(t0);
 }
 
 LodEngine::LodEngine(const std::string& store_path, const GlContext& gl, LodOptions options)
@@ -447,13 +501,19 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   st.cut_seconds = seconds_since(t0);
   BrickResidency from_store(I.store, I.slot_table);  // no RAM tier: the bricks are read here
   Image image;
+  struct ClearExact {
+    Impl& impl;
+    ~ClearExact() { impl.exact_now.clear(); }
+  } clear_exact{I};
   try {
+    I.choose_exact(cut.nodes, camera, settings, st);
     image = render_nodes(camera, tf, settings, cut.nodes, from_store, &st);
   } catch (const AtlasRefused&) {
     // The device allocates less than the budget: the cut again, within what it does allocate (once).
     co.max_nodes = I.budget_slots();
     cut = select_cut(I.store, cut_spec, camera, settings.width, settings.height, tf, co);
     in_box(cut);
+    I.choose_exact(cut.nodes, camera, settings, st);
     image = render_nodes(camera, tf, settings, cut.nodes, from_store, &st);
   }
   st.cut_nodes = cut.nodes.size();
@@ -475,6 +535,22 @@ uint32_t LodEngine::field() const { return impl_->field; }
 void LodEngine::set_step_voxels(double step) {
   if (!(step > 0) || !std::isfinite(step)) fail_in("lod engine", "step must be > 0 voxels");
   impl_->options.step_voxels = step;
+}
+void LodEngine::set_max_exact_nodes(uint64_t n) { impl_->options.max_exact_nodes = n; }
+bool LodEngine::hybrid() const { return impl_->options.hybrid; }
+void LodEngine::prepare_exact(std::span<const uint64_t> nodes, const Camera& camera, const TransferFunction& tf,
+                              const RenderSettings& settings, uint64_t max_nodes, LodRenderStats* stats) {
+  Impl& I = *impl_;
+  I.gl.make_current();
+  I.tf_errors.set_field(I.field);
+  I.tf_errors.update(tf);
+  LodRenderStats st;
+  if (stats) st = *stats;
+  I.choose_exact(nodes, camera, settings, st, max_nodes);
+  if (stats) *stats = st;
+}
+std::vector<uint64_t> LodEngine::cell_nodes_in_ram() const {
+  return impl_->cells ? impl_->cells->nodes_in_ram() : std::vector<uint64_t>{};
 }
 
 Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
@@ -514,6 +590,14 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
          p = I.store.node(p).parent)
       state[p] = lod_gpu::NODE_DESCEND;
   }
+  // Exact nodes (render() granted them for this cut): drawn by their cells. Their bricks stay loaded all the same, so
+  // that a node whose grant ends draws at once.
+  const bool hybrid = !I.exact_now.empty();
+  for (const auto& [n, entry] : I.exact_now) {
+    if (state[n] >= lod_gpu::NODE_DESCEND || entry >= lod_gpu::NODE_EXACT)
+      fail_in("lod engine", "exact node " + std::to_string(n) + " is not a node of the cut");
+    state[n] = lod_gpu::NODE_EXACT | entry;
+  }
   I.state.upload(state.data(), state.size() * sizeof(uint32_t));
   st.load_seconds = seconds_since(t1);
   st.atlas_bytes = I.atlas.bytes();
@@ -536,7 +620,16 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   // Tricubic interpolation is an isosurface variant only (docs/tricubic.md); the other modes ignore the setting.
   const bool tricubic = mode == LOD_MODE_ISO && settings.interpolation == Interpolation::Tricubic;
   const ComputeProgram& program =
-      I.program_for(mode, mode == LOD_MODE_EA && settings.volume_lighting, overlay, slices, tricubic);
+      I.program_for(mode, mode == LOD_MODE_EA && settings.volume_lighting, overlay, slices, tricubic, hybrid);
+  if (hybrid) {
+    I.cells->bind();
+    if (!I.optical_tf || !(*I.optical_tf == tf)) {
+      const std::vector<float> packed = OpticalTable(tf).pack_for_gpu();
+      I.optical.upload(packed.data(), packed.size() * sizeof(float));
+      I.optical_tf = tf;
+    }
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::CELL_OPTICAL_BUFFER_BINDING, I.optical.id());
+  }
   if (slices) {
     I.upload_slice_colors(tf, settings);
     glBindTextureUnit(lod_gpu::SLICE_TEXTURE_BINDING, I.slice_texture.id());
@@ -575,6 +668,8 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   glGetNamedBufferSubData(I.counters.id(), 0, sizeof counted, counted);
   st.samples = counted[lod_gpu::COUNTER_SAMPLES];
   st.bricks_entered = counted[lod_gpu::COUNTER_BRICKS];
+  st.cell_steps = counted[lod_gpu::COUNTER_CELL_STEPS];
+  I.exact_now.clear();  // a grant holds for one frame
 
   const auto t3 = std::chrono::steady_clock::now();
   Image image = read_back_composited(I.readback, I.out_texture, w, h, settings.background, "lod engine");

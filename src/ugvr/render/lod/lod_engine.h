@@ -25,6 +25,7 @@
 #include "ugvr/render/camera.h"
 #include "ugvr/render/image.h"
 #include "ugvr/render/lod/brick_residency.h"
+#include "ugvr/render/lod/hybrid_select.h"
 #include "ugvr/render/lod/lod_cut.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/transfer_function.h"
@@ -50,6 +51,17 @@ struct LodRenderStats {
   double mean_level = 0;
   uint64_t atlas_bytes = 0;
   uint64_t atlas_slots = 0;
+  // Hybrid rendering (LodOptions::hybrid; docs/hybrid.md): the cut's nodes that have cells and a nonzero data error
+  // (candidates), those drawn exact this frame and their cells, the cell cache's bytes and budget, nodes read and
+  // prepared this frame, cells walked by all rays; budget_full: a candidate did not fit the budget. `hybrid_off`
+  // says why no node could be exact ("" when hybrid ran).
+  bool hybrid = false;
+  std::string hybrid_off;
+  uint64_t exact_candidates = 0, exact_nodes = 0, exact_cells = 0;
+  uint64_t focus_excluded = 0;  // nodes with cells left resampled for zero interest (--focus)
+  uint64_t cell_bytes = 0, cell_budget_bytes = 0, cells_prepared = 0, cell_steps = 0;
+  bool cell_budget_full = false;
+  double cells_seconds = 0;  // choosing, reading, preparing and uploading cells
 };
 
 // Whether settings draw the boundary overlay: opacity > 0, and not in MIP mode (as the exact engine). The cut must
@@ -66,6 +78,15 @@ class AtlasRefused : public Error {
 struct LodOptions {
   uint64_t atlas_budget_bytes = uint64_t(2) << 30;  // GPU memory for bricks
   double step_voxels = 0.5;  // sample step in voxels of each node (RenderSettings.sample_step = 0)
+  // Hybrid rendering (docs/hybrid.md): render() draws the cut's nodes that have cells in the store (format version 5)
+  // by walking their cells, in priority order (hybrid_select.h) within a GPU budget for cells (0: a quarter of
+  // atlas_budget_bytes) and at most max_exact_nodes of them; the rest from their bricks. Emission-absorption without
+  // the boundary overlay or slices only: other modes draw voxels alone (stats say so).
+  bool hybrid = false;
+  uint64_t cell_budget_bytes = 0;
+  uint64_t max_exact_nodes = UINT64_MAX;
+  // Degree of interest (hybrid_select.h): only nodes whose value ranges meet one of these get exact cells.
+  std::vector<FocusRange> focus;
 };
 
 class LodEngine {
@@ -112,6 +133,17 @@ class LodEngine {
   uint32_t field() const;  // the bound field's index in the store
   // Sample step in voxels of each node when RenderSettings.sample_step is 0 (progressive refinement refines it).
   void set_step_voxels(double step);
+  // Hybrid rendering: at most `n` exact nodes from the next frame on (0: voxels only).
+  void set_max_exact_nodes(uint64_t n);
+  // Hybrid rendering (LodOptions::hybrid): whether it is on; and, for a cut the caller draws next with render_nodes
+  // (the time-critical session), exact cells for at most `max_nodes` of its nodes in priority order (the grant holds
+  // for that one call). Fills the hybrid figures of *stats, which the caller then passes to render_nodes.
+  bool hybrid() const;
+  void prepare_exact(std::span<const uint64_t> nodes, const Camera& camera, const TransferFunction& tf,
+                     const RenderSettings& settings, uint64_t max_nodes, LodRenderStats* stats);
+  // Hybrid rendering: the nodes whose cells are prepared in RAM (read from the store), ascending; empty before the
+  // first hybrid frame.
+  std::vector<uint64_t> cell_nodes_in_ram() const;
 
   // Data-parallel rendering (src/ugvr/mpi, docs/mpi.md): only the stretch of each ray inside `box` (world
   // coordinates; faces may be infinite) is drawn, so the images of boxes that tile space compose front to back into

@@ -37,6 +37,25 @@ nlohmann::json unlimited_or(uint64_t v) {
   return v == std::numeric_limits<uint64_t>::max() ? nlohmann::json(nullptr) : nlohmann::json(v);
 }
 
+// How much of the frame was exact (hybrid rendering), as the object "hybrid"; nothing when hybrid is off.
+void hybrid_json(const LodRenderStats& st, nlohmann::json& j) {
+  if (!st.hybrid) return;
+  nlohmann::json h;
+  h["off"] = st.hybrid_off.empty() ? nlohmann::json(nullptr) : nlohmann::json(st.hybrid_off);
+  h["candidates"] = st.exact_candidates;
+  h["focus_excluded"] = st.focus_excluded;
+  h["exact_nodes"] = st.exact_nodes;
+  h["exact_fraction"] = st.cut_nodes ? double(st.exact_nodes) / double(st.cut_nodes) : 0.0;
+  h["exact_cells"] = st.exact_cells;
+  h["cell_bytes"] = st.cell_bytes;
+  h["cell_budget_bytes"] = st.cell_budget_bytes;
+  h["cell_budget_full"] = st.cell_budget_full;
+  h["cells_prepared"] = st.cells_prepared;
+  h["cells_seconds"] = st.cells_seconds;
+  h["cell_steps"] = st.cell_steps;
+  j["hybrid"] = std::move(h);
+}
+
 }  // namespace
 
 LodScene::LodScene(const std::string& store_path, std::shared_ptr<const GlContext> context, LodOptions lod_options)
@@ -62,6 +81,7 @@ void LodFrameStats::to_json(nlohmann::json& j) const {
   j["readback_seconds"] = st.readback_seconds;
   j["atlas_bytes"] = st.atlas_bytes;
   j["atlas_slots"] = st.atlas_slots;
+  hybrid_json(st, j);
 }
 
 void InteractiveLodFrameStats::to_json(nlohmann::json& j) const {
@@ -93,6 +113,7 @@ void InteractiveLodFrameStats::to_json(nlohmann::json& j) const {
   j["gpu_seconds"] = f.render.gpu_seconds;
   j["gpu_timer_seconds"] = f.render.gpu_timer_seconds;
   j["samples"] = f.render.samples;
+  hybrid_json(f.render, j);
 }
 
 // --- shared by both forms
@@ -139,7 +160,7 @@ Frame LodRenderer::render(const FrameRequest& request) {
   Frame f;
   f.image = engine.render(request.camera, request.tf, request.settings, cut_, &detail->render);
   const LodRenderStats& st = detail->render;
-  f.stats.engine = "lod";
+  f.stats.engine = std::string(this->engine());
   f.stats.seconds = st.render_seconds;
   f.stats.samples = st.samples;
   f.stats.cut_nodes = st.cut_nodes;
@@ -158,7 +179,24 @@ std::string LodRenderer::summary(const FrameStats& last) const {
                 cut_spec_name(cut_).c_str(), (unsigned long long)st.cut_nodes, st.max_level, st.mean_level,
                 st.budget_limited ? ", limited by --gpu-memory" : "", st.gpu_seconds,
                 format_bytes(st.atlas_bytes).c_str(), scene_->gl->renderer().c_str());
-  return buf;
+  std::string out = buf;
+  if (st.hybrid) {
+    // How much is exact (hybrid rendering): nodes, of the candidates (visible nodes with cells), cells, memory.
+    if (!st.hybrid_off.empty()) {
+      out += "; no exact cells: " + st.hybrid_off;
+    } else {
+      std::snprintf(buf, sizeof buf,
+                    "; exact %llu of %llu nodes with cells (%.1f%% of the cut), %llu cells, %s of %s%s",
+                    (unsigned long long)st.exact_nodes, (unsigned long long)st.exact_candidates,
+                    st.cut_nodes ? 100.0 * double(st.exact_nodes) / double(st.cut_nodes) : 0.0,
+                    (unsigned long long)st.exact_cells, format_bytes(st.cell_bytes).c_str(),
+                    format_bytes(st.cell_budget_bytes).c_str(),
+                    st.cell_budget_full ? ", cell budget full (--gpu-cell-memory)" : "");
+      out += buf;
+      if (st.focus_excluded) out += ", " + std::to_string(st.focus_excluded) + " outside --focus resampled";
+    }
+  }
+  return out;
 }
 
 // --- time-critical session
@@ -193,7 +231,7 @@ Frame InteractiveLodRenderer::render(const FrameRequest& request) {
   f.image = request.full_quality ? session_->full_quality(request.camera, request.tf, request.settings, &tf)
                                  : session_->frame(request.camera, request.tf, request.settings, &tf);
   FrameStats& s = f.stats;
-  s.engine = "lod";
+  s.engine = std::string(this->engine());
   s.seconds = tf.seconds;
   s.converged = tf.converged || request.full_quality;
   s.resting = tf.resting;

@@ -43,7 +43,8 @@ struct InteractiveLodFrameStats : EngineFrameStats {
 class LodRendererBase : public Renderer {
  public:
   explicit LodRendererBase(std::shared_ptr<LodScene> scene) : scene_(std::move(scene)) {}
-  std::string_view engine() const override { return "lod"; }
+  // "hybrid" when the scene draws exact cells (LodOptions::hybrid), else "lod".
+  std::string_view engine() const override { return scene_->options.hybrid ? "hybrid" : "lod"; }
   std::string device() const override { return scene_->gl->renderer(); }
   void set_field(std::string_view name) override;
   const std::string& field_name() const override;

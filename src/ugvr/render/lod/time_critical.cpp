@@ -30,6 +30,7 @@ struct TimeCriticalRenderer::Impl {
   std::optional<RenderSettings> last_settings;
   bool rest_converged = false;  // the cut converged in the last frame, at rest
   int stalled_frames = 0;       // resting frames in a row in which the cut could not refine for lack of memory
+  uint64_t exact_limit = 0;     // hybrid: nodes that may be exact in the next frame (grows by exact_batch at rest)
 
   Impl(LodEngine& e, TimeCriticalOptions o)
       : engine(e),
@@ -111,11 +112,13 @@ Image TimeCriticalRenderer::Impl::step(const Camera& camera, const TransferFunct
   f.requested = requests.size();
   Image image;
   try {
+    if (exact_limit > 0) engine.prepare_exact(u.visible, camera, tf, scaled, exact_limit, &f.render);
     image = engine.render_nodes(camera, tf, scaled, u.visible, residency, &f.render);
   } catch (const AtlasRefused&) {
     // The device allocates less than the budget allowed (the engine now knows how much): the cut merges down to it.
     budget.max_nodes = std::max<uint64_t>(1, std::min(engine.atlas_budget_bricks(), f.budget_nodes));
     u = cut.update(camera, scaled.width, scaled.height, tf, budget, [&](uint64_t n) { return residency.resident(n); });
+    if (exact_limit > 0) engine.prepare_exact(u.visible, camera, tf, scaled, exact_limit, &f.render);
     image = engine.render_nodes(camera, tf, scaled, u.visible, residency, &f.render);
   }
   cache.rethrow_load_error();
@@ -143,6 +146,13 @@ Image TimeCriticalRenderer::Impl::step(const Camera& camera, const TransferFunct
   return image;
 }
 
+namespace {
+// Hybrid: no more nodes can turn exact (all candidates are, the cell budget is full, or hybrid is off or cannot run).
+bool exact_complete(const LodRenderStats& st) {
+  return !st.hybrid || !st.hybrid_off.empty() || st.exact_nodes >= st.exact_candidates || st.cell_budget_full;
+}
+}  // namespace
+
 Image TimeCriticalRenderer::frame(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
                                   TimeCriticalFrame* report) {
   Impl& I = *impl_;
@@ -156,9 +166,11 @@ Image TimeCriticalRenderer::frame(const Camera& camera, const TransferFunction& 
   const bool fine = f.resting && I.rest_converged;
   I.engine.set_step_voxels(fine ? I.options.resting_step_voxels : I.options.moving_step_voxels);
   f.budget_samples = f.resting ? FrameController::kUnlimited : I.controller.budget();
+  // Hybrid: at rest with the cut converged, exact_batch more nodes turn exact each frame; any change starts again.
+  I.exact_limit = fine && I.engine.hybrid() ? I.exact_limit + I.options.exact_batch : 0;
   Image image = I.step(camera, tf, settings, f.resting, I.policy.current(), f);
   I.rest_converged = f.resting && f.converged;
-  f.converged = fine && f.converged;
+  f.converged = fine && f.converged && exact_complete(f.render);
   f.seconds = seconds_since(t0);
   // Only frames under the budget teach the controller what a sample costs.
   if (!f.resting) {
@@ -195,6 +207,7 @@ Image TimeCriticalRenderer::full_quality(const Camera& camera, const TransferFun
     if (u.splits == 0 && u.merges == 0 && !u.wanted.empty() && !I.cache.wait_all(0)) break;  // over the RAM budget
   }
   f.budget_samples = FrameController::kUnlimited;
+  I.exact_limit = I.engine.hybrid() ? UINT64_MAX : 0;  // hybrid: every candidate exact within the cell budget
   Image image = I.step(camera, tf, settings, true, QualityChoice{}, f);
   I.rest_converged = f.converged;
   f.seconds = seconds_since(t0);

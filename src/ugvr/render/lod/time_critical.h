@@ -48,12 +48,16 @@ struct TimeCriticalOptions {
   double resting_step_voxels = 0.5;  // and once it rests and the cut has converged
   int loader_threads = 0;            // RAM cache workers (0: hardware concurrency)
   double min_scale = 0.25;           // smallest image scale while moving (quality_policy.h)
+  // Hybrid engines (LodOptions::hybrid; docs/hybrid.md): once the view rests and the cut has converged, this many
+  // more nodes turn exact per frame, in priority order (progressive refinement, Callahan 2006); none while it moves.
+  uint64_t exact_batch = 64;
 };
 
 struct TimeCriticalFrame {
   double seconds = 0;           // wall time of the frame (cut update + draw + read back)
   bool resting = false;         // camera, transfer function and settings as in the previous frame
-  bool converged = false;       // the cut cannot improve and the step is the resting one: full quality
+  bool converged = false;       // the cut cannot improve and the step is the resting one: full quality (hybrid:
+                                // and every candidate is exact, or the cell budget is full)
   bool memory_limited = false;  // ... because the RAM cache cannot hold the bricks a finer cut needs
   uint64_t budget_samples = 0;  // the controller's sample budget for this frame (max = unlimited)
   uint64_t budget_nodes = 0;    // the cut size the policy allowed (max = unlimited)
