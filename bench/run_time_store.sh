@@ -4,7 +4,8 @@
 # Usage: bench/run_time_store.sh [UGVR=build/ugvr] [SCRATCH=/tmp/ugvr-time-store]
 #   CELLS (default 2000000), STEPS (24), ROUNDS (default 1: builds of a 2M-cell series take minutes each; the medians
 #   are over the rounds), BUILD_FLAGS (default "--max-depth 6": the build options of every store), RESULTS (default
-#   bench/results/time_store.jsonl, appended).
+#   bench/results/time_store.jsonl, appended), DELTA_BENCH (default: bench/bench_time_delta beside UGVR; skipped when
+#   absent).
 # Lines written: {"what": "series" ...} once, then per round {"what": "one_store", ...} and {"what":
 # "separate_stores", ...} (the 24 builds summed: bytes, wall seconds; peak RSS the largest), then {"what": "summary"}
 # with the medians and the ratios.
@@ -17,6 +18,7 @@ steps=${STEPS:-24}
 rounds=${ROUNDS:-1}
 flags=${BUILD_FLAGS:---max-depth 6}
 results=${RESULTS:-bench/results/time_store.jsonl}
+delta_bench=${DELTA_BENCH:-$(dirname "$ugvr")/bench/bench_time_delta}
 mkdir -p "$scratch" "$(dirname "$results")"
 
 # Runs a command under /usr/bin/time -v; prints "WALL_SECONDS PEAK_RSS_BYTES".
@@ -53,6 +55,11 @@ for ((r = 0; r < rounds; ++r)); do
   bytes=$(stat -c %s "$scratch/all.ugvr")
   one_s+=("$s") one_b+=("$bytes") one_r+=("$rss")
   echo "{\"what\": \"one_store\", \"round\": $r, \"seconds\": $s, \"bytes\": $bytes, \"peak_rss_bytes\": $rss}" | tee -a "$results"
+  # Would temporal compression pay? The later steps' blocks against the same samples coded as differences from the
+  # previous step (bench/bench_time_delta.cpp; 300 nodes spread over the tree), once.
+  if [ "$r" = 0 ] && [ -x "$delta_bench" ]; then
+    echo "{\"what\": \"temporal_delta\", \"measure\": $("$delta_bench" "$scratch/all.ugvr" 300 --json)}" | tee -a "$results"
+  fi
   total_s=0 total_b=0 max_r=0
   for ((k = 0; k < steps; ++k)); do
     out="$scratch/step_$k.ugvr"
