@@ -153,7 +153,7 @@ void register_build(CLI::App& app) {
           opts->build.resolution, opts->build.resolution, format_bytes(s.store_bytes).c_str(), s.seconds,
           s.subdivide_seconds, s.brick_seconds, samples_per_second, format_bytes(peak_rss_bytes()).c_str());
       if (s.time_steps > 0)
-        std::printf("  %u time steps on one tree (the first step's own: %llu nodes), reading %.2f s\n", s.time_steps,
+        std::printf("  %u time step(s) on one tree (the first step's own: %llu nodes), reading %.2f s\n", s.time_steps,
                     (unsigned long long)s.first_step_nodes, s.read_seconds);
     }
     if (!s.boundary_note.empty()) std::fprintf(stderr, "warning: %s\n", s.boundary_note.c_str());

@@ -82,12 +82,14 @@ nlohmann::json store_steps_json(const BrickStoreReader& store) {
 
 std::string format_store_steps_text(const BrickStoreReader& store) {
   char buf[256];
-  std::snprintf(buf, sizeof buf, "time:     %u steps, t = %g .. %g (one octree; each step its own bricks)\n",
-                store.step_count(), store.step_time(0), store.step_time(store.step_count() - 1));
+  std::snprintf(buf, sizeof buf, "time:     %u step%s, t = %g .. %g (one octree; each step its own bricks)\n",
+                store.step_count(), store.step_count() == 1 ? "" : "s", store.step_time(0),
+                store.step_time(store.step_count() - 1));
   std::string text = buf;
-  text += "          steps 1 to " + std::to_string(store.step_count() - 1) + ": blocks " +
-          format_bytes(later_steps_block_bytes(store)) + ", steps section " +
-          format_bytes(store.steps_header().section_size) + " (the bytes: line above is step 0's)\n";
+  if (store.step_count() > 1)
+    text += "          steps 1 to " + std::to_string(store.step_count() - 1) + ": blocks " +
+            format_bytes(later_steps_block_bytes(store)) + ", steps section " +
+            format_bytes(store.steps_header().section_size) + " (the bytes: line above is step 0's)\n";
   for (uint32_t s = 0; s < store.step_count(); ++s) {
     std::snprintf(buf, sizeof buf, "  step %u: t = %g", s, store.step_time(s));
     text += buf;
