@@ -241,8 +241,8 @@ for name, (kind, text) in files.items():
     open(os.path.join(out, name), "wb").write(bytes([kind]) + text.encode())
 PY
 
-# Brick stores: small ones built by ugvr itself (quantised and float, one and two fields, and one keeping its leaves'
-# cells).
+# Brick stores: small ones built by ugvr itself (quantised and float, one and two fields, one keeping its leaves'
+# cells, and one of three time steps: format version 6's steps section).
 if [ -n "${UGVR:-}" ] && [ -x "${UGVR:-}" ]; then
   mkdir -p "$corpus/fuzz_store/seeds"
   tmp=$(mktemp -d)
@@ -251,6 +251,9 @@ if [ -n "${UGVR:-}" ] && [ -x "${UGVR:-}" ]; then
   "$UGVR" --quiet build "$tmp/g.vtu" -o "$corpus/fuzz_store/seeds/f32.ugvr" --brick 8 --max-depth 1 --float32 \
     --fields pressure,velocity >/dev/null
   "$UGVR" --quiet build "$tmp/g.vtu" -o "$corpus/fuzz_store/seeds/cells.ugvr" --brick 4 --max-depth 1 --cells >/dev/null
+  "$UGVR" --quiet generate --cells 1000 --time-steps 3 -o "$tmp/t.pvd" >/dev/null
+  "$UGVR" --quiet build "$tmp/t.pvd" --time all -o "$corpus/fuzz_store/seeds/time.ugvr" --brick 4 --max-depth 1 \
+    >/dev/null
   rm -rf "$tmp"
 fi
 

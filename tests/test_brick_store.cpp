@@ -967,11 +967,11 @@ TEST_F(BrickStoreCorruption, WrongMagicOrVersion) {
   f = good_;
   patch_u32(f, 8, 1);  // a store of the previous format: its blocks quantize each brick on a grid of its own
   write_file(bad_, f);
-  expect_open_error(bad_, {"byte 8", "version 1", "reads versions 2 to 5", "rebuild"});
+  expect_open_error(bad_, {"byte 8", "version 1", "reads versions 2 to 6", "rebuild"});
   f = good_;
-  patch_u32(f, 8, 6);
+  patch_u32(f, 8, 7);
   write_file(bad_, f);
-  expect_open_error(bad_, {"byte 8", "version 6", "newer"});
+  expect_open_error(bad_, {"byte 8", "version 7", "newer"});
 }
 
 TEST_F(BrickStoreCorruption, FlippedHeaderOrNodeTableByte) {

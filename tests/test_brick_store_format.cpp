@@ -108,6 +108,10 @@ std::map<std::string, std::vector<Member>> struct_members() {
         UGVR_MEMBER(CellsHeaderRecord, block_count)}},
       {"CellBlockRecord",
        {UGVR_MEMBER(CellBlockRecord, offset), UGVR_MEMBER(CellBlockRecord, size), UGVR_MEMBER(CellBlockRecord, crc)}},
+      {"StepsHeaderRecord",
+       {UGVR_MEMBER(StepsHeaderRecord, section_offset), UGVR_MEMBER(StepsHeaderRecord, section_size),
+        UGVR_MEMBER(StepsHeaderRecord, step_count), UGVR_MEMBER(StepsHeaderRecord, section_crc),
+        UGVR_MEMBER(StepsHeaderRecord, flags), UGVR_MEMBER(StepsHeaderRecord, reserved)}},
       {"CellBlockHeader",
        {UGVR_MEMBER(CellBlockHeader, cell_count), UGVR_MEMBER(CellBlockHeader, point_count),
         UGVR_MEMBER(CellBlockHeader, vertex_references), UGVR_MEMBER(CellBlockHeader, face_slots),
@@ -349,7 +353,7 @@ TEST_P(BrickStoreFormatFile, HeaderMembersAtTheirDocumentedOffsets) {
   DocRecord d(bytes_, doc_["HeaderRecord"], 0);
   for (size_t i = 0; i < 8; ++i) EXPECT_EQ(d.get<uint8_t>("magic", i), kMagic[i]);
   EXPECT_EQ(std::memcmp(h.magic, kMagic, 8), 0);
-  EXPECT_MEMBER(d, h, version, kBrickStoreVersion);
+  EXPECT_MEMBER(d, h, version, 5u);  // a store of one time step is written as version 5 (6 adds the steps)
   EXPECT_MEMBER(d, h, header_size, kHeaderSize);
   EXPECT_MEMBER(d, h, resolution, SmallStore::kR);
   EXPECT_MEMBER(d, h, field_count, 3);

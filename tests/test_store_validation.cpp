@@ -135,8 +135,8 @@ TEST_F(StoreValidation, TheUntouchedStoreOpensAndDecodes) {
 }
 
 TEST_F(StoreValidation, InfiniteOrInvertedFieldRange) {
-  const size_t field0 = header_records_size(kBrickStoreVersion);
   std::string f = good_;
+  const size_t field0 = header_records_size(get<uint32_t>(f, offsetof(HeaderRecord, version)));  // the file's own
   put(f, field0 + offsetof(FieldRecord, min), double(INFINITY));
   put(f, field0 + offsetof(FieldRecord, max), double(-INFINITY));
   reseal(f);
@@ -321,7 +321,7 @@ TEST_F(StoreValidation, TheBinaryRefusesWhatOnceRendered) {
   EXPECT_FALSE(std::ifstream(png).good());
   // The field range [+inf, -inf]: refused on opening, by `info` as by `render`.
   f = read_file(store);
-  const size_t field0 = header_records_size(kBrickStoreVersion);
+  const size_t field0 = header_records_size(get<uint32_t>(f, offsetof(HeaderRecord, version)));  // the file's own
   put(f, field0 + offsetof(FieldRecord, min), double(INFINITY));
   put(f, field0 + offsetof(FieldRecord, max), double(-INFINITY));
   reseal(f);

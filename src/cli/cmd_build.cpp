@@ -10,6 +10,7 @@
 #include "ugvr/core/memory.h"
 #include "ugvr/core/progress.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/time_series.h"
 #include "ugvr/mpi/piece_build.h"
 #include "ugvr/octree/builder.h"
 #include "ugvr/octree/out_of_core.h"
@@ -114,6 +115,7 @@ void register_build(CLI::App& app) {
     uint64_t memory = uint64_t(1) << 30;
     bool float32 = false, json = false, out_of_core = false, no_tf_errors = false;
     int pieces = 0, ghost_level = 0;
+    std::string time;  // --time: the steps of a store with time
   };
   auto opts = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -162,11 +164,16 @@ void register_build(CLI::App& app) {
   cmd->add_flag("--cells", opts->build.leaf_cells,
                 "Also keep each leaf's cells (the mesh's own cells overlapping it, for exact rendering per node; in "
                 "core only, for now)");
+  cmd->add_option("--time", opts->time,
+                  "A time series: one store holding steps all|N|A:B[:S] (inclusive, stride S), sharing the octree "
+                  "(static geometry only; docs/time-series.md)");
   cmd->add_flag("--no-tf-errors", opts->no_tf_errors,
                 "Leave out the transfer-function error table (44 bytes per node and field; renderers then rank nodes "
                 "by texel size alone)");
   cmd->callback([opts] {
     if (opts->ghost_level != 0 && opts->pieces == 0) throw Error("--ghost-level applies with --pieces only");
+    if (opts->pieces > 0 && !opts->time.empty())
+      throw Error("--pieces and --time: partitioned stores hold one step; build one index per step");
     if (opts->pieces > 0) {
       build_pieces(*opts);
       return;
@@ -177,12 +184,26 @@ void register_build(CLI::App& app) {
     opts->build.inputs = opts->input.files;  // recorded in the store
     validate_build_options(opts->build);
     const bool vtu = opts->input.files.size() == 1 && extension_lower(opts->input.files[0]) == ".vtu";
+    const bool timed = !opts->time.empty();
+    if (timed && opts->out_of_core)
+      throw Error(
+          "--out-of-core --time: the out-of-core builder makes stores of one step; build a store with time in "
+          "core (leave out --out-of-core) or one store per step");
+    if (timed && opts->input.read.time_step >= 0)
+      throw Error("--time and --time-step: give one (--time N selects a single step too)");
     if (opts->out_of_core && !vtu) throw Error(opts->input.files[0] + ": --out-of-core reads a single .vtu file");
     const bool out_of_core =
-        opts->out_of_core || (vtu && std::filesystem::file_size(opts->input.files[0]) > opts->memory / 5 * 2);
+        !timed &&
+        (opts->out_of_core || (vtu && std::filesystem::file_size(opts->input.files[0]) > opts->memory / 5 * 2));
     OctreeBuildStats s;
     std::string names;
-    if (out_of_core) {
+    if (timed) {
+      const TimeSeries series = list_time_steps(opts->input.files, opts->input.read);
+      const std::vector<uint32_t> steps = parse_step_selection(opts->time, series.size(), "--time");
+      s = build_octree_steps(series, steps, opts->fields, opts->build, opts->output);
+      const BrickStoreReader store(opts->output);
+      for (const BrickStoreField& f : store.layout().fields) names += (names.empty() ? "" : ",") + f.name;
+    } else if (out_of_core) {
       if (!opts->out_of_core) std::fprintf(stderr, "note: building out of core (the input is large for --memory)\n");
       s = build_octree_out_of_core(opts->input.files[0], opts->fields, opts->build, opts->memory, opts->output);
       const BrickStoreReader store(opts->output);
@@ -227,6 +248,9 @@ void register_build(CLI::App& app) {
                                 {"leaf_cells", s.leaf_cells},
                                 {"cell_bytes", s.cell_bytes},
                                 {"cell_seconds", s.cell_seconds},
+                                {"time_steps", s.time_steps},
+                                {"read_seconds", s.read_seconds},
+                                {"first_step_nodes", s.first_step_nodes},
                                 {"peak_rss_bytes", peak_rss_bytes()}};
       std::printf("%s\n", j.dump().c_str());
     } else {
@@ -237,6 +261,9 @@ void register_build(CLI::App& app) {
           s.mean_leaf_level, s.max_level, names.c_str(), opts->float32 ? "float32" : "quant16", opts->build.resolution,
           opts->build.resolution, opts->build.resolution, format_bytes(s.store_bytes).c_str(), s.seconds,
           s.subdivide_seconds, s.brick_seconds, samples_per_second, format_bytes(peak_rss_bytes()).c_str());
+      if (s.time_steps > 0)
+        std::printf("  %u time step(s) on one tree (the first step's own: %llu nodes), reading %.2f s\n", s.time_steps,
+                    (unsigned long long)s.first_step_nodes, s.read_seconds);
     }
     if (!s.boundary_note.empty()) std::fprintf(stderr, "warning: %s\n", s.boundary_note.c_str());
     if (!out_of_core && peak_rss_bytes() > opts->memory) {

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -38,7 +39,8 @@ CLI::Option* add_input(CLI::App& cmd, std::vector<std::string>& inputs) {
 void add_read_options(CLI::App& cmd, ReadOptions& o) {
   cmd.add_option("--time-step", o.time_step,
                  "Time series (Exodus, .pvd, .series, numbered files, PLOT3D solutions, CGNS, EnSight, OpenFOAM "
-                 "time directories): the step to read (0-based; -1 = last; `ugvr info` lists them)")
+                 "time directories) or brick store built with --time: the step to read (0-based; -1 = last; `ugvr "
+                 "info` lists them)")
       ->default_val(-1);
   cmd.add_option("--raw-dims", o.raw.dims, "Raw volume: point dimensions NX NY NZ");
   cmd.add_option("--raw-type", o.raw.type, "Raw volume: value type")
@@ -54,18 +56,91 @@ namespace {
 
 // `ugvr info STORE.ugvr [--verify]`: the store's header and node table (opening validates both), then, with
 // --verify, every block against its checksum. A corrupt store fails after the report, naming the first bad block.
+// Bytes of the blocks of a time store's steps after the first (store_report counts step 0's).
+uint64_t later_steps_block_bytes(const BrickStoreReader& store) {
+  uint64_t bytes = 0;
+  for (uint32_t s = 1; s < store.step_count(); ++s)
+    for (uint64_t n = 0; n < store.node_count(); ++n)
+      for (uint32_t f = 0; f < store.field_count(); ++f) bytes += store.block(n, f, s).size;
+  return bytes;
+}
+
+// A time store's steps (format version 6): {"count", "section_bytes", "later_blocks_bytes", "steps": [{"index",
+// "time", "ranges": {FIELD: [min, max]}}]}; the text, one line per step.
+nlohmann::json store_steps_json(const BrickStoreReader& store) {
+  nlohmann::json steps = nlohmann::json::array();
+  for (uint32_t s = 0; s < store.step_count(); ++s) {
+    nlohmann::json ranges = nlohmann::json::object();
+    for (uint32_t f = 0; f < store.field_count(); ++f) {
+      const store_format::StepFieldRange r = store.step_range(s, f);
+      ranges[store.layout().fields[f].name] = {r.min, r.max};
+    }
+    steps.push_back({{"index", s}, {"time", store.step_time(s)}, {"ranges", ranges}});
+  }
+  return {{"count", store.step_count()},
+          {"section_bytes", store.steps_header().section_size},
+          {"later_blocks_bytes", later_steps_block_bytes(store)},
+          {"steps", steps}};
+}
+
+std::string format_store_steps_text(const BrickStoreReader& store) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "time:     %u step%s, t = %g .. %g (one octree; each step its own bricks)\n",
+                store.step_count(), store.step_count() == 1 ? "" : "s", store.step_time(0),
+                store.step_time(store.step_count() - 1));
+  std::string text = buf;
+  if (store.step_count() > 1)
+    text += "          steps 1 to " + std::to_string(store.step_count() - 1) + ": blocks " +
+            format_bytes(later_steps_block_bytes(store)) + ", steps section " +
+            format_bytes(store.steps_header().section_size) + " (the bytes: line above is step 0's)\n";
+  for (uint32_t s = 0; s < store.step_count(); ++s) {
+    std::snprintf(buf, sizeof buf, "  step %u: t = %g", s, store.step_time(s));
+    text += buf;
+    for (uint32_t f = 0; f < store.field_count(); ++f) {
+      const store_format::StepFieldRange r = store.step_range(s, f);
+      std::snprintf(buf, sizeof buf, ", %s [%g, %g]", store.layout().fields[f].name.c_str(), r.min, r.max);
+      text += buf;
+    }
+    text += "\n";
+  }
+  return text;
+}
+
 void store_info(const std::string& path, bool json, bool verify) {
-  const BrickStoreReader store(path);
+  BrickStoreReader store(path);
   nlohmann::json report = store_report(store);
+  if (store.has_steps()) {
+    report["time"] = store_steps_json(store);
+    // The later steps' blocks and the section are this format's, not unreferenced bytes.
+    nlohmann::json& b = report["bytes"];
+    const uint64_t steps_bytes =
+        report["time"]["section_bytes"].get<uint64_t>() + report["time"]["later_blocks_bytes"].get<uint64_t>();
+    b["unreferenced"] = b["unreferenced"].get<uint64_t>() - std::min(b["unreferenced"].get<uint64_t>(), steps_bytes);
+    b["steps"] = steps_bytes;
+  }
   std::optional<StoreVerification> v;
   if (verify) {
-    v = verify_store(store);
+    // Every step's bricks (verify_store reads the store's current step).
+    for (uint32_t s = 0; s < store.step_count(); ++s) {
+      store.set_step(s);
+      StoreVerification one = verify_store(store);
+      if (!v) {
+        v = std::move(one);
+        continue;
+      }
+      v->bricks += one.bricks, v->blocks += one.blocks, v->bytes += one.bytes;
+      v->bad_bricks += one.bad_bricks, v->bad_blocks += one.bad_blocks;
+      for (std::string& e : one.errors)
+        if (v->errors.size() < 10) v->errors.push_back("time step " + std::to_string(s) + ": " + e);
+    }
+    store.set_step(0);
     report["verify"] = verification_json(*v);
   }
   if (json) {
     std::printf("%s\n", report.dump(2).c_str());
   } else {
     std::fputs(format_store_report_text(report).c_str(), stdout);
+    if (store.has_steps()) std::fputs(format_store_steps_text(store).c_str(), stdout);
     if (v) std::fputs(format_verification_text(*v).c_str(), stdout);
   }
   std::fflush(stdout);  // the report whole before the error, where both go to one pipe

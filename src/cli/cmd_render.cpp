@@ -37,6 +37,7 @@
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/renderer_factory.h"
 #include "ugvr/render/transfer_function.h"
+#include "ugvr/store/brick_store.h"
 #ifdef UGVR_HAVE_MPI
 #include "ugvr/mpi/mpi_renderer.h"
 #include "ugvr/mpi/mpi_session.h"
@@ -280,6 +281,63 @@ void render_time_steps(const Options& o, Renderer& renderer, ExactScene& scene, 
                  (unsigned long long)scene.rebuilds, median(frame_seconds));
 }
 
+// --time on a store with time steps (format version 6): one image per selected step, as render_time_steps does for a
+// series, the level-of-detail engine switching the step (FrameRequest::time_step). The colour range is the union of
+// the rendered steps' ranges (stored: no pass over the data) unless `per_step` or a given one.
+void render_store_time_steps(const Options& o, Renderer& renderer, const BrickStoreReader& store,
+                             const std::vector<uint32_t>& steps, FrameRequest request, bool global_range,
+                             bool per_step) {
+  std::filesystem::create_directories(o.out_dir);
+  const int field = store.field_index(renderer.field_name());
+  auto step_range = [&](uint32_t s) {
+    return field < 0 ? store_format::StepFieldRange{renderer.field_range().min, renderer.field_range().max}
+                     : store.step_range(s, uint32_t(field));
+  };
+  if (global_range) {
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (uint32_t s : steps) lo = std::min(lo, step_range(s).min), hi = std::max(hi, step_range(s).max);
+    if (std::isfinite(lo) && std::isfinite(hi) && lo < hi) request.tf.rescale(lo, hi);
+  }
+  nlohmann::json list = nlohmann::json::array();
+  std::vector<double> frame_seconds;
+  Image image;
+  Progress progress("steps", steps.size());
+  for (size_t k = 0; k < steps.size(); ++k) {
+    const store_format::StepFieldRange range = step_range(steps[k]);
+    if (per_step && range.min < range.max) request.tf.rescale(range.min, range.max);
+    request.time_step = steps[k];
+    Frame f = renderer.render(request);
+    char name[32];
+    std::snprintf(name, sizeof name, "/time_%05zu.png", k);
+    write_png(o.out_dir + name, f.image);
+    frame_seconds.push_back(f.stats.seconds);
+    list.push_back({{"frame", k},
+                    {"image", name + 1},
+                    {"step", steps[k]},
+                    {"time", store.step_time(steps[k])},
+                    {"field_range", {range.min, range.max}},
+                    {"tf_range", {request.tf.range_min(), request.tf.range_max()}},
+                    {"frame_seconds", f.stats.seconds}});
+    image = std::move(f.image);
+    progress.set(k + 1);
+  }
+  nlohmann::json j = {{"input", store.path()},
+                      {"kind", "store"},
+                      {"field", renderer.field_name()},
+                      {"range", per_step       ? "per-step"
+                                : global_range ? "global"
+                                               : "given"},
+                      {"median_frame_seconds", median(frame_seconds)},
+                      {"steps", list}};
+  renderer.describe(j);
+  write_json_file(o.out_dir + "/steps.json", j);
+  if (!o.stats.empty()) write_json_file(o.stats, j);
+  if (!o.output.empty()) write_image(o.output, image);
+  if (Progress::enabled())
+    std::fprintf(stderr, "rendered %zu steps of %s into %s: field %s, frame median %.3f s\n", steps.size(),
+                 store.path().c_str(), o.out_dir.c_str(), renderer.field_name().c_str(), median(frame_seconds));
+}
+
 // --time-budget S (issue 24): a still image from what can be drawn within S seconds of the command's start, reading
 // and preparing the input included. The exact engine draws a probe at a small size, then the largest image whose
 // estimated time (time grows with the pixel count) fits what is left, magnified to the requested size; the level of
@@ -368,8 +426,20 @@ void run_render(const Options& o, std::optional<double> time_budget) {
   if (!o.output.empty()) check_extension(o.output, "-o", {".png", ".pfm"});
   if (timed && o.out_dir.empty()) fail_flag("--time", "needs --out DIR for the steps' images");
   if (timed && (!o.path.empty() || !o.fps.empty())) fail_flag("--time", "cannot be combined with --path or --fps");
-  if (timed && (o.engine == "lod" || (o.inputs.size() == 1 && is_brick_store(o.inputs[0]))))
-    fail_flag("--time", "renders a series with the exact engine (a store holds one step)");
+  // A store with time steps (format version 6) is opened here to list them; a store of one step has none to select.
+  std::optional<BrickStoreReader> time_store;
+  if (o.inputs.size() == 1 && is_brick_store(o.inputs[0])) {
+    time_store.emplace(o.inputs[0]);
+    if (!time_store->has_steps()) time_store.reset();
+    if (!time_store && timed)
+      fail_flag("--time", o.inputs[0] + " holds one time step (build a store with `ugvr build SERIES --time ...`)");
+    if (!time_store && o.read.time_step > 0)
+      fail_flag("--time-step",
+                o.inputs[0] + " holds one time step (build a store with `ugvr build SERIES --time ...`)");
+  }
+  if (timed && o.engine == "lod" && !time_store)
+    fail_flag("--time", "renders a series with the exact engine, a store with time steps with the lod engine");
+  if (time_store && o.engine == "exact") fail_flag("--engine", "exact draws a mesh, not a brick store");
   const bool per_step = o.range == "per-step";
   if (per_step && !timed) fail_flag("--range", "per-step needs --time");
   if (!o.float_output.empty()) check_extension(o.float_output, "--float", {".pfm"});
@@ -420,7 +490,10 @@ void run_render(const Options& o, std::optional<double> time_budget) {
   OpenedInput opened;
   std::shared_ptr<ExactScene> time_scene;
   std::vector<uint32_t> steps;
-  if (timed) {
+  std::vector<uint32_t> store_steps;
+  if (timed && time_store) {
+    store_steps = parse_step_selection(o.time, time_store->step_count(), "--time");
+  } else if (timed) {
     auto series = std::make_shared<const TimeSeries>(list_time_steps(o.inputs, o.read));
     steps = parse_step_selection(o.time, series->size(), "--time");
     time_scene = std::make_shared<ExactScene>(std::move(series), steps[0], ro.progress);
@@ -453,7 +526,22 @@ void run_render(const Options& o, std::optional<double> time_budget) {
     if (Progress::enabled())
       std::fprintf(stderr, "field %s: the first that varies (--field picks another)\n", settings.field.c_str());
   }
-  const FieldRange field_range = renderer->field_range();
+  FieldRange field_range = renderer->field_range();
+  // A time store's step (--time-step N; -1, the default: the last, as for a series). Its colour range by default is the
+  // step's own, as a series' step read alone has.
+  std::optional<uint32_t> store_step;
+  if (time_store && !timed) {
+    const int64_t n = o.read.time_step < 0 ? int64_t(time_store->step_count()) - 1 : o.read.time_step;
+    if (n >= int64_t(time_store->step_count()))
+      fail_flag("--time-step", std::to_string(n) + " out of range: " + o.inputs[0] + " holds " +
+                                   std::to_string(time_store->step_count()) + " steps (0 to " +
+                                   std::to_string(time_store->step_count() - 1) + ")");
+    store_step = uint32_t(n);
+    if (const int f = time_store->field_index(renderer->field_name()); f >= 0) {
+      const store_format::StepFieldRange r = time_store->step_range(*store_step, uint32_t(f));
+      field_range = {r.min, r.max};
+    }
+  }
 
   const Bounds bounds = renderer->bounds();
   Camera camera;
@@ -484,6 +572,12 @@ void run_render(const Options& o, std::optional<double> time_budget) {
   request.tf = tf;
   request.settings = settings;
   request.target_fps = fps;
+  if (store_step) request.time_step = *store_step;
+  if (timed && time_store) {
+    render_store_time_steps(o, *renderer, *time_store, store_steps, request, !range && !o.keep_range && !per_step,
+                            per_step);
+    return;
+  }
   if (timed) {
     render_time_steps(o, *renderer, *time_scene, steps, request, !range && !o.keep_range && !per_step, per_step);
     return;

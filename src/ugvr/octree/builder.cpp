@@ -9,9 +9,11 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <unordered_set>
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/progress.h"
@@ -44,8 +46,9 @@ class BrickPass {
 
   BrickPass(OctreeShape& shape, const BrickLattice& lattice, const BrickSampler& sampler, const OctreeDataPoints& data,
             std::span<const BrickStoreField> fields, bool tf_errors, BrickStoreWriter& writer, Progress& progress,
-            const std::atomic<bool>* cancel)
+            const std::atomic<bool>* cancel, bool keep_cells = false)
       : tf_errors_on_(tf_errors),
+        keep_cells_(keep_cells),
         shape_(shape),
         fields_(fields),
         lattice_(lattice),
@@ -80,7 +83,8 @@ class BrickPass {
       leaf_samples_ += st.samples;
       valid_samples_ += r->brick.valid;
       data_.points_inside(cells, box, r->points);
-      std::vector<uint64_t>().swap(cells);  // no longer needed: keeps memory to the subtrees in progress
+      // No longer needed (unless the next time step samples them too): keeps memory to the subtrees in progress.
+      if (!keep_cells_) std::vector<uint64_t>().swap(cells);
       pad_brick(r->brick.resolution, F_, r->brick.values.data(), r->brick.mask.data());
       measure_against_points(r->brick, box, data_, r->points, sums);
       for (const ErrorSum& s : sums) r->errors.push_back(s.result());
@@ -133,6 +137,7 @@ class BrickPass {
 
  private:
   bool tf_errors_on_;
+  bool keep_cells_;
   OctreeShape& shape_;
   std::span<const BrickStoreField> fields_;
   const BrickLattice& lattice_;
@@ -147,6 +152,20 @@ class BrickPass {
   tbb::enumerable_thread_specific<BrickScratch> scratch_;
   std::atomic<uint64_t> leaf_samples_{0}, valid_samples_{0}, bricks_{0}, sampler_ns_{0};
 };
+
+// A node's place in the tree, (level, i, j, k): what the time steps' trees are merged by.
+struct NodeKey {
+  uint32_t level, i, j, k;
+  bool operator==(const NodeKey&) const = default;
+};
+struct NodeKeyHash {
+  size_t operator()(const NodeKey& n) const {
+    uint64_t h = n.level;
+    for (uint32_t v : {n.i, n.j, n.k}) h = (h ^ v) * 0x100000001b3ull;
+    return size_t(h ^ (h >> 29));
+  }
+};
+NodeKey key_of(const OctreeNode& n) { return {n.level, n.i, n.j, n.k}; }
 
 }  // namespace
 
@@ -237,6 +256,176 @@ OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions
   stats.store_bytes = std::filesystem::file_size(path);
   if (options.tf_errors)
     stats.tf_error_table_bytes = stats.nodes * layout.fields.size() * sizeof(store_format::TfErrorEntry);
+  stats.seconds = seconds_since(start);
+  return stats;
+}
+
+}  // namespace ugvr
+
+namespace ugvr {
+
+OctreeBuildStats build_octree_steps(const TimeSeries& series, std::span<const uint32_t> steps,
+                                    std::span<const std::string> selectors, const OctreeBuildOptions& options,
+                                    const std::string& path) {
+  validate_build_options(options);
+  if (steps.empty()) throw Error(series.source + ": no time step selected");
+  if (options.leaf_cells && steps.size() > 1)
+    throw Error(series.source +
+                ": --cells keeps one step's values in each cell block; a store of several time steps "
+                "cannot keep them yet (build one store per step with --time-step N, or leave out --cells)");
+  for (size_t k = 0; k < steps.size(); ++k) {
+    if (steps[k] >= series.size())
+      throw Error(series.source + ": time step " + std::to_string(steps[k]) + " out of range (the series has " +
+                  std::to_string(series.size()) + ")");
+    if (k > 0 && steps[k] <= steps[k - 1])
+      throw Error(series.source + ": time steps must be given in increasing order");
+  }
+  const auto start = std::chrono::steady_clock::now();
+  std::optional<tbb::global_control> threads;
+  if (options.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(options.threads));
+  const size_t S = steps.size();
+  OctreeBuildStats stats;
+  stats.time_steps = uint32_t(S);
+  auto step_name = [&](size_t k) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "step %zu/%zu (#%u, t = %g)", k + 1, S, steps[k], series.steps[steps[k]].time);
+    return std::string(buf);
+  };
+  // One step's dataset and what the builder takes from it; the previous one is released first.
+  struct Loaded {
+    std::unique_ptr<Dataset> dataset;
+    OctreeInput input;
+  };
+  std::vector<std::string> names(selectors.begin(), selectors.end());
+  uint64_t fingerprint = 0;
+  auto load = [&](size_t k, Loaded& out) {
+    out = {};
+    const auto t0 = std::chrono::steady_clock::now();
+    {
+      Progress progress(step_name(k) + ": read", 1, options.progress);
+      out.dataset = std::make_unique<Dataset>(read_time_step(series, steps[k]));
+      progress.finish();
+    }
+    const uint64_t f = geometry_fingerprint(*out.dataset);
+    if (k == 0 && fingerprint == 0) fingerprint = f;
+    if (f != fingerprint)
+      throw Error(series.source + ": the geometry of time step " + std::to_string(steps[k]) +
+                  " differs from that of step " + std::to_string(steps[0]) +
+                  " (geometry fingerprint): a store shares one mesh over its steps, so build one store per step "
+                  "(ugvr build SERIES --time-step N -o step_N.ugvr)");
+    out.input = prepare_octree_input(*out.dataset, names);
+    if (names.empty())  // the fields the first step picked, kept for every step (a field constant at first stays)
+      for (const BrickStoreField& fd : out.input.fields) names.push_back(fd.name);
+    stats.read_seconds += seconds_since(t0);
+  };
+
+  Loaded cur;
+  std::vector<std::vector<store_format::StepFieldRange>> ranges(S);
+  auto keep_ranges = [&](size_t k) {
+    for (const BrickStoreField& fd : cur.input.fields) ranges[k].push_back({fd.min, fd.max});
+  };
+  BrickLattice lattice;
+  lattice.resolution = options.resolution;
+  OctreeShape shape;
+  Bounds bounds;
+  // Pass 1 (--error > 0): every step's own tree, merged: a node splits in the union where it is interior in any
+  // step's tree. At --error 0 the split rule is geometric (octree/split.h): one tree serves every step.
+  const auto subdivide_start = std::chrono::steady_clock::now();
+  std::unordered_set<NodeKey, NodeKeyHash> interior;
+  const size_t shape_steps = options.error > 0 ? S : 1;
+  for (size_t k = 0; k < shape_steps; ++k) {
+    load(k, cur);
+    keep_ranges(k);
+    if (k == 0) {
+      bounds = cur.input.bounds;
+      lattice.root = octree_root(bounds);
+    }
+    const OctreeDataPoints data(*cur.input.mesh, cur.input.scalars);
+    const SplitTest split(data, cur.input.fields, options.error, options.resolution);
+    const BrickSampler sampler(*cur.input.mesh, cur.input.scalars, options.sampler);
+    std::optional<InterpolantCheck> interpolant;
+    if (options.error > 0) interpolant.emplace(data, sampler, lattice, split.thresholds());
+    Progress progress(step_name(k) + ": subdivide", uint64_t(options.max_depth) + 1, options.progress);
+    OctreeShape own = subdivide_octree(*cur.input.mesh, lattice, split, options.max_depth, &progress,
+                                       interpolant ? &*interpolant : nullptr);
+    if (k == 0) stats.first_step_nodes = own.nodes.size();
+    if (shape_steps == 1) {
+      shape = std::move(own);
+    } else {
+      for (const OctreeNode& n : own.nodes)
+        if (!n.is_leaf()) interior.insert(key_of(n));
+    }
+  }
+  if (shape_steps > 1) {
+    Progress progress("union of the steps' trees", uint64_t(options.max_depth) + 1, options.progress);
+    shape = subdivide_octree_where(
+        *cur.input.mesh, lattice, options.max_depth,
+        [&](const OctreeNode& n) { return interior.count(key_of(n)) != 0; }, &progress);
+    std::unordered_set<NodeKey, NodeKeyHash>().swap(interior);
+  }
+  stats.subdivide_seconds = seconds_since(subdivide_start);
+  stats.cells = cur.input.mesh->cell_count();
+  count_tree_shape(shape.nodes, stats);
+
+  // The layout with the first step's ranges; each step sets its own (begin_step) and the header gets their union.
+  BrickStoreLayout layout = store_layout(options, cur.input.fields, lattice.root, bounds, false);
+  for (size_t k = 0; k < S; ++k) layout.times.push_back(series.steps[steps[k]].time);
+  BrickStoreWriter writer(path, layout);
+  std::optional<MeshTopology> topology;
+  StoreBoundary boundary;
+  const auto bricks_start = std::chrono::steady_clock::now();
+  // Pass 2: each step's bricks on the shared tree. The step still loaded (the last of pass 1) is not read again when
+  // it is the one needed.
+  size_t loaded = shape_steps - 1;
+  for (size_t k = 0; k < S; ++k) {
+    if (k != loaded) {
+      load(k, cur);
+      if (ranges[k].empty()) keep_ranges(k);
+      loaded = k;
+    }
+    const UnstructuredMesh& mesh = *cur.input.mesh;
+    if (k == 0) {
+      // Shared by every step: the boundary faces (and, for one step, the leaves' cells) of the first step's mesh.
+      if (options.leaf_cells) {
+        topology.emplace(build_topology(mesh));
+        const auto cells_start = std::chrono::steady_clock::now();
+        const LeafCellStats cs =
+            write_leaf_cells(writer, mesh, *topology, cur.input.scalars, shape.nodes, shape.leaf_cells);
+        stats.cell_blocks = cs.blocks;
+        stats.leaf_cells = cs.cells;
+        stats.cell_bytes = cs.bytes;
+        stats.cell_seconds = seconds_since(cells_start);
+      }
+      BoundaryFaceStats bst;
+      boundary = store_boundary_faces(mesh, lattice.root, shape.nodes, options.boundary_faces_per_node, &bst,
+                                      topology ? &*topology : nullptr);
+      stats.boundary_bytes = boundary.bytes();
+      stats.boundary_triangles = bst.triangles;
+      stats.boundary_overflow_nodes = bst.overflow_nodes;
+      stats.boundary_seconds = bst.seconds;
+    }
+    writer.begin_step(uint32_t(k), ranges[k]);
+    const OctreeDataPoints data(mesh, cur.input.scalars);
+    const BrickSampler sampler(mesh, cur.input.scalars, options.sampler);
+    Progress progress(step_name(k) + ": bricks", stats.nodes, options.progress);
+    if (options.cancel && options.cancel->load()) throw Error("octree build cancelled");
+    BrickPass pass(shape, lattice, sampler, data, cur.input.fields, options.tf_errors, writer, progress, options.cancel,
+                   /*keep_cells=*/k + 1 < S);
+    pass.process(0);
+    progress.finish();
+    if (k == 0) {
+      stats.leaf_samples = pass.leaf_samples();
+      stats.valid_samples = pass.valid_samples();
+      stats.bricks = pass.bricks();
+    }
+    stats.sampler_seconds += pass.sampler_seconds();
+    writer.end_step(pass.errors(), pass.tf_errors());
+  }
+  writer.commit(shape.nodes, {}, {}, &boundary);
+  stats.brick_seconds = seconds_since(bricks_start);
+  stats.store_bytes = std::filesystem::file_size(path);
+  if (options.tf_errors)
+    stats.tf_error_table_bytes = S * stats.nodes * layout.fields.size() * sizeof(store_format::TfErrorEntry);
   stats.seconds = seconds_since(start);
   return stats;
 }

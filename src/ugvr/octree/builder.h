@@ -26,6 +26,7 @@
 
 #include "ugvr/core/progress.h"
 #include "ugvr/grid/dataset.h"
+#include "ugvr/io/time_series.h"
 #include "ugvr/octree/boundary_faces.h"
 #include "ugvr/octree/brick_sampler.h"
 #include "ugvr/octree/input.h"
@@ -84,6 +85,11 @@ struct OctreeBuildStats {
   // The leaves' cells (leaf_cells): blocks, cells over all blocks (a cell in several leaves counts in each), bytes.
   uint64_t cell_blocks = 0, leaf_cells = 0, cell_bytes = 0;
   double cell_seconds = 0;
+  // A store of several time steps (build_octree_steps): the steps, the wall time spent reading them (every read), and
+  // the nodes of the first step's own tree (the union over the steps has `nodes`).
+  uint32_t time_steps = 0;
+  double read_seconds = 0;
+  uint64_t first_step_nodes = 0;
 };
 
 // The root cell: a cube with the data's lower corner and its largest extent. A cube keeps voxels isotropic, so a
@@ -94,6 +100,20 @@ Bounds octree_root(const Bounds& data);
 // Builds the octree of `input` and writes it to `path` (atomically: nothing is left there on failure). Throws
 // ugvr::Error for invalid options or a failed write.
 OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions& options, const std::string& path);
+
+// Builds one store holding steps `steps` (indices into the series, in order) of a series whose geometry is static
+// (format version 6; docs/time-series.md, "Stores with time"): one octree, its boundary faces shared; each step adds
+// its bricks, per-node ranges and errors. The tree is the union of the steps' own trees: a node splits where the split
+// rule splits it for any step (at --error 0 the rule looks at the geometry alone, so every step's tree is the same and
+// one is built). Each step's bricks are quantized over that step's own range, so a step's bricks equal those of a
+// store of that step alone wherever the trees agree. Memory: one step's dataset at a time beside the tree's cell
+// lists; at --error > 0 each step is read twice (its tree, then its bricks). `fields` as prepare_octree_input takes
+// them (empty: those it picks for the first step, kept for all). Throws ugvr::Error when a step's geometry differs
+// from the first's (geometry_fingerprint), naming both steps: such a series needs one store per step. Not with
+// options.leaf_cells (the cell blocks hold one step's values) unless a single step is selected.
+OctreeBuildStats build_octree_steps(const TimeSeries& series, std::span<const uint32_t> steps,
+                                    std::span<const std::string> fields, const OctreeBuildOptions& options,
+                                    const std::string& path);
 
 // Checks options for build_octree; throws ugvr::Error naming the bad one.
 void validate_build_options(const OctreeBuildOptions& options);

@@ -10,15 +10,17 @@
 
 namespace ugvr {
 
-OctreeShape subdivide_octree(const UnstructuredMesh& mesh, const BrickLattice& lattice, const SplitTest& split,
-                             int max_depth, Progress* progress, const InterpolantCheck* interpolant) {
+namespace {
+
+// `splits(node, box, cells)`: whether the node splits (below max_depth). Called on several threads at once.
+template <class Splits>
+OctreeShape subdivide(const UnstructuredMesh& mesh, const BrickLattice& lattice, int max_depth, Progress* progress,
+                      const Splits& splits) {
   OctreeShape shape;
   shape.nodes.push_back(OctreeNode{});
   shape.leaf_cells.emplace_back(mesh.cell_count());
   std::iota(shape.leaf_cells[0].begin(), shape.leaf_cells[0].end(), uint64_t(0));
 
-  tbb::enumerable_thread_specific<VoxelSpread> scratch;
-  tbb::enumerable_thread_specific<BrickScratch> sampler_scratch;
   std::vector<uint64_t> level_ids = {0};
   for (int level = 0; !level_ids.empty(); ++level) {
     // Children's cell lists per node of this level, octant-indexed; all empty for a node that does not split.
@@ -28,11 +30,7 @@ OctreeShape subdivide_octree(const UnstructuredMesh& mesh, const BrickLattice& l
       const std::vector<uint64_t>& cells = shape.leaf_cells[level_ids[i]];
       if (level >= max_depth) return;
       const Bounds box = lattice.node_box(level, {node.i, node.j, node.k});
-      // The scratch is released before the nested parallel loop below, in which this thread may run other nodes.
-      if (!split.needs_split(box, cells, scratch.local()) &&
-          !(interpolant && interpolant->exceeds(level, {node.i, node.j, node.k}, cells, sampler_scratch.local()))) {
-        return;
-      }
+      if (!splits(node, box, cells)) return;
       const BoxCellLists lists = cells_overlapping_boxes(mesh, box, {2, 2, 2}, cells);
       for (int o = 0; o < 8; ++o) {
         const auto b = lists.box(uint64_t(o));
@@ -68,6 +66,28 @@ OctreeShape subdivide_octree(const UnstructuredMesh& mesh, const BrickLattice& l
   }
   if (progress) progress->finish();
   return shape;
+}
+
+}  // namespace
+
+OctreeShape subdivide_octree(const UnstructuredMesh& mesh, const BrickLattice& lattice, const SplitTest& split,
+                             int max_depth, Progress* progress, const InterpolantCheck* interpolant) {
+  tbb::enumerable_thread_specific<VoxelSpread> scratch;
+  tbb::enumerable_thread_specific<BrickScratch> sampler_scratch;
+  return subdivide(mesh, lattice, max_depth, progress,
+                   [&](const OctreeNode& node, const Bounds& box, const std::vector<uint64_t>& cells) {
+                     // The scratch is released before the nested parallel loop that follows, in which this thread
+                     // may run other nodes.
+                     return split.needs_split(box, cells, scratch.local()) ||
+                            (interpolant && interpolant->exceeds(node.level, {node.i, node.j, node.k}, cells,
+                                                                 sampler_scratch.local()));
+                   });
+}
+
+OctreeShape subdivide_octree_where(const UnstructuredMesh& mesh, const BrickLattice& lattice, int max_depth,
+                                   const std::function<bool(const OctreeNode&)>& splits, Progress* progress) {
+  return subdivide(mesh, lattice, max_depth, progress,
+                   [&](const OctreeNode& node, const Bounds&, const std::vector<uint64_t>&) { return splits(node); });
 }
 
 }  // namespace ugvr

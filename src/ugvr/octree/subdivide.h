@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "ugvr/core/progress.h"
@@ -32,5 +33,10 @@ struct OctreeShape {
 OctreeShape subdivide_octree(const UnstructuredMesh& mesh, const BrickLattice& lattice, const SplitTest& split,
                              int max_depth, Progress* progress = nullptr,
                              const InterpolantCheck* interpolant = nullptr);
+
+// The same, a node splitting where `splits` says (called from several threads at once), instead of the split test:
+// the time store's union of the steps' trees (octree/builder.h), whose interior nodes are those of any step's tree.
+OctreeShape subdivide_octree_where(const UnstructuredMesh& mesh, const BrickLattice& lattice, int max_depth,
+                                   const std::function<bool(const OctreeNode&)>& splits, Progress* progress = nullptr);
 
 }  // namespace ugvr

@@ -29,6 +29,9 @@ using store_format::node_record_size;
 using store_format::NodeFieldRecord;
 using store_format::NodeRecord;
 using store_format::read_record;
+using store_format::StepFieldRange;
+using store_format::StepNodeRecord;
+using store_format::StepsHeaderRecord;
 using store_format::TfErrorEntry;
 using store_format::TfErrorHeaderRecord;
 using store_format::write_record;
@@ -134,6 +137,39 @@ std::optional<TreeIssue> check_tree(std::span<const Node> nodes) {
   return std::nullopt;
 }
 
+// The version a writer writes: 6 for a store of several time steps, else 5 (what a one-step store needs: its bytes
+// stay those of the builds before version 6).
+uint32_t written_version(const BrickStoreLayout& layout) { return layout.times.empty() ? 5 : kBrickStoreVersion; }
+
+// A transfer-function error entry's codes over [from_lo, from_hi] moved onto [to_lo, to_hi] (which contains it),
+// rounded outward as the builder rounds them: the time store's steps are measured over their own ranges, and every
+// table of a store is coded over the field record's range (the union of the steps').
+TfErrorEntry recode_tf_entry(const TfErrorEntry& e, double from_lo, double from_hi, double to_lo, double to_hi) {
+  TfErrorEntry r = e;
+  const double from_w = from_hi - from_lo, to_w = to_hi - to_lo;
+  if (!(to_w > 0)) {
+    std::fill(std::begin(r.bound), std::end(r.bound), uint16_t(0));
+    std::fill(std::begin(r.spread), std::end(r.spread), uint16_t(0));
+    return r;
+  }
+  auto clamp_code = [](double c) { return uint16_t(std::clamp(c, 0.0, 65535.0)); };
+  for (int g = 0; g <= store_format::kTfErrorGroups; ++g) {
+    const double code = (from_lo + e.bound[g] * from_w / 65535.0 - to_lo) / to_w * 65535.0;
+    r.bound[g] = clamp_code(g == 0 ? std::floor(code) : std::ceil(code));
+  }
+  for (int g = 0; g < store_format::kTfErrorGroups; ++g)
+    r.spread[g] = clamp_code(std::ceil(e.spread[g] * from_w / to_w));
+  return r;
+}
+
+// Bytes of a steps section (store_format::StepsHeaderRecord).
+uint64_t steps_section_size(uint64_t steps, uint64_t nodes, uint64_t fields, bool tf_errors) {
+  const uint64_t later = steps - 1;
+  return 8 * steps + sizeof(StepFieldRange) * fields * steps +
+         later * nodes * (sizeof(StepNodeRecord) + sizeof(NodeFieldRecord) * fields) +
+         (tf_errors ? later * nodes * fields * sizeof(TfErrorEntry) : 0);
+}
+
 }  // namespace
 
 uint64_t OctreeNode::child(int octant) const {
@@ -162,7 +198,13 @@ BrickStoreWriter::BrickStoreWriter(std::string path, BrickStoreLayout layout)
   if (l.fields.empty() || l.fields.size() > kMaxStoreFields) {
     fail_in(path_, std::to_string(l.fields.size()) + " fields; a brick store holds 1 to 1024");
   }
-  uint64_t header = header_records_size(kBrickStoreVersion);
+  uint64_t header = header_records_size(written_version(l));
+  for (size_t t = 0; t < l.times.size(); ++t) {
+    if (!std::isfinite(l.times[t]) || (t > 0 && l.times[t] < l.times[t - 1]))
+      fail_in(path_, "time step " + std::to_string(t) + ": time " + std::to_string(l.times[t]) +
+                         " is not finite or decreases");
+  }
+  if (l.times.size() > 0xFFFFFFFFu) fail_in(path_, "too many time steps");
   for (const BrickStoreField& f : l.fields) {
     if (f.name.empty() || f.name.size() > kMaxNameLength) {
       fail_in(path_, "field name of " + std::to_string(f.name.size()) + " bytes; 1 to 1024 allowed");
@@ -185,7 +227,10 @@ BrickStoreWriter::BrickStoreWriter(std::string path, BrickStoreLayout layout)
                        ": 16-bit samples honour at least 1/131070 of the field range; use 0 (per-brick range) or "
                        "float32 samples for more");
   }
-  for (const BrickStoreField& f : l.fields) steps_.push_back(2 * layout_.tolerance * (f.max - f.min));
+  for (const BrickStoreField& f : l.fields) {
+    steps_.push_back(2 * layout_.tolerance * (f.max - f.min));
+    origins_.push_back(f.min);
+  }
 
   out_ = std::make_unique<AtomicOutputFile>(path_);
   // A blank header until commit(): a temporary left by a killed build has no magic.
@@ -214,8 +259,7 @@ EncodedBrick BrickStoreWriter::encode(std::span<const float* const> fields, cons
   for (size_t f = 0; f < nf; ++f) {
     EncodedBlock block;
     try {
-      block =
-          encode_brick(layout_.encoding, r, fields[f], valid == n ? nullptr : mask, steps_[f], layout_.fields[f].min);
+      block = encode_brick(layout_.encoding, r, fields[f], valid == n ? nullptr : mask, steps_[f], origins_[f]);
     } catch (const Error& e) {
       fail_in(path_, "field '" + layout_.fields[f].name + "': " + e.what());
     }
@@ -364,6 +408,47 @@ void BrickStoreWriter::append_cells(uint64_t node, const EncodedCells& cells) {
   block_bytes_ += cells.bytes.size();
 }
 
+void BrickStoreWriter::begin_step(uint32_t step, std::span<const StepFieldRange> ranges) {
+  std::lock_guard lock(mutex_);
+  const size_t nf = layout_.fields.size();
+  if (done_) fail_in(path_, "begin_step() after commit() or after a failed write");
+  if (layout_.times.empty()) fail_in(path_, "begin_step(): the store was not laid out with time steps");
+  if (step_open_ || int64_t(step) != step_ + 1 || step >= layout_.times.size())
+    fail_in(path_, "begin_step(" + std::to_string(step) + "): steps are written in order, each ended before the next");
+  if (ranges.size() != nf)
+    fail_in(path_, "begin_step(): " + std::to_string(ranges.size()) + " ranges for " + std::to_string(nf) + " fields");
+  for (size_t f = 0; f < nf; ++f) {
+    const StepFieldRange& r = ranges[f];
+    const BrickStoreField& field = layout_.fields[f];
+    if (!std::isfinite(r.min) || !std::isfinite(r.max) || r.min > r.max)
+      fail_in(path_, "time step " + std::to_string(step) + " field '" + field.name + "': invalid range [" +
+                         std::to_string(r.min) + ", " + std::to_string(r.max) + "]");
+    steps_[f] = 2 * layout_.tolerance * (r.max - r.min);
+    origins_[f] = r.min;
+  }
+  if (!placed_.empty()) fail_in(path_, "begin_step(): bricks were appended outside a step");
+  step_ = step;
+  step_open_ = true;
+  StepTables t;
+  t.ranges.assign(ranges.begin(), ranges.end());
+  done_steps_.push_back(std::move(t));
+}
+
+void BrickStoreWriter::end_step(std::span<const FieldError> errors, std::span<const TfErrorEntry> tf_errors) {
+  std::lock_guard lock(mutex_);
+  if (done_ || !step_open_) fail_in(path_, "end_step() without begin_step()");
+  StepTables& t = done_steps_.back();
+  t.placed = std::move(placed_);
+  t.sizes = std::move(sizes_);
+  t.crcs = std::move(crcs_);
+  t.lo = std::move(lo_);
+  t.hi = std::move(hi_);
+  t.errors.assign(errors.begin(), errors.end());
+  t.tf_errors.assign(tf_errors.begin(), tf_errors.end());
+  placed_ = {}, sizes_ = {}, crcs_ = {}, lo_ = {}, hi_ = {};
+  step_open_ = false;
+}
+
 void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const FieldError> errors,
                               std::span<const TfErrorEntry> tf_errors, const StoreBoundary* boundary) {
   std::lock_guard lock(mutex_);
@@ -371,6 +456,39 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
   done_ = true;  // whatever happens below, this writer writes no more
   const uint64_t count = nodes.size();
   const size_t nf = layout_.fields.size();
+  const uint64_t step_count = layout_.times.size();
+  if (step_count > 0) {
+    // A time store: step 0's tables are the node table's; the other steps are checked against them below.
+    if (step_open_ || done_steps_.size() != step_count)
+      fail_in(path_, "commit: " + std::to_string(done_steps_.size()) + " of " + std::to_string(step_count) +
+                         " time steps written" + (step_open_ ? " (the last not ended)" : ""));
+    if (!errors.empty() || !tf_errors.empty()) fail_in(path_, "commit: a time store takes its errors per step");
+    StepTables& t0 = done_steps_[0];
+    placed_ = std::move(t0.placed), sizes_ = std::move(t0.sizes), crcs_ = std::move(t0.crcs);
+    lo_ = std::move(t0.lo), hi_ = std::move(t0.hi);
+    errors = t0.errors;
+    tf_errors = t0.tf_errors;
+    for (uint64_t s = 1; s < step_count; ++s) {
+      if (done_steps_[s].errors.size() != errors.size() || done_steps_[s].tf_errors.size() != tf_errors.size())
+        fail_in(path_, "commit: time step " + std::to_string(s) + " has error tables of other sizes than step 0's");
+    }
+    // The field records hold the union of the steps' ranges.
+    for (size_t f = 0; f < nf; ++f) {
+      layout_.fields[f].min = done_steps_[0].ranges[f].min;
+      layout_.fields[f].max = done_steps_[0].ranges[f].max;
+      for (const StepTables& t : done_steps_) {
+        layout_.fields[f].min = std::min(layout_.fields[f].min, t.ranges[f].min);
+        layout_.fields[f].max = std::max(layout_.fields[f].max, t.ranges[f].max);
+      }
+    }
+    for (StepTables& t : done_steps_) {
+      for (size_t e = 0; e < t.tf_errors.size(); ++e) {
+        const size_t f = e % nf;
+        t.tf_errors[e] = recode_tf_entry(t.tf_errors[e], t.ranges[f].min, t.ranges[f].max, layout_.fields[f].min,
+                                         layout_.fields[f].max);
+      }
+    }
+  }
   if (count == 0) fail_in(path_, "commit: the tree has no node");
   if (!errors.empty() && errors.size() != count * nf) {
     fail_in(path_, "commit: " + std::to_string(errors.size()) + " error entries for " + std::to_string(count) +
@@ -411,26 +529,31 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
   hi_.resize(count * nf);
 
   // Value ranges bottom-up (children have larger ids), so that a node's range contains its subtree's.
-  std::vector<float> mins(count * nf, INFINITY), maxs(count * nf, -INFINITY);
-  for (uint64_t id = count; id-- > 0;) {
-    const OctreeNode& n = nodes[id];
-    for (size_t f = 0; f < nf; ++f) {
-      float& mn = mins[id * nf + f];
-      float& mx = maxs[id * nf + f];
-      if (placed_[id].offset) {
-        mn = lo_[id * nf + f];
-        mx = hi_[id * nf + f];
-      }
-      if (n.child_mask) {
-        const uint64_t end = n.first_child + uint64_t(std::popcount(unsigned(n.child_mask)));
-        for (uint64_t c = n.first_child; c < end; ++c) {
-          mn = std::min(mn, mins[c * nf + f]);
-          mx = std::max(mx, maxs[c * nf + f]);
+  auto subtree_ranges = [&](const std::vector<Placed>& placed, const std::vector<float>& lo,
+                            const std::vector<float>& hi, std::vector<float>& mins, std::vector<float>& maxs) {
+    mins.assign(count * nf, INFINITY);
+    maxs.assign(count * nf, -INFINITY);
+    for (uint64_t id = count; id-- > 0;) {
+      const OctreeNode& n = nodes[id];
+      for (size_t f = 0; f < nf; ++f) {
+        float& mn = mins[id * nf + f];
+        float& mx = maxs[id * nf + f];
+        if (placed[id].offset) {
+          mn = lo[id * nf + f];
+          mx = hi[id * nf + f];
+        }
+        if (n.child_mask) {
+          const uint64_t end = n.first_child + uint64_t(std::popcount(unsigned(n.child_mask)));
+          for (uint64_t c = n.first_child; c < end; ++c) {
+            mn = std::min(mn, mins[c * nf + f]);
+            mx = std::max(mx, maxs[c * nf + f]);
+          }
         }
       }
     }
-  }
-
+  };
+  std::vector<float> mins, maxs;
+  subtree_ranges(placed_, lo_, hi_, mins, maxs);
   const uint32_t rec = node_record_size(nf);
   const double samples = double(layout_.resolution) * layout_.resolution * layout_.resolution;
   // The transfer-function error table, before the provenance record (which must end where the node table starts).
@@ -474,6 +597,69 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
     const auto* p = reinterpret_cast<const std::byte*>(cell_blocks_.data());
     cells_header.index_crc = crc32_of(p, cells_header.index_size);
     out_->write(p, cells_header.index_size);
+  }
+  // The time steps after the first (format version 6): times, ranges, per step its node records, then its
+  // transfer-function error entries; one checksum over the section.
+  StepsHeaderRecord steps_header;
+  if (step_count > 0) {
+    const bool with_tf = !tf_errors.empty();
+    steps_header.section_offset = out_->position();
+    steps_header.section_size = steps_section_size(step_count, count, nf, with_tf);
+    steps_header.step_count = uint32_t(step_count);
+    steps_header.flags = with_tf ? store_format::kStepsHaveTfErrors : 0;
+    uint32_t crc = 0;
+    auto put = [&](const void* p, size_t n) {
+      crc = crc32_of(p, n, crc);
+      out_->write(static_cast<const std::byte*>(p), n);
+    };
+    put(layout_.times.data(), step_count * 8);
+    for (const StepTables& t : done_steps_) put(t.ranges.data(), nf * sizeof(StepFieldRange));
+    const uint32_t rec_size = uint32_t(sizeof(StepNodeRecord) + sizeof(NodeFieldRecord) * nf);
+    std::vector<float> step_mins, step_maxs;
+    std::vector<std::byte> buf;
+    for (uint64_t s = 1; s < step_count; ++s) {
+      StepTables& t = done_steps_[s];
+      for (uint64_t id = count; id < t.placed.size(); ++id) {
+        if (t.placed[id].offset)
+          fail_in(path_, "commit: time step " + std::to_string(s) + ": a brick was appended for node " +
+                             std::to_string(id) + " but the tree has " + std::to_string(count) + " nodes");
+      }
+      t.placed.resize(count), t.sizes.resize(count * nf), t.crcs.resize(count * nf);
+      t.lo.resize(count * nf), t.hi.resize(count * nf);
+      for (uint64_t id = 0; id < count; ++id) {
+        if ((t.placed[id].offset != 0) != (placed_[id].offset != 0) ||
+            (t.placed[id].offset && t.placed[id].valid != placed_[id].valid))
+          fail_in(path_, "commit: time step " + std::to_string(s) + ": node " + std::to_string(id) + " has " +
+                             std::to_string(t.placed[id].valid) + " valid samples, step 0 " +
+                             std::to_string(placed_[id].valid) + ": the steps' geometry differs");
+      }
+      subtree_ranges(t.placed, t.lo, t.hi, step_mins, step_maxs);
+      for (uint64_t first = 0; first < count; first += 65536) {
+        const uint64_t end = std::min(count, first + 65536);
+        buf.assign(size_t(end - first) * rec_size, std::byte{0});
+        for (uint64_t id = first; id < end; ++id) {
+          std::byte* at = buf.data() + size_t(id - first) * rec_size;
+          StepNodeRecord r;
+          r.brick_offset = t.placed[id].offset;
+          write_record(at, r);
+          for (size_t f = 0; f < nf; ++f) {
+            const size_t e = id * nf + f;
+            NodeFieldRecord fr;
+            fr.min = step_mins[e];
+            fr.max = step_maxs[e];
+            fr.error_max = t.errors.empty() ? 0.0f : t.errors[e].max;
+            fr.error_rms = t.errors.empty() ? 0.0f : t.errors[e].rms;
+            fr.block_size = t.placed[id].offset ? t.sizes[e] : 0;
+            fr.block_crc = t.placed[id].offset ? t.crcs[e] : 0;
+            write_record(at + sizeof(StepNodeRecord) + sizeof(NodeFieldRecord) * f, fr);
+          }
+        }
+        put(buf.data(), buf.size());
+      }
+    }
+    for (uint64_t s = 1; s < step_count && with_tf; ++s)
+      put(done_steps_[s].tf_errors.data(), done_steps_[s].tf_errors.size() * sizeof(TfErrorEntry));
+    steps_header.section_crc = crc;
   }
   uint32_t provenance_size = 0;
   if (!layout_.provenance.empty()) {
@@ -525,7 +711,7 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
 
   HeaderRecord header;
   std::memcpy(header.magic, store_format::kMagic, sizeof header.magic);
-  header.version = kBrickStoreVersion;
+  header.version = written_version(layout_);
   header.header_size = header_size_;
   header.resolution = layout_.resolution;
   header.field_count = uint32_t(nf);
@@ -549,7 +735,8 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
   write_record(h.data() + sizeof(HeaderRecord) + sizeof(TfErrorHeaderRecord), boundary_header);
   write_record(h.data() + sizeof(HeaderRecord) + sizeof(TfErrorHeaderRecord) + sizeof(BoundaryHeaderRecord),
                cells_header);
-  size_t at = header_records_size(kBrickStoreVersion);
+  if (header.version >= 6) write_record(h.data() + header_records_size(5), steps_header);
+  size_t at = header_records_size(header.version);
   for (const BrickStoreField& f : layout_.fields) {
     FieldRecord r;
     r.min = f.min;
@@ -578,7 +765,127 @@ BrickStoreReader::BrickStoreReader(std::string path) : file_(std::move(path)) {
   read_tf_errors();
   read_boundary();
   read_cells_index();
+  read_steps();
   check_nodes();
+}
+
+// The time steps after the first (version 6): between the blocks and the provenance record, one checksum; the times,
+// ranges and each step's node records are checked here, the records' blocks and ranges with step 0's in check_nodes().
+void BrickStoreReader::read_steps() {
+  const StepsHeaderRecord& h = steps_header_;
+  if (h.section_offset == 0 && h.section_size == 0 && h.step_count == 0) return;
+  const std::string& name = file_.path();
+  const uint64_t at = header_records_size(5);
+  const uint64_t n = node_count(), nf = field_count();
+  const uint64_t rec = sizeof(StepNodeRecord) + sizeof(NodeFieldRecord) * nf;
+  const bool with_tf = (h.flags & store_format::kStepsHaveTfErrors) != 0;
+  if (h.flags > store_format::kStepsHaveTfErrors || with_tf != has_tf_errors())
+    fail_at_offset(name, at + offsetof(StepsHeaderRecord, flags),
+                   "steps flags " + std::to_string(h.flags) +
+                       (with_tf != has_tf_errors() ? ": the transfer-function error tables of the "
+                                                     "steps and of the node table disagree"
+                                                   : ": unknown flags"));
+  const uint64_t end = node_table_offset_ - header_.provenance_size;
+  // The step count bounded by the file before any size is computed from it (no overflow, no huge allocation).
+  if (h.step_count == 0 || (h.step_count > 1 && uint64_t(h.step_count - 1) > file_.size() / (n * rec)))
+    fail_at_offset(name, at + offsetof(StepsHeaderRecord, step_count),
+                   std::to_string(h.step_count) + " time steps: impossible in a store of " +
+                       std::to_string(file_.size()) + " bytes with " + std::to_string(n) + " nodes");
+  const uint64_t expected = steps_section_size(h.step_count, n, nf, with_tf);
+  if (h.section_size != expected)
+    fail_at_offset(name, at + offsetof(StepsHeaderRecord, section_size),
+                   "steps section of " + std::to_string(h.section_size) + " bytes; expected " +
+                       std::to_string(expected) + " for " + std::to_string(h.step_count) + " steps, " +
+                       std::to_string(n) + " nodes and " + std::to_string(nf) + " fields");
+  if (h.section_offset < header_.header_size || h.section_offset > end || h.section_size > end - h.section_offset)
+    fail_at_offset(name, at + offsetof(StepsHeaderRecord, section_offset),
+                   "steps section at offset " + std::to_string(h.section_offset) +
+                       " does not fit between the header and the node table");
+  std::vector<std::byte> bytes(static_cast<size_t>(h.section_size));
+  file_.read_at(h.section_offset, bytes.data(), bytes.size());
+  if (const uint32_t crc = crc32_of(bytes.data(), bytes.size()); crc != h.section_crc)
+    fail_at_offset(name, h.section_offset,
+                   "steps section checksum mismatch (stored " + hex32(h.section_crc) + ", computed " + hex32(crc) +
+                       "): the section is corrupt");
+  const uint64_t S = h.step_count;
+  std::vector<double> times(S);
+  std::memcpy(times.data(), bytes.data(), S * 8);
+  for (uint64_t t = 0; t < S; ++t) {
+    if (!std::isfinite(times[t]) || (t > 0 && times[t] < times[t - 1]))
+      fail_at_offset(name, h.section_offset + 8 * t,
+                     "time step " + std::to_string(t) + ": time " + std::to_string(times[t]) +
+                         " is not finite or is before the previous step's");
+  }
+  std::vector<StepFieldRange> ranges(S * nf);
+  std::memcpy(ranges.data(), bytes.data() + 8 * S, ranges.size() * sizeof(StepFieldRange));
+  for (uint64_t e = 0; e < ranges.size(); ++e) {
+    const StepFieldRange& r = ranges[e];
+    const BrickStoreField& field = layout_.fields[e % nf];
+    if (!std::isfinite(r.min) || !std::isfinite(r.max) || !(r.min <= r.max) || r.min < field.min || r.max > field.max)
+      fail_at_offset(name, h.section_offset + 8 * S + e * sizeof(StepFieldRange),
+                     "time step " + std::to_string(e / nf) + " field '" + field.name + "': range [" +
+                         std::to_string(r.min) + ", " + std::to_string(r.max) +
+                         "] is not a finite range inside the field's");
+  }
+  steps_nodes_offset_ = h.section_offset + 8 * S + sizeof(StepFieldRange) * nf * S;
+  const std::byte* p = bytes.data() + (steps_nodes_offset_ - h.section_offset);
+  stats_.resize(S * n * nf);
+  blocks_.resize(S * n * nf);
+  for (uint64_t t = 1; t < S; ++t) {
+    for (uint64_t id = 0; id < n; ++id, p += rec) {
+      const StepNodeRecord r = read_record<StepNodeRecord>(p);
+      if ((r.brick_offset != 0) != nodes_[id].has_brick())
+        fail_at_offset(name, step_record_offset(id, uint32_t(t)),
+                       "time step " + std::to_string(t) + " node " + std::to_string(id) +
+                           (r.brick_offset ? ": a brick where step 0 has none" : ": no brick where step 0 has one"));
+      uint64_t offset = r.brick_offset;
+      for (uint64_t f = 0; f < nf; ++f) {
+        const NodeFieldRecord fr = read_record<NodeFieldRecord>(p + sizeof(StepNodeRecord) + sizeof(fr) * f);
+        const uint64_t e = (t * n + id) * nf + f;
+        stats_[e] = {fr.min, fr.max, fr.error_max, fr.error_rms};
+        blocks_[e] = {offset, fr.block_size, fr.block_crc};
+        offset += fr.block_size;
+      }
+    }
+  }
+  if (with_tf) {
+    const size_t step_entries = size_t(n * nf);
+    tf_errors_.resize(size_t(S) * step_entries);
+    std::memcpy(tf_errors_.data() + step_entries, p, (S - 1) * step_entries * sizeof(TfErrorEntry));
+  }
+  times_ = std::move(times);
+  ranges_ = std::move(ranges);
+}
+
+uint64_t BrickStoreReader::step_record_offset(uint64_t node, uint32_t step) const {
+  if (step == 0) return record_offset(node);
+  const uint64_t rec = sizeof(StepNodeRecord) + sizeof(NodeFieldRecord) * field_count();
+  return steps_nodes_offset_ + ((step - 1) * node_count() + node) * rec;
+}
+
+void BrickStoreReader::set_step(uint32_t step) {
+  check_node_field(0, 0, step);
+  step_ = step;
+}
+
+double BrickStoreReader::step_time(uint32_t step) const {
+  if (step >= step_count())
+    fail_in(path(),
+            "time step " + std::to_string(step) + " out of range (the store has " + std::to_string(step_count()) + ")");
+  return times_.empty() ? 0.0 : times_[step];
+}
+
+StepFieldRange BrickStoreReader::step_range(uint32_t step, uint32_t field) const {
+  check_node_field(0, field, step);
+  if (ranges_.empty()) return {layout_.fields[field].min, layout_.fields[field].max};
+  return ranges_[size_t(step) * field_count() + field];
+}
+
+std::span<const TfErrorEntry> BrickStoreReader::tf_errors(uint32_t step) const {
+  if (tf_errors_.empty()) return {};
+  check_node_field(0, 0, step);
+  const size_t per_step = size_t(node_count() * field_count());
+  return std::span<const TfErrorEntry>(tf_errors_).subspan(size_t(step) * per_step, per_step);
 }
 
 // The boundary faces, if any (version 4): between the blocks and the provenance record, checked as a whole by its
@@ -862,6 +1169,7 @@ std::vector<std::byte> BrickStoreReader::read_header() {
   if (h.version >= 5)
     cells_header_ = read_record<CellsHeaderRecord>(bytes.data() + sizeof(HeaderRecord) + sizeof(TfErrorHeaderRecord) +
                                                    sizeof(BoundaryHeaderRecord));
+  if (h.version >= 6) steps_header_ = read_record<StepsHeaderRecord>(bytes.data() + header_records_size(5));
 
   // From here on the header is as the writer wrote it; the checks guard against a writer of another make.
   BrickStoreLayout& l = layout_;
@@ -1029,25 +1337,32 @@ void BrickStoreReader::check_nodes() {
                      "node " + std::to_string(id) + ": valid fraction " + std::to_string(n.valid_fraction) +
                          (n.has_brick() ? " with a brick" : " without a brick"));
     }
-    for (uint32_t f = 0; f < nf; ++f) check_node_stats(id, f);
-    uint64_t offset = n.brick_offset;
-    for (uint32_t f = 0; f < nf; ++f) {
-      BlockRef& b = blocks_[id * nf + f];
-      const uint64_t size_at = record_offset(id) + node_field_offset(f) + offsetof(NodeFieldRecord, block_size);
-      if (!n.has_brick()) {
-        if (b.size) fail_at_offset(name, size_at, "node " + std::to_string(id) + " has no brick but a block size");
-        continue;
+    for (uint32_t t = 0; t < step_count(); ++t) {
+      for (uint32_t f = 0; f < nf; ++f) check_node_stats(id, f, t);
+      uint64_t offset = t == 0 ? n.brick_offset : blocks_[(t * count + id) * nf].offset;
+      for (uint32_t f = 0; f < nf; ++f) {
+        BlockRef& b = blocks_[(t * count + id) * nf + f];
+        const uint64_t size_at =
+            step_record_offset(id, t) +
+            (t == 0 ? node_field_offset(f) : sizeof(StepNodeRecord) + sizeof(NodeFieldRecord) * f) +
+            offsetof(NodeFieldRecord, block_size);
+        const std::string step_name = t == 0 ? std::string() : "time step " + std::to_string(t) + " ";
+        if (!n.has_brick()) {
+          if (b.size)
+            fail_at_offset(name, size_at, step_name + "node " + std::to_string(id) + " has no brick but a block size");
+          continue;
+        }
+        if (b.size < kBlockHeaderSize || offset < header_size || offset > node_table_offset_ ||
+            b.size > node_table_offset_ - offset) {
+          fail_at_offset(name, size_at,
+                         step_name + "node " + std::to_string(id) + " field '" + layout_.fields[f].name +
+                             "': block of " + std::to_string(b.size) + " bytes at offset " + std::to_string(offset) +
+                             " outside the block area [" + std::to_string(header_size) + ", " +
+                             std::to_string(node_table_offset_) + ")");
+        }
+        b.offset = offset;
+        offset += b.size;
       }
-      if (b.size < kBlockHeaderSize || offset < header_size || offset > node_table_offset_ ||
-          b.size > node_table_offset_ - offset) {
-        fail_at_offset(name, size_at,
-                       "node " + std::to_string(id) + " field '" + layout_.fields[f].name + "': block of " +
-                           std::to_string(b.size) + " bytes at offset " + std::to_string(offset) +
-                           " outside the block area [" + std::to_string(header_size) + ", " +
-                           std::to_string(node_table_offset_) + ")");
-      }
-      b.offset = offset;
-      offset += b.size;
     }
   }
 }
@@ -1056,11 +1371,16 @@ void BrickStoreReader::check_nodes() {
 // (+inf, -inf) where the subtree has no data (never for a node with a brick), containing each child's range (culling
 // a node by value range culls its subtree); errors finite and >= 0. Children come after their parent, so checking
 // each node against its parent covers the tree.
-void BrickStoreReader::check_node_stats(uint64_t id, uint32_t f) const {
+void BrickStoreReader::check_node_stats(uint64_t id, uint32_t f, uint32_t step) const {
   const uint32_t nf = field_count();
-  const FieldStats& s = stats_[id * nf + f];
-  const uint64_t at = record_offset(id) + node_field_offset(f);
-  auto where = [&] { return "node " + std::to_string(id) + " field '" + layout_.fields[f].name + "': "; };
+  const uint64_t base = uint64_t(step) * node_count() * nf;
+  const FieldStats& s = stats_[base + id * nf + f];
+  const uint64_t at = step_record_offset(id, step) +
+                      (step == 0 ? node_field_offset(f) : sizeof(StepNodeRecord) + sizeof(NodeFieldRecord) * f);
+  auto where = [&] {
+    return (step ? "time step " + std::to_string(step) + " " : std::string()) + "node " + std::to_string(id) +
+           " field '" + layout_.fields[f].name + "': ";
+  };
   auto range = [](const FieldStats& r) { return "[" + std::to_string(r.min) + ", " + std::to_string(r.max) + "]"; };
   const bool no_data = s.min == INFINITY && s.max == -INFINITY;
   if (!(no_data || (std::isfinite(s.min) && std::isfinite(s.max) && s.min <= s.max))) {
@@ -1078,7 +1398,7 @@ void BrickStoreReader::check_node_stats(uint64_t id, uint32_t f) const {
   }
   if (id > 0 && !no_data) {
     const uint64_t parent = nodes_[id].parent;  // check_tree: parent < id
-    const FieldStats& p = stats_[parent * nf + f];
+    const FieldStats& p = stats_[base + parent * nf + f];
     if (!(p.min <= s.min && s.max <= p.max)) {
       fail_at_offset(file_.path(), at + offsetof(NodeFieldRecord, min),
                      where() + "value range " + range(s) + " is not inside its parent node " + std::to_string(parent) +
@@ -1098,7 +1418,11 @@ int BrickStoreReader::field_index(std::string_view field_name) const {
   return -1;
 }
 
-void BrickStoreReader::check_node_field(uint64_t node, uint32_t field) const {
+void BrickStoreReader::check_node_field(uint64_t node, uint32_t field, uint32_t step) const {
+  if (step >= step_count()) {
+    fail_in(path(),
+            "time step " + std::to_string(step) + " out of range (the store has " + std::to_string(step_count()) + ")");
+  }
   if (node >= nodes_.size()) {
     fail_in(path(), "node " + std::to_string(node) + " out of range (the store has " + std::to_string(nodes_.size()) +
                         " nodes)");
@@ -1114,18 +1438,18 @@ const BrickNode& BrickStoreReader::node(uint64_t id) const {
   return nodes_[id];
 }
 
-const FieldStats& BrickStoreReader::stats(uint64_t node, uint32_t field) const {
-  check_node_field(node, field);
-  return stats_[node * field_count() + field];
+const FieldStats& BrickStoreReader::stats(uint64_t node, uint32_t field, uint32_t step) const {
+  check_node_field(node, field, step);
+  return stats_[(step * node_count() + node) * field_count() + field];
 }
 
-BlockRef BrickStoreReader::block(uint64_t node, uint32_t field) const {
-  check_node_field(node, field);
-  return blocks_[node * field_count() + field];
+BlockRef BrickStoreReader::block(uint64_t node, uint32_t field, uint32_t step) const {
+  check_node_field(node, field, step);
+  return blocks_[(step * node_count() + node) * field_count() + field];
 }
 
-void BrickStoreReader::read_block(uint64_t node, uint32_t field, std::byte* dst) const {
-  const BlockRef b = block(node, field);
+void BrickStoreReader::read_block(uint64_t node, uint32_t field, std::byte* dst, uint32_t step) const {
+  const BlockRef b = block(node, field, step);
   if (b.size == 0) {
     fail_in(path(), "node " + std::to_string(node) + " has no brick: its cell holds no data (valid fraction 0)");
   }
@@ -1139,13 +1463,13 @@ void BrickStoreReader::read_block(uint64_t node, uint32_t field, std::byte* dst)
 }
 
 void BrickStoreReader::decode_block(uint64_t node, uint32_t field, std::span<const std::byte> block, float* samples,
-                                    uint8_t* mask) const {
-  const BlockRef b = this->block(node, field);
+                                    uint8_t* mask, uint32_t step) const {
+  const BlockRef b = this->block(node, field, step);
   try {
     // The block's range against its node's (which the writer made to contain it): a block that claims values its
     // node's range excludes would be culled wrongly or rendered out of range.
     const BlockHeader h = parse_block_header(block, layout_.resolution, path(), b.offset);
-    const FieldStats& s = stats_[node * field_count() + field];
+    const FieldStats& s = stats(node, field, step);
     if (!(s.min <= h.lo && h.hi <= s.max)) {
       fail_at_offset(path(), b.offset + offsetof(store_format::BlockRecord, lo),
                      "brick range [" + std::to_string(h.lo) + ", " + std::to_string(h.hi) +
@@ -1159,12 +1483,12 @@ void BrickStoreReader::decode_block(uint64_t node, uint32_t field, std::span<con
   }
 }
 
-void BrickStoreReader::read_brick(uint64_t node, uint32_t field, float* samples, uint8_t* mask) const {
+void BrickStoreReader::read_brick(uint64_t node, uint32_t field, float* samples, uint8_t* mask, uint32_t step) const {
   thread_local std::vector<std::byte> buffer;
-  const BlockRef b = block(node, field);
+  const BlockRef b = block(node, field, step);
   buffer.resize(b.size);
-  read_block(node, field, buffer.data());
-  decode_block(node, field, buffer, samples, mask);
+  read_block(node, field, buffer.data(), step);
+  decode_block(node, field, buffer, samples, mask, step);
 }
 
 }  // namespace ugvr

@@ -73,6 +73,10 @@ struct BrickStoreLayout {
   // How the store was made, as one JSON object (the builder's: ugvr version, input, options); empty: not recorded.
   // Written just before the node table (store_format::HeaderRecord::provenance_size).
   std::string provenance;
+  // A store of several time steps (format version 6, store_format::StepsHeaderRecord): each step's time, in order;
+  // empty: a store of one step without a time (written as version 5). `fields` then hold the union of the steps'
+  // ranges; the writer takes each step's own with begin_step().
+  std::vector<double> times;
 };
 
 // The tree as the builder describes it.
@@ -201,6 +205,13 @@ class BrickStoreWriter {
   // Bytes of blocks appended so far.
   uint64_t block_bytes() const;
 
+  // Time stores (layout.times not empty): the steps are written in order, each between begin_step(s, ranges) (its
+  // fields' ranges, inside the layout's: its bricks are quantized over them) and end_step(errors, tf_errors) (as
+  // commit() takes them, for this step); then commit(nodes, {}, {}, boundary). Every step must have a brick exactly
+  // where step 0 has one (the geometry, hence each node's mask, is shared). Not thread-safe against encode().
+  void begin_step(uint32_t step, std::span<const store_format::StepFieldRange> ranges);
+  void end_step(std::span<const FieldError> errors, std::span<const store_format::TfErrorEntry> tf_errors = {});
+
  private:
   struct Placed {
     uint64_t offset = 0;  // 0: no brick
@@ -209,7 +220,8 @@ class BrickStoreWriter {
 
   std::string path_;
   BrickStoreLayout layout_;
-  std::vector<double> steps_;  // per field, for encode_brick: the Quant16 grid's step (0: per brick)
+  std::vector<double> steps_;    // per field, for encode_brick: the Quant16 grid's step (0: per brick)
+  std::vector<double> origins_;  // per field, for encode_brick: the grid's origin (the field's, or the step's, min)
   uint32_t header_size_ = 0;
   std::unique_ptr<AtomicOutputFile> out_;
   mutable std::mutex mutex_;
@@ -220,6 +232,19 @@ class BrickStoreWriter {
   uint64_t total_cells_ = 0;
   uint64_t block_bytes_ = 0;
   bool done_ = false;  // committed, or failed: no more writes
+  // Time stores: the step being written (-1: none begun) and what the finished ones left (step 0's go to the node
+  // table at commit()).
+  struct StepTables {
+    std::vector<Placed> placed;
+    std::vector<uint32_t> sizes, crcs;
+    std::vector<float> lo, hi;
+    std::vector<FieldError> errors;
+    std::vector<store_format::TfErrorEntry> tf_errors;
+    std::vector<store_format::StepFieldRange> ranges;
+  };
+  int64_t step_ = -1;
+  bool step_open_ = false;
+  std::vector<StepTables> done_steps_;
 };
 
 class BrickStoreReader {
@@ -242,14 +267,19 @@ class BrickStoreReader {
   uint64_t node_count() const { return nodes_.size(); }
   std::span<const BrickNode> nodes() const { return nodes_; }
   const BrickNode& node(uint64_t id) const;
-  const FieldStats& stats(uint64_t node, uint32_t field) const;
-  BlockRef block(uint64_t node, uint32_t field) const;
+  // `step`: a time store's step (0 .. step_count() - 1); a store of one step has only step 0. Without it: the step
+  // set_step() selected (0 by default).
+  const FieldStats& stats(uint64_t node, uint32_t field, uint32_t step) const;
+  BlockRef block(uint64_t node, uint32_t field, uint32_t step) const;
+  const FieldStats& stats(uint64_t node, uint32_t field) const { return stats(node, field, step_); }
+  BlockRef block(uint64_t node, uint32_t field) const { return block(node, field, step_); }
   Bounds bounds(uint64_t node) const { return node_bounds(layout_.root, this->node(node)); }
 
   // The transfer-function error table (store_format::TfErrorEntry; version 3 stores written with one), checksum
   // verified at open: entries node-major, F per node. Empty when the store has none (older stores, raw writers).
   bool has_tf_errors() const { return !tf_errors_.empty(); }
-  std::span<const store_format::TfErrorEntry> tf_errors() const { return tf_errors_; }
+  std::span<const store_format::TfErrorEntry> tf_errors(uint32_t step) const;
+  std::span<const store_format::TfErrorEntry> tf_errors() const { return tf_errors(step_); }
   const store_format::TfErrorHeaderRecord& tf_error_header() const { return tf_error_header_; }
 
   // The boundary faces (version 4 stores built with them), checksum and references verified at open; empty when the
@@ -267,16 +297,38 @@ class BrickStoreReader {
   // ugvr::Error naming the file, node and offset. Thread-safe.
   NodeCells read_cells(uint64_t node) const;
 
+  // Time steps (format version 6; docs/time-series.md, "Stores with time"). A store of one step: step_count() 1,
+  // has_steps() false, its time 0 and its fields' ranges those of the layout.
+  bool has_steps() const { return !times_.empty(); }
+  uint32_t step_count() const { return times_.empty() ? 1 : uint32_t(times_.size()); }
+  double step_time(uint32_t step) const;
+  // Field `field`'s range in step `step`: what its bricks were quantized over (inside layout().fields[field]'s).
+  store_format::StepFieldRange step_range(uint32_t step, uint32_t field) const;
+  const store_format::StepsHeaderRecord& steps_header() const { return steps_header_; }
+  // The step that the accessors without a step argument present, so that code written for a store of one step (the
+  // cut, the transfer-function errors, the residency) draws any step. Not thread-safe: change it while no other thread
+  // reads through those accessors (the LOD engine does between frames; its RAM caches read with explicit steps).
+  void set_step(uint32_t step);
+  uint32_t step() const { return step_; }
+
   // Decodes field `field` of node `node` into samples (R³ floats, x fastest) and, unless null, mask (R³ bytes, 1 =
   // data). One pread of the block, checksum verified. Thread-safe: per-thread scratch, no shared mutable state.
   // Throws ugvr::Error for a node without brick or a corrupt block (naming the file, node, field and offset).
-  void read_brick(uint64_t node, uint32_t field, float* samples, uint8_t* mask) const;
+  void read_brick(uint64_t node, uint32_t field, float* samples, uint8_t* mask, uint32_t step) const;
+  void read_brick(uint64_t node, uint32_t field, float* samples, uint8_t* mask) const {
+    read_brick(node, field, samples, mask, step_);
+  }
 
   // For a cache of compressed bricks: read_block fills dst (block(node, field).size bytes) with the block, checksum
   // verified; decode_block decodes such bytes (not re-verified).
-  void read_block(uint64_t node, uint32_t field, std::byte* dst) const;
+  void read_block(uint64_t node, uint32_t field, std::byte* dst, uint32_t step) const;
+  void decode_block(uint64_t node, uint32_t field, std::span<const std::byte> block, float* samples, uint8_t* mask,
+                    uint32_t step) const;
+  void read_block(uint64_t node, uint32_t field, std::byte* dst) const { read_block(node, field, dst, step_); }
   void decode_block(uint64_t node, uint32_t field, std::span<const std::byte> block, float* samples,
-                    uint8_t* mask) const;
+                    uint8_t* mask) const {
+    decode_block(node, field, block, samples, mask, step_);
+  }
 
  private:
   // The steps of opening, in order; each throws ugvr::Error naming the file and offset.
@@ -287,23 +339,31 @@ class BrickStoreReader {
   void read_tf_errors();
   void read_boundary();
   void read_cells_index();
+  void read_steps();
   void check_nodes();
-  void check_node_stats(uint64_t id, uint32_t f) const;
-  void check_node_field(uint64_t node, uint32_t field) const;
+  void check_node_stats(uint64_t id, uint32_t f, uint32_t step) const;
+  void check_node_field(uint64_t node, uint32_t field, uint32_t step = 0) const;
+  // Where the record holding node `node`'s entries for `step` starts (the node table's for step 0).
+  uint64_t step_record_offset(uint64_t node, uint32_t step) const;
 
   InputFile file_;
   store_format::HeaderRecord header_;
   store_format::TfErrorHeaderRecord tf_error_header_;
-  std::vector<store_format::TfErrorEntry> tf_errors_;  // node × F; empty: none
+  std::vector<store_format::TfErrorEntry> tf_errors_;  // step × node × F; empty: none
   store_format::BoundaryHeaderRecord boundary_header_;
   StoreBoundary boundary_;
   store_format::CellsHeaderRecord cells_header_;
   std::vector<store_format::CellBlockRecord> cell_blocks_;  // by node id; empty: none
+  store_format::StepsHeaderRecord steps_header_;
+  std::vector<double> times_;                         // per step; empty: one step
+  std::vector<store_format::StepFieldRange> ranges_;  // step × F; empty: one step
+  uint64_t steps_nodes_offset_ = 0;                   // where step 1's node records start in the section
+  uint32_t step_ = 0;                                 // set_step()
   BrickStoreLayout layout_;
   uint64_t node_table_offset_ = 0;
   std::vector<BrickNode> nodes_;
-  std::vector<FieldStats> stats_;  // node × F
-  std::vector<BlockRef> blocks_;   // node × F
+  std::vector<FieldStats> stats_;  // step × node × F
+  std::vector<BlockRef> blocks_;   // step × node × F
 };
 
 }  // namespace ugvr

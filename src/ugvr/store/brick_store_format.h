@@ -13,6 +13,7 @@
 //   [TfErrorEntry × F] × N                              the transfer-function error table, if any (version 3)
 //   [BoundaryNodeEntry × N, uint32 × R, BoundaryTriangleRecord × T]  the boundary faces, if any (version 4)
 //   [CellBlockRecord × N]                               where each node's cells are, if any (version 5)
+//   [steps section]                                     the time steps after the first, if any (version 6)
 //   [provenance text, crc32]                            if any
 //   [NodeRecord, NodeFieldRecord × F] × N               the node table, in node id order, ending the file
 //
@@ -39,8 +40,10 @@ static_assert(std::endian::native == std::endian::little, "the brick store is re
 // lack it, are still read (a renderer then falls back to the stored error_max). Version 4 adds the mesh's boundary
 // faces per node (BoundaryHeaderRecord); version 2 and 3 stores, which lack them, are still read (the renderer then
 // takes the boundary from the validity stencil alone, as before). Version 5 adds the cells of the nodes that keep them
-// (CellsHeaderRecord: the [hybrid] issue's exact cells per node); version 2 to 4 stores have none.
-inline constexpr uint32_t kBrickStoreVersion = 5;
+// (CellsHeaderRecord: the [hybrid] issue's exact cells per node); version 2 to 4 stores have none. Version 6 adds time
+// steps (StepsHeaderRecord: one store for every step of a series with static geometry, each step after the first adding
+// its own bricks, node ranges, errors and transfer-function errors); version 2 to 5 stores hold one step.
+inline constexpr uint32_t kBrickStoreVersion = 6;
 inline constexpr uint32_t kOldestReadableBrickStoreVersion = 2;
 
 namespace store_format {
@@ -191,9 +194,49 @@ struct CellBlockHeader {
 inline constexpr uint32_t kCellAcrossBoundary = 0xFFFFFFFFu;
 inline constexpr uint32_t kCellAcrossOutside = 0xFFFFFFFEu;
 
+// Version 6: follows the CellsHeaderRecord (the field records start at byte 304); covered by header_crc. A store of
+// several time steps (`ugvr build SERIES --time ...`, static geometry): the octree, the validity masks (so each node's
+// valid fraction and whether it has a brick), the boundary faces and the cells are shared; step 0 is what the node
+// table and the transfer-function error table hold, as in a store of one step, and the section adds the others. Its
+// arrays, back to back (S steps, N nodes, F fields):
+//   float64 × S                                 each step's time (finite, not decreasing)
+//   StepFieldRange × F × S                      each step's range per field (step-major): what its bricks are
+//                                               quantized over (origin min, step 2 × tolerance × (max - min)) and what
+//                                               a renderer normalises them with; inside the FieldRecord's range, which
+//                                               is the union over the steps
+//   (StepNodeRecord, NodeFieldRecord × F) × N × (S - 1)
+//                                               steps 1 .. S-1: per node (id order) where its blocks are and its
+//                                               ranges, errors, block sizes and checksums for that step, with the
+//                                               node table's meaning; brick_offset is 0 exactly where the node table's
+//                                               is (the mask is shared)
+//   TfErrorEntry × F × N × (S - 1)              steps 1 .. S-1: the transfer-function error entries (only with
+//                                               kStepsHaveTfErrors), codes over the FieldRecord's range as in the
+//                                               node table's (the union of the steps')
+// The blocks of every step lie among the brick blocks, appended step after step.
+struct StepsHeaderRecord {
+  uint64_t section_offset = 0;  //  0  file offset of the section (the first time); 0: the store holds one step
+  uint64_t section_size = 0;    //  8  bytes: 8 S + 16 F S + (S - 1) N (8 + 24 F) [+ (S - 1) N F 44] (0 without)
+  uint32_t step_count = 0;      // 16  S >= 1 (0 without a section)
+  uint32_t section_crc = 0;     // 20  crc32 (zlib) of the section's bytes
+  uint32_t flags = 0;           // 24  kStepsHaveTfErrors
+  uint32_t reserved = 0;        // 28  0
+};
+inline constexpr uint32_t kStepsHaveTfErrors = 1;  // the section holds the later steps' transfer-function error tables
+// A step's range of one field.
+struct StepFieldRange {
+  double min = 0;  // 0
+  double max = 0;  // 8
+};
+// Where a node's blocks are in a step after the first; its F NodeFieldRecords follow.
+struct StepNodeRecord {
+  uint64_t brick_offset = 0;  // 0  file offset of the node's first block for this step (0: no brick)
+};
+
 // Bytes of the records before the field records, by format version.
 constexpr uint32_t header_records_size(uint32_t version) {
-  return uint32_t(version >= 5
+  return uint32_t(version >= 6 ? 176 + sizeof(TfErrorHeaderRecord) + sizeof(BoundaryHeaderRecord) +
+                                     sizeof(CellsHeaderRecord) + sizeof(StepsHeaderRecord)
+                  : version >= 5
                       ? 176 + sizeof(TfErrorHeaderRecord) + sizeof(BoundaryHeaderRecord) + sizeof(CellsHeaderRecord)
                   : version >= 4 ? 176 + sizeof(TfErrorHeaderRecord) + sizeof(BoundaryHeaderRecord)
                   : version >= 3 ? 176 + sizeof(TfErrorHeaderRecord)
@@ -401,6 +444,20 @@ UGVR_RECORD_AT(CellBlockHeader, vertex_references, 8);
 UGVR_RECORD_AT(CellBlockHeader, face_slots, 12);
 UGVR_RECORD_AT(CellBlockHeader, field_count, 16);
 UGVR_RECORD_AT(CellBlockHeader, reserved, 20);
+
+static_assert(std::is_trivially_copyable_v<StepsHeaderRecord> && sizeof(StepsHeaderRecord) == 32);
+UGVR_RECORD_AT(StepsHeaderRecord, section_offset, 0);
+UGVR_RECORD_AT(StepsHeaderRecord, section_size, 8);
+UGVR_RECORD_AT(StepsHeaderRecord, step_count, 16);
+UGVR_RECORD_AT(StepsHeaderRecord, section_crc, 20);
+UGVR_RECORD_AT(StepsHeaderRecord, flags, 24);
+UGVR_RECORD_AT(StepsHeaderRecord, reserved, 28);
+static_assert(header_records_size(6) == 304);
+static_assert(std::is_trivially_copyable_v<StepFieldRange> && sizeof(StepFieldRange) == 16);
+UGVR_RECORD_AT(StepFieldRange, min, 0);
+UGVR_RECORD_AT(StepFieldRange, max, 8);
+static_assert(std::is_trivially_copyable_v<StepNodeRecord> && sizeof(StepNodeRecord) == 8);
+UGVR_RECORD_AT(StepNodeRecord, brick_offset, 0);
 
 static_assert(std::is_trivially_copyable_v<TfErrorEntry> && std::is_standard_layout_v<TfErrorEntry>);
 static_assert(sizeof(TfErrorEntry) == 44);

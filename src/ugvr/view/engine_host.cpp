@@ -187,6 +187,12 @@ SceneInfo EngineHost::lod_scene() const {
   sc.renderer = renderer_;
   sc.engine = kLodEngine;
   sc.engines = engines();
+  // A store with time steps (docs/time-series.md, "Stores with time"): the time panel plays its steps.
+  const BrickStoreReader& store = lod_->engine.store();
+  if (store.has_steps()) {
+    for (uint32_t s = 0; s < store.step_count(); ++s) sc.times.push_back(store.step_time(s));
+    sc.time_step = std::min(options_.time_step, store.step_count() - 1);
+  }
   return sc;
 }
 
@@ -279,9 +285,13 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   fr.step_voxels = request.step_voxels;
   const bool timed = engine == kExactEngine && exact_ && exact_->series;
   if (timed) fr.time_step = request.time_step.value_or(scene_.time_step);
+  // A store with time steps: the LOD renderer switches the step (its bricks; no prefetch of the next ones yet).
+  const bool timed_store = engine == kLodEngine && lod_ && lod_->engine.store().has_steps();
+  if (timed_store)
+    fr.time_step = std::min(request.time_step.value_or(scene_.time_step), lod_->engine.store().step_count() - 1);
   // Playing, a step's period is its render plus the step's overhead: the render is given what the period at the
   // target rate leaves (at least 20 ms), so that the steps, not only the renders, come at the target rate.
-  const bool playing = timed && request.playing && !job.full_quality;
+  const bool playing = (timed || timed_store) && request.playing && !job.full_quality;
   const Clock::time_point render_start = Clock::now();
   if (playing && job.target_fps > 0 && tab.step_overhead > 0)
     fr.target_fps = 1 / std::max(0.02, 1 / job.target_fps - tab.step_overhead);
@@ -311,6 +321,7 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   st.atlas_bytes = f.stats.gpu_bytes, st.atlas_budget = f.stats.gpu_budget;
   st.pending_bricks = f.stats.pending;
   if (timed) st.time_step = exact_->step, st.time = exact_->series->steps[exact_->step].time;
+  if (timed_store) st.time_step = *fr.time_step, st.time = lod_->engine.store().step_time(*fr.time_step);
   const std::vector<unsigned char> encoded = converged ? png_bytes(image) : jpeg_bytes(image);
   auto bytes = std::make_shared<const std::string>(encoded.begin(), encoded.end());
   const Clock::time_point now = Clock::now();

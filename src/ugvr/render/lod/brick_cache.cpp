@@ -43,7 +43,7 @@ BrickCacheStats stats_since(const BrickCacheStats& now, const BrickCacheStats& b
 }
 
 BrickCache::BrickCache(const BrickStoreReader& store, uint32_t field, uint64_t budget_bytes, int threads)
-    : store_(store), brick_bytes_(slot_bytes(store.resolution())) {
+    : store_(store), step_(store.step()), brick_bytes_(slot_bytes(store.resolution())) {
   check_field(store, field);
   field_ = field;
   capacity_ = std::max<uint64_t>(1, budget_bytes / brick_bytes_);
@@ -260,7 +260,7 @@ void BrickCache::worker() {
     Brick brick;
     std::exception_ptr error;
     try {
-      store_.read_brick(node, field, samples.data(), mask.data());
+      store_.read_brick(node, field, samples.data(), mask.data(), step_);
       auto texels = std::make_shared<std::vector<uint16_t>>();
       make_atlas_slot(r, samples.data(), mask.data(), lo, hi, *texels);
       brick = std::move(texels);

@@ -20,6 +20,10 @@
 // bricks being decoded never exceed the budget. Workers take the highest-priority pending request; a request dropped
 // by a newer list before it starts is cancelled (stats), one already running completes and is cached.
 //
+// Time stores (format version 6): a cache holds one step's bricks, the store's step (BrickStoreReader::set_step) when
+// it was made, and reads that step whatever the store's step is later; the LOD session that owns it makes a new one
+// when the step changes.
+//
 // Errors. A failed load (a corrupt block: ugvr::Error naming file, node, field and offset) marks the node failed: it
 // is never retried for this field (so a bad brick is reported once, not once per frame) and is never resident; the
 // first error since the last call is rethrown on the render thread by rethrow_load_error().
@@ -84,6 +88,7 @@ class BrickCache {
   uint64_t brick_bytes() const { return brick_bytes_; }
   uint64_t capacity() const { return capacity_; }
   uint32_t field() const;
+  uint32_t step() const { return step_; }  // the time step whose bricks it holds
 
   // The nodes this frame wants, with a priority each (higher = sooner; NaN = lowest); order among equal priorities
   // is the list's. Replaces the previous list (see the header comment). Nodes without a brick and nodes whose load
@@ -124,6 +129,7 @@ class BrickCache {
   bool is_protected(const Entry& e) const { return e.wanted == generation_; }
 
   const BrickStoreReader& store_;
+  const uint32_t step_;
   const uint64_t brick_bytes_;
   uint64_t capacity_ = 1;
 

@@ -459,6 +459,14 @@ void LodEngine::set_field(std::string_view name) {
   }
 }
 
+void LodEngine::set_time_step(uint32_t step) {
+  Impl& I = *impl_;
+  if (step == I.store.step()) return;
+  I.store.set_step(step);
+  I.slot_table.clear();
+}
+uint32_t LodEngine::time_step() const { return impl_->store.step(); }
+
 const std::string& LodEngine::field_name() const { return impl_->store.layout().fields[impl_->field].name; }
 double LodEngine::field_min() const { return impl_->store.layout().fields[impl_->field].min; }
 double LodEngine::field_max() const { return impl_->store.layout().fields[impl_->field].max; }

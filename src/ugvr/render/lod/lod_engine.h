@@ -131,6 +131,10 @@ class LodEngine {
   uint64_t atlas_budget_bricks() const;
   const BrickStoreReader& store() const;
   uint32_t field() const;  // the bound field's index in the store
+  // A time store's step (format version 6; 0 for a store of one step): the bricks, node ranges and errors drawn from
+  // now on. A switch empties the atlas, as a field switch does. Throws ugvr::Error for a step out of range.
+  void set_time_step(uint32_t step);
+  uint32_t time_step() const;
   // Sample step in voxels of each node when RenderSettings.sample_step is 0 (progressive refinement refines it).
   void set_step_voxels(double step);
   // Hybrid rendering: at most `n` exact nodes from the next frame on (0: voxels only).

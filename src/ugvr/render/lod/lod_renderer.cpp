@@ -144,6 +144,10 @@ LodEngine& LodRendererBase::bind_request(const FrameRequest& request) {
   check_supported(request, "lod");
   if (request.settings.field != field_) set_field(request.settings.field);
   bind_field(scene_->engine, field_);  // another renderer of the scene may have bound another
+  // A time store's step (a store of one step has step 0 alone: the engine refuses others); kept until a request names
+  // another.
+  if (request.time_step) time_step_ = *request.time_step;
+  scene_->engine.set_time_step(time_step_);
   return scene_->engine;
 }
 
@@ -210,7 +214,8 @@ Frame InteractiveLodRenderer::render(const FrameRequest& request) {
   LodEngine& engine = bind_request(request);
   const std::string field = engine.field_name();
   const double step = request.step_voxels > 0 ? request.step_voxels : options_.resting_step_voxels;
-  if (!session_ || session_field_ != field || session_step_ != step) {
+  // The session's RAM cache holds one time step's bricks (brick_cache.h): a new step starts a new session.
+  if (!session_ || session_field_ != field || session_step_ != step || session_time_step_ != engine.time_step()) {
     TimeCriticalOptions tc = options_;
     tc.target_fps = request.target_fps;
     if (request.step_voxels > 0) {
@@ -220,6 +225,7 @@ Frame InteractiveLodRenderer::render(const FrameRequest& request) {
     session_.reset();  // its cache's threads end before the next one starts
     session_ = std::make_unique<TimeCriticalRenderer>(engine, tc);
     session_field_ = field, session_step_ = step, session_fps_ = request.target_fps;
+    session_time_step_ = engine.time_step();
   }
   if (request.target_fps != session_fps_) session_->set_target_fps(request.target_fps);
   session_fps_ = request.target_fps;

@@ -56,7 +56,8 @@ class LodRendererBase : public Renderer {
   // Binds request.settings.field (this renderer's field from now on) on the shared engine; returns the engine.
   LodEngine& bind_request(const FrameRequest& request);
   std::shared_ptr<LodScene> scene_;
-  std::string field_;  // a store field name; "" = the first
+  std::string field_;       // a store field name; "" = the first
+  uint32_t time_step_ = 0;  // a time store's step (FrameRequest::time_step)
 };
 
 class LodRenderer final : public LodRendererBase {
@@ -84,6 +85,7 @@ class InteractiveLodRenderer final : public LodRendererBase {
   std::unique_ptr<TimeCriticalRenderer> session_;
   std::string session_field_;
   double session_step_ = -1, session_fps_ = -1;
+  uint32_t session_time_step_ = 0;
 };
 
 }  // namespace ugvr

@@ -101,7 +101,8 @@ double TfNodeErrors::weight(uint64_t node) const {
 }
 
 bool TfNodeErrors::update(const TransferFunction& tf) {
-  if (ready_ && tf == tf_) return false;
+  if (ready_ && tf == tf_ && step_ == store_.step()) return false;
+  step_ = store_.step();  // a time store's step: its own entries (the store's tables are coded over one range)
   const auto t0 = std::chrono::steady_clock::now();
   const BrickStoreField& field = store_.layout().fields[field_];
   const uint32_t F = store_.field_count();

@@ -65,6 +65,7 @@ class TfNodeErrors {
  private:
   const BrickStoreReader& store_;
   uint32_t field_ = 0;
+  uint32_t step_ = 0;  // the store's time step of the last update
   bool ready_ = false;
   TransferFunction tf_;
   std::vector<double> errors_;  // per node
