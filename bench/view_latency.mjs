@@ -8,6 +8,7 @@
 // message it reflects to receiving the frame's bytes: what a user sees between moving the mouse and the picture
 // answering. Also measured: single inputs after rest (one camera message once the view has converged, to the first
 // frame reflecting it). Prints one JSON line.
+import { rotate } from "./view_camera.mjs";
 const [url, width = "800", height = "600", seconds = "15"] = process.argv.slice(2);
 const W = Number(width), H = Number(height), DURATION = Number(seconds) * 1000;
 
@@ -23,18 +24,6 @@ function send(msg) {
   ws.send(JSON.stringify(msg));
   accepted += 1;
   sentAt[accepted] = performance.now();
-}
-
-function rotate(cam, degrees) {
-  const a = (degrees * Math.PI) / 180, c = Math.cos(a), s = Math.sin(a);
-  const f = cam.focal_point, p = cam.position;
-  const k = cam.view_up, kn = Math.hypot(...k);
-  const u = k.map((x) => x / kn);
-  const v = [p[0] - f[0], p[1] - f[1], p[2] - f[2]];
-  const kxv = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
-  const kv = u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-  const r = v.map((x, i) => x * c + kxv[i] * s + u[i] * kv * (1 - c));
-  return { ...cam, position: [f[0] + r[0], f[1] + r[1], f[2] + r[2]] };
 }
 
 const waitFor = (pred) =>

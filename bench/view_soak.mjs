@@ -7,22 +7,11 @@
 // A cycler connects, says hello, waits for its first frame, drags for 1-3 s, closes, waits 0.5 s, and again. All
 // loops end at the deadline (bounded: nothing runs past SECONDS + 30 s). Prints one JSON line: frames, messages,
 // connections, errors per kind.
+import { rotate } from "./view_camera.mjs";
 const [url, secondsArg, draggersArg = "4", cyclersArg = "2", sizeArg = "512"] = process.argv.slice(2);
 const deadline = performance.now() + Number(secondsArg) * 1000;
 const SIZE = Number(sizeArg);
 const stats = { frames: 0, messages: 0, connections: 0, refused: 0, server_errors: 0, socket_errors: 0 };
-
-function rotate(cam, degrees) {
-  const a = (degrees * Math.PI) / 180, c = Math.cos(a), s = Math.sin(a);
-  const f = cam.focal_point, p = cam.position;
-  const k = cam.view_up, kn = Math.hypot(...k);
-  const u = k.map((x) => x / kn);
-  const v = [p[0] - f[0], p[1] - f[1], p[2] - f[2]];
-  const kxv = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
-  const kv = u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-  const r = v.map((x, i) => x * c + kxv[i] * s + u[i] * kv * (1 - c));
-  return { ...cam, position: [f[0] + r[0], f[1] + r[1], f[2] + r[2]] };
-}
 
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "gl_test_support.h"
 #include "renumber_mesh.h"
 #include "test_data.h"
 #include "ugvr/core/error.h"
@@ -30,26 +31,16 @@ std::shared_ptr<const GlContext> gl_context(std::string* error) {
   static bool tried = false;
   if (!tried) {
     tried = true;
-    try {
-      gl = std::make_shared<GlContext>("auto");
-    } catch (const Error& e) {
-      message = e.what();
-    }
+    gl = test::open_gl_context(message);
   }
   *error = message;
   return gl;
 }
 
-// No OpenGL 4.5 is a failure (CI has llvmpipe); UGVR_NO_GL_TESTS=1 skips on a machine known to lack EGL.
-#define REQUIRE_GL(gl)                                                \
-  std::string gl_error_;                                              \
-  auto gl = gl_context(&gl_error_);                                   \
-  do {                                                                \
-    if (!gl) {                                                        \
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << gl_error_; \
-      FAIL() << "no OpenGL 4.5 context: " << gl_error_;               \
-    }                                                                 \
-  } while (0)
+#define REQUIRE_GL(gl)              \
+  std::string gl_error_;            \
+  auto gl = gl_context(&gl_error_); \
+  UGVR_REQUIRE_GL_CONTEXT(gl, gl_error_)
 
 struct Scene {
   Camera camera;

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "gl_test_support.h"
 #include "lod_shared.h"
 #include "test_data.h"
 #include "ugvr/core/error.h"
@@ -28,24 +29,16 @@ struct Gl {
 const Gl& gl() {
   static const Gl g = [] {
     Gl r;
-    try {
-      r.context = std::make_unique<GlContext>("auto");
-    } catch (const Error& e) {
-      r.error = e.what();
-    }
+    r.context = test::open_gl_context(r.error);
     return r;
   }();
   return g;
 }
 
-// As in test_lod_engine.cpp: no OpenGL 4.5 is a failure (CI has llvmpipe); UGVR_NO_GL_TESTS=1 skips.
-#define REQUIRE_GL()                                                   \
-  do {                                                                 \
-    if (!gl().context) {                                               \
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << gl().error; \
-      FAIL() << "no OpenGL 4.5 context: " << gl().error;               \
-    }                                                                  \
-    gl().context->make_current();                                      \
+#define REQUIRE_GL()                                   \
+  do {                                                 \
+    UGVR_REQUIRE_GL_CONTEXT(gl().context, gl().error); \
+    gl().context->make_current();                      \
   } while (0)
 
 // Shader files in a scratch directory that the loader reads instead of shaders/ while the object lives.

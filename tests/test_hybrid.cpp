@@ -16,6 +16,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include "gl_test_support.h"
 #include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/gen/generator.h"
@@ -61,23 +62,13 @@ Fixture& fixture() {
     o.leaf_cells = true;
     r.store = (r.dir / "cells.ugvr").string();
     build_octree(prepare_octree_input(r.dataset, fields), o, r.store);
-    try {
-      r.gl = std::make_unique<GlContext>("auto");
-    } catch (const Error& e) {
-      r.gl_error = e.what();
-    }
+    r.gl = test::open_gl_context(r.gl_error);
     return r;
   }();
   return f;
 }
 
-#define REQUIRE_GL()                                                           \
-  do {                                                                         \
-    if (!fixture().gl) {                                                       \
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << fixture().gl_error; \
-      FAIL() << "no OpenGL 4.5 context: " << fixture().gl_error;               \
-    }                                                                          \
-  } while (0)
+#define REQUIRE_GL() UGVR_REQUIRE_GL_CONTEXT(fixture().gl, fixture().gl_error)
 
 // A transfer function whose opacity rises steeply over a band of the range (where voxels and cells differ most), with
 // colour varying over the whole range; translucent enough that rays cross many nodes and cells.

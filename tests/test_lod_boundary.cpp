@@ -16,6 +16,7 @@
 #include <memory>
 #include <set>
 
+#include "gl_test_support.h"
 #include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/gen/generator.h"
@@ -58,23 +59,13 @@ Fixture& fixture() {
     o.boundary_faces_per_node = 0;
     r.without_faces = (r.dir / "stencil.ugvr").string();
     build_octree(prepare_octree_input(r.dataset, fields), o, r.without_faces);
-    try {
-      r.gl = std::make_unique<GlContext>("auto");
-    } catch (const Error& e) {
-      r.gl_error = e.what();
-    }
+    r.gl = test::open_gl_context(r.gl_error);
     return r;
   }();
   return f;
 }
 
-#define REQUIRE_GL()                                                           \
-  do {                                                                         \
-    if (!fixture().gl) {                                                       \
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << fixture().gl_error; \
-      FAIL() << "no OpenGL 4.5 context: " << fixture().gl_error;               \
-    }                                                                          \
-  } while (0)
+#define REQUIRE_GL() UGVR_REQUIRE_GL_CONTEXT(fixture().gl, fixture().gl_error)
 
 Bounds node_box_normalised(const OctreeNode& n) {
   const double s = std::ldexp(1.0, -int(n.level));

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <memory>
 
+#include "gl_test_support.h"
 #include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/gpu/gl_context.h"
@@ -85,25 +86,13 @@ Shared& shared() {
     o.max_depth = 4;
     o.error = 0;
     build_octree(prepare_octree_input(r.dataset, fields), o, r.store);
-    try {
-      r.gl = std::make_unique<GlContext>("auto");
-    } catch (const Error& e) {
-      r.gl_error = e.what();
-    }
+    r.gl = test::open_gl_context(r.gl_error);
     return r;
   }();
   return s;
 }
 
-// No OpenGL 4.5 is a failure, not a skip: CI has llvmpipe, and a silent skip would hide a broken GPU path. Set
-// UGVR_NO_GL_TESTS=1 to skip on a machine known to lack EGL.
-#define REQUIRE_GL()                                                          \
-  do {                                                                        \
-    if (!shared().gl) {                                                       \
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << shared().gl_error; \
-      FAIL() << "no OpenGL 4.5 context: " << shared().gl_error;               \
-    }                                                                         \
-  } while (0)
+#define REQUIRE_GL() UGVR_REQUIRE_GL_CONTEXT(shared().gl, shared().gl_error)
 
 TransferFunction linear_tf(double lo, double hi, double opacity) {
   TransferFunction tf;

@@ -15,6 +15,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include "gl_test_support.h"
 #include "ugvr/core/error.h"
 #include "ugvr/gpu/gl_context.h"
 #include "ugvr/grid/dataset.h"
@@ -74,23 +75,13 @@ Shared& shared() {
     const Dataset ds = sphere_dataset();
     const std::vector<std::string> fields = {"d"};
     build_octree(prepare_octree_input(ds, fields), o, r.store);
-    try {
-      r.gl = std::make_unique<GlContext>("auto");
-    } catch (const Error& e) {
-      r.gl_error = e.what();
-    }
+    r.gl = test::open_gl_context(r.gl_error);
     return r;
   }();
   return s;
 }
 
-#define REQUIRE_GL()                                                          \
-  do {                                                                        \
-    if (!shared().gl) {                                                       \
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << shared().gl_error; \
-      FAIL() << "no OpenGL 4.5 context: " << shared().gl_error;               \
-    }                                                                         \
-  } while (0)
+#define REQUIRE_GL() UGVR_REQUIRE_GL_CONTEXT(shared().gl, shared().gl_error)
 
 // An oblique view (no axis-aligned rays: the rings of a trilinear surface follow the lattice).
 Camera sphere_camera() {

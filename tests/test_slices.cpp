@@ -10,6 +10,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include "gl_test_support.h"
 #include "oracle/reference_renderer.h"
 #include "test_data.h"
 #include "ugvr/core/error.h"
@@ -326,23 +327,13 @@ struct GlShared {
 GlShared& gl_shared() {
   static GlShared s = [] {
     GlShared r;
-    try {
-      r.gl = std::make_unique<GlContext>("auto");
-    } catch (const Error& e) {
-      r.error = e.what();
-    }
+    r.gl = test::open_gl_context(r.error);
     return r;
   }();
   return s;
 }
 
-#define REQUIRE_GL()                                                          \
-  do {                                                                        \
-    if (!gl_shared().gl) {                                                    \
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << gl_shared().error; \
-      FAIL() << "no OpenGL 4.5 context: " << gl_shared().error;               \
-    }                                                                         \
-  } while (0)
+#define REQUIRE_GL() UGVR_REQUIRE_GL_CONTEXT(gl_shared().gl, gl_shared().error)
 
 // The same slice by both engines: the slice alone (volume hidden) and with the volume, PSNR of each.
 struct SlicePair {

@@ -113,9 +113,9 @@ const Shared& shared() {
   std::unique_ptr<ViewServer> server;                                \
   do {                                                               \
     ViewServerOptions o_;                                            \
+    o_.ram_per_session = 16 << 20;                                   \
     __VA_ARGS__;                                                     \
     o_.store = shared().store;                                       \
-    o_.ram_per_session = 16 << 20;                                   \
     try {                                                            \
       server = std::make_unique<ViewServer>(o_);                     \
     } catch (const Error& e) {                                       \
@@ -147,6 +147,17 @@ HttpReply http_get(uint16_t port, const std::string& target, std::string host = 
   http::response<http::string_body> res;
   http::read(socket, buffer, res);
   return {int(res.result_int()), res.body(), std::string(res["Content-Security-Policy"])};
+}
+
+// A WebSocket upgrade request for /ws, written without waiting for the answer (a burst writes many first).
+void write_upgrade_request(tcp::socket& s, uint16_t port) {
+  http::request<http::empty_body> req(http::verb::get, "/ws", 11);
+  req.set(http::field::host, "127.0.0.1:" + std::to_string(port));
+  req.set(http::field::upgrade, "websocket");
+  req.set(http::field::connection, "upgrade");
+  req.set(http::field::sec_websocket_key, "dGhlIHNhbXBsZSBub25jZQ==");
+  req.set(http::field::sec_websocket_version, "13");
+  http::write(s, req);
 }
 
 struct Message {
@@ -549,15 +560,7 @@ TEST(ViewServer, AConnectionBurstCannotPassTheTabLimit) {
     set_receive_timeout(*s, 30);
     sockets.push_back(std::move(s));
   }
-  for (auto& s : sockets) {
-    http::request<http::empty_body> req(http::verb::get, "/ws", 11);
-    req.set(http::field::host, "127.0.0.1:" + std::to_string(server->port()));
-    req.set(http::field::upgrade, "websocket");
-    req.set(http::field::connection, "upgrade");
-    req.set(http::field::sec_websocket_key, "dGhlIHNhbXBsZSBub25jZQ==");
-    req.set(http::field::sec_websocket_version, "13");
-    http::write(*s, req);
-  }
+  for (auto& s : sockets) write_upgrade_request(*s, server->port());
   int accepted = 0, refused = 0;
   for (auto& s : sockets) {
     beast::flat_buffer buffer;
@@ -617,19 +620,7 @@ TEST(ViewServer, AHelloFloodWithoutReadingKeepsTheServerSmall) {
 TEST(ViewServer, TabsShareOneMemoryBudget) {
   constexpr uint64_t MiB = uint64_t(1) << 20;
   const uint64_t fixed = kTabQueueBytes + canvas_bytes(512, 512);  // at the page's initial size
-  std::unique_ptr<ViewServer> server;
-  {
-    ViewServerOptions o;
-    o.store = shared().store;
-    o.ram_per_session = 64 * MiB;
-    o.tabs_memory = (fixed + 64 * MiB) + (fixed + 40 * MiB);
-    try {
-      server = std::make_unique<ViewServer>(o);
-    } catch (const Error& e) {
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
-      FAIL() << "cannot start the server: " << e.what();
-    }
-  }
+  START_SERVER(server, o_.ram_per_session = 64 * MiB, o_.tabs_memory = (fixed + 64 * MiB) + (fixed + 40 * MiB));
   auto ram_budget = [](Client& c) {  // at the size the tab was admitted with, so that its charge stays
     c.send(R"({"type":"hello","width":512,"height":512})");
     const Frame f = read_frame(c);
@@ -640,13 +631,7 @@ TEST(ViewServer, TabsShareOneMemoryBudget) {
     tcp::socket s(ioc);
     s.connect({net::ip::make_address("127.0.0.1"), server->port()});
     set_receive_timeout(s, 30);
-    http::request<http::empty_body> req(http::verb::get, "/ws", 11);
-    req.set(http::field::host, "127.0.0.1:" + std::to_string(server->port()));
-    req.set(http::field::upgrade, "websocket");
-    req.set(http::field::connection, "upgrade");
-    req.set(http::field::sec_websocket_key, "dGhlIHNhbXBsZSBub25jZQ==");
-    req.set(http::field::sec_websocket_version, "13");
-    http::write(s, req);
+    write_upgrade_request(s, server->port());
     beast::flat_buffer buffer;
     http::response<http::string_body> res;
     http::read(s, buffer, res);

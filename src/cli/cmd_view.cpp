@@ -77,9 +77,7 @@ void run_view(const Options& o) {
   vo.gpu = o.gpu;
   vo.gpu_memory = o.gpu_memory;
   vo.ram_per_session = o.ram_memory;
-  vo.tabs_memory = o.tabs_memory ? o.tabs_memory
-                                 : view::view_memory_budget(o.memory_budget ? std::optional<uint64_t>(o.memory_budget)
-                                                                            : std::nullopt);
+  vo.tabs_memory = o.tabs_memory ? o.tabs_memory : o.memory_budget;  // 0: the server's default, the same budget
   vo.free_grid = o.free_grid;
   const ImageSize size = parse_size(o.size, "--size");
   if (size.width < view::kMinViewSide || size.width > view::kMaxViewSide || size.height < view::kMinViewSide ||

@@ -143,23 +143,20 @@ struct ViewServer::Impl final : HttpHost {
     std::vector<std::string> replies;
     std::lock_guard lock(mutex);
     TabState* tab = scheduler.find(id);
-    if (!tab) return replies;  // closed meanwhile
+    if (!tab) return replies;             // closed meanwhile
+    std::optional<SizeMessage> admitted;  // a hello too large: said at the size the tab was admitted with
     if (const auto* size = std::get_if<SizeMessage>(&message)) {
       std::string why;
       if (!tab_memory->resize(id, size->width, size->height, why)) {
         replies.push_back(error_message(why));
         if (!size->hello) return replies;
-        // A hello too large still says hello (at the size the tab was admitted with), so that the page is served.
-        SizeMessage admitted = *size;
-        admitted.width = tab->view.request.width, admitted.height = tab->view.request.height;
-        apply_message(tab->view, admitted, scene);
-        for (const std::string* t : {&scene_text, &progress_text, &view_text})
-          if (!t->empty()) replies.push_back(*t);
-        wake.notify_all();
-        return replies;
+        admitted = SizeMessage{true, tab->view.request.width, tab->view.request.height};
       }
     }
-    apply_message(tab->view, message, scene);
+    if (admitted)
+      apply_message(tab->view, ClientMessage(*admitted), scene);
+    else
+      apply_message(tab->view, message, scene);
     if (std::holds_alternative<CameraMessage>(message) || std::holds_alternative<TfMessage>(message)) last_active = id;
     // After hello: the scene, a build's progress, and the view set_view moved the tabs to (the page takes it after
     // the scene's own).
