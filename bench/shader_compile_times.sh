@@ -19,7 +19,7 @@ py=${PYTHON:-$(command -v python3)}
 mkdir -p "$scratch"
 bf=("$data/blunt-fin/bluntfinxyz.bin" "$data/blunt-fin/bluntfinq.bin")
 store=$scratch/bf-cells.ugvr
-[ -f "$store" ] || "$ugvr" --quiet build "${bf[@]}" --fields Density --cells -o "$store" 2>/dev/null
+[ -f "$store" ] || "$ugvr" --quiet build "${bf[@]}" --fields Density --cells -o "$store" >/dev/null 2>&1
 view=(--field Density --camera bench/results/exact-render/blunt-fin-camera.json --size 256 --frames 2)
 
 one() {  # LABEL CACHE DIR ENGINE_ARGS...
