@@ -6,7 +6,8 @@
 # Usage: bench/run_hybrid_ab.sh UGVR_A UGVR_B [SCRATCH=/tmp/ugvr-hybrid]
 #   SHADERS_A, SHADERS_B: each build's UGVR_SHADER_DIR (default: its own, compiled in), SCENES ("blunt-fin
 #   lox-post"), SIZE (512), ROUNDS (3), FRAMES (3), PYTHON (python3), EXTRA (more render flags, e.g. "--gpu 0").
-# One JSON line per render; per scene a summary: median over the rounds of each build's median frame time, B/A.
+# One JSON line per render; per scene a summary: median over the rounds of each build's median frame time (wall and
+# the process's CPU time), B/A. On a GPU the device's own timer (gpu_timer_seconds) is the figure to compare.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 a=$1 b=$2
@@ -51,6 +52,7 @@ import json
 s = json.load(open('$scratch/ab-stats.json')); c = json.load(open('$scratch/ab-cmp.json'))
 print(json.dumps({'bench': 'hybrid_ab', 'build': '$which', 'scene': '$name', 'size': $size, 'round': $r,
                   'median_frame_seconds': s['median_frame_seconds'], 'gpu_timer_seconds': s.get('gpu_timer_seconds', 0),
+                  'median_frame_cpu_seconds': s.get('median_frame_cpu_seconds', 0),
                   'psnr_db': c['psnr_db'], 'exact_nodes': s['hybrid']['exact_nodes'],
                   'cell_steps': s['hybrid']['cell_steps'], 'cell_bytes': s['hybrid']['cell_bytes'],
                   'renderer': s.get('renderer')}, separators=(',', ':')))" | tee -a "$results"
@@ -67,8 +69,13 @@ for scene in sorted({r["scene"] for r in rows}):
          for w in "AB"}
     g = {w: statistics.median(r["gpu_timer_seconds"] for r in rows if r["scene"] == scene and r["build"] == w)
          for w in "AB"}
+    # The process's CPU time per frame (llvmpipe's threads included): on a machine shared with other work, steadier
+    # than the wall time.
+    c = {w: statistics.median(r["median_frame_cpu_seconds"] for r in rows if r["scene"] == scene and r["build"] == w)
+         for w in "AB"}
     p = {w: [r["psnr_db"] for r in rows if r["scene"] == scene and r["build"] == w][0] for w in "AB"}
     print(json.dumps({"bench": "hybrid_ab_summary", "scene": scene, "a_seconds": m["A"], "b_seconds": m["B"],
-                      "b_over_a": m["B"] / m["A"], "a_gpu_timer": g["A"], "b_gpu_timer": g["B"],
+                      "b_over_a": m["B"] / m["A"], "a_cpu_seconds": c["A"], "b_cpu_seconds": c["B"],
+                      "cpu_b_over_a": c["B"] / c["A"] if c["A"] > 0 else 0, "a_gpu_timer": g["A"], "b_gpu_timer": g["B"],
                       "a_psnr_db": p["A"], "b_psnr_db": p["B"]}, separators=(",", ":")))
 PY
