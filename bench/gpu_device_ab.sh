@@ -5,13 +5,14 @@
 #   tar -cJf .gpu/ugvr-a.tar.xz -C .gpu/a .
 # B is the bundle of bench/make_gpu_bundle.sh (this checkout's build and shaders/). Both load the bundle's libraries.
 # Parts (PARTS, in order, default "hybrid compile tests"), each bounded:
-#   hybrid:  bench/run_hybrid.sh with A then B, ROUNDS times alternated (SIZE, FRAMES), stores per build;
+#   hybrid:  bench/run_hybrid.sh with B (the stores, the exact references, B's figures), then
+#            bench/run_hybrid_ab.sh A B alternated ROUNDS times (SIZE, FRAMES; the GPU timer is the figure);
 #   compile: bench/shader_compile_times.sh for B's shaders and for copies with `#pragma optionNV(unroll none)` and
 #            `#pragma optionNV(inline none)` after #version (the NVIDIA compiler's options), cache off, then B's
 #            shaders with the cache on twice (cold, warm);
 #   tests:   the GL tests of gpu_device_run.sh on this GPU (after the other parts warmed the driver's shader cache).
 # Usage, from the repository root on the GPU machine: OUT=... bash bench/gpu_device_ab.sh. Results in OUT:
-# log.txt, hybrid.jsonl, compile.jsonl, tests.txt, ab.tgz (the pictures).
+# log.txt, hybrid.jsonl, hybrid_ab.txt, hybrid-ab.jsonl, compile.jsonl, tests.txt, ab.tgz (B's pictures).
 set -u
 root=$PWD
 out=${OUT:?OUT names the folder whose files come back}
@@ -35,16 +36,14 @@ for part in ${PARTS:-hybrid compile tests}; do
   start=$SECONDS
   case $part in
     hybrid)
-      for round in $(seq "${ROUNDS:-2}"); do
-        for ab in a b; do
-          bin=$g/bin/ugvr shaders=$root/shaders
-          [ $ab = a ] && bin=$a/ugvr shaders=$a/shaders
-          UGVR=$bin UGVR_SHADER_DIR=$shaders SIZE=$size FRAMES=${FRAMES:-5} timeout "${HYBRID_SECONDS:-90}" \
-            bash bench/run_hybrid.sh "$ab-$round" "/tmp/h/$ab-$round" "/tmp/h/scratch-$ab"
-        done
-      done
+      UGVR=$g/bin/ugvr UGVR_SHADER_DIR=$root/shaders SIZE=$size FRAMES=${FRAMES:-5} timeout "${HYBRID_SECONDS:-90}" \
+        bash bench/run_hybrid.sh gpu-b /tmp/h/b /tmp/h
+      SHADERS_A=$a/shaders SHADERS_B=$root/shaders SIZE=$size ROUNDS=${ROUNDS:-3} FRAMES=${FRAMES:-5} \
+        timeout "${AB_SECONDS:-150}" bash bench/run_hybrid_ab.sh "$a/ugvr" "$g/bin/ugvr" /tmp/h >"$out/hybrid_ab.txt" 2>&1
+      cat "$out/hybrid_ab.txt"
       grep '"bench": "hybrid"' bench/results/hybrid.jsonl >"$out/hybrid.jsonl"
-      tar -czf "$out/ab.tgz" -C /tmp/h --exclude='scratch-*' . ;;
+      cp /tmp/h/hybrid-ab.jsonl "$out/" 2>/dev/null
+      tar -czf "$out/ab.tgz" -C /tmp/h b ;;
     compile)
       dirs=("$root/shaders")
       for v in "unroll none" "inline none"; do
