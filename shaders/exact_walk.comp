@@ -198,10 +198,24 @@ float slice_value(int k, real t, float linear) {
   return float(field_at(rst));
 }
 
-vec3 slice_color(int i, float v) {
+#include "slice_contours.glsl"
+
+// Slice i's colour where the ray crosses it at t in cell type k, the field there being v: its colour table (row i of
+// 2 × EXACT_MAX_SLICES), with its contour lines blended in (the cell's gradient projected onto the plane along the
+// pixel's footprint at that depth, as the CPU engine's RayTracer::slice_color).
+vec3 slice_color(int i, int k, real t, float v) {
   float u = clamp(v * u_slice_map[i].x + u_slice_map[i].y, 0.0, 1.0);
-  return texture(u_slice_colors, vec2((u * float(EXACT_SLICE_TEXELS - 1) + 0.5) / float(EXACT_SLICE_TEXELS),
-                                      (float(i) + 0.5) / float(EXACT_MAX_SLICES))).rgb;
+  vec3 color = texture(u_slice_colors, vec2((u * float(EXACT_SLICE_TEXELS - 1) + 0.5) / float(EXACT_SLICE_TEXELS),
+                                            (float(i) + 0.5) / float(2 * EXACT_MAX_SLICES))).rgb;
+  int row = EXACT_MAX_SLICES + i;
+  if (slice_contour_count(u_slice_colors, row) == 0) return color;
+  need_monomials(k);
+  vec3 g = gradient_at(k, t);
+  float depth = u_eye.w != 0.0 ? 1.0 : float(t) * float(dot(g_dir, real3(u_forward.xyz)));
+  vec3 px = vec3(u_right.xyz) * float(2.0 * u_forward.w / double(u_size.x)) * depth;
+  vec3 py = vec3(u_up.xyz) * float(2.0 * u_right.w / double(u_size.y)) * depth;
+  float per_pixel = slice_screen_derivative(g, vec3(u_slice_plane[i].xyz), vec3(g_dir), px, py);
+  return slice_contour_blend(u_slice_colors, row, color, v, per_pixel);
 }
 #endif
 
@@ -246,7 +260,7 @@ void piece(real ta, real tb, float sa, float sb, int k) {
     volume_piece(ta, tp, sa, sp, k);
     if (done()) return;
     float v = slice_value(k, tp, sp);
-    if (!isnan(v)) composite_surface(slice_color(i, v), u_slice_map[i].z);
+    if (!isnan(v)) composite_surface(slice_color(i, k, tp, v), u_slice_map[i].z);
     if (done()) return;
     ta = tp, sa = sp;
   }

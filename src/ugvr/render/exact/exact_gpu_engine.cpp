@@ -286,7 +286,8 @@ Image ExactGpuEngine::render(const Camera& camera, const TransferFunction& tf, c
   f.u_slice_info = {int(settings.slices.size()), int(settings.hide_volume), 0, 0};
   if (slices && !I.slice_texture.id()) {
     I.slice_texture = GlTexture(GL_TEXTURE_2D);
-    glTextureStorage2D(I.slice_texture.id(), 1, GL_RGBA32F, exact_gpu::EXACT_SLICE_TEXELS, EXACT_MAX_SLICES);
+    // Rows 0..7 the colour tables, 8..15 the contour lines (shaders/slice_contours.glsl).
+    glTextureStorage2D(I.slice_texture.id(), 1, GL_RGBA32F, exact_gpu::EXACT_SLICE_TEXELS, 2 * EXACT_MAX_SLICES);
     glTextureParameteri(I.slice_texture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
     glTextureParameteri(I.slice_texture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     glTextureParameteri(I.slice_texture.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
@@ -309,6 +310,9 @@ Image ExactGpuEngine::render(const Camera& camera, const TransferFunction& tf, c
       row[size_t(t) * 4 + 2] = float(c.z), row[size_t(t) * 4 + 3] = 1.0f;
     }
     glTextureSubImage2D(I.slice_texture.id(), 0, 0, GLint(i), n_texels, 1, GL_RGBA, GL_FLOAT, row.data());
+    const std::vector<float> lines = slice_contour_row(sl, slice_contour_values(sl, lo, hi), 1, 0);
+    glTextureSubImage2D(I.slice_texture.id(), 0, 0, GLint(EXACT_MAX_SLICES + i), GLsizei(lines.size() / 4), 1, GL_RGBA,
+                        GL_FLOAT, lines.data());
   }
   I.frame_block.upload(&f, sizeof f);
 
