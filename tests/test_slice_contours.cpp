@@ -325,7 +325,8 @@ TEST(SliceContours, LodMatchesTheDefinition) {
   o.resolution = 8;
   o.max_depth = 2;
   o.error = 0;
-  build_octree(prepare_octree_input(*ds, {"f"}), o, dir.file("box.ugvr"));
+  const std::vector<std::string> fields = {"f"};
+  build_octree(prepare_octree_input(*ds, fields), o, dir.file("box.ugvr"));
   LodEngine lod(dir.file("box.ugvr"), *gl);
   lod.set_field("f");
   const TransferFunction tf = invisible_tf();
@@ -345,7 +346,8 @@ TEST(SliceContours, LodBluntFinCloseToExact) {
                                                            test::data_path("blunt-fin/bluntfinq.bin")});
   OctreeBuildOptions o;
   o.max_depth = 4;
-  build_octree(prepare_octree_input(ds, {"Density"}), o, dir.file("s.ugvr"));
+  const std::vector<std::string> fields = {"Density"};
+  build_octree(prepare_octree_input(ds, fields), o, dir.file("s.ugvr"));
   const Bounds b = ds.bounds();
   const Camera cam = camera_preset("iso", b);
   ExactEngine exact(ds);
