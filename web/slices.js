@@ -61,8 +61,17 @@ const ugvrSlices = (() => {
     };
   }
 
+  // The last list queued, as text: a change that leaves it as it was (a slider's input event at the same value, a
+  // drag pushing a plane against the end of its travel) sends nothing. The server draws every message it accepts,
+  // and one that changes nothing after the view has converged costs a full-quality frame, which the next real move
+  // then waits for (bench/README.md, "Cutting planes": what made a plane drag slower than a camera drag).
+  let lastSent = '';
   function changed() {
-    queue(message());
+    const m = message();
+    const text = JSON.stringify(m);
+    if (text === lastSent) return;
+    lastSent = text;
+    queue(m);
     sentLists++;
   }
 
