@@ -257,15 +257,18 @@ nlohmann::json settings_to_json(const RenderSettings& s) {
   for (const Slice& sl : s.slices) {
     nlohmann::json r = nullptr;
     if (sl.range) r = {(*sl.range)[0], (*sl.range)[1]};
-    j["slices"].push_back(
-        {{"point", {sl.point.x, sl.point.y, sl.point.z}},
-         {"normal", {sl.normal.x, sl.normal.y, sl.normal.z}},
-         {"opacity", sl.opacity},
-         {"color_map", sl.color_map},
-         {"range", r},
-         {"contours", sl.contour_values.empty() ? nlohmann::json(sl.contours) : nlohmann::json(sl.contour_values)},
-         {"contour_color", sl.contour_color},
-         {"contour_width", sl.contour_width}});
+    j["slices"].push_back({{"point", {sl.point.x, sl.point.y, sl.point.z}},
+                           {"normal", {sl.normal.x, sl.normal.y, sl.normal.z}},
+                           {"opacity", sl.opacity},
+                           {"color_map", sl.color_map},
+                           {"range", r}});
+    // The contour keys only where they differ from the defaults: settings without lines read as they always did.
+    nlohmann::json& out = j["slices"].back();
+    const Slice defaults;
+    if (sl.contours > 0 || !sl.contour_values.empty())
+      out["contours"] = sl.contour_values.empty() ? nlohmann::json(sl.contours) : nlohmann::json(sl.contour_values);
+    if (sl.contour_color != defaults.contour_color) out["contour_color"] = sl.contour_color;
+    if (sl.contour_width != defaults.contour_width) out["contour_width"] = sl.contour_width;
   }
   j["hide_volume"] = hide_volume_name(s.hide_volume);
   j["interpolation"] = interpolation_name(s.interpolation);
