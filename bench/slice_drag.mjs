@@ -1,6 +1,7 @@
 // Dragging a cutting plane in `ugvr view` (issue 22; docs/slices.md): frames per second and input-to-frame latency
 // while a client moves a plane along its normal with a settings message every 16 ms (a 60 Hz slider drag, as
-// web/slices.js sends them), against rotating the camera with no plane (bench/view_latency.mjs's drag).
+// web/slices.js sends them), against rotating the camera with no plane (bench/view_latency.mjs's drag) and with the
+// plane standing.
 // Usage: node --experimental-websocket bench/slice_drag.mjs WS_URL POINT NORMAL [WIDTH=512] [HEIGHT=512] [SECONDS=10]
 // POINT and NORMAL as "x,y,z" (the plane starts there and moves ±1/4 of the bounds' diagonal along the normal).
 // bench/run_slices.sh's plane; bench/README.md has the command line that starts the viewer. Prints one JSON line
@@ -72,11 +73,16 @@ ws.onopen = async () => {
   const d = Math.hypot(...bounds.max.map((x, i) => x - bounds.min[i]));
   const camera_drag = await drag(() => { camera = rotate(camera, 0.5); send({ type: "camera", ...camera }); });
   send({ type: "settings", slices: [{ point: P, normal: N }] });
+  // The camera again, the plane standing: what a frame with a plane costs, apart from moving it.
+  const camera_drag_with_plane = await drag(() => { camera = rotate(camera, -0.5); send({ type: "camera", ...camera }); });
+  // Each message moves the plane (i + 1: the first one too; a message that changes nothing costs the converged view a
+  // full-quality frame, which the drag would then wait for: bench/README.md).
   const slice_drag = await drag((i) => {
-    const s = 0.25 * d * Math.sin(i / 30);
+    const s = 0.25 * d * Math.sin((i + 1) / 30);
     send({ type: "settings", slices: [{ point: P.map((x, k) => x + N[k] * s), normal: N }] });
   });
-  console.log(JSON.stringify({ bench: "slice_drag", width: W, height: H, seconds: DURATION / 1000, camera_drag, slice_drag }));
+  console.log(JSON.stringify({ bench: "slice_drag", width: W, height: H, seconds: DURATION / 1000, camera_drag,
+                               camera_drag_with_plane, slice_drag }));
   ws.close();
   process.exit(0);
 };

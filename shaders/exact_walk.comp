@@ -29,6 +29,9 @@
 #ifndef SLICES
 #define SLICES 0  // cutting planes (u_slice_*; docs/slices.md)
 #endif
+#ifndef SLICE_CONTOURS
+#define SLICE_CONTOURS 0  // some slice has contour lines (a variant: their gradient code is compiled only then)
+#endif
 #ifndef VOLUME_LIGHTING
 #define VOLUME_LIGHTING 0  // compile time: without it (and outside isosurfaces) no gradient code, no registers for it
 #endif
@@ -128,10 +131,9 @@ vec4 tf_lookup(float value) {
   return texture(u_tf, (u * float(EXACT_TF_TEXELS - 1) + 0.5) / float(EXACT_TF_TEXELS));
 }
 
-vec3 gradient_at(int k, real t) {
+// The gradient at parametric point rst of the current cell (monomials built).
+vec3 gradient_at_rst(real3 rst) {
   if (u_flags.x != 0) return vec3(0);
-  real3 rst = real3(CENTER[k]);
-  if (k != 0 && !inverse_map(g_origin + g_dir * t, rst, 1e-9, rst)) rst = real3(CENTER[k]);
   real3 jr, js, jt;
   jacobian(rst, jr, js, jt);
   real3 a0 = cross(js, jt), a1 = cross(jt, jr), a2 = cross(jr, js);
@@ -143,6 +145,12 @@ vec3 gradient_at(int k, real t) {
   real gt = g_field[3] + g_field[5] * r + g_field[6] * s + g_field[7] * r * s;
   // J^-T g: the rows of J^-1 are a0, a1, a2 over det.
   return vec3((a0 * gr + a1 * gs + a2 * gt) / det);
+}
+vec3 gradient_at(int k, real t) {
+  if (u_flags.x != 0) return vec3(0);
+  real3 rst = real3(CENTER[k]);
+  if (k != 0 && !inverse_map(g_origin + g_dir * t, rst, 1e-9, rst)) rst = real3(CENTER[k]);
+  return gradient_at_rst(rst);
 }
 vec3 triangle_normal(int k, int face, ivec3 c) {
   ivec4 fv = FACE_V[k * 6 + face];
@@ -190,18 +198,41 @@ int g_ns = 0, g_sj = 0;
 real g_vol_lo, g_vol_hi;
 
 // The field of the current cell at t: `linear` (the piece's value there) is exact in a tetrahedron and for cell data.
+// g_slice_rst: where it was found in the cell's parametric space (the centre where the field is linear), for the
+// contour lines' gradient, so that they need no second Newton solve (llvmpipe compiles each inlined copy).
+real3 g_slice_rst;
 float slice_value(int k, real t, float linear) {
+  g_slice_rst = real3(CENTER[k]);
   if (k == 0 || u_flags.x != 0) return linear;
   need_monomials(k);
   real3 rst;
   if (!inverse_map(g_origin + g_dir * t, real3(CENTER[k]), 1e-9, rst)) return linear;
+  g_slice_rst = rst;
   return float(field_at(rst));
 }
 
-vec3 slice_color(int i, float v) {
+#include "slice_contours.glsl"
+
+// Slice i's colour where the ray crosses it at t in cell type k, the field there being v: its colour table (row i of
+// 2 × EXACT_MAX_SLICES), with its contour lines blended in (the cell's gradient projected onto the plane along the
+// pixel's footprint at that depth, as the CPU engine's RayTracer::slice_color).
+vec3 slice_color(int i, int k, real t, float v) {
   float u = clamp(v * u_slice_map[i].x + u_slice_map[i].y, 0.0, 1.0);
-  return texture(u_slice_colors, vec2((u * float(EXACT_SLICE_TEXELS - 1) + 0.5) / float(EXACT_SLICE_TEXELS),
-                                      (float(i) + 0.5) / float(EXACT_MAX_SLICES))).rgb;
+  vec3 color = texture(u_slice_colors, vec2((u * float(EXACT_SLICE_TEXELS - 1) + 0.5) / float(EXACT_SLICE_TEXELS),
+                                            (float(i) + 0.5) / float(2 * EXACT_MAX_SLICES))).rgb;
+#if SLICE_CONTOURS
+  int row = EXACT_MAX_SLICES + i;
+  if (slice_contour_count(u_slice_colors, row) == 0) return color;
+  need_monomials(k);
+  vec3 g = gradient_at_rst(g_slice_rst);  // slice_value's point
+  float depth = u_eye.w != 0.0 ? 1.0 : float(t) * float(dot(g_dir, real3(u_forward.xyz)));
+  vec3 px = vec3(u_right.xyz) * float(2.0 * u_forward.w / double(u_size.x)) * depth;
+  vec3 py = vec3(u_up.xyz) * float(2.0 * u_right.w / double(u_size.y)) * depth;
+  float per_pixel = slice_screen_derivative(g, vec3(u_slice_plane[i].xyz), vec3(g_dir), px, py);
+  return slice_contour_blend(u_slice_colors, row, color, v, per_pixel);
+#else
+  return color;
+#endif
 }
 #endif
 
@@ -246,7 +277,7 @@ void piece(real ta, real tb, float sa, float sb, int k) {
     volume_piece(ta, tp, sa, sp, k);
     if (done()) return;
     float v = slice_value(k, tp, sp);
-    if (!isnan(v)) composite_surface(slice_color(i, v), u_slice_map[i].z);
+    if (!isnan(v)) composite_surface(slice_color(i, k, tp, v), u_slice_map[i].z);
     if (done()) return;
     ta = tp, sa = sp;
   }

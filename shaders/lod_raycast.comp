@@ -65,11 +65,28 @@ float g_st[LOD_MAX_SLICES];  // the ray's crossings ahead, ascending (t from bas
 int g_si[LOD_MAX_SLICES];    // their slice
 int g_ns;                    // how many
 
-void composite_slice(int i, float value, inout vec3 radiance, inout float transmittance) {
+#include "slice_contours.glsl"
+vec3 gradient_at(vec3 c, vec3 h);
+
+// Slice i at a sample of atlas coordinate c (voxels of world size h), at world distance t_world from the eye along
+// dir_world, the normalised value there `value`: its colour table (row i of 2 × LOD_MAX_SLICES) with its contour
+// lines blended in, the brick's gradient projected onto the plane along the pixel's footprint at that depth (as the
+// exact engines do with the cell's gradient).
+void composite_slice(int i, float value, vec3 c, vec3 h, float t_world, vec3 dir_world, inout vec3 radiance,
+                     inout float transmittance) {
   vec4 m = u_slice_map[i];
   float u = clamp(value * m.x + m.y, 0.0, 1.0);
   vec3 color = texture(u_slice_colors, vec2((u * (float(SLICE_TEXELS) - 1.0) + 0.5) / float(SLICE_TEXELS),
-                                            (float(i) + 0.5) / float(LOD_MAX_SLICES))).rgb;
+                                            (float(i) + 0.5) / float(2 * LOD_MAX_SLICES))).rgb;
+  int row = LOD_MAX_SLICES + i;
+  if (slice_contour_count(u_slice_colors, row) > 0) {
+    float depth = u_parallel ? 1.0 : t_world * dot(dir_world, u_forward);
+    vec3 px = u_right * (2.0 * u_half.x / float(u_size.x) * depth);
+    vec3 py = u_up * (2.0 * u_half.y / float(u_size.y) * depth);
+    vec3 n = u_slice_plane[i].xyz / u_root_size;  // the plane's normal in world coordinates (not unit: no matter)
+    color = slice_contour_blend(u_slice_colors, row, color, value,
+                                slice_screen_derivative(gradient_at(c, h), n, dir_world, px, py));
+  }
   radiance += transmittance * m.z * color;
   transmittance *= 1.0 - m.z;
 }
@@ -1104,7 +1121,7 @@ void main() {
       // see in the volume, a crack in a slice); near the boundary (the stencil strictly between), the faces' state.
       bool slice_inside = stencil_b >= 0.999 || (stencil_b > 0.001 && vb.g >= 0.5);
       for (; sj < g_ns && g_st[sj] <= sb; ++sj)
-        if (slice_inside) composite_slice(g_si[sj], vb.r, radiance, transmittance);
+        if (slice_inside) composite_slice(g_si[sj], vb.r, c, voxel, t_base + sb, dir_world, radiance, transmittance);
 #endif
       if (transmittance <= u_min_transmittance || sb >= t_exit) break;
       sa = sb;

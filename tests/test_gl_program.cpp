@@ -144,14 +144,16 @@ TEST(GlProgramIncludes, MissingIncludeOrCycleNamesTheIncludingLine) {
 }
 
 // The real ray caster, with the shared header as its source string 1 (the engine's compile errors name it) and the
-// cell walk it shares with the exact engine (HYBRID variants) as string 2, the exact engine's optical table as 3.
+// slices' contour lines (shared with the exact engine) as 2, the cell walk it shares with the exact engine (HYBRID
+// variants) as string 3, the exact engine's optical table as 4.
 TEST(LodGpuContract, RayCasterIncludesTheSharedHeader) {
   std::vector<std::string> files;
   const std::string src = preprocess_shader("lod_raycast.comp", {{"MODE", "2"}}, files);
-  ASSERT_EQ(files.size(), 4u);  // and optical.glsl, which the cells integrate with
+  ASSERT_EQ(files.size(), 5u);  // and optical.glsl, which the cells integrate with
   EXPECT_NE(files[1].find("lod_shared.h"), std::string::npos) << files[1];
-  EXPECT_NE(files[2].find("cell_walk.glsl"), std::string::npos) << files[2];
-  EXPECT_NE(files[3].find("optical.glsl"), std::string::npos) << files[3];
+  EXPECT_NE(files[2].find("slice_contours.glsl"), std::string::npos) << files[2];
+  EXPECT_NE(files[3].find("cell_walk.glsl"), std::string::npos) << files[3];
+  EXPECT_NE(files[4].find("optical.glsl"), std::string::npos) << files[4];
   EXPECT_NE(src.find("uniform LodFrame {"), std::string::npos);
 }
 

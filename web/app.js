@@ -385,7 +385,7 @@ ws.onmessage = async (event) => {
 
 // ---- input ----
 
-installCameraControls(canvas, () => camera, () => { cameraDirty = true; });
+installCameraControls(canvas, () => camera, () => { cameraDirty = true; }, ugvrSlices.canvasDrag(canvas));
 
 function tick() {
   if (cameraDirty && camera) {

@@ -1,6 +1,7 @@
 // ugvr view: mouse and touch on the view canvas turned into camera moves (the camera is camera.h's JSON form, moved
 // in place; onChange() is called after each move, and the page sends at most one camera message per frame).
-//   left drag: orbit about the focal point;  shift + left drag, right or middle drag: pan;  wheel: zoom
+//   left drag: orbit about the focal point (or, where slices.js takes it, move a plane);  shift + left drag, right or
+//   middle drag: pan;  wheel: zoom
 //   one finger: orbit;  two fingers: pinch to zoom, move to pan
 "use strict";
 
@@ -39,9 +40,11 @@ function zoomCamera(camera, factor) {
   if (camera.parallel_projection) camera.parallel_scale *= factor;
 }
 
-function installCameraControls(canvas, getCamera, onChange) {
+// `grab` (optional): another control that may take a one-pointer drag before the camera does (slices.js drags planes):
+// grab.down(event) returns true to take it, then gets grab.move(event, dx, dy) and grab.up(event) for that pointer.
+function installCameraControls(canvas, getCamera, onChange, grab = null) {
   const pointers = new Map();  // pointerId -> {x, y}
-  let mode = null;             // "orbit" | "pan" (mouse / pen / one finger); two touches pinch
+  let mode = null;             // "orbit" | "pan" | "grab" (mouse / pen / one finger); two touches pinch
   let pinch = null;            // {distance, x, y} of the last two-finger position
 
   const twoTouches = () => {
@@ -59,11 +62,13 @@ function installCameraControls(canvas, getCamera, onChange) {
       mode = null;
       pinch = twoTouches();
     } else if (pointers.size === 1) {
-      mode = e.pointerType !== "touch" && (e.shiftKey || e.button === 1 || e.button === 2) ? "pan" : "orbit";
+      if (grab && e.button === 0 && grab.down(e)) mode = "grab";
+      else mode = e.pointerType !== "touch" && (e.shiftKey || e.button === 1 || e.button === 2) ? "pan" : "orbit";
     }
     e.preventDefault();
   });
   const release = (e) => {
+    if (mode === "grab" && pointers.has(e.pointerId)) grab.up(e);
     pointers.delete(e.pointerId);
     pinch = null;
     // Lifting one of two fingers leaves the other orbiting from where it is.
@@ -78,7 +83,10 @@ function installCameraControls(canvas, getCamera, onChange) {
     const dx = e.clientX - last.x, dy = e.clientY - last.y;
     last.x = e.clientX, last.y = e.clientY;
     const height = canvas.getBoundingClientRect().height;
-    if (pointers.size === 2 && pinch) {
+    if (mode === "grab" && pointers.size === 1) {
+      grab.move(e, dx, dy);  // the grabbing control sends its own change
+      return;
+    } else if (pointers.size === 2 && pinch) {
       const now = twoTouches();
       if (now.distance > 0 && pinch.distance > 0) zoomCamera(camera, pinch.distance / now.distance);
       panCamera(camera, now.x - pinch.x, now.y - pinch.y, height);

@@ -1,11 +1,12 @@
 // ugvr view: cutting planes (docs/slices.md). A panel section of its own, built here: "add plane" adds a plane through
 // the data's centre; each plane has an axis (x, y, z or the view direction when added), a position along its normal
 // (dragging the slider moves the plane through the data), two turning angles about the axes across it, an opacity and
-// a colour map (the volume's or a preset); "hide volume" hides the volume on one side of the planes. Every change
-// sends the whole list in one settings message ({"slices": [...], "hide_volume": ...}, view_protocol.h), queued like
-// app.js's own so that a drag sends one message per animation frame. Loaded after vec.js and before app.js, whose
-// globals (scene, camera, queue) it reads only when the user acts or a scene arrives (app.js calls
-// ugvrSlices.onScene).
+// a colour map (the volume's or a preset) and a number of contour lines; "hide volume" hides the volume on one side of
+// the planes; "drag planes on the view" (or Ctrl) lets a drag on the canvas move the plane under the pointer
+// (canvasDrag, used by app.js's camera controls). Every change sends the whole list in one settings message ({"slices":
+// [...], "hide_volume": ...}, view_protocol.h), queued like app.js's own so that a drag sends one message per animation
+// frame. Loaded after vec.js and before app.js, whose globals (scene, camera, queue) it reads only when the user acts
+// or a scene arrives (app.js calls ugvrSlices.onScene).
 'use strict';
 
 const ugvrSlices = (() => {
@@ -48,14 +49,142 @@ const ugvrSlices = (() => {
       hide_volume: hide,
       slices: planes.map((p) => {
         const {point, normal} = planeOf(p);
-        return {point, normal, opacity: p.opacity, color_map: p.map === 'volume' ? '' : p.map, range: null};
+        return {
+          point,
+          normal,
+          opacity: p.opacity,
+          color_map: p.map === 'volume' ? '' : p.map,
+          range: null,
+          contours: p.contours
+        };
       }),
     };
   }
 
+  // The last list queued, as text: a change that leaves it as it was (a slider's input event at the same value, a
+  // drag pushing a plane against the end of its travel) sends nothing. The server draws every message it accepts,
+  // and one that changes nothing after the view has converged costs a full-quality frame, which the next real move
+  // then waits for (bench/README.md, "Cutting planes": what made a plane drag slower than a camera drag).
+  let lastSent = '';
   function changed() {
-    queue(message());
+    const m = message();
+    const text = JSON.stringify(m);
+    if (text === lastSent) return;
+    lastSent = text;
+    queue(m);
     sentLists++;
+  }
+
+  // ---- dragging planes on the canvas ----
+  // With "drag planes" on (or Ctrl held), a left drag that starts on a plane moves that plane instead of the camera:
+  // along its normal, following the pointer's motion projected on the normal's direction on screen; with Shift it
+  // turns the plane (horizontal motion: the first angle, vertical: the second). The pick is done here from the camera
+  // and the planes (no server round trip): the plane whose hit inside the data's bounds is nearest the camera. The
+  // moves are queued like the sliders' (app.js sends one settings message per animation frame).
+  let dragMode = false;
+  let drag = null;  // {index, canvas, perWorld: screen pixels per world unit along the normal, dir: its unit direction}
+
+  // The camera's ray through canvas point (x, y) (CSS pixels from the top left), as camera.h's CameraRays: the image
+  // spans the vertical view angle (or 2 parallel_scale) top to bottom.
+  function rayAt(rect, x, y) {
+    const forward = norm(sub(camera.focal_point, camera.position));
+    const right = norm(cross(forward, camera.view_up));
+    const up = cross(right, forward);
+    const sx = (2 * x) / rect.width - 1, sy = 1 - (2 * y) / rect.height;
+    const aspect = rect.width / rect.height;
+    if (camera.parallel_projection) {
+      const h = camera.parallel_scale;
+      return {origin: add(camera.position, add(mul(right, sx * h * aspect), mul(up, sy * h))), dir: forward};
+    }
+    const h = Math.tan((camera.view_angle * Math.PI) / 360);
+    return {origin: camera.position, dir: norm(add(forward, add(mul(right, sx * h * aspect), mul(up, sy * h))))};
+  }
+
+  // Where world point p appears on the canvas (CSS pixels), or null behind the camera.
+  function project(rect, p) {
+    const forward = norm(sub(camera.focal_point, camera.position));
+    const right = norm(cross(forward, camera.view_up));
+    const up = cross(right, forward);
+    const d = sub(p, camera.position);
+    const z = dot(d, forward);
+    const h = camera.parallel_projection ? camera.parallel_scale : z * Math.tan((camera.view_angle * Math.PI) / 360);
+    if (!(h > 0)) return null;
+    const aspect = rect.width / rect.height;
+    return [(dot(d, right) / (h * aspect) + 1) * rect.width / 2, (1 - dot(d, up) / h) * rect.height / 2];
+  }
+
+  // The plane under canvas point (x, y): {index, t, point}, or null.
+  function pick(rect, x, y) {
+    if (!camera) return null;
+    const ray = rayAt(rect, x, y);
+    const lo = bounds().min, hi = bounds().max;
+    const eps = 1e-9 * vlen(sub(hi, lo));
+    let best = null;
+    planes.forEach((p, index) => {
+      const {point, normal} = planeOf(p);
+      const nd = dot(normal, ray.dir);
+      if (nd === 0) return;
+      const t = dot(normal, sub(point, ray.origin)) / nd;
+      const hit = add(ray.origin, mul(ray.dir, t));
+      const inside = hit.every((v, k) => v >= lo[k] - eps && v <= hi[k] + eps);
+      if (t > 0 && inside && (!best || t < best.t)) best = {index, t, point: hit};
+    });
+    return best;
+  }
+
+  function syncSliders(i) {
+    if (!panel) return;
+    const box = panel.querySelectorAll('.slice')[i];
+    if (!box) return;
+    const [position, turn1, turn2] = box.querySelectorAll('input[type=range]');
+    const p = planes[i];
+    position.value = p.position, turn1.value = p.turn1, turn2.value = p.turn2;
+  }
+
+  function canvasDrag(canvas) {
+    return {
+      down(e) {
+        if (!(dragMode || e.ctrlKey) || !planes.length) return false;
+        const rect = canvas.getBoundingClientRect();
+        const hit = pick(rect, e.clientX - rect.left, e.clientY - rect.top);
+        if (!hit) return false;
+        // The normal's direction on screen and its length per world unit, at the picked point.
+        const {normal} = planeOf(planes[hit.index]);
+        const span = vlen(sub(bounds().max, bounds().min)) || 1;
+        const a = project(rect, hit.point), b = project(rect, add(hit.point, mul(normal, 1e-3 * span)));
+        let dir = [0, -1], perWorld = rect.height / span;  // the normal along the view: up moves it forward
+        if (a && b) {
+          const v = [(b[0] - a[0]) / (1e-3 * span), (b[1] - a[1]) / (1e-3 * span)];
+          const len = Math.hypot(v[0], v[1]);
+          // Seen nearly edge-on the normal is a short vector on screen: below 1/10 of the bounds per canvas height,
+          // fall back to that, so that a drag never throws the plane across the data.
+          if (len > (0.1 * rect.height) / span) dir = [v[0] / len, v[1] / len], perWorld = len;
+        }
+        drag = {index: hit.index, perWorld, dir};
+        return true;
+      },
+      move(e, dx, dy) {
+        if (!drag) return;
+        const p = planes[drag.index];
+        if (!p) return;
+        if (e.shiftKey) {
+          p.turn1 = Math.max(-90, Math.min(90, p.turn1 + dx * 0.5));
+          p.turn2 = Math.max(-90, Math.min(90, p.turn2 - dy * 0.5));
+        } else {
+          // World distance along the normal, then the fraction of the plane's travel (planeOf: 0.998 of the extent of
+          // the bounds along the normal).
+          const world = (dx * drag.dir[0] + dy * drag.dir[1]) / drag.perWorld;
+          const {normal} = planeOf(p);
+          const lo = bounds().min, hi = bounds().max;
+          let extent = 0;
+          for (let k = 0; k < 3; ++k) extent += Math.abs(normal[k]) * (hi[k] - lo[k]);
+          if (extent > 0) p.position = Math.max(0, Math.min(1, p.position + world / (0.998 * extent)));
+        }
+        syncSliders(drag.index);
+        changed();
+      },
+      up() { drag = null; },
+    };
   }
 
   function row(label, ...controls) {
@@ -104,13 +233,23 @@ const ugvrSlices = (() => {
         p.map = maps.value;
         changed();
       });
+      // Contour lines: how many, evenly spaced over the colour map's range (render_settings.h, at most 64).
+      const lines = document.createElement('input');
+      Object.assign(lines, {type: 'number', min: 0, max: 64, step: 1, value: p.contours, className: 'slice-contours'});
+      lines.addEventListener('input', () => {
+        const n = Math.round(Number(lines.value));
+        if (!(n >= 0 && n <= 64)) return;
+        p.contours = n;
+        changed();
+      });
       const position = slider(0, 1, 0.002, p.position, (v) => ((p.position = v), changed()));
       position.className = 'slice-position';
       box.append(
           head, row('position', position),
           row('turn', slider(-90, 90, 1, p.turn1, (v) => ((p.turn1 = v), changed())),
               slider(-90, 90, 1, p.turn2, (v) => ((p.turn2 = v), changed()))),
-          row('opacity', slider(0.05, 1, 0.01, p.opacity, (v) => ((p.opacity = v), changed()))), row('colours', maps));
+          row('opacity', slider(0.05, 1, 0.01, p.opacity, (v) => ((p.opacity = v), changed()))), row('colours', maps),
+          row('contour lines', lines));
       list.append(box);
     });
     panel.querySelector('.slice-add').disabled = planes.length >= MAX_PLANES;
@@ -120,7 +259,7 @@ const ugvrSlices = (() => {
     if (planes.length >= MAX_PLANES) return;
     let axis = {x: [1, 0, 0], y: [0, 1, 0], z: [0, 0, 1]}[axisName];
     if (!axis) axis = camera ? norm(sub(camera.focal_point, camera.position)) : [0, 0, 1];
-    planes.push({axis, axisName, position: 0.5, turn1: 0, turn2: 0, opacity: 1, map: 'volume'});
+    planes.push({axis, axisName, position: 0.5, turn1: 0, turn2: 0, opacity: 1, map: 'volume', contours: 0});
     render();
     changed();
   }
@@ -147,9 +286,15 @@ const ugvrSlices = (() => {
       hide = hideSelect.value;
       changed();
     });
+    const move = document.createElement('input');
+    move.type = 'checkbox';
+    move.className = 'slice-drag';
+    move.title = 'drag a plane on the view to move it along its normal, shift-drag to turn it (or hold Ctrl)';
+    move.addEventListener('change', () => (dragMode = move.checked));
     const list = document.createElement('div');
     list.className = 'slice-list';
-    panel.append(row('slices', axis, addButton), row('hide volume', hideSelect), list);
+    panel.append(
+        row('slices', axis, addButton), row('hide volume', hideSelect), row('drag planes on the view', move), list);
     const buttons = host.querySelector('.buttons');
     host.insertBefore(panel, buttons);
     render();
@@ -165,9 +310,34 @@ const ugvrSlices = (() => {
       if (planes.length || hide !== 'none') changed();
     },
     add: addPlane,
+    canvasDrag,
+    // "drag planes" on or off (the panel's checkbox does the same).
+    set dragMode(on) {
+      dragMode = Boolean(on);
+      const box = panel && panel.querySelector('.slice-drag');
+      if (box) box.checked = dragMode;
+    },
+    // Where plane i is hit by the pixel ray nearest the canvas centre, searching outwards (for tests that drag it):
+    // page coordinates, or null.
+    planeOnCanvas(canvas, i) {
+      const rect = canvas.getBoundingClientRect();
+      for (let r = 0; r < Math.max(rect.width, rect.height) / 2; r += 4)
+        for (let a = 0; a < 16; ++a) {
+          const x = rect.width / 2 + r * Math.cos((a * Math.PI) / 8),
+                y = rect.height / 2 + r * Math.sin((a * Math.PI) / 8);
+          const hit = pick(rect, x, y);
+          if (hit && hit.index === i) return {x: rect.left + x, y: rect.top + y};
+        }
+      return null;
+    },
     // Read-only state for tests/e2e.
     get state() {
-      return {planes: planes.map((p) => ({...planeOf(p), opacity: p.opacity, map: p.map})), hide, sentLists};
+      return {
+        planes: planes.map((p) => ({...planeOf(p), opacity: p.opacity, map: p.map, contours: p.contours})),
+        hide,
+        sentLists,
+        dragging: drag !== null,
+      };
     },
     // Where the i-th plane's position slider is, in page coordinates, and its width (for tests that drag it).
     positionSlider(i) {

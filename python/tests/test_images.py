@@ -223,6 +223,16 @@ def test_slices_are_bit_identical_and_change_the_image(cli, tmp_path, small_vtu,
     d = ugvr.render(small_vtu, camera=camera, tf=tf, size=SIZE,
                     slices=[{"point": [3, 0, 1], "normal": [0, 0.3, 1], "opacity": 0.8}], hide_volume="front")
     assert np.array_equal(d.array, ref)
+    # Contour lines: the dict's "contours" (a tuple passes as a list) is --slice-contours, and the lines show.
+    lines = ugvr.render(small_vtu, camera=camera, tf=tf, size=SIZE, hide_volume="front",
+                        slices=[{"point": [3, 0, 1], "normal": [0, 0.3, 1], "opacity": 0.8, "contours": (0.1, 0.5),
+                                 "contour_color": (1, 1, 1)}])
+    assert np.array_equal(lines.array, cli_image(cli, tmp_path, [small_vtu], *flags, "--slice", "3,0,1,0,0.3,1,0.8",
+                                                 "--slice-contours", "0.1,0.5", "--slice-contour-color", "1,1,1",
+                                                 "--hide-volume", "front"))
+    assert (lines.array != ref).any(axis=2).mean() > 0.002
+    with pytest.raises(ugvr.Error, match=r"slices\[0\]\.contours"):
+        ugvr.render(small_vtu, size=SIZE, slices=[{"point": [3, 0, 1], "normal": [0, 0, 1], "contours": 99}])
     with pytest.raises(ugvr.Error, match="slices"):
         ugvr.render(small_vtu, size=SIZE, slices=[(3, 0, 1)])
     with pytest.raises(ugvr.Error, match="opacity"):

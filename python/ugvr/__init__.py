@@ -354,8 +354,9 @@ def render(source, field=None, view=None, camera=None, view_angle=None, tf=None,
     early_termination=, sample_step=, settings=file|dict, threads=N, and for a store cut=, gpu=, gpu_memory=,
     ram_memory=, step_voxels=. dtype="float32" returns the float image (before 8-bit rounding).
     slices=[(px, py, pz, nx, ny, nz[, opacity]) or {"point": .., "normal": .., "opacity": .., "color_map": NAME,
-    "range": (lo, hi)}, ...] draws cutting planes (--slice; docs/slices.md), hide_volume="none|front|back|all"
-    where the volume is hidden around them (--hide-volume).
+    "range": (lo, hi), "contours": N or (v1, ..), "contour_color": (r, g, b), "contour_width": PIXELS}, ...] draws
+    cutting planes (--slice, --slice-contours; docs/slices.md), hide_volume="none|front|back|all" where the volume is
+    hidden around them (--hide-volume).
 
     progress(stage, fraction) is called (with the GIL) during long work -- the exact engine's walk mesh, built on a
     Dataset's first render -- and cancels it by returning False (ugvr.Error "cancelled"). The GIL is released while rendering, so other Python

@@ -151,6 +151,30 @@ RenderSettings settings_from_flags(const RenderOptions& o) {
     if (!(a < b)) fail_flag("--slice-range", "expected A < B, found \"" + o.slice_range + "\"");
     for (size_t i = first_flag_slice; i < s.slices.size(); ++i) s.slices[i].range = std::array<double, 2>{a, b};
   }
+  if (!o.slice_contours.empty()) {
+    // A bare integer is a count of evenly spaced lines; anything else a list of values (one value: write it 3.0).
+    const std::string& t = o.slice_contours;
+    const bool count = t.find_first_not_of("0123456789") == std::string::npos;
+    const std::vector<double> v = parse_list(t, "--slice-contours", 1, size_t(kMaxSliceContours), "N or V1,V2,...");
+    if (count && !(v[0] >= 1 && v[0] <= kMaxSliceContours))
+      fail_flag("--slice-contours", "N must be in [1, " + std::to_string(kMaxSliceContours) + "], found " + t);
+    for (size_t i = first_flag_slice; i < s.slices.size(); ++i) {
+      s.slices[i].contours = count ? int(v[0]) : 0;
+      s.slices[i].contour_values = count ? std::vector<double>{} : v;
+    }
+  }
+  if (!o.slice_contour_color.empty()) {
+    const std::vector<double> c = parse_list(o.slice_contour_color, "--slice-contour-color", 3, 3, "R,G,B");
+    for (double x : c)
+      if (!(x >= 0 && x <= 1)) fail_flag("--slice-contour-color", "components must be in [0, 1]");
+    for (size_t i = first_flag_slice; i < s.slices.size(); ++i) s.slices[i].contour_color = {c[0], c[1], c[2]};
+  }
+  if (!o.slice_contour_width.empty()) {
+    const double w = parse_number(o.slice_contour_width, "--slice-contour-width");
+    if (!(w > 0 && w <= 64))
+      fail_flag("--slice-contour-width", "must be in (0, 64] pixels, found " + o.slice_contour_width);
+    for (size_t i = first_flag_slice; i < s.slices.size(); ++i) s.slices[i].contour_width = w;
+  }
   if (!o.hide_volume.empty()) s.hide_volume = parse_hide_volume(o.hide_volume, "--hide-volume");
   with_flag("--settings", [&] { s.validate(o.settings.empty() ? "render settings" : o.settings); });
   return s;
@@ -275,6 +299,17 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
       ->type_name("NAME");
   cmd->add_option("--slice-range", opts->slice_range, "Scalar range of the --slice colour map (default the volume's)")
       ->type_name("A:B");
+  cmd->add_option("--slice-contours", opts->slice_contours,
+                  "Contour lines on the --slice planes: N evenly spaced over the colour map's range, or the values "
+                  "V1,V2,.. (at most " +
+                      std::to_string(kMaxSliceContours) + ")")
+      ->type_name("N|V1,V2,..");
+  cmd->add_option("--slice-contour-color", opts->slice_contour_color,
+                  "Colour of the --slice planes' contour lines (default black)")
+      ->type_name("R,G,B");
+  cmd->add_option("--slice-contour-width", opts->slice_contour_width,
+                  "Width in pixels of the --slice planes' contour lines (default 1.5)")
+      ->type_name("PX");
   cmd->add_option("--hide-volume", opts->hide_volume,
                   "Hide the volume around the slices: front (the side each normal points to), back, all or none")
       ->type_name("WHERE");

@@ -3,7 +3,7 @@
 // against its own `ugvr view` of the store.
 import assert from "node:assert/strict";
 import { after, before, test } from "node:test";
-import { canvasPixels, changedFraction, launchBrowser, openPage, startViewer, stopViewer, waitConverged } from "./lib.mjs";
+import { cameraMoved, canvasPixels, changedFraction, launchBrowser, openPage, startViewer, stopViewer, waitConverged } from "./lib.mjs";
 
 const UGVR = process.env.UGVR, STORE = process.env.UGVR_STORE;
 if (!UGVR || !STORE) throw new Error("set UGVR (the ugvr binary) and UGVR_STORE (a .ugvr store); run.sh does");
@@ -69,4 +69,60 @@ test("a plane added, moved, hiding the volume and removed changes the image each
   assert.equal((await lastSlices()).slices.length, 0, "removing sends an empty list");
   const restored = changedFraction(none, await canvasPixels(page));
   assert.ok(restored < 0.002, `removing the plane restored the image (${restored} of pixels differ)`);
+});
+
+// Dragging a plane on the canvas (web/slices.js canvasDrag, "drag planes on the view"): the drag that starts on the
+// plane moves it along its normal (the camera stays), shift-drag turns it, and a drag that misses it still orbits.
+test("dragging a plane on the canvas moves and turns it, not the camera", async () => {
+  await page.selectOption("#slices .slice-axis", "z");
+  await page.click("#slices .slice-add");
+  await page.check("#slices .slice-drag");
+  await waitConverged(page, CONVERGE_MS);
+  const before = await canvasPixels(page);
+  const camera0 = await page.evaluate(() => window.ugvrViewer.camera);
+  const plane0 = (await slices()).planes[0];
+  const slider0 = Number(await page.locator("#slices .slice-position").first().inputValue());
+  const at = await page.evaluate(() => window.ugvrSlices.planeOnCanvas(document.getElementById("canvas"), 0));
+  assert.ok(at, "the plane is on the canvas");
+  await page.mouse.move(at.x, at.y);
+  await page.mouse.down();
+  for (let i = 1; i <= 10; ++i) await page.mouse.move(at.x, at.y - 4 * i);
+  assert.ok((await slices()).dragging, "the drag took the plane");
+  await page.mouse.up();
+  await waitConverged(page, CONVERGE_MS);
+  const plane1 = (await slices()).planes[0];
+  const slider1 = Number(await page.locator("#slices .slice-position").first().inputValue());
+  assert.ok(!cameraMoved(camera0, await page.evaluate(() => window.ugvrViewer.camera)), "the camera stayed");
+  assert.ok(Math.abs(plane1.point[2] - plane0.point[2]) > 1e-6, `the plane moved (${plane0.point} -> ${plane1.point})`);
+  assert.deepEqual(plane1.normal, plane0.normal, "along its normal");
+  assert.notEqual(slider1, slider0, "the panel's position slider followed");
+  assert.deepEqual((await lastSlices()).slices[0].point, plane1.point, "the page sent where it is");
+  const moved = await canvasPixels(page);
+  const f = changedFraction(before, moved);
+  console.log(`plane dragged on the canvas: ${(f * 100).toFixed(1)} % of pixels changed`);
+  assert.ok(f > 0.005, `dragging the plane changed the image (${f})`);
+
+  // Shift: turns it.
+  const at2 = await page.evaluate(() => window.ugvrSlices.planeOnCanvas(document.getElementById("canvas"), 0));
+  await page.mouse.move(at2.x, at2.y);
+  await page.keyboard.down("Shift");
+  await page.mouse.down();
+  for (let i = 1; i <= 10; ++i) await page.mouse.move(at2.x + 3 * i, at2.y);
+  await page.mouse.up();
+  await page.keyboard.up("Shift");
+  await waitConverged(page, CONVERGE_MS);
+  const plane2 = (await slices()).planes[0];
+  assert.ok(Math.abs(plane2.normal[2] - 1) > 1e-3, `shift-drag turned the plane (${plane2.normal})`);
+  assert.ok(!cameraMoved(camera0, await page.evaluate(() => window.ugvrViewer.camera)), "the camera stayed");
+
+  // A drag from the canvas corner misses the plane: the camera orbits as before.
+  const box = await page.locator("#canvas").boundingBox();
+  await page.mouse.move(box.x + 3, box.y + 3);
+  await page.mouse.down();
+  for (let i = 1; i <= 10; ++i) await page.mouse.move(box.x + 3 + 4 * i, box.y + 3);
+  await page.mouse.up();
+  assert.ok(cameraMoved(camera0, await page.evaluate(() => window.ugvrViewer.camera)), "a drag off the plane orbits");
+  await page.uncheck("#slices .slice-drag");
+  await page.click("#slices .slice-remove");
+  await waitConverged(page, CONVERGE_MS);
 });

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <limits>
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
@@ -11,6 +12,8 @@
 
 namespace ugvr {
 namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 [[noreturn]] void fail_key(std::string_view source, std::string_view key, std::string_view message) {
   fail_in(source, "key \"" + std::string(key) + "\": " + std::string(message));
@@ -70,7 +73,7 @@ Slice slice_of(const nlohmann::json& j, size_t i, std::string_view source) {
   if (!j.is_object() || !j.contains("point") || !j.contains("normal"))
     fail_key(source, slice_key(i, ""),
              "expected {\"point\": [x, y, z], \"normal\": [x, y, z], \"opacity\": A, \"color_map\": NAME, "
-             "\"range\": [lo, hi] | null}");
+             "\"range\": [lo, hi] | null, \"contours\": N | [v1, ..]}");
   Slice s;
   for (const auto& [key, v] : j.items()) {
     if (key == "point") {
@@ -87,8 +90,28 @@ Slice slice_of(const nlohmann::json& j, size_t i, std::string_view source) {
       const std::vector<double> r = numbers_of(v, source, slice_key(i, key));
       if (r.size() != 2) fail_key(source, slice_key(i, key), "expected [lo, hi] or null");
       s.range = std::array<double, 2>{r[0], r[1]};
+    } else if (key == "contours") {
+      // A count of evenly spaced lines, or the values themselves.
+      if (v.is_number_integer()) {
+        const int64_t n = v.get<int64_t>();
+        if (n < 0 || n > kMaxSliceContours)
+          fail_key(source, slice_key(i, key), "must be in [0, " + std::to_string(kMaxSliceContours) + "]");
+        s.contours = int(n), s.contour_values.clear();
+      } else if (v.is_array()) {
+        s.contour_values = numbers_of(v, source, slice_key(i, key)), s.contours = 0;
+      } else {
+        fail_key(source, slice_key(i, key), "expected a count N or an array of values");
+      }
+    } else if (key == "contour_color") {
+      const std::vector<double> c = numbers_of(v, source, slice_key(i, key));
+      if (c.size() != 3) fail_key(source, slice_key(i, key), "expected [r, g, b]");
+      s.contour_color = {c[0], c[1], c[2]};
+    } else if (key == "contour_width") {
+      s.contour_width = number_of(v, source, slice_key(i, key));
     } else {
-      fail_key(source, slice_key(i, key), "unknown slice key (expected point, normal, opacity, color_map, range)");
+      fail_key(source, slice_key(i, key),
+               "unknown slice key (expected point, normal, opacity, color_map, range, contours, contour_color, "
+               "contour_width)");
     }
   }
   return s;
@@ -166,7 +189,54 @@ void RenderSettings::validate(std::string_view source) const {
     if (sl.range &&
         !(std::isfinite((*sl.range)[0]) && std::isfinite((*sl.range)[1]) && (*sl.range)[0] < (*sl.range)[1]))
       fail_key(source, slice_key(i, "range"), "must be finite with lo < hi");
+    if (sl.contours < 0 || sl.contours > kMaxSliceContours)
+      fail_key(source, slice_key(i, "contours"), "must be in [0, " + std::to_string(kMaxSliceContours) + "]");
+    if (sl.contours > 0 && !sl.contour_values.empty())
+      fail_key(source, slice_key(i, "contours"), "a count or a list of values, not both");
+    if (sl.contour_values.size() > size_t(kMaxSliceContours))
+      fail_key(source, slice_key(i, "contours"), "at most " + std::to_string(kMaxSliceContours) + " values");
+    for (double v : sl.contour_values)
+      if (!std::isfinite(v)) fail_key(source, slice_key(i, "contours"), "values must be finite");
+    for (double c : sl.contour_color)
+      if (!(c >= 0 && c <= 1)) fail_key(source, slice_key(i, "contour_color"), "components must be in [0, 1]");
+    if (!(sl.contour_width > 0 && sl.contour_width <= 64))
+      fail_key(source, slice_key(i, "contour_width"), "must be in (0, 64] pixels");
   }
+}
+
+std::vector<double> slice_contour_values(const Slice& slice, double tf_lo, double tf_hi) {
+  std::vector<double> v = slice.contour_values;
+  if (slice.contours > 0) {
+    const double lo = slice.range ? (*slice.range)[0] : tf_lo, hi = slice.range ? (*slice.range)[1] : tf_hi;
+    for (int k = 1; k <= slice.contours; ++k) v.push_back(lo + (hi - lo) * double(k) / double(slice.contours + 1));
+  }
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
+double slice_contour_coverage(std::span<const double> values, double width, double value, double per_pixel) {
+  if (values.empty() || std::isnan(value)) return 0;
+  double nearest = kInfinity;
+  for (double c : values) nearest = std::min(nearest, std::abs(value - c));
+  // Pixels to the nearest line; a flat field (per_pixel 0) is on a line only where it equals the value.
+  const double d = per_pixel > 0 ? nearest / per_pixel : nearest == 0 ? 0 : kInfinity;
+  return std::clamp(0.5 * width + 0.5 - d, 0.0, 1.0);
+}
+
+std::vector<float> slice_contour_row(const Slice& slice, std::span<const double> values, double scale, double offset) {
+  std::vector<float> row((2 + values.size()) * 4, 0.0f);
+  row[0] = float(values.size()), row[1] = float(slice.contour_width);
+  for (int c = 0; c < 3; ++c) row[4 + c] = float(slice.contour_color[size_t(c)]);
+  row[7] = 1;
+  for (size_t j = 0; j < values.size(); ++j) row[(2 + j) * 4] = float(values[j] * scale + offset);
+  return row;
+}
+
+double slice_screen_derivative(Vec3d gradient, Vec3d normal, Vec3d dir, Vec3d px, Vec3d py) {
+  const double nd = dot(normal, dir);
+  if (nd == 0) return 0;
+  const Vec3d ex = px - dir * (dot(normal, px) / nd), ey = py - dir * (dot(normal, py) / nd);
+  return std::hypot(dot(gradient, ex), dot(gradient, ey));
 }
 
 nlohmann::json settings_to_json(const RenderSettings& s) {
@@ -192,6 +262,13 @@ nlohmann::json settings_to_json(const RenderSettings& s) {
                            {"opacity", sl.opacity},
                            {"color_map", sl.color_map},
                            {"range", r}});
+    // The contour keys only where they differ from the defaults: settings without lines read as they always did.
+    nlohmann::json& out = j["slices"].back();
+    const Slice defaults;
+    if (sl.contours > 0 || !sl.contour_values.empty())
+      out["contours"] = sl.contour_values.empty() ? nlohmann::json(sl.contours) : nlohmann::json(sl.contour_values);
+    if (sl.contour_color != defaults.contour_color) out["contour_color"] = sl.contour_color;
+    if (sl.contour_width != defaults.contour_width) out["contour_width"] = sl.contour_width;
   }
   j["hide_volume"] = hide_volume_name(s.hide_volume);
   j["interpolation"] = interpolation_name(s.interpolation);

@@ -54,8 +54,8 @@ const std::array<RenderSettingInfo, 16> kTable = {{
      "Opacity of the dataset's outer boundary drawn over the image (0: off)", "", SettingInterval{0, 1}, ""},
     {"slices", "--slice", "slices", "", "Cutting planes drawn with the volume, colour-mapped (docs/slices.md)",
      "up to 8, each a finite point, a finite non-zero normal, opacity in (0, 1], a built-in colour map or the "
-     "volume's, a range lo < hi or the volume's (the flag: PX,PY,PZ,NX,NY,NZ[,OPACITY], repeated; --slice-map, "
-     "--slice-range)",
+     "volume's, a range lo < hi or the volume's, contour lines (a count or up to 64 values, colour, width in "
+     "pixels) (the flag: PX,PY,PZ,NX,NY,NZ[,OPACITY], repeated; --slice-map, --slice-range, --slice-contours)",
      std::nullopt, "page: web/slices.js's own panel (planes added, dragged and turned), not one control"},
     {"hide_volume", "--hide-volume", "hide_volume", "", "Where the volume is hidden around the slices",
      "none (default), front (the side each slice's normal points to), back or all", std::nullopt,

@@ -93,12 +93,23 @@ struct ExactEngine::Impl {
 
 namespace {
 
-// A slice as the rays see it: the plane dot(n, p) = d and the colour map over the slice's range.
+// A slice as the rays see it: the plane dot(n, p) = d, the colour map over the slice's range and its contour lines.
 struct SlicePlane {
   Vec3d n;
   double d = 0;
   double opacity = 1;
-  TransferFunction colors;  // only color() is used
+  TransferFunction colors;       // only color() is used
+  std::vector<double> contours;  // slice_contour_values; empty: no lines
+  double contour_width = 0;
+  Vec3d contour_color;
+};
+
+// One pixel's footprint across the image, for the contour lines' screen-space derivative: world vectors from one
+// column (px) and one row (py) to the next, at unit distance along the view direction for a perspective camera (a
+// crossing at depth z has z times them), everywhere for a parallel one.
+struct PixelFootprint {
+  Vec3d px{}, py{}, forward{};
+  bool parallel = false;
 };
 
 // Everything one render() needs, shared read-only by the tiles.
@@ -114,6 +125,7 @@ struct Scene {
   double reentry_slack;  // distance within which a re-entry counts as continuing where the ray left
   const std::optional<Bounds>& clip_box;
   std::vector<SlicePlane> slices;
+  PixelFootprint footprint{};
 };
 
 // The interval [lo, hi] of t where o + t d satisfies dot(n, p) - c >= 0 (keep_positive) or <= 0, intersected into
@@ -215,6 +227,7 @@ class RayTracer {
   void cell_segment(uint32_t cell, double t0, double t1, double s0, double s1, const Crossing& exit);
   void piece(double ta, double tb, double sa, double sb, uint32_t cell, int k);
   void volume_piece(double ta, double tb, double sa, double sb, uint32_t cell, int k);
+  Vec3d slice_color(const SlicePlane& sl, uint32_t cell, int k, double t, double v) const;
   double value_at(uint32_t cell, int k, double t, double linear) const;
   Vec3d gradient_at(uint32_t cell, int k, double t) const;
   Vec3d triangle_normal(uint32_t cell, int k, int face, const std::array<uint8_t, 3>& corners) const;
@@ -473,6 +486,20 @@ double RayTracer::value_at(uint32_t cell, int k, double t, double linear) const 
   });
 }
 
+// The colour of slice `sl` where the ray crosses it at t in `cell`, the field there being v: its colour map, blended
+// with its contour colour by the lines' coverage. The screen derivative is the cell's gradient (exact: the
+// interpolant's own) projected onto the plane along the pixel's footprint at that depth.
+Vec3d RayTracer::slice_color(const SlicePlane& sl, uint32_t cell, int k, double t, double v) const {
+  const Vec3d base = sl.colors.color(v);
+  if (sl.contours.empty()) return base;
+  const PixelFootprint& fp = sc_.footprint;
+  const double depth = fp.parallel ? 1 : t * dot(frame_.dir, fp.forward);
+  const double per_pixel =
+      slice_screen_derivative(gradient_at(cell, k, t), sl.n, frame_.dir, fp.px * depth, fp.py * depth);
+  const double a = slice_contour_coverage(sl.contours, sl.contour_width, v, per_pixel);
+  return base * (1 - a) + sl.contour_color * a;
+}
+
 // One linear piece of the field along the ray inside `cell`: s goes from sa at ta to sb at tb. The slices the piece
 // crosses split it: the volume in front, then the slice at its depth, then the rest.
 void RayTracer::piece(double ta, double tb, double sa, double sb, uint32_t cell, int k) {
@@ -489,7 +516,7 @@ void RayTracer::piece(double ta, double tb, double sa, double sb, uint32_t cell,
     volume_piece(ta, tp, sa, sp, cell, k);
     if (done()) return;
     const double v = value_at(cell, k, tp, sp);
-    if (!std::isnan(v)) composite_surface(acc_, sl.colors.color(v), sl.opacity);
+    if (!std::isnan(v)) composite_surface(acc_, slice_color(sl, cell, k, tp, v), sl.opacity);
     if (done()) return;
     ta = tp, sa = sp;
   }
@@ -843,11 +870,15 @@ Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, cons
       colors.rescale(tf.range_min(), tf.range_max());
     // The plane with a unit normal, so that the volume's half-spaces and the crossings share one scale.
     const Vec3d n = sl.normal * (1 / length(sl.normal));
-    scene.slices.push_back({n, dot(n, sl.point), sl.opacity, std::move(colors)});
+    scene.slices.push_back({n, dot(n, sl.point), sl.opacity, std::move(colors),
+                            slice_contour_values(sl, tf.range_min(), tf.range_max()), sl.contour_width,
+                            Vec3d{sl.contour_color[0], sl.contour_color[1], sl.contour_color[2]}});
   }
 
   const int width = settings.width, height = settings.height;
   const CameraRays rays(camera, width, height);
+  scene.footprint = {rays.right() * (2 * rays.half_width() / width), rays.up() * (2 * rays.half_height() / height),
+                     rays.forward(), camera.parallel_projection};
   const BoundaryBins bins(I.mesh, camera, width, height, kTileSize);
   Image image(width, height);
   const auto& bg = settings.background;

@@ -72,15 +72,17 @@ struct ExactGpuEngine::Impl {
   int out_w = 0, out_h = 0;
   bool per_cell = false, have_values = false;
   uint64_t mesh_bytes = 0, frame_bytes = 0, values_bytes = 0, tf_bytes = 0;
-  std::optional<TransferFunction> uploaded_tf;                     // what the optical table and the TF texture hold
-  std::map<std::tuple<int, bool, bool>, ComputeProgram> programs;  // by (mode, volume lighting, slices)
+  std::optional<TransferFunction> uploaded_tf;                    // what the optical table and the TF texture hold
+  std::map<std::tuple<int, bool, int>, ComputeProgram> programs;  // by (mode, volume lighting, slices)
   std::unique_ptr<GlTimerQuery> timer;
   double bin_seconds = 0, gpu_seconds = 0;
 
   Impl(const WalkMesh& m, std::shared_ptr<const GlContext> g, ExactGpuOptions o)
       : mesh(m), gl(std::move(g)), options(o) {}
 
-  ComputeProgram& program_for(int mode, bool volume_lighting, bool slices = false) {
+  // slices: 0 none, 1 slices, 2 slices with contour lines (SLICE_CONTOURS: llvmpipe compiles their gradient code for
+  // a minute or more, which frames without lines need not wait for).
+  ComputeProgram& program_for(int mode, bool volume_lighting, int slices = 0) {
     auto it = programs.find({mode, volume_lighting, slices});
     if (it == programs.end()) {
       const bool tets_only = mesh.type_begin[1] == mesh.cell_count();
@@ -88,7 +90,8 @@ struct ExactGpuEngine::Impl {
                                            {"EXACT_DOUBLE", options.double_precision ? "1" : "0"},
                                            {"TETS_ONLY", tets_only ? "1" : "0"},
                                            {"VOLUME_LIGHTING", volume_lighting ? "1" : "0"},
-                                           {"SLICES", slices ? "1" : "0"}});
+                                           {"SLICES", slices ? "1" : "0"},
+                                           {"SLICE_CONTOURS", slices == 2 ? "1" : "0"}});
       check_contract(p);
       it = programs.emplace(std::make_tuple(mode, volume_lighting, slices), std::move(p)).first;
     }
@@ -286,7 +289,8 @@ Image ExactGpuEngine::render(const Camera& camera, const TransferFunction& tf, c
   f.u_slice_info = {int(settings.slices.size()), int(settings.hide_volume), 0, 0};
   if (slices && !I.slice_texture.id()) {
     I.slice_texture = GlTexture(GL_TEXTURE_2D);
-    glTextureStorage2D(I.slice_texture.id(), 1, GL_RGBA32F, exact_gpu::EXACT_SLICE_TEXELS, EXACT_MAX_SLICES);
+    // Rows 0..7 the colour tables, 8..15 the contour lines (shaders/slice_contours.glsl).
+    glTextureStorage2D(I.slice_texture.id(), 1, GL_RGBA32F, exact_gpu::EXACT_SLICE_TEXELS, 2 * EXACT_MAX_SLICES);
     glTextureParameteri(I.slice_texture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
     glTextureParameteri(I.slice_texture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     glTextureParameteri(I.slice_texture.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
@@ -309,13 +313,19 @@ Image ExactGpuEngine::render(const Camera& camera, const TransferFunction& tf, c
       row[size_t(t) * 4 + 2] = float(c.z), row[size_t(t) * 4 + 3] = 1.0f;
     }
     glTextureSubImage2D(I.slice_texture.id(), 0, 0, GLint(i), n_texels, 1, GL_RGBA, GL_FLOAT, row.data());
+    const std::vector<float> lines = slice_contour_row(sl, slice_contour_values(sl, lo, hi), 1, 0);
+    glTextureSubImage2D(I.slice_texture.id(), 0, 0, GLint(EXACT_MAX_SLICES + i), GLsizei(lines.size() / 4), 1, GL_RGBA,
+                        GL_FLOAT, lines.data());
   }
   I.frame_block.upload(&f, sizeof f);
 
   const int mode = settings.mode == RenderMode::Mip          ? EXACT_MODE_MIP
                    : settings.mode == RenderMode::Isosurface ? EXACT_MODE_ISO
                                                              : EXACT_MODE_EA;
-  const ComputeProgram& program = I.program_for(mode, mode == EXACT_MODE_EA && settings.volume_lighting, slices);
+  bool contours = false;
+  for (const Slice& sl : settings.slices) contours = contours || sl.contours > 0 || !sl.contour_values.empty();
+  const ComputeProgram& program =
+      I.program_for(mode, mode == EXACT_MODE_EA && settings.volume_lighting, slices ? (contours ? 2 : 1) : 0);
   if (slices) glBindTextureUnit(exact_gpu::EXACT_SLICE_TEXTURE_BINDING, I.slice_texture.id());
   glUseProgram(program.id());
   glBindBufferBase(GL_UNIFORM_BUFFER, exact_gpu::EXACT_FRAME_BLOCK_BINDING, I.frame_block.id());

@@ -332,7 +332,8 @@ lod_gpu::LodFrame LodEngine::Impl::frame_parameters(const Camera& camera, const 
 void LodEngine::Impl::upload_slice_colors(const TransferFunction& tf, const RenderSettings& settings) {
   if (!slice_texture.id()) {
     slice_texture = GlTexture(GL_TEXTURE_2D);
-    glTextureStorage2D(slice_texture.id(), 1, GL_RGBA32F, lod_gpu::SLICE_TEXELS, LOD_MAX_SLICES);
+    // Rows 0..7 the colour tables, 8..15 the contour lines (shaders/slice_contours.glsl).
+    glTextureStorage2D(slice_texture.id(), 1, GL_RGBA32F, lod_gpu::SLICE_TEXELS, 2 * LOD_MAX_SLICES);
     glTextureParameteri(slice_texture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
     glTextureParameteri(slice_texture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     glTextureParameteri(slice_texture.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
@@ -352,6 +353,12 @@ void LodEngine::Impl::upload_slice_colors(const TransferFunction& tf, const Rend
       row[size_t(k) * 4 + 2] = float(c.z), row[size_t(k) * 4 + 3] = 1.0f;
     }
     glTextureSubImage2D(slice_texture.id(), 0, 0, GLint(i), n, 1, GL_RGBA, GL_FLOAT, row.data());
+    // The contour values in the shader's units, normalised to the field's range as the bricks' values are.
+    const double f_lo = store.layout().fields[field].min, f_w = store.layout().fields[field].max - f_lo;
+    const std::vector<float> lines = slice_contour_row(sl, slice_contour_values(sl, tf.range_min(), tf.range_max()),
+                                                       f_w > 0 ? 1 / f_w : 0, f_w > 0 ? -f_lo / f_w : 0);
+    glTextureSubImage2D(slice_texture.id(), 0, 0, GLint(LOD_MAX_SLICES + i), GLsizei(lines.size() / 4), 1, GL_RGBA,
+                        GL_FLOAT, lines.data());
   }
 }
 
