@@ -23,7 +23,7 @@ struct RenderOptions {
                             gpu = "auto", step_voxels, fps, path, out_dir, uploads_per_frame, reads_per_frame,
                             error_weight, device = "auto", exact_precision = "double", time;
   std::vector<std::string> slices;  // --slice, repeatable
-  std::string slice_map, slice_range, hide_volume, interpolation, focus;
+  std::string slice_map, slice_range, hide_volume, interpolation, focus, roi, context_saturation, context_opacity;
   uint64_t gpu_memory = uint64_t(2) << 30, ram_memory = uint64_t(1) << 30;
   uint64_t gpu_cell_memory = 0;  // hybrid: GPU memory for exact cells (0: a quarter of gpu_memory)
   bool keep_range = false, no_lighting = false, volume_lighting = false;
