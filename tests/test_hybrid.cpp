@@ -452,7 +452,7 @@ TEST(Hybrid, ParseFocus) {
   const std::vector<FocusRange> f = parse_focus("pressure:-1:2.5,velocity:magnitude:0:1e3");
   ASSERT_EQ(f.size(), 2u);
   EXPECT_EQ(f[0], (FocusRange{"pressure", -1, 2.5}));
-  EXPECT_EQ(f[1], (FocusRange{"velocity:magnitude", 0, 1000}));
+  EXPECT_EQ(f[1], (FocusRange{"velocity:magnitude", 0, 1000, 1}));  // "," starts another group (OR)
   for (const char* bad : {"", "pressure", "pressure:1", "pressure:2:1", ":1:2", "p:a:2", "p:1:2,", "p:1:inf"})
     EXPECT_THROW(parse_focus(bad), Error) << bad;
 }

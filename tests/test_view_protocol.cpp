@@ -142,7 +142,7 @@ TEST(ViewProtocol, MalformedMessagesNameTheField) {
       {R"({"type":"interest","roi":"cube:0,0,0,1,1,1"})", "roi cube:0,0,0,1,1,1: expected box:... or sphere:..."},
       {R"({"type":"interest","roi":"sphere:0,0,0,-1"})", "roi sphere:0,0,0,-1: the radius must be > 0"},
       {R"({"type":"interest","roi":[0,0,0,1,1,1]})", "roi: expected a non-empty string or null"},
-      {R"({"type":"interest","context_opacity":1.5})", "context_opacity: must be in [0, 1]"},
+      {R"({"type":"interest","context_opacity":1.5})", "context_opacity: must be in"},
       {R"({"type":"interest","context_saturation":"grey"})", "context_saturation"},
       {R"({"type":"interest","brush":"p:0:1"})", "brush"},
   };
