@@ -12,6 +12,7 @@
 #include <boost/beast/websocket.hpp>
 // clang-format on
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <functional>
@@ -905,6 +906,7 @@ TEST(ViewServer, AStoreWithCellsRefinesToExactCellsAtRest) {
     o.store = shared().cells_store;
     o.fps = 30;
     o.hybrid = hybrid;
+    o.exact_batch = 16;  // several batches, each frame sent
     try {
       server = std::make_unique<ViewServer>(o);
     } catch (const Error& e) {
@@ -921,6 +923,11 @@ TEST(ViewServer, AStoreWithCellsRefinesToExactCellsAtRest) {
       const Frame still = read_until_converged(c, 1);
       EXPECT_EQ((*still.status)["engine"], "lod");
       EXPECT_FALSE(still.status->contains("exact")) << still.status->dump();
+      c.send(R"({"type":"engine","engine":"hybrid"})");  // request 2: the tab may still pick it
+      const Frame picked = read_until_converged(c, 2);
+      EXPECT_EQ((*picked.status)["engine"], "hybrid");
+      ASSERT_TRUE(picked.status->contains("exact")) << picked.status->dump();
+      EXPECT_GT((*picked.status)["exact"]["nodes"].get<uint64_t>(), 0u);
       continue;
     }
     // A move, then rest: frames until converged, the exact count never falling, none exact while moving.
@@ -947,7 +954,13 @@ TEST(ViewServer, AStoreWithCellsRefinesToExactCellsAtRest) {
     }
     ASSERT_TRUE(last) << "no converged frame";
     ASSERT_FALSE(exact.empty());
+    std::printf("exact nodes frame by frame at rest:");
+    for (uint64_t n : exact) std::printf(" %llu", (unsigned long long)n);
+    std::printf(" (of %llu candidates)\n", (unsigned long long)(*last)["exact"]["candidates"].get<uint64_t>());
     EXPECT_TRUE(std::is_sorted(exact.begin(), exact.end()));
+    // Batch by batch: the intermediate images come too (at most 16 more nodes a frame).
+    EXPECT_GE(exact.size(), 2u);
+    for (size_t i = 1; i < exact.size(); ++i) EXPECT_LE(exact[i], exact[i - 1] + 16);
     const json& e = (*last)["exact"];
     EXPECT_GT(e["nodes"].get<uint64_t>(), 0u) << last->dump();
     EXPECT_TRUE(e["nodes"] == e["candidates"] || e["budget_full"] == true) << last->dump();

@@ -186,8 +186,9 @@ SceneInfo EngineHost::lod_scene() const {
   sc.fps = options_.fps;
   sc.width = options_.width, sc.height = options_.height;
   sc.renderer = renderer_;
-  // A store with cells is drawn hybrid by default (docs/hybrid.md): voxels while moving, exact cells at rest.
-  sc.engine = hybrid_available() ? kHybridEngine : kLodEngine;
+  // A store with cells is drawn hybrid by default (docs/hybrid.md): voxels while moving, exact cells at rest; `ugvr
+  // view --engine lod` makes lod the default (a tab may still pick hybrid).
+  sc.engine = hybrid_available() && options_.hybrid ? kHybridEngine : kLodEngine;
   sc.engines = engines();
   // A store with time steps (docs/time-series.md, "Stores with time"): the time panel plays its steps.
   const BrickStoreReader& store = lod_->engine.store();
@@ -206,7 +207,7 @@ std::vector<EngineChoice> EngineHost::engines() const {
   return out;
 }
 
-bool EngineHost::hybrid_available() const { return lod_ && options_.hybrid && lod_->engine.store().has_cells(); }
+bool EngineHost::hybrid_available() const { return lod_ && lod_->engine.store().has_cells(); }
 
 std::optional<EngineHost::BuildReport> EngineHost::build_report() const {
   if (!build_) return std::nullopt;
@@ -281,6 +282,7 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
     ro.interactive = true;
     ro.time_critical.ram_budget_bytes = job.ram_budget ? job.ram_budget : options_.ram_per_session;
     ro.time_critical.loader_threads = 2;
+    ro.time_critical.exact_batch = options_.exact_batch;
     ro.gl_context = gl_;  // the exact engine runs on the GPU where there is a hardware one (device auto)
     // The old renderer goes first: a level-of-detail session joins its loader threads and drops its RAM cache.
     tab.renderer.reset();

@@ -83,6 +83,7 @@ struct ViewServerOptions {
   // (docs/hybrid.md: voxels while moving, exact cells batch by batch at rest); false: by the level-of-detail engine
   // (`ugvr view --engine lod`). Either way a tab may pick the other ("engine" message).
   bool hybrid = true;
+  uint64_t exact_batch = 64;  // hybrid: nodes turning exact per resting frame (TimeCriticalOptions::exact_batch)
   uint64_t ram_per_session = uint64_t(1) << 30;  // each session's RAM brick cache (less when tabs_memory is short)
   // Every tab's allocations together (tab_memory.h): outgoing queue, canvas, RAM brick cache. 0: the viewer's memory
   // budget (memory_budget.h: $UGVR_VIEW_MEMORY_BUDGET, else half of physical memory).
