@@ -5,11 +5,14 @@
 # (view_socket_check.py: the scene's GL renderer, first frame, input-to-frame latency, a full-quality frame).
 # Usage: bench/run_gpu.sh [OUT_DIR=bench/results/gpu] [SCRATCH=/tmp/ugvr-gpu]
 #   UGVR (default build/ugvr), UGVR_DATA (default ../shared/data), PYTHON (default python3 on the PATH),
-#   SIZE (default 1024), QUICK=1: tiny sizes and frame counts, to check the script itself on llvmpipe,
-#   SECTIONS (default "lod exact exact-gpu time-critical view"): which parts to run.
+#   SIZE (default 1024), SKIP_BIG=1: no 32.9M-tet exact run, QUICK=1: tiny sizes and frame counts, to check the script itself on llvmpipe,
+#   SECTIONS (default "lod exact exact-gpu time-critical view hybrid slices tricubic"): which parts to run, in the
+#   order given, SEAMS (default build/bench/bench_lod_seams, for slices).
 # exact-gpu: the exact engine on the GPU (exact_gpu_engine.h) against the CPU engine on blunt fin and the oxygen post,
 # the oxygen post refined two levels (`ugvr refine --levels 2`, 32.9M tets) at SIZE, and the demo mesh at 1920x1080
 # with the LOD engine's frame at 1920x1080 beside it; double and float walk arithmetic; device bytes per cell.
+# hybrid: run_hybrid.sh (exact cells in the leaves, voxels elsewhere, against the exact engine) at SIZE; slices:
+# run_slices.sh (cutting planes against the exact engine, frame time with and without); tricubic: run_tricubic.sh.
 # Writes OUT_DIR/gpu.jsonl (a `session` line naming the GPU, then every result line of the scripts it runs), the
 # images, and OUT_DIR/log.txt. It runs the same on llvmpipe, where it measures llvmpipe.
 set -euo pipefail
@@ -50,10 +53,9 @@ dataset() {
   esac
 }
 
-sections=" ${SECTIONS:-lod exact exact-gpu time-critical view} "
-want() { [[ $sections == *" $1 "* ]]; }
+sections=${SECTIONS:-lod exact exact-gpu time-critical view hybrid slices tricubic}
 
-if want lod; then
+section_lod() {
 echo "== LOD engine vs exact (run_lod_render.sh)"
 for e in $errors; do
   for s in $lod_sizes; do
@@ -62,9 +64,9 @@ for e in $errors; do
     collect bench/results/lod_render.jsonl "$n"
   done
 done
-fi
+}
 
-if want exact; then
+section_exact() {
 echo "== exact engine, all cores ($(nproc))"
 for name in blunt-fin lox-post; do
   dataset "$name"
@@ -74,7 +76,7 @@ for name in blunt-fin lox-post; do
   "$PYTHON" -c "import json,sys; s=json.load(open('$scratch/exact.json')); print(json.dumps({'bench':'exact_render','dataset':'$name','size':$size,'threads':s.get('threads'),'median_frame_seconds':s['median_frame_seconds'],'median_frame_cpu_seconds':s.get('median_frame_cpu_seconds')}, separators=(',',':')))" |
     tee -a "$out/gpu.jsonl"
 done
-fi
+}
 
 # exact_line TAG STATS_JSON [EXTRA_JSON]: one result line from a --stats file.
 exact_line() {
@@ -82,7 +84,7 @@ exact_line() {
     "$1" "$2" "${3:-{\}}" | tee -a "$out/gpu.jsonl"
 }
 
-if want exact-gpu; then
+section_exact_gpu() {
 echo "== exact engine on the GPU vs the CPU"
 for name in blunt-fin lox-post; do
   dataset "$name"
@@ -98,7 +100,7 @@ for name in blunt-fin lox-post; do
     exact_line "$name-$run" "$scratch/exact-$run.json" "{\"size\":$size,\"vs_cpu\":$psnr}"
   done
 done
-if [[ -z $quick ]]; then
+if [[ -z $quick && -z ${SKIP_BIG:-} ]]; then
   big="$scratch/lox-post-refined2.vtu"
   [ -s "$big" ] || /usr/bin/time -f "refine: %e s, %M KiB" "$UGVR" --quiet refine "$UGVR_DATA/lox-post/postxyz.bin" \
     "$UGVR_DATA/lox-post/postq.bin" --levels 2 -o "$big"
@@ -123,9 +125,9 @@ for run in exact-cpu exact-gpu lod; do
     --stats "$scratch/demo-$run.json" || continue
   exact_line "demo-$run" "$scratch/demo-$run.json" "{\"size\":\"$dsize\"}"
 done
-fi
+}
 
-if want time-critical; then
+section_time_critical() {
 echo "== time-critical (run_time_critical.sh)"
 n=$(lines bench/results/time_critical.jsonl)
 if [[ -n $quick ]]; then
@@ -135,12 +137,49 @@ else
     "$out/time-critical" "$scratch"
 fi
 collect bench/results/time_critical.jsonl "$n"
-fi
+}
 
-if want view; then
+section_view() {
 echo "== viewer over its socket (view_socket_check.py)"
+dataset lox-post  # the lod section's store, or the same one built here
+[ -f "$scratch/lox-post-e0.01.ugvr" ] || "$UGVR" --quiet build "${inputs[@]}" --fields "$field" --error 0.01 \
+  -o "$scratch/lox-post-e0.01.ugvr"
 "$PYTHON" bench/view_socket_check.py "$UGVR" "$scratch/lox-post-e0.01.ugvr" "$out/view" --size "${size}x768" \
   --moves "$moves" --fps 30 | tee -a "$out/gpu.jsonl"
-fi
+}
 
+section_hybrid() {
+echo "== hybrid vs voxels vs exact (run_hybrid.sh)"
+n=$(lines bench/results/hybrid.jsonl)
+SIZE=$size FRAMES=$((frames / 2 + 2)) bash bench/run_hybrid.sh gpu "$out/hybrid" "$scratch/hybrid"
+collect bench/results/hybrid.jsonl "$n"
+}
+
+section_slices() {
+echo "== cutting planes (run_slices.sh)"
+n=$(lines bench/results/slices.jsonl)
+SIZE=$size FRAMES=$((frames / 2 + 2)) bash bench/run_slices.sh "$scratch/slices"
+cp "$scratch"/slices/*-volume-lod.png "$out/" 2>/dev/null || true
+collect bench/results/slices.jsonl "$n"
+}
+
+section_tricubic() {
+echo "== tricubic isosurfaces (run_tricubic.sh)"
+n=$(lines bench/results/tricubic.jsonl)
+SIZE=$size FRAMES=$((frames / 2 + 2)) bash bench/run_tricubic.sh "$scratch/tricubic"
+collect bench/results/tricubic.jsonl "$n"
+}
+
+# Each section runs in order; one that fails is reported and the next still runs (a device lease is short).
+for s in $sections; do
+  fn=section_${s//-/_}
+  declare -F "$fn" >/dev/null || { echo "run_gpu: unknown section $s" >&2; exit 2; }
+  start=$SECONDS
+  set +e
+  (set -e; "$fn")  # a subshell, so that -e still stops the section at its first failure
+  rc=$?
+  set -e
+  [ $rc = 0 ] || echo "run_gpu: section $s failed (exit $rc)"
+  echo "{\"bench\":\"section\",\"section\":\"$s\",\"exit\":$rc,\"seconds\":$((SECONDS - start))}" | tee -a "$out/gpu.jsonl"
+done
 echo "== done: $out/gpu.jsonl"

@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Playback of a time series in `ugvr view` (issue 18): the viewer on a generated 24-step series (the demo wing's
-# vortex street, `ugvr generate --time-steps 24`) and on mug.e (21 steps), driven by bench/view_playback.mjs with the
+# vortex street, `ugvr generate --time-steps 24`), the same series as one store with time (`store`: `ugvr build --time
+# all`, the LOD engine plays it) and on mug.e (21 steps), driven by bench/view_playback.mjs with the
 # step changing every frame at RATE steps a second; one JSON line per dataset to bench/results/view_playback.jsonl.
 # The must-show: gap (frame-to-frame) p95 <= 1.5 x 1/RATE.
 # Usage: bench/run_view_playback.sh [SCRATCH=/tmp/ugvr-playback]
 #   UGVR (build/ugvr), UGVR_DATA (../shared/data), CELLS (generated series, 200000), SIZE (512), RATE (10),
-#   RUN_SECONDS (30), DATASETS ("generated mug"). Needs node >= 20.
+#   RUN_SECONDS (30), DATASETS ("generated mug"; also "store"), LABEL (a tag in the result line). Needs node >= 20.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scratch=${1:-/tmp/ugvr-playback}
@@ -21,6 +22,10 @@ for name in $datasets; do
     generated)
       input=$scratch/wake.pvd
       [ -f "$input" ] || "$ugvr" --quiet generate -o "$input" --cells "$cells" --time-steps 24 ;;
+    store)
+      [ -f "$scratch/wake.pvd" ] || "$ugvr" --quiet generate -o "$scratch/wake.pvd" --cells "$cells" --time-steps 24
+      input=$scratch/wake.ugvr
+      [ -f "$input" ] || "$ugvr" --quiet build "$scratch/wake.pvd" --time all -o "$input" ;;
     mug) input=$data/exodus-misc/mug.e ;;
     *) echo "unknown dataset $name" >&2; exit 1 ;;
   esac
@@ -37,6 +42,6 @@ for name in $datasets; do
   node --experimental-websocket --no-warnings bench/view_playback.mjs "$ws" "$seconds" "$size" "$rate" >"$scratch/out.json"
   kill $pid
   wait $pid 2>/dev/null || true
-  /usr/bin/python3 -c "import json,sys; j=json.loads(open('$scratch/out.json').read()); j.update(bench='view_playback', dataset='$name', renderer='$renderer', commit='$commit', date='$(date -u +%FT%TZ)', load=$(cut -d' ' -f1 /proc/loadavg)); print(json.dumps(j, separators=(',', ':')))" |
+  /usr/bin/python3 -c "import json,sys; j=json.loads(open('$scratch/out.json').read()); j.update(bench='view_playback', dataset='$name', label='${LABEL:-}', renderer='$renderer', commit='$commit', date='$(date -u +%FT%TZ)', load=$(cut -d' ' -f1 /proc/loadavg)); print(json.dumps(j, separators=(',', ':')))" |
     tee -a "$jsonl"
 done

@@ -3,14 +3,15 @@
 // it sends {"type":"time","step":i+1,"playing":true} as soon as the frame of step i has arrived and 1/RATE s have
 // passed since the last step, looping over the steps. Measured: the time between frames that show a new step (what a
 // user sees as the playback's frame time; the server may send refinement frames of a step in between, counted
-// apart) and the server's frame time of those frames (status.frame_seconds). Prints one JSON line (ms).
+// apart), the server's frame time of those frames (status.frame_seconds) and, for a brick store, their cut (nodes,
+// texel error in pixels). Prints one JSON line (ms).
 // Usage: node --experimental-websocket bench/view_playback.mjs WS_URL [SECONDS=30] [SIZE=512] [RATE=10]
 const [url, secondsArg = "30", sizeArg = "512", rateArg = "10"] = process.argv.slice(2);
 const SECONDS = Number(secondsArg), SIZE = Number(sizeArg), RATE = Number(rateArg);
 const ws = new WebSocket(url);
 ws.binaryType = "arraybuffer";
 let count = 0, status = null, step = 0, started = false, t0 = 0, lastStep = 0, lastNewStep = 0;
-const frameMs = [], gapMs = [];
+const frameMs = [], gapMs = [], cutNodes = [], texelErrors = [];
 let shownBefore = -1, refinements = 0;
 
 const pct = (xs, q) => {
@@ -52,6 +53,7 @@ ws.onmessage = (ev) => {
     refinements += 1;  // another frame of the step already shown
   } else {
     frameMs.push(1000 * status.frame_seconds);
+    if (status.cut_nodes) cutNodes.push(status.cut_nodes), texelErrors.push(status.texel_error);
     gapMs.push(now - lastNewStep);
     lastNewStep = now;
     shownBefore = status.time_step;
@@ -65,6 +67,8 @@ ws.onmessage = (ev) => {
       gap_ms_median: pct(gapMs, 0.5), gap_ms_p95: pct(gapMs, 0.95),
       p95_over_target: Number((pct(gapMs, 0.95) / target).toFixed(2)),
       steps_per_second: Number((frameMs.length / ((now - t0) / 1000)).toFixed(2)),
+      // A brick store's step frames: how fine the cut they drew was (the exact engine reports none).
+      cut_nodes_median: pct(cutNodes, 0.5), texel_error_median: pct(texelErrors, 0.5),
     }));
     ws.close();
     process.exit(0);

@@ -241,6 +241,32 @@ for name, (kind, text) in files.items():
     open(os.path.join(out, name), "wb").write(bytes([kind]) + text.encode())
 PY
 
+# Time-series manifests (fuzz_time_series.cpp: first byte 0 .pvd, 1 .series, 2 a step selection after a count byte),
+# naming the empty a.vtu, b.vtu, c.vtk the target writes beside them.
+/usr/bin/python3 - "$corpus/fuzz_time_series/seeds" <<'PY'
+import os, sys
+d = sys.argv[1]
+os.makedirs(d, exist_ok=True)
+seeds = {
+    "pvd": b"\0" + b"""<?xml version="1.0"?>
+<VTKFile type="Collection" version="0.1">
+  <Collection>
+    <DataSet timestep="0" part="0" file="a.vtu"/>
+    <DataSet timestep="0.5" part="0" file="b.vtu"/>
+    <DataSet timestep="0.5" part="1" file="c.vtk"/>
+  </Collection>
+</VTKFile>
+""",
+    "pvd-bad": b"\0<VTKFile type=\"Collection\"><Collection><DataSet timestep=\"2\" file=\"a.vtu\"/><DataSet timestep=\"1\" file=\"b.vtu\"/></Collection></VTKFile>",
+    "series": b"\1" + b'{"file-series-version": "1.0", "files": [{"name": "a.vtu", "time": 0}, {"name": "b.vtu", "time": 1.5}]}',
+    "series-missing": b"\1" + b'{"files": [{"name": "nope.vtu", "time": 0}]}',
+    "steps-range": b"\2\x15" + b"2:18:4",
+    "steps-all": b"\2\x03" + b"all",
+}
+for name, data in seeds.items():
+    open(os.path.join(d, name), "wb").write(data)
+PY
+
 # Brick stores: small ones built by ugvr itself (quantised and float, one and two fields, one keeping its leaves'
 # cells, and one of three time steps: format version 6's steps section).
 if [ -n "${UGVR:-}" ] && [ -x "${UGVR:-}" ]; then

@@ -389,6 +389,74 @@ uint find_cell(uvec2 id) {
   return 0xFFFFFFFFu;
 }
 
+// Entry triangle i's entering crossing, if it comes after (prev_t, prev_tri) in (t, triangle) order, not before
+// min_t, and before the best so far (best, best_t, best_lambda): the exact engine's watertight edge functions.
+void test_entry(uint i, real min_t, real prev_t, uint prev_tri, inout uint best, inout real best_t,
+                inout real3 best_lambda) {
+  uint b0 = cell_ints[g_cn[3].w + 2u * i], b1 = cell_ints[g_cn[3].w + 2u * i + 1u];
+  uint c = b0 >> 3;
+  int kc = type_index(c);
+  ivec4 fv = FACE_V[kc * 6 + int(b0 & 7u)];
+  ivec3 cr = ivec3(int(b1 & 3u), int((b1 >> 2) & 3u), int((b1 >> 4) & 3u));
+  real3 a = project(point_at(vertex_id(c, kc, fv[cr.x]))), b = project(point_at(vertex_id(c, kc, fv[cr.y])));
+  real3 d = project(point_at(vertex_id(c, kc, fv[cr.z])));
+  real e_ab = edge_side(a, b), e_bc = edge_side(b, d), e_ca = edge_side(d, a);
+  precise real sum = e_ab + e_bc + e_ca;
+  if (!(e_ab <= 0.0 && e_bc <= 0.0 && e_ca <= 0.0 && sum < 0.0)) return;
+  precise real3 lambda = real3(e_bc / sum, e_ca / sum, e_ab / sum);
+  precise real t = lambda.x * a.z + lambda.y * b.z + lambda.z * d.z;
+  if (t < min_t || t < prev_t || (t == prev_t && i <= prev_tri && prev_tri != 0xFFFFFFFFu)) return;
+  if (t < best_t || (t == best_t && i < best)) best = i, best_t = t, best_lambda = lambda;
+}
+
+// The first entering crossing of the node's entry triangles after (prev_t, prev_tri) in (t, triangle) order, not
+// before min_t, or best = 0xFFFFFFFF; only crossings before g_t_hi matter to the caller. The node's entry grid
+// (cell_cache.h) is walked along the ray from where a crossing could first be (3D DDA), testing the triangles listed
+// in each grid cell, until a grid cell ends after the best crossing found: every triangle that could cross the ray
+// earlier is listed in a grid cell already visited (its box, grown by ENTRY_GRID_MARGIN, meets the ray there), so the
+// result is the linear scan's, bit for bit. A triangle listed in several visited grid cells is tested again, with the
+// same result.
+const real ENTRY_GRID_MARGIN = 1e-5;  // half of cell_cache.h kEntryGridMargin
+void entry_search(real min_t, real prev_t, uint prev_tri, out uint best, out real best_t, out real3 best_lambda) {
+  best = 0xFFFFFFFFu, best_t = INF, best_lambda = real3(0.0);
+  uint offsets = g_cn[5].x, fb = g_cn[5].y;
+  uvec3 n = uvec3(g_cn[5].z & 1023u, (g_cn[5].z >> 10) & 1023u, g_cn[5].z >> 20);
+  uint list = offsets + n.x * n.y * n.z + 1u;
+  vec3 lo = vec3(cell_floats[fb], cell_floats[fb + 1u], cell_floats[fb + 2u]);
+  vec3 h = vec3(cell_floats[fb + 3u], cell_floats[fb + 4u], cell_floats[fb + 5u]);
+  // The ray's stretch through the grid's box, from the first t a crossing may have to just past g_t_hi.
+  real ta = max(min_t, prev_t) - ENTRY_GRID_MARGIN, tb = g_t_hi + ENTRY_GRID_MARGIN;
+  for (int a = 0; a < 3; ++a) {
+    real o = g_origin[a], d = g_dir[a], l = lo[a], u = lo[a] + float(n[a]) * h[a];
+    if (d == 0.0) {
+      if (o < l || o > u) return;
+      continue;
+    }
+    real s0 = (l - o) / d, s1 = (u - o) / d;
+    ta = max(ta, min(s0, s1)), tb = min(tb, max(s0, s1));
+  }
+  if (!(ta <= tb)) return;
+  ivec3 c = clamp(ivec3(floor((g_origin + g_dir * ta - lo) / h)), ivec3(0), ivec3(n) - 1);
+  ivec3 stp = ivec3(sign(g_dir));
+  for (uint guard = 0u; guard < n.x + n.y + n.z + 3u; ++guard) {
+    uint cell = uint(c.x) + n.x * (uint(c.y) + n.y * uint(c.z));
+    uint e = cell_ints[offsets + cell + 1u];
+    for (uint j = cell_ints[offsets + cell]; j < e; ++j) {
+      uint i = list == offsets + 2u ? j : (cell_ints[list + (j >> 1)] >> ((j & 1u) << 4)) & 0xFFFFu;
+      test_entry(i, min_t, prev_t, prev_tri, best, best_t, best_lambda);
+    }
+    // Where the ray leaves this grid cell, per axis (recomputed from the cell, not accumulated).
+    vec3 tn;
+    for (int a = 0; a < 3; ++a)
+      tn[a] = stp[a] == 0 ? INF : (lo[a] + float(c[a] + max(stp[a], 0)) * h[a] - g_origin[a]) / g_dir[a];
+    real t_out = min(min(tn.x, tn.y), tn.z);
+    if (best_t < t_out - ENTRY_GRID_MARGIN || t_out > tb) return;
+    int a = tn.x <= tn.y && tn.x <= tn.z ? 0 : tn.y <= tn.z ? 1 : 2;
+    c[a] += stp[a];
+    if (c[a] < 0 || c[a] >= int(n[a])) return;
+  }
+}
+
 // Walks cache entry `entry` over the ray's stretch [t0, t1] (LOD t), compositing into g_acc.
 void walk_node(uint entry, float t0, float t1) {
   for (int i = 0; i < CELL_NODE_UVEC4S; ++i) g_cn[i] = cell_node[entry * uint(CELL_NODE_UVEC4S) + uint(i)];
@@ -418,26 +486,10 @@ void walk_node(uint entry, float t0, float t1) {
       entered = true;
     } else {
       // The first entering crossing after (prev_t, prev_tri) in (t, triangle) order, not before the last exit.
-      uint best = 0xFFFFFFFFu;
-      real best_t = INF;
-      real3 best_lambda = real3(0.0);
-      real min_t = entered ? last_exit - slack : -INF;
-      for (uint i = 0u; i < g_cn[4].x; ++i) {
-        uint b0 = cell_ints[g_cn[3].w + 2u * i], b1 = cell_ints[g_cn[3].w + 2u * i + 1u];
-        uint c = b0 >> 3;
-        int kc = type_index(c);
-        ivec4 fv = FACE_V[kc * 6 + int(b0 & 7u)];
-        ivec3 cr = ivec3(int(b1 & 3u), int((b1 >> 2) & 3u), int((b1 >> 4) & 3u));
-        real3 a = project(point_at(vertex_id(c, kc, fv[cr.x]))), b = project(point_at(vertex_id(c, kc, fv[cr.y])));
-        real3 d = project(point_at(vertex_id(c, kc, fv[cr.z])));
-        real e_ab = edge_side(a, b), e_bc = edge_side(b, d), e_ca = edge_side(d, a);
-        precise real sum = e_ab + e_bc + e_ca;
-        if (!(e_ab <= 0.0 && e_bc <= 0.0 && e_ca <= 0.0 && sum < 0.0)) continue;
-        precise real3 lambda = real3(e_bc / sum, e_ca / sum, e_ab / sum);
-        precise real t = lambda.x * a.z + lambda.y * b.z + lambda.z * d.z;
-        if (t < min_t || t < prev_t || (t == prev_t && i <= prev_tri && prev_tri != 0xFFFFFFFFu)) continue;
-        if (t < best_t || (t == best_t && i < best)) best = i, best_t = t, best_lambda = lambda;
-      }
+      uint best;
+      real best_t;
+      real3 best_lambda;
+      entry_search(entered ? last_exit - slack : -INF, prev_t, prev_tri, best, best_t, best_lambda);
       if (best == 0xFFFFFFFFu || best_t >= g_t_hi) return;
       prev_t = best_t, prev_tri = best;
       entered = true;

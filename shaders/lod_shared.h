@@ -79,7 +79,7 @@ const int SLICE_TEXELS = 1024;
 const int CELL_NODE_BUFFER_BINDING = 12;   // uvec4 × CELL_NODE_UVEC4S per resident node: cell_cache.h CellNodeRecord
 const int CELL_INT_BUFFER_BINDING = 13;    // uint: connectivity, neighbours, quad splits, entry triangles
 const int CELL_FLOAT_BUFFER_BINDING = 14;  // float: points (normalised coordinates), values (the field's own)
-const int CELL_NODE_UVEC4S = 5;
+const int CELL_NODE_UVEC4S = 6;
 const int CELL_OPTICAL_BUFFER_BINDING = 15;  // the exact engine's optical table (shaders/optical.glsl) for the cells
 // A node state with this bit set (and below NODE_DESCEND) is a cut node drawn by its cells; the bits below are its
 // entry in the cell cache.

@@ -9,12 +9,15 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <span>
 
 #include "gl_test_support.h"
 #include "test_data.h"
@@ -111,14 +114,128 @@ TEST(Hybrid, PreparedNodeCellsAreClosed) {
     }
     // The field's values, within its range.
     const BrickStoreField& fd = store.layout().fields[0];
-    EXPECT_EQ(p.floats.size(), 3 * p.points + p.points);  // pressure is a vertex field
-    for (size_t i = 3 * p.points; i < p.floats.size(); ++i) {
+    EXPECT_EQ(p.floats.size(), 3 * p.points + p.points + 6);  // pressure is a vertex field; the entry grid's box
+    EXPECT_EQ(p.grid_float_begin, 4 * p.points);
+    for (size_t i = 3 * p.points; i < 4 * p.points; ++i) {
       EXPECT_GE(p.floats[i], float(fd.min) - 1e-6f);
       EXPECT_LE(p.floats[i], float(fd.max) + 1e-6f);
     }
     ++nodes;
   }
   EXPECT_GT(nodes, 4u);
+}
+
+// An entry triangle's positions as the shader reads them (normalised, float).
+std::array<Vec3d, 3> entry_triangle(const PreparedNodeCells& p, uint32_t i) {
+  const uint32_t b0 = p.ints[p.entry_begin + 2 * i], b1 = p.ints[p.entry_begin + 2 * i + 1];
+  const uint32_t c = b0 >> 3;
+  int k = 3;
+  while (k > 0 && c < p.type_begin[size_t(k)]) --k;
+  const CellType type = kAllCellTypes[size_t(k)];
+  const CellFace face = cell_info(type).faces[b0 & 7];
+  const uint32_t* vid =
+      p.ints.data() + p.conn_begin[size_t(k)] + (c - p.type_begin[size_t(k)]) * cell_vertex_count(type);
+  std::array<Vec3d, 3> out;
+  for (int j = 0; j < 3; ++j) {
+    const uint32_t v = vid[face.v[(b1 >> (2 * j)) & 3]];
+    out[size_t(j)] = {p.floats[3 * v], p.floats[3 * v + 1], p.floats[3 * v + 2]};
+  }
+  return out;
+}
+
+// The entry grid (cell_cache.h): every point of every entry triangle lies in a grid cell that lists the triangle (so
+// the shader's walk along the ray meets the triangle where the ray crosses it), lists are ascending, and the grid
+// prunes: a grid cell lists a few triangles, not all. Without the grid (UGVR_HYBRID_ENTRY_GRID=0) one cell lists all.
+TEST(Hybrid, EntryGridListsEachTriangleWhereItLies) {
+  const Fixture& f = fixture();
+  const BrickStoreReader store(f.store);
+  uint64_t nodes = 0, listed = 0, triangles = 0;
+  uint32_t seed = 12345;
+  const auto rnd = [&] {
+    seed = seed * 1664525u + 1013904223u;
+    return double(seed >> 8) / double(1u << 24);
+  };
+  for (uint64_t n = 0; n < store.node_count(); ++n) {
+    if (store.cell_block(n).offset == 0) continue;
+    const PreparedNodeCells p = prepare_node_cells(store, n, 0);
+    const std::array<uint32_t, 3> size = p.grid_size;
+    const uint64_t grid_cells = uint64_t(size[0]) * size[1] * size[2];
+    EXPECT_LE(grid_cells, uint64_t(p.entry_count) + 8);
+    if (p.entry_count > 64) {
+      EXPECT_GT(grid_cells, 8u);  // a grid, not one cell
+    }
+    const Vec3d lo{p.floats[p.grid_float_begin], p.floats[p.grid_float_begin + 1], p.floats[p.grid_float_begin + 2]};
+    const Vec3d step{p.floats[p.grid_float_begin + 3], p.floats[p.grid_float_begin + 4],
+                     p.floats[p.grid_float_begin + 5]};
+    for (uint32_t z = 0; z < size[2]; ++z)
+      for (uint32_t y = 0; y < size[1]; ++y)
+        for (uint32_t x = 0; x < size[0]; ++x) {
+          const std::vector<uint32_t> l = p.grid_cell(x, y, z);
+          EXPECT_TRUE(std::is_sorted(l.begin(), l.end()));
+          for (uint32_t i : l) EXPECT_LT(i, p.entry_count);
+          listed += l.size();
+        }
+    for (uint32_t i = 0; i < p.entry_count; ++i) {
+      const std::array<Vec3d, 3> t = entry_triangle(p, i);
+      // The corners and random points inside: the grid cell they fall in (as the shader computes it) lists i.
+      for (int s = 0; s < 12; ++s) {
+        double a = s < 3 ? double(s == 0) : rnd(), b = s < 3 ? double(s == 1) : rnd();
+        if (s >= 3 && a + b > 1) a = 1 - a, b = 1 - b;
+        const Vec3d q = t[0] * a + t[1] * b + t[2] * (1 - a - b);
+        std::array<uint32_t, 3> c{};
+        for (size_t d = 0; d < 3; ++d) {
+          const double x = (q[int(d)] - lo[int(d)]) / step[int(d)];
+          ASSERT_GE(x, 0.0) << "node " << n << " triangle " << i << " outside the grid";
+          ASSERT_LE(x, double(size[d]) + 1e-6) << "node " << n << " triangle " << i << " outside the grid";
+          c[d] = std::min(uint32_t(x), size[d] - 1);
+        }
+        const std::vector<uint32_t> l = p.grid_cell(c[0], c[1], c[2]);
+        EXPECT_TRUE(std::binary_search(l.begin(), l.end(), i)) << "node " << n << " triangle " << i;
+      }
+    }
+    triangles += p.entry_count;
+    const PreparedNodeCells one = prepare_node_cells(store, n, 0, false);
+    ASSERT_EQ(one.grid_size, (std::array<uint32_t, 3>{1, 1, 1}));
+    const std::vector<uint32_t> all = one.grid_cell(0, 0, 0);
+    ASSERT_EQ(all.size(), one.entry_count);
+    for (uint32_t i = 0; i < one.entry_count; ++i) EXPECT_EQ(all[i], i);
+    ++nodes;
+  }
+  ASSERT_GT(nodes, 4u);
+  // Pruning: a triangle is listed in a few grid cells, so the lists together are a small multiple of the triangles.
+  std::printf("%llu nodes, %llu entry triangles, %.2f listed per triangle\n", (unsigned long long)nodes,
+              (unsigned long long)triangles, double(listed) / double(triangles));
+  EXPECT_LT(double(listed), 8.0 * double(triangles));
+}
+
+// The entry grid finds the linear scan's crossings: the converged hybrid image with it is the image without it
+// (UGVR_HYBRID_ENTRY_GRID=0: one grid cell per node, every entry triangle tested), bit for bit, from views where rays
+// enter, leave and re-enter the nodes' cells (the axes, along node faces, and an oblique one).
+TEST(Hybrid, EntryGridDrawsTheLinearScansImage) {
+  REQUIRE_GL();
+  const Fixture& f = fixture();
+  const TransferFunction tf = test_tf(f);
+  const RenderSettings rs = test_settings();
+  const BrickStoreReader probe(f.store);
+  const CutSpec leaves{CutSpec::Kind::Leaves, 0};
+  LodOptions ho;
+  ho.hybrid = true;
+  LodEngine grid(f.store, *f.gl, ho);
+  grid.set_field("pressure");
+  ::setenv("UGVR_HYBRID_ENTRY_GRID", "0", 1);
+  LodEngine scan(f.store, *f.gl, ho);
+  scan.set_field("pressure");
+  for (const char* view : {"iso", "+x", "-y", "+z"}) {
+    const Camera cam = camera_preset(view, probe.layout().data);
+    LodRenderStats sg, ss;
+    const Image a = grid.render(cam, tf, rs, leaves, &sg);
+    const Image b = scan.render(cam, tf, rs, leaves, &ss);
+    ASSERT_GT(sg.exact_nodes, 4u) << view;
+    EXPECT_EQ(sg.exact_nodes, ss.exact_nodes) << view;
+    EXPECT_EQ(sg.cell_steps, ss.cell_steps) << view;
+    EXPECT_EQ(compare_images(a, b).max_abs, 0.0) << view;
+  }
+  ::unsetenv("UGVR_HYBRID_ENTRY_GRID");
 }
 
 // The converged hybrid image equals the exact engine's within 45 dB at 96² and is closer to it than the voxel image of

@@ -39,6 +39,9 @@ struct FrameRequest {
   double step_voxels = 0;
   // Reserved for time series (the [time] issue): a renderer without time steps rejects a value here.
   std::optional<uint32_t> time_step;
+  // Playing a time series: the step likely drawn next. An interactive renderer of a time store starts reading its
+  // bricks for the nodes this frame drew, in the background, so that the switch costs no disk read; others ignore it.
+  std::optional<uint32_t> prefetch_time_step;
 };
 
 // What an engine reports beyond the common figures (its counters and timings), written into --stats JSON.

@@ -302,7 +302,7 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   fr.step_voxels = request.step_voxels;
   const bool timed = engine == kExactEngine && exact_ && exact_->series;
   if (timed) fr.time_step = request.time_step.value_or(scene_.time_step);
-  // A store with time steps: the LOD renderer switches the step (its bricks; no prefetch of the next ones yet).
+  // A store with time steps: the LOD renderer switches the step (its bricks, read ahead while playing).
   const bool timed_store = on_store && lod_ && lod_->engine.store().has_steps();
   if (timed_store)
     fr.time_step = std::min(request.time_step.value_or(scene_.time_step), lod_->engine.store().step_count() - 1);
@@ -326,6 +326,7 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   }
   // Playing: the next step is read while this frame is encoded and sent (the switch then costs the field swap).
   if (timed && request.playing) exact_->prefetch((*fr.time_step + 1) % uint32_t(exact_->series->size()));
+  if (timed_store && request.playing) fr.prefetch_time_step = (*fr.time_step + 1) % lod_->engine.store().step_count();
   const Image& image = f.image;
   const bool converged = f.stats.converged;
   FrameStatus st;

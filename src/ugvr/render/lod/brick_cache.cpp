@@ -42,9 +42,13 @@ BrickCacheStats stats_since(const BrickCacheStats& now, const BrickCacheStats& b
   return d;
 }
 
-BrickCache::BrickCache(const BrickStoreReader& store, uint32_t field, uint64_t budget_bytes, int threads)
-    : store_(store), step_(store.step()), brick_bytes_(slot_bytes(store.resolution())) {
+BrickCache::BrickCache(const BrickStoreReader& store, uint32_t field, uint64_t budget_bytes, int threads,
+                       std::optional<uint32_t> step)
+    : store_(store), step_(step.value_or(store.step())), brick_bytes_(slot_bytes(store.resolution())) {
   check_field(store, field);
+  if (step_ >= store.step_count())
+    fail_in(store.path(), "brick cache: time step " + std::to_string(step_) + " out of range (the store has " +
+                              std::to_string(store.step_count()) + ")");
   field_ = field;
   capacity_ = std::max<uint64_t>(1, budget_bytes / brick_bytes_);
   const int n = std::max(1, threads > 0 ? threads : int(std::thread::hardware_concurrency()));
@@ -191,6 +195,14 @@ void BrickCache::set_field(uint32_t field) {
   failed_.clear();
   // loading_ stays: the loads still running keep their reservation until they finish, so the budget holds.
   idle_cv_.notify_all();
+}
+
+void BrickCache::raise_budget(uint64_t budget_bytes) {
+  {
+    std::lock_guard lock(mutex_);
+    capacity_ = std::max(capacity_, budget_bytes / brick_bytes_);
+  }
+  work_cv_.notify_all();  // loads that waited for a slot may start
 }
 
 void BrickCache::set_paused(bool paused) {

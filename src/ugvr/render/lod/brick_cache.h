@@ -42,6 +42,7 @@
 #include <list>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <thread>
 #include <unordered_map>
@@ -77,8 +78,10 @@ class BrickCache {
   using Brick = std::shared_ptr<const std::vector<uint16_t>>;
 
   // budget_bytes: RAM for resident bricks (raised to one brick if smaller). threads: workers (0 = hardware
-  // concurrency). Throws ugvr::Error for a field out of range.
-  BrickCache(const BrickStoreReader& store, uint32_t field, uint64_t budget_bytes, int threads = 0);
+  // concurrency). step: the time step whose bricks it reads (default: the store's step now). Throws ugvr::Error for
+  // a field or step out of range.
+  BrickCache(const BrickStoreReader& store, uint32_t field, uint64_t budget_bytes, int threads = 0,
+             std::optional<uint32_t> step = {});
   // Drops pending requests, lets running loads finish, joins the workers.
   ~BrickCache();
   BrickCache(const BrickCache&) = delete;
@@ -108,6 +111,9 @@ class BrickCache {
   // no-op for the current field. A recorded load error stays until rethrown. Throws ugvr::Error for a field out of
   // range.
   void set_field(uint32_t field);
+  // Raises the budget to budget_bytes (never lowers it: that would mean evicting): a prefetch made in what another
+  // cache left free takes over the whole budget when that cache goes.
+  void raise_budget(uint64_t budget_bytes);
   // While paused, workers start no load (running ones finish). For callers that batch, and for deterministic tests.
   void set_paused(bool paused);
 

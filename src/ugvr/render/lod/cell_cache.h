@@ -9,18 +9,32 @@
 // octree's root cell and the field's values as stored, both float.
 //
 // GPU layout: three storage buffers, the nodes granted this frame back to back in priority order.
-//   CellNodeRecord × nodes (CELL_NODE_BUFFER_BINDING), uvec4[5] each:
+//   CellNodeRecord × nodes (CELL_NODE_BUFFER_BINDING), uvec4[CELL_NODE_UVEC4S = 6] each:
 //     [0] first local cell of each type (tetra, pyramid, wedge, hexahedron)
 //     [1] where each type's connectivity starts in the uint buffer (absolute)
 //     [2] where each type's neighbours start in the uint buffer (absolute)
 //     [3] first point (float index of its x), first value (float index), first quad-split word, first entry
 //         triangle (uint index)
 //     [4] entry triangles, cells, first id word, first word of the id order
+//     [5] the entry grid: first word of its cell offsets (uint index), its box (float index), its size
+//         (nx | ny << 10 | nz << 20), 0
 //   uint (CELL_INT_BUFFER_BINDING), per node: connectivity (local point indices), neighbours (local cell << 3 | face,
 //     0xFFFFFFFF: none in the node), quad splits (one byte per non-tetrahedral cell, four to a word), entry triangles
 //     (two words each: cell << 3 | face; corner0 | corner1 << 2 | corner2 << 4), the cells' ids in the input mesh
-//     (two words each, low then high), the cells in ascending id order (the handover between exact nodes)
-//   float (CELL_FLOAT_BUFFER_BINDING), per node: points (x, y, z normalised), values (the field's own units)
+//     (two words each, low then high), the cells in ascending id order (the handover between exact nodes), the entry
+//     grid: nx·ny·nz + 1 offsets (grid cell (x, y, z) at x + nx (y + ny z); in list entries), then the list: per grid
+//     cell its entry triangles' indices, ascending, 16 bits each, two to a word (entry j in word j / 2, the low half
+//     first); a grid of one cell keeps no list (its entry j is triangle j)
+//   float (CELL_FLOAT_BUFFER_BINDING), per node: points (x, y, z normalised), values (the field's own units), the entry
+//     grid's box: its low corner and its cells' size (x, y, z each, normalised)
+//
+// The entry grid (a uniform grid over the box of the node's entry triangles, a grid cell per two triangles): a ray
+// that enters the node's cells from outside them (its first exact node, or after leaving the mesh) looks for the first
+// entering crossing in (t, triangle) order. Instead of testing every entry triangle, the shader walks the grid cells
+// along the ray (3D DDA) and tests only theirs, stopping after the grid cell in which a crossing is found. Each
+// triangle is listed in every grid cell that its bounding box, grown by kEntryGridMargin, meets: the crossing's
+// computed point lies within float rounding (far below the margin) of the triangle, so no triangle that the linear
+// scan would pick is missed, and the same arithmetic picks the same crossing (docs/hybrid.md, "One ray-casting pass").
 //
 // Residency: decoded and prepared nodes are kept in RAM, least recently granted dropped first beyond twice the budget;
 // the GPU buffers hold exactly the granted set and are rewritten when it changes (a transfer-function edit or a
@@ -43,13 +57,26 @@ struct PreparedNodeCells {
   uint32_t quad_begin = 0, entry_begin = 0, entry_count = 0;         // relative to `ints`
   uint32_t id_begin = 0, order_begin = 0;                            // relative to `ints`
   uint32_t cells = 0, points = 0;
+  uint32_t grid_begin = 0, grid_float_begin = 0;  // relative to `ints` / `floats`
+  std::array<uint32_t, 3> grid_size{1, 1, 1};     // grid cells along x, y, z
   std::vector<uint32_t> ints;
-  std::vector<float> floats;  // points.size() * 3 normalised coordinates, then the values
-  uint64_t bytes() const { return ints.size() * 4 + floats.size() * 4 + 80; }
+  std::vector<float> floats;  // points.size() * 3 normalised coordinates, the values, the grid's low corner and step
+  uint64_t bytes() const;     // on the GPU: both arrays and the node record
+  // The entry triangles listed in grid cell (x, y, z).
+  std::vector<uint32_t> grid_cell(uint32_t x, uint32_t y, uint32_t z) const;
 };
 
+// How far (normalised coordinates) an entry triangle's box is grown before it is binned: well above the float
+// rounding of the shader's crossing (coordinates below 2, a few ulps: about 1e-6).
+inline constexpr float kEntryGridMargin = 2e-5f;
+// A node with more entry triangles than 16-bit list entries can name gets a grid of one cell (the linear scan).
+inline constexpr uint32_t kEntryGridMaxTriangles = 65536;
+
 // Node `node`'s cells as the GPU walks them, for store field `field`. Throws ugvr::Error for a node without cells.
-PreparedNodeCells prepare_node_cells(const BrickStoreReader& store, uint64_t node, uint32_t field);
+// With `entry_grid` false the entry grid is one cell holding every entry triangle: the shader then tests them all,
+// as the linear scan did (the environment's UGVR_HYBRID_ENTRY_GRID=0 makes the cell cache do that, for A/B checks).
+PreparedNodeCells prepare_node_cells(const BrickStoreReader& store, uint64_t node, uint32_t field,
+                                     bool entry_grid = true);
 
 class CellCache {
  public:
@@ -79,6 +106,7 @@ class CellCache {
   const BrickStoreReader& store_;
   uint64_t budget_ = 0, max_block_ = 0;
   uint32_t field_ = UINT32_MAX;
+  bool entry_grid_ = true;  // false: UGVR_HYBRID_ENTRY_GRID=0, one grid cell per node (the linear scan)
   struct Entry {
     PreparedNodeCells cells;
     uint64_t last_used = 0;

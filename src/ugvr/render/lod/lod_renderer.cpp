@@ -214,7 +214,12 @@ Frame InteractiveLodRenderer::render(const FrameRequest& request) {
   LodEngine& engine = bind_request(request);
   const std::string field = engine.field_name();
   const double step = request.step_voxels > 0 ? request.step_voxels : options_.resting_step_voxels;
-  // The session's RAM cache holds one time step's bricks (brick_cache.h): a new step starts a new session.
+  // The session's RAM cache holds one time step's bricks (brick_cache.h): a new step swaps them (taking the prefetched
+  // ones) and keeps the cut; a new field or sample step starts a new session.
+  if (session_ && session_field_ == field && session_step_ == step && session_time_step_ != engine.time_step()) {
+    session_->switch_time_step();
+    session_time_step_ = engine.time_step();
+  }
   if (!session_ || session_field_ != field || session_step_ != step || session_time_step_ != engine.time_step()) {
     TimeCriticalOptions tc = options_;
     tc.target_fps = request.target_fps;
@@ -249,7 +254,13 @@ Frame InteractiveLodRenderer::render(const FrameRequest& request) {
   s.gpu_bytes = tf.render.atlas_bytes, s.gpu_budget = scene_->options.atlas_budget_bytes;
   s.pending = tf.cache.queued + tf.cache.loading;
   s.detail = std::move(detail);
+  if (request.prefetch_time_step && *request.prefetch_time_step < engine.store().step_count())
+    session_->prefetch_time_step(*request.prefetch_time_step);
   return f;
+}
+
+bool InteractiveLodRenderer::wait_prefetch(double timeout_seconds) {
+  return session_ && session_->wait_prefetch(timeout_seconds);
 }
 
 std::string InteractiveLodRenderer::summary(const FrameStats& last) const {

@@ -77,11 +77,13 @@ class InteractiveLodRenderer final : public LodRendererBase {
   ~InteractiveLodRenderer() override;
   Frame render(const FrameRequest& request) override;
   std::string summary(const FrameStats& last) const override;
+  // Waits for the bricks FrameRequest::prefetch_time_step asked for (TimeCriticalRenderer::wait_prefetch).
+  bool wait_prefetch(double timeout_seconds);
 
  private:
   TimeCriticalOptions options_;
-  // The session: its active cut, RAM cache and cost estimate belong to one field and step; a new one starts when
-  // either changes.
+  // The session: its active cut, RAM cache and cost estimate belong to one field and sample step; a new one starts
+  // when either changes (a new time step only swaps its bricks).
   std::unique_ptr<TimeCriticalRenderer> session_;
   std::string session_field_;
   double session_step_ = -1, session_fps_ = -1;

@@ -21,9 +21,11 @@ struct TimeCriticalRenderer::Impl {
   LodEngine& engine;
   TimeCriticalOptions options;
   ActiveCut cut;
-  BrickCache cache;            // the RAM tier
-  BrickResidency residency;    // where each brick is: the engine's atlas (shared), `cache`, or the store
-  FrameController controller;  // budgets ray samples
+  std::unique_ptr<BrickCache> cache;          // the RAM tier, for the engine's time step
+  std::unique_ptr<BrickResidency> residency;  // where each brick is: the engine's atlas (shared), cache, or the store
+  std::unique_ptr<BrickCache> prefetch;       // the next time step's bricks, being read (prefetch_time_step)
+  std::vector<std::pair<uint64_t, float>> last_drawn;  // the last frame's visible nodes, then what it wanted
+  FrameController controller;                          // budgets ray samples
   QualityPolicy policy;
   std::optional<Camera> last_camera;
   std::optional<TransferFunction> last_tf;
@@ -36,8 +38,8 @@ struct TimeCriticalRenderer::Impl {
       : engine(e),
         options(o),
         cut(e.store(), ActiveCutOptions{e.field(), o.pixels, o.error_weight}),
-        cache(e.store(), e.field(), o.ram_budget_bytes, o.loader_threads),
-        residency(e.store(), e.gpu_slots(), &cache),
+        cache(std::make_unique<BrickCache>(e.store(), e.field(), o.ram_budget_bytes, o.loader_threads)),
+        residency(std::make_unique<BrickResidency>(e.store(), e.gpu_slots(), cache.get())),
         policy(QualityPolicyOptions{.min_scale = o.min_scale}) {
     FrameControllerOptions fc;
     fc.target_seconds = o.target_fps > 0 ? 1.0 / o.target_fps : 0.0;
@@ -85,9 +87,47 @@ TimeCriticalRenderer::TimeCriticalRenderer(LodEngine& engine, TimeCriticalOption
 
 TimeCriticalRenderer::~TimeCriticalRenderer() = default;
 
+void TimeCriticalRenderer::prefetch_time_step(uint32_t step) {
+  Impl& I = *impl_;
+  if (step == I.engine.time_step()) return;
+  if (!I.prefetch || I.prefetch->step() != step || I.prefetch->field() != I.engine.field()) {
+    I.prefetch.reset();  // another step's reads: its threads end first
+    const uint64_t used = I.cache->stats().resident_bytes;
+    const uint64_t room = I.options.ram_budget_bytes > used ? I.options.ram_budget_bytes - used : 0;
+    I.prefetch = std::make_unique<BrickCache>(I.engine.store(), I.engine.field(), room, I.options.loader_threads, step);
+  }
+  I.prefetch->request(I.last_drawn);
+}
+
+void TimeCriticalRenderer::switch_time_step() {
+  Impl& I = *impl_;
+  const uint32_t step = I.engine.time_step();
+  I.residency.reset();
+  if (I.prefetch && I.prefetch->step() == step && I.prefetch->field() == I.engine.field()) {
+    I.cache = std::move(I.prefetch);
+    I.cache->raise_budget(I.options.ram_budget_bytes);
+  } else {
+    I.prefetch.reset();
+    I.cache.reset();  // its threads end before the next cache's start
+    I.cache = std::make_unique<BrickCache>(I.engine.store(), I.engine.field(), I.options.ram_budget_bytes,
+                                           I.options.loader_threads);
+  }
+  I.residency = std::make_unique<BrickResidency>(I.engine.store(), I.engine.gpu_slots(), I.cache.get());
+  // The node errors are the new step's (ActiveCut caches them per view).
+  I.cut.set_options(I.cut.options());
+  I.last_camera.reset();  // the next frame is a moving one
+  I.rest_converged = false;
+  I.stalled_frames = 0;
+  I.exact_limit = 0;
+}
+
+bool TimeCriticalRenderer::wait_prefetch(double timeout_seconds) {
+  return impl_->prefetch && impl_->prefetch->wait_all(timeout_seconds);
+}
+
 Image TimeCriticalRenderer::Impl::step(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
                                        bool unlimited, const QualityChoice& choice, TimeCriticalFrame& f) {
-  const BrickCacheStats before = cache.stats();
+  const BrickCacheStats before = cache->stats();
   CutBudget budget;
   const uint64_t atlas = engine.atlas_budget_bricks();
   f.budget_nodes = unlimited ? CutBudget::kUnlimited : choice.max_nodes;
@@ -102,26 +142,29 @@ Image TimeCriticalRenderer::Impl::step(const Camera& camera, const TransferFunct
   if (scaled.width == settings.width && scaled.height == settings.height) f.scale = 1;
   cull_for(settings);
   CutUpdate u =
-      cut.update(camera, scaled.width, scaled.height, tf, budget, [&](uint64_t n) { return residency.resident(n); });
+      cut.update(camera, scaled.width, scaled.height, tf, budget, [&](uint64_t n) { return residency->resident(n); });
   // The cache keeps what the cut draws and has not uploaded yet (most important), then what it wants next.
   std::vector<std::pair<uint64_t, float>> requests;
   for (uint64_t n : u.visible)
-    if (!residency.on_gpu(n)) requests.push_back({n, 1e30f});
+    if (!residency->on_gpu(n)) requests.push_back({n, 1e30f});
   for (size_t i = 0; i < u.wanted.size(); ++i) requests.push_back({u.wanted[i], float(u.wanted_priority[i])});
-  cache.request(requests);
+  cache->request(requests);
   f.requested = requests.size();
+  last_drawn.clear();
+  for (uint64_t n : u.visible) last_drawn.push_back({n, 1e30f});
+  for (size_t i = 0; i < u.wanted.size(); ++i) last_drawn.push_back({u.wanted[i], float(u.wanted_priority[i])});
   Image image;
   try {
     if (exact_limit > 0) engine.prepare_exact(u.visible, camera, tf, scaled, exact_limit, &f.render);
-    image = engine.render_nodes(camera, tf, scaled, u.visible, residency, &f.render);
+    image = engine.render_nodes(camera, tf, scaled, u.visible, *residency, &f.render);
   } catch (const AtlasRefused&) {
     // The device allocates less than the budget allowed (the engine now knows how much): the cut merges down to it.
     budget.max_nodes = std::max<uint64_t>(1, std::min(engine.atlas_budget_bricks(), f.budget_nodes));
-    u = cut.update(camera, scaled.width, scaled.height, tf, budget, [&](uint64_t n) { return residency.resident(n); });
+    u = cut.update(camera, scaled.width, scaled.height, tf, budget, [&](uint64_t n) { return residency->resident(n); });
     if (exact_limit > 0) engine.prepare_exact(u.visible, camera, tf, scaled, exact_limit, &f.render);
-    image = engine.render_nodes(camera, tf, scaled, u.visible, residency, &f.render);
+    image = engine.render_nodes(camera, tf, scaled, u.visible, *residency, &f.render);
   }
-  cache.rethrow_load_error();
+  cache->rethrow_load_error();
   if (f.scale != 1) image = resize_bilinear(image, settings.width, settings.height);
   f.cut_nodes = cut.size();
   f.visible_nodes = u.visible.size();
@@ -133,7 +176,7 @@ Image TimeCriticalRenderer::Impl::step(const Camera& camera, const TransferFunct
   f.uploads = f.render.bricks_loaded;
   f.sync_reads = f.render.bricks_read_sync;
   f.converged = u.converged && u.wanted.empty();
-  f.cache = stats_since(cache.stats(), before);
+  f.cache = stats_since(cache->stats(), before);
   // At rest the cut may want bricks the RAM cache does not admit (its budget is full of bricks of higher priority):
   // nothing splits, merges or loads, so the next frame would be this one again. Twice in a row (a load that finished
   // during this frame is used by the next one) means the budgets allow no better: full quality within them, rather
@@ -195,16 +238,16 @@ Image TimeCriticalRenderer::full_quality(const Camera& camera, const TransferFun
     CutBudget budget;
     budget.max_nodes = I.engine.atlas_budget_bricks();
     const CutUpdate u = I.cut.update(camera, settings.width, settings.height, tf, budget,
-                                     [&](uint64_t n) { return I.residency.resident(n); });
+                                     [&](uint64_t n) { return I.residency->resident(n); });
     if (u.converged || (u.splits == 0 && u.merges == 0 && u.wanted.empty())) break;
     std::vector<std::pair<uint64_t, float>> requests;
     for (uint64_t n : u.visible)
-      if (!I.residency.on_gpu(n)) requests.push_back({n, 1e30f});
+      if (!I.residency->on_gpu(n)) requests.push_back({n, 1e30f});
     for (size_t i = 0; i < u.wanted.size(); ++i) requests.push_back({u.wanted[i], float(u.wanted_priority[i])});
-    I.cache.request(requests);
-    I.cache.wait_all(60);
-    I.cache.rethrow_load_error();
-    if (u.splits == 0 && u.merges == 0 && !u.wanted.empty() && !I.cache.wait_all(0)) break;  // over the RAM budget
+    I.cache->request(requests);
+    I.cache->wait_all(60);
+    I.cache->rethrow_load_error();
+    if (u.splits == 0 && u.merges == 0 && !u.wanted.empty() && !I.cache->wait_all(0)) break;  // over the RAM budget
   }
   f.budget_samples = FrameController::kUnlimited;
   I.exact_limit = I.engine.hybrid() ? UINT64_MAX : 0;  // hybrid: every candidate exact within the cell budget

@@ -87,6 +87,20 @@ class TimeCriticalRenderer {
   // A new frame-rate target (0: none) from the next frame on; the cut, the caches and the cost estimate stay.
   void set_target_fps(double fps);
 
+  // Playing a time store (docs/time-series.md). The octree is the same for every step, so a step change keeps the
+  // session: its cut, frame-rate controller and camera; only the bricks change.
+  // prefetch_time_step: reads the bricks of `step` for the nodes the last frame drew (then those it wanted) into a
+  // cache of their own, in the background, within what this session's RAM budget leaves free (at least one brick).
+  // A new call for the same step renews the list; for another step it starts over.
+  void prefetch_time_step(uint32_t step);
+  // After LodEngine::set_time_step: takes the prefetched bricks if they are of the engine's new step (else a new,
+  // empty cache), drops the old step's, and draws the next frame as a moving one (within the frame budget: each
+  // step of a playback is drawn once, at the interactive quality).
+  void switch_time_step();
+  // Waits until the prefetch has every brick it asked for, or timeout_seconds pass; false when there is none or it
+  // is incomplete. For tests and batch callers.
+  bool wait_prefetch(double timeout_seconds);
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;

@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# What one call of the GPU machine runs (the machine is bare and lent for minutes): unpacks the bundle of
+# bench/make_gpu_bundle.sh, runs the GL tests on the GPU, then bench/run_gpu.sh's SECTIONS, each bounded so that the
+# results written so far always come back. Everything lands in OUT (the device tool's $OUT): log.txt, gpu.jsonl,
+# tests.txt and results.tgz (the images and per-section files).
+# Usage, from the repository root on the GPU machine: bash bench/gpu_device_run.sh
+#   BUNDLE (.gpu/bundle.tar.xz), OUT ($OUT), SECTIONS (default "hybrid exact-gpu slices tricubic view lod"),
+#   TESTS_SECONDS (150), BENCH_SECONDS (330), SIZE (1024), TEST_FILTER (the GL tests).
+# The tests find their source tree and data through the paths compiled into them (/work/main, /work/shared/data here):
+# the script links those paths to this checkout and the bundle's data when they do not exist.
+set -u
+root=$PWD
+out=${OUT:?OUT names the folder whose files come back}
+g=/tmp/g
+mkdir -p "$g" && tar -xJf "${BUNDLE:-.gpu/bundle.tar.xz}" -C "$g" || exit 1
+export LD_LIBRARY_PATH=$g/lib UGVR_SHADER_DIR=$root/shaders UGVR_DATA=$g/data UGVR_COMMIT=$(cat "$g/commit")
+# glvnd's libEGL looks for vendor files under /usr/share; the NVIDIA driver may keep its own elsewhere.
+if ! ls /usr/share/glvnd/egl_vendor.d/*nvidia* >/dev/null 2>&1; then
+  for f in /usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json /etc/glvnd/egl_vendor.d/10_nvidia.json; do
+    [ -f "$f" ] && export __EGL_VENDOR_LIBRARY_FILENAMES=$f && break
+  done
+fi
+[ -e /work/main ] || { mkdir -p /work && ln -s "$root" /work/main; }
+[ -e /work/shared/data ] || { mkdir -p /work/shared && ln -s "$g/data" /work/shared/data; }
+[ -e build/ugvr ] || { mkdir -p build && ln -s "$g/bin/ugvr" build/ugvr; }  # the golden-image test runs build/ugvr
+exec > >(tee "$out/log.txt") 2>&1
+echo "commit $UGVR_COMMIT; $(nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>&1 | head -1)"
+
+filter=${TEST_FILTER:-'ExactGpu.*:Hybrid.*:LodEngine.*:LodBoundary.*:LodTricubic.*:LodSlice.*:ExactSlice.*:LodAtlasBudget.*:LodPreintegration.*:LodOverlay.*:GoldenImages.*:GlProgram*:ConstantAndLinear/LodSeams.*'}
+echo "== GL tests on this GPU ($filter)"
+timeout "${TESTS_SECONDS:-150}" "$g/bin/ugvr_tests" --gtest_filter="$filter" >"$out/tests.txt" 2>&1
+echo "tests: exit $? ($(grep -c '^\[       OK' "$out/tests.txt") OK, $(grep -c '^\[  FAILED' "$out/tests.txt") FAILED lines, $(grep -c '^\[  SKIPPED' "$out/tests.txt") skipped)"
+grep -E '^\[  FAILED|^\[  SKIPPED' "$out/tests.txt" | sort -u | head -40
+
+r=/tmp/r
+mkdir -p "$r"
+UGVR=$g/bin/ugvr SEAMS=$g/bin/bench_lod_seams SIZE=${SIZE:-1024} SKIP_BIG=1 \
+  SECTIONS=${SECTIONS:-hybrid exact-gpu slices tricubic view lod} timeout "${BENCH_SECONDS:-330}" \
+  bash bench/run_gpu.sh "$r" /tmp/s
+echo "run_gpu: exit $?"
+cp "$r/gpu.jsonl" "$out/gpu.jsonl" 2>/dev/null
+cp bench/results/*.jsonl "$r/" 2>/dev/null
+tar -czf "$out/results.tgz" -C "$r" --exclude='*.pfm' . && ls -la "$out"

@@ -1,0 +1,113 @@
+// Playing a store with time steps in the time-critical session (lod_renderer.h, time_critical.h): a new step keeps the
+// session's cut, and the bricks FrameRequest::prefetch_time_step asked for are read ahead, so that the first frame of
+// the next step reads nothing from disk on the render thread.
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <string>
+
+#include "gl_test_support.h"
+#include "test_data.h"
+#include "ugvr/render/camera.h"
+#include "ugvr/render/lod/lod_renderer.h"
+#include "ugvr/store/brick_store.h"
+
+namespace ugvr {
+namespace {
+
+struct Fixture {
+  test::ScratchDir dir;
+  std::string store;
+  std::shared_ptr<const GlContext> gl;
+  std::string gl_error;
+};
+
+const Fixture& fixture() {
+  static const Fixture f = [] {
+    Fixture r;
+    const std::string series = r.dir.file("w.pvd");
+    r.store = r.dir.file("w.ugvr");
+    EXPECT_EQ(test::run_ugvr("generate -o " + series + " --cells 3000 --time-steps 3").status, 0);
+    EXPECT_EQ(test::run_ugvr("build " + series + " --time all --brick 8 --max-depth 4 --error 0 -o " + r.store).status,
+              0);
+    r.gl = test::open_gl_context(r.gl_error);
+    return r;
+  }();
+  return f;
+}
+
+FrameRequest request_for(const BrickStoreReader& store) {
+  const BrickStoreField& fd = store.layout().fields[0];
+  FrameRequest q;
+  q.camera = camera_preset("iso", store.layout().data);
+  q.tf.color_points = {{fd.min, {0.1, 0.2, 0.9}}, {fd.max, {0.95, 0.2, 0.1}}};
+  q.tf.opacity_points = {{fd.min, 0.05}, {fd.max, 0.6}};
+  q.tf.opacity_unit_distance = 0.05 * store.layout().data.size().x;
+  q.settings.width = q.settings.height = 64;
+  q.settings.field = fd.name;
+  q.target_fps = 5;
+  q.time_step = 0;
+  return q;
+}
+
+const TimeCriticalFrame& detail_of(const Frame& f) {
+  return dynamic_cast<const InteractiveLodFrameStats&>(*f.stats.detail).frame;
+}
+
+// With and without reading ahead: the step switch keeps the converged cut (not the coarsest one); with the prefetch
+// the new step's bricks all come from RAM, without it the render thread reads them.
+TEST(TimePlayback, StepSwitchKeepsTheCutAndReadsTheNextStepAhead) {
+  const Fixture& f = fixture();
+  UGVR_REQUIRE_GL_CONTEXT(f.gl, f.gl_error);
+  const BrickStoreReader store(f.store);
+  ASSERT_EQ(store.step_count(), 3u);
+  auto scene = std::make_shared<LodScene>(f.store, f.gl);
+  for (const bool prefetch : {false, true}) {
+    SCOPED_TRACE(prefetch ? "prefetch" : "no prefetch");
+    TimeCriticalOptions tco;
+    tco.loader_threads = 2;
+    InteractiveLodRenderer r(scene, tco);
+    FrameRequest q = request_for(store);
+    Frame frame = r.render(q);
+    for (int i = 0; i < 100 && !frame.stats.converged; ++i) frame = r.render(q);
+    ASSERT_TRUE(frame.stats.converged);
+    const uint64_t cut = frame.stats.cut_nodes;
+    const Image step0 = frame.image;
+    ASSERT_GT(cut, 8u) << "the converged cut should be finer than the root's children";
+    if (prefetch) {
+      q.prefetch_time_step = 1;
+      r.render(q);  // at rest: the same cut; the prefetch asks for its bricks of step 1
+      EXPECT_TRUE(r.wait_prefetch(60));
+      q.prefetch_time_step.reset();
+    } else {
+      EXPECT_FALSE(r.wait_prefetch(0));
+    }
+    q.time_step = 1;
+    const Frame next = r.render(q);
+    const TimeCriticalFrame& d = detail_of(next);
+    EXPECT_FALSE(next.stats.resting);          // drawn within the frame budget, as a moving frame
+    EXPECT_GE(next.stats.cut_nodes, cut / 2);  // the cut carried over, not restarted from the coarsest
+    EXPECT_GT(d.uploads, 0u);                  // the new step's bricks replaced the old ones on the GPU
+    if (prefetch)
+      EXPECT_EQ(d.sync_reads, 0u);
+    else
+      EXPECT_GT(d.sync_reads, 0u);
+    EXPECT_NE(next.image.rgba, step0.rgba);  // the vortex street moved
+  }
+}
+
+// A prefetch of a step out of range is ignored (the engine refuses the step itself when it is drawn).
+TEST(TimePlayback, PrefetchOfAStepOutOfRangeIsIgnored) {
+  const Fixture& f = fixture();
+  UGVR_REQUIRE_GL_CONTEXT(f.gl, f.gl_error);
+  const BrickStoreReader store(f.store);
+  auto scene = std::make_shared<LodScene>(f.store, f.gl);
+  InteractiveLodRenderer r(scene, TimeCriticalOptions{});
+  FrameRequest q = request_for(store);
+  q.prefetch_time_step = 7;
+  EXPECT_NO_THROW(r.render(q));
+  EXPECT_FALSE(r.wait_prefetch(0));
+}
+
+}  // namespace
+}  // namespace ugvr
