@@ -574,6 +574,16 @@ void walk_node(uint entry, float t0, float t1) {
 }
 #endif
 
+// Focus+context (Muigg 2007, eq. 3.15): a context segment's mean (rgb colour × extinction, extinction) with its
+// colour mixed towards its luminance (Rec. 709 weights), keeping u_context.x of the saturation, and its extinction
+// scaled by u_context.y (the opacity of a thin segment scales alike; a thick one saturates more slowly).
+vec4 context_sample(vec4 mean) {
+  vec3 c = mean.rgb / mean.a;
+  float luminance = dot(c, vec3(0.2126, 0.7152, 0.0722));
+  float a = mean.a * u_context.y;
+  return vec4(mix(vec3(luminance), c, u_context.x) * a, a);
+}
+
 vec3 slot_origin(uint slot) {
   uint sx = uint(u_slots.x), sy = uint(u_slots.y);
   return vec3(float(slot % sx), float((slot / sx) % sy), float(slot / (sx * sy))) * float(u_resolution + 2);
@@ -696,7 +706,7 @@ uint locate(vec3 p, out vec3 lo, out float size) {
     node = tn.x + uint(bitCount(mask & ((1u << octant) - 1u)));
     state = node_state[node];
   }
-  return state == NODE_DESCEND ? NODE_SKIP : state;
+  return state >= NODE_DESCEND ? NODE_SKIP : state & ~NODE_CONTEXT;
 }
 
 float validity(vec3 p) {
@@ -912,6 +922,9 @@ void main() {
     }
 #endif
 
+    // Focus+context: a node of zero interest is drawn as context (context_sample); its state is its slot otherwise.
+    bool context = (state & NODE_CONTEXT) != 0u;
+    state &= ~NODE_CONTEXT;
     // The atlas coordinate is affine in t inside one node: c(t) = c0 + c1 · t.
     vec3 scale = vec3(float(u_resolution - 1) / size) * u_atlas_inv;
     vec3 c0 = (slot_origin(state) + 1.5) * u_atlas_inv + (base - lo) * scale;
@@ -1039,6 +1052,7 @@ void main() {
                                        float(TF_TEXELS));
             mean = vec4(p.rgb * p.a, p.a);
           }
+          if (context && mean.a > 0.0) mean = context_sample(mean);
           if (mean.a > 0.0) {
             float a = 1.0 - exp(-mean.a * len);
             radiance += transmittance * a * shade * (mean.rgb / mean.a);

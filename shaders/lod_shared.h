@@ -84,6 +84,10 @@ const int CELL_OPTICAL_BUFFER_BINDING = 15;  // the exact engine's optical table
 // A node state with this bit set (and below NODE_DESCEND) is a cut node drawn by its cells; the bits below are its
 // entry in the cell cache.
 const uint NODE_EXACT = 0x80000000u;
+// Focus+context (Muigg 2007, eq. 3.15; docs/hybrid.md): a resampled cut node's state (an atlas slot) with this bit set
+// is context, of zero interest under the focus or region of interest: its samples are drawn desaturated and faint
+// (LodFrame u_context). Atlas slots stay far below it (lod_engine.cpp checks), and exact nodes never carry it.
+const uint NODE_CONTEXT = 0x40000000u;
 
 const uint TREE_CHILD_MASK = 0xFFu;  // the child mask in a tree entry's y
 const uint TREE_LEVEL_SHIFT = 8u;    // the node's level above it
@@ -153,6 +157,7 @@ layout(std140, binding = FRAME_BLOCK_BINDING) uniform LodFrame {
   int u_cell_data;                     // 508 HYBRID: the field is per cell (else per vertex)
   vec4 u_box_lo;                       // 512 data-parallel rendering (src/ugvr/mpi): only t inside the box
   vec4 u_box_hi;                       // 528 [lo, hi] (xyz, normalised) is drawn; read only when u_box_lo.w > 0.5
+  vec4 u_context;  // 544 focus+context, NODE_CONTEXT nodes: x saturation kept, y extinction scale (emission-absorption)
 };
 
 #ifdef __cplusplus
@@ -169,7 +174,7 @@ static_assert(offsetof(LodFrame, u_tf_map) % 8 == 0 && offsetof(LodFrame, u_iso)
 static_assert(offsetof(LodFrame, u_iso) + sizeof(LodFrame::u_iso) == offsetof(LodFrame, u_slice_plane));
 static_assert(offsetof(LodFrame, u_slice_plane) % 16 == 0 && offsetof(LodFrame, u_slice_map) % 16 == 0);
 static_assert(offsetof(LodFrame, u_slice_count) == 496 && offsetof(LodFrame, u_box_lo) == 512);
-static_assert(sizeof(LodFrame) == 544 && offsetof(LodFrame, u_box_hi) == 528);
+static_assert(sizeof(LodFrame) == 560 && offsetof(LodFrame, u_box_hi) == 528 && offsetof(LodFrame, u_context) == 544);
 static_assert(MAX_ISO % 4 == 0 && sizeof(LodFrame::u_iso) == MAX_ISO * sizeof(float));
 
 }  // namespace ugvr::lod_gpu

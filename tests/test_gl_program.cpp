@@ -201,7 +201,8 @@ TEST(LodGpuContract, DriverLaysOutTheFrameBlockAsTheCppStruct) {
                                        UGVR_MEMBER(u_cell_tolerance),
                                        UGVR_MEMBER(u_cell_data),
                                        UGVR_MEMBER(u_box_lo),
-                                       UGVR_MEMBER(u_box_hi)};
+                                       UGVR_MEMBER(u_box_hi),
+                                       UGVR_MEMBER(u_context)};
   const std::vector<std::vector<std::pair<std::string, std::string>>> variants = {
       {{"MODE", "0"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "0"}},
       {{"MODE", "0"}, {"VOLUME_LIGHTING", "1"}, {"OVERLAY", "1"}},

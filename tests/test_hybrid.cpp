@@ -369,6 +369,156 @@ TEST(Hybrid, FocusLoadsNoCellsOutside) {
   }
 }
 
+// A region of interest (LaMar) and an AND of focus ranges: only nodes of interest 1 get exact cells, and nodes of zero
+// interest read no cells from the store.
+TEST(Hybrid, RegionOfInterestAndFocusAndLoadNoCellsOutside) {
+  REQUIRE_GL();
+  const Fixture& f = fixture();
+  const TransferFunction tf = test_tf(f);
+  const RenderSettings rs = test_settings();
+  const BrickStoreReader store(f.store);
+  const Camera cam = camera_preset("iso", store.layout().data);
+  const CutSpec leaves{CutSpec::Kind::Leaves, 0};
+  LodOptions ho;
+  ho.hybrid = true;
+  LodEngine all(f.store, *f.gl, ho);
+  all.set_field("pressure");
+  LodRenderStats sa;
+  all.render(cam, tf, rs, leaves, &sa);
+  ASSERT_GT(sa.exact_nodes, 4u);
+
+  // The lower half in x of the root cell.
+  const Bounds& root = store.layout().root;
+  const double mid = 0.5 * (root.lo.x + root.hi.x);
+  RegionOfInterest roi;
+  roi.lo = root.lo - Vec3d{1, 1, 1};
+  roi.hi = Vec3d{mid - 1e-9 * (root.hi.x - root.lo.x), root.hi.y + 1, root.hi.z + 1};
+  ho.roi = roi;
+  LodEngine in_box(f.store, *f.gl, ho);
+  in_box.set_field("pressure");
+  LodRenderStats sb;
+  in_box.render(cam, tf, rs, leaves, &sb);
+  EXPECT_GT(sb.exact_nodes, 0u);
+  EXPECT_LT(sb.exact_nodes, sa.exact_nodes);
+  EXPECT_GT(sb.focus_excluded, 0u);
+  const std::vector<uint64_t> loaded = in_box.cell_nodes_in_ram();
+  EXPECT_EQ(loaded.size(), sb.exact_nodes);
+  for (uint64_t n : loaded) EXPECT_LT(store.bounds(n).lo.x, mid) << "node " << n << " outside the region read cells";
+
+  // AND: the region and a focus range that no node meets: nothing exact, no cell read.
+  const FieldStats& whole = store.stats(0, 0);
+  ho.focus =
+      parse_focus("pressure:" + std::to_string(double(whole.min)) + ":" + std::to_string(double(whole.max)) +
+                  "+pressure:" + std::to_string(double(whole.max) + 1) + ":" + std::to_string(double(whole.max) + 2));
+  LodEngine none(f.store, *f.gl, ho);
+  none.set_field("pressure");
+  LodRenderStats sn;
+  none.render(cam, tf, rs, leaves, &sn);
+  EXPECT_EQ(sn.exact_nodes, 0u);
+  EXPECT_TRUE(none.cell_nodes_in_ram().empty());
+  // OR of the same two: the first holds everywhere, so the region alone decides.
+  ho.focus = parse_focus(focus_text(ho.focus).replace(focus_text(ho.focus).find('+'), 1, ","));
+  LodEngine either(f.store, *f.gl, ho);
+  either.set_field("pressure");
+  LodRenderStats se;
+  either.render(cam, tf, rs, leaves, &se);
+  EXPECT_EQ(se.exact_nodes, sb.exact_nodes);
+}
+
+// Focus+context (Muigg eq. 3.15): with a region of interest, the nodes outside it are drawn desaturated and faint; the
+// rays that cross only nodes of interest are the image without focus, bit for bit. Seen along -z in parallel
+// projection, the region is the lower half in x of the root cell: columns left of its middle cross focus nodes only,
+// those right of it context nodes only.
+TEST(Hybrid, ContextIsDrawnDesaturatedAndFaint) {
+  REQUIRE_GL();
+  const Fixture& f = fixture();
+  const TransferFunction tf = test_tf(f);
+  // The same opacity in white: the context's colour cannot change (white is its own luminance), only its opacity.
+  // It is also fainter than the test's, so that rays do not saturate: where they do, fainter context would still
+  // reach an opacity of 1 and show no change.
+  TransferFunction white = tf;
+  for (ColorPoint& p : white.color_points) p.rgb = {1, 1, 1};
+  for (OpacityPoint& p : white.opacity_points) p.opacity *= 0.1;
+  RenderSettings rs = test_settings();
+  rs.width = rs.height = 64;
+  const BrickStoreReader store(f.store);
+  const Bounds& root = store.layout().root;
+  const Vec3d centre = 0.5 * (root.lo + root.hi), size = root.hi - root.lo;
+  Camera cam;
+  cam.focal_point = centre;
+  cam.position = centre + Vec3d{0, 0, 3 * size.z};
+  cam.view_up = {0, 1, 0};
+  cam.parallel_projection = true;
+  cam.parallel_scale = 0.5 * std::max(size.x, size.y);  // the root cell's x range spans the image's width
+  const CutSpec leaves{CutSpec::Kind::Leaves, 0};
+  LodEngine plain(f.store, *f.gl);
+  plain.set_field("pressure");
+  const Image full = plain.render(cam, tf, rs, leaves), full_white = plain.render(cam, white, rs, leaves);
+
+  LodOptions o;
+  RegionOfInterest roi;
+  roi.lo = root.lo - size;
+  roi.hi = Vec3d{centre.x - 1e-9 * size.x, root.hi.y + size.y, root.hi.z + size.z};
+  o.roi = roi;
+  LodEngine faint(f.store, *f.gl, o);  // the defaults: saturation 0.2, opacity 0.3
+  faint.set_field("pressure");
+  const Image fc = faint.render(cam, tf, rs, leaves), fc_white = faint.render(cam, white, rs, leaves);
+  // Grey context (saturation 0) at full opacity: the context's colour alone changes.
+  o.context_saturation = 0, o.context_opacity = 1;
+  LodEngine grey(f.store, *f.gl, o);
+  grey.set_field("pressure");
+  const Image gc = grey.render(cam, tf, rs, leaves);
+
+  const int w = rs.width, margin = 3;
+  int focus_px = 0, context_px = 0, fainter = 0, grey_px = 0, coloured_px = 0;
+  for (int y = 0; y < rs.height; ++y)
+    for (int x = 0; x < w; ++x) {
+      const float *a = full.pixel(x, y), *b = fc.pixel(x, y), *g = gc.pixel(x, y);
+      if (x < w / 2 - margin) {
+        ++focus_px;
+        for (int c = 0; c < 4; ++c) {
+          ASSERT_EQ(a[c], b[c]) << "focus pixel " << x << "," << y << " changed";
+          ASSERT_EQ(a[c], g[c]) << "focus pixel " << x << "," << y << " changed";
+          ASSERT_EQ(full_white.pixel(x, y)[c], fc_white.pixel(x, y)[c]);
+        }
+      } else if (x >= w / 2 + margin && full_white.pixel(x, y)[0] > 0.05) {  // the background is black
+        ++context_px;
+        fainter += fc_white.pixel(x, y)[0] < full_white.pixel(x, y)[0];
+        const auto spread = [](const float* p) { return std::max({p[0], p[1], p[2]}) - std::min({p[0], p[1], p[2]}); };
+        grey_px += spread(g) < 1e-4f;
+        coloured_px += spread(a) > 0.01f;
+      }
+    }
+  std::printf("focus pixels %d, visible context pixels %d: fainter %d, grey at saturation 0 %d (coloured without %d)\n",
+              focus_px, context_px, fainter, grey_px, coloured_px);
+  ASSERT_GT(context_px, 50) << "too little data on the context side to judge";
+  EXPECT_GE(fainter, context_px * 9 / 10);
+  EXPECT_EQ(grey_px, context_px);
+  EXPECT_GT(coloured_px, context_px / 2) << "the test's colours would not show a desaturation";
+  EXPECT_GT(compare_images(full, fc).max_abs, 0.05);
+}
+
+// `ugvr render --roi / --focus / --context-*`: bad values are errors naming the flag, before anything is drawn; the
+// exact engine has no degree of interest.
+TEST(Hybrid, InterestFlagsAreChecked) {
+  const Fixture& f = fixture();
+  const std::string out = (f.dir / "interest.png").string();
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"--engine lod --roi sphere:0,0,0,0", "--roi sphere:0,0,0,0: the radius must be > 0"},
+      {"--engine hybrid --roi box:1,2", "--roi box:1,2: a box takes 6 numbers, found 2"},
+      {"--engine lod --focus pressure:1:0", "MIN above MAX"},
+      {"--engine lod --focus nope:0:1", "--focus: no field \"nope\" in the store"},
+      {"--engine lod --roi box:0,0,0,1,1,1 --context-saturation 1.5", "--context-saturation: must be in [0, 1]"},
+      {"--engine hybrid --focus pressure:0:1 --context-opacity -1", "--context-opacity: must be in [0, 1]"},
+      {"--engine exact --roi box:0,0,0,1,1,1", "--roi: the degree of interest is the lod and hybrid engines'"},
+  };
+  for (const auto& [flags, message] : cases) {
+    const CommandResult r = run_ugvr("render " + f.store + " " + flags + " --size 16 -o " + out);
+    EXPECT_EQ(r.status, 1) << flags << "\n" << r.out;
+    EXPECT_NE(r.out.find(message), std::string::npos) << flags << "\n" << r.out;
+  }
+}
+
 // Progressive refinement (Callahan 2006) in the time-critical session: while the view moves no node is exact; once it
 // rests and the cut has converged, exact_batch more nodes turn exact per frame in priority order, every frame shown,
 // and the session reports convergence only when every candidate is exact; a move starts again with none.
@@ -419,7 +569,7 @@ TEST(Hybrid, ParseFocus) {
   const std::vector<FocusRange> f = parse_focus("pressure:-1:2.5,velocity:magnitude:0:1e3");
   ASSERT_EQ(f.size(), 2u);
   EXPECT_EQ(f[0], (FocusRange{"pressure", -1, 2.5}));
-  EXPECT_EQ(f[1], (FocusRange{"velocity:magnitude", 0, 1000}));
+  EXPECT_EQ(f[1], (FocusRange{"velocity:magnitude", 0, 1000, 1}));  // "," starts another group (OR)
   for (const char* bad : {"", "pressure", "pressure:1", "pressure:2:1", ":1:2", "p:a:2", "p:1:2,", "p:1:inf"})
     EXPECT_THROW(parse_focus(bad), Error) << bad;
 }

@@ -130,11 +130,21 @@ TEST(ViewProtocol, MalformedMessagesNameTheField) {
       {R"({"type":"settings","clip":{"point":[0,0,0],"normal":[0,0,1],"side":1}})", "clip"},
       {R"({"type":"settings","clipping":null})", "clipping"},
       {R"({"type":"engine"})", "engine: missing"},
-      {R"({"type":"engine","engine":"fast"})", R"(engine: expected "exact" or "lod", found "fast")"},
+      {R"({"type":"engine","engine":"fast"})", R"(engine: expected "exact", "lod" or "hybrid", found "fast")"},
       {R"({"type":"engine","engine":"LOD"})", "engine"},
       {R"({"type":"engine","engine":1})", "engine: expected"},
       {R"({"type":"engine","engine":null})", "engine: expected"},
       {R"({"type":"engine","engine":"lod","tab":2})", "tab"},
+      {R"({"type":"interest","focus":3})", "focus: expected a non-empty string or null"},
+      {R"({"type":"interest","focus":""})", "focus: expected"},
+      {R"({"type":"interest","focus":"p:2:1"})", "focus: p:2:1: MIN above MAX"},
+      {R"({"type":"interest","focus":"p:0:1+"})", "focus"},
+      {R"({"type":"interest","roi":"cube:0,0,0,1,1,1"})", "roi cube:0,0,0,1,1,1: expected box:... or sphere:..."},
+      {R"({"type":"interest","roi":"sphere:0,0,0,-1"})", "roi sphere:0,0,0,-1: the radius must be > 0"},
+      {R"({"type":"interest","roi":[0,0,0,1,1,1]})", "roi: expected a non-empty string or null"},
+      {R"({"type":"interest","context_opacity":1.5})", "context_opacity: must be in"},
+      {R"({"type":"interest","context_saturation":"grey"})", "context_saturation"},
+      {R"({"type":"interest","brush":"p:0:1"})", "brush"},
   };
   for (const auto& [text, field] : cases) {
     try {
@@ -349,6 +359,49 @@ TEST(ViewRequest, EngineMustBeOneTheSceneOffers) {
   scene.engines = {{"lod", "llvmpipe"}};  // a viewer of a store
   EXPECT_THROW(apply_message(s, parse_client_message(R"({"type":"engine","engine":"exact"})"), scene), Error);
   EXPECT_EQ(s.request.engine, "exact") << "unchanged";
+}
+
+// The interest message (focus + context, docs/hybrid.md): the texts of `ugvr render --focus / --roi`, each key
+// optional, null removing it; a focus field must be one of the scene's (a vector's name alone is its magnitude). The
+// status of a hybrid frame says how much is exact.
+TEST(ViewRequest, InterestSetsFocusRegionAndContext) {
+  SceneInfo scene = two_field_scene();
+  scene.fields.push_back({"wind:magnitude", 0, 5, {}});
+  ViewState s = initial_view(scene);
+  EXPECT_TRUE(s.request.focus.empty());
+  EXPECT_FALSE(s.request.roi);
+  apply_message(s,
+                parse_client_message(R"({"type":"interest","focus":"pressure:1:2+wind:0:1,velocity:150:160",)"
+                                     R"("roi":"sphere:0.5,0.5,0.5,0.25","context_saturation":0,"context_opacity":1})"),
+                scene);
+  ASSERT_EQ(s.request.focus.size(), 3u);
+  EXPECT_EQ(s.request.focus[0], (FocusRange{"pressure", 1, 2, 0}));
+  EXPECT_EQ(s.request.focus[1], (FocusRange{"wind:magnitude", 0, 1, 0}));
+  EXPECT_EQ(s.request.focus[2], (FocusRange{"velocity", 150, 160, 1}));
+  ASSERT_TRUE(s.request.roi);
+  EXPECT_EQ(s.request.roi->shape, RegionOfInterest::Shape::Sphere);
+  EXPECT_EQ(s.request.context_saturation, 0);
+  EXPECT_EQ(s.request.context_opacity, 1);
+  // Absent keys stay; null removes.
+  apply_message(s, parse_client_message(R"({"type":"interest","roi":null})"), scene);
+  EXPECT_FALSE(s.request.roi);
+  EXPECT_EQ(s.request.focus.size(), 3u);
+  const ViewState before = s;
+  EXPECT_THROW(apply_message(s, parse_client_message(R"({"type":"interest","focus":"density:0:1"})"), scene), Error);
+  EXPECT_EQ(s.request.focus, before.request.focus) << "unchanged";
+  apply_message(s, parse_client_message(R"({"type":"interest","focus":null})"), scene);
+  EXPECT_TRUE(s.request.focus.empty());
+
+  FrameStatus st;
+  st.engine = "hybrid", st.hybrid = true, st.exact_nodes = 5, st.exact_candidates = 7, st.exact_fraction = 0.25;
+  st.cell_budget_full = true;
+  const nlohmann::json j = nlohmann::json::parse(status_message(st));
+  EXPECT_EQ(j["exact"]["nodes"], 5);
+  EXPECT_EQ(j["exact"]["candidates"], 7);
+  EXPECT_EQ(j["exact"]["fraction"], 0.25);
+  EXPECT_EQ(j["exact"]["budget_full"], true);
+  EXPECT_TRUE(j["exact"]["off"].is_null());
+  EXPECT_FALSE(nlohmann::json::parse(status_message(FrameStatus{})).contains("exact")) << "not a hybrid frame";
 }
 
 // The time message (a series' step, web/time_panel.js): parsed strictly, then checked against the scene's steps;

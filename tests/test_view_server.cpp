@@ -11,6 +11,8 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
 // clang-format on
+#include <algorithm>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <functional>
@@ -84,6 +86,7 @@ std::string make_store(const std::filesystem::path& dir) {
 struct Shared {
   std::filesystem::path dir;
   std::string store;
+  std::string cells_store;  // the same box built with its leaves' cells (`ugvr build --cells`): hybrid
 };
 
 // Removes the scratch directory at exit.
@@ -101,6 +104,10 @@ const Shared& shared() {
     r.dir = std::filesystem::temp_directory_path() / ("ugvr-test-view-" + std::to_string(::getpid()));
     std::filesystem::create_directories(r.dir);
     r.store = make_store(r.dir);
+    r.cells_store = (r.dir / "box-cells.ugvr").string();
+    OctreeBuildOptions cells = small_build();
+    cells.leaf_cells = true;
+    build_octree(prepare_octree_input(make_box(), std::vector<std::string>{"wave"}), cells, r.cells_store);
     return r;
   }();
   static const RemoveAtExit cleanup{s.dir};
@@ -877,11 +884,94 @@ TEST(ViewServer, EachTabSwitchesBetweenTheExactAndTheLodEngine) {
     EXPECT_EQ((*back.status)["engine"], "lod");
     EXPECT_GT((*back.status)["cut_nodes"].get<int>(), 0);
     EXPECT_EQ(image_size(back.bytes), std::make_pair(48, 40));
-    // An unknown engine is refused and the tab goes on with the one it has.
+    // An unknown engine is refused, and so is hybrid for a store without cells; the tab goes on with the one it has.
+    a.send(R"({"type":"engine","engine":"fancy"})");
+    EXPECT_NE(read_error(a).find(R"(engine: expected "exact", "lod" or "hybrid", found "fancy")"), std::string::npos);
     a.send(R"({"type":"engine","engine":"hybrid"})");
-    EXPECT_NE(read_error(a).find(R"(engine: expected "exact" or "lod", found "hybrid")"), std::string::npos);
+    EXPECT_NE(read_error(a).find(R"(engine: "hybrid" is not available)"), std::string::npos);
     a.send(R"({"type":"resize","width":32,"height":32})");  // request 6
     EXPECT_EQ((*read_frame_for(a, 6).status)["engine"], "lod");
+  }
+}
+
+// A store with cells is drawn by the hybrid engine (docs/hybrid.md): voxels while the view moves, then at rest exact
+// nodes batch by batch, each frame sent, the status saying how many, until every candidate is exact; a tab may pick
+// the level-of-detail engine instead (voxels only), and `hybrid` off makes that the default.
+TEST(ViewServer, AStoreWithCellsRefinesToExactCellsAtRest) {
+  for (const bool hybrid : {true, false}) {
+    SCOPED_TRACE(hybrid ? "hybrid default" : "hybrid off");
+    std::unique_ptr<ViewServer> server;
+    ViewServerOptions o;
+    o.ram_per_session = 16 << 20;
+    o.store = shared().cells_store;
+    o.fps = 30;
+    o.hybrid = hybrid;
+    o.exact_batch = 16;  // several batches, each frame sent
+    try {
+      server = std::make_unique<ViewServer>(o);
+    } catch (const Error& e) {
+      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
+      FAIL() << "cannot start the server: " << e.what();
+    }
+    Client c(server->port());
+    c.send(R"({"type":"hello","width":48,"height":40})");
+    const Frame first = read_frame(c);
+    ASSERT_TRUE(first.scene && first.status);
+    EXPECT_EQ((*first.scene)["engines"], json({"hybrid", "lod"}));
+    EXPECT_EQ((*first.scene)["engine"], hybrid ? "hybrid" : "lod");
+    if (!hybrid) {
+      const Frame still = read_until_converged(c, 1);
+      EXPECT_EQ((*still.status)["engine"], "lod");
+      EXPECT_FALSE(still.status->contains("exact")) << still.status->dump();
+      c.send(R"({"type":"engine","engine":"hybrid"})");  // request 2: the tab may still pick it
+      const Frame picked = read_until_converged(c, 2);
+      EXPECT_EQ((*picked.status)["engine"], "hybrid");
+      ASSERT_TRUE(picked.status->contains("exact")) << picked.status->dump();
+      EXPECT_GT((*picked.status)["exact"]["nodes"].get<uint64_t>(), 0u);
+      continue;
+    }
+    // A move, then rest: frames until converged, the exact count never falling, none exact while moving.
+    c.send(camera_message(*first.scene, 0.3).dump());  // request 2
+    std::vector<uint64_t> exact;
+    std::optional<json> last;
+    for (int i = 0; i < 200; ++i) {
+      const Frame f = read_frame_for(c, 2);
+      ASSERT_TRUE(f.status);
+      const json& st = *f.status;
+      EXPECT_EQ(st["engine"], "hybrid");
+      if (st.contains("exact")) {
+        EXPECT_TRUE(st["exact"]["off"].is_null()) << st.dump();
+        exact.push_back(st["exact"]["nodes"]);
+      } else {
+        EXPECT_EQ(st["converged"], false) << "a converged hybrid frame says how much is exact";
+        EXPECT_TRUE(exact.empty()) << "no voxel-only frame once the view rests";
+      }
+      if (st["converged"] == true) {
+        EXPECT_TRUE(is_png(f.bytes));
+        last = st;
+        break;
+      }
+    }
+    ASSERT_TRUE(last) << "no converged frame";
+    ASSERT_FALSE(exact.empty());
+    std::printf("exact nodes frame by frame at rest:");
+    for (uint64_t n : exact) std::printf(" %llu", (unsigned long long)n);
+    std::printf(" (of %llu candidates)\n", (unsigned long long)(*last)["exact"]["candidates"].get<uint64_t>());
+    EXPECT_TRUE(std::is_sorted(exact.begin(), exact.end()));
+    // Batch by batch: the intermediate images come too (at most 16 more nodes a frame).
+    EXPECT_GE(exact.size(), 2u);
+    for (size_t i = 1; i < exact.size(); ++i) EXPECT_LE(exact[i], exact[i - 1] + 16);
+    const json& e = (*last)["exact"];
+    EXPECT_GT(e["nodes"].get<uint64_t>(), 0u) << last->dump();
+    EXPECT_TRUE(e["nodes"] == e["candidates"] || e["budget_full"] == true) << last->dump();
+    EXPECT_GT(e["cells"].get<uint64_t>(), 0u);
+    EXPECT_GT(e["fraction"].get<double>(), 0.0);
+    EXPECT_LE(e["fraction"].get<double>(), 1.0);
+    // The same view with the level-of-detail engine: voxels only, no exact figures.
+    c.send(R"({"type":"engine","engine":"lod"})");  // request 3
+    const Frame lod = read_until_converged(c, 3);
+    EXPECT_EQ((*lod.status)["engine"], "lod");
+    EXPECT_FALSE(lod.status->contains("exact"));
   }
 }
 

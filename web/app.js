@@ -47,7 +47,8 @@ const view = {
   clip: { on: false, axis: "x", position: 0.5, flip: false },
   fps: 10,
   fullQuality: false,  // every frame at full quality (fps 0)
-  engine: null,        // the engine picked on this page ("exact" | "lod"); null: the scene's
+  engine: null,        // the engine picked on this page ("exact" | "lod" | "hybrid"); null: the scene's
+  interest: null,      // the last "interest" message sent (focus + context); null: none
 };
 
 const tfEditor = new TfEditor($("tf"), () => {
@@ -188,7 +189,7 @@ const queueClip = () => queue({ type: "settings", clip: clipPlane() });
 
 // ---- the engine ----
 
-const engineNames = { exact: "exact", lod: "level of detail" };
+const engineNames = { exact: "exact", lod: "level of detail", hybrid: "hybrid (exact cells at rest)" };
 const currentEngine = () => view.engine ?? (scene ? scene.engine : "");
 // The engines the scene offers (one while a store is built, or for a store), the one picked, and its renderer.
 function showEngine() {
@@ -197,6 +198,25 @@ function showEngine() {
   $("engine").replaceChildren(...engines.map((e) => new Option(engineNames[e] ?? e, e, e === picked, e === picked)));
   $("engine").disabled = engines.length < 2;
   $("engine-renderer").textContent = (scene.renderers && scene.renderers[picked]) || scene.renderer || "";
+}
+
+// ---- focus + context: the degree of interest (view_protocol.h "interest", docs/hybrid.md) ----
+
+// The focus text from the chosen field and its min / max (a missing bound: the field's).
+function focusFromRange() {
+  const info = fieldInfo($("focus-field").value);
+  if (!info) {
+    $("focus-text").value = "";
+    return;
+  }
+  const lo = Number.parseFloat($("focus-min").value), hi = Number.parseFloat($("focus-max").value);
+  $("focus-text").value = `${info.name}:${Number.isFinite(lo) ? lo : info.range[0]}:${Number.isFinite(hi) ? hi : info.range[1]}`;
+}
+function interestMessage() {
+  const focus = $("focus-text").value.trim();
+  const lo = $("roi-lo").value.trim(), hi = $("roi-hi").value.trim();
+  return { type: "interest", focus: focus || null, roi: $("roi").checked ? `box:${lo},${hi}` : null,
+           context_saturation: Number($("context-saturation").value), context_opacity: Number($("context-opacity").value) };
 }
 
 // ---- the status bar and the build progress line ----
@@ -225,7 +245,20 @@ function showStatus() {
   }
   statusBar.textContent = frame +
       `cut ${s.cut_nodes} nodes (${s.visible_nodes} visible)  texel error ${s.texel_error.toFixed(2)} px  ${cache}` +
-      (s.converged ? "full quality" : `${refining}  scale ${s.scale.toFixed(2)}`);
+      exactText(s) + (s.converged ? "full quality" : `${refining}  scale ${s.scale.toFixed(2)}`);
+}
+
+// How much of a hybrid frame is exact (view_protocol.h, status "exact"): voxels while the view moves, then exact
+// nodes batch by batch until every visible node with cells is exact or the cell budget is full.
+function exactText(s) {
+  if (s.engine !== "hybrid") return "";
+  const e = s.exact;
+  if (!e) return "voxels until the view rests  ";
+  if (e.off) return `no exact cells: ${e.off}  `;
+  const full = e.budget_full ? ", cell budget full" : "";
+  const context = e.focus_excluded ? `, ${e.focus_excluded} context nodes` : "";
+  return `exact ${e.nodes} of ${e.candidates} nodes with cells (${(100 * e.fraction).toFixed(1)}% of the cut)` +
+      `${full}${context}, ${mib(e.cell_bytes)}/${mib(e.cell_budget)} MiB cells  `;
 }
 
 // The stages of loading a grid and building its store (view_protocol.h, "progress"): reading the file, the exact
@@ -284,6 +317,7 @@ function resendState() {
   if (view.background) settings.background = view.background;
   send(settings);  // first: a field change resets explicit points
   send(tf);
+  if (view.interest) send(view.interest);
 }
 
 function onScene(m) {
@@ -305,6 +339,9 @@ function onScene(m) {
   showEngine();
   $("preset").replaceChildren(...m.presets.map((p) => new Option(p, p, p === view.preset, p === view.preset)));
   $("field").replaceChildren(...m.fields.map((f) => new Option(f.name, f.name, false, false)));
+  const focusField = $("focus-field").value;
+  $("focus-field").replaceChildren(new Option("(none)", ""),
+                                   ...m.fields.map((f) => new Option(f.name, f.name, f.name === focusField, f.name === focusField)));
   const keep = !first && fieldInfo(view.field);
   if (!keep) {
     view.field = m.field;
@@ -400,6 +437,38 @@ function tick() {
 requestAnimationFrame(tick);
 
 new ResizeObserver(() => send({ type: "resize", ...canvasSize() })).observe(canvas);
+
+$("focus-field").addEventListener("change", () => {
+  const info = fieldInfo($("focus-field").value);
+  // A new field: the middle half of its range to start from.
+  if (info) {
+    const w = info.range[1] - info.range[0];
+    $("focus-min").value = String(+(info.range[0] + 0.25 * w).toPrecision(6));
+    $("focus-max").value = String(+(info.range[0] + 0.75 * w).toPrecision(6));
+  }
+  focusFromRange();
+});
+$("focus-min").addEventListener("change", focusFromRange);
+$("focus-max").addEventListener("change", focusFromRange);
+$("roi-whole").addEventListener("click", () => {
+  if (!scene) return;
+  $("roi-lo").value = scene.bounds.min.join(",");
+  $("roi-hi").value = scene.bounds.max.join(",");
+  $("roi").checked = true;
+});
+$("interest-apply").addEventListener("click", () => {
+  view.interest = interestMessage();
+  $("interest-note").textContent = view.interest.focus || view.interest.roi ? "focus set" : "";
+  queue(view.interest);
+});
+$("interest-clear").addEventListener("click", () => {
+  $("focus-field").value = "";
+  $("focus-text").value = "";
+  $("roi").checked = false;
+  view.interest = { type: "interest", focus: null, roi: null };
+  $("interest-note").textContent = "";
+  queue(view.interest);
+});
 
 $("engine").addEventListener("change", (e) => {
   view.engine = e.target.value;

@@ -82,10 +82,21 @@ RendererOptions renderer_options(const Options& o, const RenderSettings& setting
   r.cut = with_flag("--cut", [&] { return parse_cut_spec(o.cut); });
   // hybrid: the still image at convergence draws every visible leaf with cells exact (within --gpu-cell-memory), so
   // its cut is the leaves unless --cut says otherwise.
-  if (!o.focus.empty() && o.engine != "hybrid") fail_flag("--focus", "chooses exact cells: --engine hybrid only");
+  // Degree of interest (hybrid_select.h): the LOD engine's, with or without exact cells.
+  for (const auto& [flag, value] :
+       {std::pair{"--focus", &o.focus}, std::pair{"--roi", &o.roi},
+        std::pair{"--context-saturation", &o.context_saturation}, std::pair{"--context-opacity", &o.context_opacity}})
+    if (!value->empty() &&
+        (o.engine == "exact" || (o.engine == "auto" && !(o.inputs.size() == 1 && is_brick_store(o.inputs[0])))))
+      fail_flag(flag, "the degree of interest is the lod and hybrid engines' (a brick store): --engine lod or hybrid");
+  if (!o.focus.empty()) r.lod.focus = with_flag("--focus", [&] { return parse_focus(o.focus); });
+  if (!o.roi.empty()) r.lod.roi = parse_roi(o.roi, "--roi");
+  if (!o.context_saturation.empty())
+    r.lod.context_saturation = parse_number(o.context_saturation, "--context-saturation");
+  if (!o.context_opacity.empty()) r.lod.context_opacity = parse_number(o.context_opacity, "--context-opacity");
+  r.lod.validate();
   if (o.engine == "hybrid") {
     r.lod.cell_budget_bytes = o.gpu_cell_memory;
-    if (!o.focus.empty()) r.lod.focus = with_flag("--focus", [&] { return parse_focus(o.focus); });
     if (o.cut.empty() || o.cut == "pixels:1") r.cut = CutSpec{CutSpec::Kind::Leaves, 0};
   }
   TimeCriticalOptions& tc = r.time_critical;

@@ -47,9 +47,10 @@ struct Options {
   int port = 0;
   uint64_t gpu_memory = uint64_t(2) << 30;
   uint64_t ram_memory = uint64_t(1) << 30;
-  uint64_t memory_budget = 0;  // --memory-budget (view/memory_budget.h); 0: not given
-  uint64_t tabs_memory = 0;    // --tabs-memory (view/tab_memory.h); 0: the memory budget
-  double play = 0;             // --play: steps a second a new tab starts playing at (0: paused)
+  uint64_t memory_budget = 0;     // --memory-budget (view/memory_budget.h); 0: not given
+  uint64_t tabs_memory = 0;       // --tabs-memory (view/tab_memory.h); 0: the memory budget
+  double play = 0;                // --play: steps a second a new tab starts playing at (0: paused)
+  std::string engine = "hybrid";  // --engine: what draws a store that keeps cells (ViewServerOptions::hybrid)
 };
 
 bool is_store(const std::vector<std::string>& inputs) {
@@ -76,6 +77,9 @@ void run_view(const Options& o) {
   vo.port = uint16_t(o.port);
   vo.gpu = o.gpu;
   vo.gpu_memory = o.gpu_memory;
+  if (o.engine != "hybrid" && o.engine != "lod")
+    fail_in("--engine", "\"" + o.engine + "\" is not lod or hybrid (the store's voxels, or its cells exact at rest)");
+  vo.hybrid = o.engine == "hybrid";
   vo.ram_per_session = o.ram_memory;
   vo.tabs_memory = o.tabs_memory ? o.tabs_memory : o.memory_budget;  // 0: the server's default, the same budget
   vo.free_grid = o.free_grid;
@@ -295,6 +299,11 @@ void register_view(CLI::App& app) {
       ->type_name("RATE");
   cmd->add_option("--fps", opts->fps, "Frame-rate target while interacting (0: every frame at full quality)")
       ->default_str("10");
+  cmd->add_option("--engine", opts->engine,
+                  "What new tabs draw a brick store with: hybrid (a store built with --cells: voxels while moving, "
+                  "exact cells batch by batch at rest, docs/hybrid.md) or lod (voxels only); each tab may pick the "
+                  "other")
+      ->default_str("hybrid");
   cmd->callback([opts] { run_view(*opts); });
 }
 

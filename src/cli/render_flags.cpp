@@ -221,9 +221,21 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
       ->type_name("SPEC");
   add_gpu_memory_flags(*cmd, opts->gpu, opts->gpu_memory, opts->ram_memory, "lod: along --path");
   cmd->add_option("--focus", opts->focus,
-                  "hybrid: exact cells only where FIELD's values meet [MIN, MAX] (several: comma-separated, any of "
-                  "them); elsewhere voxels")
-      ->type_name("FIELD:MIN:MAX[,...]");
+                  "lod, hybrid: the focus, nodes whose FIELD values meet [MIN, MAX] (ranges joined by '+': all of "
+                  "them; groups separated by ',': any); hybrid draws exact cells only there; the rest is context, "
+                  "drawn desaturated and faint")
+      ->type_name("FIELD:MIN:MAX[+...][,...]");
+  cmd->add_option("--roi", opts->roi,
+                  "lod, hybrid: region of interest in world coordinates, a box (two opposite corners) or a sphere; "
+                  "with --focus both must hold; outside it, context as for --focus")
+      ->type_name("box:X0,Y0,Z0,X1,Y1,Z1|sphere:CX,CY,CZ,R");
+  cmd->add_option("--context-saturation", opts->context_saturation,
+                  "lod, hybrid: with --focus or --roi, the share of the context's colour saturation kept, [0, 1] "
+                  "(default 0.2)")
+      ->type_name("F");
+  cmd->add_option("--context-opacity", opts->context_opacity,
+                  "lod, hybrid: with --focus or --roi, the context's extinction scale, [0, 1] (default 0.3)")
+      ->type_name("F");
   add_byte_size_option(*cmd, "--gpu-cell-memory", opts->gpu_cell_memory,
                        "hybrid: GPU memory for exact cells (e.g. 256MiB); default a quarter of --gpu-memory", "0");
   cmd->add_option("--step-voxels", opts->step_voxels, "lod: sample step in voxels of each node (default 0.5)")

@@ -24,7 +24,7 @@ struct RenderOptions {
                             error_weight, device = "auto", exact_precision = "double", time;
   std::vector<std::string> slices;  // --slice, repeatable
   std::string slice_map, slice_range, slice_contours, slice_contour_color, slice_contour_width, hide_volume,
-      interpolation, focus;
+      interpolation, focus, roi, context_saturation, context_opacity;
   uint64_t gpu_memory = uint64_t(2) << 30, ram_memory = uint64_t(1) << 30;
   uint64_t gpu_cell_memory = 0;  // hybrid: GPU memory for exact cells (0: a quarter of gpu_memory)
   bool keep_range = false, no_lighting = false, volume_lighting = false;

@@ -8,6 +8,7 @@
 
 #include "ugvr/gpu/gl_context.h"
 #include "ugvr/octree/input.h"
+#include "ugvr/render/lod/lod_renderer.h"
 #include "ugvr/render/renderer_factory.h"
 #include "ugvr/view/field_histogram.h"
 #include "ugvr/view/jpeg.h"
@@ -185,7 +186,9 @@ SceneInfo EngineHost::lod_scene() const {
   sc.fps = options_.fps;
   sc.width = options_.width, sc.height = options_.height;
   sc.renderer = renderer_;
-  sc.engine = kLodEngine;
+  // A store with cells is drawn hybrid by default (docs/hybrid.md): voxels while moving, exact cells at rest; `ugvr
+  // view --engine lod` makes lod the default (a tab may still pick hybrid).
+  sc.engine = hybrid_available() && options_.hybrid ? kHybridEngine : kLodEngine;
   sc.engines = engines();
   // A store with time steps (docs/time-series.md, "Stores with time"): the time panel plays its steps.
   const BrickStoreReader& store = lod_->engine.store();
@@ -199,9 +202,12 @@ SceneInfo EngineHost::lod_scene() const {
 std::vector<EngineChoice> EngineHost::engines() const {
   std::vector<EngineChoice> out;
   if (exact_) out.push_back({std::string(kExactEngine), exact_renderer_});
+  if (hybrid_available()) out.push_back({std::string(kHybridEngine), renderer_});
   if (lod_) out.push_back({std::string(kLodEngine), renderer_});
   return out;
 }
+
+bool EngineHost::hybrid_available() const { return lod_ && lod_->engine.store().has_cells(); }
 
 std::optional<EngineHost::BuildReport> EngineHost::build_report() const {
   if (!build_) return std::nullopt;
@@ -259,17 +265,28 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   Tab& tab = *slot;
   // The engine the tab picked, if this viewer still has it (the request was checked against the scene it was made
   // with), else the scene's.
-  const bool picked = (request.engine == kExactEngine && exact_) || (request.engine == kLodEngine && lod_);
+  const bool picked = (request.engine == kExactEngine && exact_) || (request.engine == kLodEngine && lod_) ||
+                      (request.engine == kHybridEngine && hybrid_available());
   const std::string engine = picked ? request.engine : scene_.engine;
+  const bool on_store = engine == kLodEngine || engine == kHybridEngine;
+  // "lod" and "hybrid" draw with the one engine of the store, shared by the tabs: each frame sets which this tab
+  // picked (a tab's session starts afresh when it switches, below).
+  if (on_store) {
+    const bool hybrid = engine == kHybridEngine;
+    lod_->engine.set_hybrid(hybrid);
+    lod_->options.hybrid = hybrid;  // the renderer's name for the frame's stats (LodRendererBase::engine)
+    lod_->engine.set_interest(request.focus, request.roi, request.context_saturation, request.context_opacity);
+  }
   if (!tab.renderer || tab.engine != engine) {
     RendererOptions ro;
     ro.interactive = true;
     ro.time_critical.ram_budget_bytes = job.ram_budget ? job.ram_budget : options_.ram_per_session;
     ro.time_critical.loader_threads = 2;
+    ro.time_critical.exact_batch = options_.exact_batch;
     ro.gl_context = gl_;  // the exact engine runs on the GPU where there is a hardware one (device auto)
     // The old renderer goes first: a level-of-detail session joins its loader threads and drops its RAM cache.
     tab.renderer.reset();
-    tab.renderer = engine == kLodEngine ? make_renderer(lod_, ro) : make_renderer(exact_, ro);
+    tab.renderer = on_store ? make_renderer(lod_, ro) : make_renderer(exact_, ro);
     tab.engine = engine;
     // The new engine's first frames are not part of the old one's frame rate.
     tab.counting = false, tab.shown_fps = 0;
@@ -286,7 +303,7 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   const bool timed = engine == kExactEngine && exact_ && exact_->series;
   if (timed) fr.time_step = request.time_step.value_or(scene_.time_step);
   // A store with time steps: the LOD renderer switches the step (its bricks, read ahead while playing).
-  const bool timed_store = engine == kLodEngine && lod_ && lod_->engine.store().has_steps();
+  const bool timed_store = on_store && lod_ && lod_->engine.store().has_steps();
   if (timed_store)
     fr.time_step = std::min(request.time_step.value_or(scene_.time_step), lod_->engine.store().step_count() - 1);
   // Playing, a step's period is its render plus the step's overhead: the render is given what the period at the
@@ -323,6 +340,18 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   st.pending_bricks = f.stats.pending;
   if (timed) st.time_step = exact_->step, st.time = exact_->series->steps[exact_->step].time;
   if (timed_store) st.time_step = *fr.time_step, st.time = lod_->engine.store().step_time(*fr.time_step);
+  // How much is exact (hybrid): the session's figures of the frame's draw.
+  if (const auto* d = dynamic_cast<const InteractiveLodFrameStats*>(f.stats.detail.get());
+      d && d->frame.render.hybrid) {
+    const LodRenderStats& h = d->frame.render;
+    st.hybrid = true;
+    st.exact_nodes = h.exact_nodes, st.exact_candidates = h.exact_candidates, st.exact_cells = h.exact_cells;
+    st.focus_excluded = h.focus_excluded;
+    st.exact_fraction = h.cut_nodes ? double(h.exact_nodes) / double(h.cut_nodes) : 0.0;
+    st.cell_bytes = h.cell_bytes, st.cell_budget = h.cell_budget_bytes;
+    st.cell_budget_full = h.cell_budget_full;
+    st.exact_off = h.hybrid_off;
+  }
   const std::vector<unsigned char> encoded = converged ? png_bytes(image) : jpeg_bytes(image);
   auto bytes = std::make_shared<const std::string>(encoded.begin(), encoded.end());
   const Clock::time_point now = Clock::now();

@@ -95,6 +95,7 @@ class EngineHost {
   struct Tab;
   SceneInfo lod_scene() const;
   std::vector<EngineChoice> engines() const;  // what the tabs may pick now
+  bool hybrid_available() const;              // a store that keeps cells: a tab may pick hybrid
 
   ViewServerOptions options_;
   std::string renderer_;        // GL_RENDERER

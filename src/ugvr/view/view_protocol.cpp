@@ -222,10 +222,37 @@ ClientMessage parse_client_message(std::string_view text) {
     if (!j.contains("engine")) fail_field("engine", "missing");
     const json& v = j["engine"];
     const std::string name = v.is_string() ? v.get<std::string>() : "";
-    if (name != kExactEngine && name != kLodEngine)
-      fail_field("engine",
-                 "expected \"exact\" or \"lod\", found " + v.dump(-1, ' ', false, json::error_handler_t::replace));
+    if (name != kExactEngine && name != kLodEngine && name != kHybridEngine)
+      fail_field("engine", "expected \"exact\", \"lod\" or \"hybrid\", found " +
+                               v.dump(-1, ' ', false, json::error_handler_t::replace));
     return EngineMessage{name};
+  }
+  if (type == "interest") {
+    check_keys(j, {"focus", "roi", "context_saturation", "context_opacity"});
+    InterestMessage m;
+    // The texts of `ugvr render --focus / --roi`; their errors name the key instead of the flag.
+    const auto string_of = [&](const char* key) {
+      const json& v = j[key];
+      if (!v.is_string() || v.get<std::string>().empty()) fail_field(key, "expected a non-empty string or null");
+      return v.get<std::string>();
+    };
+    if (j.contains("focus")) {
+      if (j["focus"].is_null()) {
+        m.focus.emplace();
+      } else {
+        const std::string f = string_of("focus");
+        try {
+          m.focus = parse_focus(f);
+        } catch (const Error& e) {
+          fail_field("focus", std::string(e.what()).substr(std::string("--focus ").size()));
+        }
+      }
+    }
+    if (j.contains("roi"))
+      m.roi.emplace(j["roi"].is_null() ? std::nullopt : std::optional(parse_roi(string_of("roi"), "roi")));
+    if (j.contains("context_saturation")) m.context_saturation = number(j, "context_saturation", 0, 1);
+    if (j.contains("context_opacity")) m.context_opacity = number(j, "context_opacity", 0, 1);
+    return m;
   }
   if (type == "time") {
     check_keys(j, {"step", "playing"});
@@ -275,7 +302,17 @@ std::string status_message(const FrameStatus& s) {
          {"atlas_budget", s.atlas_budget},
          {"pending_bricks", s.pending_bricks}};
   if (s.time_step >= 0) j["time_step"] = s.time_step, j["time"] = s.time;
-  return j.dump();
+  if (s.hybrid)
+    j["exact"] = {{"nodes", s.exact_nodes},
+                  {"candidates", s.exact_candidates},
+                  {"fraction", s.exact_fraction},
+                  {"cells", s.exact_cells},
+                  {"cell_bytes", s.cell_bytes},
+                  {"cell_budget", s.cell_budget},
+                  {"budget_full", s.cell_budget_full},
+                  {"focus_excluded", s.focus_excluded},
+                  {"off", s.exact_off.empty() ? json(nullptr) : json(s.exact_off)}};
+  return j.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
 std::string progress_message(const ProgressInfo& p) {

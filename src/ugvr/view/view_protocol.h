@@ -27,9 +27,18 @@
 //       list of cutting planes (replaces the tab's; [] removes them; render_settings.h Slice, at most kMaxSlices,
 //       web/slices.js sends it), hide_volume where the volume is hidden around them. These are
 //       RenderSettings fields: src/ugvr/render/settings_table.h maps each to its message key and gives the ranges
-//   {"type":"engine", "engine":"exact"|"lod"}   which engine draws this tab: the exact engine over the grid, or the
-//       level-of-detail engine over the brick store; it must be one of the scene's "engines" (view_request.h rejects
-//       the others), and a tab that never sends one is drawn by the scene's "engine"
+//   {"type":"engine", "engine":"exact"|"lod"|"hybrid"}   which engine draws this tab: the exact engine over the
+//       grid, the level-of-detail engine over the brick store, or the hybrid engine (the same store's voxels while
+//       moving, its leaves' cells exact at rest; only a store built with --cells, docs/hybrid.md); it must be one of
+//       the scene's "engines" (view_request.h rejects the others), and a tab that never sends one is drawn by the
+//       scene's "engine"
+//   {"type":"interest", "focus":"FIELD:MIN:MAX[+...][,...]"|null,
+//   "roi":"box:X0,Y0,Z0,X1,Y1,Z1"|"sphere:CX,CY,CZ,R"|null,
+//    "context_saturation":S, "context_opacity":A}   the tab's degree of interest (docs/hybrid.md; `ugvr render`'s
+//       --focus, --roi, --context-saturation, --context-opacity, the same texts): every key optional, null removes
+//       the focus or the region; a focus field must be one of the scene's; S and A in [0, 1]. The store's engines
+//       (lod, hybrid) draw the nodes of zero interest as context, desaturated and faint, and the hybrid engine gives
+//       exact cells to the focus only; the exact engine ignores it
 //   {"type":"time", "step":N, "playing":B}   shows step N (an integer in [0, count)) of a time series (the scene's
 //       "time"); "playing" (optional, default false): the page is playing, so the server reads the next step ahead
 //       while this one renders. A scene without a time axis rejects it ("step: ...")
@@ -55,7 +64,11 @@
 //       tab's view (ViewServer::set_view; either part may be absent; also after hello, once one was set): the page
 //       takes it as its own and sends nothing back
 //   status also carries "time_step" and "time" (a time series: the step the frame shows), "engine", "ram_bytes",
-//   "ram_budget", "atlas_bytes", "atlas_budget", "pending_bricks"
+//   "ram_budget", "atlas_bytes", "atlas_budget", "pending_bricks"; a hybrid frame "exact":{"nodes", "candidates",
+//   "fraction", "cells", "cell_bytes", "cell_budget", "budget_full", "focus_excluded", "off"}: its exact nodes, of
+//   the visible nodes with cells (candidates), the fraction of the cut they are, their cells and memory, whether the
+//   cell budget is full (no more can turn exact), nodes left out for zero interest, and why none can be exact
+//   ("off", null when hybrid runs)
 #pragma once
 
 #include <array>
@@ -69,6 +82,7 @@
 
 #include "ugvr/core/vec.h"
 #include "ugvr/render/camera.h"
+#include "ugvr/render/lod/hybrid_select.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/transfer_function.h"
 
@@ -116,10 +130,10 @@ struct SettingsMessage {
 };
 
 // The engines a tab can be drawn by (SceneInfo::engines says which this viewer has).
-inline constexpr std::string_view kExactEngine = "exact", kLodEngine = "lod";
+inline constexpr std::string_view kExactEngine = "exact", kLodEngine = "lod", kHybridEngine = "hybrid";
 
 struct EngineMessage {
-  std::string engine;  // kExactEngine or kLodEngine
+  std::string engine;  // kExactEngine, kLodEngine or kHybridEngine
 };
 
 struct TimeMessage {
@@ -127,12 +141,20 @@ struct TimeMessage {
   bool playing = false;  // the page plays: the next step is read ahead
 };
 
-using ClientMessage = std::variant<SizeMessage, CameraMessage, TfMessage, SettingsMessage, EngineMessage, TimeMessage>;
+// The degree of interest (hybrid_select.h): absent keys leave the tab's as they are.
+struct InterestMessage {
+  std::optional<std::vector<FocusRange>> focus;        // holds an empty list: no focus
+  std::optional<std::optional<RegionOfInterest>> roi;  // holds nullopt: no region
+  std::optional<double> context_saturation, context_opacity;
+};
+
+using ClientMessage =
+    std::variant<SizeMessage, CameraMessage, TfMessage, SettingsMessage, EngineMessage, TimeMessage, InterestMessage>;
 
 // One engine a tab may be drawn by, and its renderer's label for the page: "exact engine (CPU)", "exact engine (GPU:
 // NAME)", or the GL_RENDERER the level-of-detail engine draws with.
 struct EngineChoice {
-  std::string name;  // kExactEngine or kLodEngine
+  std::string name;  // kExactEngine, kLodEngine or kHybridEngine
   std::string renderer;
 };
 
@@ -152,9 +174,12 @@ struct SceneInfo {
   double fps = 10;
   int width = 512, height = 512;
   std::string renderer;  // the label of `engine`'s renderer (renderers[engine])
-  std::string engine;    // what new tabs are drawn by: "lod" (the brick store) or "exact" (while a store is built)
+  // What new tabs are drawn by: "lod" (the brick store), "hybrid" (a store with cells, unless
+  // ViewServerOptions::hybrid is off) or "exact" (while a store is built).
+  std::string engine;
   // The engines a tab may pick ("engine" message), in the page's order: exact while the store of a grid is built;
-  // exact and lod once it is shown and the grid is kept; lod for a viewer of a store (or with --free-grid).
+  // exact and lod once it is shown and the grid is kept; lod for a viewer of a store (or with --free-grid); hybrid
+  // besides lod where the store keeps cells.
   std::vector<EngineChoice> engines;
   // The transfer function new tabs start from (`ugvr view --tf FILE`: points in data values; an
   // opacity_unit_distance <= 0 means the viewer's default); none: `preset` over the field's range.
@@ -200,12 +225,19 @@ struct FrameStatus {
   double texel_error = 0, max_texel_error = 0;  // screen size of a texel, mean and max, in pixels
   double scale = 1;
   bool converged = false;
-  std::string engine = "lod";                  // the engine that drew the frame: "lod" or "exact"
+  std::string engine = "lod";                  // the engine that drew the frame: "lod", "hybrid" or "exact"
   uint64_t ram_bytes = 0, ram_budget = 0;      // this tab's RAM brick cache: resident decoded bricks, and its budget
   uint64_t atlas_bytes = 0, atlas_budget = 0;  // the GPU atlas (shared by all tabs)
   uint64_t pending_bricks = 0;                 // bricks the refinement waits for (queued or loading from disk)
   int64_t time_step = -1;                      // the series' step shown (-1: no time axis)
   double time = 0;                             // its time
+  // A hybrid frame (engine "hybrid"; LodRenderStats' figures): how much of the cut is drawn by exact cells.
+  bool hybrid = false;
+  uint64_t exact_nodes = 0, exact_candidates = 0, exact_cells = 0, focus_excluded = 0;
+  double exact_fraction = 0;  // exact_nodes / cut nodes drawn
+  uint64_t cell_bytes = 0, cell_budget = 0;
+  bool cell_budget_full = false;
+  std::string exact_off;  // why no node can be exact ("" when hybrid runs)
 };
 std::string status_message(const FrameStatus& s);
 

@@ -102,12 +102,24 @@ void apply_message(ViewState& state, const ClientMessage& m, const SceneInfo& sc
       std::string names;
       for (const EngineChoice& e : scene.engines) names += (names.empty() ? "" : ", ") + e.name;
       // Why it is missing: the store is not there yet, or the grid was not kept (a viewer of a store, --free-grid).
-      const std::string why = engine->engine == kLodEngine
-                                  ? "the brick store is not ready yet"
+      const std::string why = engine->engine == kLodEngine ? "the brick store is not ready yet"
+                              : engine->engine == kHybridEngine
+                                  ? "the brick store is not ready yet or keeps no cells (ugvr build --cells)"
                                   : "the grid is not kept (a viewer of a brick store, or --free-grid)";
       fail_in("engine", "\"" + engine->engine + "\" is not available: " + why + " (engines: " + names + ")");
     }
     r.engine = engine->engine;
+  } else if (const auto* interest = std::get_if<InterestMessage>(&m)) {
+    if (interest->focus) {
+      for (const FocusRange& f : *interest->focus)
+        if (!scene.find_field(f.field)) fail_in("focus", "no field \"" + f.field + "\" in the scene");
+      r.focus = *interest->focus;
+      // A vector's name alone is its magnitude, as the store names it.
+      for (FocusRange& f : r.focus) f.field = scene.find_field(f.field)->name;
+    }
+    if (interest->roi) r.roi = *interest->roi;
+    if (interest->context_saturation) r.context_saturation = *interest->context_saturation;
+    if (interest->context_opacity) r.context_opacity = *interest->context_opacity;
   } else if (const auto* time = std::get_if<TimeMessage>(&m)) {
     if (scene.times.empty()) fail_in("step", "this viewer shows one step (the input is not a time series)");
     if (time->step >= scene.times.size())

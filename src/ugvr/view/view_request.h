@@ -28,6 +28,10 @@ struct ViewRequest {
   // (the next step is read ahead).
   std::optional<uint32_t> time_step;
   bool playing = false;
+  // The degree of interest ("interest" message; LodOptions' focus, roi, context_*): the store's engines draw with it.
+  std::vector<FocusRange> focus;
+  std::optional<RegionOfInterest> roi;
+  double context_saturation = 0.2, context_opacity = 0.3;
 };
 
 struct ViewState {

@@ -78,7 +78,12 @@ struct ViewServerOptions {
   std::string host = "127.0.0.1";       // address to listen on
   uint16_t port = 0;                    // 0: a free port
   std::string gpu = "auto";             // GlContext device
-  uint64_t gpu_memory = uint64_t(2) << 30;       // atlas budget (shared by the sessions)
+  uint64_t gpu_memory = uint64_t(2) << 30;  // atlas budget (shared by the sessions)
+  // A store that keeps its leaves' cells (`ugvr build --cells`): new tabs are drawn by the hybrid engine
+  // (docs/hybrid.md: voxels while moving, exact cells batch by batch at rest); false: by the level-of-detail engine
+  // (`ugvr view --engine lod`). Either way a tab may pick the other ("engine" message).
+  bool hybrid = true;
+  uint64_t exact_batch = 64;  // hybrid: nodes turning exact per resting frame (TimeCriticalOptions::exact_batch)
   uint64_t ram_per_session = uint64_t(1) << 30;  // each session's RAM brick cache (less when tabs_memory is short)
   // Every tab's allocations together (tab_memory.h): outgoing queue, canvas, RAM brick cache. 0: the viewer's memory
   // budget (memory_budget.h: $UGVR_VIEW_MEMORY_BUDGET, else half of physical memory).

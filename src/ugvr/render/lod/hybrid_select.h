@@ -9,13 +9,21 @@
 // function: their voxels and their cells draw the same nothing), are no candidates. The cell cache (cell_cache.h)
 // grants candidates in this order within its budget; the rest stay resampled.
 //
-// Degree of interest (`--focus FIELD:MIN:MAX[,...]`; Muigg's DOI, SimVis's brushes as value ranges): with focus ranges
-// a node is a candidate only where one of them (OR) overlaps the node's value range of its field (the store's
-// conservative subtree min / max): its interest is 1, else 0, and a node of zero interest is drawn from its brick and
-// loads no cells. (Smooth brush edges, AND, and drawing the context desaturated are not done.)
+// Degree of interest (Muigg's DOI; SimVis's brushes as value ranges, LaMar's region of interest as a box or sphere).
+// A node's interest is 1 or 0:
+//  - focus (`--focus`): a list of value-range brushes on any of the store's fields, ranges joined by '+' ANDed, the
+//    groups separated by ',' ORed ("pressure:0:1+velocity:2:3,temperature:5:9"); a range holds for a node where it
+//    overlaps the node's value range of its field (the store's conservative subtree min / max);
+//  - region of interest (`--roi box:X0,Y0,Z0,X1,Y1,Z1` or `sphere:CX,CY,CZ,R`, world coordinates): it holds where the
+//    node's box meets the region;
+//  - both given, both must hold. None: every node's interest is 1.
+// A node of zero interest is no candidate: it is drawn from its brick and loads no cells; with focus or a region set,
+// it is drawn as context (desaturated and faint, LodOptions::context_*, Muigg eq. 3.15). The interest is binary: the
+// store's per-node ranges bound the values, they do not say how much of a node is inside (no smooth brush edges).
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -30,20 +38,49 @@ namespace ugvr {
 struct FocusRange {
   std::string field;  // a store field name
   double min = 0, max = 0;
+  uint32_t group = 0;  // ranges of one group (joined by '+') must all hold; any group (separated by ',') will do
   bool operator==(const FocusRange&) const = default;
 };
-// "FIELD:MIN:MAX[,FIELD:MIN:MAX...]" (a field name may itself hold ':', as "velocity:magnitude": MIN and MAX are the
-// last two). Throws ugvr::Error naming the text and what is wrong.
+// "FIELD:MIN:MAX[+FIELD:MIN:MAX...][,...]" (a field name may itself hold ':', as "velocity:magnitude": MIN and MAX are
+// the last two; it may not hold ',' or '+'). Throws ugvr::Error naming the text and what is wrong.
 std::vector<FocusRange> parse_focus(std::string_view text);
+// The text parse_focus reads back (numbers with 17 significant digits).
+std::string focus_text(std::span<const FocusRange> focus);
+
+// LaMar's region of interest, in world coordinates.
+struct RegionOfInterest {
+  enum class Shape { Box, Sphere };
+  Shape shape = Shape::Box;
+  Vec3d lo{0, 0, 0}, hi{0, 0, 0};  // a box: its corners, lo <= hi
+  Vec3d centre{0, 0, 0};           // a sphere
+  double radius = 0;               // > 0
+  // Whether the region meets the axis-aligned box b (closed sets: touching counts).
+  bool meets(const Bounds& b) const;
+  bool operator==(const RegionOfInterest&) const = default;
+};
+// "box:X0,Y0,Z0,X1,Y1,Z1" (any two opposite corners) or "sphere:CX,CY,CZ,R". Throws ugvr::Error naming `source` (the
+// flag or key) and what is wrong.
+RegionOfInterest parse_roi(std::string_view text, std::string_view source = "--roi");
+std::string roi_text(const RegionOfInterest& roi);
 
 // A focus range resolved against a store: field index and range.
 struct ResolvedFocus {
   uint32_t field = 0;
   double min = 0, max = 0;
+  uint32_t group = 0;
 };
 // Field names to indices; throws ugvr::Error listing the store's fields for an unknown name.
 std::vector<ResolvedFocus> resolve_focus(const BrickStoreReader& store, std::span<const FocusRange> focus);
-// 1 when `focus` is empty or one of its ranges overlaps the node's value range of that field, else 0.
+
+// What a node's interest is taken from: the resolved focus ranges and the region of interest (either may be absent).
+struct NodeInterest {
+  std::vector<ResolvedFocus> focus;
+  std::optional<RegionOfInterest> roi;
+  bool any() const { return !focus.empty() || roi.has_value(); }
+};
+// 1 when the node meets the focus (some group all of whose ranges overlap its value ranges; no focus: 1) and the
+// region of interest (no region: 1), else 0.
+double node_interest(const BrickStoreReader& store, uint64_t node, const NodeInterest& interest);
 double node_interest(const BrickStoreReader& store, uint64_t node, std::span<const ResolvedFocus> focus);
 
 struct ExactCandidate {
@@ -52,10 +89,10 @@ struct ExactCandidate {
 };
 
 // The cut's nodes that may be drawn exact, highest priority first (ties: lower node id first).
-// `focus`: the degree of interest (none: every node's is 1); `excluded`, if given, counts the nodes with cells left out
-// for zero interest.
+// `interest`: the degree of interest (none: every node's is 1); `excluded`, if given, counts the nodes with cells left
+// out for zero interest.
 std::vector<ExactCandidate> exact_candidates(const BrickStoreReader& store, std::span<const uint64_t> cut,
                                              const Camera& camera, int width, int height, const TfNodeErrors& tf,
-                                             std::span<const ResolvedFocus> focus = {}, uint64_t* excluded = nullptr);
+                                             const NodeInterest& interest = {}, uint64_t* excluded = nullptr);
 
 }  // namespace ugvr

@@ -121,6 +121,7 @@ struct LodEngine::Impl {
                     LodRenderStats& st, uint64_t max_nodes = UINT64_MAX);
 
   Impl(const std::string& path, const GlContext& g, LodOptions o) : store(path), gl(g), options(o) {}
+  NodeInterest interest() const { return {resolve_focus(store, options.focus), options.roi}; }
   uint64_t budget_slots() const;
   void ensure_atlas(uint64_t needed);
   uint64_t load(std::span<const uint64_t> nodes, BrickResidency& residency);
@@ -151,8 +152,10 @@ ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, boo
 uint64_t LodEngine::Impl::budget_slots() const {
   const uint64_t side = store.resolution() + 2;
   const uint64_t per_brick = side * side * side * 4;
+  // Slots stay below NODE_CONTEXT, the state's context bit (lod_shared.h).
   return std::min({BrickAtlas::max_slots(store.resolution(), gl.max_3d_texture_size()),
-                   std::max<uint64_t>(1, options.atlas_budget_bytes / per_brick), device_slots});
+                   std::max<uint64_t>(1, options.atlas_budget_bytes / per_brick), device_slots,
+                   uint64_t(lod_gpu::NODE_CONTEXT)});
 }
 
 void LodEngine::Impl::ensure_atlas(uint64_t needed) {
@@ -325,6 +328,7 @@ lod_gpu::LodFrame LodEngine::Impl::frame_parameters(const Camera& camera, const 
     f.u_box_hi = {norm(b.hi.x, root.lo.x, root_size.x), norm(b.hi.y, root.lo.y, root_size.y),
                   norm(b.hi.z, root.lo.z, root_size.z), 0.0f};
   }
+  f.u_context = {float(options.context_saturation), float(options.context_opacity), 0.0f, 0.0f};
   return f;
 }
 
@@ -379,9 +383,8 @@ void LodEngine::Impl::choose_exact(std::span<const uint64_t> cut, const Camera& 
   const auto t0 = std::chrono::steady_clock::now();
   const uint64_t budget = options.cell_budget_bytes ? options.cell_budget_bytes : options.atlas_budget_bytes / 4;
   if (!cells || cells->budget_bytes() != budget) cells = std::make_unique<CellCache>(store, budget);
-  const std::vector<ResolvedFocus> focus = resolve_focus(store, options.focus);
   const std::vector<ExactCandidate> cand =
-      exact_candidates(store, cut, camera, settings.width, settings.height, tf_errors, focus, &st.focus_excluded);
+      exact_candidates(store, cut, camera, settings.width, settings.height, tf_errors, interest(), &st.focus_excluded);
   std::vector<uint64_t> order;
   order.reserve(cand.size());
   for (const ExactCandidate& c : cand) order.push_back(c.node);
@@ -403,6 +406,8 @@ LodEngine::LodEngine(const std::string& store_path, const GlContext& gl, LodOpti
   if (I.store.resolution() < 2) fail_in(store_path, "brick resolution below 2");
   if (I.store.node_count() >= lod_gpu::NODE_DESCEND)
     fail_in(store_path, "too many nodes for the GPU node table (2^32 - 2)");
+  I.options.validate();
+  resolve_focus(I.store, I.options.focus);  // an unknown --focus field fails before the first frame
   gl.make_current();
   I.faces = I.store.has_boundary();
   if (I.faces) {
@@ -553,6 +558,24 @@ void LodEngine::set_step_voxels(double step) {
 }
 void LodEngine::set_max_exact_nodes(uint64_t n) { impl_->options.max_exact_nodes = n; }
 bool LodEngine::hybrid() const { return impl_->options.hybrid; }
+void LodEngine::set_hybrid(bool on) { impl_->options.hybrid = on; }
+void LodEngine::set_interest(std::vector<FocusRange> focus, std::optional<RegionOfInterest> roi,
+                             double context_saturation, double context_opacity) {
+  LodOptions o = impl_->options;
+  o.focus = std::move(focus);
+  o.roi = roi;
+  o.context_saturation = context_saturation, o.context_opacity = context_opacity;
+  o.validate();
+  resolve_focus(impl_->store, o.focus);  // an unknown field fails here, not in the next frame
+  impl_->options = std::move(o);
+}
+
+void LodOptions::validate() const {
+  if (!(context_saturation >= 0 && context_saturation <= 1))
+    fail_in("--context-saturation", "must be in [0, 1] (the share of the context's saturation kept)");
+  if (!(context_opacity >= 0 && context_opacity <= 1))
+    fail_in("--context-opacity", "must be in [0, 1] (the context's extinction scale)");
+}
 void LodEngine::prepare_exact(std::span<const uint64_t> nodes, const Camera& camera, const TransferFunction& tf,
                               const RenderSettings& settings, uint64_t max_nodes, LodRenderStats* stats) {
   Impl& I = *impl_;
@@ -613,6 +636,11 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
       fail_in("lod engine", "exact node " + std::to_string(n) + " is not a node of the cut");
     state[n] = lod_gpu::NODE_EXACT | entry;
   }
+  // Focus+context: the resampled nodes of zero interest are drawn as context (lod_shared.h NODE_CONTEXT).
+  if (const NodeInterest interest = I.interest(); interest.any())
+    for (uint64_t n : nodes)
+      if (state[n] < lod_gpu::NODE_CONTEXT && node_interest(I.store, n, interest) == 0)
+        state[n] |= lod_gpu::NODE_CONTEXT;
   I.state.upload(state.data(), state.size() * sizeof(uint32_t));
   st.load_seconds = seconds_since(t1);
   st.atlas_bytes = I.atlas.bytes();

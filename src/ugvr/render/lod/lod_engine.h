@@ -85,8 +85,15 @@ struct LodOptions {
   bool hybrid = false;
   uint64_t cell_budget_bytes = 0;
   uint64_t max_exact_nodes = UINT64_MAX;
-  // Degree of interest (hybrid_select.h): only nodes whose value ranges meet one of these get exact cells.
+  // Degree of interest (hybrid_select.h): with focus ranges and/or a region of interest, only nodes of interest 1 get
+  // exact cells, and the others (context) are drawn from their bricks desaturated and faint (Muigg eq. 3.15), in
+  // emission-absorption mode: their colour keeps context_saturation of its saturation (mixed towards its luminance)
+  // and their extinction is scaled by context_opacity. Both in [0, 1]; 1 and 1 draw the context as the focus.
   std::vector<FocusRange> focus;
+  std::optional<RegionOfInterest> roi;
+  double context_saturation = 0.2, context_opacity = 0.3;
+  // Throws ugvr::Error naming the option (--context-saturation, --context-opacity) for a value outside [0, 1].
+  void validate() const;
 };
 
 class LodEngine {
@@ -143,6 +150,13 @@ class LodEngine {
   // (the time-critical session), exact cells for at most `max_nodes` of its nodes in priority order (the grant holds
   // for that one call). Fills the hybrid figures of *stats, which the caller then passes to render_nodes.
   bool hybrid() const;
+  // Turns hybrid rendering on or off from the next frame on (the viewer's tabs pick "hybrid" or "lod" over one shared
+  // engine; the caller sets it before each tab's frame).
+  void set_hybrid(bool on);
+  // The degree of interest from the next frame on (LodOptions::focus, roi, context_*): the viewer's tabs set their own
+  // before each frame. Throws ugvr::Error for a focus field the store lacks or a context value outside [0, 1].
+  void set_interest(std::vector<FocusRange> focus, std::optional<RegionOfInterest> roi, double context_saturation,
+                    double context_opacity);
   void prepare_exact(std::span<const uint64_t> nodes, const Camera& camera, const TransferFunction& tf,
                      const RenderSettings& settings, uint64_t max_nodes, LodRenderStats* stats);
   // Hybrid rendering: the nodes whose cells are prepared in RAM (read from the store), ascending; empty before the
