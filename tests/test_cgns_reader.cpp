@@ -402,5 +402,36 @@ TEST(CgnsReader, BrokenFilesAreNamed) {
   }
 }
 
+// Files that are neither ADF nor HDF5 are refused before libcgns sees them: its ADF layer aborted the process on a
+// 2-byte file (found by fuzz_cgns; fuzz/regression/fuzz_cgns). The header checks let the real formats through.
+TEST(CgnsReader, FilesWithoutACgnsHeaderAreRefusedNotAborted) {
+  ScratchDir dir;
+  const auto refused = [&](const std::string& name, const std::string& bytes) {
+    const std::string path = dir.file(name);
+    std::ofstream(path, std::ios::binary) << bytes;
+    try {
+      read_dataset(std::vector<std::string>{path});
+      ADD_FAILURE() << name << ": no error";
+    } catch (const Error& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find(name), std::string::npos) << m;
+      EXPECT_NE(m.find("not a CGNS file"), std::string::npos) << m;
+    }
+  };
+  refused("two.cgns", "oo");
+  refused("text.cgns", std::string(4096, 'x'));
+  // The ADF magic in a file shorter than ADF's file header.
+  refused("short.cgns", std::string("\xc0\xa8\xa3\xa9"
+                                    "ADF Database Version A02011>",
+                                    32));
+  // Both formats still open.
+  const Dataset ds = small_mixed_mesh();
+  for (const int format : {CG_FILE_ADF, CG_FILE_HDF5}) {
+    const std::string path = dir.file(format == CG_FILE_ADF ? "adf.cgns" : "hdf5.cgns");
+    write_unstructured(path, ds, Layout::PerType, format);
+    EXPECT_EQ(read_dataset(std::vector<std::string>{path}).cell_count(), ds.cell_count());
+  }
+}
+
 }  // namespace
 }  // namespace ugvr
