@@ -14,21 +14,10 @@
 # Usage, from the repository root on the GPU machine: OUT=... bash bench/gpu_device_ab.sh. Results in OUT:
 # log.txt, hybrid.jsonl, hybrid_ab.txt, hybrid-ab.jsonl, compile.jsonl, tests.txt, ab.tgz (B's pictures).
 set -u
-root=$PWD
-out=${OUT:?OUT names the folder whose files come back}
-g=/tmp/g a=/tmp/a
-mkdir -p "$g" "$a"
-tar -xJf "${BUNDLE:-.gpu/bundle.tar.xz}" -C "$g" && tar -xJf "${BUNDLE_A:-.gpu/ugvr-a.tar.xz}" -C "$a" || exit 1
-export LD_LIBRARY_PATH=$g/lib UGVR_DATA=$g/data
-if ! ls /usr/share/glvnd/egl_vendor.d/*nvidia* >/dev/null 2>&1; then
-  for f in /usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json /etc/glvnd/egl_vendor.d/10_nvidia.json; do
-    [ -f "$f" ] && export __EGL_VENDOR_LIBRARY_FILENAMES=$f && break
-  done
-fi
-[ -e /work/main ] || { mkdir -p /work && ln -s "$root" /work/main; }
-[ -e /work/shared/data ] || { mkdir -p /work/shared && ln -s "$g/data" /work/shared/data; }
-[ -e build/ugvr ] || { mkdir -p build && ln -s "$g/bin/ugvr" build/ugvr; }
-exec > >(tee "$out/log.txt") 2>&1
+a=/tmp/a
+mkdir -p "$a" && tar -xJf "${BUNDLE_A:-.gpu/ugvr-a.tar.xz}" -C "$a" || exit 1
+source bench/gpu_device_env.sh
+unset UGVR_SHADER_DIR  # each build is given its own below
 echo "A $(cat "$a/commit"), B $(cat "$g/commit"); $(nvidia-smi --query-gpu=name,driver_version --format=csv,noheader 2>&1 | head -1)"
 size=${SIZE:-1024}
 
@@ -54,7 +43,7 @@ for part in ${PARTS:-hybrid compile tests}; do
         CACHE="on on" UGVR=$g/bin/ugvr timeout 60 bash bench/shader_compile_times.sh /tmp/sct; } >"$out/compile.jsonl"
       cat "$out/compile.jsonl" ;;
     tests)
-      filter=${TEST_FILTER:-'ExactGpu.*:Hybrid.*:LodEngine.*:LodBoundary.*:LodTricubic.*:LodSlice.*:ExactSlice.*:LodAtlasBudget.*:LodPreintegration.*:LodOverlay.*:GoldenImages.*:GlProgram*:ConstantAndLinear/LodSeams.*'}
+      filter=${TEST_FILTER:-$gl_test_filter}
       UGVR_SHADER_DIR=$root/shaders timeout "${TESTS_SECONDS:-120}" "$g/bin/ugvr_tests" --gtest_filter="$filter" \
         >"$out/tests.txt" 2>&1
       echo "tests: exit $? ($(grep -c '^\[       OK' "$out/tests.txt") OK, $(grep -c '^\[  FAILED' "$out/tests.txt") FAILED lines)"

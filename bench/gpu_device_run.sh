@@ -6,27 +6,12 @@
 # Usage, from the repository root on the GPU machine: bash bench/gpu_device_run.sh
 #   BUNDLE (.gpu/bundle.tar.xz), OUT ($OUT), SECTIONS (default "hybrid exact-gpu slices tricubic view lod"),
 #   TESTS_SECONDS (150), BENCH_SECONDS (330), SIZE (1024), TEST_FILTER (the GL tests).
-# The tests find their source tree and data through the paths compiled into them (/work/main, /work/shared/data here):
-# the script links those paths to this checkout and the bundle's data when they do not exist.
+# The set-up (bundle, loader, EGL vendor, the paths compiled into the tests) is bench/gpu_device_env.sh.
 set -u
-root=$PWD
-out=${OUT:?OUT names the folder whose files come back}
-g=/tmp/g
-mkdir -p "$g" && tar -xJf "${BUNDLE:-.gpu/bundle.tar.xz}" -C "$g" || exit 1
-export LD_LIBRARY_PATH=$g/lib UGVR_SHADER_DIR=$root/shaders UGVR_DATA=$g/data UGVR_COMMIT=$(cat "$g/commit")
-# glvnd's libEGL looks for vendor files under /usr/share; the NVIDIA driver may keep its own elsewhere.
-if ! ls /usr/share/glvnd/egl_vendor.d/*nvidia* >/dev/null 2>&1; then
-  for f in /usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json /etc/glvnd/egl_vendor.d/10_nvidia.json; do
-    [ -f "$f" ] && export __EGL_VENDOR_LIBRARY_FILENAMES=$f && break
-  done
-fi
-[ -e /work/main ] || { mkdir -p /work && ln -s "$root" /work/main; }
-[ -e /work/shared/data ] || { mkdir -p /work/shared && ln -s "$g/data" /work/shared/data; }
-[ -e build/ugvr ] || { mkdir -p build && ln -s "$g/bin/ugvr" build/ugvr; }  # the golden-image test runs build/ugvr
-exec > >(tee "$out/log.txt") 2>&1
+source bench/gpu_device_env.sh
 echo "commit $UGVR_COMMIT; $(nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>&1 | head -1)"
 
-filter=${TEST_FILTER:-'ExactGpu.*:Hybrid.*:LodEngine.*:LodBoundary.*:LodTricubic.*:LodSlice.*:ExactSlice.*:LodAtlasBudget.*:LodPreintegration.*:LodOverlay.*:GoldenImages.*:GlProgram*:ConstantAndLinear/LodSeams.*'}
+filter=${TEST_FILTER:-$gl_test_filter}
 echo "== GL tests on this GPU ($filter)"
 timeout "${TESTS_SECONDS:-150}" "$g/bin/ugvr_tests" --gtest_filter="$filter" >"$out/tests.txt" 2>&1
 echo "tests: exit $? ($(grep -c '^\[       OK' "$out/tests.txt") OK, $(grep -c '^\[  FAILED' "$out/tests.txt") FAILED lines, $(grep -c '^\[  SKIPPED' "$out/tests.txt") skipped)"
