@@ -22,6 +22,23 @@ inline std::unique_ptr<GlContext> open_gl_context(std::string& error) {
   }
 }
 
+// The context of this test file, opened at its first use and shared by the file's tests; null with the reason in
+// `error` when there is none. Internal linkage on purpose: each test file keeps its own context (sharing one across
+// files would carry GL state from one file's tests into another's).
+namespace {
+[[maybe_unused]] std::shared_ptr<const GlContext> file_gl_context(std::string* error) {
+  static std::shared_ptr<const GlContext> gl;
+  static std::string message;
+  static bool tried = false;
+  if (!tried) {
+    tried = true;
+    gl = open_gl_context(message);
+  }
+  *error = message;
+  return gl;
+}
+}  // namespace
+
 }  // namespace ugvr::test
 
 // Ends the test when `context` (a pointer from open_gl_context) is null: skipped under UGVR_NO_GL_TESTS, else failed
@@ -33,3 +50,9 @@ inline std::unique_ptr<GlContext> open_gl_context(std::string& error) {
       FAIL() << "no OpenGL 4.5 context: " << (error);               \
     }                                                               \
   } while (0)
+
+// Declares `gl`, this file's context (file_gl_context), and ends the test as UGVR_REQUIRE_GL_CONTEXT does without one.
+#define UGVR_REQUIRE_FILE_GL(gl)                        \
+  std::string gl##_error;                               \
+  auto gl = ::ugvr::test::file_gl_context(&gl##_error); \
+  UGVR_REQUIRE_GL_CONTEXT(gl, gl##_error)

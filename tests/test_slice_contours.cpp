@@ -283,22 +283,7 @@ TEST(SliceContours, ExactCpuObliqueMatchesFiniteDifferences) {
                engine.render(v.camera, invisible_tf(), without_lines(v).settings), 0.03, "exact cpu, oblique");
 }
 
-std::shared_ptr<const GlContext> gl_context(std::string* error) {
-  static std::shared_ptr<const GlContext> gl;
-  static std::string message;
-  static bool tried = false;
-  if (!tried) {
-    tried = true;
-    gl = test::open_gl_context(message);
-  }
-  *error = message;
-  return gl;
-}
-
-#define REQUIRE_GL(gl)              \
-  std::string gl_error_;            \
-  auto gl = gl_context(&gl_error_); \
-  UGVR_REQUIRE_GL_CONTEXT(gl, gl_error_)
+#define REQUIRE_GL(gl) UGVR_REQUIRE_FILE_GL(gl)
 
 TEST(SliceContours, ExactGpuMatchesTheDefinition) {
   REQUIRE_GL(gl);
