@@ -197,7 +197,7 @@ std::string LodRenderer::summary(const FrameStats& last) const {
                     format_bytes(st.cell_budget_bytes).c_str(),
                     st.cell_budget_full ? ", cell budget full (--gpu-cell-memory)" : "");
       out += buf;
-      if (st.focus_excluded) out += ", " + std::to_string(st.focus_excluded) + " outside --focus resampled";
+      if (st.focus_excluded) out += ", " + std::to_string(st.focus_excluded) + " outside --focus / --roi resampled";
     }
   }
   return out;
