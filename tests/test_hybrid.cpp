@@ -327,6 +327,20 @@ TEST(Hybrid, NoSeamsAtNodeBorders) {
   }
 }
 
+// The fixture's store drawn at its leaves (field pressure) with `options`: the engine, for what it read, and the
+// frame's figures.
+struct DrawnLeaves {
+  std::unique_ptr<LodEngine> engine;
+  LodRenderStats stats;
+};
+DrawnLeaves draw_leaves(const Fixture& f, const LodOptions& options, const Camera& cam, const TransferFunction& tf,
+                        const RenderSettings& rs) {
+  DrawnLeaves d{std::make_unique<LodEngine>(f.store, *f.gl, options), {}};
+  d.engine->set_field("pressure");
+  d.engine->render(cam, tf, rs, CutSpec{CutSpec::Kind::Leaves, 0}, &d.stats);
+  return d;
+}
+
 // Degree of interest: with a focus range only nodes whose values meet it get exact cells, and nodes of zero interest
 // load no cells at all (none is read from the store); the rest of the image stays the voxels'.
 TEST(Hybrid, FocusLoadsNoCellsOutside) {
@@ -336,32 +350,27 @@ TEST(Hybrid, FocusLoadsNoCellsOutside) {
   const RenderSettings rs = test_settings();
   const BrickStoreReader store(f.store);
   const Camera cam = camera_preset("iso", store.layout().data);
-  const CutSpec leaves{CutSpec::Kind::Leaves, 0};
   LodOptions ho;
   ho.hybrid = true;
   // Without focus: every candidate exact. The focus range then reaches from the lowest of their minima to below the
   // median: the candidates whose values all lie above it are left out.
-  LodEngine all(f.store, *f.gl, ho);
-  all.set_field("pressure");
-  LodRenderStats sa;
-  all.render(cam, tf, rs, leaves, &sa);
+  const DrawnLeaves all = draw_leaves(f, ho, cam, tf, rs);
+  const LodRenderStats& sa = all.stats;
   std::vector<float> mins;
-  for (uint64_t n : all.cell_nodes_in_ram()) mins.push_back(store.stats(n, 0).min);
+  for (uint64_t n : all.engine->cell_nodes_in_ram()) mins.push_back(store.stats(n, 0).min);
   ASSERT_GE(mins.size(), 4u);
   std::sort(mins.begin(), mins.end());
   const double lo = mins.front(), hi = 0.5 * (double(mins[mins.size() / 2 - 1]) + double(mins[mins.size() / 2]));
   ASSERT_LT(lo, hi);
 
   ho.focus = parse_focus("pressure:" + std::to_string(lo) + ":" + std::to_string(hi));
-  LodEngine focused(f.store, *f.gl, ho);
-  focused.set_field("pressure");
-  LodRenderStats st;
-  focused.render(cam, tf, rs, leaves, &st);
+  const DrawnLeaves focused = draw_leaves(f, ho, cam, tf, rs);
+  const LodRenderStats& st = focused.stats;
   EXPECT_GT(st.exact_nodes, 0u);
   EXPECT_GT(st.focus_excluded, 0u);
   EXPECT_EQ(sa.exact_nodes, st.exact_nodes + st.focus_excluded);
   // Zero-interest nodes load no cells: every node read from the store meets the range.
-  const std::vector<uint64_t> loaded = focused.cell_nodes_in_ram();
+  const std::vector<uint64_t> loaded = focused.engine->cell_nodes_in_ram();
   EXPECT_EQ(loaded.size(), st.exact_nodes);
   for (uint64_t n : loaded) {
     const FieldStats& s = store.stats(n, 0);
@@ -378,13 +387,9 @@ TEST(Hybrid, RegionOfInterestAndFocusAndLoadNoCellsOutside) {
   const RenderSettings rs = test_settings();
   const BrickStoreReader store(f.store);
   const Camera cam = camera_preset("iso", store.layout().data);
-  const CutSpec leaves{CutSpec::Kind::Leaves, 0};
   LodOptions ho;
   ho.hybrid = true;
-  LodEngine all(f.store, *f.gl, ho);
-  all.set_field("pressure");
-  LodRenderStats sa;
-  all.render(cam, tf, rs, leaves, &sa);
+  const LodRenderStats sa = draw_leaves(f, ho, cam, tf, rs).stats;
   ASSERT_GT(sa.exact_nodes, 4u);
 
   // The lower half in x of the root cell.
@@ -394,14 +399,12 @@ TEST(Hybrid, RegionOfInterestAndFocusAndLoadNoCellsOutside) {
   roi.lo = root.lo - Vec3d{1, 1, 1};
   roi.hi = Vec3d{mid - 1e-9 * (root.hi.x - root.lo.x), root.hi.y + 1, root.hi.z + 1};
   ho.roi = roi;
-  LodEngine in_box(f.store, *f.gl, ho);
-  in_box.set_field("pressure");
-  LodRenderStats sb;
-  in_box.render(cam, tf, rs, leaves, &sb);
+  const DrawnLeaves in_box = draw_leaves(f, ho, cam, tf, rs);
+  const LodRenderStats& sb = in_box.stats;
   EXPECT_GT(sb.exact_nodes, 0u);
   EXPECT_LT(sb.exact_nodes, sa.exact_nodes);
   EXPECT_GT(sb.focus_excluded, 0u);
-  const std::vector<uint64_t> loaded = in_box.cell_nodes_in_ram();
+  const std::vector<uint64_t> loaded = in_box.engine->cell_nodes_in_ram();
   EXPECT_EQ(loaded.size(), sb.exact_nodes);
   for (uint64_t n : loaded) EXPECT_LT(store.bounds(n).lo.x, mid) << "node " << n << " outside the region read cells";
 
@@ -410,19 +413,12 @@ TEST(Hybrid, RegionOfInterestAndFocusAndLoadNoCellsOutside) {
   ho.focus =
       parse_focus("pressure:" + std::to_string(double(whole.min)) + ":" + std::to_string(double(whole.max)) +
                   "+pressure:" + std::to_string(double(whole.max) + 1) + ":" + std::to_string(double(whole.max) + 2));
-  LodEngine none(f.store, *f.gl, ho);
-  none.set_field("pressure");
-  LodRenderStats sn;
-  none.render(cam, tf, rs, leaves, &sn);
-  EXPECT_EQ(sn.exact_nodes, 0u);
-  EXPECT_TRUE(none.cell_nodes_in_ram().empty());
+  const DrawnLeaves none = draw_leaves(f, ho, cam, tf, rs);
+  EXPECT_EQ(none.stats.exact_nodes, 0u);
+  EXPECT_TRUE(none.engine->cell_nodes_in_ram().empty());
   // OR of the same two: the first holds everywhere, so the region alone decides.
   ho.focus = parse_focus(focus_text(ho.focus).replace(focus_text(ho.focus).find('+'), 1, ","));
-  LodEngine either(f.store, *f.gl, ho);
-  either.set_field("pressure");
-  LodRenderStats se;
-  either.render(cam, tf, rs, leaves, &se);
-  EXPECT_EQ(se.exact_nodes, sb.exact_nodes);
+  EXPECT_EQ(draw_leaves(f, ho, cam, tf, rs).stats.exact_nodes, sb.exact_nodes);
 }
 
 // Focus+context (Muigg eq. 3.15): with a region of interest, the nodes outside it are drawn desaturated and faint; the

@@ -114,15 +114,15 @@ const Shared& shared() {
   return s;
 }
 
-// A server on a free loopback port (the extra arguments set options o_), or a failure (a skip with UGVR_NO_GL_TESTS)
-// when there is no OpenGL 4.5.
+// A server on a free loopback port (the extra arguments set options o_ after the defaults: 16 MiB of RAM per session,
+// the shared store), or a failure (a skip with UGVR_NO_GL_TESTS) when there is no OpenGL 4.5.
 #define START_SERVER(server, ...)                                    \
   std::unique_ptr<ViewServer> server;                                \
   do {                                                               \
     ViewServerOptions o_;                                            \
     o_.ram_per_session = 16 << 20;                                   \
-    __VA_ARGS__;                                                     \
     o_.store = shared().store;                                       \
+    __VA_ARGS__;                                                     \
     try {                                                            \
       server = std::make_unique<ViewServer>(o_);                     \
     } catch (const Error& e) {                                       \
@@ -900,19 +900,8 @@ TEST(ViewServer, EachTabSwitchesBetweenTheExactAndTheLodEngine) {
 TEST(ViewServer, AStoreWithCellsRefinesToExactCellsAtRest) {
   for (const bool hybrid : {true, false}) {
     SCOPED_TRACE(hybrid ? "hybrid default" : "hybrid off");
-    std::unique_ptr<ViewServer> server;
-    ViewServerOptions o;
-    o.ram_per_session = 16 << 20;
-    o.store = shared().cells_store;
-    o.fps = 30;
-    o.hybrid = hybrid;
-    o.exact_batch = 16;  // several batches, each frame sent
-    try {
-      server = std::make_unique<ViewServer>(o);
-    } catch (const Error& e) {
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
-      FAIL() << "cannot start the server: " << e.what();
-    }
+    START_SERVER(server, o_.store = shared().cells_store; o_.fps = 30; o_.hybrid = hybrid;
+                 o_.exact_batch = 16);  // several batches, each frame sent
     Client c(server->port());
     c.send(R"({"type":"hello","width":48,"height":40})");
     const Frame first = read_frame(c);

@@ -121,7 +121,9 @@ struct LodEngine::Impl {
                     LodRenderStats& st, uint64_t max_nodes = UINT64_MAX);
 
   Impl(const std::string& path, const GlContext& g, LodOptions o) : store(path), gl(g), options(o) {}
-  NodeInterest interest() const { return {resolve_focus(store, options.focus), options.roi}; }
+  // options.focus and roi resolved against the store (field indices), when they are set: the constructor,
+  // set_interest.
+  NodeInterest interest;
   uint64_t budget_slots() const;
   void ensure_atlas(uint64_t needed);
   uint64_t load(std::span<const uint64_t> nodes, BrickResidency& residency);
@@ -384,7 +386,7 @@ void LodEngine::Impl::choose_exact(std::span<const uint64_t> cut, const Camera& 
   const uint64_t budget = options.cell_budget_bytes ? options.cell_budget_bytes : options.atlas_budget_bytes / 4;
   if (!cells || cells->budget_bytes() != budget) cells = std::make_unique<CellCache>(store, budget);
   const std::vector<ExactCandidate> cand =
-      exact_candidates(store, cut, camera, settings.width, settings.height, tf_errors, interest(), &st.focus_excluded);
+      exact_candidates(store, cut, camera, settings.width, settings.height, tf_errors, interest, &st.focus_excluded);
   std::vector<uint64_t> order;
   order.reserve(cand.size());
   for (const ExactCandidate& c : cand) order.push_back(c.node);
@@ -407,7 +409,7 @@ LodEngine::LodEngine(const std::string& store_path, const GlContext& gl, LodOpti
   if (I.store.node_count() >= lod_gpu::NODE_DESCEND)
     fail_in(store_path, "too many nodes for the GPU node table (2^32 - 2)");
   I.options.validate();
-  resolve_focus(I.store, I.options.focus);  // an unknown --focus field fails before the first frame
+  I.interest = {resolve_focus(I.store, I.options.focus), I.options.roi};  // an unknown --focus field fails here
   gl.make_current();
   I.faces = I.store.has_boundary();
   if (I.faces) {
@@ -566,8 +568,9 @@ void LodEngine::set_interest(std::vector<FocusRange> focus, std::optional<Region
   o.roi = roi;
   o.context_saturation = context_saturation, o.context_opacity = context_opacity;
   o.validate();
-  resolve_focus(impl_->store, o.focus);  // an unknown field fails here, not in the next frame
+  NodeInterest interest{resolve_focus(impl_->store, o.focus), o.roi};  // an unknown field fails here
   impl_->options = std::move(o);
+  impl_->interest = std::move(interest);
 }
 
 void LodOptions::validate() const {
@@ -637,9 +640,9 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
     state[n] = lod_gpu::NODE_EXACT | entry;
   }
   // Focus+context: the resampled nodes of zero interest are drawn as context (lod_shared.h NODE_CONTEXT).
-  if (const NodeInterest interest = I.interest(); interest.any())
+  if (I.interest.any())
     for (uint64_t n : nodes)
-      if (state[n] < lod_gpu::NODE_CONTEXT && node_interest(I.store, n, interest) == 0)
+      if (state[n] < lod_gpu::NODE_CONTEXT && node_interest(I.store, n, I.interest) == 0)
         state[n] |= lod_gpu::NODE_CONTEXT;
   I.state.upload(state.data(), state.size() * sizeof(uint32_t));
   st.load_seconds = seconds_since(t1);
