@@ -771,6 +771,8 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
     inputs = source.cast<std::vector<std::string>>();
   }
   const ReadOptions read = read_options(o);
+  // Read with the GIL held: the render below runs without it, and the options are a Python dict.
+  const bool keep_range = o.flag("keep_range");
 
   struct Result {
     Frame frame;
@@ -815,7 +817,7 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
     out.tf = tf;
     if (range) {
       out.tf.rescale(range->first, range->second);
-    } else if (!o.flag("keep_range")) {
+    } else if (!keep_range) {
       if (std::isfinite(out.range.min) && std::isfinite(out.range.max)) out.tf.rescale(out.range.min, out.range.max);
     }
     out.tf.opacity_unit_distance = unit_distance.value_or(default_unit_distance(bounds));
@@ -1148,6 +1150,10 @@ PYBIND11_MODULE(_ugvr, m) {
   using namespace ugvr::python;
   m.doc() = "ugvr's compiled core; use the `ugvr` package (python/ugvr/__init__.py)";
   m.attr("__version__") = version();
+  // pybind11 looks numpy's C API up in a function-local static on first use; that lookup imports numpy and lets go of
+  // the GIL meanwhile, so two threads making their first arrays at once deadlocked (one waiting for the static with
+  // the GIL, the other for the GIL inside the static). Made here, on import, with one thread.
+  (void)py::dtype::of<uint8_t>();
 
   static py::exception<Error> error(m, "Error");
   py::register_exception_translator([](std::exception_ptr p) {
