@@ -397,7 +397,8 @@ ws.onmessage = async (event) => {
     bitmap.close();
     drawnStatus = status;
     framesDrawn++;
-    if (status) drawnLog.push({ n: framesDrawn, converged: status.converged, request: status.request, format: status.format });
+    if (status) drawnLog.push({ n: framesDrawn, converged: status.converged, request: status.request, format: status.format,
+                              time_step: status.time_step, cut_nodes: status.cut_nodes });
     if (drawnLog.length > 200) drawnLog.shift();
     showStatus();
     ugvrTime.onFrame(status);  // time_panel.js: playing moves on once this step is drawn

@@ -1,0 +1,91 @@
+// End-to-end test of the hybrid engine in the page (docs/hybrid.md): against `ugvr view STORE` of a small store built
+// with `--cells`, the viewer draws with the hybrid engine by default, turns nodes exact while the view rests and says
+// how many in the status bar; the engine picker goes back to voxels; the interest panel's box makes the nodes outside
+// it context (no exact cells, drawn faint). Run by run.sh, which sets UGVR and UGVR_CELLS_STORE.
+import assert from "node:assert/strict";
+import { after, before, test } from "node:test";
+import { canvasPixels, changedFraction, launchBrowser, openPage, startViewer, stopViewer, waitConverged, waitFor } from "./lib.mjs";
+
+const UGVR = process.env.UGVR, STORE = process.env.UGVR_CELLS_STORE;
+if (!UGVR || !STORE) throw new Error("set UGVR (the ugvr binary) and UGVR_CELLS_STORE (a store built with --cells); run.sh does");
+
+const CONVERGE_MS = 90_000;  // the exact batches of a rest, on llvmpipe
+let viewer, browser, page;
+
+const hook = (expr) => page.evaluate(`window.ugvrViewer.${expr}`);
+const statusText = () => page.locator("#status").textContent();
+
+before(async () => {
+  viewer = await startViewer(UGVR, STORE);
+  browser = await launchBrowser();
+  ({ page } = await openPage(browser, viewer.url, { viewport: { width: 640, height: 480 } }));
+});
+
+after(async () => {
+  await browser?.close();
+  await stopViewer(viewer);
+});
+
+test("a store with cells opens in the hybrid engine and turns exact at rest", async () => {
+  const scene = await waitFor("the scene", () => hook("scene"), CONVERGE_MS);
+  assert.equal(scene.engine, "hybrid", "a store with cells is drawn by the hybrid engine by default");
+  assert.ok(scene.engines.includes("hybrid") && scene.engines.includes("lod"), `engines ${scene.engines}`);
+  const s = await waitConverged(page, CONVERGE_MS);
+  assert.equal(s.status.engine, "hybrid");
+  const e = s.status.exact;
+  assert.ok(e, "a resting hybrid frame says how much is exact");
+  console.log(`at rest: exact ${e.nodes} of ${e.candidates} nodes (${(100 * e.fraction).toFixed(1)} % of the cut)`);
+  assert.ok(e.nodes > 0, "nodes turned exact at rest");
+  assert.ok(e.nodes <= e.candidates);
+  assert.ok(e.budget_full || e.nodes === e.candidates, "converged: every candidate exact, or the cell budget full");
+  assert.match(await statusText(), /exact \d+ of \d+ nodes with cells \(\d+\.\d% of the cut\)/);
+  assert.equal(s.error, "");
+});
+
+test("the engine picker draws the same view with voxels only, and back", async () => {
+  const hybrid = await canvasPixels(page);
+  await page.selectOption("#engine", "lod");
+  let s = await waitConverged(page, CONVERGE_MS);
+  assert.equal(s.status.engine, "lod");
+  assert.doesNotMatch(await statusText(), /exact \d+ of/, "no exact figures for voxels");
+  const voxels = await canvasPixels(page);
+  const f = changedFraction(hybrid, voxels);
+  console.log(`hybrid vs voxels: ${(100 * f).toFixed(2)} % of pixels differ`);
+  assert.ok(f > 0, "the exact cells change the image");
+  await page.selectOption("#engine", "hybrid");
+  s = await waitConverged(page, CONVERGE_MS);
+  assert.equal(s.status.engine, "hybrid");
+  assert.ok(s.status.exact && s.status.exact.nodes > 0);
+  const back = changedFraction(hybrid, await canvasPixels(page));
+  assert.ok(back < 0.002, `back to the hybrid image (${back} of pixels differ)`);
+});
+
+test("a box of interest makes the rest context: fewer exact nodes, the image changes", async () => {
+  const before = await waitConverged(page, CONVERGE_MS);
+  const full = await canvasPixels(page);
+  const scene = await hook("scene");
+  // The lower half along x: the nodes of the upper half are context.
+  const lo = scene.bounds.min, hi = scene.bounds.max;
+  const mid = [0.5 * (lo[0] + hi[0]), hi[1], hi[2]];
+  await page.fill("#roi-lo", lo.join(","));
+  await page.fill("#roi-hi", mid.join(","));
+  await page.check("#roi");
+  await page.click("#interest-apply");
+  assert.equal(await page.locator("#interest-note").textContent(), "focus set");
+  const sent = await waitFor("the interest message", async () => (await hook("log")).filter((m) => m.type === "interest").pop(),
+                             CONVERGE_MS);
+  assert.equal(sent.roi, `box:${lo.join(",")},${mid.join(",")}`);
+  await waitFor("a frame of the new interest", async () => (await hook("frames")) > before.frames, CONVERGE_MS);
+  const s = await waitConverged(page, CONVERGE_MS);
+  const e = s.status.exact;
+  console.log(`with the box: exact ${e.nodes} of ${e.candidates}, ${e.focus_excluded} context nodes`);
+  assert.ok(e.focus_excluded > 0, "nodes outside the box are context");
+  assert.ok(e.nodes < before.status.exact.nodes, "fewer exact nodes than without the box");
+  assert.match(await statusText(), /\d+ context nodes/);
+  assert.ok(changedFraction(full, await canvasPixels(page)) > 0.01, "the context is drawn faint");
+
+  await page.click("#interest-clear");
+  const cleared = await waitConverged(page, CONVERGE_MS);
+  assert.ok(!cleared.status.exact.focus_excluded, "no context without a focus");
+  assert.equal(cleared.status.exact.nodes, before.status.exact.nodes, "the same exact nodes as before the box");
+});
