@@ -7,9 +7,13 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <tuple>
+#include <vector>
 
+#include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/core/memory.h"
+#include "ugvr/io/reader.h"
 #include "ugvr/view/memory_budget.h"
 
 namespace ugvr::view {
@@ -92,6 +96,66 @@ TEST(ViewMemoryBudget, EstimatesFromAVtuHeaderElseFromTheSizeOnDisk) {
   write(vtu, std::string(700, ' '));
   EXPECT_EQ(estimate_in_core({vtu.string()}).bytes, uint64_t(700 * kViewBytesPerInputByte));
   EXPECT_THROW(estimate_in_core({(dir.path / "missing.vtu").string()}), Error);
+}
+
+// The counts the headers say, for the formats that say them, against what reading the file gives. OpenFOAM: the
+// fixtures (plain, gzip, decomposed: pieces summed as the reader concatenates them; a polyhedral mesh: counted before
+// its decomposition, so fewer than read); a .pvtu of two pieces (their headers only: nothing else is read).
+TEST(GridCountsFromHeaders, OpenFoamCasesAndPvtuPieces) {
+  const std::string foam = std::string(UGVR_SOURCE_DIR) + "/tests/data/openfoam/";
+  for (const char* name : {"cavity", "cavity_gzip", "cavity_ascii_gz", "cavity_binary"}) {
+    const std::vector<std::string> in{foam + name};
+    const std::optional<GridCounts> c = grid_counts_from_headers(in);
+    ASSERT_TRUE(c) << name;
+    EXPECT_EQ(c->points, 882u) << name;
+    EXPECT_EQ(c->cells, 400u) << name;
+  }
+  const std::vector<std::string> decomposed{foam + "cavity_decomposed/cavity_decomposed.foam"};
+  const std::optional<GridCounts> d = grid_counts_from_headers(decomposed);
+  ASSERT_TRUE(d);
+  EXPECT_EQ(d->points, 924u) << "processor boundary points counted by each piece, as read";
+  EXPECT_EQ(d->cells, 400u);
+  const std::vector<std::string> dual{foam + "dual"};
+  const std::optional<GridCounts> p = grid_counts_from_headers(dual);
+  ASSERT_TRUE(p);
+  EXPECT_EQ(p->points, 692u);
+  EXPECT_EQ(p->cells, 343u) << "187 hexahedra + 156 polyhedra, before the decomposition";
+
+  TempDir dir;
+  for (const auto& [file, points, cells] : {std::tuple{"a.vtu", 1000, 4000}, std::tuple{"b.vtu", 300, 700}})
+    write(dir.path / file,
+          "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\"><UnstructuredGrid><Piece "
+          "NumberOfPoints=\"" +
+              std::to_string(points) + "\" NumberOfCells=\"" + std::to_string(cells) + "\">");
+  write(dir.path / "all.pvtu",
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"PUnstructuredGrid\"><PUnstructuredGrid><PPoints/>"
+        "<Piece Source=\"a.vtu\"/><Piece Source=\"b.vtu\"/></PUnstructuredGrid></VTKFile>");
+  const std::vector<std::string> pvtu{(dir.path / "all.pvtu").string()};
+  const std::optional<GridCounts> v = grid_counts_from_headers(pvtu);
+  ASSERT_TRUE(v);
+  EXPECT_EQ(v->points, 1300u);
+  EXPECT_EQ(v->cells, 4700u);
+  const InCoreEstimate e = estimate_in_core(pvtu);
+  EXPECT_EQ(e.basis, "4700 cells, 1300 points") << "the viewer's estimate uses them";
+  // A piece that is missing: the .pvtu cannot be counted, and the estimate falls back to the size on disk.
+  fs::remove(dir.path / "b.vtu");
+  EXPECT_THROW(grid_counts_from_headers(pvtu), Error);
+  EXPECT_EQ(estimate_in_core(pvtu).cells, 0u);
+}
+
+// Exodus (netCDF dimensions) and CGNS (zone sizes) on the shared samples: the counts that reading them gives.
+TEST(GridCountsFromHeaders, ExodusAndCgnsSamplesMatchTheirRead) {
+  UGVR_REQUIRE_DATA("exodus-misc/mug.e");
+  for (const char* name :
+       {"exodus-misc/mug.e", "exodus-misc/box-noglom.ex2", "exodus-misc/mesh_fs8.exo", "cgns-sqnz/sqnz_s.adf.cgns"}) {
+    const std::vector<std::string> in{test::data_path(name)};
+    if (!fs::exists(in[0])) continue;
+    const std::optional<GridCounts> c = grid_counts_from_headers(in);
+    ASSERT_TRUE(c) << name;
+    const Dataset ds = read_dataset(in);
+    EXPECT_EQ(c->points, ds.point_count()) << name;
+    EXPECT_EQ(c->cells, ds.cell_count()) << name;
+  }
 }
 
 }  // namespace

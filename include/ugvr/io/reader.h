@@ -52,6 +52,16 @@ struct ReadOptions {
 };
 
 InputFormat detect_format(std::span<const std::string> paths);
+
+// A grid's size as its headers say it, without reading coordinates, cells or fields: for decisions made before a
+// read (`ugvr view`'s memory budget). Known for a .vtu (its <Piece> tags in the first 64 KiB), a .pvtu (its pieces'),
+// Exodus (dimensions), CGNS (zone sizes) and OpenFOAM (the "nPoints: nCells:" note of polyMesh/owner, summed over
+// processor*/ for a decomposed case; polyhedra count once, before their decomposition); nullopt for other inputs or
+// headers that do not say. Throws ugvr::Error for a file that cannot be opened or whose header is malformed.
+struct GridCounts {
+  uint64_t points = 0, cells = 0;
+};
+std::optional<GridCounts> grid_counts_from_headers(std::span<const std::string> paths);
 Dataset read_dataset(std::span<const std::string> paths, const ReadOptions& options = {});
 
 // The per-format entry points (each validates its input fully and throws ugvr::Error with file and offset/line).

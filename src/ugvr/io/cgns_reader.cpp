@@ -33,7 +33,9 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/grid/polyhedra.h"
+#include "ugvr/io/header_counts.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/saturating_size.h"
 #include "ugvr/io/step_lists.h"
 
 namespace ugvr {
@@ -612,6 +614,43 @@ std::vector<double> list_cgns_times(const std::string& path) {
     return times;
   }
   return {};
+}
+
+std::optional<GridCounts> cgns_header_counts(const std::string& path) {
+  CgnsFile f(path);
+  GridCounts counts;
+  bool any = false;
+  int nbases = 0;
+  f.check(cg_nbases(f.fn(), &nbases), "bases");
+  for (int B = 1; B <= nbases; ++B) {
+    char base_name[33] = {};
+    int cell_dim = 0, phys_dim = 0, nzones = 0;
+    f.check(cg_base_read(f.fn(), B, base_name, &cell_dim, &phys_dim), "base " + std::to_string(B));
+    if (cell_dim != 3) continue;  // as read_cgns: volume cells only
+    f.check(cg_nzones(f.fn(), B, &nzones), base_name);
+    for (int Z = 1; Z <= nzones; ++Z) {
+      char zone_name[33] = {};
+      cgsize_t size[9] = {};
+      ZoneType_t type;
+      f.check(cg_zone_read(f.fn(), B, Z, zone_name, size), std::string(base_name) + ": zone " + std::to_string(Z));
+      f.check(cg_zone_type(f.fn(), B, Z, &type), zone_name);
+      // size: vertices, cells (, boundary vertices) per index direction: one direction unstructured, three structured.
+      const int dirs = type == Structured ? 3 : type == Unstructured ? 1 : 0;
+      if (dirs == 0) continue;
+      uint64_t points = 1, cells = 1;
+      for (int d = 0; d < dirs; ++d) {
+        if (size[d] < 0 || size[dirs + d] < 0)
+          fail_in(path, std::string(base_name) + "/" + zone_name + ": a negative size");
+        points = sat_mul(points, uint64_t(size[d]));
+        cells = sat_mul(cells, uint64_t(size[dirs + d]));
+      }
+      counts.points = sat_add(counts.points, points);
+      counts.cells = sat_add(counts.cells, cells);
+      any = true;
+    }
+  }
+  if (!any) return std::nullopt;
+  return counts;
 }
 
 Dataset read_cgns(const std::string& path, int64_t time_step) {

@@ -50,6 +50,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
+#include "ugvr/io/header_counts.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/step_lists.h"
 
@@ -885,6 +886,13 @@ std::vector<double> list_exodus_times(const std::string& path) {
   const int v = nc.require_var("time_whole", "the time values");
   nc.expect_shape(v, "time_whole", {steps}, "(time_step)");
   return nc.read_all<double>(v, "time_whole");
+}
+
+std::optional<GridCounts> exodus_header_counts(const std::string& path) {
+  const NcFile nc(path);
+  const std::optional<uint64_t> points = nc.dim("num_nodes"), cells = nc.dim("num_elem");
+  if (!points || !cells) return std::nullopt;
+  return GridCounts{*points, *cells};
 }
 
 }  // namespace ugvr

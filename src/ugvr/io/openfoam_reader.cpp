@@ -26,7 +26,9 @@
 #include "ugvr/grid/polyhedra.h"
 #include "ugvr/io/byte_swap.h"
 #include "ugvr/io/file_dataset.h"
+#include "ugvr/io/header_counts.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/saturating_size.h"
 #include "ugvr/io/step_lists.h"
 
 namespace fs = std::filesystem;
@@ -789,6 +791,38 @@ std::vector<double> list_openfoam_times(const std::string& path) {
   std::vector<double> out;
   for (const TimeDir& t : time_dirs(case_piece_dirs(path, root)[0])) out.push_back(t.value);
   return out;
+}
+
+std::optional<GridCounts> openfoam_header_counts(const std::string& path) {
+  fs::path root;
+  GridCounts counts;
+  for (const fs::path& piece : case_piece_dirs(path, root)) {
+    // polyMesh/owner's header note, "nPoints:882  nCells:400  nFaces:1640  nInternalFaces:760", which OpenFOAM's
+    // mesh writers put there: the first few KiB of the file, inflated on the way when it is gzip (gzread reads
+    // plain files as they are).
+    const std::string owner = find_file(piece / "constant" / "polyMesh", "owner");
+    if (owner.empty()) return std::nullopt;
+    gzFile gz = gzopen(owner.c_str(), "rb");
+    if (!gz) fail_in(owner, "cannot open");
+    std::string head(16384, '\0');
+    const int n = gzread(gz, head.data(), unsigned(head.size()));
+    gzclose(gz);
+    head.resize(n > 0 ? size_t(n) : 0);
+    const auto value = [&](std::string_view key) -> std::optional<uint64_t> {
+      const size_t at = head.find(key);
+      if (at == std::string::npos) return std::nullopt;
+      uint64_t v = 0;
+      const char* begin = head.data() + at + key.size();
+      const auto [end, ec] = std::from_chars(begin, head.data() + head.size(), v);
+      if (ec != std::errc() || end == begin) return std::nullopt;
+      return v;
+    };
+    const std::optional<uint64_t> points = value("nPoints:"), cells = value("nCells:");
+    if (!points || !cells) return std::nullopt;
+    counts.points = sat_add(counts.points, *points);
+    counts.cells = sat_add(counts.cells, *cells);
+  }
+  return counts;
 }
 
 Dataset read_openfoam(const std::string& path, int64_t time_step) {

@@ -5,10 +5,10 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/memory.h"
+#include "ugvr/io/reader.h"
 
 namespace ugvr::view {
 namespace {
@@ -29,45 +29,23 @@ uint64_t size_on_disk(const std::string& path) {
   return size;
 }
 
-// The value of `name="N"` in `tag`, or nullopt.
-std::optional<uint64_t> attribute(const std::string& tag, const std::string& name) {
-  const size_t at = tag.find(" " + name + "=\"");
-  if (at == std::string::npos) return std::nullopt;
-  const char* begin = tag.c_str() + at + name.size() + 3;
-  char* end = nullptr;
-  const unsigned long long v = std::strtoull(begin, &end, 10);
-  if (end == begin || *end != '"') return std::nullopt;
-  return uint64_t(v);
-}
-
-// A .vtu's counts from its first <Piece> tag, when that is in its first 64 KiB.
-std::optional<std::pair<uint64_t, uint64_t>> vtu_counts(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::string head(64 * 1024, '\0');
-  in.read(head.data(), std::streamsize(head.size()));
-  head.resize(size_t(in.gcount()));
-  const size_t piece = head.find("<Piece ");
-  if (piece == std::string::npos) return std::nullopt;
-  const size_t close = head.find('>', piece);
-  if (close == std::string::npos) return std::nullopt;
-  const std::string tag = head.substr(piece, close - piece);
-  const auto points = attribute(tag, "NumberOfPoints"), cells = attribute(tag, "NumberOfCells");
-  if (!points || !cells) return std::nullopt;
-  return std::make_pair(*points, *cells);
-}
-
 }  // namespace
 
 InCoreEstimate estimate_in_core(const std::vector<std::string>& inputs) {
   InCoreEstimate e;
   for (const std::string& path : inputs) e.input_bytes += size_on_disk(path);
-  if (inputs.size() == 1 && fs::path(inputs[0]).extension() == ".vtu") {
-    if (const auto counts = vtu_counts(inputs[0])) {
-      e.points = counts->first, e.cells = counts->second;
-      e.bytes = uint64_t(double(e.cells) * kViewBytesPerCell + double(e.points) * kViewBytesPerPoint);
-      e.basis = std::to_string(e.cells) + " cells, " + std::to_string(e.points) + " points";
-      return e;
-    }
+  std::optional<GridCounts> counts;
+  try {
+    counts = grid_counts_from_headers(inputs);
+  } catch (const Error&) {
+    // A file the header walk cannot make sense of: its read will say why, in the page and the terminal (the viewer
+    // serves first); the estimate falls back to its size.
+  }
+  if (counts) {
+    e.points = counts->points, e.cells = counts->cells;
+    e.bytes = uint64_t(double(e.cells) * kViewBytesPerCell + double(e.points) * kViewBytesPerPoint);
+    e.basis = std::to_string(e.cells) + " cells, " + std::to_string(e.points) + " points";
+    return e;
   }
   e.bytes = uint64_t(double(e.input_bytes) * kViewBytesPerInputByte);
   e.basis = format_bytes(e.input_bytes) + " on disk";

@@ -3,11 +3,12 @@
 // Over the budget the viewer never reads the grid: it builds the store out of core and shows that alone.
 //
 // The estimate, from what can be known without reading the data:
-//  - a .vtu whose first <Piece> tag is in its first 64 KiB (every file ugvr and VTK write): its point and cell
-//    counts, at kViewBytesPerCell and kViewBytesPerPoint (measured: bench/README.md, "first image"); compression
-//    does not matter;
+//  - where the input's headers say its point and cell counts (io/reader.h grid_counts_from_headers: .vtu, .pvtu,
+//    Exodus, CGNS, OpenFOAM), those counts at kViewBytesPerCell and kViewBytesPerPoint (measured: bench/README.md,
+//    "first image"); compression does not matter;
 //  - anything else: kViewBytesPerInputByte times the input's size on disk (the files, a directory's files), which
-//    undercounts compressed files.
+//    would undercount compressed files: those of the formats above are counted instead; of the others only NRRD
+//    may be compressed (gzip encoding).
 #pragma once
 
 #include <cstdint>
@@ -34,7 +35,7 @@ inline constexpr const char* kViewMemoryBudgetEnv = "UGVR_VIEW_MEMORY_BUDGET";
 struct InCoreEstimate {
   uint64_t bytes = 0;              // what the viewer would hold
   uint64_t input_bytes = 0;        // the input's size on disk
-  uint64_t cells = 0, points = 0;  // from a .vtu's header; 0: unknown (the estimate is from the size)
+  uint64_t cells = 0, points = 0;  // from the input's headers; 0: unknown (the estimate is from the size)
   std::string basis;               // how it was estimated, for the message ("10000000 cells, 1790000 points")
 };
 // Throws ugvr::Error naming a file that cannot be read.
