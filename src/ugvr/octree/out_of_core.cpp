@@ -142,6 +142,7 @@ class OutOfCoreBuild {
         // Sampled, and a leaf for good: its cells, from the mesh it was sampled from or, when sampled in pieces, all
         // of its records at once (one block per leaf; see the header).
         if (o_.leaf_cells) {
+          std::vector<std::byte>().swap(kept);  // welded already: the records are not needed for the block
           if (!welded) {
             std::vector<std::byte> all = load(file);
             welded = weld(all);
