@@ -2,8 +2,8 @@
 // octree/node_cells.h gather_welded_cells): every leaf's block decodes equal to the in-core store's (same cells, local
 // indices, neighbour marks and values), with budgets so small that leaves are sampled in pieces and with room, over
 // tetrahedra, a mixed mesh (hexahedra, wedges, pyramids: quadrilateral faces) around a wing (a boundary inside the
-// box), and a face met three times (duplicated cells: the whole mesh's boundary although a node sees it twice); and the
-// hybrid engine draws both stores alike.
+// box), and a face met three times (a duplicated cell: boundary, not a neighbour); and the hybrid engine draws both
+// stores alike.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -43,8 +43,8 @@ Dataset generated(GenCellKind kind, uint64_t cells) {
   return ds;
 }
 
-// Hexahedra in a 3 x 1 x 1 row and a copy of the first: the face the first two share is met three times, which the
-// whole mesh's topology calls boundary, while a node keeping one copy and the second cell sees it twice.
+// Hexahedra in a 3 x 1 x 1 row and a copy of the first: the face the first two share is met three times, which both
+// topologies, the whole mesh's and a node's (the copies overlap the same nodes), call boundary.
 Dataset duplicated_hexahedra() {
   UnstructuredMesh m;
   for (int z = 0; z < 2; ++z)
