@@ -60,12 +60,12 @@ NodeCells gather_welded_cells(const UnstructuredMesh& mesh, const MeshTopology& 
                               std::span<const ScalarRef> scalars, std::span<const uint64_t> ids,
                               std::span<const uint64_t> boundary_faces) {
   if (ids.size() != mesh.cell_count()) throw Error("gather_welded_cells: one input id per cell expected");
+  if (!std::is_sorted(ids.begin(), ids.end())) throw Error("gather_welded_cells: cell ids are not ascending");
   std::vector<uint64_t> all(mesh.cell_count());
   std::iota(all.begin(), all.end(), uint64_t(0));
   // The node's own topology first: across a local cell, or (no match in the node) boundary.
   NodeCells out = gather_node_cells(mesh, topology, scalars, all);
   std::vector<uint64_t>().swap(all);
-  if (!std::is_sorted(ids.begin(), ids.end())) throw Error("gather_welded_cells: cell ids are not ascending");
   out.ids.assign(ids.begin(), ids.end());
   // Then the whole mesh's boundary decides: its faces are boundary, the other unmatched faces lead outside the node.
   size_t slot = 0;
