@@ -13,6 +13,7 @@
 #include <bit>
 #include <chrono>
 #include <filesystem>
+#include <mutex>
 #include <numeric>
 #include <optional>
 
@@ -143,11 +144,18 @@ class OutOfCoreBuild {
         // of its records at once (one block per leaf; see the header).
         if (o_.leaf_cells) {
           std::vector<std::byte>().swap(kept);  // welded already: the records are not needed for the block
-          if (!welded) {
-            std::vector<std::byte> all = load(file);
-            welded = weld(all);
+          if (welded) {
+            write_cells(id, *welded);
+          } else {
+            // Beyond the worker's share (its records, then its mesh, topology and block): one such block at a time,
+            // so that the excess is that of the largest such leaf, not of one per worker.
+            const std::lock_guard lock(big_block_mutex_);
+            {
+              std::vector<std::byte> all = load(file);
+              welded = weld(all);
+            }
+            write_cells(id, *welded);
           }
-          write_cells(id, *welded);
         }
         welded.reset();
         std::filesystem::remove(file);
@@ -555,6 +563,7 @@ class OutOfCoreBuild {
   tbb::enumerable_thread_specific<Scratch> scratch_;
   std::atomic<uint64_t> leaf_samples_{0}, valid_samples_{0}, sampler_ns_{0}, pieces_{0}, leaves_in_pieces_{0};
   std::atomic<uint64_t> cell_blocks_{0}, leaf_cells_{0}, cell_bytes_{0}, cell_ns_{0};
+  std::mutex big_block_mutex_;  // the cell blocks of leaves sampled in pieces, one at a time
 };
 
 }  // namespace
