@@ -13,7 +13,6 @@
 #include "ugvr/octree/builder.h"
 #include "ugvr/octree/input.h"
 #include "ugvr/octree/node_cells.h"
-#include "ugvr/octree/out_of_core.h"
 #include "ugvr/store/brick_store.h"
 
 namespace ugvr {
@@ -183,13 +182,6 @@ TEST(NodeCells, DamagedBlocksAndIndexAreRefused) {
     ADD_FAILURE() << "opened a store with a damaged cell index";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("cell index checksum"), std::string::npos) << e.what();
-  }
-  // The out-of-core build does not keep cells yet and says so.
-  try {
-    build_octree_out_of_core(path, {}, o, 1 << 30, dir.file("o.ugvr"));
-    ADD_FAILURE() << "kept cells out of core";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("--cells"), std::string::npos) << e.what();
   }
 }
 

@@ -51,6 +51,9 @@ TEST(ViewStore, CachePathFollowsInputsFieldsAndOptions) {
   OctreeBuildOptions deeper = o;
   deeper.max_depth = o.max_depth + 1;
   EXPECT_NE(pa, cached_store_path(std::vector{a}, none, deeper)) << "other build options";
+  OctreeBuildOptions cells = o;  // the out-of-core viewer's build keeps the leaves' cells
+  cells.leaf_cells = true;
+  EXPECT_NE(pa, cached_store_path(std::vector{a}, none, cells)) << "with the leaves' cells";
   std::ofstream(a) << "one, edited";  // a new size
   EXPECT_NE(pa, cached_store_path(std::vector{a}, none, o)) << "an edited file";
   ::unsetenv("UGVR_CACHE_DIR");

@@ -162,8 +162,8 @@ void register_build(CLI::App& app) {
                   "ghost layer is two voxels of that level (0: every level, the widest layer)")
       ->default_val(0);
   cmd->add_flag("--cells", opts->build.leaf_cells,
-                "Also keep each leaf's cells (the mesh's own cells overlapping it, for exact rendering per node; in "
-                "core only, for now)");
+                "Also keep each leaf's cells (the mesh's own cells overlapping it, for exact rendering per node; "
+                "in core and --out-of-core)");
   cmd->add_option("--time", opts->time,
                   "A time series: one store holding steps all|N|A:B[:S] (inclusive, stride S), sharing the octree "
                   "(static geometry only; docs/time-series.md)");

@@ -163,6 +163,19 @@ void run_view(const Options& o) {
     // pick.
     const std::vector<std::string> fields =
         o.demo && o.fields.empty() ? std::vector<std::string>{kDemoField, "velocity"} : o.fields;
+    // Never in core unless it fits: the estimate is made before anything is read (view/memory_budget.h). A grid over
+    // the budget is built out of core with its leaves' cells (`ugvr build --out-of-core --cells`): there is no exact
+    // preview then, and the cells let the hybrid engine converge to the exact image at rest (docs/hybrid.md). Decided
+    // before the cache name, which changes with the cells (view::cached_store_path).
+    std::string budget_source;
+    uint64_t budget = 0;
+    view::InCoreEstimate need;
+    if (!o.demo) {
+      budget = view::view_memory_budget(o.memory_budget ? std::optional<uint64_t>(o.memory_budget) : std::nullopt,
+                                        &budget_source);
+      need = view::estimate_in_core(o.inputs);
+      vo.build.leaf_cells = need.bytes > budget;
+    }
     vo.store = !o.store_path.empty() ? o.store_path
                : o.demo
                    ? view::cached_store_path("demo", "generate mixed " + std::to_string(demo.cells), fields, vo.build)
@@ -174,11 +187,6 @@ void run_view(const Options& o) {
       vo.load = [demo] { return std::make_shared<Dataset>(generate_in_memory(demo)); };
       std::fprintf(stderr, "ugvr view: building the brick store %s in the background\n", vo.store.c_str());
     } else {
-      // Never in core unless it fits: the estimate is made before anything is read (view/memory_budget.h).
-      std::string budget_source;
-      const uint64_t budget = view::view_memory_budget(
-          o.memory_budget ? std::optional<uint64_t>(o.memory_budget) : std::nullopt, &budget_source);
-      const view::InCoreEstimate need = view::estimate_in_core(o.inputs);
       vo.fields = fields;
       if (need.bytes <= budget) {
         vo.load = [inputs = o.inputs, read = o.read] { return std::make_shared<Dataset>(read_dataset(inputs, read)); };
@@ -193,7 +201,9 @@ void run_view(const Options& o) {
                                    view::kViewMemoryBudgetEnv);
         vo.out_of_core_input = o.inputs[0];
         vo.out_of_core_budget = budget;
-        vo.notice = why + ": no exact preview; the store is built out of core and shown when done";
+        vo.notice = why +
+                    ": no exact preview; the store is built out of core with its cells and shown when done (exact at "
+                    "rest)";
         std::fprintf(stderr, "ugvr view: %s\n", vo.notice.c_str());
         std::fprintf(stderr, "ugvr view: building the brick store %s out of core\n", vo.store.c_str());
       }

@@ -56,7 +56,7 @@ struct OctreeBuildOptions {
   // none (the renderer's boundary is then the stencil's alone). Both builders (out of core: octree/soup_boundary.h).
   uint32_t boundary_faces_per_node = kBoundaryFacesPerNode;
   // Keep each leaf's cells in the store (octree/node_cells.h, format version 5), for exact rendering per node (the
-  // [hybrid] issue). The in-core build only, for now.
+  // [hybrid] issue). Both builders (out of core: each leaf from its welded records, the same blocks).
   bool leaf_cells = false;
 };
 
@@ -82,7 +82,9 @@ struct OctreeBuildStats {
   // Why the store has no boundary faces although they were asked for (out of core: over the memory budget); empty
   // otherwise.
   std::string boundary_note;
-  // The leaves' cells (leaf_cells): blocks, cells over all blocks (a cell in several leaves counts in each), bytes.
+  // The leaves' cells (leaf_cells): blocks, cells over all blocks (a cell in several leaves counts in each), bytes;
+  // the time writing them (in core: wall clock; out of core, where leaves write theirs as they are sampled: summed
+  // over threads).
   uint64_t cell_blocks = 0, leaf_cells = 0, cell_bytes = 0;
   double cell_seconds = 0;
   // A store of several time steps (build_octree_steps): the steps, the wall time spent reading them (every read), and

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <numeric>
 #include <unordered_map>
 
 #include "ugvr/core/error.h"
@@ -50,6 +51,32 @@ NodeCells gather_node_cells(const UnstructuredMesh& mesh, const MeshTopology& to
       for (uint64_t c : cells) out.values.push_back(float(s.field->scalar(c, s.component)));
     } else {
       for (uint32_t v : global) out.values.push_back(float(s.field->scalar(v, s.component)));
+    }
+  }
+  return out;
+}
+
+NodeCells gather_welded_cells(const UnstructuredMesh& mesh, const MeshTopology& topology,
+                              std::span<const ScalarRef> scalars, std::span<const uint64_t> ids,
+                              std::span<const uint64_t> boundary_faces) {
+  if (ids.size() != mesh.cell_count()) throw Error("gather_welded_cells: one input id per cell expected");
+  if (!std::is_sorted(ids.begin(), ids.end())) throw Error("gather_welded_cells: cell ids are not ascending");
+  std::vector<uint64_t> all(mesh.cell_count());
+  std::iota(all.begin(), all.end(), uint64_t(0));
+  // The node's own topology first: across a local cell, or (no match in the node) boundary.
+  NodeCells out = gather_node_cells(mesh, topology, scalars, all);
+  std::vector<uint64_t>().swap(all);
+  out.ids.assign(ids.begin(), ids.end());
+  // Then the whole mesh's boundary decides: its faces are boundary, the other unmatched faces lead outside the node.
+  size_t slot = 0;
+  for (size_t i = 0; i < out.ids.size(); ++i) {
+    const uint32_t faces = cell_face_count(out.types[i]);
+    for (uint32_t f = 0; f < faces; ++f, ++slot) {
+      if (std::binary_search(boundary_faces.begin(), boundary_faces.end(), pack_face(out.ids[i], f))) {
+        out.across[slot] = store_format::kCellAcrossBoundary;
+      } else if (out.across[slot] == store_format::kCellAcrossBoundary) {
+        out.across[slot] = store_format::kCellAcrossOutside;
+      }
     }
   }
   return out;

@@ -21,6 +21,17 @@ namespace ugvr {
 NodeCells gather_node_cells(const UnstructuredMesh& mesh, const MeshTopology& topology,
                             std::span<const ScalarRef> scalars, std::span<const uint64_t> cells);
 
+// The same block from the out-of-core builder's welded leaf (octree/out_of_core.h), without the whole mesh's topology:
+// `mesh` holds exactly the node's cells, in ascending order of their input ids `ids`, and `topology` is its own
+// (build_topology(mesh)); `boundary_faces`: the whole mesh's boundary faces, pack_face(input cell id, local face),
+// ascending (octree/soup_boundary.h). A face is "boundary" when it is one of those, else across a cell of the node when
+// the node's topology matches it, else "outside". This gives gather_node_cells' block for the same cells: a face met
+// exactly twice in the whole mesh is matched within the node exactly when both its cells are there, and a face met
+// more than twice in the whole mesh (its topology's boundary) is in `boundary_faces` even where the node sees it twice.
+NodeCells gather_welded_cells(const UnstructuredMesh& mesh, const MeshTopology& topology,
+                              std::span<const ScalarRef> scalars, std::span<const uint64_t> ids,
+                              std::span<const uint64_t> boundary_faces);
+
 struct LeafCellStats {
   uint64_t blocks = 0, cells = 0, bytes = 0;
 };

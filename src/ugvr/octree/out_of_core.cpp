@@ -13,6 +13,7 @@
 #include <bit>
 #include <chrono>
 #include <filesystem>
+#include <mutex>
 #include <numeric>
 #include <optional>
 
@@ -20,10 +21,12 @@
 #include "ugvr/core/progress.h"
 #include "ugvr/core/temp_files.h"
 #include "ugvr/grid/cell_interpolation.h"
+#include "ugvr/grid/topology.h"
 #include "ugvr/octree/build_parts.h"
 #include "ugvr/octree/cell_box_overlap.h"
 #include "ugvr/octree/data_points.h"
 #include "ugvr/octree/downsample.h"
+#include "ugvr/octree/node_cells.h"
 #include "ugvr/octree/node_error.h"
 #include "ugvr/octree/soup_boundary.h"
 #include "ugvr/octree/split.h"
@@ -53,7 +56,8 @@ class OutOfCoreBuild {
   };
 
   OutOfCoreBuild(const OctreeBuildOptions& options, const VtuCellSource& source, const BrickLattice& lattice,
-                 BrickStoreWriter& writer, const std::filesystem::path& temp, size_t preload_bytes, Progress& progress)
+                 BrickStoreWriter& writer, const std::filesystem::path& temp, size_t preload_bytes, Progress& progress,
+                 std::span<const uint64_t> boundary_faces)
       : o_(options),
         layout_(source.layout()),
         slots_(source.slots()),
@@ -63,6 +67,7 @@ class OutOfCoreBuild {
         temp_(temp),
         preload_bytes_(preload_bytes),
         progress_(progress),
+        boundary_faces_(boundary_faces),
         F_(uint32_t(fields_.size())) {
     for (const BrickStoreField& f : fields_) thresholds_.push_back(o_.error * (f.max - f.min));
     nodes_.push_back(OctreeNode{});
@@ -111,9 +116,10 @@ class OutOfCoreBuild {
     const bool check = o_.error > 0 && node.level < o_.max_depth;
     if (!split) {
       bool pieces = false;
+      std::unique_ptr<LocalMesh> welded;  // the leaf's mesh, kept for its cell block
       if (complete || node.level >= kMaxOctreeLevel) {
         if (!complete) kept = load(file);
-        sample_leaf(node, box, kept, scratch, *r, sums);
+        welded = sample_leaf(node, box, kept, scratch, *r, sums);
       } else {
         // More cells than this worker's share of the budget: the brick in pieces (see sample_in_pieces), its error
         // from the data points streamed from the file.
@@ -134,6 +140,24 @@ class OutOfCoreBuild {
         reset_sums();
       } else {
         leaves_in_pieces_ += pieces;
+        // Sampled, and a leaf for good: its cells, from the mesh it was sampled from or, when sampled in pieces, all
+        // of its records at once (one block per leaf; see the header).
+        if (o_.leaf_cells) {
+          std::vector<std::byte>().swap(kept);  // welded already: the records are not needed for the block
+          if (welded) {
+            write_cells(id, *welded);
+          } else {
+            // Beyond the worker's share (its records, then its mesh, topology and block): one such block at a time,
+            // so that the excess is that of the largest such leaf, not of one per worker.
+            const std::lock_guard lock(big_block_mutex_);
+            {
+              std::vector<std::byte> all = load(file);
+              welded = weld(all);
+            }
+            write_cells(id, *welded);
+          }
+        }
+        welded.reset();
         std::filesystem::remove(file);
         for (const ErrorSum& s : sums) r->errors.push_back(s.result());
         progress_.add(kVolumeUnits >> std::min(3 * int(node.level), 62));
@@ -191,6 +215,10 @@ class OutOfCoreBuild {
   uint64_t valid_samples() const { return valid_samples_; }
   uint64_t leaves_in_pieces() const { return leaves_in_pieces_; }
   double sampler_seconds() const { return double(sampler_ns_) * 1e-9; }
+  uint64_t cell_blocks() const { return cell_blocks_; }
+  uint64_t leaf_cells() const { return leaf_cells_; }
+  uint64_t cell_bytes() const { return cell_bytes_; }
+  double cell_seconds() const { return double(cell_ns_) * 1e-9; }
 
   // Progress counts the root's volume in these units; a leaf at level L adds its share.
   static constexpr uint64_t kVolumeUnits = uint64_t(1) << 62;
@@ -287,6 +315,7 @@ class OutOfCoreBuild {
     FieldSet fields;
     std::vector<ScalarRef> refs;
     std::vector<uint64_t> cells;  // 0 .. cell count - 1
+    std::vector<uint64_t> ids;    // per cell its id in the input mesh, ascending
   };
   std::unique_ptr<LocalMesh> weld(const std::vector<std::byte>& kept) const {
     std::vector<size_t> offsets;
@@ -308,8 +337,10 @@ class OutOfCoreBuild {
     std::vector<std::vector<float>> vertex_values(layout_.vertex_fields, std::vector<float>(ids.size()));
     std::vector<std::vector<float>> cell_values(layout_.cell_fields);
     uint32_t v[kMaxCellVertices];
+    local->ids.reserve(offsets.size());
     for (size_t at : offsets) {
       const SoupCell cell(kept.data() + at, layout_);
+      local->ids.push_back(cell.id());
       const int n = cell.vertex_count();
       for (int i = 0; i < n; ++i) {
         v[i] = uint32_t(std::lower_bound(ids.begin(), ids.end(), cell.vertex(i)) - ids.begin());
@@ -338,9 +369,10 @@ class OutOfCoreBuild {
     sampler_ns_ += uint64_t(seconds_since(t0) * 1e9);
   }
 
-  void sample_leaf(const OctreeNode& node, const Bounds& box, const std::vector<std::byte>& kept, Scratch& scratch,
-                   Result& r, std::vector<ErrorSum>& sums) {
-    const std::unique_ptr<LocalMesh> local = weld(kept);
+  // Samples a leaf from its records; returns the welded mesh (for its cell block).
+  std::unique_ptr<LocalMesh> sample_leaf(const OctreeNode& node, const Bounds& box, const std::vector<std::byte>& kept,
+                                         Scratch& scratch, Result& r, std::vector<ErrorSum>& sums) {
+    std::unique_ptr<LocalMesh> local = weld(kept);
     sample(*local, node.level, {node.i, node.j, node.k}, scratch, r.brick);
     leaf_samples_ += r.brick.mask.size();
     valid_samples_ += r.brick.valid;
@@ -349,6 +381,24 @@ class OutOfCoreBuild {
     data.points_inside(local->cells, box, points);
     pad_brick(o_.resolution, F_, r.brick.values.data(), r.brick.mask.data());
     measure_against_points(r.brick, box, data, points, sums);
+    return local;
+  }
+
+  // The leaf's cell block (octree/node_cells.h), from its welded mesh: the leaf's own topology, and the whole mesh's
+  // boundary faces to tell the boundary from the faces that lead to cells of other nodes. The same block as in core.
+  void write_cells(uint64_t id, const LocalMesh& local) {
+    if (local.ids.empty()) return;
+    const auto t0 = std::chrono::steady_clock::now();
+    EncodedCells e;
+    {
+      const MeshTopology topology = build_topology(local.mesh);
+      e = writer_.encode_cells(gather_welded_cells(local.mesh, topology, local.refs, local.ids, boundary_faces_));
+    }
+    writer_.append_cells(id, e);
+    cell_blocks_ += 1;
+    leaf_cells_ += e.cells;
+    cell_bytes_ += e.bytes.size();
+    cell_ns_ += uint64_t(seconds_since(t0) * 1e9);
   }
 
   void init_brick(BrickSamples& b) const {
@@ -504,6 +554,7 @@ class OutOfCoreBuild {
   std::filesystem::path temp_;
   size_t preload_bytes_;
   Progress& progress_;
+  std::span<const uint64_t> boundary_faces_;  // the mesh's, pack_face(cell id, face), ascending (leaf_cells only)
   uint32_t F_;
   std::vector<double> thresholds_;
   tbb::concurrent_vector<OctreeNode> nodes_;
@@ -511,6 +562,8 @@ class OutOfCoreBuild {
   tbb::concurrent_vector<store_format::TfErrorEntry> tf_errors_;  // node x field
   tbb::enumerable_thread_specific<Scratch> scratch_;
   std::atomic<uint64_t> leaf_samples_{0}, valid_samples_{0}, sampler_ns_{0}, pieces_{0}, leaves_in_pieces_{0};
+  std::atomic<uint64_t> cell_blocks_{0}, leaf_cells_{0}, cell_bytes_{0}, cell_ns_{0};
+  std::mutex big_block_mutex_;  // the cell blocks of leaves sampled in pieces, one at a time
 };
 
 }  // namespace
@@ -519,10 +572,6 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
                                           const OctreeBuildOptions& options, uint64_t memory_budget,
                                           const std::string& path) {
   validate_build_options(options);
-  if (options.leaf_cells)
-    throw Error(
-        "keeping the leaves' cells (--cells) is not supported by the out-of-core build yet: build in core "
-        "(a larger --memory) or without --cells");
   const auto start = std::chrono::steady_clock::now();
   std::optional<tbb::global_control> threads;
   if (options.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(options.threads));
@@ -550,13 +599,17 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   // assigned to the nodes once the tree is known. Their node lists take about 150 bytes a triangle at the end (the
   // section, and each triangle in double precision while it is tested against boxes): more than half of the budget,
   // and the store keeps the stencil's boundary, with a note saying so.
+  // The leaves' cell blocks need the boundary's faces themselves (8 bytes each), held through the build too.
   std::vector<MeshFaceTriangle> boundary_triangles;
+  std::vector<uint64_t> boundary_faces;
   OctreeBuildStats stats;
-  if (options.boundary_faces_per_node > 0) {
+  if (options.boundary_faces_per_node > 0 || options.leaf_cells) {
     const auto boundary_start = std::chrono::steady_clock::now();
     SoupBoundaryStats bst;
-    boundary_triangles = soup_boundary_triangles(root_file, source.layout(), cells, memory_budget, temp_path.string(),
-                                                 options.progress, &bst);
+    boundary_triangles =
+        soup_boundary_triangles(root_file, source.layout(), cells, memory_budget, temp_path.string(), options.progress,
+                                &bst, options.leaf_cells ? &boundary_faces : nullptr);
+    if (options.boundary_faces_per_node == 0) boundary_triangles = {};
     const uint64_t need = boundary_triangles.size() * uint64_t(150);
     if (need > memory_budget / 2) {
       stats.boundary_note =
@@ -586,7 +639,8 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
       uint64_t(options.resolution) * options.resolution * options.resolution * (4 * uint64_t(layout.fields.size()) + 1);
   const uint64_t reserve =
       (uint64_t(48) << 20) + workers * ((uint64_t(18) << 20) + 8 * uint64_t(options.max_depth + 1) * brick_bytes);
-  const uint64_t held = reserve + boundary_triangles.size() * sizeof(MeshFaceTriangle);
+  const uint64_t held =
+      reserve + boundary_triangles.size() * sizeof(MeshFaceTriangle) + boundary_faces.size() * sizeof(uint64_t);
   const uint64_t available = memory_budget > held ? memory_budget - held : 0;
   const size_t preload = size_t(std::max<uint64_t>(available / (12 * workers), uint64_t(64) << 10));
   stats.cells = cells;
@@ -595,7 +649,7 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   std::vector<OctreeNode> nodes;
   {
     Progress progress("bricks", OutOfCoreBuild::kVolumeUnits, options.progress);
-    OutOfCoreBuild build(options, source, lattice, writer, temp_path, preload, progress);
+    OutOfCoreBuild build(options, source, lattice, writer, temp_path, preload, progress, boundary_faces);
     build.process(0, root_file);
     nodes = build.nodes();
     stats.leaf_samples = build.leaf_samples();
@@ -603,6 +657,11 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
     stats.leaves_in_pieces = build.leaves_in_pieces();
     stats.point_passes = source.passes();
     stats.sampler_seconds = build.sampler_seconds();
+    stats.cell_blocks = build.cell_blocks();
+    stats.leaf_cells = build.leaf_cells();
+    stats.cell_bytes = build.cell_bytes();
+    stats.cell_seconds = build.cell_seconds();
+    boundary_faces = {};
     const auto boundary_start = std::chrono::steady_clock::now();
     BoundaryFaceStats bst;
     const StoreBoundary boundary =

@@ -23,10 +23,16 @@
 // pieces: its cells are routed to the halves of its box (halved again while too large) and its lattice is sampled
 // once per piece with that piece's cells, keeping the samples inside the piece, which gives its samples bit for bit
 // for about the work of sampling it whole; its error is then measured at the data points streamed from
-// its file (the max as in core, the rms weighing shared points by their cells). Disk: the soup (96 bytes per
-// tetrahedron with one scalar) and the files of the pending nodes, about twice the soup at most, next to the output,
-// in the scratch folder "<path>.cells" (core/temp_files.h: removed on error, SIGINT and SIGTERM, and after a SIGKILL
-// by the next build of the same output).
+// its file (the max as in core, the rms weighing shared points by their cells). With options.leaf_cells, a leaf also
+// writes its cell block (octree/node_cells.h, gather_welded_cells) once it stays a leaf: from its welded mesh, with the
+// mesh's own topology, after sampling (its topology and block take less than the sampler did), and the whole
+// mesh's boundary faces (8 bytes each, from octree/soup_boundary.h) held through the build; a leaf sampled in pieces
+// still writes one block, from all of its records at once, one such leaf at a time: that is beyond the budget's
+// accounting, by up to about 65 MiB for the largest leaves of 10M tetrahedra at --memory 128MiB (measured:
+// docs/octree-build.md, "Cells per leaf"). Disk: the soup (96
+// bytes per tetrahedron with one scalar) and the files of the pending nodes, about twice the soup at most, next to the
+// output, in the scratch folder "<path>.cells" (core/temp_files.h: removed on error, SIGINT and SIGTERM, and after a
+// SIGKILL by the next build of the same output).
 #pragma once
 
 #include <cstdint>

@@ -95,7 +95,7 @@ std::vector<FaceRecord> read_bucket(const std::string& path, uint64_t records) {
 std::vector<MeshFaceTriangle> soup_boundary_triangles(const std::string& soup_path, const SoupLayout& layout,
                                                       uint64_t cells, uint64_t memory_budget,
                                                       const std::string& temp_dir, const Progress::Observer& observer,
-                                                      SoupBoundaryStats* stats) {
+                                                      SoupBoundaryStats* stats, std::vector<uint64_t>* boundary_faces) {
   SoupBoundaryStats st;
   // Buckets: at most 6 faces a cell; a bucket is sorted in memory, within a third of the budget (at least 64 KiB),
   // and each open bucket buffers 4096 records (96 KiB); at most 512 files open at once.
@@ -182,6 +182,9 @@ std::vector<MeshFaceTriangle> soup_boundary_triangles(const std::string& soup_pa
       if (++seen % 65536 == 0) progress.set(seen);
     }
     progress.finish();
+  }
+  if (boundary_faces) {
+    *boundary_faces = std::move(boundary);
   }
   boundary = {};
   // Stable: a quadrilateral's two triangles keep their order.

@@ -31,9 +31,13 @@ struct SoupBoundaryStats {
 };
 
 // `cells`: the records in the soup (to size the buckets). `observer`: progress of the three passes.
+// `boundary_faces` (optional): also the boundary faces themselves, pack_face(cell id, local face) (grid/topology.h),
+// ascending, a face met more than twice once per cell that has it (8 bytes each): what the out-of-core builder
+// needs to mark the faces of the leaves' cell blocks (octree/node_cells.h) as the mesh's boundary.
 std::vector<MeshFaceTriangle> soup_boundary_triangles(const std::string& soup_path, const SoupLayout& layout,
                                                       uint64_t cells, uint64_t memory_budget,
                                                       const std::string& temp_dir, const Progress::Observer& observer,
-                                                      SoupBoundaryStats* stats = nullptr);
+                                                      SoupBoundaryStats* stats = nullptr,
+                                                      std::vector<uint64_t>* boundary_faces = nullptr);
 
 }  // namespace ugvr

@@ -40,6 +40,8 @@ std::string cached_store_path(const std::string& stem, const std::string& key, s
   k["fields"] = std::vector<std::string>(fields.begin(), fields.end());
   k["build"] = {build.resolution, build.max_depth, build.error, int(build.encoding.samples), build.tolerance};
   k["store_version"] = kBrickStoreVersion;
+  // Only when set, so that the names of the stores built without cells stay those of before.
+  if (build.leaf_cells) k["cells"] = true;
   char hash[17];
   std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(fnv1a(k.dump())));
   return view_cache_dir() + "/" + stem + "-" + hash + ".ugvr";
