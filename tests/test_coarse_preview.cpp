@@ -218,5 +218,26 @@ TEST(CoarsePreview, RefusesASoupOutOfIdOrderAndABadDepth) {
             std::string::npos);
 }
 
+// `ugvr build --out-of-core --preview PATH` keeps the preview there and reports it; --preview needs out of core.
+TEST(CoarsePreview, CliBuildWritesThePreviewWhereAsked) {
+  ScratchDir dir;
+  const std::string vtu = generated(dir, GenCellKind::Tet, 3000);
+  const std::string preview = dir.file("p.ugvr");
+  const test::CommandResult r =
+      test::run_ugvr("build " + vtu + " -o " + dir.file("s.ugvr") +
+                     " --fields pressure --max-depth 4 --brick 8 --out-of-core --memory 256MiB"
+                     " --preview " +
+                     preview + " --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("\"preview_depth\":3"), std::string::npos) << r.out;  // 256 MiB, R = 8: bricks of 2.5 MiB
+  const BrickStoreReader p(preview);
+  EXPECT_GT(p.node_count(), 9u);
+  EXPECT_EQ(p.node(0).level, 0);
+  const test::CommandResult in_core =
+      test::run_ugvr("build " + vtu + " -o " + dir.file("t.ugvr") + " --preview " + dir.file("q.ugvr"));
+  EXPECT_NE(in_core.status, 0);
+  EXPECT_NE(in_core.out.find("out-of-core builds only"), std::string::npos) << in_core.out;
+}
+
 }  // namespace
 }  // namespace ugvr
