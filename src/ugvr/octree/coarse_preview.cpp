@@ -33,11 +33,34 @@ std::unique_ptr<WeldedSoup> weld_soup_records(std::span<const std::byte> records
     for (int i = 0; i < cell.vertex_count(); ++i) ids.push_back(cell.vertex(i));
     at += cell.bytes();
   }
-  std::sort(offsets.begin(), offsets.end(), [&](size_t a, size_t b) {
+  auto by_id = [&](size_t a, size_t b) {
     return SoupCell(records.data() + a, layout).id() < SoupCell(records.data() + b, layout).id();
-  });
-  std::sort(ids.begin(), ids.end());
-  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  };
+  if (!std::is_sorted(offsets.begin(), offsets.end(), by_id)) std::sort(offsets.begin(), offsets.end(), by_id);
+  // The vertex ids in ascending order, and each one's local index: through a table over their range when the range
+  // is not much larger than the references (a chunk of an ordered mesh: linear time), else by sorting.
+  std::vector<uint32_t> local_of;
+  uint32_t first = 0;
+  if (!ids.empty()) {
+    const auto [lo, hi] = std::minmax_element(ids.begin(), ids.end());
+    first = *lo;
+    const uint64_t range = uint64_t(*hi) - *lo + 1;
+    if (range <= 4 * uint64_t(ids.size())) {
+      local_of.assign(range, 0);
+      for (uint32_t id : ids) local_of[id - first] = 1;
+      ids.clear();
+      for (uint64_t r = 0; r < range; ++r)
+        if (local_of[r]) local_of[r] = uint32_t(ids.size()), ids.push_back(uint32_t(first + r));
+    }
+  }
+  if (local_of.empty()) {
+    std::sort(ids.begin(), ids.end());
+    ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  }
+  auto local_index = [&](uint32_t id) {
+    return local_of.empty() ? uint32_t(std::lower_bound(ids.begin(), ids.end(), id) - ids.begin())
+                            : local_of[id - first];
+  };
   auto out = std::make_unique<WeldedSoup>();
   UnstructuredMesh& mesh = out->mesh;
   mesh.points.resize(ids.size());
@@ -49,7 +72,7 @@ std::unique_ptr<WeldedSoup> weld_soup_records(std::span<const std::byte> records
     const SoupCell cell(records.data() + at, layout);
     const int n = cell.vertex_count();
     for (int i = 0; i < n; ++i) {
-      v[i] = uint32_t(std::lower_bound(ids.begin(), ids.end(), cell.vertex(i)) - ids.begin());
+      v[i] = local_index(cell.vertex(i));
       mesh.points[v[i]] = cell.position(i);
       for (uint32_t f = 0; f < layout.vertex_fields; ++f) vertex_values[f][v[i]] = cell.vertex_value(f, i);
     }
@@ -146,7 +169,13 @@ CoarsePreviewStats write_coarse_preview(const std::string& soup_path, const Soup
     uint64_t last_id = 0;
     std::vector<std::byte> chunk;
     std::vector<std::pair<uint32_t, uint32_t>> pairs;  // (level-K node, welded cell)
-    std::vector<uint32_t> offsets, entries;
+    std::vector<uint32_t> offsets, entries, counts;
+    // The level-K node boxes, as BrickLattice::node_box gives them (it computes lattice lines: costly per cell).
+    std::vector<Bounds> node_boxes(level_nodes);
+    for (uint32_t k = 0; k < side; ++k)
+      for (uint32_t j = 0; j < side; ++j)
+        for (uint32_t i = 0; i < side; ++i)
+          node_boxes[i + size_t(side) * (j + size_t(side) * k)] = lattice.node_box(K, {i, j, k});
     uint64_t file_bytes = 0;
     {
       std::error_code ec;
@@ -169,7 +198,8 @@ CoarsePreviewStats write_coarse_preview(const std::string& soup_path, const Soup
       const std::unique_ptr<WeldedSoup> local = weld_soup_records(chunk, soup_layout, slots, layout.fields);
       done_bytes += chunk.size();
 
-      // Each cell to the level-K nodes its widened box meets (the sampler's candidates: a superset is fine).
+      // Each cell to the level-K nodes its widened box meets (the sampler's candidates: a superset is fine), then
+      // grouped by node with a counting sort, which keeps each node's cells in id order.
       pairs.clear();
       const UnstructuredMesh& mesh = local->mesh;
       for (uint32_t c = 0; c < uint32_t(mesh.cell_count()); ++c) {
@@ -181,22 +211,23 @@ CoarsePreviewStats write_coarse_preview(const std::string& soup_path, const Soup
         for (uint32_t k = r[2].first; k <= r[2].second; ++k)
           for (uint32_t j = r[1].first; j <= r[1].second; ++j)
             for (uint32_t i = r[0].first; i <= r[0].second; ++i) {
-              const Bounds e = expanded(lattice.node_box(K, {i, j, k}), margin);
+              const uint32_t node = uint32_t(i + size_t(side) * (j + size_t(side) * k));
+              const Bounds e = expanded(node_boxes[node], margin);
               if (bb.lo.x > e.hi.x || bb.lo.y > e.hi.y || bb.lo.z > e.hi.z || bb.hi.x < e.lo.x || bb.hi.y < e.lo.y ||
                   bb.hi.z < e.lo.z)
                 continue;
-              pairs.emplace_back(uint32_t(i + size_t(side) * (j + size_t(side) * k)), c);
+              pairs.emplace_back(node, c);
             }
       }
-      std::sort(pairs.begin(), pairs.end());  // by node, cells in order within each
+      counts.assign(level_nodes + 1, 0);
+      for (const auto& pr : pairs) ++counts[pr.first + 1];
+      for (size_t n = 0; n < level_nodes; ++n) counts[n + 1] += counts[n];
       offsets.clear(), entries.clear();
-      std::vector<uint64_t> cells(pairs.size());
-      for (size_t p = 0; p < pairs.size(); ++p) {
-        cells[p] = pairs[p].second;
-        if (p == 0 || pairs[p].first != pairs[p - 1].first)
-          offsets.push_back(uint32_t(p)), entries.push_back(pairs[p].first);
-      }
+      for (size_t n = 0; n < level_nodes; ++n)
+        if (counts[n + 1] > counts[n]) offsets.push_back(counts[n]), entries.push_back(uint32_t(n));
       offsets.push_back(uint32_t(pairs.size()));
+      std::vector<uint64_t> cells(pairs.size());
+      for (const auto& pr : pairs) cells[counts[pr.first]++] = pr.second;
       stats.sampled += entries.size();
 
       // The nodes in parallel: each is one task's alone, so its brick needs no lock.

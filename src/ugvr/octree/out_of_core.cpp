@@ -642,7 +642,7 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   const uint64_t available = memory_budget > held ? memory_budget - held : 0;
   const size_t preload = size_t(std::max<uint64_t>(available / (12 * workers), uint64_t(64) << 10));
   stats.cells = cells;
-  stats.subdivide_seconds = seconds_since(start);  // here: writing the cells to disk
+  stats.subdivide_seconds = seconds_since(start) - stats.preview_seconds;  // here: writing the cells to disk
   const auto bricks_start = std::chrono::steady_clock::now();
   std::vector<OctreeNode> nodes;
   {
