@@ -19,9 +19,10 @@
 // of every preview node equals the final store's node at the same place, bit for bit for cells whose map is affine
 // (tetrahedra, parallelepipeds: closed-form inverse) and for every sample on a brick border; inside a brick of
 // non-affine cells Newton may start from another neighbour's prediction and end within the sampler's 1e-12, which
-// float32 rounds the same nearly always (tests/test_coarse_preview.cpp checks it; docs/octree-build.md gives the
-// outcome). The padding of invalid samples (store/brick_pad.h) may differ where the final node is a leaf or an interior
-// node of another shape: it is filler for the renderer's filtering, not data.
+// float32 rounds the same nearly always: tests/test_coarse_preview.cpp found no sample differing on a mesh of prisms,
+// pyramids, tetrahedra and hexahedra (on tetrahedra it finds 66 if a later chunk is let win instead). The padding of
+// invalid samples (store/brick_pad.h) may differ where the final node is a leaf or an interior node of another shape:
+// it is filler for the renderer's filtering, not data.
 //
 // What the preview store holds (the brick store format, unchanged): nodes of levels 0 .. K that hold data (a level-K
 // node with a valid sample, and the ancestors of those), node ids breadth first; no boundary faces (the renderer
