@@ -239,5 +239,48 @@ TEST(CoarsePreview, CliBuildWritesThePreviewWhereAsked) {
   EXPECT_NE(in_core.out.find("out-of-core builds only"), std::string::npos) << in_core.out;
 }
 
+// The weld, both ways of numbering the vertices: a table over a dense id range, and sorting when the ids are sparse;
+// the cells come out in id order whatever the records' order, each vertex with its position and value.
+TEST(CoarsePreview, WeldOrdersCellsByIdAndNumbersVerticesAscending) {
+  const SoupLayout layout{1, 1};
+  for (const uint32_t stride : {1u, 1000u}) {  // vertex ids 0..4 (dense) or 0..4000 (sparse: sorted)
+    SCOPED_TRACE("stride " + std::to_string(stride));
+    ScratchDir dir;
+    const std::string soup = dir.file("cells");
+    {
+      SoupWriter w(soup, layout);
+      const uint32_t a[4] = {3 * stride, 1 * stride, 0, 2 * stride},
+                     b[4] = {4 * stride, 1 * stride, 2 * stride, 3 * stride};
+      const Vec3f pa[4] = {{3, 0, 0}, {1, 0, 0}, {0, 0, 0}, {2, 0, 0}},
+                  pb[4] = {{4, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 0, 0}};
+      const float va[4] = {30, 10, 0, 20}, vb[4] = {40, 10, 20, 30};
+      const float ca = 7, cb = 8;
+      w.add(9, CellType::Tetra, 4, b, pb, vb, &cb);  // the higher id first
+      w.add(2, CellType::Tetra, 4, a, pa, va, &ca);
+      w.close();
+    }
+    std::vector<std::byte> records;
+    {
+      SoupReader r(soup, layout);
+      const std::byte* rec = nullptr;
+      while (r.next(rec)) records.insert(records.end(), rec, rec + SoupCell(rec, layout).bytes());
+    }
+    const std::vector<VtuCellSource::Slot> slots = {{Association::Vertex, 0}, {Association::Cell, 0}};
+    const std::vector<BrickStoreField> fields = {{"v", Association::Vertex, 0, 40}, {"c", Association::Cell, 7, 8}};
+    const std::unique_ptr<WeldedSoup> w = weld_soup_records(records, layout, slots, fields);
+    EXPECT_EQ(w->ids, (std::vector<uint64_t>{2, 9}));
+    ASSERT_EQ(w->mesh.points.size(), 5u);
+    for (uint32_t v = 0; v < 5; ++v) {  // vertex k (id k x stride) sits at x = k with value 10 k
+      EXPECT_EQ(w->mesh.points[v].x, float(v));
+      EXPECT_EQ(w->fields[0].data().values<float>()[v], 10.0f * float(v));
+    }
+    const auto c0 = w->mesh.cell(0), c1 = w->mesh.cell(1);
+    EXPECT_EQ(std::vector<uint32_t>(c0.begin(), c0.end()), (std::vector<uint32_t>{3, 1, 0, 2}));
+    EXPECT_EQ(std::vector<uint32_t>(c1.begin(), c1.end()), (std::vector<uint32_t>{4, 1, 2, 3}));
+    EXPECT_EQ(w->fields[1].data().values<float>()[0], 7.0f);
+    EXPECT_EQ(w->fields[1].data().values<float>()[1], 8.0f);
+  }
+}
+
 }  // namespace
 }  // namespace ugvr
