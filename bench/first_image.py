@@ -5,13 +5,17 @@ measures from the process's start
   - url_s: the URL printed (the server listens);
   - the progress messages a tab gets (stage, label, fraction, first time each stage/label is seen);
   - first_image_s: the first frame (a binary WebSocket message after hello);
+  - first_image_texel_px: that frame's max_texel_error (status; screen pixels per texel of the cut's nodes);
+  - preview_s: out of core, the first progress message saying a coarse preview is shown (octree/coarse_preview.h);
+  - cut_s (with --cut-px P): the first frame whose cut has max_texel_error <= P px (cut_from_preview: while the
+    coarse preview was shown, before the store); the run then goes on until that frame comes;
   - ready_s: the store shown (progress "ready"), if it comes within --wait seconds after the first image;
   - peak_rss_bytes: the viewer's VmHWM at the end.
 
 The tab connects as soon as the URL is printed and says hello at 512x512. Uses bench/view_socket_check.py's
 standard-library WebSocket client. Prints one JSON line.
 
-Usage: first_image.py UGVR MESH STORE [--wait S] [-- VIEW_FLAGS...]
+Usage: first_image.py UGVR MESH STORE [--wait S] [--cut-px P] [-- VIEW_FLAGS...]
 """
 import argparse
 import json
@@ -40,6 +44,7 @@ def main():
     ap.add_argument("store")
     ap.add_argument("--wait", type=float, default=0, help="seconds to wait for the store after the first image")
     ap.add_argument("--timeout", type=float, default=900)
+    ap.add_argument("--cut-px", type=float, default=0, help="also wait for a cut with texels of at most this size")
     argv = sys.argv[1:]
     flags = argv[argv.index("--") + 1:] if "--" in argv else []
     args = ap.parse_args(argv[:argv.index("--")] if "--" in argv else argv)
@@ -62,17 +67,28 @@ def main():
         ws.sock.settimeout(args.timeout)
         ws.send_json({"type": "hello", "width": 512, "height": 512})
         first, ready, last_status = None, None, {}
+
+        def cut_done():
+            return args.cut_px <= 0 or "cut_s" in out
+
         while True:
             text, data = ws.recv()
             now = round(time.monotonic() - start, 3)
             if not text:
+                texel = last_status.get("max_texel_error")
+                if args.cut_px > 0 and texel is not None and texel <= args.cut_px and "cut_s" not in out:
+                    out["cut_s"] = now
+                    out["cut_px"] = args.cut_px
+                    out["cut_from_preview"] = ready is None and "preview_s" in out
                 if first is None:
                     first = now
                     out["first_image_s"] = first
                     out["first_image_engine"] = last_status.get("engine")
-                    if args.wait <= 0 or ready is not None:  # the store was shown first (the out-of-core path)
+                    out["first_image_texel_px"] = texel
+                    # The store was shown first (the out-of-core path without a preview).
+                    if (args.wait <= 0 or ready is not None) and cut_done():
                         break
-                if first is not None and now - first > args.wait:
+                if first is not None and now - first > args.wait and cut_done():
                     break
                 continue
             msg = json.loads(data)
@@ -81,14 +97,16 @@ def main():
             elif msg["type"] == "progress":
                 key = msg["stage"] + ("/" + msg["label"] if msg["label"] else "")
                 seen.setdefault(key, now)
+                if "coarse preview" in msg.get("message", ""):
+                    out.setdefault("preview_s", now)
                 if msg["stage"] == "failed":
                     raise RuntimeError(msg["message"])
                 if msg["stage"] == "ready":
                     ready = now
                     out["ready_s"] = ready
-                    if first is not None:
+                    if first is not None and cut_done():
                         break
-            if first is not None and now - first > args.wait:
+            if first is not None and now - first > args.wait and cut_done():
                 break
     except BaseException as e:  # what was measured so far is still worth printing (Ctrl-C included)
         out["error"] = repr(e)

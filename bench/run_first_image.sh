@@ -5,7 +5,8 @@
 # Usage: bench/run_first_image.sh [SCRATCH=/tmp/ugvr-bench]
 #   UGVR (default build/ugvr), CELLS (default 10000000; the mesh is generated once into SCRATCH), WAIT (seconds to
 #   wait for the store after the first image, default 0), VIEW_FLAGS (extra `ugvr view` flags, e.g.
-#   "--memory-budget 1GiB" to take the out-of-core path).
+#   "--memory-budget 1GiB" to take the out-of-core path), CUT_PX (also time the first frame whose cut's texels are at
+#   most this many pixels, e.g. 4; default 0: not timed).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -20,5 +21,6 @@ echo "{\"bench\":\"session\",\"date\":\"$(date -u +%FT%TZ)\",\"commit\":\"$commi
 mesh="$scratch/tet-$cells.vtu"
 [ -f "$mesh" ] || "$ugvr" --quiet generate --cells "$cells" --kind tet -o "$mesh"
 # shellcheck disable=SC2086
-python3 bench/first_image.py "$ugvr" "$mesh" "$scratch/tet-$cells-first.ugvr" --wait "$wait_s" -- ${VIEW_FLAGS:-} |
+python3 bench/first_image.py "$ugvr" "$mesh" "$scratch/tet-$cells-first.ugvr" --wait "$wait_s" \
+  --cut-px "${CUT_PX:-0}" -- ${VIEW_FLAGS:-} |
   tee -a "$jsonl"

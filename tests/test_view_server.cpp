@@ -1224,5 +1224,70 @@ TEST(CliView, AGridOverTheMemoryBudgetIsBuiltOutOfCoreAndTheViewerSaysWhy) {
   EXPECT_NE(fits.find("--memory-budget"), std::string::npos) << fits;
 }
 
+// Out of core, the build's coarse preview (octree/coarse_preview.h: levels 0 .. K) is shown as soon as it is written,
+// while the bricks are still being built (the build is held right after the preview), the page saying so; then every
+// tab moves to the store once it is done.
+TEST(ViewServer, AnOutOfCoreBuildShowsItsCoarsePreviewWhileTheStoreIsBuilt) {
+  const std::filesystem::path dir = shared().dir / "coarse-preview";
+  std::filesystem::create_directories(dir);
+  const std::string mesh = (dir / "wing.vtu").string();
+  const std::filesystem::path store = dir / "wing.ugvr";
+  std::filesystem::remove(store);
+  ASSERT_EQ(test::run_ugvr("generate --cells 3000 --kind tet -o " + mesh).status, 0);
+  std::unique_ptr<ViewServer> server;
+  BuildGate after_preview;
+  {
+    ViewServerOptions o;
+    o.store = store.string();
+    o.out_of_core_input = mesh;
+    o.out_of_core_budget = uint64_t(256) << 20;
+    o.build = small_build();
+    o.build.preview_depth = 2;
+    o.build.on_preview = [hold = after_preview.hold()](const std::string&) { hold(); };
+    try {
+      server = std::make_unique<ViewServer>(o);
+    } catch (const Error& e) {
+      after_preview.open();
+      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
+      FAIL() << "cannot start the server: " << e.what();
+    }
+  }
+  Client c(server->port());
+  c.send(R"({"type":"hello","width":32,"height":32})");
+  // Everything up to the first image, which comes while the build is held: from the preview.
+  bool said_preview = false;
+  std::optional<json> scene;
+  std::string image;
+  for (int i = 0; i < 400 && image.empty(); ++i) {
+    Message m = c.read();
+    if (m.binary) {
+      image = std::move(m.data);
+      break;
+    }
+    const json j = json::parse(m.data);
+    if (j["type"] == "scene") scene = j;
+    if (j["type"] == "progress" &&
+        j["message"].get<std::string>().find("coarse preview (levels 0\xe2\x80\x93"
+                                             "2) while the store is built") != std::string::npos)
+      said_preview = true;
+  }
+  ASSERT_FALSE(image.empty());
+  EXPECT_TRUE(is_png(image) || is_jpeg(image));
+  ASSERT_TRUE(scene);
+  EXPECT_EQ((*scene)["engine"], "lod");
+  EXPECT_TRUE(said_preview);
+  EXPECT_FALSE(std::filesystem::exists(store)) << "the first image came before the store";
+  EXPECT_TRUE(std::filesystem::exists(store.string() + ".preview"));
+  // The build goes on: the store's scene follows ("ready"), then its frames; the preview's file is gone.
+  after_preview.open();
+  const std::optional<json> ready =
+      read_text_until(c, [](const json& m) { return m["type"] == "progress" && m["stage"] == "ready"; });
+  ASSERT_TRUE(ready);
+  EXPECT_TRUE(std::filesystem::exists(store));
+  EXPECT_FALSE(std::filesystem::exists(store.string() + ".preview"));
+  const Frame f = read_frame(c);  // every tab draws again on the store
+  EXPECT_TRUE(is_png(f.bytes) || is_jpeg(f.bytes));
+}
+
 }  // namespace
 }  // namespace ugvr::view

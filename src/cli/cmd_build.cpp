@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -13,6 +14,7 @@
 #include "ugvr/io/time_series.h"
 #include "ugvr/mpi/piece_build.h"
 #include "ugvr/octree/builder.h"
+#include "ugvr/octree/coarse_preview.h"
 #include "ugvr/octree/out_of_core.h"
 #ifdef UGVR_HAVE_MPI
 #include "ugvr/mpi/mpi_session.h"
@@ -115,7 +117,8 @@ void register_build(CLI::App& app) {
     uint64_t memory = uint64_t(1) << 30;
     bool float32 = false, json = false, out_of_core = false, no_tf_errors = false;
     int pieces = 0, ghost_level = 0;
-    std::string time;  // --time: the steps of a store with time
+    std::string time;     // --time: the steps of a store with time
+    std::string preview;  // --preview: the coarse preview's store, out of core
   };
   auto opts = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -167,6 +170,9 @@ void register_build(CLI::App& app) {
   cmd->add_option("--time", opts->time,
                   "A time series: one store holding steps all|N|A:B[:S] (inclusive, stride S), sharing the octree "
                   "(static geometry only; docs/time-series.md)");
+  cmd->add_option("--preview", opts->preview,
+                  "Out of core: also write a coarse preview store there (levels 0..K of the final store, K up to 3 as "
+                  "--memory allows), within seconds of the cells being on disk (octree/coarse_preview.h)");
   cmd->add_flag("--no-tf-errors", opts->no_tf_errors,
                 "Leave out the transfer-function error table (44 bytes per node and field; renderers then rank nodes "
                 "by texel size alone)");
@@ -195,6 +201,13 @@ void register_build(CLI::App& app) {
     const bool out_of_core =
         !timed &&
         (opts->out_of_core || (vtu && std::filesystem::file_size(opts->input.files[0]) > opts->memory / 5 * 2));
+    if (!opts->preview.empty()) {
+      if (!out_of_core) throw Error("--preview " + opts->preview + ": a preview is made by out-of-core builds only");
+      if (extension_lower(opts->preview) != ".ugvr") throw Error(opts->preview + ": the preview must be a .ugvr file");
+      const uint32_t fields = uint32_t(std::max<size_t>(opts->fields.size(), 1));
+      opts->build.preview_depth = std::max(1, coarse_preview_depth_for(opts->memory, opts->build.resolution, fields));
+      opts->build.preview_path = opts->preview;
+    }
     OctreeBuildStats s;
     std::string names;
     if (timed) {
@@ -251,6 +264,10 @@ void register_build(CLI::App& app) {
                                 {"time_steps", s.time_steps},
                                 {"read_seconds", s.read_seconds},
                                 {"first_step_nodes", s.first_step_nodes},
+                                {"preview_depth", opts->build.preview_depth},
+                                {"preview_seconds", s.preview_seconds},
+                                {"preview_nodes", s.preview_nodes},
+                                {"preview_bytes", s.preview_bytes},
                                 {"peak_rss_bytes", peak_rss_bytes()}};
       std::printf("%s\n", j.dump().c_str());
     } else {
@@ -261,6 +278,10 @@ void register_build(CLI::App& app) {
           s.mean_leaf_level, s.max_level, names.c_str(), opts->float32 ? "float32" : "quant16", opts->build.resolution,
           opts->build.resolution, opts->build.resolution, format_bytes(s.store_bytes).c_str(), s.seconds,
           s.subdivide_seconds, s.brick_seconds, samples_per_second, format_bytes(peak_rss_bytes()).c_str());
+      if (s.preview_nodes > 0)
+        std::printf("  coarse preview %s: levels 0..%d, %llu nodes, %s, %.2f s\n", opts->preview.c_str(),
+                    opts->build.preview_depth, (unsigned long long)s.preview_nodes,
+                    format_bytes(s.preview_bytes).c_str(), s.preview_seconds);
       if (s.time_steps > 0)
         std::printf("  %u time step(s) on one tree (the first step's own: %llu nodes), reading %.2f s\n", s.time_steps,
                     (unsigned long long)s.first_step_nodes, s.read_seconds);

@@ -202,8 +202,8 @@ void run_view(const Options& o) {
         vo.out_of_core_input = o.inputs[0];
         vo.out_of_core_budget = budget;
         vo.notice = why +
-                    ": no exact preview; the store is built out of core with its cells and shown when done (exact at "
-                    "rest)";
+                    ": no exact preview; the store is built out of core with its cells, shown as a coarse preview "
+                    "first (exact at rest once built)";
         std::fprintf(stderr, "ugvr view: %s\n", vo.notice.c_str());
         std::fprintf(stderr, "ugvr view: building the brick store %s out of core\n", vo.store.c_str());
       }
@@ -278,7 +278,7 @@ void register_view(CLI::App& app) {
   cmd->add_option("--memory-budget", opts->memory_budget,
                   "RAM the viewer may hold a grid in (e.g. 8GiB; default: half of the machine's memory, or "
                   "$UGVR_VIEW_MEMORY_BUDGET): a grid estimated larger is not read, its store is built out of core "
-                  "(.vtu) and shown when done")
+                  "(.vtu), shown as a coarse preview within seconds of its cells, whole when done")
       ->transform(CLI::AsSizeValue(true));
   cmd->add_option("--error", opts->build.error, "Build: split threshold relative to each field's range")
       ->check(CLI::Range(0.0, 1.0))

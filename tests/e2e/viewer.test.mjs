@@ -3,6 +3,10 @@
 // The page's state is read through its test hook, window.ugvrViewer (web/app.js). Timeouts are generous (llvmpipe
 // on a loaded 2-core CI machine) but bounded, and every wait polls for its condition.
 import assert from "node:assert/strict";
+import { execFileSync } from "node:child_process";
+import { mkdtempSync, rmSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { join } from "node:path";
 import { after, before, test } from "node:test";
 import { canvasPixels, cameraMoved, changedFraction, drag, foregroundFraction, launchBrowser, startViewer, stopViewer,
          viewerState, waitConverged, waitFor } from "./lib.mjs";
@@ -161,4 +165,47 @@ test("a malformed WebSocket message gets an error reply and the server keeps ser
   assert.ok(cameraMoved(before.camera, s.camera), "the camera moved");
   assert.equal(s.error, "", "a new frame cleared the error");
   assert.match(await page.locator("#status").textContent(), /full quality/);
+});
+
+// Out of core (a grid over --memory-budget): the build writes a coarse preview of the store within a second or two of
+// the cells being on disk (octree/coarse_preview.h), and the page shows it, with the build's progress, while the
+// bricks are still built (half a million tetrahedra at 64 MiB: 10 to 30 s); then the store.
+test("over the memory budget the page shows progress and a first image from the coarse preview while the store is built",
+     async () => {
+  const dir = mkdtempSync(join(tmpdir(), "ugvr-e2e-preview-"));
+  let v;
+  try {
+    const mesh = join(dir, "tets.vtu");
+    execFileSync(UGVR, ["--quiet", "generate", "--cells", "500000", "--kind", "tet", "-o", mesh]);
+    v = await startViewer(UGVR, mesh, ["--store", join(dir, "tets.ugvr"), "--memory-budget", "64MiB",
+                                       "--fields", "pressure"]);
+    const p = await context.newPage();
+    p.on("pageerror", (e) => console.error(`page error: ${e.message}`));
+    const start = Date.now();
+    await p.goto(v.url);
+    // A frame while the progress line still says the preview is shown: the store is not there yet.
+    const seen = await waitFor("a frame from the coarse preview", async () => {
+      const s = await p.evaluate(() => ({ frames: window.ugvrViewer?.frames, progress: window.ugvrViewer?.progress,
+                                          line: document.getElementById("progress-text").textContent }));
+      return s.frames > 0 && s.progress && /coarse preview \(levels 0–\d\) while the store is built/.test(s.line) ? s
+                                                                                                                 : null;
+    }, 60_000, 100);
+    console.log(`first preview frame after ${Date.now() - start} ms: ${seen.line}`);
+    assert.equal(seen.progress.stage, "build");
+    assert.ok(await p.locator("#progress").isVisible(), "the progress line is shown beside the image");
+    assert.ok(foregroundFraction(await canvasPixels(p)) > 0.01, "the preview's image is not blank");
+    // Then the store itself: the progress line goes ("ready") and the tab draws it (not to full quality: 64 MiB of
+    // tab memory holds few of its bricks).
+    await waitFor("the store", async () => (await p.evaluate(() => window.ugvrViewer.progress)) === null, 300_000, 250);
+    const shown = (await viewerState(p)).frames;
+    const s = await waitFor("a frame of the store", async () => {
+      const st = await viewerState(p);
+      return st.frames > shown ? st : null;
+    }, CONVERGE_MS, 100);
+    assert.equal(s.error, "");
+    await p.close();
+  } finally {
+    await stopViewer(v);
+    rmSync(dir, { recursive: true, force: true });
+  }
 });

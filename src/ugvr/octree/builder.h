@@ -20,6 +20,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
@@ -58,6 +59,15 @@ struct OctreeBuildOptions {
   // Keep each leaf's cells in the store (octree/node_cells.h, format version 5), for exact rendering per node (the
   // [hybrid] issue). Both builders (out of core: each leaf from its welded records, the same blocks).
   bool leaf_cells = false;
+  // Out of core only: a coarse preview of levels 0 .. preview_depth (octree/coarse_preview.h: the final store's
+  // samples at those levels, in one pass over the cells) written as a store of its own as soon as the cells are on
+  // disk, for a viewer to show while the bricks are built; 0: none.
+  int preview_depth = 0;
+  // Where the preview goes: empty: "<output>.preview", removed when the build ends however it ends (a viewer that
+  // opened it keeps reading its open file); else that path, kept.
+  std::string preview_path;
+  // Called on the build's thread once the preview is complete at its path.
+  std::function<void(const std::string& path)> on_preview;
 };
 
 struct OctreeBuildStats {
@@ -79,6 +89,9 @@ struct OctreeBuildStats {
   uint64_t boundary_bytes = 0;  // of store_bytes: the boundary faces (nodes × 8 + references × 4 + triangles × 36)
   uint64_t boundary_triangles = 0, boundary_overflow_nodes = 0;
   double boundary_seconds = 0;  // finding them, of `seconds`
+  // Out of core with a preview (preview_depth): its wall time (of `seconds`), nodes and bytes.
+  double preview_seconds = 0;
+  uint64_t preview_nodes = 0, preview_bytes = 0;
   // Why the store has no boundary faces although they were asked for (out of core: over the memory budget); empty
   // otherwise.
   std::string boundary_note;

@@ -24,6 +24,7 @@
 #include "ugvr/grid/topology.h"
 #include "ugvr/octree/build_parts.h"
 #include "ugvr/octree/cell_box_overlap.h"
+#include "ugvr/octree/coarse_preview.h"
 #include "ugvr/octree/data_points.h"
 #include "ugvr/octree/downsample.h"
 #include "ugvr/octree/node_cells.h"
@@ -566,12 +567,42 @@ class OutOfCoreBuild {
   std::mutex big_block_mutex_;  // the cell blocks of leaves sampled in pieces, one at a time
 };
 
+// The coarse preview's store: at `chosen`, kept; or at "<output>.preview", registered for the signal handler and
+// removed when the build ends however it ends (core/temp_files.h). One left by a SIGKILL is removed when the next
+// build of the same output starts (made after the build's ScratchFolder, which refuses a second live build).
+class PreviewFile {
+ public:
+  PreviewFile(const std::string& chosen, const std::string& output)
+      : path_(chosen.empty() ? output + ".preview" : chosen), temporary_(chosen.empty()) {
+    if (!temporary_) return;
+    std::error_code ec;
+    std::filesystem::remove(path_, ec);
+    registration_ = TempRegistration(path_, false);
+  }
+  ~PreviewFile() {
+    if (!temporary_) return;
+    std::error_code ec;
+    std::filesystem::remove(path_, ec);
+  }
+  PreviewFile(const PreviewFile&) = delete;
+  PreviewFile& operator=(const PreviewFile&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  bool temporary_;
+  TempRegistration registration_;
+};
+
 }  // namespace
 
 OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors,
                                           const OctreeBuildOptions& options, uint64_t memory_budget,
                                           const std::string& path) {
   validate_build_options(options);
+  if (options.preview_depth < 0 || options.preview_depth > kMaxPreviewDepth)
+    throw Error("the coarse preview's depth " + std::to_string(options.preview_depth) + " is out of range 0.." +
+                std::to_string(kMaxPreviewDepth));
   const auto start = std::chrono::steady_clock::now();
   std::optional<tbb::global_control> threads;
   if (options.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(options.threads));
@@ -594,6 +625,32 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
     soup.close();
   }
   const Bounds data_bounds = source.bounds();
+  BrickLattice lattice;
+  lattice.root = octree_root(data_bounds);
+  lattice.resolution = options.resolution;
+  const BrickStoreLayout layout = store_layout(options, source.fields(), lattice.root, data_bounds, true);
+
+  // The coarse preview (octree/coarse_preview.h) first, while the budget is free: what a viewer shows within seconds.
+  OctreeBuildStats stats;
+  std::optional<PreviewFile> preview;
+  if (options.preview_depth > 0) {
+    preview.emplace(options.preview_path, path);
+    CoarsePreviewOptions po;
+    po.depth = options.preview_depth;
+    po.sampler = options.sampler;
+    po.progress = options.progress;
+    // The records of one chunk take up to about 10 times their size while sampled (as a leaf's, below): a twelfth of
+    // what the budget leaves beside the program and the preview's bricks.
+    const uint64_t held =
+        (uint64_t(48) << 20) + coarse_preview_brick_bytes(po.depth, options.resolution, uint32_t(layout.fields.size()));
+    po.chunk_bytes = size_t(std::max<uint64_t>((memory_budget > held ? memory_budget - held : 0) / 12, 64 << 10));
+    const CoarsePreviewStats ps =
+        write_coarse_preview(root_file, source.layout(), source.slots(), lattice, layout, po, preview->path());
+    stats.preview_seconds = ps.seconds;
+    stats.preview_nodes = ps.nodes;
+    stats.preview_bytes = ps.store_bytes;
+    if (options.on_preview) options.on_preview(preview->path());
+  }
 
   // The boundary's triangles (octree/soup_boundary.h), found while the budget is free and held through the build;
   // assigned to the nodes once the tree is known. Their node lists take about 150 bytes a triangle at the end (the
@@ -602,7 +659,6 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   // The leaves' cell blocks need the boundary's faces themselves (8 bytes each), held through the build too.
   std::vector<MeshFaceTriangle> boundary_triangles;
   std::vector<uint64_t> boundary_faces;
-  OctreeBuildStats stats;
   if (options.boundary_faces_per_node > 0 || options.leaf_cells) {
     const auto boundary_start = std::chrono::steady_clock::now();
     SoupBoundaryStats bst;
@@ -622,10 +678,6 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
     stats.boundary_seconds = seconds_since(boundary_start);
   }
 
-  BrickLattice lattice;
-  lattice.root = octree_root(data_bounds);
-  lattice.resolution = options.resolution;
-  const BrickStoreLayout layout = store_layout(options, source.fields(), lattice.root, data_bounds, true);
   BrickStoreWriter writer(path, layout);
 
   // What the budget pays for besides cells: the program and its store writer (about 48 MiB), and per worker the file
@@ -644,7 +696,7 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   const uint64_t available = memory_budget > held ? memory_budget - held : 0;
   const size_t preload = size_t(std::max<uint64_t>(available / (12 * workers), uint64_t(64) << 10));
   stats.cells = cells;
-  stats.subdivide_seconds = seconds_since(start);  // here: writing the cells to disk
+  stats.subdivide_seconds = seconds_since(start) - stats.preview_seconds;  // here: writing the cells to disk
   const auto bricks_start = std::chrono::steady_clock::now();
   std::vector<OctreeNode> nodes;
   {

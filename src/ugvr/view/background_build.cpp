@@ -56,6 +56,17 @@ BackgroundBuild::BackgroundBuild(std::shared_ptr<const Dataset> dataset, std::ve
 BackgroundBuild::BackgroundBuild(OutOfCore input, std::vector<std::string> fields, OctreeBuildOptions options,
                                  std::string path, std::function<void()> before)
     : path_(std::move(path)) {
+  if (options.preview_depth > 0) {
+    options.on_preview = [this, depth = options.preview_depth,
+                          then = std::move(options.on_preview)](const std::string& preview) {
+      {
+        std::lock_guard lock(mutex_);
+        state_.preview = preview;
+        state_.preview_depth = depth;
+      }
+      if (then) then(preview);
+    };
+  }
   thread_ = std::thread([this, input = std::move(input), fields = std::move(fields), options, before]() mutable {
     if (before) before();
     run(nullptr, input, std::move(fields), options);

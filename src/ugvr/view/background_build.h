@@ -24,6 +24,11 @@ class BackgroundBuild {
     double fraction = 0;
     std::string error;    // when Failed
     bool reused = false;  // Done without building: another process (or viewer) built the same store meanwhile
+    // Out of core with OctreeBuildOptions::preview_depth: the coarse preview's store (octree/coarse_preview.h) once
+    // it is complete, while the build goes on (empty: none yet); its file is removed when the build ends, so open it
+    // while the build is Running. Its levels: 0 .. preview_depth.
+    std::string preview;
+    int preview_depth = 0;
   };
 
   // Starts building `fields` of `dataset` into `path` (atomically: a valid store appears there only when done). The
@@ -35,6 +40,8 @@ class BackgroundBuild {
                   std::string path, std::function<void()> before = {});
   // The same from a .vtu file that is never held in memory: build_octree_out_of_core (octree/out_of_core.h) within
   // `memory_budget` bytes. `fields` as its selectors (empty: its default). Cancelled at its next progress report.
+  // With options.preview_depth, the state reports the coarse preview as soon as it is written (State::preview), then
+  // calls options.on_preview if set (tests hold the build there).
   struct OutOfCore {
     std::string vtu;
     uint64_t memory_budget = 0;

@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <optional>
 #include <vector>
 
 #include "ugvr/gpu/gl_context.h"
+#include "ugvr/octree/coarse_preview.h"
 #include "ugvr/octree/input.h"
 #include "ugvr/render/lod/lod_renderer.h"
 #include "ugvr/render/renderer_factory.h"
@@ -41,10 +43,11 @@ std::string first_varying(const std::vector<FieldInfo>& fields) {
   return fields.front().name;
 }
 
-std::shared_ptr<LodScene> open_store(const ViewServerOptions& options, std::shared_ptr<GlContext> gl) {
+std::shared_ptr<LodScene> open_store(const ViewServerOptions& options, std::shared_ptr<GlContext> gl,
+                                     const std::string& path) {
   LodOptions lo;
   lo.atlas_budget_bytes = options.gpu_memory;
-  auto scene = std::make_shared<LodScene>(options.store, std::move(gl), lo);
+  auto scene = std::make_shared<LodScene>(path, std::move(gl), lo);
   scene->engine.set_field("");
   return scene;
 }
@@ -70,9 +73,16 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
   renderer_ = gl_->renderer();
   notice_ = options_.notice;
   if (!options_.out_of_core_input.empty()) {
-    // Never in memory: nothing draws until the store is built (then switch_to_store shows it).
+    // Never in memory: nothing draws until the build's coarse preview is written (switch_to_preview shows it), then
+    // the store once built (switch_to_store). The preview's depth, unless the caller chose one: the deepest whose
+    // bricks take an eighth of the budget at most (3 for 1 GiB, one field, R = 32: 90 MiB).
+    OctreeBuildOptions build = options_.build;
+    if (build.preview_depth == 0) {
+      const uint32_t fields = uint32_t(std::max<size_t>(options_.fields.size(), 1));
+      build.preview_depth = coarse_preview_depth_for(options_.out_of_core_budget, build.resolution, fields);
+    }
     BackgroundBuild::OutOfCore input{options_.out_of_core_input, options_.out_of_core_budget};
-    build_ = std::make_unique<BackgroundBuild>(std::move(input), options_.fields, options_.build, options_.store,
+    build_ = std::make_unique<BackgroundBuild>(std::move(input), options_.fields, build, options_.store,
                                                options_.before_build);
     return;
   }
@@ -84,7 +94,7 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
     return;
   }
   if (!options_.dataset && !options_.load) {
-    lod_ = open_store(options_, gl_);
+    lod_ = open_store(options_, gl_, options_.store);
     scene_ = lod_scene();
     return;
   }
@@ -217,7 +227,11 @@ std::optional<EngineHost::BuildReport> EngineHost::build_report() const {
   const std::string note = notice_.empty() ? "" : notice_ + "; ";
   // While the walk mesh is built beside the store, the page is told that the first image waits for it.
   const std::string walk = load_ ? "the walk mesh for the first image and " : "";
-  if (st.stage == BackgroundBuild::Stage::Running)
+  if (st.stage == BackgroundBuild::Stage::Running && preview_depth_ > 0)
+    r.progress = {"build", st.label, st.fraction,
+                  note + "coarse preview (levels 0–" + std::to_string(preview_depth_) + ") while the store is built: " +
+                      std::to_string(int(std::lround(100 * st.fraction))) + " % of " + st.label};
+  else if (st.stage == BackgroundBuild::Stage::Running)
     r.progress = {"build", st.label, st.fraction, note + "building " + walk + "the brick store " + options_.store};
   else if (st.stage == BackgroundBuild::Stage::Failed)
     r.progress = {"failed", st.label, st.fraction, "building the store failed: " + st.error};
@@ -236,13 +250,20 @@ void EngineHost::drop_build() { build_.reset(); }
 EngineHost::Switch EngineHost::switch_to_store() {
   if (options_.opening_store) options_.opening_store();
   std::string error;
+  std::shared_ptr<LodScene> store;
   try {
-    lod_ = open_store(options_, gl_);
+    store = open_store(options_, gl_, options_.store);
   } catch (const std::exception& e) {
     error = e.what();
   }
   build_.reset();
-  if (!lod_) return {false, {"failed", "", 1, "cannot open the new store: " + error}};
+  if (!store) {
+    // A preview shown meanwhile stays (its file is open); the page says the store failed.
+    return {false, {"failed", "", 1, "cannot open the new store: " + error}};
+  }
+  for (auto& [id, tab] : tabs_) *tab = Tab{};  // a preview's renderers go before its scene
+  lod_ = std::move(store);
+  preview_depth_ = 0;
   if (options_.free_grid) {
     exact_.reset();            // frees the walk mesh
     options_.dataset.reset();  // and the grid (the scene above held it too)
@@ -254,6 +275,32 @@ EngineHost::Switch EngineHost::switch_to_store() {
   // Every tab moves to the store (the server resets the tabs' picks to the scene's engine).
   for (auto& [id, tab] : tabs_) *tab = Tab{};
   return {true, {"ready", "", 1, "showing the brick store " + options_.store}};
+}
+
+bool EngineHost::preview_ready() const {
+  if (!build_ || preview_tried_ || lod_) return false;
+  const BackgroundBuild::State st = build_->state();
+  return st.stage == BackgroundBuild::Stage::Running && !st.preview.empty();
+}
+
+EngineHost::Switch EngineHost::switch_to_preview() {
+  preview_tried_ = true;
+  const BackgroundBuild::State st = build_->state();
+  std::shared_ptr<LodScene> preview;
+  try {
+    preview = open_store(options_, gl_, st.preview);
+  } catch (const std::exception& e) {
+    // Removed meanwhile (the build ended) or unreadable: the store follows as before.
+    return {false, {"build", st.label, st.fraction, "the coarse preview cannot be opened: " + std::string(e.what())}};
+  }
+  for (auto& [id, tab] : tabs_) *tab = Tab{};  // their renderers drew nothing (or the grid): they start afresh
+  lod_ = std::move(preview);
+  preview_depth_ = st.preview_depth;
+  const bool had_scene = has_scene();
+  const Camera camera = scene_.camera;
+  scene_ = lod_scene();
+  if (had_scene) scene_.camera = camera;
+  return {true, build_report()->progress};
 }
 
 void EngineHost::forget(uint64_t tab) { tabs_.erase(tab); }

@@ -4,7 +4,9 @@
 // from a grid, the grid for the exact engine (an adaptive image scale per tab; on the GPU where there is a hardware
 // one). While the grid's store is built in the background (background_build.h) only the exact engine draws; when the
 // build is done every tab moves to the store, and each tab may then pick either engine (ViewRequest::engine) until
-// the grid is freed (ViewServerOptions::free_grid).
+// the grid is freed (ViewServerOptions::free_grid). Out of core, the build's coarse preview (octree/coarse_preview.h:
+// levels 0 .. K of the store, written within seconds of the cells) is shown as soon as it exists, until the store is
+// done.
 //
 // Everything here lives and dies on the render thread (the GL context is current on the thread that created it) and
 // takes no lock: the server calls it with or without its own lock, as each call's cost allows.
@@ -79,6 +81,13 @@ class EngineHost {
     ProgressInfo progress;  // "ready" (a new scene() follows), or "failed"
   };
   Switch switch_to_store();
+  // Out of core: the build has written its coarse preview (BackgroundBuild::State::preview) and it is not shown yet.
+  bool preview_ready() const;
+  // Shows the coarse preview while the build goes on (as switch_to_store does, keeping the reset view): every tab's
+  // renderer starts afresh on it; the build's progress then says "coarse preview (levels 0–K) while the store is
+  // built". switch_to_store replaces it when the build is done. `opened` false: it cannot be opened (progress says
+  // why) and the viewer waits for the store as before.
+  Switch switch_to_preview();
 
   // A tab's frame: FrameStatus, and the image, JPEG while moving or refining, PNG once converged (status.png).
   struct Frame {
@@ -110,6 +119,9 @@ class EngineHost {
   std::unique_ptr<GridLoad> load_;  // the grid being read and prepared; null once done (or never)
   std::string notice_;              // options.notice: said with every progress of the load
   bool build_started_ = false;      // the store's build was started from the loaded grid
+  // The coarse preview: tried (shown, or failed to open), and its depth when shown (0: the store itself is shown).
+  bool preview_tried_ = false;
+  int preview_depth_ = 0;
 };
 
 }  // namespace ugvr::view

@@ -44,9 +44,10 @@ struct Idle {};      // nothing to do: wait for a message, a delivery or the bui
 struct ForgetTabs {  // tabs that closed: their renderers go
   std::vector<uint64_t> tabs;
 };
-struct SwitchToStore {};  // the background build is done
-struct FinishLoad {};     // the grid is loaded and its walk mesh built: the exact engine can draw
-using Turn = std::variant<Idle, ForgetTabs, SwitchToStore, FinishLoad, FrameJob>;
+struct SwitchToStore {};    // the background build is done
+struct SwitchToPreview {};  // the out-of-core build has written its coarse preview and goes on
+struct FinishLoad {};       // the grid is loaded and its walk mesh built: the exact engine can draw
+using Turn = std::variant<Idle, ForgetTabs, SwitchToStore, SwitchToPreview, FinishLoad, FrameJob>;
 
 }  // namespace
 
@@ -102,6 +103,7 @@ struct ViewServer::Impl final : HttpHost {
   }
   std::function<void()> perform(const ForgetTabs& t);
   std::function<void()> perform(const SwitchToStore&);
+  std::function<void()> perform(const SwitchToPreview&);
   std::function<void()> perform(const FinishLoad&);
   void broadcast_progress(const ProgressInfo& p, bool at_once);
   std::string gl_renderer;                    // the render thread's GL_RENDERER (published before serving)
@@ -248,7 +250,10 @@ Turn ViewServer::Impl::next_turn() {
   }
   if (const std::optional<EngineHost::BuildReport> build = engine->build_report()) {
     switch (build->stage) {
-      case BackgroundBuild::Stage::Running: broadcast_progress(build->progress, false); break;
+      case BackgroundBuild::Stage::Running:
+        if (engine->preview_ready()) return SwitchToPreview{};
+        broadcast_progress(build->progress, false);
+        break;
       case BackgroundBuild::Stage::Failed:
         broadcast_progress(build->progress, true);
         engine->drop_build();  // the exact engine goes on showing the grid (if there is one)
@@ -307,6 +312,15 @@ std::function<void()> ViewServer::Impl::perform(const SwitchToStore&) {
     }
     publish_scene(true);
     progress_text.clear();
+  };
+}
+
+// Without the lock: opening reads the preview's header. Then every tab moves to it, the build's progress going on.
+std::function<void()> ViewServer::Impl::perform(const SwitchToPreview&) {
+  const EngineHost::Switch shown = engine->switch_to_preview();
+  return [this, shown] {
+    broadcast_progress(shown.progress, true);
+    if (shown.opened) publish_scene(true);
   };
 }
 
