@@ -13,6 +13,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <charconv>
 #include <cstring>
@@ -44,10 +45,18 @@ constexpr uint64_t kMaxInflateRatio = 1032;
 // front and grow as values arrive.
 constexpr uint64_t kMaxReserveBytes = uint64_t(4) << 20;
 
-bool is_delimiter(char c) {
+constexpr bool is_delimiter(char c) {
   return c == '(' || c == ')' || c == '{' || c == '}' || c == '[' || c == ']' || c == ';' || c == '"';
 }
-bool is_space(char c) { return c == ' ' || c == '\n' || c == '\r' || c == '\t' || c == '\f' || c == '\v'; }
+constexpr bool is_space(char c) { return c == ' ' || c == '\n' || c == '\r' || c == '\t' || c == '\f' || c == '\v'; }
+
+// Bytes a word may hold: neither space nor delimiter nor '/' (a '/' is a word byte unless it starts a comment: the
+// slow path decides).
+constexpr auto kWordByte = [] {
+  std::array<bool, 256> t{};
+  for (int c = 0; c < 256; ++c) t[size_t(c)] = !is_space(char(c)) && !is_delimiter(char(c)) && c != '/';
+  return t;
+}();
 
 // Components of an OpenFOAM primitive type name; 0 for one that is not a fixed-size number tuple.
 int components_of(std::string_view type) {
@@ -200,7 +209,7 @@ void FoamFile::verify_rest() {
   }
 }
 
-uint64_t FoamFile::line_of(uint64_t offset) {
+uint64_t FoamFile::count_lines(uint64_t offset) {
   offset = std::min(offset, end());
   if (offset >= line_at_) {
     line_ += uint64_t(std::count(ptr(line_at_), ptr(offset), '\n'));
@@ -258,12 +267,13 @@ void FoamFile::skip_line() {
 
 void FoamFile::skip_space() {
   while (more()) {
-    const char c = byte(pos_);
-    if (is_space(c)) {
-      ++pos_;
-      continue;
-    }
-    if (c != '/' || !reach(pos_ + 1, pos_)) return;
+    // Fast path: the run of spaces inside the window.
+    const char* b = ptr(pos_);
+    const char* const e = buf_.data() + len_;
+    while (b < e && is_space(*b)) ++b;
+    pos_ = base_ + uint64_t(b - buf_.data());
+    if (b == e) continue;
+    if (*b != '/' || !reach(pos_ + 1, pos_)) return;
     const char d = byte(pos_ + 1);
     if (d == '/') {
       skip_line();
@@ -325,6 +335,17 @@ std::string_view FoamFile::word(std::string_view what) {
   if (!more()) fail(here(), "expected " + std::string(what) + ", found the end of the file");
   const Spot at = here();
   const bool quoted = byte(pos_) == '"';
+  if (!quoted) {
+    // Fast path: a word that ends inside the window, not at a '/' (which may start a comment).
+    const char* const b = ptr(pos_);
+    const char* const e = buf_.data() + len_;
+    const char* q = b;
+    while (q < e && kWordByte[uint8_t(*q)]) ++q;
+    if (q > b && q < e && *q != '/' && size_t(q - b) <= kMaxToken) {
+      pos_ += uint64_t(q - b);
+      return {b, size_t(q - b)};
+    }
+  }
   token_.clear();
   bool spilled = false;
   uint64_t seg = quoted ? pos_ + 1 : pos_;  // the part of the token still in the window begins here

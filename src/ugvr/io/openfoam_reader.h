@@ -126,7 +126,8 @@ class FoamFile {
   bool more() { return reach(pos_, pos_); }  // a byte at pos_
   bool refill(uint64_t keep);
   // Line bookkeeping: newlines before line_at_ are counted in line_; counting only moves forward with the window.
-  uint64_t line_of(uint64_t offset);
+  uint64_t line_of(uint64_t offset) { return offset == line_at_ ? line_ : count_lines(offset); }
+  uint64_t count_lines(uint64_t offset);
   Spot here() { return {pos_, line_of(pos_)}; }
   void note_peak();
   // Checks a count against the bytes left where the size is known (plain files, bytes); gzip: no check.
