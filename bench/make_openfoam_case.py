@@ -2,12 +2,14 @@
 """Writes a structured N^3 hexahedral block as an OpenFOAM case (polyMesh + one volScalarField), for timing and memory
 figures of the OpenFOAM reader (bench/run_openfoam_read.sh; bench/README.md "OpenFOAM reading").
 
-  /usr/bin/python3 bench/make_openfoam_case.py OUT_DIR --n 100 [--binary] [--gzip]
+  /usr/bin/python3 bench/make_openfoam_case.py OUT_DIR --n 100 [--binary] [--gzip] [--tensor]
 
 The case: points on the unit cube's (N+1)^3 lattice; internal faces in OpenFOAM's upper-triangular order (by owner,
 then neighbour; each normal points from owner to neighbour), then one "walls" patch of the 6 N^2 boundary faces
 (normals outward); field 0/p = x + 2y + 3z at the cell centres. ascii writes faces as a faceList, binary as a
 faceCompactList (as OpenFOAM does), labels 32-bit, scalars 64-bit, little-endian. --gzip writes every file as NAME.gz.
+--tensor adds 0/T, a volTensorField (9 values a cell: a field file larger than the mesh's own files, where holding a
+file's text whole shows in the peak memory).
 Pure python3 + numpy (Debian python3-numpy: run it with /usr/bin/python3).
 """
 import argparse
@@ -120,6 +122,7 @@ def main():
     ap.add_argument('--n', type=int, default=100, help='cells per edge (N^3 cells)')
     ap.add_argument('--binary', action='store_true')
     ap.add_argument('--gzip', action='store_true')
+    ap.add_argument('--tensor', action='store_true', help='also write 0/T, a volTensorField')
     args = ap.parse_args()
     n = args.n
     points, faces, owner, neighbour, n_internal, field = mesh(n)
@@ -142,6 +145,12 @@ def main():
          'List<scalar> ').encode() + w.scalar_list(field[:, None], 1) + \
         b';\n\nboundaryField\n{\n    walls\n    {\n        type            zeroGradient;\n    }\n}\n'
     w.write('0/p', p)
+    if args.tensor:
+        t = field[:, None] * (1.0 + np.arange(9)[None, :] / 7.0)
+        tt = (header(w.fmt, 'volTensorField', '0', 'T') + 'dimensions      [0 0 0 0 0 0 0];\n\ninternalField   '
+              'nonuniform List<tensor> ').encode() + w.scalar_list(t, 9) + \
+            b';\n\nboundaryField\n{\n    walls\n    {\n        type            zeroGradient;\n    }\n}\n'
+        w.write('0/T', tt)
     os.makedirs(os.path.join(args.out, 'system'), exist_ok=True)
     with open(os.path.join(args.out, 'system', 'controlDict'), 'w') as f:
         f.write(header('ascii', 'dictionary', 'system', 'controlDict') + 'application icoFoam;\n')
