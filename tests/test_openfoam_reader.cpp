@@ -1,8 +1,11 @@
 // The OpenFOAM reader on the cases of tests/data/openfoam (made by make_fixtures.sh with Debian's OpenFOAM v1912):
 // counts against VTK 9.1's vtkPOpenFOAMReader (bench/compare_vtk_counts_openfoam.py), ascii = binary = gzip,
 // decomposed = reconstructed, time directories, cell zones, the polyhedral (polyDualMesh) case rendered by the exact
-// engine against the oracle and by the LOD engine, and the round trip through .vtu.
+// engine against the oracle and by the LOD engine, and the round trip through .vtu. The streaming FoamFile: every
+// fixture and a set of damaged files parse alike through a tiny window (every token, comment and binary value crosses
+// a refill) and the default one, and the window stays within its bound on ~20 MB files.
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <array>
@@ -330,6 +333,208 @@ TEST(OpenFoamReader, BinaryLayoutsOfOtherArchitectures) {
     const openfoam::FaceList faces = f.faces(5);
     EXPECT_EQ(faces.offsets, (std::vector<uint64_t>{0, 3, 7}));
     EXPECT_EQ(faces.vertices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 3, 4}));
+  }
+}
+
+// --- Streaming: the window ---------------------------------------------------------------------------------------
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void spit(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), std::streamsize(bytes.size()));
+}
+
+std::string gzipped(const std::string& data) {
+  z_stream z{};
+  EXPECT_EQ(deflateInit2(&z, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY), Z_OK);  // 16: a gzip wrapper
+  std::string out(deflateBound(&z, uLong(data.size())) + 64, '\0');
+  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
+  z.avail_in = uInt(data.size());
+  z.next_out = reinterpret_cast<Bytef*>(out.data());
+  z.avail_out = uInt(out.size());
+  EXPECT_EQ(deflate(&z, Z_FINISH), Z_STREAM_END);
+  out.resize(z.total_out);
+  deflateEnd(&z);
+  return out;
+}
+
+template <class T>
+void append_bytes(std::string& out, const std::vector<T>& v) {
+  out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+}
+
+// Everything a FoamFile yields, as what its class says it is (as the fuzz target reads it), in one byte string; an
+// error yields its message.
+std::string parse_all(const std::string& name, const std::string& bytes, size_t window, uint64_t cells = 400) {
+  std::string out;
+  try {
+    openfoam::FoamFile f(name, bytes, window);
+    const std::string& cls = f.header().class_name;
+    out = cls + "|" + f.header().object + "|" + std::to_string(f.header().binary) + "|";
+    if (cls == "vectorField") {
+      const std::vector<Vec3f> p = f.points();
+      append_bytes(out, p);
+    } else if (cls == "faceList" || cls == "faceCompactList") {
+      const openfoam::FaceList faces = f.faces(1000);
+      append_bytes(out, faces.offsets);
+      append_bytes(out, faces.vertices);
+    } else if (cls == "labelList") {
+      append_bytes(out, f.labels(1 << 20, true));
+    } else if (cls == "polyBoundaryMesh") {
+      for (const auto& p : f.patches())
+        out += p.name + "," + p.type + "," + std::to_string(p.n_faces) + "," + std::to_string(p.start_face) + ";";
+    } else if (cls == "regIOobject" || f.header().object == "cellZones") {
+      for (const auto& z : f.cell_zones(1000)) {
+        out += z.name + ":";
+        append_bytes(out, z.cells);
+      }
+    } else if (cls.starts_with("vol") || cls.starts_with("point")) {
+      const uint64_t tuples = cls.starts_with("vol") ? cells : 882;
+      if (const auto v = f.internal_field(tuples)) {
+        out += std::to_string(v->components) + (v->uniform ? "u" : "n");
+        append_bytes(out, v->values);
+      }
+    }
+  } catch (const Error& e) {
+    out = std::string("error: ") + e.what();
+  }
+  return out;
+}
+
+// The FoamFiles of every fixture case (plain, binary, gzip), relative to tests/data/openfoam.
+std::vector<std::string> fixture_foam_files() {
+  std::vector<std::string> out;
+  const std::filesystem::path root = case_path("");
+  for (const auto& e : std::filesystem::recursive_directory_iterator(root)) {
+    if (!e.is_regular_file()) continue;
+    const std::string rel = std::filesystem::relative(e.path(), root).string();
+    if (rel.find("/constant/polyMesh/") == std::string::npos && rel.find("/0") == std::string::npos) continue;
+    out.push_back(rel);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+TEST(OpenFoamStreaming, TinyWindowsParseEveryFixtureAsTheDefaultWindow) {
+  const std::vector<std::string> files = fixture_foam_files();
+  ASSERT_GT(files.size(), 50u);
+  size_t parsed = 0;
+  for (const std::string& rel : files) {
+    SCOPED_TRACE(rel);
+    const std::string bytes = slurp(case_path(rel));
+    const uint64_t cells = rel.find("processor") != std::string::npos ? 200 : rel.starts_with("dual") ? 343 : 400;
+    const std::string reference = parse_all(rel, bytes, openfoam::FoamFile::kDefaultWindow, cells);
+    // decomposePar's *ProcAddressing lists hold signed labels (face flips) that labels() refuses: they must fail
+    // alike too.
+    if (rel.find("ProcAddressing") == std::string::npos) {
+      EXPECT_FALSE(reference.starts_with("error: ")) << reference;
+      ++parsed;
+    }
+    // 16: the smallest window (a 4- or 8-byte value and every token cross refills); 17 and 61: odd sizes that cut
+    // values and "*/" at every possible place.
+    for (size_t window : {size_t(16), size_t(17), size_t(61), size_t(4096)})
+      EXPECT_EQ(parse_all(rel, bytes, window, cells), reference) << "window " << window;
+  }
+  EXPECT_GT(parsed, 100u);
+}
+
+TEST(OpenFoamStreaming, DamagedFilesFailAlikeWhateverTheWindow) {
+  const std::string points = slurp(case_path("cavity/constant/polyMesh/points"));
+  const std::string bfaces = slurp(case_path("cavity_binary/constant/polyMesh/faces"));
+  const std::string bpoints = slurp(case_path("cavity_binary/constant/polyMesh/points"));
+  const std::string owner = slurp(case_path("cavity/constant/polyMesh/owner"));
+  const std::string p = slurp(case_path("cavity/0.3/p"));
+  auto edit = [](std::string s, const std::string& from, const std::string& to) {
+    const size_t at = s.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) s.replace(at, from.size(), to);
+    return s;
+  };
+  struct Damaged {
+    std::string name, bytes, expected;
+  };
+  const std::vector<Damaged> cases = {
+      {"points", points.substr(0, points.size() / 2), "count 882 needs at least"},
+      {"points", edit(points, "\n882\n", "\n99999999999\n"), "count 99999999999 needs at least"},
+      {"points", edit(points, "(0 0 0)", "(0 0 0"), "expected ')' after a tuple"},
+      {"points", edit(points, "(0 0 0)", "(0 x 0)"), "expected points (a number), found 'x'"},
+      {"points", edit(points, "\n882\n", "\n882\n/* open"), "unterminated /* comment"},
+      {"points", edit(points, "object      points;", "object      \"points;"), "unterminated string"},
+      {"faces", bfaces.substr(0, bfaces.size() - 3000), "face vertices count 6560 needs at least 4 bytes each"},
+      {"points", bpoints.substr(0, bpoints.size() - 100), "needs at least 24 bytes each"},
+      {"owner", edit(owner, "(\n0\n", "(\n-5\n"), "label -5 is outside"},
+      {"p", edit(p, "\n400\n", "\n401\n"), "internalField has 401 values, expected 400"},
+      // gzip: cut, and counts that the (unknown) inflated size cannot hold: they fail at the data's end.
+      {"points.gz", gzipped(points).substr(0, gzipped(points).size() / 2), "gzip data is truncated"},
+      {"points.gz", gzipped(edit(points, "\n882\n", "\n99999999999\n")), "expected '(' before a tuple, found ')'"},
+      {"points.gz", gzipped(edit(bpoints, "\n882\n", "\n99999999999\n")),
+       "points needs 2399999999976 bytes of binary data, only "},
+      {"faces.gz", gzipped(bfaces.substr(0, bfaces.size() - 3000)), "face vertices needs 26240 bytes of binary data"},
+      {"p.gz", gzipped(edit(p, "\n400\n", "\n401\n")), "internalField has 401 values, expected 400"},
+  };
+  for (const Damaged& c : cases) {
+    SCOPED_TRACE(c.expected);
+    const std::string reference = parse_all(c.name, c.bytes, openfoam::FoamFile::kDefaultWindow);
+    EXPECT_TRUE(reference.starts_with("error: " + c.name + ": byte ")) << reference;
+    EXPECT_NE(reference.find(c.expected), std::string::npos) << reference;
+    for (size_t window : {size_t(16), size_t(17), size_t(61)})
+      EXPECT_EQ(parse_all(c.name, c.bytes, window), reference) << "window " << window;
+  }
+}
+
+// ~20 MB of points, ascii and binary: read through a 64 KiB window, which never grows, and the values all arrive.
+TEST(OpenFoamStreaming, WindowStaysWithinItsBoundOnLargeFiles) {
+  test::ScratchDir dir;
+  constexpr uint64_t kAsciiPoints = 700000, kBinaryPoints = 850000;
+  constexpr size_t kWindow = size_t(64) << 10;
+  const std::string head = "FoamFile\n{\n    format ascii;\n    class vectorField;\n    object points;\n}\n";
+  std::string ascii = head + std::to_string(kAsciiPoints) + "\n(\n";
+  for (uint64_t i = 0; i < kAsciiPoints; ++i)
+    ascii += "(" + std::to_string(double(i) * 0.25) + " " + std::to_string(i % 1000) + " -1.5e-07)\n";
+  ascii += ")\n";
+  std::string binary =
+      "FoamFile\n{\n    format binary;\n    class vectorField;\n    arch \"LSB;label=32;scalar=64\";\n"
+      "    object points;\n}\n" +
+      std::to_string(kBinaryPoints) + "\n(";
+  for (uint64_t i = 0; i < kBinaryPoints; ++i) {
+    const double v[3] = {double(i) * 0.25, double(i % 1000), -1.5e-7};
+    binary.append(reinterpret_cast<const char*>(v), sizeof v);
+  }
+  binary += ")\n";
+  EXPECT_GT(ascii.size(), uint64_t(18) << 20);
+  EXPECT_GT(binary.size(), uint64_t(18) << 20);
+  struct File {
+    std::string name, bytes;
+    uint64_t n;
+  };
+  for (const File& file : {File{"ascii_points", ascii, kAsciiPoints}, File{"binary_points", binary, kBinaryPoints},
+                           File{"ascii_points.gz", gzipped(ascii), kAsciiPoints}}) {
+    SCOPED_TRACE(file.name);
+    spit(dir.file(file.name), file.bytes);
+    openfoam::FoamFile f(dir.file(file.name), kWindow);
+    const std::vector<Vec3f> p = f.points();
+    ASSERT_EQ(p.size(), file.n);
+    EXPECT_EQ(p[12345], (Vec3f{12345 * 0.25f, 345.0f, -1.5e-7f}));
+    EXPECT_EQ(p.back().x, float(double(file.n - 1) * 0.25));
+    EXPECT_GE(f.peak_window_bytes(), kWindow);
+    EXPECT_LE(f.peak_window_bytes(), kWindow + 64);  // the window, and no token long enough to spill much
+  }
+}
+
+// Line numbers in errors count the newlines of everything the window has moved past.
+TEST(OpenFoamStreaming, LineNumbersStayRightFarIntoAFile) {
+  std::string s = "FoamFile\n{\n    format ascii;\n    class labelList;\n    object owner;\n}\n5000\n(\n";
+  for (int i = 0; i < 4999; ++i) s += "/* c\n */ 1 // x\n";
+  s += "oops\n)\n";
+  for (size_t window : {size_t(16), size_t(100), openfoam::FoamFile::kDefaultWindow}) {
+    openfoam::FoamFile f("owner", s, window);
+    const std::string e = test::error_of([&] { f.labels(10, false); });
+    EXPECT_NE(e.find("line 10007: expected owner (an integer), found 'oops'"), std::string::npos) << e;
+    EXPECT_NE(e.find("byte " + std::to_string(s.find("oops"))), std::string::npos) << e;
   }
 }
 

@@ -13,6 +13,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <charconv>
 #include <cstring>
@@ -38,59 +39,25 @@ namespace openfoam {
 namespace {
 
 // gzip output beyond this ratio to its input cannot come from deflate (whose limit is about 1032:1): the stream is
-// corrupt, and refusing it bounds the memory a hostile file can claim.
+// corrupt (the check also bounds the time a hostile stream can take).
 constexpr uint64_t kMaxInflateRatio = 1032;
 
-// The reader holds one file whole while it parses it (it does not stream yet): a file, or a gzip file's inflated
-// text, larger than half of this machine's memory is refused with advice before anything is allocated for it.
-uint64_t file_memory_budget() { return physical_memory_bytes() / 2; }
+// A gzip file's counts are not checked against its (unknown) inflated size: vectors reserve at most this much up
+// front and grow as values arrive.
+constexpr uint64_t kMaxReserveBytes = uint64_t(4) << 20;
 
-[[noreturn]] void fail_too_large(const std::string& name, const std::string& what, uint64_t bytes) {
-  fail_in(name, what + " " + format_bytes(bytes) + ", more than half of this machine's memory (" +
-                    format_bytes(2 * file_memory_budget()) +
-                    "): the OpenFOAM reader holds one file whole while it parses it. Write the case in binary "
-                    "(foamFormatConvert: about a third of ascii's size), decompose it (decomposePar: the processor "
-                    "files are read one at a time), or read it on a machine with more memory");
-}
-
-std::string inflate_gzip(const std::string& name, const std::string& in) {
-  z_stream z{};
-  if (inflateInit2(&z, 15 + 32) != Z_OK) throw Error("zlib: inflateInit2 failed");  // 32: gzip or zlib header
-  struct End {
-    z_stream* z;
-    ~End() { inflateEnd(z); }
-  } end{&z};
-  const uint64_t limit = kMaxInflateRatio * in.size() + 4096;
-  std::string out(std::min<uint64_t>(limit, std::max<uint64_t>(4 * in.size(), 4096)), '\0');
-  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
-  z.avail_in = uInt(std::min<uint64_t>(in.size(), UINT32_MAX));
-  uint64_t produced = 0;
-  for (;;) {
-    if (produced == out.size()) {
-      if (out.size() >= limit) fail_in(name, "gzip data inflates to more than " + std::to_string(limit) + " bytes");
-      if (2 * out.size() > file_memory_budget())
-        fail_too_large(name, "gzip data inflates to more than", 2 * out.size());
-      out.resize(std::min<uint64_t>(limit, 2 * out.size()));
-    }
-    z.next_out = reinterpret_cast<Bytef*>(out.data() + produced);
-    z.avail_out = uInt(std::min<uint64_t>(out.size() - produced, UINT32_MAX));
-    const uInt before = z.avail_out;
-    const int r = inflate(&z, Z_NO_FLUSH);
-    produced += before - z.avail_out;
-    if (r == Z_STREAM_END) break;
-    if (r != Z_OK && r != Z_BUF_ERROR)
-      fail_at_offset(name, z.total_in, std::string("corrupt gzip data: ") + (z.msg ? z.msg : "inflate failed"));
-    if (r == Z_BUF_ERROR && z.avail_in == 0)
-      fail_at_offset(name, z.total_in, "gzip data is truncated: the file ends inside the compressed stream");
-  }
-  out.resize(produced);
-  return out;
-}
-
-bool is_delimiter(char c) {
+constexpr bool is_delimiter(char c) {
   return c == '(' || c == ')' || c == '{' || c == '}' || c == '[' || c == ']' || c == ';' || c == '"';
 }
-bool is_space(char c) { return c == ' ' || c == '\n' || c == '\r' || c == '\t' || c == '\f' || c == '\v'; }
+constexpr bool is_space(char c) { return c == ' ' || c == '\n' || c == '\r' || c == '\t' || c == '\f' || c == '\v'; }
+
+// Bytes a word may hold: neither space nor delimiter nor '/' (a '/' is a word byte unless it starts a comment: the
+// slow path decides).
+constexpr auto kWordByte = [] {
+  std::array<bool, 256> t{};
+  for (int c = 0; c < 256; ++c) t[size_t(c)] = !is_space(char(c)) && !is_delimiter(char(c)) && c != '/';
+  return t;
+}();
 
 // Components of an OpenFOAM primitive type name; 0 for one that is not a fixed-size number tuple.
 int components_of(std::string_view type) {
@@ -103,37 +70,223 @@ int components_of(std::string_view type) {
 
 }  // namespace
 
-FoamFile::FoamFile(const std::string& path) : name_(path) {
-  const InputFile file(path);
-  if (file.size() > file_memory_budget()) fail_too_large(path, "is", file.size());
-  text_ = file.read_all(uint64_t(1) << 40);
-  if (text_.size() >= 2 && uint8_t(text_[0]) == 0x1f && uint8_t(text_[1]) == 0x8b) text_ = inflate_gzip(name_, text_);
+// A byte stream: read() returns up to n bytes, 0 only at its end.
+struct FoamFile::Source {
+  virtual ~Source() = default;
+  virtual size_t read(char* dst, size_t n) = 0;
+};
+
+namespace {
+
+struct FileSource final : FoamFile::Source {
+  explicit FileSource(const std::string& path) : file(path) {}
+  size_t read(char* dst, size_t n) override {
+    const size_t got = file.read_some_at(offset, dst, n);
+    offset += got;
+    return got;
+  }
+  InputFile file;
+  uint64_t offset = 0;
+};
+
+struct MemorySource final : FoamFile::Source {
+  explicit MemorySource(std::string b) : bytes(std::move(b)) {}
+  size_t read(char* dst, size_t n) override {
+    const size_t got = std::min<size_t>(n, bytes.size() - offset);
+    std::memcpy(dst, bytes.data() + offset, got);
+    offset += got;
+    return got;
+  }
+  std::string bytes;
+  size_t offset = 0;
+};
+
+// Inflates gzip (or zlib) data read from another source, a chunk at a time. Errors name the compressed offset.
+struct InflateSource final : FoamFile::Source {
+  InflateSource(std::string name_, std::unique_ptr<FoamFile::Source> in_, uint64_t in_size)
+      : name(std::move(name_)), in(std::move(in_)), limit(kMaxInflateRatio * in_size + 4096), chunk(64 << 10, '\0') {
+    if (inflateInit2(&z, 15 + 32) != Z_OK) throw Error("zlib: inflateInit2 failed");  // 32: gzip or zlib header
+  }
+  ~InflateSource() override { inflateEnd(&z); }
+  InflateSource(const InflateSource&) = delete;
+  InflateSource& operator=(const InflateSource&) = delete;
+
+  size_t read(char* dst, size_t n) override {
+    if (done || n == 0) return 0;
+    z.next_out = reinterpret_cast<Bytef*>(dst);
+    z.avail_out = uInt(std::min<size_t>(n, UINT32_MAX));
+    while (z.avail_out == uInt(std::min<size_t>(n, UINT32_MAX))) {  // until something comes out
+      if (z.avail_in == 0 && !in_end) {
+        const size_t got = in->read(chunk.data(), chunk.size());
+        if (got == 0) in_end = true;
+        z.next_in = reinterpret_cast<Bytef*>(chunk.data());
+        z.avail_in = uInt(got);
+      }
+      const int r = inflate(&z, Z_NO_FLUSH);
+      if (r == Z_STREAM_END) {
+        done = true;
+        break;
+      }
+      if (r != Z_OK && r != Z_BUF_ERROR)
+        fail_at_offset(name, z.total_in, std::string("corrupt gzip data: ") + (z.msg ? z.msg : "inflate failed"));
+      if (r == Z_BUF_ERROR && z.avail_in == 0 && in_end)
+        fail_at_offset(name, z.total_in, "gzip data is truncated: the file ends inside the compressed stream");
+    }
+    if (z.total_out > limit) fail_in(name, "gzip data inflates to more than " + std::to_string(limit) + " bytes");
+    return size_t(reinterpret_cast<char*>(z.next_out) - dst);
+  }
+
+  std::string name;
+  std::unique_ptr<FoamFile::Source> in;
+  uint64_t limit;
+  std::string chunk;
+  z_stream z{};
+  bool in_end = false, done = false;
+};
+
+bool gzip_magic(const char* head, size_t n) { return n >= 2 && uint8_t(head[0]) == 0x1f && uint8_t(head[1]) == 0x8b; }
+
+}  // namespace
+
+FoamFile::FoamFile(const std::string& path, size_t window) : name_(path) {
+  auto file = std::make_unique<FileSource>(path);
+  char head[2] = {};
+  const size_t got = file->file.read_some_at(0, head, 2);
+  const uint64_t size = file->file.size();
+  open(std::move(file), size, gzip_magic(head, got), window);
+}
+
+FoamFile::FoamFile(std::string name, std::string bytes, size_t window) : name_(std::move(name)) {
+  const bool gzip = gzip_magic(bytes.data(), bytes.size());
+  const uint64_t size = bytes.size();
+  open(std::make_unique<MemorySource>(std::move(bytes)), size, gzip, window);
+}
+
+FoamFile::~FoamFile() = default;
+
+void FoamFile::open(std::unique_ptr<Source> raw, uint64_t raw_size, bool gzip, size_t window) {
+  window = std::max(window, kMinWindow);
+  if (gzip) {
+    source_ = std::make_unique<InflateSource>(name_, std::move(raw), raw_size);
+  } else {
+    source_ = std::move(raw);
+    size_ = raw_size;
+    window = size_t(std::min<uint64_t>(window, std::max<uint64_t>(raw_size, kMinWindow)));  // a small file: less
+  }
+  buf_.assign(window, '\0');
+  note_peak();
   parse_header();
 }
 
-FoamFile::FoamFile(std::string name, std::string bytes) : name_(std::move(name)), text_(std::move(bytes)) {
-  if (text_.size() >= 2 && uint8_t(text_[0]) == 0x1f && uint8_t(text_[1]) == 0x8b) text_ = inflate_gzip(name_, text_);
-  parse_header();
+void FoamFile::note_peak() { peak_ = std::max<uint64_t>(peak_, buf_.size() + token_.capacity()); }
+
+bool FoamFile::refill(uint64_t keep) {
+  if (eof_) return false;
+  keep = std::min(keep, end());
+  line_of(keep);  // count the newlines of what is discarded
+  const size_t drop = size_t(keep - base_);
+  if (drop > 0) {
+    std::memmove(buf_.data(), buf_.data() + drop, len_ - drop);
+    len_ -= drop;
+    base_ = keep;
+  }
+  const size_t before = len_;
+  while (len_ < buf_.size()) {
+    const size_t got = source_->read(buf_.data() + len_, buf_.size() - len_);
+    if (got == 0) {
+      eof_ = true;
+      break;
+    }
+    len_ += got;
+  }
+  return len_ > before;
 }
 
-void FoamFile::fail(uint64_t at, const std::string& message) const {
-  at = std::min<uint64_t>(at, text_.size());
-  const uint64_t line = 1 + uint64_t(std::count(text_.begin(), text_.begin() + ptrdiff_t(at), '\n'));
-  fail_at_offset(name_, at, "line " + std::to_string(line) + ": " + message);
+// A gzip stream is read to its end once the parse is done, so that its CRC and length are checked even where the
+// values end before the text does (a plain file's rest is not read: nothing there can change what was read).
+void FoamFile::verify_rest() {
+  if (size_) return;
+  while (refill(end())) {
+  }
+}
+
+uint64_t FoamFile::count_lines(uint64_t offset) {
+  offset = std::min(offset, end());
+  if (offset >= line_at_) {
+    line_ += uint64_t(std::count(ptr(line_at_), ptr(offset), '\n'));
+    line_at_ = offset;
+    return line_;
+  }
+  // Behind the counted mark (a spot re-read after backing up): count back, within the window.
+  offset = std::max(offset, base_);
+  return line_ - uint64_t(std::count(ptr(offset), ptr(line_at_), '\n'));
+}
+
+void FoamFile::fail(Spot at, const std::string& message) const {
+  fail_at_offset(name_, at.offset, "line " + std::to_string(at.line) + ": " + message);
+}
+
+void FoamFile::check_fits(std::string_view what, uint64_t n, uint64_t min_bytes_each, uint64_t slack) {
+  if (size_) check_count_fits(name_, pos_, what, n, min_bytes_each, *size_ - std::min(pos_, *size_) + slack);
+}
+
+size_t FoamFile::reserve_for(uint64_t n, size_t each) const {
+  return size_t(size_ ? n : std::min<uint64_t>(n, kMaxReserveBytes / each));
+}
+
+template <class Take>
+void FoamFile::binary_values(uint64_t n, size_t each, Spot block, std::string_view what, Take&& take) {
+  uint64_t done = 0;
+  while (done < n) {
+    uint64_t have = (end() - pos_) / each;
+    if (have == 0) {
+      if (!reach(pos_ + each - 1, pos_)) {
+        // The text has ended (end() is its size): the same words whether the size was known up front or not.
+        fail(block, std::string(what) + " needs " + size_text(sat_mul(n, each)) + " bytes of binary data, only " +
+                        std::to_string(end() - block.offset) + " remain");
+      }
+      continue;
+    }
+    have = std::min(have, n - done);
+    const char* p = ptr(pos_);
+    for (uint64_t i = 0; i < have; ++i) take(p + i * each, done + i);
+    pos_ += have * each;
+    done += have;
+  }
+}
+
+void FoamFile::skip_line() {
+  while (more()) {
+    const void* nl = std::memchr(ptr(pos_), '\n', size_t(end() - pos_));
+    if (nl) {
+      pos_ = base_ + uint64_t(static_cast<const char*>(nl) - buf_.data()) + 1;
+      return;
+    }
+    pos_ = end();
+  }
 }
 
 void FoamFile::skip_space() {
-  while (pos_ < text_.size()) {
-    const char c = text_[pos_];
-    if (is_space(c)) {
-      ++pos_;
-    } else if (c == '/' && pos_ + 1 < text_.size() && text_[pos_ + 1] == '/') {
-      const size_t e = text_.find('\n', pos_);
-      pos_ = e == std::string::npos ? text_.size() : e + 1;
-    } else if (c == '/' && pos_ + 1 < text_.size() && text_[pos_ + 1] == '*') {
-      const size_t e = text_.find("*/", pos_ + 2);
-      if (e == std::string::npos) fail(pos_, "unterminated /* comment");
-      pos_ = e + 2;
+  while (more()) {
+    // Fast path: the run of spaces inside the window.
+    const char* b = ptr(pos_);
+    const char* const e = buf_.data() + len_;
+    while (b < e && is_space(*b)) ++b;
+    pos_ = base_ + uint64_t(b - buf_.data());
+    if (b == e) continue;
+    if (*b != '/' || !reach(pos_ + 1, pos_)) return;
+    const char d = byte(pos_ + 1);
+    if (d == '/') {
+      skip_line();
+    } else if (d == '*') {
+      const Spot at = here();
+      pos_ += 2;
+      for (;;) {
+        if (!reach(pos_ + 1, pos_)) fail(at, "unterminated /* comment");
+        if (byte(pos_) == '*' && byte(pos_ + 1) == '/') break;
+        ++pos_;
+      }
+      pos_ += 2;
     } else {
       return;
     }
@@ -142,49 +295,107 @@ void FoamFile::skip_space() {
 
 bool FoamFile::at_end() {
   skip_space();
-  return pos_ >= text_.size();
+  return !more();
 }
 
 char FoamFile::peek() {
   skip_space();
-  return pos_ < text_.size() ? text_[pos_] : '\0';
+  return more() ? byte(pos_) : '\0';
 }
 
 bool FoamFile::accept(char c) {
-  if (peek() != c || pos_ >= text_.size()) return false;
+  if (peek() != c || !more()) return false;
   ++pos_;
   return true;
 }
 
 void FoamFile::expect(char c, std::string_view what) {
   if (!accept(c)) {
-    const size_t at = pos_;
-    fail(at, std::string("expected '") + c + "' " + std::string(what) +
-                 (at >= text_.size() ? ", found the end of the file" : std::string(", found '") + text_[at] + "'"));
+    const bool end_of_file = !more();
+    fail(here(), std::string("expected '") + c + "' " + std::string(what) +
+                     (end_of_file ? ", found the end of the file" : std::string(", found '") + byte(pos_) + "'"));
   }
 }
 
-// A word, number or quoted string (returned without its quotes).
+bool FoamFile::accept_word(std::string_view w) {
+  skip_space();
+  if (!reach(pos_ + w.size() - 1, pos_) || std::string_view(ptr(pos_), w.size()) != w) return false;
+  const uint64_t after = pos_ + w.size();
+  if (reach(after, pos_)) {
+    const char c = byte(after);
+    const bool comment = c == '/' && reach(after + 1, pos_) && (byte(after + 1) == '/' || byte(after + 1) == '*');
+    if (!is_space(c) && !is_delimiter(c) && !comment) return false;
+  }
+  pos_ = after;
+  return true;
+}
+
+// A word, number or quoted string (returned without its quotes). The view stays valid until the next read.
 std::string_view FoamFile::word(std::string_view what) {
   skip_space();
-  if (pos_ >= text_.size()) fail(pos_, "expected " + std::string(what) + ", found the end of the file");
-  if (text_[pos_] == '"') {
-    const size_t e = text_.find('"', pos_ + 1);
-    if (e == std::string::npos) fail(pos_, "unterminated string");
-    std::string_view s(text_.data() + pos_ + 1, e - pos_ - 1);
-    pos_ = e + 1;
-    return s;
+  if (!more()) fail(here(), "expected " + std::string(what) + ", found the end of the file");
+  const Spot at = here();
+  const bool quoted = byte(pos_) == '"';
+  if (!quoted) {
+    // Fast path: a word that ends inside the window, not at a '/' (which may start a comment).
+    const char* const b = ptr(pos_);
+    const char* const e = buf_.data() + len_;
+    const char* q = b;
+    while (q < e && kWordByte[uint8_t(*q)]) ++q;
+    if (q > b && q < e && *q != '/' && size_t(q - b) <= kMaxToken) {
+      pos_ += uint64_t(q - b);
+      return {b, size_t(q - b)};
+    }
   }
-  const size_t start = pos_;
-  while (pos_ < text_.size() && !is_space(text_[pos_]) && !is_delimiter(text_[pos_]) &&
-         !(text_[pos_] == '/' && pos_ + 1 < text_.size() && (text_[pos_ + 1] == '/' || text_[pos_ + 1] == '*')))
-    ++pos_;
-  if (pos_ == start) fail(start, "expected " + std::string(what) + ", found '" + text_[start] + "'");
-  return {text_.data() + start, pos_ - start};
+  token_.clear();
+  bool spilled = false;
+  uint64_t seg = quoted ? pos_ + 1 : pos_;  // the part of the token still in the window begins here
+  uint64_t p = seg;
+  // Moves the token's part in the window to token_ so that the window can move on to `p`.
+  auto spill = [&] {
+    token_.append(ptr(seg), size_t(p - seg));
+    spilled = true;
+    seg = p;
+    note_peak();
+  };
+  for (;;) {
+    // Checked as the token grows, whatever the window, so that every window fails at the same byte.
+    if (token_.size() + (p - seg) > kMaxToken)
+      fail(at, "a " + std::string(quoted ? "quoted string" : "word") + " longer than " + std::to_string(kMaxToken) +
+                   " bytes where " + std::string(what) + " was expected");
+    if (p >= end()) {
+      spill();
+      if (!reach(p, p)) {
+        if (quoted) fail(at, "unterminated string");
+        break;
+      }
+    }
+    const char c = byte(p);
+    if (quoted) {
+      if (c == '"') break;
+    } else if (is_space(c) || is_delimiter(c)) {
+      break;
+    } else if (c == '/') {
+      if (p + 1 >= end()) spill();
+      if (reach(p + 1, p) && (byte(p + 1) == '/' || byte(p + 1) == '*')) break;
+    }
+    ++p;
+  }
+  pos_ = quoted ? p + 1 : p;
+  std::string_view s;
+  if (spilled) {
+    token_.append(ptr(seg), size_t(p - seg));
+    note_peak();
+    s = token_;
+  } else {
+    s = std::string_view(ptr(seg), size_t(p - seg));
+  }
+  if (!quoted && s.empty()) fail(at, "expected " + std::string(what) + ", found '" + byte(at.offset) + "'");
+  return s;
 }
 
 int64_t FoamFile::integer(std::string_view what) {
-  const size_t at = (skip_space(), pos_);
+  const Spot at = (skip_space(), here());
   const std::string_view w = word(what);
   int64_t v = 0;
   const auto [p, ec] = std::from_chars(w.data(), w.data() + w.size(), v);
@@ -194,14 +405,14 @@ int64_t FoamFile::integer(std::string_view what) {
 }
 
 uint64_t FoamFile::count(std::string_view what) {
-  const size_t at = (skip_space(), pos_);
+  const Spot at = (skip_space(), here());
   const int64_t v = integer(what);
   if (v < 0) fail(at, std::string(what) + " is negative (" + std::to_string(v) + ")");
   return uint64_t(v);
 }
 
 double FoamFile::number(std::string_view what) {
-  const size_t at = (skip_space(), pos_);
+  const Spot at = (skip_space(), here());
   const std::string_view w = word(what);
   double v = 0;
   const auto [p, ec] = std::from_chars(w.data(), w.data() + w.size(), v);
@@ -209,15 +420,6 @@ double FoamFile::number(std::string_view what) {
   if (ec != std::errc() || p != w.data() + w.size())
     fail(at, "expected " + std::string(what) + " (a number), found '" + std::string(w.substr(0, 40)) + "'");
   return v;
-}
-
-std::string_view FoamFile::raw(uint64_t bytes, std::string_view what) {
-  if (bytes > text_.size() - pos_)
-    fail(pos_, std::string(what) + " needs " + std::to_string(bytes) + " bytes of binary data, only " +
-                   std::to_string(text_.size() - pos_) + " remain");
-  std::string_view s(text_.data() + pos_, size_t(bytes));
-  pos_ += size_t(bytes);
-  return s;
 }
 
 // One stored number of `bytes` (4 or 8) in the file's byte order, as the type the header says (F4 or F8).
@@ -245,16 +447,16 @@ int64_t FoamFile::binary_label(const char* p) const {
 }
 
 void FoamFile::parse_header() {
-  const size_t at = (skip_space(), pos_);
+  const Spot at = (skip_space(), here());
   if (word("the FoamFile header") != "FoamFile") fail(at, "not an OpenFOAM file: no FoamFile header");
   expect('{', "after FoamFile");
   while (!accept('}')) {
-    const size_t key_at = (skip_space(), pos_);
-    if (pos_ >= text_.size()) fail(pos_, "the FoamFile header is not closed");
+    const Spot key_at = (skip_space(), here());
+    if (!more()) fail(here(), "the FoamFile header is not closed");
     const std::string key(word("a header keyword"));
     std::string value;
     while (!accept(';')) {
-      if (peek() == '}' || pos_ >= text_.size()) fail(key_at, "header entry '" + key + "' has no ';'");
+      if (peek() == '}' || !more()) fail(key_at, "header entry '" + key + "' has no ';'");
       value += (value.empty() ? "" : " ") + std::string(word("a header value"));
     }
     if (key == "format") {
@@ -279,17 +481,17 @@ void FoamFile::parse_header() {
 }
 
 std::vector<double> FoamFile::scalar_list(int components, std::string_view what, std::optional<uint64_t> expected) {
-  const size_t at = (skip_space(), pos_);
+  const Spot at = (skip_space(), here());
   const uint64_t n = count(std::string(what) + " count");
   if (expected && n != *expected)
     fail(at, std::string(what) + " has " + std::to_string(n) + " values, expected " + std::to_string(*expected));
   const uint64_t nc = uint64_t(components);
+  const size_t sb = size_t(header_.scalar_bytes);
   if (accept('{')) {  // N copies of one value: bounded by `expected`, never by the bytes
     if (!expected) fail(at, std::string(what) + ": a uniform list 'N{value}' is not expected here");
     std::vector<double> one(nc);
     if (header_.binary) {
-      const std::string_view b = raw(nc * uint64_t(header_.scalar_bytes), what);
-      for (uint64_t c = 0; c < nc; ++c) one[c] = binary_scalar(b.data() + c * uint64_t(header_.scalar_bytes));
+      binary_values(nc, sb, here(), what, [&](const char* p, uint64_t i) { one[i] = binary_scalar(p); });
     } else {
       if (nc > 1) expect('(', "before a tuple");
       for (uint64_t c = 0; c < nc; ++c) one[c] = number(what);
@@ -303,22 +505,20 @@ std::vector<double> FoamFile::scalar_list(int components, std::string_view what,
   expect('(', std::string("to open ") + std::string(what));
   std::vector<double> out;
   if (header_.binary) {
-    const uint64_t each = nc * uint64_t(header_.scalar_bytes);
-    check_count_fits(name_, pos_, what, n, each, text_.size() - pos_);
-    const std::string_view b = raw(n * each, what);
-    out.resize(n * nc);
-    for (uint64_t i = 0; i < n * nc; ++i) out[i] = binary_scalar(b.data() + i * uint64_t(header_.scalar_bytes));
-    if (pos_ >= text_.size() || text_[pos_] != ')')
-      fail(pos_, std::string("expected ')' after the binary values of ") + std::string(what));
+    check_fits(what, n, nc * sb, 0);
+    out.reserve(reserve_for(sat_mul(n, nc), sizeof(double)));
+    binary_values(sat_mul(n, nc), sb, here(), what, [&](const char* p, uint64_t) { out.push_back(binary_scalar(p)); });
+    if (!more() || byte(pos_) != ')')
+      fail(here(), std::string("expected ')' after the binary values of ") + std::string(what));
     ++pos_;
     return out;
   }
   // ASCII: a scalar takes at least 2 bytes ("0 "), a tuple "(0 0 0) " 2 + 2 per component.
-  check_count_fits(name_, pos_, what, n, nc > 1 ? 2 + 2 * nc : 2, text_.size() - pos_ + 1);
-  out.resize(n * nc);
+  check_fits(what, n, nc > 1 ? 2 + 2 * nc : 2, 1);
+  out.reserve(reserve_for(sat_mul(n, nc), sizeof(double)));
   for (uint64_t i = 0; i < n; ++i) {
     if (nc > 1) expect('(', "before a tuple");
-    for (uint64_t c = 0; c < nc; ++c) out[i * nc + c] = number(what);
+    for (uint64_t c = 0; c < nc; ++c) out.push_back(number(what));
     if (nc > 1) expect(')', "after a tuple");
   }
   expect(')', std::string("to close ") + std::string(what));
@@ -326,50 +526,53 @@ std::vector<double> FoamFile::scalar_list(int components, std::string_view what,
 }
 
 std::vector<int64_t> FoamFile::label_list(std::string_view what, int64_t max_label, bool allow_minus_one) {
-  const size_t at = (skip_space(), pos_);
+  const Spot at = (skip_space(), here());
   const uint64_t n = count(std::string(what) + " count");
   std::vector<int64_t> out;
-  auto check = [&](int64_t v, uint64_t where) {
+  auto check = [&](int64_t v, Spot where) {
     if (v > max_label || v < (allow_minus_one ? -1 : 0))
       fail(where, std::string(what) + ": label " + std::to_string(v) + " is outside 0.." + std::to_string(max_label));
   };
   if (accept('{')) fail(at, std::string(what) + ": a uniform list 'N{value}' is not expected here");
   expect('(', std::string("to open ") + std::string(what));
   if (header_.binary) {
-    const uint64_t each = uint64_t(header_.label_bytes);
-    check_count_fits(name_, pos_, what, n, each, text_.size() - pos_);
-    const size_t start = pos_;
-    const std::string_view b = raw(n * each, what);
-    out.resize(n);
-    for (uint64_t i = 0; i < n; ++i) {
-      out[i] = binary_label(b.data() + i * each);
-      check(out[i], start + i * each);
-    }
-    if (pos_ >= text_.size() || text_[pos_] != ')')
-      fail(pos_, std::string("expected ')' after the binary values of ") + std::string(what));
+    const size_t each = size_t(header_.label_bytes);
+    check_fits(what, n, each, 0);
+    out.reserve(reserve_for(n, sizeof(int64_t)));
+    binary_values(n, each, here(), what, [&](const char* p, uint64_t) {
+      const int64_t v = binary_label(p);
+      if (v > max_label || v < (allow_minus_one ? -1 : 0)) {
+        pos_ = base_ + uint64_t(p - buf_.data());  // the label's own offset and line
+        check(v, here());
+      }
+      out.push_back(v);
+    });
+    if (!more() || byte(pos_) != ')')
+      fail(here(), std::string("expected ')' after the binary values of ") + std::string(what));
     ++pos_;
     return out;
   }
-  check_count_fits(name_, pos_, what, n, 2, text_.size() - pos_ + 1);
-  out.resize(n);
+  check_fits(what, n, 2, 1);
+  out.reserve(reserve_for(n, sizeof(int64_t)));
   for (uint64_t i = 0; i < n; ++i) {
-    const size_t where = (skip_space(), pos_);
-    out[i] = integer(what);
-    check(out[i], where);
+    const Spot where = (skip_space(), here());
+    const int64_t v = integer(what);
+    check(v, where);
+    out.push_back(v);
   }
   expect(')', std::string("to close ") + std::string(what));
   return out;
 }
 
 // Skips an entry's value: tokens up to the ';' that ends it, or one {...} dictionary. A binary list "List<T> N(" is
-// skipped by its byte size (its bytes are not tokens).
+// skipped by its byte size (its bytes are not tokens), read through the window like any other.
 void FoamFile::skip_value() {
   int depth = 0;
   int pending_components = 0;  // after "List<T>" in a binary file: T's components
   for (;;) {
     const char c = peek();
-    const size_t at = pos_;
-    if (pos_ >= text_.size()) fail(at, "the file ends inside an entry");
+    const Spot at = here();
+    if (!more()) fail(at, "the file ends inside an entry");
     if (c == '{' || c == '(' || c == '[') {
       ++pos_;
       ++depth;
@@ -395,8 +598,9 @@ void FoamFile::skip_value() {
                                                      : uint64_t(pending_components) * uint64_t(header_.scalar_bytes);
         if (peek() == '(') {
           ++pos_;
-          check_count_fits(name_, pos_, "list", uint64_t(n), each, text_.size() - pos_);
-          raw(uint64_t(n) * each, "list");
+          check_fits("list", uint64_t(n), each, 0);
+          // Skipped a byte at a time in window-sized steps: n * each bytes, or the end of the text.
+          binary_values(sat_mul(uint64_t(n), each), 1, here(), "list", [](const char*, uint64_t) {});
           expect(')', "after a binary list");
         }
       }
@@ -407,6 +611,7 @@ void FoamFile::skip_value() {
 
 std::vector<Vec3f> FoamFile::points() {
   const std::vector<double> v = scalar_list(3, "points", std::nullopt);
+  verify_rest();
   std::vector<Vec3f> out(v.size() / 3);
   for (size_t i = 0; i < out.size(); ++i) out[i] = Vec3f{float(v[3 * i]), float(v[3 * i + 1]), float(v[3 * i + 2])};
   return out;
@@ -417,10 +622,11 @@ FaceList FoamFile::faces(uint64_t point_count) {
   FaceList f;
   if (header_.class_name == "faceCompactList") {
     // Two lists: N+1 offsets into the second, the vertex labels of all faces.
-    const size_t at = (skip_space(), pos_);
+    const Spot at = (skip_space(), here());
     // An offset cannot exceed the labels that follow, let alone the file's size (which also keeps the arithmetic
-    // below far from overflow).
-    std::vector<int64_t> offsets = label_list("face offsets", int64_t(text_.size()), false);
+    // below far from overflow; a gzip file's inflated size is bounded by deflate's ratio).
+    const int64_t max_offset = int64_t(std::min<uint64_t>(size_.value_or(uint64_t(1) << 62), uint64_t(1) << 62));
+    std::vector<int64_t> offsets = label_list("face offsets", max_offset, false);
     std::vector<int64_t> labels = label_list("face vertices", max_point, false);
     if (offsets.empty()) fail(at, "faceCompactList has no offsets (at least the leading 0)");
     if (offsets.front() != 0 || uint64_t(offsets.back()) != labels.size())
@@ -434,24 +640,25 @@ FaceList FoamFile::faces(uint64_t point_count) {
       f.offsets[i] = uint64_t(offsets[i]);
     }
     f.vertices.assign(labels.begin(), labels.end());
+    verify_rest();
     return f;
   }
   if (header_.class_name != "faceList")
-    fail(0, "class '" + header_.class_name + "' is neither faceList nor faceCompactList");
-  if (header_.binary) fail(0, "a binary faceList (not faceCompactList) is not an OpenFOAM layout");
+    fail(Spot{}, "class '" + header_.class_name + "' is neither faceList nor faceCompactList");
+  if (header_.binary) fail(Spot{}, "a binary faceList (not faceCompactList) is not an OpenFOAM layout");
   const uint64_t n = count("face count");
   expect('(', "to open the face list");
-  check_count_fits(name_, pos_, "face", n, 8, text_.size() - pos_ + 1);  // "3(0 1 2)"
-  f.offsets.reserve(n + 1);
-  f.vertices.reserve(4 * n);
+  check_fits("face", n, 8, 1);  // "3(0 1 2)"
+  f.offsets.reserve(reserve_for(sat_add(n, 1), sizeof(uint64_t)));
+  f.vertices.reserve(reserve_for(sat_mul(4, n), sizeof(uint32_t)));
   for (uint64_t i = 0; i < n; ++i) {
-    const size_t at = (skip_space(), pos_);
+    const Spot at = (skip_space(), here());
     const uint64_t k = count("face size");
     if (k < 3) fail(at, "face " + std::to_string(i) + " has " + std::to_string(k) + " vertices (at least 3)");
-    check_count_fits(name_, pos_, "face vertex", k, 2, text_.size() - pos_ + 1);
+    check_fits("face vertex", k, 2, 1);
     expect('(', "to open a face");
     for (uint64_t j = 0; j < k; ++j) {
-      const size_t where = (skip_space(), pos_);
+      const Spot where = (skip_space(), here());
       const int64_t v = integer("a face vertex");
       if (v < 0 || v > max_point)
         fail(where, "face " + std::to_string(i) + ": vertex " + std::to_string(v) + " is outside 0.." +
@@ -462,24 +669,26 @@ FaceList FoamFile::faces(uint64_t point_count) {
     f.offsets.push_back(f.vertices.size());
   }
   expect(')', "to close the face list");
+  verify_rest();
   return f;
 }
 
 std::vector<int64_t> FoamFile::labels(int64_t max_label, bool allow_minus_one) {
-  return label_list(header_.object.empty() ? "labels" : header_.object, max_label, allow_minus_one);
+  std::vector<int64_t> out = label_list(header_.object.empty() ? "labels" : header_.object, max_label, allow_minus_one);
+  verify_rest();
+  return out;
 }
 
 std::vector<Patch> FoamFile::patches() {
   const uint64_t n = count("patch count");
   expect('(', "to open the patch list");
-  check_count_fits(name_, pos_, "patch", n, 4, text_.size() - pos_);
+  check_fits("patch", n, 4, 0);
   std::vector<Patch> out;
   for (uint64_t i = 0; i < n; ++i) {
     Patch p;
     p.name = word("a patch name");
     expect('{', "to open patch '" + p.name + "'");
     while (!accept('}')) {
-      const size_t at = (skip_space(), pos_);
       const std::string key(word("a patch keyword"));
       if (key == "type") {
         p.type = word("the patch type");
@@ -488,20 +697,20 @@ std::vector<Patch> FoamFile::patches() {
         (key == "nFaces" ? p.n_faces : p.start_face) = count(key);
         expect(';', "after " + key);
       } else {
-        (void)at;
         skip_value();
       }
     }
     out.push_back(std::move(p));
   }
   expect(')', "to close the patch list");
+  verify_rest();
   return out;
 }
 
 std::vector<CellZone> FoamFile::cell_zones(uint64_t cell_count) {
   const uint64_t n = count("zone count");
   expect('(', "to open the zone list");
-  check_count_fits(name_, pos_, "zone", n, 4, text_.size() - pos_);
+  check_fits("zone", n, 4, 0);
   std::vector<CellZone> out;
   for (uint64_t i = 0; i < n; ++i) {
     CellZone z;
@@ -511,9 +720,7 @@ std::vector<CellZone> FoamFile::cell_zones(uint64_t cell_count) {
       const std::string key(word("a zone keyword"));
       if (key == "cellLabels") {
         // "cellLabels List<label> N(...)" (OpenFOAM's writers) or "cellLabels N(...)" (foamFormatConvert, ascii).
-        skip_space();
-        const size_t save = pos_;
-        if (word("cell labels") != "List<label>") pos_ = save;
+        accept_word("List<label>");
         const std::vector<int64_t> cells =
             label_list("zone '" + z.name + "' cellLabels", int64_t(cell_count) - 1, false);
         z.cells.assign(cells.begin(), cells.end());
@@ -525,6 +732,7 @@ std::vector<CellZone> FoamFile::cell_zones(uint64_t cell_count) {
     out.push_back(std::move(z));
   }
   expect(')', "to close the zone list");
+  verify_rest();
   return out;
 }
 
@@ -538,13 +746,12 @@ std::optional<FieldValues> FoamFile::internal_field(uint64_t tuples) {
       components = components_of(t);
     }
   }
-  if (components == 0) fail(0, "class '" + cls + "' is not a vol/point scalar, vector or tensor field");
+  if (components == 0) fail(Spot{}, "class '" + cls + "' is not a vol/point scalar, vector or tensor field");
   while (!at_end()) {
-    const size_t at = pos_;
+    const Spot at = here();
     const std::string_view key = word("an entry keyword");
     if (key.starts_with("#")) {  // a directive (#include "file", #inputMode merge): the rest of its line
-      const size_t e = text_.find('\n', pos_);
-      pos_ = e == std::string::npos ? text_.size() : e + 1;
+      skip_line();
       continue;
     }
     if (key != "internalField") {
@@ -564,17 +771,19 @@ std::optional<FieldValues> FoamFile::internal_field(uint64_t tuples) {
       f.values.resize(tuples * uint64_t(components));
       for (uint64_t i = 0; i < tuples; ++i)
         std::copy(one.begin(), one.end(), f.values.begin() + ptrdiff_t(i * uint64_t(components)));
+      verify_rest();
       return f;
     }
     if (kind != "nonuniform")
       fail(at, "internalField is '" + std::string(kind.substr(0, 40)) + "', neither uniform nor nonuniform");
-    const size_t type_at = (skip_space(), pos_);
+    const Spot type_at = (skip_space(), here());
     const std::string_view list_type = word("List<type>");
     if (!list_type.starts_with("List<") || !list_type.ends_with(">") ||
         components_of(list_type.substr(5, list_type.size() - 6)) != components)
       fail(type_at, "internalField of a " + cls + " is a '" + std::string(list_type.substr(0, 40)) + "'");
     f.values = scalar_list(components, "internalField", tuples);
     expect(';', "after internalField");
+    verify_rest();
     return f;
   }
   return std::nullopt;

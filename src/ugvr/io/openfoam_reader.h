@@ -5,14 +5,27 @@
 // entries (fields: "dimensions [...]; internalField uniform V | nonuniform List<T> N(...); boundaryField {...}";
 // boundary and cellZones: "N ( name { ... } ... )"). Lists are "N ( a b c )" (vectors "(x y z)", faces "k(i j ..)"),
 // "N { v }" (N copies of v), and in binary files "N(" followed by N raw little- or big-endian values and ")". A file
-// may be gzip-compressed (OpenFOAM writes NAME.gz); it is inflated whole into memory first: the files of one case are
-// read one at a time, so the peak is one file's text beside the mesh being built.
+// may be gzip-compressed (OpenFOAM writes NAME.gz).
 //
-// Every count is checked against the bytes left before anything is allocated for it, and errors name the file, the
-// byte offset (in the inflated text for a .gz file) and the line.
+// Streaming: the parser never holds a file whole. It reads through a window of at most `window` bytes (1 MiB by
+// default) refilled from the file, from zlib's inflate stream for a .gz file (no inflated copy is made), or from the
+// bytes given. A refill keeps the token being read; a token (word, number, quoted string) that does not fit the window
+// is gathered in a side buffer of at most kMaxToken bytes. Comments may span refills; binary lists are decoded value
+// by value straight into the output vectors. So the reader's memory is the window plus what it returns, whatever the
+// file's size; peak_window_bytes() reports the window's (and side buffer's) high-water mark. A gzip stream is inflated
+// to its end once the values are read (its CRC and length checked), at most deflate's 1032:1 of the compressed size.
+//
+// Counts: for a plain file (and bytes given) every count is checked against the bytes left before anything is
+// allocated for it. A gzip file's inflated size is unknown until its end, so its counts are not trusted for
+// allocation: vectors reserve at most a few MiB and grow as values arrive, and a count larger than the data fails at
+// the data's end ("... needs N bytes of binary data, only R remain", "found the end of the file"). Errors name the
+// file, the byte offset (in the inflated text for a .gz file) and the line (newlines are counted as the window moves
+// on, so lines stay exact however far back the offset is).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -57,10 +70,19 @@ struct FieldValues {
 
 class FoamFile {
  public:
-  // Reads the file (inflating gzip data, recognised by its magic bytes) and parses the header.
-  explicit FoamFile(const std::string& path);
+  // The window's default size, and the longest token (word, number, quoted string) accepted.
+  static constexpr size_t kDefaultWindow = size_t(1) << 20;
+  static constexpr size_t kMaxToken = size_t(64) << 10;
+  // The smallest window (tests use tiny windows so that every token, comment and binary value crosses a refill).
+  static constexpr size_t kMinWindow = 16;
+
+  // Opens the file (gzip data is recognised by its magic bytes and inflated as it is read) and parses the header.
+  explicit FoamFile(const std::string& path, size_t window = kDefaultWindow);
   // The same over bytes already in memory; `name` is used in messages.
-  FoamFile(std::string name, std::string bytes);
+  FoamFile(std::string name, std::string bytes, size_t window = kDefaultWindow);
+  ~FoamFile();
+  FoamFile(const FoamFile&) = delete;
+  FoamFile& operator=(const FoamFile&) = delete;
 
   const FoamHeader& header() const { return header_; }
   const std::string& name() const { return name_; }
@@ -76,8 +98,51 @@ class FoamFile {
   // The internalField entry of a geometric field of `tuples` values; nullopt when the file has none.
   std::optional<FieldValues> internal_field(uint64_t tuples);
 
+  // The most bytes the window and the side buffer for long tokens held at once.
+  uint64_t peak_window_bytes() const { return peak_; }
+
+  // Where the window's bytes come from: a file, memory, or an inflate stream over either (defined in the .cpp).
+  struct Source;
+
  private:
-  [[noreturn]] void fail(uint64_t at, const std::string& message) const;
+  // A place in the text: its byte offset and line, taken when the place was read (the window may have moved on).
+  struct Spot {
+    uint64_t offset = 0;
+    uint64_t line = 1;
+  };
+
+  [[noreturn]] void fail(Spot at, const std::string& message) const;
+  void open(std::unique_ptr<Source> raw, uint64_t raw_size, bool gzip, size_t window);
+  // Window: bytes [base_, base_ + len_) of the text are buf_[0, len_).
+  uint64_t end() const { return base_ + len_; }
+  const char* ptr(uint64_t offset) const { return buf_.data() + (offset - base_); }
+  char byte(uint64_t offset) const { return buf_[size_t(offset - base_)]; }
+  // Makes the byte at `offset` readable, keeping [keep, offset] in the window; false at the end of the text.
+  bool reach(uint64_t offset, uint64_t keep) {
+    while (offset >= end())
+      if (!refill(keep)) return false;
+    return true;
+  }
+  bool more() { return reach(pos_, pos_); }  // a byte at pos_
+  bool refill(uint64_t keep);
+  // Line bookkeeping: newlines before line_at_ are counted in line_; counting only moves forward with the window.
+  uint64_t line_of(uint64_t offset) { return offset == line_at_ ? line_ : count_lines(offset); }
+  uint64_t count_lines(uint64_t offset);
+  Spot here() { return {pos_, line_of(pos_)}; }
+  void note_peak();
+  // Checks a count against the bytes left where the size is known (plain files, bytes); gzip: no check.
+  void check_fits(std::string_view what, uint64_t n, uint64_t min_bytes_each, uint64_t slack);
+  // How many values to reserve for `n` announced: all of them where the count was checked, else a few MiB's worth.
+  size_t reserve_for(uint64_t n, size_t each) const;
+  // Binary values of `each` bytes, `n` of them, passed to `take(pointer, index)` as they arrive. `block` is where
+  // the block began (errors name it).
+  template <class Take>
+  void binary_values(uint64_t n, size_t each, Spot block, std::string_view what, Take&& take);
+  void skip_line();
+  void verify_rest();
+  // Whether the text at pos_ is the word `w` (followed by a space, delimiter, comment or the end); consumed if so.
+  bool accept_word(std::string_view w);
+
   void parse_header();
   void skip_space();
   bool at_end();
@@ -88,7 +153,6 @@ class FoamFile {
   uint64_t count(std::string_view what);
   int64_t integer(std::string_view what);
   double number(std::string_view what);
-  std::string_view raw(uint64_t bytes, std::string_view what);
   void skip_value();
   // Reads "N (...)" / "N {v}" / binary "N(...)" of `components`-tuples of scalars (labels when `labels`).
   std::vector<double> scalar_list(int components, std::string_view what, std::optional<uint64_t> expected);
@@ -97,8 +161,16 @@ class FoamFile {
   int64_t binary_label(const char* p) const;
 
   std::string name_;
-  std::string text_;
-  size_t pos_ = 0;
+  std::unique_ptr<Source> source_;
+  std::optional<uint64_t> size_;  // the text's size where known before reading it (not for gzip)
+  std::string buf_;               // the window, allocated once
+  uint64_t base_ = 0;
+  size_t len_ = 0;
+  bool eof_ = false;
+  uint64_t pos_ = 0;  // absolute offset of the next unread byte
+  uint64_t line_at_ = 0, line_ = 1;
+  std::string token_;  // a token that crossed a refill
+  uint64_t peak_ = 0;
   FoamHeader header_;
 };
 
