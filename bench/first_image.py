@@ -97,7 +97,8 @@ def main():
             elif msg["type"] == "progress":
                 key = msg["stage"] + ("/" + msg["label"] if msg["label"] else "")
                 seen.setdefault(key, now)
-                if "coarse preview" in msg.get("message", ""):
+                # The page's line while the preview is shown; the out-of-core notice only announces one.
+                if "coarse preview (levels" in msg.get("message", ""):
                     out.setdefault("preview_s", now)
                 if msg["stage"] == "failed":
                     raise RuntimeError(msg["message"])
