@@ -309,57 +309,11 @@ class OutOfCoreBuild {
     return kept;
   }
 
-  // Records welded back into a mesh: vertices by id, cells in the order of their ids (as in core, so that the
-  // sampler's tie rule, the lowest cell id, picks the same cell), each scalar a float field of it.
-  struct LocalMesh {
-    UnstructuredMesh mesh;
-    FieldSet fields;
-    std::vector<ScalarRef> refs;
-    std::vector<uint64_t> cells;  // 0 .. cell count - 1
-    std::vector<uint64_t> ids;    // per cell its id in the input mesh, ascending
-  };
+  // Records welded back into a mesh (octree/coarse_preview.h): vertices by id, cells in the order of their ids (as in
+  // core, so that the sampler's tie rule, the lowest cell id, picks the same cell), each scalar a float field of it.
+  using LocalMesh = WeldedSoup;
   std::unique_ptr<LocalMesh> weld(const std::vector<std::byte>& kept) const {
-    std::vector<size_t> offsets;
-    std::vector<uint32_t> ids;
-    for (size_t at = 0; at < kept.size();) {
-      const SoupCell cell(kept.data() + at, layout_);
-      offsets.push_back(at);
-      for (int i = 0; i < cell.vertex_count(); ++i) ids.push_back(cell.vertex(i));
-      at += cell.bytes();
-    }
-    std::sort(offsets.begin(), offsets.end(), [&](size_t a, size_t b) {
-      return SoupCell(kept.data() + a, layout_).id() < SoupCell(kept.data() + b, layout_).id();
-    });
-    std::sort(ids.begin(), ids.end());
-    ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-    auto local = std::make_unique<LocalMesh>();
-    UnstructuredMesh& mesh = local->mesh;
-    mesh.points.resize(ids.size());
-    std::vector<std::vector<float>> vertex_values(layout_.vertex_fields, std::vector<float>(ids.size()));
-    std::vector<std::vector<float>> cell_values(layout_.cell_fields);
-    uint32_t v[kMaxCellVertices];
-    local->ids.reserve(offsets.size());
-    for (size_t at : offsets) {
-      const SoupCell cell(kept.data() + at, layout_);
-      local->ids.push_back(cell.id());
-      const int n = cell.vertex_count();
-      for (int i = 0; i < n; ++i) {
-        v[i] = uint32_t(std::lower_bound(ids.begin(), ids.end(), cell.vertex(i)) - ids.begin());
-        mesh.points[v[i]] = cell.position(i);
-        for (uint32_t f = 0; f < layout_.vertex_fields; ++f) vertex_values[f][v[i]] = cell.vertex_value(f, i);
-      }
-      mesh.add_cell(cell.type(), std::span<const uint32_t>(v, size_t(n)));
-      for (uint32_t f = 0; f < layout_.cell_fields; ++f) cell_values[f].push_back(cell.cell_value(f));
-    }
-    for (uint32_t f = 0; f < F_; ++f) {
-      const Slot& s = slots_[f];
-      std::vector<float>& values = s.association == Association::Vertex ? vertex_values[s.index] : cell_values[s.index];
-      local->fields.add(Field(fields_[f].name, s.association, DataArray::from(std::move(values), 1)));
-    }
-    for (uint32_t f = 0; f < F_; ++f) local->refs.push_back({&local->fields[f], kMagnitude});
-    local->cells.resize(mesh.cell_count());
-    std::iota(local->cells.begin(), local->cells.end(), uint64_t(0));
-    return local;
+    return weld_soup_records(kept, layout_, slots_, fields_);
   }
 
   void sample(const LocalMesh& local, int level, std::array<uint32_t, 3> ijk, Scratch& scratch, BrickSamples& out) {
