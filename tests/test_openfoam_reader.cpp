@@ -204,6 +204,56 @@ TEST(OpenFoamReader, CellZoneIsACellField) {
   EXPECT_TRUE(has_note(ds, "0 = lid"));
 }
 
+// Fields the fixtures lack, written into a copy of the cavity case's 0.1 directory: a volTensorField (9 components,
+// nonuniform), a volSymmTensorField (6, uniform) and a pointScalarField (vertex data, one value per point), ascii as
+// OpenFOAM writes them. Each arrives with its association, its components and its values in order.
+TEST(OpenFoamReader, TensorSymmTensorAndPointFieldsAreRead) {
+  test::ScratchDir dir;
+  const std::filesystem::path root = dir.file("cavity");
+  std::filesystem::copy(case_path("cavity"), root, std::filesystem::copy_options::recursive);
+  const auto header = [](const std::string& cls, const std::string& object) {
+    return "FoamFile\n{\n    version     2.0;\n    format      ascii;\n    class       " + cls +
+           ";\n    location    \"0.1\";\n    object      " + object + ";\n}\n\ndimensions      [0 0 0 0 0 0 0];\n\n";
+  };
+  std::string tensor = header("volTensorField", "T") + "internalField   nonuniform List<tensor> \n400\n(\n";
+  for (int c = 0; c < 400; ++c) {
+    tensor += "(";
+    for (int k = 0; k < 9; ++k) tensor += std::to_string(10 * c + k) + (k < 8 ? " " : ")\n");
+  }
+  tensor += ")\n;\n\nboundaryField\n{\n    movingWall { type zeroGradient; }\n}\n";
+  std::ofstream(root / "0.1" / "T") << tensor;
+  std::ofstream(root / "0.1" / "S") << header("volSymmTensorField", "S")
+                                    << "internalField   uniform (1 2 3 4 5 6);\n\nboundaryField\n{\n}\n";
+  std::string point = header("pointScalarField", "pw") + "internalField   nonuniform List<scalar> \n882\n(\n";
+  for (int i = 0; i < 882; ++i) point += std::to_string(0.5 * i) + "\n";
+  point += ")\n;\n\nboundaryField\n{\n}\n";
+  std::ofstream(root / "0.1" / "pw") << point;
+
+  ReadOptions options;
+  options.time_step = 1;  // 0.1
+  const Dataset ds = read_dataset(std::vector<std::string>{root.string()}, options);
+  const FieldSet& fields = ds.blocks.at(0).fields;
+  const Field* t = fields.find("T", Association::Cell);
+  ASSERT_NE(t, nullptr);
+  ASSERT_EQ(t->components(), 9);
+  ASSERT_EQ(t->tuples(), 400u);
+  for (uint64_t c : {0u, 1u, 217u, 399u})
+    for (int k = 0; k < 9; ++k) EXPECT_EQ(t->data().get(c, k), double(10 * c + uint64_t(k))) << c << " " << k;
+  const Field* sym = fields.find("S", Association::Cell);
+  ASSERT_NE(sym, nullptr);
+  ASSERT_EQ(sym->components(), 6);
+  for (uint64_t c : {0u, 399u})
+    for (int k = 0; k < 6; ++k) EXPECT_EQ(sym->data().get(c, k), double(k + 1));
+  const Field* pw = fields.find("pw", Association::Vertex);
+  ASSERT_NE(pw, nullptr);
+  ASSERT_EQ(pw->components(), 1);
+  ASSERT_EQ(pw->tuples(), mesh_of(ds).points.size());
+  for (uint64_t i : {0u, 1u, 440u, 881u}) EXPECT_EQ(pw->data().get(i, 0), 0.5 * double(i)) << i;
+  // The case's own fields are still there.
+  EXPECT_NE(fields.find("p", Association::Cell), nullptr);
+  EXPECT_NE(fields.find("U", Association::Cell), nullptr);
+}
+
 TEST(OpenFoamReader, CaseFoundFromFoamFileAndControlDict) {
   const std::string dir = case_path("cavity");
   for (const std::string& p : {dir, dir + "/cavity.foam", dir + "/system/controlDict"}) {
