@@ -270,6 +270,29 @@ TEST(CliInfo, BrickStoreText) {
                           "build:    --brick 8 --fields density --error", "--max-depth 3", "(ugvr "});
 }
 
+// The build line says --cells for a store that keeps its leaves' cells (the command that would build it again), in
+// core and out of core alike, and not for one without.
+TEST(CliInfo, BrickStoreBuildLineSaysCells) {
+  test::ScratchDir dir;
+  const std::string mesh = dir.file("t.vtu");
+  ASSERT_EQ(test::run_ugvr("generate --cells 3000 --kind tet -o " + mesh).status, 0);
+  for (const std::string extra : {"", " --cells", " --cells --out-of-core"}) {
+    const std::string store = dir.file("s.ugvr");
+    const test::CommandResult b =
+        test::run_ugvr("build " + mesh + " -o " + store + " --fields pressure --brick 8 --max-depth 2" + extra);
+    ASSERT_EQ(b.status, 0) << b.out;
+    const test::CommandResult r = run("info " + store);
+    ASSERT_EQ(r.status, 0) << r.out;
+    const size_t line = r.out.find("build:    --brick 8");
+    ASSERT_NE(line, std::string::npos) << r.out;
+    const std::string build = r.out.substr(line, r.out.find('\n', line) - line);
+    EXPECT_EQ(build.find(" --cells") != std::string::npos, extra.find("--cells") != std::string::npos)
+        << extra << ": " << build;
+    EXPECT_EQ(build.find(" --out-of-core") != std::string::npos, extra.find("--out-of-core") != std::string::npos)
+        << build;
+  }
+}
+
 TEST(CliInfo, BrickStoreJson) {
   UGVR_REQUIRE_DATA("spx/spx.inp");
   test::ScratchDir dir;

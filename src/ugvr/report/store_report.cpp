@@ -221,7 +221,9 @@ std::string format_store_report_text(const nlohmann::json& r) {
     o << "; the store does not record its input, --error or --max-depth (written before stores recorded them)\n";
   } else {
     o << " --error " << fmt_num(bd["error"]) << " --max-depth " << bd["max_depth"]
-      << (bd["out_of_core"] == true ? " --out-of-core" : "") << "\n          from";
+      << (bd["out_of_core"] == true ? " --out-of-core" : "")
+      // Not in the provenance record: a store with cell blocks was built with --cells.
+      << (r["bytes"]["cells"].get<uint64_t>() > 0 ? " --cells" : "") << "\n          from";
     for (const json& in : bd["input"]) o << " " << in.get<std::string>();
     o << " (ugvr " << bd["ugvr"].get<std::string>() << ")\n";
   }
