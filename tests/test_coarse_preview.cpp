@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "store_test_support.h"
 #include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/gen/generator.h"
@@ -56,15 +57,6 @@ OctreeBuildOptions options(int preview_depth) {
 
 const std::vector<std::string> kFields = {"pressure", "wall_distance"};  // a vertex and a cell scalar
 
-std::map<std::array<uint32_t, 4>, uint64_t> nodes_by_place(const BrickStoreReader& s) {
-  std::map<std::array<uint32_t, 4>, uint64_t> m;
-  for (uint64_t id = 0; id < s.node_count(); ++id) {
-    const BrickNode& n = s.node(id);
-    m[{n.level, n.i, n.j, n.k}] = id;
-  }
-  return m;
-}
-
 struct Compared {
   uint64_t nodes = 0, valid = 0, invalid = 0, differing = 0;
 };
@@ -74,7 +66,7 @@ struct Compared {
 // in the preview.
 Compared compare(const BrickStoreReader& preview, const BrickStoreReader& final_store, int depth) {
   Compared c;
-  const auto p = nodes_by_place(preview), f = nodes_by_place(final_store);
+  const auto p = test::nodes_by_place(preview), f = test::nodes_by_place(final_store);
   const size_t n = size_t(preview.resolution()) * preview.resolution() * preview.resolution();
   std::vector<float> va(n), vb(n);
   std::vector<uint8_t> ma(n), mb(n);

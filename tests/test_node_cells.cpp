@@ -6,6 +6,7 @@
 #include <cstring>
 #include <set>
 
+#include "store_test_support.h"
 #include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/gen/generator.h"
@@ -21,18 +22,7 @@ namespace {
 using test::ScratchDir;
 
 // A mixed mesh (prisms, tetrahedra, pyramids, hexahedra) with a vertex field and a cell field of its own.
-Dataset mixed_dataset() {
-  GenerateOptions g;
-  g.cells = 3000;
-  g.kind = GenCellKind::Mixed;
-  Dataset ds = generate_in_memory(g);
-  Block& b = ds.blocks.at(0);
-  const uint64_t n = std::get<UnstructuredMesh>(b.grid).cell_count();
-  std::vector<float> id(n);
-  for (uint64_t c = 0; c < n; ++c) id[c] = float(c % 97);
-  b.fields.add(Field("cell97", Association::Cell, DataArray::from(std::move(id), 1)));
-  return ds;
-}
+Dataset mixed_dataset() { return test::generated_with_cell_field(GenCellKind::Mixed, 3000); }
 
 std::string read_bytes(const std::string& path) { return InputFile(path).read_all(); }
 void write_bytes(const std::string& path, const std::string& bytes) {

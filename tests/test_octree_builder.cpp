@@ -15,6 +15,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "store_test_support.h"
 #include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/grid/cell_interpolation.h"
@@ -477,21 +478,11 @@ TEST(OctreeBuilder, RejectsBadOptionsAndFields) {
 // ---- out of core
 // ------------------------------------------------------------------------------------------------------
 
-// Nodes by (level, i, j, k): the out-of-core build numbers them in another order.
-std::map<std::array<uint32_t, 4>, uint64_t> nodes_by_place(const BrickStoreReader& s) {
-  std::map<std::array<uint32_t, 4>, uint64_t> m;
-  for (uint64_t id = 0; id < s.node_count(); ++id) {
-    const BrickNode& n = s.node(id);
-    m[{n.level, n.i, n.j, n.k}] = id;
-  }
-  return m;
-}
-
 // The same tree, the same bricks bit for bit, the same leaf errors; interior errors can only be lower out of core
 // (measured at the children's samples, not at the data points too).
 void expect_same_store(const BrickStoreReader& in_core, const BrickStoreReader& ooc) {
   ASSERT_EQ(in_core.node_count(), ooc.node_count());
-  const auto a = nodes_by_place(in_core), b = nodes_by_place(ooc);
+  const auto a = test::nodes_by_place(in_core), b = test::nodes_by_place(ooc);
   const size_t n = size_t(in_core.resolution()) * in_core.resolution() * in_core.resolution();
   std::vector<float> va(n), vb(n);
   std::vector<uint8_t> ma(n), mb(n);
@@ -545,7 +536,7 @@ void expect_same_boundary(const BrickStoreReader& in_core, const BrickStoreReade
     }
     for (uint32_t r = 0; r < x.count; ++r) EXPECT_EQ(a.refs[x.first + r], b.refs[y.first + r]) << "entry " << ea;
   };
-  const auto pa = nodes_by_place(in_core), pb = nodes_by_place(ooc);
+  const auto pa = test::nodes_by_place(in_core), pb = test::nodes_by_place(ooc);
   for (const auto& [place, ia] : pa) same_entry(same_entry, ia, pb.at(place), in_core.node(ia).is_leaf());
 }
 

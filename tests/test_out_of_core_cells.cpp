@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "gl_test_support.h"
+#include "store_test_support.h"
 #include "test_data.h"
 #include "ugvr/gen/generator.h"
 #include "ugvr/io/reader.h"
@@ -32,19 +33,6 @@ namespace ugvr {
 namespace {
 
 using test::ScratchDir;
-
-Dataset generated(GenCellKind kind, uint64_t cells) {
-  GenerateOptions g;
-  g.cells = cells;
-  g.kind = kind;
-  Dataset ds = generate_in_memory(g);
-  Block& b = ds.blocks.at(0);
-  const uint64_t n = std::get<UnstructuredMesh>(b.grid).cell_count();
-  std::vector<float> id(n);
-  for (uint64_t c = 0; c < n; ++c) id[c] = float(c % 97);
-  b.fields.add(Field("cell97", Association::Cell, DataArray::from(std::move(id), 1)));
-  return ds;
-}
 
 // Hexahedra in a 3 x 1 x 1 row and a copy of the first: the face the first two share is met three times, which both
 // topologies, the whole mesh's and a node's (the copies overlap the same nodes), call boundary.
@@ -71,16 +59,6 @@ Dataset duplicated_hexahedra() {
   return ds;
 }
 
-using Place = std::tuple<int, uint32_t, uint32_t, uint32_t>;
-std::map<Place, uint64_t> nodes_by_place(const BrickStoreReader& s) {
-  std::map<Place, uint64_t> out;
-  for (uint64_t id = 0; id < s.node_count(); ++id) {
-    const OctreeNode& n = s.node(id);
-    out[{n.level, n.i, n.j, n.k}] = id;
-  }
-  return out;
-}
-
 struct Compared {
   uint64_t blocks = 0, boundary = 0, outside = 0, inside = 0;
 };
@@ -91,7 +69,7 @@ Compared expect_same_cells(const BrickStoreReader& in_core, const BrickStoreRead
   EXPECT_TRUE(ooc.has_cells());
   EXPECT_EQ(in_core.cells_header().total_cells, ooc.cells_header().total_cells);
   EXPECT_EQ(in_core.cells_header().block_count, ooc.cells_header().block_count);
-  const auto pa = nodes_by_place(in_core), pb = nodes_by_place(ooc);
+  const auto pa = test::nodes_by_place(in_core), pb = test::nodes_by_place(ooc);
   EXPECT_EQ(pa.size(), pb.size());
   for (const auto& [place, ia] : pa) {
     const auto it = pb.find(place);
@@ -140,9 +118,12 @@ struct Case {
 TEST(OutOfCoreCells, SameBlocksAsInCore) {
   ScratchDir dir;
   std::vector<Case> cases;
-  cases.push_back({"tetrahedra", generated(GenCellKind::Tet, 3000), {"pressure", "cell97"}, 3, 0.01});
-  cases.push_back({"mixed", generated(GenCellKind::Mixed, 3000), {"pressure", "cell97"}, 3, 0.02});
-  cases.push_back({"mixed, root only", generated(GenCellKind::Mixed, 3000), {"pressure"}, 0, 0.02});
+  cases.push_back(
+      {"tetrahedra", test::generated_with_cell_field(GenCellKind::Tet, 3000), {"pressure", "cell97"}, 3, 0.01});
+  cases.push_back(
+      {"mixed", test::generated_with_cell_field(GenCellKind::Mixed, 3000), {"pressure", "cell97"}, 3, 0.02});
+  cases.push_back(
+      {"mixed, root only", test::generated_with_cell_field(GenCellKind::Mixed, 3000), {"pressure"}, 0, 0.02});
   cases.push_back({"duplicated hexahedra", duplicated_hexahedra(), {"f"}, 1, 0.0});
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
@@ -189,7 +170,7 @@ TEST(OutOfCoreCells, HybridImageAsInCore) {
   UGVR_REQUIRE_FILE_GL(gl);
   ScratchDir dir;
   const std::string vtu = dir.file("m.vtu");
-  write_vtu(generated(GenCellKind::Mixed, 3000), vtu);
+  write_vtu(test::generated_with_cell_field(GenCellKind::Mixed, 3000), vtu);
   const Dataset back = read_dataset(std::vector<std::string>{vtu});
   const std::vector<std::string> fields = {"pressure"};
   const OctreeBuildOptions o = cell_options(3, 0.02);
@@ -225,16 +206,6 @@ TEST(OutOfCoreCells, HybridImageAsInCore) {
   }
 }
 
-std::string shell(const std::string& script) {
-  FILE* p = popen(script.c_str(), "r");
-  if (!p) return "(popen failed)";
-  std::string out;
-  char buf[256];
-  while (fgets(buf, sizeof buf, p)) out += buf;
-  pclose(p);
-  return out;
-}
-
 // `ugvr view MESH.vtu` over its memory budget builds the store out of core with the leaves' cells (the viewer then
 // draws it hybrid, exact at rest): the store that appears in the cache keeps them, under a name of its own.
 TEST(OutOfCoreCells, ViewerOverItsBudgetBuildsTheStoreWithCells) {
@@ -244,11 +215,13 @@ TEST(OutOfCoreCells, ViewerOverItsBudgetBuildsTheStoreWithCells) {
   const std::string cache = dir.file("cache");
   const std::string log = dir.file("view.txt");
   // --tabs-memory: the tabs' budget is the memory budget by default, too small here for a tab (not needed anyway).
-  const std::string r = shell(
-      "UGVR_CACHE_DIR=" + cache + " timeout 120 " + std::string(UGVR_BINARY) + " view " + mesh +
-      " --size 64 --max-depth 3 --memory-budget 100kB --tabs-memory 1GiB > " + log +
-      " 2>&1 & pid=$!; for i in $(seq 1200); do ls " + cache +
-      "/tets-*.ugvr >/dev/null 2>&1 && break; sleep 0.1; done; kill -TERM $pid; wait $pid; echo rc=$?; cat " + log);
+  const std::string r =
+      test::run_command(
+          "UGVR_CACHE_DIR=" + cache + " timeout 120 " + std::string(UGVR_BINARY) + " view " + mesh +
+          " --size 64 --max-depth 3 --memory-budget 100kB --tabs-memory 1GiB > " + log +
+          " 2>&1 & pid=$!; for i in $(seq 1200); do ls " + cache +
+          "/tets-*.ugvr >/dev/null 2>&1 && break; sleep 0.1; done; kill -TERM $pid; wait $pid; echo rc=$?; cat " + log)
+          .out;
   if (r.find("OpenGL") != std::string::npos && std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << r;
   EXPECT_NE(r.find("rc=0"), std::string::npos) << r;
   EXPECT_NE(r.find("out of core with its cells"), std::string::npos) << r;

@@ -95,6 +95,41 @@ class CgnsFile {
   void check(int status, const std::string& where) const {
     if (status != CG_OK) fail_in(path_, where + ": " + cg_get_error());
   }
+  // The file's bases in order: index (1-based), name, cell dimension, and for a base of volume cells (dimension 3,
+  // the only ones read) its zone count.
+  struct Base {
+    int index = 0;
+    std::string name;
+    int cell_dim = 0, zones = 0;
+  };
+  std::vector<Base> bases() const {
+    int n = 0;
+    check(cg_nbases(fn_, &n), "bases");
+    std::vector<Base> out;
+    for (int B = 1; B <= n; ++B) {
+      char name[33] = {};
+      int cell_dim = 0, phys_dim = 0, zones = 0;
+      check(cg_base_read(fn_, B, name, &cell_dim, &phys_dim), "base " + std::to_string(B));
+      if (cell_dim == 3) check(cg_nzones(fn_, B, &zones), name);
+      out.push_back({B, name, cell_dim, zones});
+    }
+    return out;
+  }
+  // Zone Z of a base: its name, sizes (vertices, cells, boundary vertices per index direction: one direction for an
+  // unstructured zone, three for a structured one) and type.
+  struct Zone {
+    std::string name;
+    std::array<cgsize_t, 9> size{};
+    ZoneType_t type = ZoneTypeNull;
+  };
+  Zone zone(const Base& base, int Z) const {
+    Zone z;
+    char name[33] = {};
+    check(cg_zone_read(fn_, base.index, Z, name, z.size.data()), base.name + ": zone " + std::to_string(Z));
+    z.name = name;
+    check(cg_zone_type(fn_, base.index, Z, &z.type), z.name);
+    return z;
+  }
   // A count of stored values the file cannot hold (even compressed 16 to 1) is refused before anything is allocated.
   void check_plausible(uint64_t values, const std::string& what) const {
     if (values / 16 > file_size_)
@@ -569,14 +604,10 @@ Block read_unstructured_zone(const CgnsFile& f, int B, int Z, const std::string&
 
 std::vector<double> list_cgns_times(const std::string& path) {
   CgnsFile f(path);
-  int nbases = 0;
-  f.check(cg_nbases(f.fn(), &nbases), "bases");
-  for (int B = 1; B <= nbases; ++B) {
-    char base_name[33] = {};
-    int cell_dim = 0, phys_dim = 0, nzones = 0;
-    f.check(cg_base_read(f.fn(), B, base_name, &cell_dim, &phys_dim), "base " + std::to_string(B));
-    if (cell_dim != 3) continue;
-    f.check(cg_nzones(f.fn(), B, &nzones), base_name);
+  for (const CgnsFile::Base& base : f.bases()) {
+    if (base.cell_dim != 3) continue;
+    const int B = base.index, nzones = base.zones;
+    const std::string& base_name = base.name;
     // The steps time_step indexes: the first zone's FlowSolutionPointers (solutions_to_read).
     char iter_name[33] = {};
     if (nzones < 1 || cg_ziter_read(f.fn(), B, 1, iter_name) != CG_OK) return {};
@@ -620,29 +651,18 @@ std::optional<GridCounts> cgns_header_counts(const std::string& path) {
   CgnsFile f(path);
   GridCounts counts;
   bool any = false;
-  int nbases = 0;
-  f.check(cg_nbases(f.fn(), &nbases), "bases");
-  for (int B = 1; B <= nbases; ++B) {
-    char base_name[33] = {};
-    int cell_dim = 0, phys_dim = 0, nzones = 0;
-    f.check(cg_base_read(f.fn(), B, base_name, &cell_dim, &phys_dim), "base " + std::to_string(B));
-    if (cell_dim != 3) continue;  // as read_cgns: volume cells only
-    f.check(cg_nzones(f.fn(), B, &nzones), base_name);
-    for (int Z = 1; Z <= nzones; ++Z) {
-      char zone_name[33] = {};
-      cgsize_t size[9] = {};
-      ZoneType_t type;
-      f.check(cg_zone_read(f.fn(), B, Z, zone_name, size), std::string(base_name) + ": zone " + std::to_string(Z));
-      f.check(cg_zone_type(f.fn(), B, Z, &type), zone_name);
-      // size: vertices, cells (, boundary vertices) per index direction: one direction unstructured, three structured.
-      const int dirs = type == Structured ? 3 : type == Unstructured ? 1 : 0;
+  for (const CgnsFile::Base& base : f.bases()) {
+    if (base.cell_dim != 3) continue;  // as read_cgns: volume cells only
+    for (int Z = 1; Z <= base.zones; ++Z) {
+      const CgnsFile::Zone zone = f.zone(base, Z);
+      const int dirs = zone.type == Structured ? 3 : zone.type == Unstructured ? 1 : 0;
       if (dirs == 0) continue;
       uint64_t points = 1, cells = 1;
       for (int d = 0; d < dirs; ++d) {
-        if (size[d] < 0 || size[dirs + d] < 0)
-          fail_in(path, std::string(base_name) + "/" + zone_name + ": a negative size");
-        points = sat_mul(points, uint64_t(size[d]));
-        cells = sat_mul(cells, uint64_t(size[dirs + d]));
+        if (zone.size[d] < 0 || zone.size[dirs + d] < 0)
+          fail_in(path, base.name + "/" + zone.name + ": a negative size");
+        points = sat_mul(points, uint64_t(zone.size[d]));
+        cells = sat_mul(cells, uint64_t(zone.size[dirs + d]));
       }
       counts.points = sat_add(counts.points, points);
       counts.cells = sat_add(counts.cells, cells);
@@ -660,30 +680,19 @@ Dataset read_cgns(const std::string& path, int64_t time_step) {
   cg_get_file_type(f.fn(), &file_type);
   ds.format = std::string("CGNS (") + (file_type == CG_FILE_HDF5 ? "HDF5" : "ADF") + ")";
   ds.sources = {path};
-  int nbases = 0;
-  f.check(cg_nbases(f.fn(), &nbases), "bases");
-  for (int B = 1; B <= nbases; ++B) {
-    char base_name[33] = {};
-    int cell_dim = 0, phys_dim = 0;
-    f.check(cg_base_read(f.fn(), B, base_name, &cell_dim, &phys_dim), "base " + std::to_string(B));
-    if (cell_dim != 3) {
-      ds.warnings.push_back(std::string("base ") + base_name + ": cell dimension " + std::to_string(cell_dim) +
+  for (const CgnsFile::Base& base : f.bases()) {
+    if (base.cell_dim != 3) {
+      ds.warnings.push_back("base " + base.name + ": cell dimension " + std::to_string(base.cell_dim) +
                             " skipped (volume cells are read)");
       continue;
     }
-    int nzones = 0;
-    f.check(cg_nzones(f.fn(), B, &nzones), base_name);
-    for (int Z = 1; Z <= nzones; ++Z) {
-      char zone_name[33] = {};
-      cgsize_t size[9] = {};
-      f.check(cg_zone_read(f.fn(), B, Z, zone_name, size), std::string(base_name) + ": zone " + std::to_string(Z));
-      ZoneType_t type;
-      f.check(cg_zone_type(f.fn(), B, Z, &type), zone_name);
-      const std::string where = std::string(base_name) + "/" + zone_name;
-      if (type == Structured)
-        ds.blocks.push_back(read_structured_zone(f, B, Z, where, size, time_step, ds.warnings));
-      else if (type == Unstructured)
-        ds.blocks.push_back(read_unstructured_zone(f, B, Z, where, size, time_step, ds.warnings));
+    for (int Z = 1; Z <= base.zones; ++Z) {
+      const CgnsFile::Zone zone = f.zone(base, Z);
+      const std::string where = base.name + "/" + zone.name;
+      if (zone.type == Structured)
+        ds.blocks.push_back(read_structured_zone(f, base.index, Z, where, zone.size.data(), time_step, ds.warnings));
+      else if (zone.type == Unstructured)
+        ds.blocks.push_back(read_unstructured_zone(f, base.index, Z, where, zone.size.data(), time_step, ds.warnings));
       else
         ds.warnings.push_back(where + ": zone type not structured nor unstructured, skipped");
     }

@@ -261,20 +261,24 @@ EngineHost::Switch EngineHost::switch_to_store() {
     // A preview shown meanwhile stays (its file is open); the page says the store failed.
     return {false, {"failed", "", 1, "cannot open the new store: " + error}};
   }
-  for (auto& [id, tab] : tabs_) *tab = Tab{};  // a preview's renderers go before its scene
-  lod_ = std::move(store);
-  preview_depth_ = 0;
   if (options_.free_grid) {
     exact_.reset();            // frees the walk mesh
     options_.dataset.reset();  // and the grid (the scene above held it too)
   }
+  show_store(std::move(store));
+  preview_depth_ = 0;
+  return {true, {"ready", "", 1, "showing the brick store " + options_.store}};
+}
+
+void EngineHost::show_store(std::shared_ptr<LodScene> store) {
+  // Every tab moves to it (the server resets the tabs' picks to the scene's engine): their renderers go first, before
+  // the scene they drew (a preview's, or the grid's).
+  for (auto& [id, tab] : tabs_) *tab = Tab{};
+  lod_ = std::move(store);
   const bool had_scene = has_scene();
   const Camera camera = scene_.camera;
   scene_ = lod_scene();
   if (had_scene) scene_.camera = camera;  // the reset view stays the same
-  // Every tab moves to the store (the server resets the tabs' picks to the scene's engine).
-  for (auto& [id, tab] : tabs_) *tab = Tab{};
-  return {true, {"ready", "", 1, "showing the brick store " + options_.store}};
 }
 
 bool EngineHost::preview_ready() const {
@@ -293,13 +297,8 @@ EngineHost::Switch EngineHost::switch_to_preview() {
     // Removed meanwhile (the build ended) or unreadable: the store follows as before.
     return {false, {"build", st.label, st.fraction, "the coarse preview cannot be opened: " + std::string(e.what())}};
   }
-  for (auto& [id, tab] : tabs_) *tab = Tab{};  // their renderers drew nothing (or the grid): they start afresh
-  lod_ = std::move(preview);
+  show_store(std::move(preview));
   preview_depth_ = st.preview_depth;
-  const bool had_scene = has_scene();
-  const Camera camera = scene_.camera;
-  scene_ = lod_scene();
-  if (had_scene) scene_.camera = camera;
   return {true, build_report()->progress};
 }
 

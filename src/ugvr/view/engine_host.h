@@ -103,6 +103,8 @@ class EngineHost {
  private:
   struct Tab;
   SceneInfo lod_scene() const;
+  // `store` (the build's coarse preview, or the store itself) becomes the one shown, to every tab afresh.
+  void show_store(std::shared_ptr<LodScene> store);
   std::vector<EngineChoice> engines() const;  // what the tabs may pick now
   bool hybrid_available() const;              // a store that keeps cells: a tab may pick hybrid
 
