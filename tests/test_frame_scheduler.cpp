@@ -17,13 +17,18 @@ TabState ready_tab(uint64_t id, double fps = 10) {
   TabState t;
   t.id = id;
   t.view.ready = true;
-  t.view.generation = 1;
+  t.view.generation = t.view.changed = 1;
   t.view.request.fps = fps;
   return t;
 }
 
 // A message changed the tab's view (what apply_message does to the scheduling state).
-void change_view(FrameScheduler& s, uint64_t id) { ++s.find(id)->view.generation; }
+void change_view(FrameScheduler& s, uint64_t id) {
+  ViewState& v = s.find(id)->view;
+  v.changed = ++v.generation;
+}
+// A message that changed nothing drawn: it counts, the view stays.
+void repeat_view(FrameScheduler& s, uint64_t id) { ++s.find(id)->view.generation; }
 
 // Takes the next frame and completes it at once: drawn (`converged` or not) and delivered.
 std::optional<FrameJob> turn(FrameScheduler& s, bool converged = false) {
@@ -251,6 +256,50 @@ TEST(ViewFrameScheduler, RedrawAllAfterAnEngineSwitch) {
   EXPECT_FALSE(a->resting);
   EXPECT_FALSE(b->resting);
   EXPECT_NE(a->tab, b->tab);
+}
+
+// A message that changes nothing draws no frame; the tab is told by an ack once no frame that would carry its count
+// is coming (the server asked for a full-quality frame again on a repeated message: seconds on a slow machine).
+TEST(ViewFrameScheduler, AMessageThatChangesNothingIsAcknowledgedNotDrawn) {
+  FrameScheduler s;
+  s.add(ready_tab(1));
+  EXPECT_FALSE(s.take_ack(1));  // nothing drawn yet: the first frame carries the count
+  ASSERT_TRUE(turn(s, true));   // converged
+  EXPECT_FALSE(s.take_ack(1));  // nothing new
+  repeat_view(s, 1);
+  EXPECT_FALSE(s.next()) << "a repeated view must not be drawn again";
+  EXPECT_EQ(s.take_ack(1), std::optional<uint64_t>(2));
+  EXPECT_FALSE(s.take_ack(1));  // acknowledged once
+
+  // While refining (not converged) the next frame carries the count: no ack.
+  change_view(s, 1);
+  std::optional<FrameJob> job = turn(s, false);
+  ASSERT_TRUE(job);
+  repeat_view(s, 1);
+  EXPECT_FALSE(s.take_ack(1));
+  job = s.next();
+  ASSERT_TRUE(job);
+  EXPECT_TRUE(job->resting) << "a repeated message must not restart refinement";
+  EXPECT_EQ(job->generation, 4u);
+
+  // A repeat that comes while the view's first frame is drawn: acknowledged once that frame is done.
+  s.rendered(*job, true, false);
+  s.delivered(1);
+  change_view(s, 1);  // 5
+  job = s.next();
+  ASSERT_TRUE(job);
+  repeat_view(s, 1);            // 6, during the render
+  EXPECT_FALSE(s.take_ack(1));  // the frame being drawn is for 5: not shown yet
+  s.rendered(*job, true, false);
+  EXPECT_EQ(s.take_ack(1), std::optional<uint64_t>(6));
+  s.delivered(1);
+  EXPECT_FALSE(s.next());
+
+  // After an engine switch every tab draws again, repeats or not.
+  s.redraw_all();
+  repeat_view(s, 1);
+  EXPECT_FALSE(s.take_ack(1));
+  EXPECT_TRUE(s.next());
 }
 
 }  // namespace

@@ -257,6 +257,30 @@ TEST(ViewRequest, FieldSwitchResetsTfPointsAndIsoValue) {
   apply_message(s, parse_client_message(R"({"type":"tf","opacity_points":[0,1,10,1]})"), scene);
   apply_message(s, parse_client_message(R"({"type":"settings","field":"pressure"})"), scene);
   EXPECT_EQ(s.tf_opacities.size(), 2u);
+  // ... so it counts (generation) without changing what is drawn (changed: no frame, an ack).
+  EXPECT_EQ(s.generation, generation + 4);
+  EXPECT_EQ(s.changed, generation + 3);
+}
+
+TEST(ViewRequest, OnlyMessagesThatChangeTheViewMarkItChanged) {
+  const SceneInfo scene = two_field_scene();
+  ViewState s = initial_view(scene);
+  apply_message(s, parse_client_message(R"({"type":"hello","width":64,"height":64})"), scene);
+  EXPECT_EQ(s.changed, 1u) << "hello draws the first frame";
+  const std::string camera =
+      R"({"type":"camera","position":[0,0,5],"focal_point":[0,0,0],"view_up":[0,1,0],"view_angle":30})";
+  apply_message(s, parse_client_message(camera), scene);
+  EXPECT_EQ(s.changed, 2u);
+  for (const std::string& repeat : {camera, std::string(R"({"type":"resize","width":64,"height":64})"),
+                                    std::string(R"({"type":"settings","fps":10})")}) {
+    apply_message(s, parse_client_message(repeat), scene);
+    EXPECT_EQ(s.changed, 2u) << repeat << " changed nothing";
+  }
+  EXPECT_EQ(s.generation, 5u);
+  apply_message(s, parse_client_message(R"({"type":"settings","full_quality":true})"), scene);
+  EXPECT_EQ(s.changed, 6u) << "a full-quality frame is asked for";
+  apply_message(s, parse_client_message(R"({"type":"settings","fps":3})"), scene);
+  EXPECT_EQ(s.changed, 7u);
 }
 
 TEST(ViewRequest, UnknownFieldIsRejectedAndStateUnchanged) {

@@ -353,8 +353,14 @@ TEST(ViewServer, StreamsJpegWhileMovingThenPngWhenConverged) {
   const Frame still = read_until_converged(c, 2);
   EXPECT_TRUE(is_png(still.bytes));
   EXPECT_EQ(image_size(still.bytes), std::make_pair(64, 48));
+  // The same camera again changes nothing: no frame is drawn (a settled view would be drawn at full quality again),
+  // the message is acknowledged.
+  c.send(camera_message(*first.scene, 0.5).dump());
+  const Message ack = c.read();
+  ASSERT_FALSE(ack.binary) << "a frame was drawn for a message that changed nothing";
+  EXPECT_EQ(json::parse(ack.data), json::parse(R"({"type":"ack","request":3})"));
   c.send(R"({"type":"resize","width":32,"height":40})");
-  const Frame resized = read_frame_for(c, 3);
+  const Frame resized = read_frame_for(c, 4);
   EXPECT_EQ(image_size(resized.bytes), std::make_pair(32, 40));
 }
 

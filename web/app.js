@@ -22,6 +22,7 @@ let lastError = "";
 let framesDrawn = 0;     // binary frames drawn so far
 let drawnStatus = null;  // the status of the frame on the canvas
 let messagesSent = 0;    // client messages sent (status.request counts those the server accepted)
+let acked = 0;           // the last ack's request: messages that changed nothing drawn (view_protocol.h, "ack")
 let progress = null;     // the latest progress message (a store being built), null when none or done
 let pngWanted = false;   // "save PNG" waits for a converged frame
 let pngSaved = 0;
@@ -395,14 +396,15 @@ ws.onmessage = async (event) => {
     }
     ctx.drawImage(bitmap, 0, 0);
     bitmap.close();
-    drawnStatus = status;
+    // A frame on its way when an ack was sent shows the acknowledged messages too.
+    drawnStatus = status && { ...status, request: Math.max(status.request, acked) };
     framesDrawn++;
     if (status) drawnLog.push({ n: framesDrawn, converged: status.converged, request: status.request, format: status.format,
                               time_step: status.time_step, cut_nodes: status.cut_nodes });
     if (drawnLog.length > 200) drawnLog.shift();
     showStatus();
     ugvrTime.onFrame(status);  // time_panel.js: playing moves on once this step is drawn
-    if (pngWanted && status && status.converged && status.request >= messagesSent) savePng();
+    if (pngWanted && drawnStatus && drawnStatus.converged && drawnStatus.request >= messagesSent) savePng();
     return;
   }
   const m = JSON.parse(event.data);
@@ -411,6 +413,10 @@ ws.onmessage = async (event) => {
   } else if (m.type === "status") {
     lastStatus = m;
     if (!(progress && progress.stage === "failed")) lastError = "";
+  } else if (m.type === "ack") {
+    acked = Math.max(acked, m.request);
+    if (drawnStatus) drawnStatus = { ...drawnStatus, request: Math.max(drawnStatus.request, acked) };
+    showStatus();
   } else if (m.type === "error") {
     lastError = `error: ${m.message}`;
     showStatus();

@@ -5,8 +5,11 @@
 namespace ugvr::view {
 namespace {
 
+// The tab's last frame shows its current view: it was taken after the last message that changed anything.
+bool drawn(const TabState& t) { return t.rendered_generation != kNotDrawn && t.rendered_generation >= t.view.changed; }
+
 bool wants_more(const TabState& t) {
-  const bool drawn = t.view.generation == t.rendered_generation;
+  const bool drawn = view::drawn(t);
   // A tab playing a time series is not refined: its next request (the next step) comes as soon as this step's frame
   // is shown, and a refinement frame drawn meanwhile would only delay it. Pausing (playing false) refines as usual.
   if (drawn && t.view.request.playing && !t.view.full_quality) return false;
@@ -54,7 +57,7 @@ std::optional<FrameJob> FrameScheduler::next() {
     job.ram_budget = t.ram_budget;
     job.generation = t.view.generation;
     job.full_quality = t.view.full_quality;
-    job.resting = t.view.generation == t.rendered_generation;
+    job.resting = drawn(t);
     job.streaming = std::max<size_t>(streaming, 1);
     // Frame budgets are shared: while N tabs stream, each tab's controller targets N x its rate, so that every tab
     // gets about the rate it asked for instead of each measuring only its own frames and all falling behind.
@@ -75,13 +78,22 @@ void FrameScheduler::rendered(const FrameJob& job, bool converged, bool failed) 
   if (failed) t->in_flight = false;
 }
 
+std::optional<uint64_t> FrameScheduler::take_ack(uint64_t id) {
+  TabState* t = find(id);
+  if (!t || !t->view.ready || t->closed || !drawn(*t) || t->rendered_generation >= t->view.generation || wants_more(*t))
+    return std::nullopt;
+  // The frame the client has (or the one on its way) shows this generation too.
+  t->rendered_generation = t->view.generation;
+  return t->view.generation;
+}
+
 void FrameScheduler::delivered(uint64_t id) {
   if (TabState* t = find(id)) t->in_flight = false;
 }
 
 void FrameScheduler::redraw_all() {
   for (TabState& t : tabs_) {
-    t.rendered_generation = ~uint64_t(0);
+    t.rendered_generation = kNotDrawn;
     t.converged = false;
   }
 }

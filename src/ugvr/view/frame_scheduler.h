@@ -17,18 +17,22 @@
 
 namespace ugvr::view {
 
+// TabState::rendered_generation of a tab that must draw again whatever its view (redraw_all).
+inline constexpr uint64_t kNotDrawn = ~uint64_t(0);
+
 // One tab as the scheduler sees it.
 struct TabState {
   uint64_t id = 0;
   ViewState view;                    // the latest request (ready: said hello; generation: messages accepted)
   bool in_flight = false;            // a frame of this tab is on its way to the client
   bool converged = false;            // its last frame was converged (or failed: not retried until the view changes)
-  uint64_t rendered_generation = 0;  // view.generation its last frame showed
+  uint64_t rendered_generation = 0;  // view.generation its last frame (or ack) showed; kNotDrawn: draw again
   bool closed = false;               // its socket has gone; remove_closed() drops it
   uint64_t ram_budget = 0;           // its RAM brick cache's budget (tab_memory.h); 0: the engine host's default
 };
 
-// A tab wants a frame: it said hello, has none on the wire, and its view changed, or is still refining (not while it
+// A tab wants a frame: it said hello, has none on the wire, and its view changed (view.changed, not a message that
+// changed nothing), or is still refining (not while it
 // plays a time series: each step is drawn once, at the interactive quality), or it asked for full quality.
 bool wants_frame(const TabState& tab);
 // A tab streams frames: as wants_frame, a frame on the wire or not. These tabs share the frame budget.
@@ -40,7 +44,7 @@ struct FrameJob {
   ViewRequest request;
   uint64_t generation = 0;    // the request's view.generation (FrameStatus.request)
   bool full_quality = false;  // the tab asked for a converged frame now
-  bool resting = false;       // the view is the one the tab's previous frame showed
+  bool resting = false;       // the view is the one the tab's previous frame showed (no change since)
   size_t streaming = 1;       // tabs streaming now (at least 1, this one)
   double target_fps = 0;      // the frame-rate target of the tab's controller: request.fps x streaming
   uint64_t ram_budget = 0;    // TabState::ram_budget
@@ -69,6 +73,10 @@ class FrameScheduler {
   // `job`'s frame was drawn: `converged`, or `failed` (then nothing goes on the wire, and the view is not drawn again
   // until the client changes it).
   void rendered(const FrameJob& job, bool converged, bool failed);
+  // The tab's messages since its last frame changed nothing drawn and no frame is coming (converged, or playing):
+  // the request count to acknowledge (view_protocol.h "ack"), and from now on it counts as shown. nullopt: no ack
+  // is owed (a frame that will carry the count is wanted, or nothing is new).
+  std::optional<uint64_t> take_ack(uint64_t id);
   // The last message of the tab's frame has been written: it may get the next one.
   void delivered(uint64_t id);
   // Every tab draws again, as if its view had changed (the engine has changed).

@@ -315,6 +315,8 @@ std::string status_message(const FrameStatus& s) {
   return j.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
+std::string ack_message(uint64_t request) { return json{{"type", "ack"}, {"request", request}}.dump(); }
+
 std::string progress_message(const ProgressInfo& p) {
   return json{
       {"type", "progress"}, {"stage", p.stage}, {"label", p.label}, {"fraction", p.fraction}, {"message", p.message}}

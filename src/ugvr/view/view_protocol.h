@@ -55,6 +55,9 @@
 //         frame's view was taken, so a client knows when frames reflect its latest request (earlier ones may still be
 //         on the wire)
 //   binary: the frame, JPEG while moving or refining, PNG once converged (lossless)
+//   text {"type":"ack", "request":N}   the client's first N accepted messages are reflected by the frame it has (or
+//         the one on its way): the last of them changed nothing that is drawn (a repeated camera, the same step
+//         again), so no frame is drawn for it. A client takes the larger of a status's and the last ack's "request"
 //   text {"type":"error", "message":"FIELD: what is wrong"}   a rejected message; the session goes on
 //   text {"type":"progress", ...}  loading the grid and the background build of its store (ProgressInfo); a new
 //         "scene" follows "ready". A viewer of a grid serves before it reads it: its first messages after hello are
@@ -240,6 +243,8 @@ struct FrameStatus {
   std::string exact_off;  // why no node can be exact ("" when hybrid runs)
 };
 std::string status_message(const FrameStatus& s);
+// {"type":"ack","request":N}: see the protocol above.
+std::string ack_message(uint64_t request);
 
 // {"type":"progress", "stage":"read"|"build"|"ready"|"failed", "label", "fraction", "message"}: loading a grid file
 // and building its brick store in the background (`ugvr view MESH`): "read" while the file is read (label: the

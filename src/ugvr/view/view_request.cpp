@@ -130,6 +130,8 @@ void apply_message(ViewState& state, const ClientMessage& m, const SceneInfo& sc
     r.playing = time->playing;
   }
   ++s.generation;
+  if (!(s.request == state.request) || s.ready != state.ready || s.full_quality != state.full_quality)
+    s.changed = s.generation;
   state = std::move(s);
 }
 

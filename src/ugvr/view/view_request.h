@@ -32,6 +32,7 @@ struct ViewRequest {
   std::vector<FocusRange> focus;
   std::optional<RegionOfInterest> roi;
   double context_saturation = 0.2, context_opacity = 0.3;
+  bool operator==(const ViewRequest&) const = default;
 };
 
 struct ViewState {
@@ -39,6 +40,10 @@ struct ViewState {
   bool ready = false;         // said hello
   bool full_quality = false;  // asked for one converged frame now
   uint64_t generation = 0;    // accepted messages so far (FrameStatus.request)
+  // The generation of the last message that changed what is drawn (the request, hello, a full-quality ask). A
+  // message that changes nothing (a repeated camera, the same step again) counts in `generation` but draws no frame:
+  // the server acknowledges it instead (view_protocol.h, "ack").
+  uint64_t changed = 0;
   // Transfer-function edits compose: a preset, then explicit points, then the opacity scale.
   std::string tf_preset = "viridis";
   double tf_opacity = 1;
@@ -54,7 +59,8 @@ TransferFunction compose_tf(const ViewState& state, const SceneInfo& scene);
 // Applies one message. A settings "field" must name one of scene.fields; switching to another field drops explicit
 // transfer-function points (the preset is rescaled to the new range) and moves iso values outside the new range to
 // its middle. An engine must be one of scene.engines; a time step one of scene.times. Throws ugvr::Error "FIELD: ..."
-// and leaves `state` unchanged when the result is invalid.
+// and leaves `state` unchanged when the result is invalid. Every accepted message advances `generation`; one that
+// changes the request (or says hello, or asks for full quality) also sets `changed` to it.
 void apply_message(ViewState& state, const ClientMessage& message, const SceneInfo& scene);
 
 }  // namespace ugvr::view

@@ -160,6 +160,9 @@ struct ViewServer::Impl final : HttpHost {
     else
       apply_message(tab->view, message, scene);
     if (std::holds_alternative<CameraMessage>(message) || std::holds_alternative<TfMessage>(message)) last_active = id;
+    // A message that changed nothing drawn gets no frame (a settled view would draw a full-quality one again): the
+    // client learns it was taken from an ack.
+    if (const std::optional<uint64_t> n = scheduler.take_ack(id)) replies.push_back(ack_message(*n));
     // After hello: the scene, a build's progress, and the view set_view moved the tabs to (the page takes it after
     // the scene's own).
     if (std::holds_alternative<SizeMessage>(message) && std::get<SizeMessage>(message).hello)
@@ -344,6 +347,8 @@ std::function<void()> ViewServer::Impl::perform(const FrameJob& job) {
       post_texts(ioc, socket, {error_message(error)});
     else
       post_frame(ioc, socket, status, image);
+    // Messages that changed nothing while it was drawn: this frame shows them too.
+    if (const std::optional<uint64_t> n = scheduler.take_ack(job.tab)) post_texts(ioc, socket, {ack_message(*n)});
   };
 }
 
@@ -479,7 +484,7 @@ void ViewServer::set_view(const std::optional<Camera>& camera, const std::option
   I.view_text = view_message(I.camera_set, I.tf_set);
   for (TabState& tab : I.scheduler.tabs()) {
     I.apply_view_set(tab.view);
-    ++tab.view.generation;
+    tab.view.changed = ++tab.view.generation;
   }
   I.scheduler.redraw_all();
   I.broadcast({view_message(camera, tf)});
