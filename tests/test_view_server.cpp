@@ -1295,5 +1295,72 @@ TEST(ViewServer, AnOutOfCoreBuildShowsItsCoarsePreviewWhileTheStoreIsBuilt) {
   EXPECT_TRUE(is_png(f.bytes) || is_jpeg(f.bytes));
 }
 
+// A mesh with enough points gets the point sketch first (octree/point_sketch.h: before any cell is read), the page
+// saying it is approximate; then the coarse preview replaces it (a new scene), then the store.
+TEST(ViewServer, AnOutOfCoreBuildShowsItsPointSketchThenItsPreview) {
+  const std::filesystem::path dir = shared().dir / "point-sketch";
+  std::filesystem::create_directories(dir);
+  const std::string mesh = (dir / "wing.vtu").string();
+  const std::filesystem::path store = dir / "wing.ugvr";
+  std::filesystem::remove(store);
+  ASSERT_EQ(test::run_ugvr("generate --cells 20000 --kind tet -o " + mesh).status, 0);
+  std::unique_ptr<ViewServer> server;
+  BuildGate after_sketch, after_preview;
+  {
+    ViewServerOptions o;
+    o.store = store.string();
+    o.out_of_core_input = mesh;
+    o.out_of_core_budget = uint64_t(256) << 20;
+    o.build = small_build();
+    o.build.resolution = 5;  // level 1's lattice (9³) has a quarter of the mesh's ~3,400 points at most
+    o.build.preview_depth = 2;
+    o.build.on_sketch = [hold = after_sketch.hold()](const std::string&, int) { hold(); };
+    o.build.on_preview = [hold = after_preview.hold()](const std::string&) { hold(); };
+    try {
+      server = std::make_unique<ViewServer>(o);
+    } catch (const Error& e) {
+      after_sketch.open(), after_preview.open();
+      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
+      FAIL() << "cannot start the server: " << e.what();
+    }
+  }
+  Client c(server->port());
+  c.send(R"({"type":"hello","width":32,"height":32})");
+  bool said_sketch = false;
+  std::string image;
+  for (int i = 0; i < 400 && image.empty(); ++i) {
+    Message m = c.read();
+    if (m.binary) {
+      image = std::move(m.data);
+      break;
+    }
+    const json j = json::parse(m.data);
+    if (j["type"] == "progress" &&
+        j["message"].get<std::string>().find("sketch from the mesh's points (levels 0\xe2\x80\x93"
+                                             "1, approximate; the coarse preview follows)") != std::string::npos)
+      said_sketch = true;
+  }
+  ASSERT_FALSE(image.empty());
+  EXPECT_TRUE(said_sketch);
+  EXPECT_FALSE(std::filesystem::exists(store.string() + ".preview")) << "the sketch comes before the cells";
+  EXPECT_TRUE(std::filesystem::exists(store.string() + ".sketch"));
+  // The build goes on to the preview: a new scene, then its frames, the page saying it shows the preview.
+  after_sketch.open();
+  const std::optional<json> preview = read_text_until(c, [](const json& m) {
+    return m["type"] == "progress" && m["message"].get<std::string>().find(
+                                          "coarse preview (levels 0\xe2\x80\x93"
+                                          "2) while the store is built") != std::string::npos;
+  });
+  ASSERT_TRUE(preview);
+  EXPECT_TRUE(read_text_until(c, [](const json& m) { return m["type"] == "scene"; }));
+  const Frame from_preview = read_frame(c);
+  EXPECT_TRUE(is_png(from_preview.bytes) || is_jpeg(from_preview.bytes));
+  after_preview.open();
+  const std::optional<json> ready =
+      read_text_until(c, [](const json& m) { return m["type"] == "progress" && m["stage"] == "ready"; });
+  ASSERT_TRUE(ready);
+  EXPECT_FALSE(std::filesystem::exists(store.string() + ".sketch")) << "removed when the build ended";
+}
+
 }  // namespace
 }  // namespace ugvr::view

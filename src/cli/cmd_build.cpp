@@ -119,6 +119,7 @@ void register_build(CLI::App& app) {
     int pieces = 0, ghost_level = 0;
     std::string time;     // --time: the steps of a store with time
     std::string preview;  // --preview: the coarse preview's store, out of core
+    std::string sketch;   // --sketch: the point sketch's store, out of core
   };
   auto opts = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
@@ -173,6 +174,11 @@ void register_build(CLI::App& app) {
   cmd->add_option("--preview", opts->preview,
                   "Out of core: also write a coarse preview store there (levels 0..K of the final store, K up to 3 as "
                   "--memory allows), within seconds of the cells being on disk (octree/coarse_preview.h)");
+  cmd->add_option(
+      "--sketch", opts->sketch,
+      "Out of core: also write a point sketch store there before the cells are read (levels 0..K, "
+      "approximate: each lattice point the mean of the mesh's points nearest to it; vertex fields and about "
+      "a million points or more; octree/point_sketch.h)");
   cmd->add_flag("--no-tf-errors", opts->no_tf_errors,
                 "Leave out the transfer-function error table (44 bytes per node and field; renderers then rank nodes "
                 "by texel size alone)");
@@ -207,6 +213,16 @@ void register_build(CLI::App& app) {
       const uint32_t fields = uint32_t(std::max<size_t>(opts->fields.size(), 1));
       opts->build.preview_depth = std::max(1, coarse_preview_depth_for(opts->memory, opts->build.resolution, fields));
       opts->build.preview_path = opts->preview;
+    }
+    if (!opts->sketch.empty()) {
+      if (!out_of_core) throw Error("--sketch " + opts->sketch + ": a sketch is made by out-of-core builds only");
+      if (extension_lower(opts->sketch) != ".ugvr") throw Error(opts->sketch + ": the sketch must be a .ugvr file");
+      const uint32_t fields = uint32_t(std::max<size_t>(opts->fields.size(), 1));
+      // Its depth is bounded by the preview's (which is then made too, at a temporary path unless --preview).
+      if (opts->build.preview_depth == 0)
+        opts->build.preview_depth = std::max(1, coarse_preview_depth_for(opts->memory, opts->build.resolution, fields));
+      opts->build.point_sketch = true;
+      opts->build.sketch_path = opts->sketch;
     }
     OctreeBuildStats s;
     std::string names;
@@ -268,6 +284,9 @@ void register_build(CLI::App& app) {
                                 {"preview_seconds", s.preview_seconds},
                                 {"preview_nodes", s.preview_nodes},
                                 {"preview_bytes", s.preview_bytes},
+                                {"sketch_depth", s.sketch_depth},
+                                {"sketch_seconds", s.sketch_seconds},
+                                {"sketch_bytes", s.sketch_bytes},
                                 {"peak_rss_bytes", peak_rss_bytes()}};
       std::printf("%s\n", j.dump().c_str());
     } else {
@@ -282,6 +301,11 @@ void register_build(CLI::App& app) {
         std::printf("  coarse preview %s: levels 0..%d, %llu nodes, %s, %.2f s\n", opts->preview.c_str(),
                     opts->build.preview_depth, (unsigned long long)s.preview_nodes,
                     format_bytes(s.preview_bytes).c_str(), s.preview_seconds);
+      if (s.sketch_depth > 0)
+        std::printf("  point sketch %s: levels 0..%d, %s, %.2f s\n", opts->sketch.c_str(), s.sketch_depth,
+                    format_bytes(s.sketch_bytes).c_str(), s.sketch_seconds);
+      else if (opts->build.point_sketch)
+        std::printf("  no point sketch: it needs vertex fields only and about a million points or more\n");
       if (s.time_steps > 0)
         std::printf("  %u time step(s) on one tree (the first step's own: %llu nodes), reading %.2f s\n", s.time_steps,
                     (unsigned long long)s.first_step_nodes, s.read_seconds);

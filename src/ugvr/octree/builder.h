@@ -68,6 +68,13 @@ struct OctreeBuildOptions {
   std::string preview_path;
   // Called on the build's thread once the preview is complete at its path.
   std::function<void(const std::string& path)> on_preview;
+  // Out of core with a preview: before the cells, an approximate point sketch of levels 0 .. K <= preview_depth
+  // (octree/point_sketch.h: each lattice point the mean of the mesh's points nearest to it) when the mesh has enough
+  // points and only vertex fields, at `sketch_path` (empty: "<output>.sketch", removed when the build ends), then
+  // on_sketch(path, K). For a viewer's first image within seconds of a mesh whose preview takes a minute.
+  bool point_sketch = false;
+  std::string sketch_path;
+  std::function<void(const std::string& path, int depth)> on_sketch;
 };
 
 struct OctreeBuildStats {
@@ -92,6 +99,10 @@ struct OctreeBuildStats {
   // Out of core with a preview (preview_depth): its wall time (of `seconds`), nodes and bytes.
   double preview_seconds = 0;
   uint64_t preview_nodes = 0, preview_bytes = 0;
+  // Out of core with point_sketch: its depth (0: none made), wall time (of `seconds`) and bytes.
+  int sketch_depth = 0;
+  double sketch_seconds = 0;
+  uint64_t sketch_bytes = 0;
   // Why the store has no boundary faces although they were asked for (out of core: over the memory budget); empty
   // otherwise.
   std::string boundary_note;

@@ -126,6 +126,92 @@ std::pair<uint32_t, uint32_t> node_range(const BrickLattice& lattice, int level,
 
 }  // namespace
 
+uint64_t write_level_store(std::vector<std::unique_ptr<BrickSamples>> deepest, int K, const BrickStoreLayout& layout,
+                           const std::string& path) {
+  const uint32_t R = layout.resolution, F = uint32_t(layout.fields.size());
+  const size_t level_nodes = size_t(1) << (3 * K);
+  if (K < 1 || K > kMaxPreviewDepth || deepest.size() != level_nodes)
+    throw Error("level store: " + std::to_string(deepest.size()) + " bricks for level " + std::to_string(K));
+  // The tree: a level-K node with data, and every ancestor of one. Ids breadth first (children contiguous after
+  // their parent, in octant order, as the store wants).
+  std::vector<std::vector<uint8_t>> exists(size_t(K) + 1);
+  for (int l = 0; l <= K; ++l) exists[size_t(l)].assign(size_t(1) << (3 * l), 0);
+  auto place = [](int level, uint32_t i, uint32_t j, uint32_t k) {
+    const size_t s = size_t(1) << level;
+    return i + s * (j + s * k);
+  };
+  for (size_t n = 0; n < level_nodes; ++n) exists[size_t(K)][n] = deepest[n] != nullptr;
+  for (int l = K - 1; l >= 0; --l) {
+    const uint32_t s = uint32_t(1) << l;
+    for (uint32_t k = 0; k < s; ++k)
+      for (uint32_t j = 0; j < s; ++j)
+        for (uint32_t i = 0; i < s; ++i)
+          for (uint32_t o = 0; o < 8; ++o)
+            exists[size_t(l)][place(l, i, j, k)] |=
+                exists[size_t(l) + 1][place(l + 1, 2 * i + (o & 1), 2 * j + ((o >> 1) & 1), 2 * k + ((o >> 2) & 1))];
+  }
+  // A mesh with no sample at all still gets a store: its root, without brick.
+  std::vector<OctreeNode> nodes(1);
+  std::vector<std::vector<uint64_t>> id_of(size_t(K) + 1);
+  for (int l = 0; l <= K; ++l) id_of[size_t(l)].assign(size_t(1) << (3 * l), kNoNode);
+  id_of[0][0] = 0;
+  if (exists[0][0]) {
+    for (size_t at = 0; at < nodes.size(); ++at) {  // breadth first: nodes grows behind `at`
+      const OctreeNode n = nodes[at];
+      if (n.level == K) continue;
+      uint8_t mask = 0;
+      for (uint32_t o = 0; o < 8; ++o) {
+        const uint32_t i = 2 * n.i + (o & 1), j = 2 * n.j + ((o >> 1) & 1), k = 2 * n.k + ((o >> 2) & 1);
+        if (!exists[size_t(n.level) + 1][place(n.level + 1, i, j, k)]) continue;
+        if (!mask) nodes[at].first_child = nodes.size();
+        mask |= uint8_t(1u << o);
+        OctreeNode c;
+        c.parent = at, c.level = uint8_t(n.level + 1), c.i = i, c.j = j, c.k = k;
+        id_of[size_t(c.level)][place(c.level, i, j, k)] = nodes.size();
+        nodes.push_back(c);
+      }
+      nodes[at].child_mask = mask;
+    }
+  }
+
+  // Bricks bottom-up, exactly as the builder makes them (a leaf padded before its parent subsamples it), written as
+  // they are made; a level's bricks are dropped once the next level up has them.
+  BrickStoreWriter writer(path, layout);
+  std::vector<std::unique_ptr<BrickSamples>> level = std::move(deepest);
+  for (size_t n = 0; n < level.size(); ++n) {
+    if (!level[n]) continue;
+    pad_brick(R, F, level[n]->values.data(), level[n]->mask.data());
+    write_node_brick(writer, id_of[size_t(K)][n], *level[n], F);
+  }
+  for (int l = K - 1; l >= 0; --l) {
+    const uint32_t s = uint32_t(1) << l;
+    std::vector<std::unique_ptr<BrickSamples>> up(size_t(s) * s * s);
+    tbb::parallel_for(size_t(0), up.size(), [&](size_t n) {
+      if (!exists[size_t(l)][n]) return;
+      const uint32_t i = uint32_t(n % s), j = uint32_t((n / s) % s), k = uint32_t(n / (size_t(s) * s));
+      std::array<const BrickSamples*, 8> kids{};
+      for (uint32_t o = 0; o < 8; ++o)
+        kids[o] = level[place(l + 1, 2 * i + (o & 1), 2 * j + ((o >> 1) & 1), 2 * k + ((o >> 2) & 1))].get();
+      auto b = std::make_unique<BrickSamples>();
+      downsample_children(R, F, kids, *b);
+      pad_brick(R, F, b->values.data(), b->mask.data());
+      write_node_brick(writer, id_of[size_t(l)][n], *b, F);
+      up[n] = std::move(b);
+    });
+    level = std::move(up);
+  }
+  // Errors: unknown, so the field's whole range (see the header comment).
+  std::vector<FieldError> errors;
+  errors.reserve(nodes.size() * F);
+  for (size_t n = 0; n < nodes.size(); ++n)
+    for (const BrickStoreField& f : layout.fields) {
+      const float range = float(f.max - f.min);
+      errors.push_back({range, range});
+    }
+  writer.commit(nodes, errors);
+  return nodes.size();
+}
+
 CoarsePreviewStats write_coarse_preview(const std::string& soup_path, const SoupLayout& soup_layout,
                                         std::span<const VtuCellSource::Slot> slots, const BrickLattice& lattice,
                                         const BrickStoreLayout& layout, const CoarsePreviewOptions& options,
@@ -261,84 +347,7 @@ CoarsePreviewStats write_coarse_preview(const std::string& soup_path, const Soup
   }
   stats.shared_samples = shared;
 
-  // The tree: a level-K node with data, and every ancestor of one. Ids breadth first (children contiguous after
-  // their parent, in octant order, as the store wants).
-  std::vector<std::vector<uint8_t>> exists(size_t(K) + 1);
-  for (int l = 0; l <= K; ++l) exists[size_t(l)].assign(size_t(1) << (3 * l), 0);
-  auto place = [](int level, uint32_t i, uint32_t j, uint32_t k) {
-    const size_t s = size_t(1) << level;
-    return i + s * (j + s * k);
-  };
-  for (size_t n = 0; n < level_nodes; ++n) exists[size_t(K)][n] = deepest[n] != nullptr;
-  for (int l = K - 1; l >= 0; --l) {
-    const uint32_t s = uint32_t(1) << l;
-    for (uint32_t k = 0; k < s; ++k)
-      for (uint32_t j = 0; j < s; ++j)
-        for (uint32_t i = 0; i < s; ++i)
-          for (uint32_t o = 0; o < 8; ++o)
-            exists[size_t(l)][place(l, i, j, k)] |=
-                exists[size_t(l) + 1][place(l + 1, 2 * i + (o & 1), 2 * j + ((o >> 1) & 1), 2 * k + ((o >> 2) & 1))];
-  }
-  // A mesh with no sample at all still gets a store: its root, without brick.
-  std::vector<OctreeNode> nodes(1);
-  std::vector<std::vector<uint64_t>> id_of(size_t(K) + 1);
-  for (int l = 0; l <= K; ++l) id_of[size_t(l)].assign(size_t(1) << (3 * l), kNoNode);
-  id_of[0][0] = 0;
-  if (exists[0][0]) {
-    for (size_t at = 0; at < nodes.size(); ++at) {  // breadth first: nodes grows behind `at`
-      const OctreeNode n = nodes[at];
-      if (n.level == K) continue;
-      uint8_t mask = 0;
-      for (uint32_t o = 0; o < 8; ++o) {
-        const uint32_t i = 2 * n.i + (o & 1), j = 2 * n.j + ((o >> 1) & 1), k = 2 * n.k + ((o >> 2) & 1);
-        if (!exists[size_t(n.level) + 1][place(n.level + 1, i, j, k)]) continue;
-        if (!mask) nodes[at].first_child = nodes.size();
-        mask |= uint8_t(1u << o);
-        OctreeNode c;
-        c.parent = at, c.level = uint8_t(n.level + 1), c.i = i, c.j = j, c.k = k;
-        id_of[size_t(c.level)][place(c.level, i, j, k)] = nodes.size();
-        nodes.push_back(c);
-      }
-      nodes[at].child_mask = mask;
-    }
-  }
-
-  // Bricks bottom-up, exactly as the builder makes them (a leaf padded before its parent subsamples it), written as
-  // they are made; a level's bricks are dropped once the next level up has them.
-  BrickStoreWriter writer(path, layout);
-  std::vector<std::unique_ptr<BrickSamples>> level = std::move(deepest);
-  for (size_t n = 0; n < level.size(); ++n) {
-    if (!level[n]) continue;
-    pad_brick(R, F, level[n]->values.data(), level[n]->mask.data());
-    write_node_brick(writer, id_of[size_t(K)][n], *level[n], F);
-  }
-  for (int l = K - 1; l >= 0; --l) {
-    const uint32_t s = uint32_t(1) << l;
-    std::vector<std::unique_ptr<BrickSamples>> up(size_t(s) * s * s);
-    tbb::parallel_for(size_t(0), up.size(), [&](size_t n) {
-      if (!exists[size_t(l)][n]) return;
-      const uint32_t i = uint32_t(n % s), j = uint32_t((n / s) % s), k = uint32_t(n / (size_t(s) * s));
-      std::array<const BrickSamples*, 8> kids{};
-      for (uint32_t o = 0; o < 8; ++o)
-        kids[o] = level[place(l + 1, 2 * i + (o & 1), 2 * j + ((o >> 1) & 1), 2 * k + ((o >> 2) & 1))].get();
-      auto b = std::make_unique<BrickSamples>();
-      downsample_children(R, F, kids, *b);
-      pad_brick(R, F, b->values.data(), b->mask.data());
-      write_node_brick(writer, id_of[size_t(l)][n], *b, F);
-      up[n] = std::move(b);
-    });
-    level = std::move(up);
-  }
-  // Errors: unknown, so the field's whole range (see the header comment).
-  std::vector<FieldError> errors;
-  errors.reserve(nodes.size() * F);
-  for (size_t n = 0; n < nodes.size(); ++n)
-    for (const BrickStoreField& f : layout.fields) {
-      const float range = float(f.max - f.min);
-      errors.push_back({range, range});
-    }
-  writer.commit(nodes, errors);
-  stats.nodes = nodes.size();
+  stats.nodes = write_level_store(std::move(deepest), K, layout, path);
   stats.store_bytes = std::filesystem::file_size(path);
   const BrickStoreReader store(path);
   for (uint64_t id = 0; id < store.node_count(); ++id) stats.bricks += store.node(id).has_brick();

@@ -98,6 +98,13 @@ uint64_t coarse_preview_brick_bytes(int depth, uint32_t resolution, uint32_t fie
 // fit.
 int coarse_preview_depth_for(uint64_t memory_budget, uint32_t resolution, uint32_t fields);
 
+// Writes the store of levels 0 .. K from the level-K bricks (`deepest`: 8^K slots, place i + 2^K (j + 2^K k), null
+// where a node has no data), as the preview does: the nodes with data and their ancestors, ids breadth first; each
+// brick padded, levels K - 1 .. 0 subsampled as the builder does; every node's error the field's whole range (never
+// taken for exact). Returns the node count. Shared by the preview and the point sketch (octree/point_sketch.h).
+uint64_t write_level_store(std::vector<std::unique_ptr<BrickSamples>> deepest, int K, const BrickStoreLayout& layout,
+                           const std::string& path);
+
 // Streams the soup at `soup_path` (records in nondecreasing id order, as the out-of-core build writes its root file)
 // and writes the preview of the octree over `lattice` to `path` as a store of `layout` (atomically: nothing is left
 // at `path` on failure). `slots` as weld_soup_records takes them. Throws ugvr::Error for a bad depth, a soup out of id

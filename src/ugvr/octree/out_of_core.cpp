@@ -29,6 +29,7 @@
 #include "ugvr/octree/downsample.h"
 #include "ugvr/octree/node_cells.h"
 #include "ugvr/octree/node_error.h"
+#include "ugvr/octree/point_sketch.h"
 #include "ugvr/octree/soup_boundary.h"
 #include "ugvr/octree/split.h"
 #include "ugvr/octree/vtu_cells.h"
@@ -521,13 +522,14 @@ class OutOfCoreBuild {
   std::mutex big_block_mutex_;  // the cell blocks of leaves sampled in pieces, one at a time
 };
 
-// The coarse preview's store: at `chosen`, kept; or at "<output>.preview", registered for the signal handler and
-// removed when the build ends however it ends (core/temp_files.h). One left by a SIGKILL is removed when the next
-// build of the same output starts (made after the build's ScratchFolder, which refuses a second live build).
+// The coarse preview's store (or the point sketch's): at `chosen`, kept; or at "<output>.preview", registered for the
+// signal handler and removed when the build ends however it ends (core/temp_files.h). One left by a SIGKILL is removed
+// when the next build of the same output starts (made after the build's ScratchFolder, which refuses a second live
+// build).
 class PreviewFile {
  public:
-  PreviewFile(const std::string& chosen, const std::string& output)
-      : path_(chosen.empty() ? output + ".preview" : chosen), temporary_(chosen.empty()) {
+  PreviewFile(const std::string& chosen, const std::string& output, const char* suffix = ".preview")
+      : path_(chosen.empty() ? output + suffix : chosen), temporary_(chosen.empty()) {
     if (!temporary_) return;
     std::error_code ec;
     std::filesystem::remove(path_, ec);
@@ -566,6 +568,29 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   const std::filesystem::path temp_path(scratch.path());
 
   VtuCellSource source(vtu_path, selectors);
+  OctreeBuildStats stats;
+  // The point sketch (octree/point_sketch.h) before the cells: from the points alone, what a viewer shows within
+  // seconds. Its lattice and layout are the store's (vertex fields only: their ranges are known already).
+  std::optional<PreviewFile> sketch;
+  if (options.point_sketch && options.preview_depth > 0 && point_sketch_possible(source.slots())) {
+    const int K = point_sketch_depth(source.point_count(), options.resolution, options.preview_depth);
+    if (K > 0) {
+      BrickLattice sketch_lattice;
+      sketch_lattice.root = octree_root(source.bounds());
+      sketch_lattice.resolution = options.resolution;
+      const BrickStoreLayout sketch_layout =
+          store_layout(options, source.fields(), sketch_lattice.root, source.bounds(), true);
+      sketch.emplace(options.sketch_path, path, ".sketch");
+      const uint64_t base = uint64_t(48) << 20;
+      const PointSketchStats ss = write_point_sketch(
+          source, sketch_lattice, sketch_layout, K,
+          std::max((memory_budget > base ? memory_budget - base : 0) / 4, uint64_t(1) << 20), sketch->path());
+      stats.sketch_depth = K;
+      stats.sketch_seconds = ss.seconds;
+      stats.sketch_bytes = ss.store_bytes;
+      if (options.on_sketch) options.on_sketch(sketch->path(), K);
+    }
+  }
   const std::string root_file = (temp_path / "root").string();
   uint64_t cells = 0;
   {
@@ -585,7 +610,6 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   const BrickStoreLayout layout = store_layout(options, source.fields(), lattice.root, data_bounds, true);
 
   // The coarse preview (octree/coarse_preview.h) first, while the budget is free: what a viewer shows within seconds.
-  OctreeBuildStats stats;
   std::optional<PreviewFile> preview;
   if (options.preview_depth > 0) {
     preview.emplace(options.preview_path, path);
@@ -650,7 +674,8 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   const uint64_t available = memory_budget > held ? memory_budget - held : 0;
   const size_t preload = size_t(std::max<uint64_t>(available / (12 * workers), uint64_t(64) << 10));
   stats.cells = cells;
-  stats.subdivide_seconds = seconds_since(start) - stats.preview_seconds;  // here: writing the cells to disk
+  // here: writing the cells to disk
+  stats.subdivide_seconds = seconds_since(start) - stats.preview_seconds - stats.sketch_seconds;
   const auto bricks_start = std::chrono::steady_clock::now();
   std::vector<OctreeNode> nodes;
   {

@@ -365,6 +365,19 @@ class CornerFile {
 
 }  // namespace
 
+void VtuCellSource::for_each_point_slice(
+    uint64_t slice_bytes,
+    const std::function<void(uint64_t, std::span<const Vec3f>, std::span<const float>)>& f) const {
+  const uint64_t per_point = 12 + 4 * uint64_t(layout_.vertex_fields);
+  const uint64_t slice = std::max<uint64_t>(1, std::min<uint64_t>(points_, slice_bytes / per_point));
+  std::vector<Vec3f> pos;
+  std::vector<float> val;
+  for (uint64_t first = 0; first < points_; first += slice) {
+    read_point_slice(*markup_, first, std::min(slice, points_ - first), pos, val);
+    f(first, pos, val);
+  }
+}
+
 uint64_t VtuCellSource::write_soup(SoupWriter& soup, uint64_t point_budget, const std::string& temp_dir,
                                    Progress* progress) {
   const Markup& m = *markup_;

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -55,6 +56,11 @@ class VtuCellSource {
   // vertex scalars (at least one point); corner files go to `temp_dir`. Fails on NaN or infinite selected values.
   uint64_t write_soup(SoupWriter& soup, uint64_t point_budget, const std::string& temp_dir,
                       Progress* progress = nullptr);
+  // Streams the points and the selected vertex scalars in slices of at most `slice_bytes` (at least one point):
+  // f(first point index, positions, values) with the slice's values scalar-major (vertex scalars in slot order).
+  void for_each_point_slice(
+      uint64_t slice_bytes,
+      const std::function<void(uint64_t, std::span<const Vec3f>, std::span<const float>)>& f) const;
   // Slices of the points the last write_soup took (1: all points at once).
   uint64_t passes() const { return passes_; }
 

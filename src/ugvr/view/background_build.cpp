@@ -63,9 +63,20 @@ BackgroundBuild::BackgroundBuild(OutOfCore input, std::vector<std::string> field
         std::lock_guard lock(mutex_);
         state_.preview = preview;
         state_.preview_depth = depth;
+        state_.preview_sketch = false;
       }
       if (then) then(preview);
     };
+    if (options.point_sketch)
+      options.on_sketch = [this, then = std::move(options.on_sketch)](const std::string& sketch, int depth) {
+        {
+          std::lock_guard lock(mutex_);
+          state_.preview = sketch;
+          state_.preview_depth = depth;
+          state_.preview_sketch = true;
+        }
+        if (then) then(sketch, depth);
+      };
   }
   thread_ = std::thread([this, input = std::move(input), fields = std::move(fields), options, before]() mutable {
     if (before) before();

@@ -29,6 +29,9 @@ class BackgroundBuild {
     // while the build is Running. Its levels: 0 .. preview_depth.
     std::string preview;
     int preview_depth = 0;
+    // The preview is the point sketch (OctreeBuildOptions::point_sketch: approximate, from the points alone), shown
+    // before the coarse preview replaces it.
+    bool preview_sketch = false;
   };
 
   // Starts building `fields` of `dataset` into `path` (atomically: a valid store appears there only when done). The
@@ -41,7 +44,8 @@ class BackgroundBuild {
   // The same from a .vtu file that is never held in memory: build_octree_out_of_core (octree/out_of_core.h) within
   // `memory_budget` bytes. `fields` as its selectors (empty: its default). Cancelled at its next progress report.
   // With options.preview_depth, the state reports the coarse preview as soon as it is written (State::preview), then
-  // calls options.on_preview if set (tests hold the build there).
+  // calls options.on_preview if set (tests hold the build there); with options.point_sketch too, the point sketch
+  // first (State::preview_sketch), then options.on_sketch.
   struct OutOfCore {
     std::string vtu;
     uint64_t memory_budget = 0;

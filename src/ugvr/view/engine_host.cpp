@@ -81,6 +81,8 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
       const uint32_t fields = uint32_t(std::max<size_t>(options_.fields.size(), 1));
       build.preview_depth = coarse_preview_depth_for(options_.out_of_core_budget, build.resolution, fields);
     }
+    // Before the preview, which needs every cell: a sketch from the points, within seconds (octree/point_sketch.h).
+    build.point_sketch = true;
     BackgroundBuild::OutOfCore input{options_.out_of_core_input, options_.out_of_core_budget};
     build_ = std::make_unique<BackgroundBuild>(std::move(input), options_.fields, build, options_.store,
                                                options_.before_build);
@@ -229,8 +231,12 @@ std::optional<EngineHost::BuildReport> EngineHost::build_report() const {
   const std::string walk = load_ ? "the walk mesh for the first image and " : "";
   if (st.stage == BackgroundBuild::Stage::Running && preview_depth_ > 0)
     r.progress = {"build", st.label, st.fraction,
-                  note + "coarse preview (levels 0–" + std::to_string(preview_depth_) + ") while the store is built: " +
-                      std::to_string(int(std::lround(100 * st.fraction))) + " % of " + st.label};
+                  note +
+                      (preview_sketch_ ? "sketch from the mesh's points (levels 0–" + std::to_string(preview_depth_) +
+                                             ", approximate; the coarse preview follows)"
+                                       : "coarse preview (levels 0–" + std::to_string(preview_depth_) + ")") +
+                      " while the store is built: " + std::to_string(int(std::lround(100 * st.fraction))) + " % of " +
+                      st.label};
   else if (st.stage == BackgroundBuild::Stage::Running)
     r.progress = {"build", st.label, st.fraction, note + "building " + walk + "the brick store " + options_.store};
   else if (st.stage == BackgroundBuild::Stage::Failed)
@@ -282,23 +288,27 @@ void EngineHost::show_store(std::shared_ptr<LodScene> store) {
 }
 
 bool EngineHost::preview_ready() const {
-  if (!build_ || preview_tried_ || lod_) return false;
+  if (!build_ || (lod_ && preview_depth_ == 0)) return false;
   const BackgroundBuild::State st = build_->state();
-  return st.stage == BackgroundBuild::Stage::Running && !st.preview.empty();
+  return st.stage == BackgroundBuild::Stage::Running && !st.preview.empty() && st.preview != preview_tried_;
 }
 
 EngineHost::Switch EngineHost::switch_to_preview() {
-  preview_tried_ = true;
   const BackgroundBuild::State st = build_->state();
+  preview_tried_ = st.preview;
   std::shared_ptr<LodScene> preview;
   try {
     preview = open_store(options_, gl_, st.preview);
   } catch (const std::exception& e) {
     // Removed meanwhile (the build ended) or unreadable: the store follows as before.
-    return {false, {"build", st.label, st.fraction, "the coarse preview cannot be opened: " + std::string(e.what())}};
+    return {false,
+            {"build", st.label, st.fraction,
+             std::string(st.preview_sketch ? "the point sketch" : "the coarse preview") +
+                 " cannot be opened: " + e.what()}};
   }
   show_store(std::move(preview));
   preview_depth_ = st.preview_depth;
+  preview_sketch_ = st.preview_sketch;
   return {true, build_report()->progress};
 }
 

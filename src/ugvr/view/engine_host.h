@@ -81,7 +81,8 @@ class EngineHost {
     ProgressInfo progress;  // "ready" (a new scene() follows), or "failed"
   };
   Switch switch_to_store();
-  // Out of core: the build has written its coarse preview (BackgroundBuild::State::preview) and it is not shown yet.
+  // Out of core: the build has written a preview (BackgroundBuild::State::preview: the point sketch, then the coarse
+  // preview) that is not shown yet, and no store is shown but an earlier preview.
   bool preview_ready() const;
   // Shows the coarse preview while the build goes on (as switch_to_store does, keeping the reset view): every tab's
   // renderer starts afresh on it; the build's progress then says "coarse preview (levels 0–K) while the store is
@@ -121,9 +122,11 @@ class EngineHost {
   std::unique_ptr<GridLoad> load_;  // the grid being read and prepared; null once done (or never)
   std::string notice_;              // options.notice: said with every progress of the load
   bool build_started_ = false;      // the store's build was started from the loaded grid
-  // The coarse preview: tried (shown, or failed to open), and its depth when shown (0: the store itself is shown).
-  bool preview_tried_ = false;
+  // The build's previews (the point sketch, then the coarse preview): the last one tried (shown, or failed to open),
+  // and the one shown: its depth (0: none, or the store itself is shown) and whether it is the sketch.
+  std::string preview_tried_;
   int preview_depth_ = 0;
+  bool preview_sketch_ = false;
 };
 
 }  // namespace ugvr::view
