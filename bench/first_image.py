@@ -7,8 +7,11 @@ measures from the process's start
   - first_image_s: the first frame (a binary WebSocket message after hello);
   - first_image_texel_px: that frame's max_texel_error (status; screen pixels per texel of the cut's nodes);
   - preview_s: out of core, the first progress message saying a coarse preview is shown (octree/coarse_preview.h);
+  - sketch_s: out of core, the first progress message saying the point sketch is shown (octree/point_sketch.h);
+    first_image_shown and cut_shown: what the frame showed ("sketch", "preview", "store");
   - cut_s (with --cut-px P): the first frame whose cut has max_texel_error <= P px (cut_from_preview: while the
-    coarse preview was shown, before the store); the run then goes on until that frame comes;
+    coarse preview was shown, before the store), not counting the point sketch's frames (sketch_cut_s: the first
+    such frame of the sketch); the run then goes on until that frame comes;
   - ready_s: the store shown (progress "ready"), if it comes within --wait seconds after the first image;
   - peak_rss_bytes: the viewer's VmHWM at the end.
 
@@ -67,6 +70,7 @@ def main():
         ws.sock.settimeout(args.timeout)
         ws.send_json({"type": "hello", "width": 512, "height": 512})
         first, ready, last_status = None, None, {}
+        shown = "store"  # what the frames show: "sketch", "preview", or the store (or the exact engine's grid)
 
         def cut_done():
             return args.cut_px <= 0 or "cut_s" in out
@@ -76,15 +80,20 @@ def main():
             now = round(time.monotonic() - start, 3)
             if not text:
                 texel = last_status.get("max_texel_error")
-                if args.cut_px > 0 and texel is not None and texel <= args.cut_px and "cut_s" not in out:
+                # A sketch's fine cut is not data at that resolution (octree/point_sketch.h): timed apart.
+                if args.cut_px > 0 and texel is not None and texel <= args.cut_px and shown == "sketch":
+                    out.setdefault("sketch_cut_s", now)
+                elif args.cut_px > 0 and texel is not None and texel <= args.cut_px and "cut_s" not in out:
                     out["cut_s"] = now
                     out["cut_px"] = args.cut_px
                     out["cut_from_preview"] = ready is None and "preview_s" in out
+                    out["cut_shown"] = "store" if ready is not None else shown
                 if first is None:
                     first = now
                     out["first_image_s"] = first
                     out["first_image_engine"] = last_status.get("engine")
                     out["first_image_texel_px"] = texel
+                    out["first_image_shown"] = shown
                     # The store was shown first (the out-of-core path without a preview).
                     if (args.wait <= 0 or ready is not None) and cut_done():
                         break
@@ -100,6 +109,11 @@ def main():
                 # The page's line while the preview is shown; the out-of-core notice only announces one.
                 if "coarse preview (levels" in msg.get("message", ""):
                     out.setdefault("preview_s", now)
+                    shown = "preview"
+                # The point sketch (octree/point_sketch.h), shown before the preview.
+                if "sketch from the mesh's points" in msg.get("message", ""):
+                    out.setdefault("sketch_s", now)
+                    shown = "sketch"
                 if msg["stage"] == "failed":
                     raise RuntimeError(msg["message"])
                 if msg["stage"] == "ready":
