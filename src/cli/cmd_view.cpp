@@ -202,8 +202,8 @@ void run_view(const Options& o) {
         vo.out_of_core_input = o.inputs[0];
         vo.out_of_core_budget = budget;
         vo.notice = why +
-                    ": no exact preview; the store is built out of core with its cells, shown as a coarse preview "
-                    "first (exact at rest once built)";
+                    ": no exact preview; the store is built out of core with its cells, shown first as a sketch "
+                    "from the points (large meshes), then as a coarse preview (exact at rest once built)";
         std::fprintf(stderr, "ugvr view: %s\n", vo.notice.c_str());
         std::fprintf(stderr, "ugvr view: building the brick store %s out of core\n", vo.store.c_str());
       }
