@@ -301,6 +301,36 @@ TEST_F(CliRender, EngineTimeBudgetDrawsWhatFitsAndSaysWhat) {
   }
 }
 
+// A mesh over the memory budget (here 100 KiB) is never read whole: its store is built out of core into the viewer's
+// cache and drawn by the LOD engine; the next render draws that store at once; the exact engine is refused with why.
+TEST_F(CliRender, AMeshOverTheMemoryBudgetIsDrawnFromItsStoreBuiltOutOfCore) {
+  const std::string env = "UGVR_CACHE_DIR=" + file("cache") + " UGVR_VIEW_MEMORY_BUDGET=100KiB ";
+  const std::string view = " --size 64 --view iso --field pressure";
+  const CommandResult first = test::run_command(env + UGVR_BINARY + " render " + data() + " -o " + file("a.png") +
+                                                view + " --stats " + file("a.json"));
+  ASSERT_EQ(first.status, 0) << first.out;
+  EXPECT_NE(first.out.find("over the memory budget of "), std::string::npos) << first.out;
+  EXPECT_NE(first.out.find("building its store out of core"), std::string::npos) << first.out;
+  EXPECT_EQ(json::parse(read_bytes(file("a.json")))["engine"], "lod");
+  int stores = 0;
+  for (const auto& e : std::filesystem::directory_iterator(file("cache"))) stores += e.path().extension() == ".ugvr";
+  EXPECT_EQ(stores, 1);
+
+  const CommandResult again = test::run_command(env + UGVR_BINARY + " render " + data() + " -o " + file("b.png") +
+                                                view + " --time-budget 30 --stats " + file("b.json"));
+  ASSERT_EQ(again.status, 0) << again.out;
+  EXPECT_NE(again.out.find("drawing the store built earlier"), std::string::npos) << again.out;
+  const json b = json::parse(read_bytes(file("b.json")));
+  EXPECT_EQ(b["time_budget"]["drew_from"], "store") << b.dump();
+  EXPECT_EQ(read_bytes(file("a.png")).empty(), false);
+
+  const CommandResult exact = test::run_command(env + UGVR_BINARY + " --quiet render " + data() + " -o " +
+                                                file("c.png") + view + " --engine exact");
+  EXPECT_EQ(exact.status, 1) << exact.out;
+  EXPECT_NE(exact.out.find("--engine"), std::string::npos) << exact.out;
+  EXPECT_NE(exact.out.find("over the memory budget"), std::string::npos) << exact.out;
+}
+
 // Time-critical rendering along a path: one stats line per frame; once the camera rests the image converges to the
 // full-quality single image of the same view.
 TEST_F(CliRender, LodPathConvergesWhenTheCameraRests) {

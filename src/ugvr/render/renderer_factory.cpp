@@ -1,7 +1,11 @@
 #include "ugvr/render/renderer_factory.h"
 
 #include <algorithm>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
+
+#include "ugvr/store/brick_store_format.h"
 
 namespace ugvr {
 
@@ -32,7 +36,15 @@ const std::vector<std::string>& engine_names() {
   return names;
 }
 
-bool is_brick_store(const std::string& path) { return std::filesystem::path(path).extension() == ".ugvr"; }
+bool is_brick_store(const std::string& path) {
+  if (std::filesystem::path(path).extension() == ".ugvr") return true;
+  // A build's coarse preview or point sketch ("<output>.preview", "<output>.sketch") by its signature.
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return false;
+  std::ifstream in(path, std::ios::binary);
+  char head[sizeof store_format::kMagic] = {};
+  return in.read(head, sizeof head) && std::memcmp(head, store_format::kMagic, sizeof head) == 0;
+}
 
 const std::vector<std::string>& device_names() {
   static const std::vector<std::string> names = {"auto", "cpu", "gpu"};

@@ -47,7 +47,7 @@ struct RendererOptions {
 const std::vector<std::string>& device_names();
 // The engine names RendererOptions::engine takes.
 const std::vector<std::string>& engine_names();
-bool is_brick_store(const std::string& path);  // by extension: .ugvr
+bool is_brick_store(const std::string& path);  // a .ugvr, or a file with the store's signature (a build's preview)
 
 // What open_renderer opened besides the renderer.
 struct OpenedInput {
