@@ -31,7 +31,11 @@ for name in $datasets; do
   esac
   [ -e "$input" ] || { echo "skipped $name: $input is missing" >&2; continue; }
   log=$scratch/view.log
-  "$ugvr" view "$input" --port 0 --fps "$rate" >"$log" 2>&1 &
+  # Where each frame's time goes (engine_host.cpp, UGVR_PLAYBACK_TRACE): summarised below as "breakdown" (a binary
+  # without the trace writes none).
+  trace=$scratch/trace-$name.jsonl
+  rm -f "$trace"
+  UGVR_PLAYBACK_TRACE=$trace "$ugvr" view "$input" --port 0 --fps "$rate" >"$log" 2>&1 &
   pid=$!
   trap 'kill $pid 2>/dev/null || true' EXIT
   for _ in $(seq 600); do grep -q 'serving http' "$log" && break; sleep 0.1; done
@@ -42,6 +46,25 @@ for name in $datasets; do
   node --experimental-websocket --no-warnings bench/view_playback.mjs "$ws" "$seconds" "$size" "$rate" >"$scratch/out.json"
   kill $pid
   wait $pid 2>/dev/null || true
-  /usr/bin/python3 -c "import json,sys; j=json.loads(open('$scratch/out.json').read()); j.update(bench='view_playback', dataset='$name', label='${LABEL:-}', renderer='$renderer', commit='$commit', date='$(date -u +%FT%TZ)', load=$(cut -d' ' -f1 /proc/loadavg)); print(json.dumps(j, separators=(',', ':')))" |
-    tee -a "$jsonl"
+  /usr/bin/python3 - "$scratch/out.json" "$trace" <<EOF | tee -a "$jsonl"
+import json, os, statistics, sys
+j = json.loads(open(sys.argv[1]).read())
+j.update(bench='view_playback', dataset='$name', label='${LABEL:-}', renderer='$renderer', commit='$commit',
+         date='$(date -u +%FT%TZ)', load=$(cut -d' ' -f1 /proc/loadavg))
+# The server's figures of the frames drawn while playing (medians, ms): the cut's update, the bricks' upload, the
+# draw, the read-back, the encoding; the bricks the prefetch had ready at the switch, the cut before and after it.
+if os.path.exists(sys.argv[2]):
+    rows = [json.loads(l) for l in open(sys.argv[2]) if l.strip()]
+    rows = [r for r in rows if r.get('playing')]
+    def med(key, scale=1):
+        xs = [r[key] * scale for r in rows if key in r]
+        return round(statistics.median(xs), 2) if xs else None
+    j['breakdown'] = dict(frames=len(rows), frame_ms=med('frame_seconds', 1e3), cut_ms=med('cut_seconds', 1e3),
+                          upload_ms=med('load_seconds', 1e3), draw_ms=med('gpu_seconds', 1e3),
+                          readback_ms=med('readback_seconds', 1e3), encode_ms=med('encode_seconds', 1e3),
+                          uploads=med('uploads'), sync_reads=med('sync_reads'), prefetched=med('prefetched'),
+                          cut_before_switch=med('switch_cut_before'), cut_after_switch=med('switch_cut_after'),
+                          visible=med('visible_nodes'), scale=med('scale'), samples=med('samples'))
+print(json.dumps(j, separators=(',', ':')))
+EOF
 done

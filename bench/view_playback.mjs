@@ -3,20 +3,20 @@
 // it sends {"type":"time","step":i+1,"playing":true} as soon as the frame of step i has arrived and 1/RATE s have
 // passed since the last step, looping over the steps. Measured: the time between frames that show a new step (what a
 // user sees as the playback's frame time; the server may send refinement frames of a step in between, counted
-// apart), the server's frame time of those frames (status.frame_seconds) and, for a brick store, their cut (nodes,
-// texel error in pixels). Prints one JSON line (ms).
+// apart), the server's frame time of those frames (status.frame_seconds), their image scale and, for a brick store,
+// their cut (nodes, texel error in pixels). Prints one JSON line (ms).
 // Usage: node --experimental-websocket bench/view_playback.mjs WS_URL [SECONDS=30] [SIZE=512] [RATE=10]
 const [url, secondsArg = "30", sizeArg = "512", rateArg = "10"] = process.argv.slice(2);
 const SECONDS = Number(secondsArg), SIZE = Number(sizeArg), RATE = Number(rateArg);
 const ws = new WebSocket(url);
 ws.binaryType = "arraybuffer";
 let count = 0, status = null, step = 0, started = false, t0 = 0, lastStep = 0, lastNewStep = 0;
-const frameMs = [], gapMs = [], cutNodes = [], texelErrors = [];
+const frameMs = [], gapMs = [], cutNodes = [], texelErrors = [], scales = [];
 let shownBefore = -1, refinements = 0;
 
-const pct = (xs, q) => {
+const pct = (xs, q, digits = 1) => {
   const s = [...xs].sort((a, b) => a - b);
-  return s.length ? Number(s[Math.min(s.length - 1, Math.floor(q * (s.length - 1) + 0.5))].toFixed(1)) : null;
+  return s.length ? Number(s[Math.min(s.length - 1, Math.floor(q * (s.length - 1) + 0.5))].toFixed(digits)) : null;
 };
 
 function next(now) {
@@ -54,6 +54,7 @@ ws.onmessage = (ev) => {
   } else {
     frameMs.push(1000 * status.frame_seconds);
     if (status.cut_nodes) cutNodes.push(status.cut_nodes), texelErrors.push(status.texel_error);
+    scales.push(status.scale ?? 1);
     gapMs.push(now - lastNewStep);
     lastNewStep = now;
     shownBefore = status.time_step;
@@ -69,6 +70,8 @@ ws.onmessage = (ev) => {
       steps_per_second: Number((frameMs.length / ((now - t0) / 1000)).toFixed(2)),
       // A brick store's step frames: how fine the cut they drew was (the exact engine reports none).
       cut_nodes_median: pct(cutNodes, 0.5), texel_error_median: pct(texelErrors, 0.5),
+      // The image scale the frame was ray cast at (magnified to SIZE): the controller's other lever.
+      scale_median: pct(scales, 0.5, 2), scale_p05: pct(scales, 0.05, 2),
     }));
     ws.close();
     process.exit(0);

@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <vector>
 
@@ -50,6 +52,35 @@ std::shared_ptr<LodScene> open_store(const ViewServerOptions& options, std::shar
   auto scene = std::make_shared<LodScene>(path, std::move(gl), lo);
   scene->engine.set_field("");
   return scene;
+}
+
+// Playing a time series, the share of a step's period (less its measured overhead) a render is budgeted: the frame
+// controller aims at the budget's typical frame, and on a loaded machine frames of one budget vary by a factor of 1.5
+// or so; this keeps the slow ones within the bound (the gap between steps at p95 <= 1.5 periods).
+constexpr double kPlayingRenderShare = 0.8;
+
+// UGVR_PLAYBACK_TRACE=FILE: one JSON line per frame of a time series appended to FILE (bench/run_view_playback.sh):
+// where a step frame's time goes. The renderer's figures (InteractiveLodFrameStats for a store: the cut, the image
+// scale, the bricks uploaded and read on the render thread, the upload, draw and read-back seconds, the prefetch)
+// and the encoding. Off (no cost) when the variable is unset.
+void trace_time_frame(const FrameJob& job, const FrameRequest& fr, const ugvr::Frame& f, double encode_seconds) {
+  static const char* path = std::getenv("UGVR_PLAYBACK_TRACE");
+  if (!path || !*path) return;
+  nlohmann::json j;
+  if (f.stats.detail) f.stats.detail->to_json(j);
+  j["tab"] = job.tab;
+  j["step"] = fr.time_step ? int64_t(*fr.time_step) : -1;
+  j["playing"] = job.request.playing;
+  j["full_quality"] = job.full_quality;
+  j["target_fps"] = fr.target_fps;
+  j["frame_seconds"] = f.stats.seconds;
+  j["encode_seconds"] = encode_seconds;
+  j["t"] = std::chrono::duration<double>(Clock::now().time_since_epoch()).count();
+  if (FILE* out = std::fopen(path, "a")) {
+    const std::string line = j.dump() + "\n";
+    std::fwrite(line.data(), 1, line.size(), out);
+    std::fclose(out);
+  }
 }
 
 }  // namespace
@@ -356,23 +387,34 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   // target rate leaves (at least 20 ms), so that the steps, not only the renders, come at the target rate.
   const bool playing = (timed || timed_store) && request.playing && !job.full_quality;
   const Clock::time_point render_start = Clock::now();
-  if (playing && job.target_fps > 0 && tab.step_overhead > 0)
-    fr.target_fps = 1 / std::max(0.02, 1 / job.target_fps - tab.step_overhead);
+  if (playing && job.target_fps > 0)
+    fr.target_fps = 1 / std::max(0.02, kPlayingRenderShare * (1 / job.target_fps - tab.step_overhead));
+  // Playing: the next step is read while this frame is encoded and sent (the switch then costs the field swap). The
+  // store's renderer starts the read after this frame's draw, for the nodes it drew.
+  if (timed_store && request.playing) fr.prefetch_time_step = (*fr.time_step + 1) % lod_->engine.store().step_count();
   ugvr::Frame f = tab.renderer->render(fr);
   if (playing) {
-    if (tab.step_started) {
+    if (tab.step_started && job.target_fps > 0) {
+      // A period well over the target's had no wait in it (the page asks for the next step as soon as the frame is
+      // shown, once the period has passed): period - render is the overhead. A period near the target may hold the
+      // page's wait for its time: period - render then only bounds the overhead from above, and the estimate decays
+      // (a real overhead makes the periods late again and is learnt back). Taking every period - render as the
+      // overhead would shrink the render's share to whatever it last took (a render of 30 ms leaves 70 ms of
+      // "overhead" and is given 30 ms again, however coarse that makes every step); a margin of 20 % keeps the
+      // timers' and the scheduler's jitter on a loaded machine out of it.
       const double period = std::chrono::duration<double>(render_start - *tab.step_started).count();
       const double overhead = std::max(0.0, period - tab.last_render_seconds);
-      tab.step_overhead = tab.step_overhead > 0 ? 0.7 * tab.step_overhead + 0.3 * overhead : overhead;
+      if (period > 1.2 / job.target_fps)
+        tab.step_overhead = 0.7 * tab.step_overhead + 0.3 * overhead;
+      else
+        tab.step_overhead = 0.9 * std::min(tab.step_overhead, overhead);
     }
     tab.step_started = render_start;
     tab.last_render_seconds = f.stats.seconds;
   } else {
     tab.step_started.reset();
   }
-  // Playing: the next step is read while this frame is encoded and sent (the switch then costs the field swap).
   if (timed && request.playing) exact_->prefetch((*fr.time_step + 1) % uint32_t(exact_->series->size()));
-  if (timed_store && request.playing) fr.prefetch_time_step = (*fr.time_step + 1) % lod_->engine.store().step_count();
   const Image& image = f.image;
   const bool converged = f.stats.converged;
   FrameStatus st;
@@ -398,9 +440,11 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
     st.cell_budget_full = h.cell_budget_full;
     st.exact_off = h.hybrid_off;
   }
+  const Clock::time_point encode_start = Clock::now();
   const std::vector<unsigned char> encoded = converged ? png_bytes(image) : jpeg_bytes(image);
   auto bytes = std::make_shared<const std::string>(encoded.begin(), encoded.end());
   const Clock::time_point now = Clock::now();
+  if (timed || timed_store) trace_time_frame(job, fr, f, std::chrono::duration<double>(now - encode_start).count());
   if (tab.counting) {
     const double dt = std::chrono::duration<double>(now - tab.last).count();
     if (dt > 0) tab.shown_fps = tab.shown_fps > 0 ? 0.8 * tab.shown_fps + 0.2 / dt : 1 / dt;
