@@ -6,13 +6,15 @@
 # The must-show: gap (frame-to-frame) p95 <= 1.5 x 1/RATE.
 # Usage: bench/run_view_playback.sh [SCRATCH=/tmp/ugvr-playback]
 #   UGVR (build/ugvr), UGVR_DATA (../shared/data), CELLS (generated series, 200000), SIZE (512), RATE (10),
-#   RUN_SECONDS (30), DATASETS ("generated mug"; also "store"), LABEL (a tag in the result line). Needs node >= 20.
+#   RUN_SECONDS (30), DATASETS ("generated mug"; also "store"), LABEL (a tag in the result line), PACING ("shown": the
+#   page's pacing by the frames' arrival; "asked": by the requests, as the page paced before 2026-11-27; see
+#   bench/view_playback.mjs). Needs node >= 20.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scratch=${1:-/tmp/ugvr-playback}
 ugvr=${UGVR:-build/ugvr}
 data=${UGVR_DATA:-../shared/data}
-cells=${CELLS:-200000} size=${SIZE:-512} rate=${RATE:-10} seconds=${RUN_SECONDS:-30}
+cells=${CELLS:-200000} size=${SIZE:-512} rate=${RATE:-10} seconds=${RUN_SECONDS:-30} pacing=${PACING:-shown}
 datasets=${DATASETS:-generated mug}
 jsonl=bench/results/view_playback.jsonl
 mkdir -p "$scratch" bench/results
@@ -43,7 +45,8 @@ for name in $datasets; do
   [ -n "$url" ] || { cat "$log" >&2; exit 1; }
   renderer=$(sed -n 's/.*serving http[^ ]* (\(.*\))$/\1/p' "$log" | head -1)
   ws=$(echo "$url" | sed 's|^http://\([^/]*\)/\(.*\)$|ws://\1/ws\2|')
-  node --experimental-websocket --no-warnings bench/view_playback.mjs "$ws" "$seconds" "$size" "$rate" >"$scratch/out.json"
+  node --experimental-websocket --no-warnings bench/view_playback.mjs "$ws" "$seconds" "$size" "$rate" "$pacing" \
+    >"$scratch/out.json"
   kill $pid
   wait $pid 2>/dev/null || true
   /usr/bin/python3 - "$scratch/out.json" "$trace" <<EOF | tee -a "$jsonl"
