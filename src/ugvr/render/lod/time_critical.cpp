@@ -181,7 +181,10 @@ void TimeCriticalRenderer::switch_time_step() {
   }
   I.residency = std::make_unique<BrickResidency>(I.engine.store(), I.engine.gpu_slots(), I.cache.get());
   sw.prefetched = I.cache->stats().resident_bricks;
-  I.coarsen_to_resident();
+  // A step reached without a prefetch (the slider; the first step played) has nothing in RAM: coarsening would leave
+  // the coarsest cut, and a jump is rare enough to be drawn at the tab's cut, read on this thread, instead. A prefetch
+  // of this step (playing) has read what it could, coarse bricks first: the cut is coarsened to it.
+  if (sw.prefetched > 0) I.coarsen_to_resident();
   sw.switch_cut_after = I.cut.size();
   // The node errors are the new step's (ActiveCut caches them per view).
   I.cut.set_options(I.cut.options());

@@ -104,10 +104,11 @@ class TimeCriticalRenderer {
   // frame is a playing one (TimeCriticalFrame::playing): it reads nothing more for its own step.
   void prefetch_time_step(uint32_t step);
   // After LodEngine::set_time_step: takes the prefetched bricks if they are of the engine's new step (else a new,
-  // empty cache), drops the old step's, and coarsens the cut to the finest cover of the view whose bricks the new
-  // cache holds (merging nodes whose bricks were not read in time into ancestors that were), so that the step's first
-  // frame reads nothing on the render thread; that frame is a moving one (within the frame budget: each step of a
-  // playback is drawn once, at the interactive quality).
+  // empty cache), drops the old step's, and, when the prefetch read anything, coarsens the cut to the finest cover of
+  // the view whose bricks the new cache holds (merging nodes whose bricks were not read in time into ancestors that
+  // were), so that the step's first frame reads nothing on the render thread (without a prefetch the cut is kept and
+  // its bricks are read in that frame); that frame is a moving one (within the frame budget: each step of a playback
+  // is drawn once, at the interactive quality).
   void switch_time_step();
   // Waits until the prefetch has every brick it asked for, or timeout_seconds pass; false when there is none or it
   // is incomplete. For tests and batch callers.
