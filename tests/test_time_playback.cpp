@@ -3,6 +3,7 @@
 // the next step reads nothing from disk on the render thread.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <memory>
 #include <string>
 
@@ -85,17 +86,68 @@ TEST(TimePlayback, StepSwitchKeepsTheCutAndReadsTheNextStepAhead) {
     q.time_step = 1;
     const Frame next = r.render(q);
     const TimeCriticalFrame& d = detail_of(next);
-    EXPECT_FALSE(next.stats.resting);          // drawn within the frame budget, as a moving frame
-    EXPECT_GE(next.stats.cut_nodes, cut / 2);  // the cut carried over, not restarted from the coarsest
-    EXPECT_GT(d.uploads, 0u);                  // the new step's bricks replaced the old ones on the GPU
-    // Without the prefetch the new step's bricks come from disk in this frame: read on the render thread, or by the
-    // cache's workers (which may win the race for small bricks), loaded or still under way when the frame ends.
-    const uint64_t from_disk = d.sync_reads + d.cache.loads_completed + d.cache.queued + d.cache.loading;
-    if (prefetch)
+    EXPECT_FALSE(next.stats.resting);  // drawn within the frame budget, as a moving frame
+    EXPECT_TRUE(d.switched);
+    EXPECT_EQ(d.switch_cut_before, cut);
+    EXPECT_GT(d.uploads, 0u);  // the new step's bricks replaced the old ones on the GPU
+    if (prefetch) {
+      EXPECT_EQ(d.switch_cut_after, cut);  // every drawn brick was read ahead: the cut carried over
+      // The frame is budgeted as a moving one: the ancestors were read ahead too, so the cut can merge down to the
+      // policy's node budget (the coarsest cut, at most the root's 8 children, whatever the budget).
+      EXPECT_LE(next.stats.cut_nodes, std::max<uint64_t>(d.budget_nodes, 8));
       EXPECT_EQ(d.sync_reads, 0u);
-    else
-      EXPECT_GT(from_disk, 0u);
+      EXPECT_TRUE(d.playing);  // a prefetch was asked for after the last frame
+    } else {
+      // Nothing of step 1 in RAM: the cut is kept, and its bricks come from disk in this frame: read on the render
+      // thread, or by the cache's workers (which may win the race for small bricks), loaded or still under way.
+      EXPECT_EQ(d.prefetched, 0u);
+      EXPECT_EQ(d.switch_cut_after, cut);
+      EXPECT_GE(next.stats.cut_nodes, cut / 2);
+      EXPECT_GT(d.sync_reads + d.cache.loads_completed + d.cache.queued + d.cache.loading, 0u);
+      EXPECT_FALSE(d.playing);
+    }
     EXPECT_NE(next.image.rgba, step0.rgba);  // the vortex street moved
+  }
+}
+
+// Playing with the prefetch cut short (the next step asked for before its bricks can all be read): the switch
+// coarsens the cut to the bricks that were read (coarse ones first), so the step's first frame reads nothing on the
+// render thread, and being a playing frame it queues no read of its own step (the workers go to the next one).
+TEST(TimePlayback, PlayingFramesDrawOnlyPrefetchedBricks) {
+  const Fixture& f = fixture();
+  UGVR_REQUIRE_GL_CONTEXT(f.gl, f.gl_error);
+  const BrickStoreReader store(f.store);
+  auto scene = std::make_shared<LodScene>(f.store, f.gl);
+  TimeCriticalOptions tco;
+  tco.loader_threads = 1;
+  InteractiveLodRenderer r(scene, tco);
+  FrameRequest q = request_for(store);
+  Frame frame = r.render(q);
+  for (int i = 0; i < 100 && !frame.stats.converged; ++i) frame = r.render(q);
+  ASSERT_TRUE(frame.stats.converged);
+  const uint64_t cut = frame.stats.cut_nodes;
+  // Play 0 -> 1 -> 2 -> 0 with no wait between the steps.
+  for (uint32_t s = 1; s <= 3; ++s) {
+    SCOPED_TRACE("step " + std::to_string(s % 3));
+    q.prefetch_time_step = s % 3;
+    r.render(q);  // the previous step's frame asks for this one's bricks
+    q.time_step = s % 3;
+    q.prefetch_time_step = (s + 1) % 3;
+    const Frame next = r.render(q);
+    const TimeCriticalFrame& d = detail_of(next);
+    EXPECT_TRUE(d.switched);
+    EXPECT_TRUE(d.playing);
+    EXPECT_LE(d.switch_cut_after, d.switch_cut_before);
+    if (s == 1) {
+      EXPECT_EQ(d.switch_cut_before, cut);  // the converged cut, kept by the frame at rest before
+    }
+    // One worker reads by priority, the root first: once it has read anything, every drawn brick is in RAM (before,
+    // the switch keeps the cut and reads its bricks here).
+    if (d.prefetched > 0) {
+      EXPECT_EQ(d.sync_reads, 0u) << "prefetched " << d.prefetched << ", cut " << d.switch_cut_after;
+    }
+    EXPECT_EQ(d.cache.queued, 0u);  // nothing of this step queued: it is shown once
+    EXPECT_GT(d.uploads, 0u);
   }
 }
 

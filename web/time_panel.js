@@ -2,9 +2,12 @@
 // time axis of more than one step ("time": {"count", "times", "step"}, view_protocol.h). A slider over the steps and
 // a label (step i of n, t = time), play/pause, loop and a rate in steps per second. A step change is one
 // {"type":"time","step":N,"playing":B} message, queued like app.js's own so that a slider drag sends one message per
-// animation frame (the latest step). Playing advances one step once the frame of the current step has been drawn
-// and 1/rate seconds have passed since the last advance: never faster than the frames come back, so steps are not
-// skipped and no requests pile up; at the end it stops, or with loop starts again at step 0. Loaded after vec.js and
+// animation frame (the latest step). Playing advances one step once the frame of the current step has been drawn,
+// never faster than the frames come back, so steps are not skipped and no requests pile up; at the end it stops, or
+// with loop starts again at step 0. The steps are paced by when their frames are shown, not by when they were asked
+// for: the next step is asked for 1/rate seconds after the current one was shown, less the time a step's frame takes
+// to come back (measured, averaged), so that frames appear 1/rate apart however long each took (paced by the
+// requests, a slow frame after a quick one would show late by the difference). Loaded after vec.js and
 // before app.js, whose queue() it calls when the user acts or a frame arrives (app.js calls ugvrTime.onScene and
 // ugvrTime.onFrame).
 'use strict';
@@ -17,6 +20,9 @@ const ugvrTime = (() => {
   let loop = true;
   let rate = 5;         // steps per second while playing
   let lastAdvance = 0;  // performance.now() of the last step played
+  let shownAt = 0;      // performance.now() when the frame of the step asked for last was shown (playing)
+  let latency = 0;      // seconds from asking for a step to its frame shown, averaged over the steps played
+  let wake = null;      // the timeout of the next advance
   let sent = 0;         // time messages queued (for the test hook)
   let panel = null;
   let timer = null;
@@ -43,7 +49,14 @@ const ugvrTime = (() => {
   function advance() {
     if (!playing || shown !== step) return;  // the current step's frame is not drawn yet
     const now = performance.now();
-    if (now - lastAdvance < 1000 / rate) return;
+    // The next frame should be shown 1/rate after this one: ask for it that long after this one was shown, less
+    // the time a frame takes to come back (at once when that is longer than 1/rate).
+    const due = shownAt + 1000 / rate - 1000 * latency;
+    if (now < due) {
+      clearTimeout(wake);
+      wake = setTimeout(advance, due - now);
+      return;
+    }
     if (step + 1 >= times.length) {
       if (!loop) {
         setPlaying(false);
@@ -60,6 +73,8 @@ const ugvrTime = (() => {
   function setPlaying(on) {
     playing = on && times.length > 1;
     clearInterval(timer);
+    clearTimeout(wake);
+    shownAt = 0, latency = 0;
     timer = playing ? setInterval(advance, 20) : null;
     // The server reads the next step ahead only while the page plays: tell it either way (a scene without a time
     // axis rejects the message).
@@ -146,6 +161,12 @@ const ugvrTime = (() => {
     // A frame was drawn (its status): playing moves on once the current step is on the canvas.
     onFrame(status) {
       if (!status || status.time_step === undefined) return;
+      if (playing && status.time_step === step && shown !== step) {
+        // The step asked for last is shown now: how long it took to come back.
+        shownAt = performance.now();
+        const took = (shownAt - lastAdvance) / 1000;
+        latency = latency > 0 ? 0.7 * latency + 0.3 * took : took;
+      }
       shown = status.time_step;
       advance();
     },

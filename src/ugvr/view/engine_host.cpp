@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <vector>
 
@@ -52,6 +54,35 @@ std::shared_ptr<LodScene> open_store(const ViewServerOptions& options, std::shar
   return scene;
 }
 
+// Playing a time series, the largest share of a step's period a render is budgeted: the frame controller aims at the
+// budget's typical frame, and on a loaded machine frames of one budget vary by a factor of 1.5 or so; this keeps the
+// slow ones within the bound (the gap between steps at p95 <= 1.5 periods).
+constexpr double kPlayingRenderShare = 0.8;
+
+// UGVR_PLAYBACK_TRACE=FILE: one JSON line per frame of a time series appended to FILE (bench/run_view_playback.sh):
+// where a step frame's time goes. The renderer's figures (InteractiveLodFrameStats for a store: the cut, the image
+// scale, the bricks uploaded and read on the render thread, the upload, draw and read-back seconds, the prefetch)
+// and the encoding. Off (no cost) when the variable is unset.
+void trace_time_frame(const FrameJob& job, const FrameRequest& fr, const ugvr::Frame& f, double encode_seconds) {
+  static const char* path = std::getenv("UGVR_PLAYBACK_TRACE");
+  if (!path || !*path) return;
+  nlohmann::json j;
+  if (f.stats.detail) f.stats.detail->to_json(j);
+  j["tab"] = job.tab;
+  j["step"] = fr.time_step ? int64_t(*fr.time_step) : -1;
+  j["playing"] = job.request.playing;
+  j["full_quality"] = job.full_quality;
+  j["target_fps"] = fr.target_fps;
+  j["frame_seconds"] = f.stats.seconds;
+  j["encode_seconds"] = encode_seconds;
+  j["t"] = std::chrono::duration<double>(Clock::now().time_since_epoch()).count();
+  if (FILE* out = std::fopen(path, "a")) {
+    const std::string line = j.dump() + "\n";
+    std::fwrite(line.data(), 1, line.size(), out);
+    std::fclose(out);
+  }
+}
+
 }  // namespace
 
 // What the render thread keeps for one tab.
@@ -62,9 +93,9 @@ struct EngineHost::Tab {
   double shown_fps = 0;
   Clock::time_point last;
   bool counting = false;  // the previous frame was part of an interaction (not converged): fps is measured
-  // Playing a time series: what a step costs beyond its render (the field swap, encoding, the trip to the page and
-  // back with the next step's request), averaged, and when the previous step's render started.
-  double step_overhead = 0, last_render_seconds = 0;
+  // Playing a time series: the render's budget (seconds; adapted to the steps' period, see render()), and when the
+  // previous step's render started.
+  double render_budget = 0;
   std::optional<Clock::time_point> step_started;
 };
 
@@ -362,27 +393,40 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   const bool timed_store = on_store && lod_ && lod_->engine.store().has_steps();
   if (timed_store)
     fr.time_step = std::min(request.time_step.value_or(scene_.time_step), lod_->engine.store().step_count() - 1);
-  // Playing, a step's period is its render plus the step's overhead: the render is given what the period at the
-  // target rate leaves (at least 20 ms), so that the steps, not only the renders, come at the target rate.
+  // Playing, a step's period is its render plus what the step costs around it (the switch, encoding, the trip to the
+  // page and back): the render's budget is adapted so that the periods, not only the renders, hold the target rate.
   const bool playing = (timed || timed_store) && request.playing && !job.full_quality;
   const Clock::time_point render_start = Clock::now();
-  if (playing && job.target_fps > 0 && tab.step_overhead > 0)
-    fr.target_fps = 1 / std::max(0.02, 1 / job.target_fps - tab.step_overhead);
-  ugvr::Frame f = tab.renderer->render(fr);
-  if (playing) {
+  const double target_period = job.target_fps > 0 ? 1 / job.target_fps : 0;
+  if (playing && target_period > 0) {
     if (tab.step_started) {
+      // The period is what the server sees: this step's request arrived period seconds after the previous one's
+      // render started. A late period (the render and its overhead exceeded it) takes the excess off the budget at
+      // once; a period on time may hold the page's wait for the step's time (web/time_panel.js), which says nothing
+      // about how much of the period the render may take, so the budget grows back slowly toward its cap. (Subtracting
+      // period - render as an "overhead" instead had no fixed point: a 30 ms render left 70 ms of "overhead" and was
+      // given 30 ms again, however coarse that made every step.)
       const double period = std::chrono::duration<double>(render_start - *tab.step_started).count();
-      const double overhead = std::max(0.0, period - tab.last_render_seconds);
-      tab.step_overhead = tab.step_overhead > 0 ? 0.7 * tab.step_overhead + 0.3 * overhead : overhead;
+      const double cap = kPlayingRenderShare * target_period;
+      if (period > 1.05 * target_period)
+        tab.render_budget = std::max(0.02, tab.render_budget - 0.5 * (period - target_period));
+      else
+        tab.render_budget += 0.1 * (cap - tab.render_budget);
+      tab.render_budget = std::min(tab.render_budget, cap);
+    } else {
+      tab.render_budget = kPlayingRenderShare * target_period;
     }
-    tab.step_started = render_start;
-    tab.last_render_seconds = f.stats.seconds;
-  } else {
-    tab.step_started.reset();
+    fr.target_fps = 1 / tab.render_budget;
   }
-  // Playing: the next step is read while this frame is encoded and sent (the switch then costs the field swap).
-  if (timed && request.playing) exact_->prefetch((*fr.time_step + 1) % uint32_t(exact_->series->size()));
+  // Playing: the next step is read while this frame is encoded and sent (the switch then costs the field swap). The
+  // store's renderer starts the read after this frame's draw, for the nodes it drew.
   if (timed_store && request.playing) fr.prefetch_time_step = (*fr.time_step + 1) % lod_->engine.store().step_count();
+  ugvr::Frame f = tab.renderer->render(fr);
+  if (playing)
+    tab.step_started = render_start;
+  else
+    tab.step_started.reset();
+  if (timed && request.playing) exact_->prefetch((*fr.time_step + 1) % uint32_t(exact_->series->size()));
   const Image& image = f.image;
   const bool converged = f.stats.converged;
   FrameStatus st;
@@ -408,9 +452,11 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
     st.cell_budget_full = h.cell_budget_full;
     st.exact_off = h.hybrid_off;
   }
+  const Clock::time_point encode_start = Clock::now();
   const std::vector<unsigned char> encoded = converged ? png_bytes(image) : jpeg_bytes(image);
   auto bytes = std::make_shared<const std::string>(encoded.begin(), encoded.end());
   const Clock::time_point now = Clock::now();
+  if (timed || timed_store) trace_time_frame(job, fr, f, std::chrono::duration<double>(now - encode_start).count());
   if (tab.counting) {
     const double dt = std::chrono::duration<double>(now - tab.last).count();
     if (dt > 0) tab.shown_fps = tab.shown_fps > 0 ? 0.8 * tab.shown_fps + 0.2 / dt : 1 / dt;

@@ -113,6 +113,17 @@ void InteractiveLodFrameStats::to_json(nlohmann::json& j) const {
   j["gpu_seconds"] = f.render.gpu_seconds;
   j["gpu_timer_seconds"] = f.render.gpu_timer_seconds;
   j["samples"] = f.render.samples;
+  // Where the frame's time went besides the draw: the cut's update, the bricks' upload (with reads on this thread),
+  // the read-back; and, playing a time store, the step switch (docs/time-series.md).
+  j["cut_seconds"] = f.cut_seconds;
+  j["load_seconds"] = f.render.load_seconds;
+  j["readback_seconds"] = f.render.readback_seconds;
+  j["playing"] = f.playing;
+  if (f.switched) {
+    j["prefetched"] = f.prefetched;
+    j["switch_cut_before"] = f.switch_cut_before;
+    j["switch_cut_after"] = f.switch_cut_after;
+  }
   hybrid_json(f.render, j);
 }
 

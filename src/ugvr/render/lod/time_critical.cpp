@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
+#include <unordered_map>
+#include <unordered_set>
 
 #include "ugvr/core/error.h"
 #include "ugvr/render/lod/active_cut.h"
@@ -30,9 +33,12 @@ struct TimeCriticalRenderer::Impl {
   std::optional<Camera> last_camera;
   std::optional<TransferFunction> last_tf;
   std::optional<RenderSettings> last_settings;
-  bool rest_converged = false;  // the cut converged in the last frame, at rest
-  int stalled_frames = 0;       // resting frames in a row in which the cut could not refine for lack of memory
-  uint64_t exact_limit = 0;     // hybrid: nodes that may be exact in the next frame (grows by exact_batch at rest)
+  std::vector<uint64_t> last_visible;  // the last frame's drawn nodes, ascending
+  bool prefetch_asked = false;         // prefetch_time_step since the last frame: the next frame is a playing one
+  TimeCriticalFrame switch_report;     // switch_time_step's figures, for the next frame's report
+  bool rest_converged = false;         // the cut converged in the last frame, at rest
+  int stalled_frames = 0;              // resting frames in a row in which the cut could not refine for lack of memory
+  uint64_t exact_limit = 0;  // hybrid: nodes that may be exact in the next frame (grows by exact_batch at rest)
 
   Impl(LodEngine& e, TimeCriticalOptions o)
       : engine(e),
@@ -53,6 +59,14 @@ struct TimeCriticalRenderer::Impl {
   // target; the scale is then 1).
   Image step(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings, bool unlimited,
              const QualityChoice& choice, TimeCriticalFrame& f);
+  // switch_time_step: the cut coarsened to what the new step's cache holds (see there).
+  void coarsen_to_resident();
+  // Brick-tree depth of a node (0 for the coarsest cut's nodes).
+  int depth(uint64_t n) const {
+    int d = 0;
+    for (uint64_t p = cut.brick_parent(n); p != kNoNode; p = cut.brick_parent(p)) ++d;
+    return d;
+  }
 
   // The boundary overlay bounds the data the cut draws: then nothing may be dropped for being transparent under the
   // transfer function (lod_engine.h).
@@ -96,13 +110,66 @@ void TimeCriticalRenderer::prefetch_time_step(uint32_t step) {
     const uint64_t room = I.options.ram_budget_bytes > used ? I.options.ram_budget_bytes - used : 0;
     I.prefetch = std::make_unique<BrickCache>(I.engine.store(), I.engine.field(), room, I.options.loader_threads, step);
   }
-  I.prefetch->request(I.last_drawn);
+  // Coarse before fine: each drawn node's brick ancestors, then the node, by level (priority 2^-depth below the drawn
+  // nodes' 1e30), so that what is read when the next step comes is a cover of the view at some coarser level (the
+  // switch coarsens the cut to it); then what the cut wanted, by its own priority (kept below the drawn nodes').
+  std::vector<std::pair<uint64_t, float>> list;
+  std::unordered_set<uint64_t> listed;
+  for (const auto& [n, priority] : I.last_drawn) {
+    if (priority < 1e30f) continue;
+    for (uint64_t a = n; a != kNoNode && listed.insert(a).second; a = I.cut.brick_parent(a))
+      list.push_back({a, 1e30f * std::ldexp(1.0f, -I.depth(a))});
+  }
+  for (const auto& [n, priority] : I.last_drawn)
+    if (priority < 1e30f && listed.insert(n).second) list.push_back({n, std::min(priority, 1e20f)});
+  I.prefetch->request(list);
+  I.prefetch_asked = true;
+}
+
+void TimeCriticalRenderer::Impl::coarsen_to_resident() {
+  // The finest coarsening of the old cut whose drawn nodes all have their bricks in the new step's cache: from the
+  // coarsest cut, split every node that was a strict ancestor of an old cut node where each of its brick children is
+  // usable: resident, or an old cut node the last frame did not draw (culled: drawn by no one, needs no brick), or
+  // itself such an ancestor whose children are usable (it is split in turn).
+  const std::vector<uint64_t> old(cut.nodes().begin(), cut.nodes().end());
+  std::unordered_set<uint64_t> inner;
+  for (uint64_t n : old)
+    for (uint64_t p = cut.brick_parent(n); p != kNoNode && inner.insert(p).second; p = cut.brick_parent(p)) {
+    }
+  const std::unordered_set<uint64_t> old_set(old.begin(), old.end());
+  std::unordered_map<uint64_t, bool> usable_memo;
+  std::function<bool(uint64_t)> usable = [&](uint64_t n) -> bool {
+    if (auto it = usable_memo.find(n); it != usable_memo.end()) return it->second;
+    bool ok = cache->resident(n);
+    if (!ok && old_set.count(n)) ok = !std::binary_search(last_visible.begin(), last_visible.end(), n);
+    if (!ok && inner.count(n)) {
+      ok = true;
+      for (uint64_t k : cut.brick_children(n)) ok = ok && usable(k);
+    }
+    usable_memo[n] = ok;
+    return ok;
+  };
+  cut.reset();
+  std::vector<uint64_t> todo(cut.nodes().begin(), cut.nodes().end());
+  while (!todo.empty()) {
+    const uint64_t n = todo.back();
+    todo.pop_back();
+    if (!inner.count(n)) continue;
+    const std::span<const uint64_t> kids = cut.brick_children(n);
+    if (!std::all_of(kids.begin(), kids.end(), usable)) continue;
+    cut.split(n);
+    todo.insert(todo.end(), kids.begin(), kids.end());
+  }
 }
 
 void TimeCriticalRenderer::switch_time_step() {
   Impl& I = *impl_;
   const uint32_t step = I.engine.time_step();
   I.residency.reset();
+  TimeCriticalFrame& sw = I.switch_report;
+  sw = TimeCriticalFrame{};
+  sw.switched = true;
+  sw.switch_cut_before = I.cut.size();
   if (I.prefetch && I.prefetch->step() == step && I.prefetch->field() == I.engine.field()) {
     I.cache = std::move(I.prefetch);
     I.cache->raise_budget(I.options.ram_budget_bytes);
@@ -113,6 +180,12 @@ void TimeCriticalRenderer::switch_time_step() {
                                            I.options.loader_threads);
   }
   I.residency = std::make_unique<BrickResidency>(I.engine.store(), I.engine.gpu_slots(), I.cache.get());
+  sw.prefetched = I.cache->stats().resident_bricks;
+  // A step reached without a prefetch (the slider; the first step played) has nothing in RAM: coarsening would leave
+  // the coarsest cut, and a jump is rare enough to be drawn at the tab's cut, read on this thread, instead. A prefetch
+  // of this step (playing) has read what it could, coarse bricks first: the cut is coarsened to it.
+  if (sw.prefetched > 0) I.coarsen_to_resident();
+  sw.switch_cut_after = I.cut.size();
   // The node errors are the new step's (ActiveCut caches them per view).
   I.cut.set_options(I.cut.options());
   I.last_camera.reset();  // the next frame is a moving one
@@ -141,18 +214,24 @@ Image TimeCriticalRenderer::Impl::step(const Camera& camera, const TransferFunct
   scaled.height = std::max(1, int(std::lround(settings.height * f.scale)));
   if (scaled.width == settings.width && scaled.height == settings.height) f.scale = 1;
   cull_for(settings);
+  const auto t_cut = std::chrono::steady_clock::now();
   CutUpdate u =
       cut.update(camera, scaled.width, scaled.height, tf, budget, [&](uint64_t n) { return residency->resident(n); });
-  // The cache keeps what the cut draws and has not uploaded yet (most important), then what it wants next.
+  // The cache keeps what the cut draws and has not uploaded yet (most important), then what it wants next. Playing,
+  // this step is drawn once: its cache reads nothing new (what it has pending is dropped, so that the workers read
+  // the next step's bricks), and what the cut wants goes to the next step's prefetch (last_drawn).
   std::vector<std::pair<uint64_t, float>> requests;
   for (uint64_t n : u.visible)
-    if (!residency->on_gpu(n)) requests.push_back({n, 1e30f});
-  for (size_t i = 0; i < u.wanted.size(); ++i) requests.push_back({u.wanted[i], float(u.wanted_priority[i])});
+    if (!residency->on_gpu(n) && (!f.playing || cache->resident(n))) requests.push_back({n, 1e30f});
+  if (!f.playing)
+    for (size_t i = 0; i < u.wanted.size(); ++i) requests.push_back({u.wanted[i], float(u.wanted_priority[i])});
   cache->request(requests);
   f.requested = requests.size();
   last_drawn.clear();
   for (uint64_t n : u.visible) last_drawn.push_back({n, 1e30f});
   for (size_t i = 0; i < u.wanted.size(); ++i) last_drawn.push_back({u.wanted[i], float(u.wanted_priority[i])});
+  last_visible = u.visible;
+  f.cut_seconds = seconds_since(t_cut);
   Image image;
   try {
     if (exact_limit > 0) engine.prepare_exact(u.visible, camera, tf, scaled, exact_limit, &f.render);
@@ -200,7 +279,10 @@ Image TimeCriticalRenderer::frame(const Camera& camera, const TransferFunction& 
                                   TimeCriticalFrame* report) {
   Impl& I = *impl_;
   const auto t0 = std::chrono::steady_clock::now();
-  TimeCriticalFrame f;
+  TimeCriticalFrame f = I.switch_report;  // the step switch's figures, if one came before this frame
+  I.switch_report = TimeCriticalFrame{};
+  f.playing = I.prefetch_asked;
+  I.prefetch_asked = false;
   f.resting = I.last_camera && *I.last_camera == camera && *I.last_tf == tf && *I.last_settings == settings;
   const bool no_target = I.options.target_fps <= 0;
   if (no_target) return full_quality(camera, tf, settings, report);

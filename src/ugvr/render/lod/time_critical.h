@@ -71,6 +71,14 @@ struct TimeCriticalFrame {
   uint64_t requested = 0;                // read requests sent to the RAM cache
   BrickCacheStats cache;                 // counters of this frame (gauges: now)
   LodRenderStats render;                 // the engine's figures for the draw
+  double cut_seconds = 0;                // updating the active cut (and choosing the requests)
+  // Playing a time store (prefetch_time_step after the previous frame): this frame's cache loads nothing for its own
+  // step (it is shown once); what the cut wants is read for the next step instead.
+  bool playing = false;
+  // The first frame of a new time step (switch_time_step): the bricks of the new step the prefetch had ready, and the
+  // cut's size before and after it was coarsened to them (what the frame can draw without a read on this thread).
+  bool switched = false;
+  uint64_t prefetched = 0, switch_cut_before = 0, switch_cut_after = 0;
 };
 
 class TimeCriticalRenderer {
@@ -89,13 +97,18 @@ class TimeCriticalRenderer {
 
   // Playing a time store (docs/time-series.md). The octree is the same for every step, so a step change keeps the
   // session: its cut, frame-rate controller and camera; only the bricks change.
-  // prefetch_time_step: reads the bricks of `step` for the nodes the last frame drew (then those it wanted) into a
-  // cache of their own, in the background, within what this session's RAM budget leaves free (at least one brick).
-  // A new call for the same step renews the list; for another step it starts over.
+  // prefetch_time_step: reads the bricks of `step` for the nodes the last frame drew, coarse before fine (their brick
+  // ancestors first, level by level, so that a prefetch cut short still holds a coarser cover of the view), then
+  // those it wanted, into a cache of their own, in the background, within what this session's RAM budget leaves free
+  // (at least one brick). A new call for the same step renews the list; for another step it starts over. The next
+  // frame is a playing one (TimeCriticalFrame::playing): it reads nothing more for its own step.
   void prefetch_time_step(uint32_t step);
   // After LodEngine::set_time_step: takes the prefetched bricks if they are of the engine's new step (else a new,
-  // empty cache), drops the old step's, and draws the next frame as a moving one (within the frame budget: each
-  // step of a playback is drawn once, at the interactive quality).
+  // empty cache), drops the old step's, and, when the prefetch read anything, coarsens the cut to the finest cover of
+  // the view whose bricks the new cache holds (merging nodes whose bricks were not read in time into ancestors that
+  // were), so that the step's first frame reads nothing on the render thread (without a prefetch the cut is kept and
+  // its bricks are read in that frame); that frame is a moving one (within the frame budget: each step of a playback
+  // is drawn once, at the interactive quality).
   void switch_time_step();
   // Waits until the prefetch has every brick it asked for, or timeout_seconds pass; false when there is none or it
   // is incomplete. For tests and batch callers.
