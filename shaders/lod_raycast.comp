@@ -943,6 +943,10 @@ void main() {
     bool fpend = face_node[node].y != 0u;
     int fstate = -1;
     int fj = 0;
+    // The next crossing to pass, g_fh[fj], or beyond any sample when there is none or the stencil decides: the sample
+    // loop compares each sample with this one float, where reading g_fh[fj] cost llvmpipe a gather per sample (fj
+    // differs between the lanes) even where no face was ever looked at.
+    float fnext = 3.0e38;
     g_nh = 0;
 #endif
     // Samples at the node's entry t, at the level's grid points k·step inside, and at its exit; sa, va: the previous
@@ -1110,7 +1114,7 @@ void main() {
 #endif
 #if FACES
       // Passing crossings at sb (those within u_nudge of it are one, their signs summed): the state after them.
-      if (fstate >= 0 && fj < g_nh && g_fh[fj] <= sb) {
+      if (fnext <= sb) {
         float sum = 0.0;
         vec3 fn = vec3(0.0);
         for (; fj < g_nh && g_fh[fj] <= sb + u_nudge; ++fj) {
@@ -1126,6 +1130,7 @@ void main() {
         }
 #endif
         fstate = next;
+        fnext = fj < g_nh ? g_fh[fj] : 3.0e38;
       }
 #endif
 #if SLICES
@@ -1148,8 +1153,8 @@ void main() {
       } while (!(sb > sa));
       float sb_grid = sb;
 #if FACES
-      if (fstate >= 0 && fj < g_nh && g_fh[fj] < sb) {
-        sb = max(g_fh[fj], sa);
+      if (fnext < sb) {
+        sb = max(fnext, sa);
         if (!(sb > sa)) sb = min(sa + u_nudge, t_exit);
       }
 #endif
@@ -1162,6 +1167,7 @@ void main() {
     if (!restart) break;
     fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);
     fj = 0;
+    fnext = fstate >= 0 && g_nh > 0 ? g_fh[0] : 3.0e38;
 #if OVERLAY
     if (fstate >= 0) ov_inside = fstate == 1;  // the faces know better than the stencil
 #endif

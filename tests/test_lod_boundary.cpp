@@ -92,6 +92,44 @@ TEST(BoundaryFaces, TriangleBoxOverlap) {
   EXPECT_TRUE(triangle_box_overlap({0.9, 1.1, -1}, {1.1, 0.9, -1}, {1.0, 1.0, 2}, box));
 }
 
+// A face that two unwelded blocks share (each block its own copy of the points, so the topology finds no neighbour)
+// comes as two coincident triangles of opposite orientation, with the mesh on both sides: the section leaves both
+// out. A coincident pair of the same orientation (two blocks overlapping, or a duplicated cell) is no such face and
+// stays, as does a triangle matched by corner set but not by position (a quadrilateral split along the other
+// diagonal).
+TEST(BoundaryFaces, UnweldedBlocksSharedFacesAreDropped) {
+  const Vec3f a{0.5f, 0.1f, 0.1f}, b{0.5f, 0.9f, 0.1f}, c{0.5f, 0.1f, 0.9f}, d{0.5f, 0.9f, 0.9f};
+  const Vec3f e{0.2f, 0.2f, 0.3f}, f{0.3f, 0.7f, 0.3f}, g{0.2f, 0.2f, 0.8f};
+  std::vector<MeshFaceTriangle> tris = {
+      {a, b, c},             // block 1's side of the shared quadrilateral (a, b, d, c), split along b-c
+      {b, d, c}, {e, f, g},  // a boundary triangle
+      {c, b, a},  // block 2's side: the same corners, the other orientation (rotated: a different first corner)
+      {b, c, d}, {e, f, g},  // the same triangle twice in the same orientation: kept
+      {a, d, c},             // the quadrilateral split along a-d instead: not coincident with either, kept
+  };
+  std::vector<OctreeNode> nodes(1);  // the root alone, a leaf
+  BoundaryFaceStats st;
+  const StoreBoundary out = store_boundary_faces(tris, Bounds{Vec3d{0, 0, 0}, Vec3d{1, 1, 1}}, nodes, 16, &st);
+  EXPECT_EQ(st.triangles, 7u);
+  EXPECT_EQ(st.inner_pairs, 2u);
+  ASSERT_EQ(out.triangles.size(), 3u);
+  ASSERT_EQ(out.nodes.size(), 1u);
+  EXPECT_EQ(out.nodes[0].count, 3u);
+  // What is left: e f g twice and a d c, in the input's order.
+  const auto first_corner = [&](size_t t) {
+    return Vec3d{out.triangles[t].p[0], out.triangles[t].p[1], out.triangles[t].p[2]};
+  };
+  EXPECT_EQ(first_corner(0), (Vec3d{e.x, e.y, e.z}));
+  EXPECT_EQ(first_corner(1), (Vec3d{e.x, e.y, e.z}));
+  EXPECT_EQ(first_corner(2), (Vec3d{a.x, a.y, a.z}));
+
+  // Only pairs: with a third copy of one side, one of the two same-oriented copies stays.
+  tris.push_back({a, b, c});
+  const StoreBoundary three = store_boundary_faces(tris, Bounds{Vec3d{0, 0, 0}, Vec3d{1, 1, 1}}, nodes, 16, &st);
+  EXPECT_EQ(st.inner_pairs, 2u);
+  EXPECT_EQ(three.triangles.size(), 4u);
+}
+
 // Every node lists exactly the boundary triangles that overlap its cell (or says it has more than the cap), each
 // triangle oriented outwards, and the section survives the round trip through the file.
 TEST(BoundaryFaces, StoreListsTheFacesCrossingEachNode) {

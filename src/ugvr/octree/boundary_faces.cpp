@@ -29,6 +29,56 @@ Vec3d cross(const Vec3d& a, const Vec3d& b) {
 }
 double dot(const Vec3d& a, const Vec3d& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 
+// The triangles of `tris` that are not one of a pair of coincident triangles of opposite orientation. Such a pair is
+// no boundary: it is the face two blocks of a multi-block grid share without being welded (each block's copy of the
+// points has its own ids, so the topology finds no neighbour), and the mesh lies on both sides of it. Their crossings
+// cancel in the shader (leaving one block, entering the other, within u_nudge), but each pair costs two ray-triangle
+// tests wherever a ray is near it, fills the node's list towards the cap (more nodes over it, longer walks through
+// virtual nodes) and can be the nearest face where the line meets none (side_of_faces then picks one of the two at
+// random). Matched by the corners' exact coordinates: the two blocks carry the same points, and a quadrilateral is
+// split along the diagonal through its lexicographically smallest corner, the same one from either side. Pairs are
+// matched greedily among triangles with the same corner set (one of either orientation each).
+std::vector<uint32_t> unpaired_triangles(std::span<const MeshFaceTriangle> tris, uint64_t* pairs) {
+  using Key = std::array<float, 9>;
+  // The corners rotated so that the smallest comes first: triangles with the same corner set and the same orientation
+  // then have the same key; swapping the last two corners gives the opposite orientation's key.
+  auto key_of = [](const MeshFaceTriangle& t, bool flip) {
+    std::array<Vec3f, 3> v = t;
+    if (flip) std::swap(v[1], v[2]);
+    int s = 0;
+    for (int i = 1; i < 3; ++i)
+      if (position_less(v[size_t(i)], v[size_t(s)], 0, 0)) s = i;
+    Key k{};
+    for (int i = 0; i < 3; ++i) {
+      const Vec3f& p = v[size_t((s + i) % 3)];
+      k[size_t(3 * i)] = p.x, k[size_t(3 * i + 1)] = p.y, k[size_t(3 * i + 2)] = p.z;
+    }
+    return k;
+  };
+  std::vector<std::pair<Key, uint32_t>> keyed(tris.size());
+  for (uint32_t t = 0; t < tris.size(); ++t) keyed[t] = {key_of(tris[t], false), t};
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<char> dropped(tris.size(), 0);
+  uint64_t n_pairs = 0;
+  for (uint32_t t = 0; t < tris.size(); ++t) {
+    if (dropped[t]) continue;
+    const Key want = key_of(tris[t], true);
+    auto it = std::lower_bound(keyed.begin(), keyed.end(), std::make_pair(want, uint32_t(0)));
+    for (; it != keyed.end() && it->first == want; ++it) {
+      if (it->second == t || dropped[it->second]) continue;
+      dropped[t] = dropped[it->second] = 1;
+      ++n_pairs;
+      break;
+    }
+  }
+  std::vector<uint32_t> kept;
+  kept.reserve(tris.size() - 2 * n_pairs);
+  for (uint32_t t = 0; t < tris.size(); ++t)
+    if (!dropped[t]) kept.push_back(t);
+  if (pairs) *pairs = n_pairs;
+  return kept;
+}
+
 }  // namespace
 
 bool triangle_box_overlap(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Bounds& box) {
@@ -122,15 +172,16 @@ StoreBoundary store_boundary_faces(std::span<const MeshFaceTriangle> tris, const
                  (double(p.z) - root.lo.z) / size.z};
   };
   st.triangles = tris.size();
-  if (tris.empty()) {
+  const std::vector<uint32_t> kept = unpaired_triangles(tris, &st.inner_pairs);
+  if (kept.empty()) {
     if (stats) *stats = st;
     return out;
   }
-  std::vector<std::array<Vec3d, 3>> corners(tris.size());
-  out.triangles.resize(tris.size());
-  for (size_t t = 0; t < tris.size(); ++t) {
+  std::vector<std::array<Vec3d, 3>> corners(kept.size());
+  out.triangles.resize(kept.size());
+  for (size_t t = 0; t < kept.size(); ++t) {
     for (int i = 0; i < 3; ++i) {
-      corners[t][size_t(i)] = normalised(tris[t][size_t(i)]);
+      corners[t][size_t(i)] = normalised(tris[kept[t]][size_t(i)]);
       out.triangles[t].p[3 * i] = float(corners[t][size_t(i)].x);
       out.triangles[t].p[3 * i + 1] = float(corners[t][size_t(i)].y);
       out.triangles[t].p[3 * i + 2] = float(corners[t][size_t(i)].z);
@@ -144,7 +195,7 @@ StoreBoundary store_boundary_faces(std::span<const MeshFaceTriangle> tris, const
   // them all.
   out.nodes.assign(nodes.size(), BoundaryNodeEntry{});
   uint32_t largest = 0;
-  std::vector<uint32_t> all(tris.size());
+  std::vector<uint32_t> all(kept.size());
   for (uint32_t t = 0; t < all.size(); ++t) all[t] = t;
   auto overlapping = [&](const Bounds& cell, const std::vector<uint32_t>& parent) {
     const double grow = (cell.hi.x - cell.lo.x) * 1e-6;

@@ -5,7 +5,9 @@
 //
 // The boundary is every cell face with no neighbour (grid/topology.h: faces matched by vertex set), as triangles
 // oriented outwards (cells are positively oriented), quadrilaterals split along the diagonal through their
-// lexicographically smallest corner as the exact engine splits them (render/exact/walk_mesh.h). A triangle belongs to
+// lexicographically smallest corner as the exact engine splits them (render/exact/walk_mesh.h). The section leaves out
+// coincident pairs of opposite orientation: the faces that unwelded blocks of a multi-block grid share, with the mesh
+// on both sides (store_boundary_faces; BoundaryFaceStats::inner_pairs counts them). A triangle belongs to
 // every node whose closed cell it overlaps (separating axes: the box's 3, the triangle's normal, 9 edge products),
 // found top-down: a node tests only its parent's triangles. A node with more than `max_per_node` lists none
 // (kBoundaryOverflow): a ray looks in its children instead, so that it never tests more than that many triangles in one
@@ -33,6 +35,7 @@ inline constexpr int kBoundaryVirtualLevels = 6;
 
 struct BoundaryFaceStats {
   uint64_t triangles = 0;          // of the mesh boundary
+  uint64_t inner_pairs = 0;        // coincident pairs of opposite orientation (unwelded blocks' shared faces): dropped
   uint64_t crossed_nodes = 0;      // nodes some triangle overlaps
   uint64_t listed_nodes = 0;       // of those, with their triangles listed (at most max_per_node)
   uint64_t overflow_nodes = 0;     // interior nodes with more: their children list them
