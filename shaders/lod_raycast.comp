@@ -645,6 +645,23 @@ vec3 cubic_gradient(vec3 c, vec3 h) {
          h;
 }
 
+// Slot `slot`'s cubic margin (brick_atlas.h, the table after the slots in z): |spline - trilinear| <= it anywhere in
+// the slot's cells, normalised units.
+float cubic_margin(uint slot) {
+  int side = u_resolution + 2, tx = u_slots.x * side, ty = u_slots.y * side, s = int(slot);
+  return texelFetch(u_atlas, ivec3(s % tx, (s / tx) % ty, u_slots.z * side + s / (tx * ty)), 0).r;
+}
+
+// The value whose sign against each iso value is the spline's, at atlas point c (trilinear value and stencil vt): vt
+// itself where it is farther than `margin` from every iso value (then the spline is on the same side of each), else
+// the spline's value (8 fetches). So the samples bracket exactly the crossings the spline has between them, at the
+// price of the trilinear path plus the spline near the surface.
+float bracket_value(vec3 c, float vt, float margin) {
+  for (int i = 0; i < u_iso_count; ++i)
+    if (abs(vt - iso_value(i)) < margin) return cubic_at(c, bvec3(false)).r;
+  return vt;
+}
+
 // The crossing of iso between ta (value fa) and tb (fb) on opposite sides, on the spline along the ray (atlas point
 // c0 + c1 t): regula falsi with the Illinois fix (the end that stays twice has its residual halved, so neither end
 // sticks), 4 steps of 8 fetches; then the secant through the last bracket.
@@ -931,6 +948,9 @@ void main() {
     vec3 c1 = dir * scale;
     float step = u_fixed_step ? u_step0 : u_step0 / float(1 << level);
     vec3 voxel = u_root_size * (size / float(u_resolution - 1));
+#if TRICUBIC
+    float margin = cubic_margin(state);
+#endif
     ++bricks;
 #if FACES
     // fstate: inside the mesh (1) or not (0) over the current segment, from the node's faces; -1: the stencil decides.
@@ -964,7 +984,9 @@ void main() {
     for (float sb = tstart;;) {
       vec3 c = c0 + c1 * sb;
 #if TRICUBIC
-      vec2 vb = cubic_at(c, bvec3(false));  // value and stencil on the spline (the stencil: smooth, same threshold)
+      // The stencil trilinear (as in the trilinear path), the value the spline's wherever its sign could differ.
+      vec2 vb = texture(u_atlas, c).rg;
+      vb.r = bracket_value(c, vb.r, margin);
 #else
       vec2 vb = texture(u_atlas, c).rg;
 #endif
@@ -1077,8 +1099,9 @@ void main() {
             float iso = iso_value(up ? i : u_iso_count - 1 - i);
             if ((prev_value < iso) == (vb.r < iso)) continue;
 #if TRICUBIC
-            // Bracketed by the samples, located on the spline (a crossing of the previous node's last segment has
-            // prev_t at this node's entry t, up to rounding: searched from t in this node's brick).
+            // Bracketed by the samples (their signs are the spline's: bracket_value), located on the spline (a
+            // crossing of the previous node's last segment has prev_t at this node's entry t, up to rounding:
+            // searched from t in this node's brick).
             float th = cubic_crossing(max(prev_t, t), prev_value, sb, vb.r, iso, c0, c1);
 #else
             float th = prev_t + (iso - prev_value) / (vb.r - prev_value) * (sb - prev_t);

@@ -9,6 +9,15 @@
 // out x fastest over a grid of slots_x × slots_y × slots_z; slot s sits at texel origin
 //   (s % slots_x, (s / slots_x) % slots_y, s / (slots_x · slots_y)) · (R + 2).
 //
+// The cubic margin table (docs/tricubic.md, "Finding the surface"): after the slots, in z, the atlas has `margin
+// layers` of texels (as few as hold one texel per slot, usually one), and slot s's texel in it,
+//   (s % T_x, (s / T_x) % T_y, slots_z · (R + 2) + s / (T_x · T_y))   (T: texels per axis),
+// holds in R a bound M on |B-spline − trilinear| of that slot's texels, as a code of the same [0, 1] scale as the
+// values (rounded up): cubic_margin_code. The tricubic isosurface brackets crossings on the trilinear value and
+// evaluates the spline only where the trilinear value is within M of an iso value; elsewhere both have the same sign.
+// No sample ever reads the table: slot texels are at most R + 1 in each slot, and linear fetches at them do not
+// reach past the slot's last texel centre.
+//
 // Before upload, a brick's samples without data are padded (store/brick_pad.h: one layer grown outward by averaging
 // data neighbours), so hardware trilinear filtering next to the mesh boundary mixes data with pad, never with filler;
 // the interpolated stencil then decides per sample (>= 1/2: data), which keeps the boundary free of the striping of
@@ -29,6 +38,17 @@ namespace ugvr {
 void make_atlas_slot(uint32_t resolution, float* samples, const uint8_t* mask, double lo, double hi,
                      std::vector<uint16_t>& texels);
 
+// The cubic margin of one slot's texels (make_atlas_slot's layout), in value codes (0..65535), rounded up: with D_a
+// the largest |second difference| of the slot's values along axis a and G_a the largest |first difference|,
+//   (D_x + D_y + D_z) / 6 + (G_x + G_y + G_z) / 128 + 2.
+// The first term bounds the exact spline minus the exact trilinear interpolant anywhere in the slot's cells: in 1D on
+// cell [i, i+1] at fraction t the difference is w0(t) D_i + w3(t) D_{i+1} with w0 + w3 <= 1/6 (both reproduce linear
+// functions); in 3D it telescopes into one such term per axis applied to a positively weighted mean of the samples,
+// whose second differences are bounded by D_a. The second term covers the hardware's linear filtering (8-bit
+// fractional weights: at most 1/512 of a first difference per axis per fetch, in the spline's 8 convex-weighted
+// fetches and in trilinear's one, with a factor 2 of headroom), the last one the codes' rounding.
+uint16_t cubic_margin_code(uint32_t resolution, const uint16_t* texels);
+
 class BrickAtlas {
  public:
   BrickAtlas() = default;
@@ -41,14 +61,16 @@ class BrickAtlas {
   GLuint texture() const { return texture_.id(); }
   const int* slots_per_axis() const { return slots_; }
   const int* texels_per_axis() const { return texels_; }
-  // Uploads make_atlas_slot's texels into slot `slot`.
+  // Uploads make_atlas_slot's texels into slot `slot`, and the slot's cubic margin into its table texel (the largest
+  // code instead when UGVR_TRICUBIC_NO_BRACKET is set: the spline at every sample, for tests and comparisons).
   void upload(uint64_t slot, const uint16_t* texels);
 
-  // Most slots an atlas can have for R within max_3d texels per axis.
+  // Most slots an atlas can have for R within max_3d texels per axis (the margin table included).
   static uint64_t max_slots(uint32_t resolution, int max_3d);
 
  private:
   uint32_t resolution_ = 0;
+  bool no_bracket_ = false;
   int slots_[3] = {0, 0, 0};
   int texels_[3] = {0, 0, 0};
   GlTexture texture_;
