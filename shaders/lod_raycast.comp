@@ -599,13 +599,16 @@ vec3 gradient_at(vec3 c, vec3 h) {
 }
 
 #if TRICUBIC
-// The uniform cubic B-spline whose coefficients are the brick's samples (LaMar 2000 ch. 3, without the prefilter:
-// docs/tricubic.md says why), evaluated with 8 linear fetches (Sigg & Hadwiger 2005): along each axis the four
-// weights of the 4-texel stencil are positive, so each pair (w0, w1), (w2, w3) is one linear fetch between two texels
+// The uniform cubic B-spline that interpolates the brick's samples (LaMar 2000 ch. 3: its coefficients, prefiltered
+// per brick when the brick uploads, brick_atlas.h), evaluated with 8 linear fetches (Sigg & Hadwiger 2005): along
+// each axis the four weights of the 4-texel stencil are positive, so each pair (w0, w1), (w2, w3) is one linear fetch between two texels
 // at h = the pair's centre of mass, weighted by g = the pair's sum. The first derivative has weights of one sign per
 // pair as well (dw0, dw1 <= 0 <= dw2, dw3), so a partial derivative is 8 fetches too. The stencil reaches one texel
-// beyond the cell: at a brick's border that is its 1-texel apron, which repeats the border sample (brick_pad.h), so
-// the spline there is that of the clamped brick, not of the neighbour's data (the seam docs/tricubic.md describes).
+// beyond the cell: at a brick's border that is its 1-texel apron, the coefficient the brick's own samples extrapolate
+// (not-a-knot), not the neighbour's data (the seam docs/tricubic.md describes). The coefficient texture stores
+// [-1/2, 3/2] of the normalised range as [0, 1].
+layout(binding = COEF_TEXTURE_BINDING) uniform sampler3D u_coef;
+
 // axis_weights: x in texel units (texel k's centre at k + 0.5); g0, g1 the pair weights, h0, h1 the pair positions
 // (texel units), of the value (deriv false) or of the derivative d/dx (deriv true).
 void axis_weights(vec3 x, bvec3 deriv, out vec3 g0, out vec3 g1, out vec3 h0, out vec3 h1) {
@@ -625,23 +628,25 @@ void axis_weights(vec3 x, bvec3 deriv, out vec3 g0, out vec3 g1, out vec3 h0, ou
   h1 = i + 1.5 + w3 / g1;
 }
 
-// The spline (value and stencil, or a partial derivative per texel when deriv has that axis) at atlas coordinate c.
-vec2 cubic_at(vec3 c, bvec3 deriv) {
+// The spline's value (or its partial derivative per texel when deriv has that axis) at atlas coordinate c.
+float cubic_at(vec3 c, bvec3 deriv) {
   vec3 g0, g1, h0, h1;
   axis_weights(c / u_atlas_inv, deriv, g0, g1, h0, h1);
   h0 *= u_atlas_inv;
   h1 *= u_atlas_inv;
-  vec2 v00 = g0.x * texture(u_atlas, vec3(h0.x, h0.y, h0.z)).rg + g1.x * texture(u_atlas, vec3(h1.x, h0.y, h0.z)).rg;
-  vec2 v10 = g0.x * texture(u_atlas, vec3(h0.x, h1.y, h0.z)).rg + g1.x * texture(u_atlas, vec3(h1.x, h1.y, h0.z)).rg;
-  vec2 v01 = g0.x * texture(u_atlas, vec3(h0.x, h0.y, h1.z)).rg + g1.x * texture(u_atlas, vec3(h1.x, h0.y, h1.z)).rg;
-  vec2 v11 = g0.x * texture(u_atlas, vec3(h0.x, h1.y, h1.z)).rg + g1.x * texture(u_atlas, vec3(h1.x, h1.y, h1.z)).rg;
-  return g0.z * (g0.y * v00 + g1.y * v10) + g1.z * (g0.y * v01 + g1.y * v11);
+  float v00 = g0.x * texture(u_coef, vec3(h0.x, h0.y, h0.z)).r + g1.x * texture(u_coef, vec3(h1.x, h0.y, h0.z)).r;
+  float v10 = g0.x * texture(u_coef, vec3(h0.x, h1.y, h0.z)).r + g1.x * texture(u_coef, vec3(h1.x, h1.y, h0.z)).r;
+  float v01 = g0.x * texture(u_coef, vec3(h0.x, h0.y, h1.z)).r + g1.x * texture(u_coef, vec3(h1.x, h0.y, h1.z)).r;
+  float v11 = g0.x * texture(u_coef, vec3(h0.x, h1.y, h1.z)).r + g1.x * texture(u_coef, vec3(h1.x, h1.y, h1.z)).r;
+  float v = g0.z * (g0.y * v00 + g1.y * v10) + g1.z * (g0.y * v01 + g1.y * v11);
+  // The weights sum to 1 for the value, to 0 for a derivative: the storage's offset cancels there.
+  return any(deriv) ? 2.0 * v : 2.0 * v - 0.5;
 }
 
 // The spline's analytic gradient, world units (h: the node's voxel size, world), 24 fetches: only at a surface.
 vec3 cubic_gradient(vec3 c, vec3 h) {
-  return vec3(cubic_at(c, bvec3(true, false, false)).r, cubic_at(c, bvec3(false, true, false)).r,
-              cubic_at(c, bvec3(false, false, true)).r) /
+  return vec3(cubic_at(c, bvec3(true, false, false)), cubic_at(c, bvec3(false, true, false)),
+              cubic_at(c, bvec3(false, false, true))) /
          h;
 }
 
@@ -658,7 +663,7 @@ float cubic_margin(uint slot) {
 // price of the trilinear path plus the spline near the surface.
 float bracket_value(vec3 c, float vt, float margin) {
   for (int i = 0; i < u_iso_count; ++i)
-    if (abs(vt - iso_value(i)) < margin) return cubic_at(c, bvec3(false)).r;
+    if (abs(vt - iso_value(i)) < margin) return cubic_at(c, bvec3(false));
   return vt;
 }
 
@@ -670,7 +675,7 @@ float cubic_crossing(float ta, float fa, float tb, float fb, float iso, vec3 c0,
   int side = 0;
   for (int it = 0; it < 4; ++it) {
     float tm = ta + ra / (ra - rb) * (tb - ta);
-    float rm = cubic_at(c0 + c1 * tm, bvec3(false)).r - iso;
+    float rm = cubic_at(c0 + c1 * tm, bvec3(false)) - iso;
     if ((rm < 0.0) == (ra < 0.0)) {
       ta = tm;
       ra = rm;

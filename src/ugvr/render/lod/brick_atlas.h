@@ -12,11 +12,19 @@
 // The cubic margin table (docs/tricubic.md, "Finding the surface"): after the slots, in z, the atlas has `margin
 // layers` of texels (as few as hold one texel per slot, usually one), and slot s's texel in it,
 //   (s % T_x, (s / T_x) % T_y, slots_z · (R + 2) + s / (T_x · T_y))   (T: texels per axis),
-// holds in R a bound M on |B-spline − trilinear| of that slot's texels, as a code of the same [0, 1] scale as the
+// holds in R a bound M on |spline − trilinear| of that slot's texels (the spline of the coefficients where the atlas
+// has them, else of the samples), as a code of the same [0, 1] scale as the
 // values (rounded up): cubic_margin_code. The tricubic isosurface brackets crossings on the trilinear value and
 // evaluates the spline only where the trilinear value is within M of an iso value; elsewhere both have the same sign.
 // No sample ever reads the table: slot texels are at most R + 1 in each slot, and linear fetches at them do not
 // reach past the slot's last texel centre.
+//
+// The coefficient texture (tricubic isosurfaces only: add_coefficients, which the engine calls on its first tricubic
+// frame): R16, the same size and slot layout as the atlas; slot texels hold the coefficients of the interpolating
+// cubic B-spline of the brick's samples (LaMar 2000 ch. 3, the prefilter; cubic_coefficients), mapped from [-1/2,
+// 3/2] of the normalised range to [0, 1] so that the coefficients' overshoot past the data (4% at a sine's peak)
+// is kept, at half the values' precision. Bricks with samples without data keep their samples (the approximating
+// spline): the prefilter would spread the filler into the data.
 //
 // Before upload, a brick's samples without data are padded (store/brick_pad.h: one layer grown outward by averaging
 // data neighbours), so hardware trilinear filtering next to the mesh boundary mixes data with pad, never with filler;
@@ -47,7 +55,19 @@ void make_atlas_slot(uint32_t resolution, float* samples, const uint8_t* mask, d
 // whose second differences are bounded by D_a. The second term covers the hardware's linear filtering (8-bit
 // fractional weights: at most 1/512 of a first difference per axis per fetch, in the spline's 8 convex-weighted
 // fetches and in trilinear's one, with a factor 2 of headroom), the last one the codes' rounding.
-uint16_t cubic_margin_code(uint32_t resolution, const uint16_t* texels);
+// With `coefficients` (cubic_coefficients' of the same texels), the bound for their spline: plus the largest
+// |coefficient − sample| over the slot (the spline is a convex combination of its 4³ coefficients) and the
+// coefficients' rounding.
+uint16_t cubic_margin_code(uint32_t resolution, const uint16_t* texels,
+                           const std::vector<double>* coefficients = nullptr);
+
+// The coefficients of the interpolating cubic B-spline of one slot's samples (make_atlas_slot's layout; the values
+// code / 65535), into `coefficients`, (R+2)³ x fastest: along each axis the R samples give R + 2 coefficients
+// (the brick's and its apron's) such that the spline passes through every sample, with the not-a-knot condition at
+// both ends (no jump of the third derivative at the second and the next-to-last sample; natural, zero second
+// difference, below 5 samples), applied axis by axis. False, and nothing written, where the brick has samples
+// without data.
+bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector<double>& coefficients);
 
 class BrickAtlas {
  public:
@@ -59,6 +79,11 @@ class BrickAtlas {
   uint64_t capacity() const { return uint64_t(slots_[0]) * slots_[1] * slots_[2]; }
   uint64_t bytes() const;
   GLuint texture() const { return texture_.id(); }
+  // The coefficient texture (above): allocated by add_coefficients, filled by the uploads after it (the slots
+  // uploaded before have none: the caller uploads them again).
+  bool has_coefficients() const { return coefficients_.id() != 0; }
+  GLuint coefficients() const { return coefficients_.id(); }
+  void add_coefficients();
   const int* slots_per_axis() const { return slots_; }
   const int* texels_per_axis() const { return texels_; }
   // Uploads make_atlas_slot's texels into slot `slot`, and the slot's cubic margin into its table texel (the largest
@@ -74,6 +99,8 @@ class BrickAtlas {
   int slots_[3] = {0, 0, 0};
   int texels_[3] = {0, 0, 0};
   GlTexture texture_;
+  GlTexture coefficients_;
+  std::vector<double> scratch_;
 };
 
 }  // namespace ugvr
