@@ -601,12 +601,12 @@ vec3 gradient_at(vec3 c, vec3 h) {
 #if TRICUBIC
 // The uniform cubic B-spline that interpolates the brick's samples (LaMar 2000 ch. 3: its coefficients, prefiltered
 // per brick when the brick uploads, brick_atlas.h), evaluated with 8 linear fetches (Sigg & Hadwiger 2005): along
-// each axis the four weights of the 4-texel stencil are positive, so each pair (w0, w1), (w2, w3) is one linear fetch between two texels
-// at h = the pair's centre of mass, weighted by g = the pair's sum. The first derivative has weights of one sign per
-// pair as well (dw0, dw1 <= 0 <= dw2, dw3), so a partial derivative is 8 fetches too. The stencil reaches one texel
-// beyond the cell: at a brick's border that is its 1-texel apron, the coefficient the brick's own samples extrapolate
-// (not-a-knot), not the neighbour's data (the seam docs/tricubic.md describes). The coefficient texture stores
-// [-1/2, 3/2] of the normalised range as [0, 1].
+// each axis the four weights of the 4-texel stencil are positive, so each pair (w0, w1), (w2, w3) is one linear
+// fetch between two texels at h = the pair's centre of mass, weighted by g = the pair's sum. The first derivative has
+// weights of one sign per pair as well (dw0, dw1 <= 0 <= dw2, dw3), so a partial derivative is 8 fetches too. The
+// stencil reaches one texel beyond the cell: at a brick's border that is its 1-texel apron, the coefficient the
+// brick's own samples extrapolate (not-a-knot), not the neighbour's data (the seam docs/tricubic.md describes). The
+// coefficient texture stores [-1/2, 3/2] of the normalised range as [0, 1].
 layout(binding = COEF_TEXTURE_BINDING) uniform sampler3D u_coef;
 
 // axis_weights: x in texel units (texel k's centre at k + 0.5); g0, g1 the pair weights, h0, h1 the pair positions
@@ -690,6 +690,16 @@ float cubic_crossing(float ta, float fa, float tb, float fb, float iso, vec3 c0,
   }
   return ra == rb ? 0.5 * (ta + tb) : ta + ra / (ra - rb) * (tb - ta);
 }
+#endif
+
+#if TRICUBIC && !SLICES
+// An opaque isosurface's crossing (u_iso_opacity 1: the ray ends there) is only bracketed in the sample loop, and
+// located and shaded after the walk: llvmpipe runs a group of pixels in SIMD lockstep, so 56 fetches of regula falsi
+// and gradient inside the loop cost every pixel of the group once per pixel that meets the surface, at its own
+// sample; after the loop they cost the group once. (With slices a crossing must be located before it is kept.)
+bool g_hit = false;
+float g_hit_ta, g_hit_fa, g_hit_tb, g_hit_fb, g_hit_iso, g_hit_t, g_hit_transmittance;
+vec3 g_hit_c0, g_hit_c1, g_hit_voxel;
 #endif
 
 vec3 shade_surface(vec3 color, vec3 g, vec3 view) {
@@ -1103,6 +1113,15 @@ void main() {
           for (int i = 0; i < u_iso_count; ++i) {
             float iso = iso_value(up ? i : u_iso_count - 1 - i);
             if ((prev_value < iso) == (vb.r < iso)) continue;
+#if TRICUBIC && !SLICES
+            if (u_iso_opacity >= 1.0) {  // the last crossing of this ray: located after the walk (g_hit)
+              g_hit = true;
+              g_hit_ta = max(prev_t, t), g_hit_fa = prev_value, g_hit_tb = sb, g_hit_fb = vb.r, g_hit_iso = iso;
+              g_hit_t = t, g_hit_c0 = c0, g_hit_c1 = c1, g_hit_voxel = voxel, g_hit_transmittance = transmittance;
+              transmittance = 0.0;
+              break;
+            }
+#endif
 #if TRICUBIC
             // Bracketed by the samples (their signs are the spline's: bracket_value), located on the spline (a
             // crossing of the previous node's last segment has prev_t at this node's entry t, up to rounding:
@@ -1197,6 +1216,14 @@ void main() {
 #endif
     t = t_exit;
   }
+#if TRICUBIC && !SLICES
+  if (g_hit) {
+    float th = cubic_crossing(g_hit_ta, g_hit_fa, g_hit_tb, g_hit_fb, g_hit_iso, g_hit_c0, g_hit_c1);
+    vec3 ch = g_hit_c0 + g_hit_c1 * max(th, g_hit_t);
+    radiance += g_hit_transmittance *
+                shade_surface(tf_at(g_hit_iso).rgb, cubic_gradient(ch, g_hit_voxel), dir_world);
+  }
+#endif
 #if OVERLAY
   // The end: the root cell's exit is outside the data; at the clip plane the state is V's there. (The last node's
   // exit may pass t_end by rounding, and a sample with it: the state ignores samples past t_end.)

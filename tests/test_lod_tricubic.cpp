@@ -488,11 +488,14 @@ TEST(LodTricubic, CubicMarginBoundsSplineMinusTrilinear) {
     std::vector<uint16_t> texels;
     make_atlas_slot(r, samples.data(), mask.data(), -1.5, 1.5, texels);
     const double margin = cubic_margin_code(r, texels.data());
+    std::vector<double> coefficients;
+    ASSERT_TRUE(cubic_coefficients(r, texels.data(), coefficients));
+    const double margin_c = cubic_margin_code(r, texels.data(), &coefficients);
     const auto code = [&](int x, int y, int z) {
       const auto c = [](int a) { return std::clamp(a, 0, s - 1); };
       return double(texels[((size_t(c(z)) * s + c(y)) * s + c(x)) * 2]);
     };
-    double worst = 0, worst_inside = 0;
+    double worst = 0, worst_inside = 0, worst_c = 0;
     for (int n = 0; n < 20000; ++n) {
       const double u[3] = {1 + unit(rng) * (r - 1), 1 + unit(rng) * (r - 1), 1 + unit(rng) * (r - 1)};  // texel index
       int i[3];
@@ -502,22 +505,30 @@ TEST(LodTricubic, CubicMarginBoundsSplineMinusTrilinear) {
         f[a] = u[a] - i[a];
         Lattice::weights(f[a], false, w[a]);
       }
-      double spline = 0, lin = 0;
+      double spline = 0, lin = 0, spline_c = 0;
       for (int c = 0; c < 4; ++c)
         for (int b = 0; b < 4; ++b)
-          for (int a = 0; a < 4; ++a)
-            spline += w[0][a] * w[1][b] * w[2][c] * code(i[0] - 1 + a, i[1] - 1 + b, i[2] - 1 + c);
+          for (int a = 0; a < 4; ++a) {
+            const double wt = w[0][a] * w[1][b] * w[2][c];
+            spline += wt * code(i[0] - 1 + a, i[1] - 1 + b, i[2] - 1 + c);
+            spline_c += wt * 65535.0 * coefficients[(size_t(i[2] - 1 + c) * s + (i[1] - 1 + b)) * s + (i[0] - 1 + a)];
+          }
       for (int c = 0; c < 8; ++c) {
         const int a = c & 1, b = (c >> 1) & 1, d = c >> 2;
         lin +=
             (a ? f[0] : 1 - f[0]) * (b ? f[1] : 1 - f[1]) * (d ? f[2] : 1 - f[2]) * code(i[0] + a, i[1] + b, i[2] + d);
       }
       worst = std::max(worst, std::abs(spline - lin));
+      worst_c = std::max(worst_c, std::abs(spline_c - lin));
       if (std::min({u[0], u[1], u[2]}) >= 2 && std::max({u[0], u[1], u[2]}) < r - 1)
         worst_inside = std::max(worst_inside, std::abs(spline - lin));
     }
     SCOPED_TRACE("noise " + std::to_string(noise));
     EXPECT_LE(worst, margin);
+    EXPECT_LE(worst_c, margin_c) << "the interpolating spline's bound";
+    if (noise == 0.0) {
+      EXPECT_LT(margin_c, 0.3 * margin) << "no clamp in the interpolating spline's bound (measured 68 against 289)";
+    }
     EXPECT_GT(worst, 0.3 * margin) << "the bound is not absurdly loose";
     if (noise == 0.0) {
       // Codes per sample step: 0.3, 0.1, 0.2 of 3 / 8 over 65535; the margin is their sum / 6 + / 128 (+ 2 codes, and

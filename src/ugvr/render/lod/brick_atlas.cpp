@@ -34,26 +34,43 @@ void make_atlas_slot(uint32_t resolution, float* samples, const uint8_t* mask, d
 
 uint16_t cubic_margin_code(uint32_t resolution, const uint16_t* texels, const std::vector<double>* coefficients) {
   const int s = int(resolution) + 2;
-  const auto at = [&](int x, int y, int z) { return int(texels[((size_t(z) * s + y) * s + x) * 2]); };
-  int d[3] = {0, 0, 0}, g[3] = {0, 0, 0};
+  const auto index = [&](int x, int y, int z) { return (size_t(z) * s + y) * s + x; };
+  std::vector<double> f(size_t(s) * s * s);
+  for (size_t i = 0; i < f.size(); ++i) f[i] = double(texels[2 * i]);
+  if (coefficients) {
+    // The trilinear interpolant inside the brick never reads the apron, so the bound may take any apron for it: the
+    // linear extrapolation of the border (axis by axis), whose second differences vanish there, instead of the clamp
+    // (a second difference of a whole first difference, which the spline of the coefficients does not see).
+    for (int axis = 0; axis < 3; ++axis) {
+      const size_t stride = axis == 0 ? 1 : axis == 1 ? size_t(s) : size_t(s) * s;
+      for (int b = 0; b < s; ++b)
+        for (int a = 0; a < s; ++a) {
+          const size_t base = axis == 0 ? index(0, a, b) : axis == 1 ? index(a, 0, b) : index(a, b, 0);
+          f[base] = 2 * f[base + stride] - f[base + 2 * stride];
+          const size_t last = base + size_t(s - 1) * stride;
+          f[last] = 2 * f[last - stride] - f[last - 2 * stride];
+        }
+    }
+  }
+  double d[3] = {0, 0, 0}, g[3] = {0, 0, 0}, c = 0;
   for (int z = 0; z < s; ++z)
     for (int y = 0; y < s; ++y)
       for (int x = 0; x < s; ++x) {
-        const int v = at(x, y, z);
-        if (x + 1 < s) g[0] = std::max(g[0], std::abs(at(x + 1, y, z) - v));
-        if (y + 1 < s) g[1] = std::max(g[1], std::abs(at(x, y + 1, z) - v));
-        if (z + 1 < s) g[2] = std::max(g[2], std::abs(at(x, y, z + 1) - v));
-        if (x > 0 && x + 1 < s) d[0] = std::max(d[0], std::abs(at(x - 1, y, z) - 2 * v + at(x + 1, y, z)));
-        if (y > 0 && y + 1 < s) d[1] = std::max(d[1], std::abs(at(x, y - 1, z) - 2 * v + at(x, y + 1, z)));
-        if (z > 0 && z + 1 < s) d[2] = std::max(d[2], std::abs(at(x, y, z - 1) - 2 * v + at(x, y, z + 1)));
+        const size_t i = index(x, y, z);
+        const size_t step[3] = {1, size_t(s), size_t(s) * s};
+        const int pos[3] = {x, y, z};
+        for (int a = 0; a < 3; ++a) {
+          if (pos[a] + 1 < s) {
+            g[a] = std::max(g[a], std::abs(f[i + step[a]] - f[i]));
+            if (coefficients)
+              g[a] = std::max(g[a], 65535.0 * std::abs((*coefficients)[i + step[a]] - (*coefficients)[i]));
+          }
+          if (pos[a] > 0 && pos[a] + 1 < s) d[a] = std::max(d[a], std::abs(f[i - step[a]] - 2 * f[i] + f[i + step[a]]));
+        }
+        if (coefficients) c = std::max(c, std::abs((*coefficients)[i] * 65535.0 - f[i]));
       }
-  double m = double(d[0] + d[1] + d[2]) / 6.0 + double(g[0] + g[1] + g[2]) / 128.0 + 2.0;
-  if (coefficients) {
-    double c = 0;
-    for (size_t i = 0; i < coefficients->size(); ++i)
-      c = std::max(c, std::abs((*coefficients)[i] * 65535.0 - double(texels[2 * i])));
-    m += c + 1.0;  // the coefficients' codes step by 2 value codes
-  }
+  double m = (d[0] + d[1] + d[2]) / 6.0 + (g[0] + g[1] + g[2]) / 128.0 + 2.0;
+  if (coefficients) m += c + 1.0;  // the coefficients' codes step by 2 value codes
   return uint16_t(std::min(std::ceil(m), 65535.0));
 }
 
