@@ -39,6 +39,9 @@
 #ifndef HYBRID
 #define HYBRID 0  // exact cells in the nodes granted them (emission-absorption without overlay; docs/hybrid.md)
 #endif
+// Tricubic isosurfaces bracket on the trilinear samples and evaluate the spline after the walk (below, g_cand);
+// with slices, whose crossings must be known in order, the spline is evaluated in the sample loop instead.
+#define TRICUBIC_WALK (TRICUBIC && MODE == LOD_MODE_ISO && !SLICES)
 #if HYBRID && (MODE != LOD_MODE_EA || OVERLAY)
 #error HYBRID is an emission-absorption variant without the boundary overlay
 #endif
@@ -692,14 +695,24 @@ float cubic_crossing(float ta, float fa, float tb, float fb, float iso, vec3 c0,
 }
 #endif
 
-#if TRICUBIC && !SLICES
-// An opaque isosurface's crossing (u_iso_opacity 1: the ray ends there) is only bracketed in the sample loop, and
-// located and shaded after the walk: llvmpipe runs a group of pixels in SIMD lockstep, so 56 fetches of regula falsi
-// and gradient inside the loop cost every pixel of the group once per pixel that meets the surface, at its own
-// sample; after the loop they cost the group once. (With slices a crossing must be located before it is kept.)
-bool g_hit = false;
-float g_hit_ta, g_hit_fa, g_hit_tb, g_hit_fb, g_hit_iso, g_hit_t, g_hit_transmittance;
-vec3 g_hit_c0, g_hit_c1, g_hit_voxel;
+#if TRICUBIC_WALK
+// The spline stays out of the sample loop (llvmpipe pays for a branch's body at every sample whether or not a pixel of
+// its SIMD group takes it, so a spline evaluated at a few samples costs as much as at all of them). The walk samples
+// the trilinear value only; a segment whose ends' trilinear values are both farther than the slot's cubic margin
+// from every iso value, on the same side, has no sign change of the spline either. The first segment that may have
+// one (a candidate: trilinear signs differ, or an end within the margin whose spline sign is not known) stops the
+// walk; after it the spline decides at the ends (16 fetches), locates and shades the crossings there (regula falsi
+// and the gradient), goes on along the node's samples on the spline while their trilinear value stays within the
+// margin, and the walk resumes at the last one with the spline's value there as a known sign. Each candidate is one
+// round of the loop around the walk (at most TRICUBIC_ROUNDS: a ray with more candidates ends there), so a group of
+// pixels pays the spline once per round, not once per sample.
+#define TRICUBIC_ROUNDS 8
+bool g_cand;
+float g_cand_ta, g_cand_fa, g_cand_tb, g_cand_t, g_cand_transmittance;
+bool g_cand_sure;  // the spline's sign at ta is g_cand_fa's (no evaluation needed there)
+vec3 g_cand_c0, g_cand_c1, g_cand_voxel;
+float g_cand_step, g_cand_exit, g_cand_margin;  // the node's sample step, exit and cubic margin
+#define TRICUBIC_STEPS 16  // samples on the spline per round, while the trilinear value stays within the margin
 #endif
 
 vec3 shade_surface(vec3 color, vec3 g, vec3 view) {
@@ -886,6 +899,9 @@ void main() {
 
   bool have_prev = false;
   float prev_value = 0.0, prev_t = 0.0;
+#if TRICUBIC_WALK
+  bool prev_sure = true;
+#endif
   uint samples = 0u, bricks = 0u;
 #if MODE == LOD_MODE_EA
   vec4 end_lo = texture(u_tf, 0.5 / float(TF_TEXELS)), end_hi = texture(u_tf, 1.0 - 0.5 / float(TF_TEXELS));
@@ -894,6 +910,10 @@ void main() {
 #endif
 #if HYBRID
   walk_frame(base, dir);
+#endif
+#if TRICUBIC_WALK
+  for (int round = 0; round < TRICUBIC_ROUNDS; ++round) {  // not indented: the walk inside is everyone's
+  g_cand = false;
 #endif
   for (int guard = 0; guard < 65536 && t < t_end && transmittance > u_min_transmittance; ++guard) {
     // Point location: descend from the root to the cut node (or empty region) just past t.
@@ -998,7 +1018,7 @@ void main() {
 #endif
     for (float sb = tstart;;) {
       vec3 c = c0 + c1 * sb;
-#if TRICUBIC
+#if TRICUBIC && !TRICUBIC_WALK
       // The stencil trilinear (as in the trilinear path), the value the spline's wherever its sign could differ.
       vec2 vb = texture(u_atlas, c).rg;
       vb.r = bracket_value(c, vb.r, margin);
@@ -1104,6 +1124,30 @@ void main() {
 #else
       if (vb.g >= 0.5) mip_max = max(mip_max, vb.r);
 #endif
+#elif TRICUBIC_WALK
+      if (vb.g < 0.5) {
+        have_prev = false;
+      } else if (!(have_prev && sb <= prev_t)) {  // a resumed walk's first sample: the known one stays
+        bool sure = true;  // the spline's sign here is the trilinear value's for every iso value
+        bool crosses = false;
+        for (int i = 0; i < u_iso_count; ++i) {
+          float iso = iso_value(i);
+          sure = sure && abs(vb.r - iso) >= margin;
+          crosses = crosses || (have_prev && (prev_value < iso) != (vb.r < iso));
+        }
+        if (have_prev && (crosses || !sure || !prev_sure)) {
+          g_cand = true;
+          g_cand_ta = max(prev_t, t), g_cand_fa = prev_value, g_cand_sure = prev_sure, g_cand_tb = sb;
+          g_cand_t = t, g_cand_c0 = c0, g_cand_c1 = c1, g_cand_voxel = voxel;
+          g_cand_step = step, g_cand_exit = t_exit, g_cand_margin = margin;
+          g_cand_transmittance = transmittance;
+          transmittance = 0.0;  // stops the walk
+        }
+        have_prev = true;
+        prev_value = vb.r;
+        prev_t = sb;
+        prev_sure = sure;
+      }
 #else
       if (vb.g < 0.5) {
         have_prev = false;
@@ -1113,15 +1157,6 @@ void main() {
           for (int i = 0; i < u_iso_count; ++i) {
             float iso = iso_value(up ? i : u_iso_count - 1 - i);
             if ((prev_value < iso) == (vb.r < iso)) continue;
-#if TRICUBIC && !SLICES
-            if (u_iso_opacity >= 1.0) {  // the last crossing of this ray: located after the walk (g_hit)
-              g_hit = true;
-              g_hit_ta = max(prev_t, t), g_hit_fa = prev_value, g_hit_tb = sb, g_hit_fb = vb.r, g_hit_iso = iso;
-              g_hit_t = t, g_hit_c0 = c0, g_hit_c1 = c1, g_hit_voxel = voxel, g_hit_transmittance = transmittance;
-              transmittance = 0.0;
-              break;
-            }
-#endif
 #if TRICUBIC
             // Bracketed by the samples (their signs are the spline's: bracket_value), located on the spline (a
             // crossing of the previous node's last segment has prev_t at this node's entry t, up to rounding:
@@ -1216,12 +1251,46 @@ void main() {
 #endif
     t = t_exit;
   }
-#if TRICUBIC && !SLICES
-  if (g_hit) {
-    float th = cubic_crossing(g_hit_ta, g_hit_fa, g_hit_tb, g_hit_fb, g_hit_iso, g_hit_c0, g_hit_c1);
-    vec3 ch = g_hit_c0 + g_hit_c1 * max(th, g_hit_t);
-    radiance += g_hit_transmittance *
-                shade_surface(tf_at(g_hit_iso).rgb, cubic_gradient(ch, g_hit_voxel), dir_world);
+#if TRICUBIC_WALK
+  if (!g_cand) break;
+  // The candidate segment [ta, tb] of the node whose atlas line is c0 + c1 t: the spline's values at its ends, then
+  // each iso value whose sign differs, in the order the ray meets them, located and composited.
+  transmittance = g_cand_transmittance;
+  float ta = g_cand_ta, tb = g_cand_tb;
+  // At the node's entry the known value is the previous brick's: this brick's spline there instead (as the sample
+  // loop's path takes it), so that a crossing at a brick border is located on one spline.
+  bool known = g_cand_sure && ta > g_cand_t;
+  float fa = known ? g_cand_fa : cubic_at(g_cand_c0 + g_cand_c1 * ta, bvec3(false));
+  float fb = cubic_at(g_cand_c0 + g_cand_c1 * tb, bvec3(false));
+  for (int n = 0; n < TRICUBIC_STEPS; ++n) {
+    bool up = fb > fa;
+    for (int i = 0; i < u_iso_count; ++i) {
+      float iso = iso_value(up ? i : u_iso_count - 1 - i);
+      if ((fa < iso) == (fb < iso)) continue;
+      float th = cubic_crossing(ta, fa, tb, fb, iso, g_cand_c0, g_cand_c1);
+      vec3 ch = g_cand_c0 + g_cand_c1 * max(th, g_cand_t);
+      vec3 color = shade_surface(tf_at(iso).rgb, cubic_gradient(ch, g_cand_voxel), dir_world);
+      radiance += transmittance * u_iso_opacity * color;
+      transmittance *= 1.0 - u_iso_opacity;
+    }
+    if (transmittance <= u_min_transmittance || tb >= g_cand_exit) break;
+    float vt = texture(u_atlas, g_cand_c0 + g_cand_c1 * tb).r;
+    bool sure = true;
+    for (int i = 0; i < u_iso_count; ++i) sure = sure && abs(vt - iso_value(i)) >= g_cand_margin;
+    if (sure) break;
+    // The next sample of the node's grid (as the walk places them), on the spline.
+    float k = floor(tb / g_cand_step) + 1.0, tn = min(k * g_cand_step, g_cand_exit);
+    if (!(tn > tb)) tn = min((k + 1.0) * g_cand_step, g_cand_exit);
+    ta = tb, fa = fb, tb = tn;
+    fb = cubic_at(g_cand_c0 + g_cand_c1 * tb, bvec3(false));
+  }
+  // Resume at tb (its sample is known: the walk skips it), unless the ray is done.
+  t = tb;
+  have_prev = true;
+  prev_value = fb;
+  prev_t = tb;
+  prev_sure = true;
+  if (transmittance <= u_min_transmittance) break;
   }
 #endif
 #if OVERLAY

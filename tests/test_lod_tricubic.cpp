@@ -181,7 +181,9 @@ NormalError normal_error(const Image& im, const Camera& cam) {
   return e;
 }
 
-Image render_iso(const std::string& store, double iso, Interpolation interpolation) {
+// in_loop: with a slice outside the volume (so nothing of it is drawn), which compiles the variant that evaluates the
+// spline inside the sample loop (shaders/lod_raycast.comp, TRICUBIC_WALK): the reference for the walk's bracketing.
+Image render_iso(const std::string& store, double iso, Interpolation interpolation, bool in_loop = false) {
   LodEngine lod(store, *shared().gl);
   lod.set_field("d");
   RenderSettings s;
@@ -190,6 +192,12 @@ Image render_iso(const std::string& store, double iso, Interpolation interpolati
   s.mode = RenderMode::Isosurface;
   s.iso_values = {iso};
   s.interpolation = interpolation;
+  if (in_loop) {
+    Slice outside;
+    outside.point = {0.5, 0.5, 3.0};
+    outside.normal = {0, 0, 1};
+    s.slices = {outside};
+  }
   return lod.render(sphere_camera(), grey_tf(), s, CutSpec{CutSpec::Kind::Leaves, 0});
 }
 
@@ -416,7 +424,8 @@ TEST(LodTricubic, SinesNormalsThreeTimesCloserThanTrilinearInOneBrick) {
 TEST(LodTricubic, SinesNormalsAcross64Bricks) {
   // The same lattice in 64 bricks: the brick borders (0.25, 0.5, 0.75) cross the blobs, where each brick's spline is
   // its own (prefiltered per brick; the apron holds its own extrapolated coefficient, not the neighbour's data:
-  // docs/tricubic.md). Measured 2026-11-27 (llvmpipe): trilinear 1.08°, tricubic 0.013°.
+  // docs/tricubic.md). Measured 2026-11-27 (llvmpipe): trilinear 1.08°, tricubic 0.026° (0.013° with the spline in
+  // the sample loop, which locates a few crossings at brick entries on the other brick's spline).
   REQUIRE_GL();
   const std::string& store = lattice_store("sines", Bricks::Many);
   const SinesError lin = sines_error(render_iso(store, kSinesIso, Interpolation::Trilinear), nullptr);
@@ -435,6 +444,7 @@ TEST(LodTricubic, SinesNormalsAcross64Bricks) {
 struct Coverage {
   int a = 0, b = 0, differ = 0;
   float max_shade_difference = 0;
+  int shade_differs = 0;  // covered by both, red differing by more than 0.01
 };
 Coverage compare(const Image& a, const Image& b) {
   Coverage c;
@@ -442,6 +452,7 @@ Coverage compare(const Image& a, const Image& b) {
     for (int x = 0; x < a.width; ++x) {
       const bool ha = a.pixel(x, y)[0] > 0, hb = b.pixel(x, y)[0] > 0;
       c.a += ha, c.b += hb, c.differ += ha != hb;
+      if (ha && hb) c.shade_differs += std::abs(a.pixel(x, y)[0] - b.pixel(x, y)[0]) > 0.01f;
       if (ha && hb)
         c.max_shade_difference = std::max(c.max_shade_difference, std::abs(a.pixel(x, y)[0] - b.pixel(x, y)[0]));
     }
@@ -449,22 +460,36 @@ Coverage compare(const Image& a, const Image& b) {
 }
 
 TEST(LodTricubic, BracketingOnTrilinearKeepsEveryCrossingOfTheSpline) {
-  // The samples bracket on the trilinear value wherever it is farther from the iso value than the slot's cubic margin
-  // (brick_atlas.h): the same crossings as the spline evaluated at every sample (UGVR_TRICUBIC_NO_BRACKET, the
-  // previous path), so the same pixels; the shade differs only by where regula falsi starts.
+  // The walk samples the trilinear value only and hands the segments that may hold a crossing of the spline (the
+  // slot's cubic margin, brick_atlas.h) to the spline after it: the same crossings as the spline evaluated at every
+  // sample inside the loop (the slices variant with UGVR_TRICUBIC_NO_BRACKET, the previous path), so the same pixels.
+  // The slices variant bracketing in the loop on the margin gives the very same image.
   REQUIRE_GL();
   for (const auto& [name, iso] : {std::pair<std::string, double>{"sines", kSinesIso}, {"sphere", kRadius}})
     for (Bricks bricks : {Bricks::One, Bricks::Many}) {
       const std::string& store = lattice_store(name, bricks);
       ::setenv("UGVR_TRICUBIC_NO_BRACKET", "1", 1);
-      const Image every = render_iso(store, iso, Interpolation::Tricubic);
+      const Image every = render_iso(store, iso, Interpolation::Tricubic, true);
       ::unsetenv("UGVR_TRICUBIC_NO_BRACKET");
-      const Image bracketed = render_iso(store, iso, Interpolation::Tricubic);
-      const Coverage c = compare(every, bracketed);
+      const Image in_loop = render_iso(store, iso, Interpolation::Tricubic, true);
+      const Image walk = render_iso(store, iso, Interpolation::Tricubic);
       SCOPED_TRACE(name + (bricks == Bricks::One ? ", one brick" : ", 64 bricks"));
-      EXPECT_GT(c.a, 2000);
-      EXPECT_EQ(c.differ, 0);
-      EXPECT_LT(c.max_shade_difference, 0.01f);
+      for (const Image* im : {&in_loop, &walk}) {
+        const Coverage c = compare(every, *im);
+        EXPECT_GT(c.a, 2000);
+        EXPECT_EQ(c.differ, 0) << (im == &walk ? "the walk" : "in the loop");
+        std::printf("%s, %s: %d pixels' shade differs by more than 0.01 (at most %.4f)\n", name.c_str(),
+                    im == &walk ? "the walk" : "in the loop", c.shade_differs, c.max_shade_difference);
+        if (im == &in_loop) {
+          EXPECT_LT(c.max_shade_difference, 0.01f) << "in the loop";
+        } else {
+          // The walk locates a crossing within one brick; the loop may locate it in a zero-length segment at a brick's
+          // entry, between the previous brick's spline and this one's (per-brick prefilter: they differ there by the
+          // seam). Measured: 19 pixels of the 64-brick sines, at most 0.068; none elsewhere.
+          EXPECT_LE(c.shade_differs, c.a / 200) << "the walk";
+          EXPECT_LT(c.max_shade_difference, 0.1f) << "the walk";
+        }
+      }
     }
 }
 

@@ -87,8 +87,9 @@ class BrickAtlas {
   void add_coefficients();
   const int* slots_per_axis() const { return slots_; }
   const int* texels_per_axis() const { return texels_; }
-  // Uploads make_atlas_slot's texels into slot `slot`, and the slot's cubic margin into its table texel (the largest
-  // code instead when UGVR_TRICUBIC_NO_BRACKET is set: the spline at every sample, for tests and comparisons).
+  // Uploads make_atlas_slot's texels into slot `slot` (and their spline's coefficients, once added), and the slot's
+  // cubic margin into its table texel (the largest code instead when UGVR_TRICUBIC_NO_BRACKET is set: the spline at
+  // every sample of the in-loop variant, with slices; a reference for tests: the walk would end at every sample).
   void upload(uint64_t slot, const uint16_t* texels);
 
   // Most slots an atlas can have for R within max_3d texels per axis (the margin table included).
