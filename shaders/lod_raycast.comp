@@ -653,12 +653,10 @@ vec3 cubic_gradient(vec3 c, vec3 h) {
          h;
 }
 
-// Slot `slot`'s cubic margin (brick_atlas.h, the table after the slots in z): |spline - trilinear| <= it anywhere in
-// the slot's cells, normalised units.
-float cubic_margin(uint slot) {
-  int side = u_resolution + 2, tx = u_slots.x * side, ty = u_slots.y * side, s = int(slot);
-  return texelFetch(u_atlas, ivec3(s % tx, (s / tx) % ty, u_slots.z * side + s / (tx * ty)), 0).r;
-}
+// Slot `slot`'s cubic margin (brick_atlas.h): |spline - trilinear| <= it anywhere in the slot's cells, normalised
+// units.
+layout(std430, binding = MARGIN_BUFFER_BINDING) readonly buffer Margins { float slot_margin[]; };
+float cubic_margin(uint slot) { return slot_margin[slot]; }
 
 // The value whose sign against each iso value is the spline's, at atlas point c (trilinear value and stencil vt): vt
 // itself where it is farther than `margin` from every iso value (then the spline is on the same side of each), else

@@ -164,29 +164,15 @@ bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector
   return true;
 }
 
-namespace {
-
-// Slots along z within max_3d texels, with the margin layers after them: a layer has T_x · T_y = slots_x · slots_y ·
-// side² texels, so one layer holds the margins of side² layers of slots.
-int slots_along_z(int side, int max_3d) {
-  int n = max_3d / side;
-  const auto layers = [&](int k) { return (k + side * side - 1) / (side * side); };
-  while (n > 0 && n * side + layers(n) > max_3d) --n;
-  return n;
-}
-
-}  // namespace
-
 uint64_t BrickAtlas::max_slots(uint32_t resolution, int max_3d) {
-  const int side = int(resolution) + 2;
-  const uint64_t per_axis = uint64_t(max_3d / side);
-  return per_axis * per_axis * uint64_t(slots_along_z(side, max_3d));
+  const uint64_t per_axis = uint64_t(max_3d) / (resolution + 2);
+  return per_axis * per_axis * per_axis;
 }
 
 BrickAtlas::BrickAtlas(uint32_t resolution, uint64_t slots, int max_3d) : resolution_(resolution) {
   const int side = int(resolution) + 2;
-  const int per_axis = max_3d / side, per_axis_z = slots_along_z(side, max_3d);
-  if (per_axis_z < 1) fail_in("brick atlas", "bricks of " + std::to_string(resolution) + "³ do not fit a 3D texture");
+  const int per_axis = max_3d / side;
+  if (per_axis < 1) fail_in("brick atlas", "bricks of " + std::to_string(resolution) + "³ do not fit a 3D texture");
   slots = std::max<uint64_t>(slots, 1);
   if (slots > max_slots(resolution, max_3d))
     fail_in("brick atlas", std::to_string(slots) + " bricks exceed the largest 3D texture (" +
@@ -198,14 +184,11 @@ BrickAtlas::BrickAtlas(uint32_t resolution, uint64_t slots, int max_3d) : resolu
   slots_[1] = int(std::min<uint64_t>(per_axis, (slots + n - 1) / n));
   slots_[1] = std::min(slots_[1], n);
   slots_[2] = int((slots + uint64_t(slots_[0]) * slots_[1] - 1) / (uint64_t(slots_[0]) * slots_[1]));
-  if (slots_[2] > per_axis_z) {  // a flat count: widen y
+  if (slots_[2] > per_axis) {  // a flat count: widen y
     slots_[1] = per_axis;
     slots_[2] = int((slots + uint64_t(slots_[0]) * slots_[1] - 1) / (uint64_t(slots_[0]) * slots_[1]));
   }
   for (int a = 0; a < 3; ++a) texels_[a] = slots_[a] * side;
-  // The margin table's layers (brick_atlas.h): one texel per slot.
-  const uint64_t per_layer = uint64_t(texels_[0]) * texels_[1];
-  texels_[2] += int((capacity() + per_layer - 1) / per_layer);
   const char* no_bracket = std::getenv("UGVR_TRICUBIC_NO_BRACKET");
   no_bracket_ = no_bracket && *no_bracket;
   texture_ = GlTexture(GL_TEXTURE_3D);
@@ -218,7 +201,8 @@ BrickAtlas::BrickAtlas(uint32_t resolution, uint64_t slots, int max_3d) : resolu
 }
 
 uint64_t BrickAtlas::bytes() const {
-  return uint64_t(texels_[0]) * texels_[1] * texels_[2] * (has_coefficients() ? 6 : 4);
+  return uint64_t(texels_[0]) * texels_[1] * texels_[2] * (has_coefficients() ? 6 : 4) +
+         (has_coefficients() ? capacity() * sizeof(float) : 0);
 }
 
 void BrickAtlas::add_coefficients() {
@@ -231,6 +215,10 @@ void BrickAtlas::add_coefficients() {
   for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
     glTextureParameteri(t.id(), w, GL_CLAMP_TO_EDGE);
   coefficients_ = std::move(t);
+  // Until a slot uploads with the coefficients its margin is the whole range: the spline decides everywhere.
+  const std::vector<float> everywhere(capacity(), 1.0f);
+  margins_.upload(everywhere.data(), everywhere.size() * sizeof(float));
+  check_gl("allocating the brick atlas's cubic margins");
 }
 
 void BrickAtlas::upload(uint64_t slot, const uint16_t* texels) {
@@ -239,27 +227,24 @@ void BrickAtlas::upload(uint64_t slot, const uint16_t* texels) {
   const int z = int(slot / (uint64_t(slots_[0]) * slots_[1]));
   glTextureSubImage3D(texture_.id(), 0, x * side, y * side, z * side, side, side, side, GL_RG, GL_UNSIGNED_SHORT,
                       texels);
-  const bool prefiltered = has_coefficients() && cubic_coefficients(resolution_, texels, scratch_);
-  if (has_coefficients()) {
-    // [-1/2, 3/2] to [0, 1] (brick_atlas.h); without the prefilter, the samples themselves.
-    std::vector<uint16_t> codes(size_t(side) * side * side);
-    for (size_t i = 0; i < codes.size(); ++i) {
-      const double c = prefiltered ? scratch_[i] : double(texels[2 * i]) / 65535.0;
-      codes[i] = uint16_t(std::clamp(std::round((c + 0.5) * 0.5 * 65535.0), 0.0, 65535.0));
-    }
-    // Rows of one 16-bit channel are not 4-byte multiples for an odd side: unpack at 2-byte alignment.
-    GLint alignment = 4;
-    glGetIntegerv(GL_UNPACK_ALIGNMENT, &alignment);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 2);
-    glTextureSubImage3D(coefficients_.id(), 0, x * side, y * side, z * side, side, side, side, GL_RED,
-                        GL_UNSIGNED_SHORT, codes.data());
-    glPixelStorei(GL_UNPACK_ALIGNMENT, alignment);
+  if (!has_coefficients()) return;  // the margin and coefficients serve tricubic frames only
+  const bool prefiltered = cubic_coefficients(resolution_, texels, scratch_);
+  // [-1/2, 3/2] to [0, 1] (brick_atlas.h); without the prefilter, the samples themselves.
+  std::vector<uint16_t> codes(size_t(side) * side * side);
+  for (size_t i = 0; i < codes.size(); ++i) {
+    const double c = prefiltered ? scratch_[i] : double(texels[2 * i]) / 65535.0;
+    codes[i] = uint16_t(std::clamp(std::round((c + 0.5) * 0.5 * 65535.0), 0.0, 65535.0));
   }
-  const uint16_t margin[2] = {
-      no_bracket_ ? uint16_t(65535) : cubic_margin_code(resolution_, texels, prefiltered ? &scratch_ : nullptr), 0};
-  const uint64_t tx = uint64_t(texels_[0]), ty = uint64_t(texels_[1]);
-  glTextureSubImage3D(texture_.id(), 0, int(slot % tx), int((slot / tx) % ty), slots_[2] * side + int(slot / (tx * ty)),
-                      1, 1, 1, GL_RG, GL_UNSIGNED_SHORT, margin);
+  // Rows of one 16-bit channel are not 4-byte multiples for an odd side: unpack at 2-byte alignment.
+  GLint alignment = 4;
+  glGetIntegerv(GL_UNPACK_ALIGNMENT, &alignment);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 2);
+  glTextureSubImage3D(coefficients_.id(), 0, x * side, y * side, z * side, side, side, side, GL_RED, GL_UNSIGNED_SHORT,
+                      codes.data());
+  glPixelStorei(GL_UNPACK_ALIGNMENT, alignment);
+  const float margin =
+      no_bracket_ ? 1.0f : float(cubic_margin_code(resolution_, texels, prefiltered ? &scratch_ : nullptr)) / 65535.0f;
+  glNamedBufferSubData(margins_.id(), GLintptr(slot * sizeof(float)), sizeof(float), &margin);
 }
 
 }  // namespace ugvr

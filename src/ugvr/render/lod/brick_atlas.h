@@ -9,22 +9,17 @@
 // out x fastest over a grid of slots_x × slots_y × slots_z; slot s sits at texel origin
 //   (s % slots_x, (s / slots_x) % slots_y, s / (slots_x · slots_y)) · (R + 2).
 //
-// The cubic margin table (docs/tricubic.md, "Finding the surface"): after the slots, in z, the atlas has `margin
-// layers` of texels (as few as hold one texel per slot, usually one), and slot s's texel in it,
-//   (s % T_x, (s / T_x) % T_y, slots_z · (R + 2) + s / (T_x · T_y))   (T: texels per axis),
-// holds in R a bound M on |spline − trilinear| of that slot's texels (the spline of the coefficients where the atlas
-// has them, else of the samples), as a code of the same [0, 1] scale as the
-// values (rounded up): cubic_margin_code. The tricubic isosurface brackets crossings on the trilinear value and
-// evaluates the spline only where the trilinear value is within M of an iso value; elsewhere both have the same sign.
-// No sample ever reads the table: slot texels are at most R + 1 in each slot, and linear fetches at them do not
-// reach past the slot's last texel centre.
-//
 // The coefficient texture (tricubic isosurfaces only: add_coefficients, which the engine calls on its first tricubic
 // frame): R16, the same size and slot layout as the atlas; slot texels hold the coefficients of the interpolating
 // cubic B-spline of the brick's samples (LaMar 2000 ch. 3, the prefilter; cubic_coefficients), mapped from [-1/2,
 // 3/2] of the normalised range to [0, 1] so that the coefficients' overshoot past the data (4% at a sine's peak)
 // is kept, at half the values' precision. Bricks with samples without data keep their samples (the approximating
 // spline): the prefilter would spread the filler into the data.
+// With it, the cubic margins (docs/tricubic.md, "Finding the surface"): a float per slot in a storage buffer, slot s's
+// at index s, a bound M on |spline − trilinear| anywhere in the slot's cells in the normalised [0, 1] units of the
+// values (cubic_margin_code / 65535). The tricubic isosurface brackets crossings on the trilinear value and evaluates
+// the spline only where the trilinear value is within M of an iso value; elsewhere both have the same sign. Neither
+// exists before the first tricubic frame, so the other modes' atlas and uploads are as they were.
 //
 // Before upload, a brick's samples without data are padded (store/brick_pad.h: one layer grown outward by averaging
 // data neighbours), so hardware trilinear filtering next to the mesh boundary mixes data with pad, never with filler;
@@ -84,15 +79,16 @@ class BrickAtlas {
   // uploaded before have none: the caller uploads them again).
   bool has_coefficients() const { return coefficients_.id() != 0; }
   GLuint coefficients() const { return coefficients_.id(); }
+  GLuint margins() const { return margins_.id(); }
   void add_coefficients();
   const int* slots_per_axis() const { return slots_; }
   const int* texels_per_axis() const { return texels_; }
-  // Uploads make_atlas_slot's texels into slot `slot` (and their spline's coefficients, once added), and the slot's
-  // cubic margin into its table texel (the largest code instead when UGVR_TRICUBIC_NO_BRACKET is set: the spline at
-  // every sample of the in-loop variant, with slices; a reference for tests: the walk would end at every sample).
+  // Uploads make_atlas_slot's texels into slot `slot`, and once coefficients are added their spline's coefficients
+  // and the slot's cubic margin (the whole range instead when UGVR_TRICUBIC_NO_BRACKET is set: the spline at every
+  // sample of the in-loop variant, with slices; a reference for tests: the walk would end at every sample).
   void upload(uint64_t slot, const uint16_t* texels);
 
-  // Most slots an atlas can have for R within max_3d texels per axis (the margin table included).
+  // Most slots an atlas can have for R within max_3d texels per axis.
   static uint64_t max_slots(uint32_t resolution, int max_3d);
 
  private:
@@ -102,6 +98,7 @@ class BrickAtlas {
   int texels_[3] = {0, 0, 0};
   GlTexture texture_;
   GlTexture coefficients_;
+  GlBuffer margins_;
   std::vector<double> scratch_;
 };
 

@@ -691,7 +691,10 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   glBindBufferBase(GL_UNIFORM_BUFFER, lod_gpu::FRAME_BLOCK_BINDING, I.frame_block.id());
   glBindImageTexture(lod_gpu::OUT_IMAGE_BINDING, I.out_texture.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
   glBindTextureUnit(lod_gpu::ATLAS_TEXTURE_BINDING, I.atlas.texture());
-  if (I.atlas.has_coefficients()) glBindTextureUnit(lod_gpu::COEF_TEXTURE_BINDING, I.atlas.coefficients());
+  if (I.atlas.has_coefficients()) {
+    glBindTextureUnit(lod_gpu::COEF_TEXTURE_BINDING, I.atlas.coefficients());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::MARGIN_BUFFER_BINDING, I.atlas.margins());
+  }
   glBindTextureUnit(lod_gpu::TF_TEXTURE_BINDING, I.tf_texture.id());
   glBindTextureUnit(lod_gpu::PREINT_TEXTURE_BINDING, I.preint_texture.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::TREE_BUFFER_BINDING, I.tree.id());
