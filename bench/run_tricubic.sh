@@ -6,8 +6,10 @@
 # (spacings 1/(N-1): the unit cube), built into a store with leaf bricks of 9 samples at depth 2 (8 voxels of 1/32 per node axis, so
 # the leaf samples are the NRRD's own) and rendered at SIZE² (default 512) from an oblique camera, FRAMES frames each
 # way (default 5; the median after the first, `--stats`'s median_frame_seconds), alternated ROUNDS times (default 2).
+# FIELD=sines instead samples sin(3πx) sin(3πy) sin(3πz) (iso 0.25: blobs of about 3 voxels' radius, the field of
+# tests/test_lod_tricubic.cpp), and BRICKS=1 builds one brick of N samples (depth 0) instead of 64 bricks of 9.
 # Usage: bench/run_tricubic.sh [OUT_DIR=/tmp/ugvr-tricubic]; UGVR (default build/ugvr), N, SIZE, FRAMES, ROUNDS,
-# PYTHON. One JSON line per render is appended to bench/results/tricubic.jsonl.
+# FIELD (sphere), BRICKS (64), PYTHON. One JSON line per render is appended to bench/results/tricubic.jsonl.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-/tmp/ugvr-tricubic}
@@ -17,38 +19,48 @@ size=${SIZE:-512}
 frames=${FRAMES:-5}
 rounds=${ROUNDS:-2}
 py=${PYTHON:-$(command -v python3)}
+field=${FIELD:-sphere}
+bricks=${BRICKS:-64}
+case "$field" in sphere) iso=0.3 ;; sines) iso=0.25 ;; *) echo "FIELD must be sphere or sines" >&2; exit 2 ;; esac
+case "$bricks" in 64) brick_args="--brick 9 --max-depth 2" ;; 1) brick_args="--brick $n --max-depth 0" ;;
+  *) echo "BRICKS must be 1 or 64" >&2; exit 2 ;; esac
 jsonl=bench/results/tricubic.jsonl
 mkdir -p "$out" bench/results
 commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
 echo "{\"bench\":\"session\",\"date\":\"$(date -u +%FT%TZ)\",\"commit\":\"$commit\",\"machine\":\"$(nproc) cores, load $(cut -d' ' -f1 /proc/loadavg)\"}" | tee -a "$jsonl"
 
-nrrd="$out/sphere$n.nrrd"
-"$py" - "$nrrd" "$n" <<'PY'
+nrrd="$out/$field$n.nrrd"
+"$py" - "$nrrd" "$n" "$field" <<'PY'
 import math, struct, sys
-path, n = sys.argv[1], int(sys.argv[2])
+path, n, field = sys.argv[1], int(sys.argv[2]), sys.argv[3]
 h = 1.0 / (n - 1)
+k3 = 3 * math.pi
 vals = []
 for k in range(n):
     for j in range(n):
         for i in range(n):
-            vals.append(math.sqrt((i * h - 0.5) ** 2 + (j * h - 0.5) ** 2 + (k * h - 0.5) ** 2))
+            if field == "sines":
+                vals.append(math.sin(k3 * i * h) * math.sin(k3 * j * h) * math.sin(k3 * k * h))
+            else:
+                vals.append(math.sqrt((i * h - 0.5) ** 2 + (j * h - 0.5) ** 2 + (k * h - 0.5) ** 2))
 with open(path, "wb") as f:
     f.write(("NRRD0004\ntype: float\ndimension: 3\nsizes: %d %d %d\nspacings: %r %r %r\nencoding: raw\n"
              "endian: little\n\n" % (n, n, n, h, h, h)).encode())
     f.write(struct.pack("<%df" % len(vals), *vals))
 PY
-store="$out/sphere$n.ugvr"
-"$ugvr" --quiet build "$nrrd" --brick 9 --max-depth 2 --error 0 -o "$store"
+store="$out/$field$n-$bricks.ugvr"
+# shellcheck disable=SC2086 # two arguments
+"$ugvr" --quiet build "$nrrd" $brick_args --error 0 -o "$store"
 cat > "$out/camera.json" <<'CAM'
 {"position": [1.6, 1.3, 2.0], "focal_point": [0.5, 0.5, 0.5], "view_up": [0, 1, 0], "view_angle": 24}
 CAM
 for round in $(seq "$rounds"); do
   for interp in trilinear tricubic; do
-    "$ugvr" --quiet render "$store" --engine lod --cut leaves --camera "$out/camera.json" --size "$size" --iso 0.3 \
+    "$ugvr" --quiet render "$store" --engine lod --cut leaves --camera "$out/camera.json" --size "$size" --iso $iso \
       --interpolation $interp -o "$out/$interp.png" --stats "$out/$interp.json" --frames "$frames"
     "$py" -c "
 import json; s = json.load(open('$out/$interp.json'))
-print(json.dumps({'bench': 'tricubic', 'interpolation': '$interp', 'n': $n, 'size': $size, 'round': $round,
-                  'median_frame_seconds': s['median_frame_seconds']}))" | tee -a "$jsonl"
+print(json.dumps({'bench': 'tricubic', 'field': '$field', 'bricks': $bricks, 'interpolation': '$interp', 'n': $n,
+                  'size': $size, 'round': $round, 'median_frame_seconds': s['median_frame_seconds']}))" | tee -a "$jsonl"
   done
 done

@@ -39,6 +39,9 @@
 #ifndef HYBRID
 #define HYBRID 0  // exact cells in the nodes granted them (emission-absorption without overlay; docs/hybrid.md)
 #endif
+// Tricubic isosurfaces bracket on the trilinear samples and evaluate the spline after the walk (below, g_cand);
+// with slices, whose crossings must be known in order, the spline is evaluated in the sample loop instead.
+#define TRICUBIC_WALK (TRICUBIC && MODE == LOD_MODE_ISO && !SLICES)
 #if HYBRID && (MODE != LOD_MODE_EA || OVERLAY)
 #error HYBRID is an emission-absorption variant without the boundary overlay
 #endif
@@ -599,13 +602,16 @@ vec3 gradient_at(vec3 c, vec3 h) {
 }
 
 #if TRICUBIC
-// The uniform cubic B-spline whose coefficients are the brick's samples (LaMar 2000 ch. 3, without the prefilter:
-// docs/tricubic.md says why), evaluated with 8 linear fetches (Sigg & Hadwiger 2005): along each axis the four
-// weights of the 4-texel stencil are positive, so each pair (w0, w1), (w2, w3) is one linear fetch between two texels
-// at h = the pair's centre of mass, weighted by g = the pair's sum. The first derivative has weights of one sign per
-// pair as well (dw0, dw1 <= 0 <= dw2, dw3), so a partial derivative is 8 fetches too. The stencil reaches one texel
-// beyond the cell: at a brick's border that is its 1-texel apron, which repeats the border sample (brick_pad.h), so
-// the spline there is that of the clamped brick, not of the neighbour's data (the seam docs/tricubic.md describes).
+// The uniform cubic B-spline that interpolates the brick's samples (LaMar 2000 ch. 3: its coefficients, prefiltered
+// per brick when the brick uploads, brick_atlas.h), evaluated with 8 linear fetches (Sigg & Hadwiger 2005): along
+// each axis the four weights of the 4-texel stencil are positive, so each pair (w0, w1), (w2, w3) is one linear
+// fetch between two texels at h = the pair's centre of mass, weighted by g = the pair's sum. The first derivative has
+// weights of one sign per pair as well (dw0, dw1 <= 0 <= dw2, dw3), so a partial derivative is 8 fetches too. The
+// stencil reaches one texel beyond the cell: at a brick's border that is its 1-texel apron, the coefficient the
+// brick's own samples extrapolate (not-a-knot), not the neighbour's data (the seam docs/tricubic.md describes). The
+// coefficient texture stores [-1/2, 3/2] of the normalised range as [0, 1].
+layout(binding = COEF_TEXTURE_BINDING) uniform sampler3D u_coef;
+
 // axis_weights: x in texel units (texel k's centre at k + 0.5); g0, g1 the pair weights, h0, h1 the pair positions
 // (texel units), of the value (deriv false) or of the derivative d/dx (deriv true).
 void axis_weights(vec3 x, bvec3 deriv, out vec3 g0, out vec3 g1, out vec3 h0, out vec3 h1) {
@@ -625,24 +631,41 @@ void axis_weights(vec3 x, bvec3 deriv, out vec3 g0, out vec3 g1, out vec3 h0, ou
   h1 = i + 1.5 + w3 / g1;
 }
 
-// The spline (value and stencil, or a partial derivative per texel when deriv has that axis) at atlas coordinate c.
-vec2 cubic_at(vec3 c, bvec3 deriv) {
+// The spline's value (or its partial derivative per texel when deriv has that axis) at atlas coordinate c.
+float cubic_at(vec3 c, bvec3 deriv) {
   vec3 g0, g1, h0, h1;
   axis_weights(c / u_atlas_inv, deriv, g0, g1, h0, h1);
   h0 *= u_atlas_inv;
   h1 *= u_atlas_inv;
-  vec2 v00 = g0.x * texture(u_atlas, vec3(h0.x, h0.y, h0.z)).rg + g1.x * texture(u_atlas, vec3(h1.x, h0.y, h0.z)).rg;
-  vec2 v10 = g0.x * texture(u_atlas, vec3(h0.x, h1.y, h0.z)).rg + g1.x * texture(u_atlas, vec3(h1.x, h1.y, h0.z)).rg;
-  vec2 v01 = g0.x * texture(u_atlas, vec3(h0.x, h0.y, h1.z)).rg + g1.x * texture(u_atlas, vec3(h1.x, h0.y, h1.z)).rg;
-  vec2 v11 = g0.x * texture(u_atlas, vec3(h0.x, h1.y, h1.z)).rg + g1.x * texture(u_atlas, vec3(h1.x, h1.y, h1.z)).rg;
-  return g0.z * (g0.y * v00 + g1.y * v10) + g1.z * (g0.y * v01 + g1.y * v11);
+  float v00 = g0.x * texture(u_coef, vec3(h0.x, h0.y, h0.z)).r + g1.x * texture(u_coef, vec3(h1.x, h0.y, h0.z)).r;
+  float v10 = g0.x * texture(u_coef, vec3(h0.x, h1.y, h0.z)).r + g1.x * texture(u_coef, vec3(h1.x, h1.y, h0.z)).r;
+  float v01 = g0.x * texture(u_coef, vec3(h0.x, h0.y, h1.z)).r + g1.x * texture(u_coef, vec3(h1.x, h0.y, h1.z)).r;
+  float v11 = g0.x * texture(u_coef, vec3(h0.x, h1.y, h1.z)).r + g1.x * texture(u_coef, vec3(h1.x, h1.y, h1.z)).r;
+  float v = g0.z * (g0.y * v00 + g1.y * v10) + g1.z * (g0.y * v01 + g1.y * v11);
+  // The weights sum to 1 for the value, to 0 for a derivative: the storage's offset cancels there.
+  return any(deriv) ? 2.0 * v : 2.0 * v - 0.5;
 }
 
 // The spline's analytic gradient, world units (h: the node's voxel size, world), 24 fetches: only at a surface.
 vec3 cubic_gradient(vec3 c, vec3 h) {
-  return vec3(cubic_at(c, bvec3(true, false, false)).r, cubic_at(c, bvec3(false, true, false)).r,
-              cubic_at(c, bvec3(false, false, true)).r) /
+  return vec3(cubic_at(c, bvec3(true, false, false)), cubic_at(c, bvec3(false, true, false)),
+              cubic_at(c, bvec3(false, false, true))) /
          h;
+}
+
+// Slot `slot`'s cubic margin (brick_atlas.h): |spline - trilinear| <= it anywhere in the slot's cells, normalised
+// units.
+layout(std430, binding = MARGIN_BUFFER_BINDING) readonly buffer Margins { float slot_margin[]; };
+float cubic_margin(uint slot) { return slot_margin[slot]; }
+
+// The value whose sign against each iso value is the spline's, at atlas point c (trilinear value and stencil vt): vt
+// itself where it is farther than `margin` from every iso value (then the spline is on the same side of each), else
+// the spline's value (8 fetches). So the samples bracket exactly the crossings the spline has between them, at the
+// price of the trilinear path plus the spline near the surface.
+float bracket_value(vec3 c, float vt, float margin) {
+  for (int i = 0; i < u_iso_count; ++i)
+    if (abs(vt - iso_value(i)) < margin) return cubic_at(c, bvec3(false));
+  return vt;
 }
 
 // The crossing of iso between ta (value fa) and tb (fb) on opposite sides, on the spline along the ray (atlas point
@@ -653,7 +676,7 @@ float cubic_crossing(float ta, float fa, float tb, float fb, float iso, vec3 c0,
   int side = 0;
   for (int it = 0; it < 4; ++it) {
     float tm = ta + ra / (ra - rb) * (tb - ta);
-    float rm = cubic_at(c0 + c1 * tm, bvec3(false)).r - iso;
+    float rm = cubic_at(c0 + c1 * tm, bvec3(false)) - iso;
     if ((rm < 0.0) == (ra < 0.0)) {
       ta = tm;
       ra = rm;
@@ -668,6 +691,26 @@ float cubic_crossing(float ta, float fa, float tb, float fb, float iso, vec3 c0,
   }
   return ra == rb ? 0.5 * (ta + tb) : ta + ra / (ra - rb) * (tb - ta);
 }
+#endif
+
+#if TRICUBIC_WALK
+// The spline stays out of the sample loop (llvmpipe pays for a branch's body at every sample whether or not a pixel of
+// its SIMD group takes it, so a spline evaluated at a few samples costs as much as at all of them). The walk samples
+// the trilinear value only; a segment whose ends' trilinear values are both farther than the slot's cubic margin
+// from every iso value, on the same side, has no sign change of the spline either. The first segment that may have
+// one (a candidate: trilinear signs differ, or an end within the margin whose spline sign is not known) stops the
+// walk; after it the spline decides at the ends (16 fetches), locates and shades the crossings there (regula falsi
+// and the gradient), goes on along the node's samples on the spline while their trilinear value stays within the
+// margin, and the walk resumes at the last one with the spline's value there as a known sign. Each candidate is one
+// round of the loop around the walk (at most TRICUBIC_ROUNDS: a ray with more candidates ends there), so a group of
+// pixels pays the spline once per round, not once per sample.
+#define TRICUBIC_ROUNDS 8
+bool g_cand;
+float g_cand_ta, g_cand_fa, g_cand_tb, g_cand_t, g_cand_transmittance;
+bool g_cand_sure;  // the spline's sign at ta is g_cand_fa's (no evaluation needed there)
+vec3 g_cand_c0, g_cand_c1, g_cand_voxel;
+float g_cand_step, g_cand_exit, g_cand_margin;  // the node's sample step, exit and cubic margin
+#define TRICUBIC_STEPS 16  // samples on the spline per round, while the trilinear value stays within the margin
 #endif
 
 vec3 shade_surface(vec3 color, vec3 g, vec3 view) {
@@ -854,6 +897,9 @@ void main() {
 
   bool have_prev = false;
   float prev_value = 0.0, prev_t = 0.0;
+#if TRICUBIC_WALK
+  bool prev_sure = true;
+#endif
   uint samples = 0u, bricks = 0u;
 #if MODE == LOD_MODE_EA
   vec4 end_lo = texture(u_tf, 0.5 / float(TF_TEXELS)), end_hi = texture(u_tf, 1.0 - 0.5 / float(TF_TEXELS));
@@ -862,6 +908,10 @@ void main() {
 #endif
 #if HYBRID
   walk_frame(base, dir);
+#endif
+#if TRICUBIC_WALK
+  for (int round = 0; round < TRICUBIC_ROUNDS; ++round) {  // not indented: the walk inside is everyone's
+  g_cand = false;
 #endif
   for (int guard = 0; guard < 65536 && t < t_end && transmittance > u_min_transmittance; ++guard) {
     // Point location: descend from the root to the cut node (or empty region) just past t.
@@ -931,6 +981,9 @@ void main() {
     vec3 c1 = dir * scale;
     float step = u_fixed_step ? u_step0 : u_step0 / float(1 << level);
     vec3 voxel = u_root_size * (size / float(u_resolution - 1));
+#if TRICUBIC
+    float margin = cubic_margin(state);
+#endif
     ++bricks;
 #if FACES
     // fstate: inside the mesh (1) or not (0) over the current segment, from the node's faces; -1: the stencil decides.
@@ -967,8 +1020,10 @@ void main() {
 #endif
     for (float sb = tstart;;) {
       vec3 c = c0 + c1 * sb;
-#if TRICUBIC
-      vec2 vb = cubic_at(c, bvec3(false));  // value and stencil on the spline (the stencil: smooth, same threshold)
+#if TRICUBIC && !TRICUBIC_WALK
+      // The stencil trilinear (as in the trilinear path), the value the spline's wherever its sign could differ.
+      vec2 vb = texture(u_atlas, c).rg;
+      vb.r = bracket_value(c, vb.r, margin);
 #else
       vec2 vb = texture(u_atlas, c).rg;
 #endif
@@ -1071,6 +1126,30 @@ void main() {
 #else
       if (vb.g >= 0.5) mip_max = max(mip_max, vb.r);
 #endif
+#elif TRICUBIC_WALK
+      if (vb.g < 0.5) {
+        have_prev = false;
+      } else if (!(have_prev && sb <= prev_t)) {  // a resumed walk's first sample: the known one stays
+        bool sure = true;  // the spline's sign here is the trilinear value's for every iso value
+        bool crosses = false;
+        for (int i = 0; i < u_iso_count; ++i) {
+          float iso = iso_value(i);
+          sure = sure && abs(vb.r - iso) >= margin;
+          crosses = crosses || (have_prev && (prev_value < iso) != (vb.r < iso));
+        }
+        if (have_prev && (crosses || !sure || !prev_sure)) {
+          g_cand = true;
+          g_cand_ta = max(prev_t, t), g_cand_fa = prev_value, g_cand_sure = prev_sure, g_cand_tb = sb;
+          g_cand_t = t, g_cand_c0 = c0, g_cand_c1 = c1, g_cand_voxel = voxel;
+          g_cand_step = step, g_cand_exit = t_exit, g_cand_margin = margin;
+          g_cand_transmittance = transmittance;
+          transmittance = 0.0;  // stops the walk
+        }
+        have_prev = true;
+        prev_value = vb.r;
+        prev_t = sb;
+        prev_sure = sure;
+      }
 #else
       if (vb.g < 0.5) {
         have_prev = false;
@@ -1081,8 +1160,9 @@ void main() {
             float iso = iso_value(up ? i : u_iso_count - 1 - i);
             if ((prev_value < iso) == (vb.r < iso)) continue;
 #if TRICUBIC
-            // Bracketed by the samples, located on the spline (a crossing of the previous node's last segment has
-            // prev_t at this node's entry t, up to rounding: searched from t in this node's brick).
+            // Bracketed by the samples (their signs are the spline's: bracket_value), located on the spline (a
+            // crossing of the previous node's last segment has prev_t at this node's entry t, up to rounding:
+            // searched from t in this node's brick).
             float th = cubic_crossing(max(prev_t, t), prev_value, sb, vb.r, iso, c0, c1);
 #else
             float th = prev_t + (iso - prev_value) / (vb.r - prev_value) * (sb - prev_t);
@@ -1175,6 +1255,48 @@ void main() {
 #endif
     t = t_exit;
   }
+#if TRICUBIC_WALK
+  if (!g_cand) break;
+  // The candidate segment [ta, tb] of the node whose atlas line is c0 + c1 t: the spline's values at its ends, then
+  // each iso value whose sign differs, in the order the ray meets them, located and composited.
+  transmittance = g_cand_transmittance;
+  float ta = g_cand_ta, tb = g_cand_tb;
+  // At the node's entry the known value is the previous brick's: this brick's spline there instead (as the sample
+  // loop's path takes it), so that a crossing at a brick border is located on one spline.
+  bool known = g_cand_sure && ta > g_cand_t;
+  float fa = known ? g_cand_fa : cubic_at(g_cand_c0 + g_cand_c1 * ta, bvec3(false));
+  float fb = cubic_at(g_cand_c0 + g_cand_c1 * tb, bvec3(false));
+  for (int n = 0; n < TRICUBIC_STEPS; ++n) {
+    bool up = fb > fa;
+    for (int i = 0; i < u_iso_count; ++i) {
+      float iso = iso_value(up ? i : u_iso_count - 1 - i);
+      if ((fa < iso) == (fb < iso)) continue;
+      float th = cubic_crossing(ta, fa, tb, fb, iso, g_cand_c0, g_cand_c1);
+      vec3 ch = g_cand_c0 + g_cand_c1 * max(th, g_cand_t);
+      vec3 color = shade_surface(tf_at(iso).rgb, cubic_gradient(ch, g_cand_voxel), dir_world);
+      radiance += transmittance * u_iso_opacity * color;
+      transmittance *= 1.0 - u_iso_opacity;
+    }
+    if (transmittance <= u_min_transmittance || tb >= g_cand_exit) break;
+    float vt = texture(u_atlas, g_cand_c0 + g_cand_c1 * tb).r;
+    bool sure = true;
+    for (int i = 0; i < u_iso_count; ++i) sure = sure && abs(vt - iso_value(i)) >= g_cand_margin;
+    if (sure) break;
+    // The next sample of the node's grid (as the walk places them), on the spline.
+    float k = floor(tb / g_cand_step) + 1.0, tn = min(k * g_cand_step, g_cand_exit);
+    if (!(tn > tb)) tn = min((k + 1.0) * g_cand_step, g_cand_exit);
+    ta = tb, fa = fb, tb = tn;
+    fb = cubic_at(g_cand_c0 + g_cand_c1 * tb, bvec3(false));
+  }
+  // Resume at tb (its sample is known: the walk skips it), unless the ray is done.
+  t = tb;
+  have_prev = true;
+  prev_value = fb;
+  prev_t = tb;
+  prev_sure = true;
+  if (transmittance <= u_min_transmittance) break;
+  }
+#endif
 #if OVERLAY
   // The end: the root cell's exit is outside the data; at the clip plane the state is V's there. (The last node's
   // exit may pass t_end by rounding, and a sample with it: the state ignores samples past t_end.)

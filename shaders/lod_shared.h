@@ -81,6 +81,9 @@ const int CELL_INT_BUFFER_BINDING = 13;    // uint: connectivity, neighbours, qu
 const int CELL_FLOAT_BUFFER_BINDING = 14;  // float: points (normalised coordinates), values (the field's own)
 const int CELL_NODE_UVEC4S = 6;
 const int CELL_OPTICAL_BUFFER_BINDING = 15;  // the exact engine's optical table (shaders/optical.glsl) for the cells
+// sampler3D R16: the interpolating spline's coefficients per atlas texel (TRICUBIC variants; brick_atlas.h)
+const int COEF_TEXTURE_BINDING = 16;
+const int MARGIN_BUFFER_BINDING = 17;  // float per atlas slot: its cubic margin (TRICUBIC variants; brick_atlas.h)
 // A node state with this bit set (and below NODE_DESCEND) is a cut node drawn by its cells; the bits below are its
 // entry in the cell cache.
 const uint NODE_EXACT = 0x80000000u;

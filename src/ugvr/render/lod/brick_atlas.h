@@ -9,6 +9,18 @@
 // out x fastest over a grid of slots_x × slots_y × slots_z; slot s sits at texel origin
 //   (s % slots_x, (s / slots_x) % slots_y, s / (slots_x · slots_y)) · (R + 2).
 //
+// The coefficient texture (tricubic isosurfaces only: add_coefficients, which the engine calls on its first tricubic
+// frame): R16, the same size and slot layout as the atlas; slot texels hold the coefficients of the interpolating
+// cubic B-spline of the brick's samples (LaMar 2000 ch. 3, the prefilter; cubic_coefficients), mapped from [-1/2,
+// 3/2] of the normalised range to [0, 1] so that the coefficients' overshoot past the data (4% at a sine's peak)
+// is kept, at half the values' precision. Bricks with samples without data keep their samples (the approximating
+// spline): the prefilter would spread the filler into the data.
+// With it, the cubic margins (docs/tricubic.md, "Finding the surface"): a float per slot in a storage buffer, slot s's
+// at index s, a bound M on |spline − trilinear| anywhere in the slot's cells in the normalised [0, 1] units of the
+// values (cubic_margin_code / 65535). The tricubic isosurface brackets crossings on the trilinear value and evaluates
+// the spline only where the trilinear value is within M of an iso value; elsewhere both have the same sign. Neither
+// exists before the first tricubic frame, so the other modes' atlas and uploads are as they were.
+//
 // Before upload, a brick's samples without data are padded (store/brick_pad.h: one layer grown outward by averaging
 // data neighbours), so hardware trilinear filtering next to the mesh boundary mixes data with pad, never with filler;
 // the interpolated stencil then decides per sample (>= 1/2: data), which keeps the boundary free of the striping of
@@ -29,6 +41,30 @@ namespace ugvr {
 void make_atlas_slot(uint32_t resolution, float* samples, const uint8_t* mask, double lo, double hi,
                      std::vector<uint16_t>& texels);
 
+// The cubic margin of one slot's texels (make_atlas_slot's layout), in value codes (0..65535), rounded up: with D_a
+// the largest |second difference| of the slot's values along axis a and G_a the largest |first difference|,
+//   (D_x + D_y + D_z) / 6 + (G_x + G_y + G_z) / 128 + 2.
+// The first term bounds the exact spline minus the exact trilinear interpolant anywhere in the slot's cells: in 1D on
+// cell [i, i+1] at fraction t the difference is w0(t) D_i + w3(t) D_{i+1} with w0 + w3 <= 1/6 (both reproduce linear
+// functions); in 3D it telescopes into one such term per axis applied to a positively weighted mean of the samples,
+// whose second differences are bounded by D_a. The second term covers the hardware's linear filtering (8-bit
+// fractional weights: at most 1/512 of a first difference per axis per fetch, in the spline's 8 convex-weighted
+// fetches and in trilinear's one, with a factor 2 of headroom), the last one the codes' rounding.
+// With `coefficients` (cubic_coefficients' of the same texels), the bound for their spline: the samples' apron taken
+// as their linear extrapolation (trilinear lookups inside the brick do not read it), plus the largest
+// |coefficient − sample| over the slot (the spline of c minus that of f is a convex combination of c − f), the
+// coefficients' first differences in the filtering term, and their rounding.
+uint16_t cubic_margin_code(uint32_t resolution, const uint16_t* texels,
+                           const std::vector<double>* coefficients = nullptr);
+
+// The coefficients of the interpolating cubic B-spline of one slot's samples (make_atlas_slot's layout; the values
+// code / 65535), into `coefficients`, (R+2)³ x fastest: along each axis the R samples give R + 2 coefficients
+// (the brick's and its apron's) such that the spline passes through every sample, with the not-a-knot condition at
+// both ends (no jump of the third derivative at the second and the next-to-last sample; natural, zero second
+// difference, below 5 samples), applied axis by axis. False, and nothing written, where the brick has samples
+// without data.
+bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector<double>& coefficients);
+
 class BrickAtlas {
  public:
   BrickAtlas() = default;
@@ -39,9 +75,17 @@ class BrickAtlas {
   uint64_t capacity() const { return uint64_t(slots_[0]) * slots_[1] * slots_[2]; }
   uint64_t bytes() const;
   GLuint texture() const { return texture_.id(); }
+  // The coefficient texture (above): allocated by add_coefficients, filled by the uploads after it (the slots
+  // uploaded before have none: the caller uploads them again).
+  bool has_coefficients() const { return coefficients_.id() != 0; }
+  GLuint coefficients() const { return coefficients_.id(); }
+  GLuint margins() const { return margins_.id(); }
+  void add_coefficients();
   const int* slots_per_axis() const { return slots_; }
   const int* texels_per_axis() const { return texels_; }
-  // Uploads make_atlas_slot's texels into slot `slot`.
+  // Uploads make_atlas_slot's texels into slot `slot`, and once coefficients are added their spline's coefficients
+  // and the slot's cubic margin (the whole range instead when UGVR_TRICUBIC_NO_BRACKET is set: the spline at every
+  // sample of the in-loop variant, with slices; a reference for tests: the walk would end at every sample).
   void upload(uint64_t slot, const uint16_t* texels);
 
   // Most slots an atlas can have for R within max_3d texels per axis.
@@ -49,9 +93,13 @@ class BrickAtlas {
 
  private:
   uint32_t resolution_ = 0;
+  bool no_bracket_ = false;
   int slots_[3] = {0, 0, 0};
   int texels_[3] = {0, 0, 0};
   GlTexture texture_;
+  GlTexture coefficients_;
+  GlBuffer margins_;
+  std::vector<double> scratch_;
 };
 
 }  // namespace ugvr

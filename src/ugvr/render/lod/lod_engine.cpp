@@ -622,6 +622,11 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
 
   const auto t1 = std::chrono::steady_clock::now();
   I.ensure_atlas(nodes.size());
+  if (settings.mode == RenderMode::Isosurface && settings.interpolation == Interpolation::Tricubic &&
+      !I.atlas.has_coefficients()) {
+    I.atlas.add_coefficients();              // the prefiltered spline (brick_atlas.h), from the first tricubic frame
+    I.slot_table.reset(I.atlas.capacity());  // on: the bricks resident before have none, upload them again
+  }
   st.bricks_loaded = I.load(nodes, residency);
   st.bricks_read_sync = residency.sync_reads();
   std::vector<uint32_t> state(I.store.node_count(), lod_gpu::NODE_SKIP);
@@ -686,6 +691,10 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   glBindBufferBase(GL_UNIFORM_BUFFER, lod_gpu::FRAME_BLOCK_BINDING, I.frame_block.id());
   glBindImageTexture(lod_gpu::OUT_IMAGE_BINDING, I.out_texture.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
   glBindTextureUnit(lod_gpu::ATLAS_TEXTURE_BINDING, I.atlas.texture());
+  if (I.atlas.has_coefficients()) {
+    glBindTextureUnit(lod_gpu::COEF_TEXTURE_BINDING, I.atlas.coefficients());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::MARGIN_BUFFER_BINDING, I.atlas.margins());
+  }
   glBindTextureUnit(lod_gpu::TF_TEXTURE_BINDING, I.tf_texture.id());
   glBindTextureUnit(lod_gpu::PREINT_TEXTURE_BINDING, I.preint_texture.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, lod_gpu::TREE_BUFFER_BINDING, I.tree.id());
