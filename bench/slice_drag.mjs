@@ -42,7 +42,7 @@ ws.onmessage = (ev) => {
     else if (m.type === "error") console.error("server error:", m.message);
     return;
   }
-  if (process.env.DEBUG && status) console.error(JSON.stringify({ request: status.request, accepted, converged: status.converged, scale: status.scale }));
+  if (process.env.DEBUG && status) console.error(JSON.stringify({ request: status.request, accepted, converged: status.converged, scale: status.scale, frame_seconds: status.frame_seconds, fps: status.fps }));
   if (status && onFrame) onFrame(status, now);
 };
 const median = (xs) => { const s = [...xs].sort((a, b) => a - b); return s.length ? s[Math.floor(s.length / 2)] : null; };

@@ -1013,6 +1013,19 @@ TEST(QualityPolicy, ScalesTheImageOnlyWhenTheCoarsestCutIsTooSlow) {
   EXPECT_GT(r.nodes[299], 8u);
 }
 
+// The dead band lies under the target: a held rate is the target's, not up to 1/0.9 slower (a 10 fps drag ran at
+// 9.0-9.7 fps with the band above it). Both levers: the scale (the root too slow) and the cut (the root cheap).
+TEST(QualityPolicy, HeldFramesTakeAtMostTheTarget) {
+  for (const double target : {1.0 / 30, 0.1}) {
+    const PolicyRun r = run_policy({}, target, 300);
+    std::vector<double> steady(r.seconds.begin() + 50, r.seconds.end());
+    std::sort(steady.begin(), steady.end());
+    const double median = steady[steady.size() / 2];
+    EXPECT_LE(median, target) << "target " << target;
+    EXPECT_GE(median, 0.8 * target) << "target " << target << ": the frame budget is wasted";
+  }
+}
+
 TEST(QualityPolicy, ScaleStopsAtItsFloor) {
   SimulatedCutRenderer slow;
   slow.b = 1e-6;  // the root at a quarter scale still takes 0.3 s

@@ -93,6 +93,9 @@ struct EngineHost::Tab {
   double shown_fps = 0;
   Clock::time_point last;
   bool counting = false;  // the previous frame was part of an interaction (not converged): fps is measured
+  // Interactive frames (a drag): what a frame's period takes beyond its render (encoding, the send, the scheduler's
+  // turn), averaged over consecutive interactive frames; the render is given the target period less this.
+  double frame_overhead = 0;
   // Playing a time series: the render's budget (seconds; adapted to the steps' period, see render()), and when the
   // previous step's render started.
   double render_budget = 0;
@@ -398,6 +401,10 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   const bool playing = (timed || timed_store) && request.playing && !job.full_quality;
   const Clock::time_point render_start = Clock::now();
   const double target_period = job.target_fps > 0 ? 1 / job.target_fps : 0;
+  // Moving (not playing): the period between frames is the render plus the frame's overhead, so the render aims at
+  // what the target period leaves (at least half of it: a slow client's back-pressure is not the render's to absorb).
+  if (!playing && tab.counting && tab.frame_overhead > 0 && target_period > 0 && !job.full_quality)
+    fr.target_fps = 1 / std::max(0.5 * target_period, target_period - tab.frame_overhead);
   if (playing && target_period > 0) {
     if (tab.step_started) {
       // The period is what the server sees: this step's request arrived period seconds after the previous one's
@@ -460,6 +467,10 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   if (tab.counting) {
     const double dt = std::chrono::duration<double>(now - tab.last).count();
     if (dt > 0) tab.shown_fps = tab.shown_fps > 0 ? 0.8 * tab.shown_fps + 0.2 / dt : 1 / dt;
+    if (dt > 0 && !playing && !converged) {
+      const double overhead = std::max(0.0, dt - f.stats.seconds);
+      tab.frame_overhead = tab.frame_overhead > 0 ? 0.8 * tab.frame_overhead + 0.2 * overhead : overhead;
+    }
   }
   tab.counting = !converged;
   tab.last = now;

@@ -14,8 +14,9 @@
 // the budget run away. When the cut is already at its coarsest and the frame is still too slow (a software
 // rasteriser, a full-screen root brick), the image scale is the lever: samples ∝ scale², so
 //   scale ← scale · sqrt(S / S_now),  within [min_scale, 1], at most × max_scale_growth per frame.
-// Between 0.9 and 1 of the budget both levers hold (a dead band against timing noise: the cut is quantised, and a
-// merge of the root's 7 children into the root is a jump in image quality). Scale comes back first: while scale < 1
+// With frames between 90 % and 100 % of the target both levers hold (a dead band against timing noise: the cut is
+// quantised, and a merge of the root's 7 children into the root is a jump in image quality); a lever that moves aims
+// at 95 %. Scale comes back first: while scale < 1
 // and there is room, the scale grows and the node budget holds, because a finer cut than the image can show is
 // wasted (the cut measures texels in pixels of the scaled image, so it stops splitting where a texel is smaller than
 // a rendered pixel).
