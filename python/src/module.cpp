@@ -45,6 +45,7 @@
 #include "ugvr/render/transfer_function.h"
 #include "ugvr/store/brick_store.h"
 #include "ugvr/ugvr.h"
+#include "ugvr/view/over_budget_store.h"
 #include "ugvr/view/view_protocol.h"
 #include "ugvr/view/view_server.h"
 #include "ugvr/view/view_store.h"
@@ -782,6 +783,7 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
     TransferFunction tf;
     json stats;
     std::vector<std::string> warnings;
+    std::string drew_from;  // a mesh over the memory budget: "store" (view/over_budget_store.h)
   };
   Result r = without_gil(&progress, [&] {
     std::optional<tbb::global_control> limit;
@@ -800,8 +802,20 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
       renderer = naming_option([&] { return make_renderer(dataset->scene, opts); });
     } else {
       OpenedInput opened;
-      renderer = naming_option([&] { return open_renderer_default_field(inputs, read, ro, &opened); });
-      out.warnings = opened.warnings;
+      // A mesh over the memory budget is never read whole: drawn from its store, built out of core into the viewer's
+      // cache (view/over_budget_store.h; "drew_from" in the stats).
+      std::optional<view::OverBudgetStore> big = naming_option([&] {
+        return view::store_for_a_mesh_over_budget(inputs, ro.field, engine, std::nullopt,
+                                                  std::chrono::steady_clock::now(), false);
+      });
+      renderer = naming_option([&] {
+        return open_renderer_default_field(big ? std::vector<std::string>{big->path} : inputs, read, ro, &opened);
+      });
+      if (big) {
+        out.warnings.push_back(big->why + ": drawn from its store " + big->path + ", built out of core");
+        out.drew_from = big->shown;
+      }
+      out.warnings.insert(out.warnings.end(), opened.warnings.begin(), opened.warnings.end());
     }
     if (settings.field.empty()) settings.field = renderer->field_name();
     out.range = renderer->field_range();
@@ -832,6 +846,7 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
         {"field_range", {out.range.min, out.range.max}}, {"width", settings.width},      {"height", settings.height},
         {"settings", settings_to_json(settings)}};
     out.frame.stats.to_json(out.stats);
+    if (!out.drew_from.empty()) out.stats["drew_from"] = out.drew_from;
     return out;
   });
   PyTransferFunction used;

@@ -79,3 +79,19 @@ def test_view_store(mesh, tmp_path):
     viewer.close()  # idempotent
     with pytest.raises(ugvr.Error, match="port"):
         ugvr.view(store, port=70000)
+
+
+def test_a_mesh_over_the_memory_budget_is_drawn_from_its_store(small_vtu, tmp_path, monkeypatch):
+    """Never read whole: its store is built out of core into the viewer's cache (view/over_budget_store.h), said in the
+    warnings and the stats; the exact engine is refused, naming the option."""
+    monkeypatch.setenv("UGVR_VIEW_MEMORY_BUDGET", "100KiB")
+    monkeypatch.setenv("UGVR_CACHE_DIR", str(tmp_path / "cache"))
+    img = ugvr.render(str(small_vtu), size=48, view="iso", field="pressure")
+    assert img.stats["engine"] == "lod" and img.stats["drew_from"] == "store"
+    assert any("over the memory budget" in w for w in img.warnings), img.warnings
+    assert len(list((tmp_path / "cache").glob("*.ugvr"))) == 1
+    assert np.asarray(img).std() > 0
+    with pytest.raises(Exception, match="engine"):
+        ugvr.render(str(small_vtu), size=48, engine="exact")
+    monkeypatch.delenv("UGVR_VIEW_MEMORY_BUDGET")
+    assert "drew_from" not in ugvr.render(str(small_vtu), size=48, view="iso", field="pressure").stats

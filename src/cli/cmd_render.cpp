@@ -16,7 +16,6 @@
 #include <functional>
 #include <limits>
 #include <optional>
-#include <thread>
 
 #include "cli/cli_numbers.h"
 #include "cli/commands.h"
@@ -31,7 +30,6 @@
 #include "ugvr/io/time_series.h"
 #include "ugvr/mpi/piece_index.h"
 #include "ugvr/mpi/piece_renderer.h"
-#include "ugvr/octree/coarse_preview.h"
 #include "ugvr/octree/input.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/camera_path.h"
@@ -40,9 +38,7 @@
 #include "ugvr/render/renderer_factory.h"
 #include "ugvr/render/transfer_function.h"
 #include "ugvr/store/brick_store.h"
-#include "ugvr/view/background_build.h"
-#include "ugvr/view/memory_budget.h"
-#include "ugvr/view/view_store.h"
+#include "ugvr/view/over_budget_store.h"
 #ifdef UGVR_HAVE_MPI
 #include "ugvr/mpi/mpi_renderer.h"
 #include "ugvr/mpi/mpi_session.h"
@@ -423,77 +419,6 @@ Frame render_within_budget(Renderer& renderer, FrameRequest request, double budg
   return frame;
 }
 
-// A mesh over the memory budget (view/memory_budget.h: estimated from its headers, before reading) is never read
-// whole: its store is built out of core into the viewer's cache, as `ugvr view` builds it (with its leaves' cells), so
-// that a later view or render reuses it, and the LOD engine draws it. With --time-budget the image comes from what
-// exists when three quarters of the time are gone: the store, else the build's coarse preview, else its point sketch
-// (octree/point_sketch.h), said in --stats "time_budget.drew"; then the build stops. nullopt: the mesh fits.
-struct StoreOfABigMesh {
-  std::string path;   // the store to draw (a preview's or sketch's file stays readable once opened)
-  std::string shown;  // "store", "coarse preview", "point sketch"
-  std::unique_ptr<view::BackgroundBuild> build;  // still running (a preview or sketch is drawn): stopped once opened
-};
-std::optional<StoreOfABigMesh> store_of_a_big_mesh(const Options& o, const std::string& field,
-                                                   std::optional<double> time_budget, Clock::time_point start) {
-  if (o.inputs.empty() || is_brick_store(o.inputs[0]) || is_piece_index(o.inputs[0])) return std::nullopt;
-  std::string source;
-  const uint64_t budget = view::view_memory_budget(std::nullopt, &source);
-  const view::InCoreEstimate need = view::estimate_in_core(o.inputs);
-  if (need.bytes <= budget) return std::nullopt;
-  const std::string why = "the grid would take about " + format_bytes(need.bytes) + " in memory (" + need.basis +
-                          "), over the memory budget of " + format_bytes(budget) + " (" + source + ")";
-  if (o.inputs.size() != 1 || std::filesystem::path(o.inputs[0]).extension() != ".vtu")
-    fail_in(o.inputs[0], why +
-                             "; only a .vtu file is built out of core: convert it (`ugvr convert`) on a larger "
-                             "machine, or raise the budget with $" +
-                             view::kViewMemoryBudgetEnv);
-  if (o.engine == "exact") fail_flag("--engine", "exact: " + why + "; the store's engines (lod, hybrid) draw it");
-  OctreeBuildOptions build;
-  build.inputs = o.inputs;
-  build.leaf_cells = true;  // as `ugvr view` builds it: one cache entry
-  build.threads = 0;
-  const std::vector<std::string> fields = field.empty() ? std::vector<std::string>{} : std::vector<std::string>{field};
-  StoreOfABigMesh out;
-  out.path = view::cached_store_path(o.inputs, fields, build);
-  out.shown = "store";
-  if (std::filesystem::exists(out.path)) {
-    try {
-      BrickStoreReader check(out.path);
-      if (Progress::enabled())
-        std::fprintf(stderr, "%s: drawing the store built earlier, %s\n", why.c_str(), out.path.c_str());
-      return out;
-    } catch (const std::exception&) {  // unreadable: built again
-    }
-  }
-  std::filesystem::create_directories(std::filesystem::path(out.path).parent_path());
-  build.preview_depth = coarse_preview_depth_for(budget, build.resolution, 1);
-  build.point_sketch = true;
-  if (Progress::enabled())
-    std::fprintf(stderr, "%s: building its store out of core into %s%s\n", why.c_str(), out.path.c_str(),
-                 time_budget ? " (drawing what exists when the time is up)" : "");
-  out.build = std::make_unique<view::BackgroundBuild>(view::BackgroundBuild::OutOfCore{o.inputs[0], budget}, fields,
-                                                      build, out.path);
-  // A quarter of the time, at least half a second, is kept for drawing.
-  const double deadline = time_budget ? *time_budget - std::max(0.25 * *time_budget, 0.5) : INFINITY;
-  for (;;) {
-    const view::BackgroundBuild::State st = out.build->state();
-    if (st.stage == view::BackgroundBuild::Stage::Done) {
-      out.build.reset();
-      return out;
-    }
-    if (st.stage == view::BackgroundBuild::Stage::Failed) fail_in(o.inputs[0], "building its store: " + st.error);
-    if (seconds_since(start) >= deadline) {
-      if (st.preview.empty())
-        fail_flag("--time-budget", "nothing to draw within " + std::to_string(*time_budget) + " s: " + why +
-                                       ", and its store's first level is not built yet (raise the budget)");
-      out.path = st.preview;
-      out.shown = st.preview_sketch ? "point sketch" : "coarse preview";
-      return out;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-}
-
 void run_render(const Options& o, std::optional<double> time_budget) {
   const Clock::time_point start = Clock::now();
   if (time_budget && !(*time_budget > 0)) fail_flag("--time-budget", "must be > 0 seconds");
@@ -573,14 +498,17 @@ void run_render(const Options& o, std::optional<double> time_budget) {
   // The time budget refines a store's cut frame by frame (time-critical); a mesh is drawn by the exact engine.
   const bool store_input = o.inputs.size() == 1 && std::filesystem::path(o.inputs[0]).extension() == ".ugvr";
   bool budget_lod = time_budget && (o.engine == "lod" || (o.engine == "auto" && store_input));
-  // A mesh over the memory budget: drawn from its store, built out of core (or what of it exists in time).
-  std::optional<StoreOfABigMesh> big;
+  // A mesh over the memory budget: drawn from its store, built out of core (view/over_budget_store.h).
+  std::optional<view::OverBudgetStore> big;
   bool under_mpi = false;
 #ifdef UGVR_HAVE_MPI
   under_mpi = mpi::active();
 #endif
-  if (!timed && !time_store && !under_mpi)
-    big = flag_errors([&] { return store_of_a_big_mesh(o, settings.field, time_budget, start); });
+  if (!timed && !time_store && !under_mpi && !(o.inputs.size() == 1 && is_piece_index(o.inputs[0])))
+    big = flag_errors([&] {
+      return view::store_for_a_mesh_over_budget(o.inputs, settings.field, o.engine, time_budget, start,
+                                                Progress::enabled());
+    });
   if (big && time_budget) budget_lod = true;
   if (budget_lod) ro.interactive = true;
   OpenedInput opened;

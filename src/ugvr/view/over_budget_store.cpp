@@ -1,0 +1,82 @@
+#include "ugvr/view/over_budget_store.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <thread>
+
+#include "ugvr/core/error.h"
+#include "ugvr/core/memory.h"
+#include "ugvr/octree/coarse_preview.h"
+#include "ugvr/render/renderer_factory.h"
+#include "ugvr/store/brick_store.h"
+#include "ugvr/view/memory_budget.h"
+#include "ugvr/view/view_store.h"
+
+namespace ugvr::view {
+
+std::optional<OverBudgetStore> store_for_a_mesh_over_budget(const std::vector<std::string>& inputs,
+                                                            const std::string& field, const std::string& engine,
+                                                            std::optional<double> time_budget,
+                                                            std::chrono::steady_clock::time_point start, bool say) {
+  if (inputs.empty() || is_brick_store(inputs[0])) return std::nullopt;
+  std::string source;
+  const uint64_t budget = view_memory_budget(std::nullopt, &source);
+  const InCoreEstimate need = estimate_in_core(inputs);
+  if (need.bytes <= budget) return std::nullopt;
+  OverBudgetStore out;
+  out.why = "the grid would take about " + format_bytes(need.bytes) + " in memory (" + need.basis +
+            "), over the memory budget of " + format_bytes(budget) + " (" + source + ")";
+  if (inputs.size() != 1 || std::filesystem::path(inputs[0]).extension() != ".vtu")
+    fail_in(inputs[0], out.why +
+                           "; only a .vtu file is built out of core: convert it (`ugvr convert`) on a larger "
+                           "machine, or raise the budget with $" +
+                           kViewMemoryBudgetEnv);
+  if (engine == "exact")
+    throw OptionError("engine", "exact: " + out.why + "; the store's engines (lod, hybrid) draw it");
+  OctreeBuildOptions build;
+  build.inputs = inputs;
+  build.leaf_cells = true;  // as `ugvr view` builds it: one cache entry
+  build.threads = 0;
+  const std::vector<std::string> fields = field.empty() ? std::vector<std::string>{} : std::vector<std::string>{field};
+  out.path = cached_store_path(inputs, fields, build);
+  out.shown = "store";
+  if (std::filesystem::exists(out.path)) {
+    try {
+      BrickStoreReader check(out.path);
+      if (say) std::fprintf(stderr, "%s: drawing the store built earlier, %s\n", out.why.c_str(), out.path.c_str());
+      return out;
+    } catch (const std::exception&) {  // unreadable: built again
+    }
+  }
+  std::filesystem::create_directories(std::filesystem::path(out.path).parent_path());
+  build.preview_depth = coarse_preview_depth_for(budget, build.resolution, 1);
+  build.point_sketch = true;
+  if (say)
+    std::fprintf(stderr, "%s: building its store out of core into %s%s\n", out.why.c_str(), out.path.c_str(),
+                 time_budget ? " (drawing what exists when the time is up)" : "");
+  out.build = std::make_unique<BackgroundBuild>(BackgroundBuild::OutOfCore{inputs[0], budget}, fields, build, out.path);
+  // A quarter of the time, at least half a second, is kept for drawing.
+  const double deadline = time_budget ? *time_budget - std::max(0.25 * *time_budget, 0.5) : INFINITY;
+  for (;;) {
+    const BackgroundBuild::State st = out.build->state();
+    if (st.stage == BackgroundBuild::Stage::Done) {
+      out.build.reset();
+      return out;
+    }
+    if (st.stage == BackgroundBuild::Stage::Failed) fail_in(inputs[0], "building its store: " + st.error);
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (elapsed >= deadline) {
+      if (st.preview.empty())
+        throw OptionError("time-budget", "nothing to draw within " + std::to_string(*time_budget) + " s: " + out.why +
+                                             ", and its store's first level is not built yet (raise the budget)");
+      out.path = st.preview;
+      out.shown = st.preview_sketch ? "point sketch" : "coarse preview";
+      return out;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+}
+
+}  // namespace ugvr::view
