@@ -50,6 +50,9 @@ constexpr double kSinesK = 3.0 * M_PI;  // sin(kx) sin(ky) sin(kz): 1.5 periods 
 constexpr double kSinesIso = 0.25;
 
 double sphere_value(const Vec3d& p) { return length(p - kCentre); }
+// The squared distance: quadratic, so every level's interpolating spline reproduces it (the coarse samples are the
+// fine lattice's every other one, and the prefilter reproduces cubics): levels must agree.
+double sphere_squared_value(const Vec3d& p) { return dot(p - kCentre, p - kCentre); }
 double sines_value(const Vec3d& p) {
   return std::sin(kSinesK * p.x) * std::sin(kSinesK * p.y) * std::sin(kSinesK * p.z);
 }
@@ -118,7 +121,9 @@ const std::string& lattice_store(const std::string& name, Bricks bricks) {
   o.resolution = bricks == Bricks::One ? kPoints : 9;
   o.max_depth = bricks == Bricks::One ? 0 : 2;
   o.error = 0;
-  const Dataset ds = lattice_dataset(name == "sphere" ? sphere_value : sines_value);
+  const Dataset ds = lattice_dataset(name == "sphere"           ? sphere_value
+                                     : name == "sphere-squared" ? sphere_squared_value
+                                                                : sines_value);
   const std::vector<std::string> fields = {"d"};
   build_octree(prepare_octree_input(ds, fields), o, path);
   return shared().stores[key] = path;
@@ -183,7 +188,8 @@ NormalError normal_error(const Image& im, const Camera& cam) {
 
 // in_loop: with a slice outside the volume (so nothing of it is drawn), which compiles the variant that evaluates the
 // spline inside the sample loop (shaders/lod_raycast.comp, TRICUBIC_WALK): the reference for the walk's bracketing.
-Image render_iso(const std::string& store, double iso, Interpolation interpolation, bool in_loop = false) {
+Image render_iso(const std::string& store, double iso, Interpolation interpolation, bool in_loop = false,
+                 const CutSpec& cut = CutSpec{CutSpec::Kind::Leaves, 0}, LodRenderStats* stats = nullptr) {
   LodEngine lod(store, *shared().gl);
   lod.set_field("d");
   RenderSettings s;
@@ -198,7 +204,7 @@ Image render_iso(const std::string& store, double iso, Interpolation interpolati
     outside.normal = {0, 0, 1};
     s.slices = {outside};
   }
-  return lod.render(sphere_camera(), grey_tf(), s, CutSpec{CutSpec::Kind::Leaves, 0});
+  return lod.render(sphere_camera(), grey_tf(), s, cut, stats);
 }
 
 Image render_sphere(Interpolation interpolation) {
@@ -460,6 +466,62 @@ TEST(LodTricubic, SinesNormalsAcross64Bricks) {
   ASSERT_GT(cub.border_pixels, 500);
   EXPECT_GT(lin.border_degrees, 3.0 * lin.inner_degrees) << "the test sees a seam where there is one";
   EXPECT_LT(cub.border_degrees, 1.5 * cub.inner_degrees) << "no seam beyond the error elsewhere";
+}
+
+// Level borders: on a quadratic field (the squared distance to the centre, iso R²) every level's interpolating
+// spline is the field itself, so a cut that mixes levels draws the image of the leaves: coarse and fine neighbours
+// agree by construction (docs/tricubic.md, "Seams"). Trilinear does not: a coarse level interpolates the parabola
+// with a larger error, and the surface and its shading move where the levels change.
+TEST(LodTricubic, LevelsAgreeOnAQuadraticField) {
+  REQUIRE_GL();
+  const std::string& store = lattice_store("sphere-squared", Bricks::Many);
+  const double iso = kRadius * kRadius;
+  LodRenderStats mixed_stats;
+  const CutSpec mixed{CutSpec::Kind::Pixels, 14};  // levels 1 and 2 (measured: 15 nodes)
+  const Image cub_leaves = render_iso(store, iso, Interpolation::Tricubic);
+  const Image cub_mixed = render_iso(store, iso, Interpolation::Tricubic, false, mixed, &mixed_stats);
+  const Image lin_leaves = render_iso(store, iso, Interpolation::Trilinear);
+  const Image lin_mixed = render_iso(store, iso, Interpolation::Trilinear, false, mixed);
+  const ImageDifference cub = compare_images(cub_mixed, cub_leaves), lin = compare_images(lin_mixed, lin_leaves);
+  const NormalError cub_n = normal_error(cub_mixed, sphere_camera()), lin_n = normal_error(lin_mixed, sphere_camera());
+  std::printf(
+      "squared distance, 64 bricks, cut %s (%llu nodes, levels %.2f mean, %d max) against the leaves: tricubic "
+      "max %.4f PSNR %.1f dB, trilinear max %.4f PSNR %.1f dB; mean normal error at that cut: tricubic %.4f deg, "
+      "trilinear %.4f deg\n",
+      cut_spec_name(mixed).c_str(), (unsigned long long)mixed_stats.cut_nodes, mixed_stats.mean_level,
+      mixed_stats.max_level, cub.max_abs, cub.psnr_db, lin.max_abs, lin.psnr_db, cub_n.mean_degrees,
+      lin_n.mean_degrees);
+  ASSERT_LT(mixed_stats.mean_level, double(mixed_stats.max_level)) << "the cut must mix levels";
+  // Measured 2026-11-27 (llvmpipe, 15 nodes of levels 1 and 2): tricubic 55.7 dB from the leaves' image, its normals
+  // 0.011° from the analytic sphere's; trilinear 36.8 dB, 2.36°.
+  EXPECT_GT(cub.psnr_db, 45.0);
+  EXPECT_GT(cub.psnr_db, lin.psnr_db + 10) << "the test sees the levels differ where they do";
+  EXPECT_LT(cub_n.mean_degrees, 0.1);
+  EXPECT_GT(lin_n.mean_degrees, 10 * cub_n.mean_degrees);
+}
+
+// An isosurface's geometry is the field's: the cut must not drop nodes for being transparent under the transfer
+// function (an opacity of 0 there drew no surface at all) nor keep them coarse for being uniform under it (a constant
+// colour drew the root brick alone). Both transfer functions below draw the same image as the leaves.
+TEST(LodEngineIso, TheCutIgnoresTheTransferFunctionsOpacityAndUniformity) {
+  REQUIRE_GL();
+  const std::string& store = lattice_store("sines", Bricks::Many);
+  LodEngine lod(store, *shared().gl);
+  lod.set_field("d");
+  RenderSettings s;
+  s.width = s.height = 96;
+  s.background = {0, 0, 0, 1};
+  s.mode = RenderMode::Isosurface;
+  s.iso_values = {kSinesIso};
+  TransferFunction transparent = grey_tf();
+  transparent.opacity_points = {{0.0, 0.0}, {1.0, 0.0}};
+  const Image leaves = lod.render(sphere_camera(), grey_tf(), s, CutSpec{CutSpec::Kind::Leaves, 0});
+  for (const TransferFunction& tf : {grey_tf(), transparent}) {
+    LodRenderStats st;
+    const Image im = lod.render(sphere_camera(), tf, s, CutSpec{CutSpec::Kind::Pixels, 1}, &st);
+    EXPECT_EQ(st.cut_nodes, 64u) << "opacity " << tf.opacity_points[0].opacity;
+    EXPECT_EQ(compare_images(im, leaves).max_abs, 0.0) << "opacity " << tf.opacity_points[0].opacity;
+  }
 }
 
 // Pixels covered by a and by b, and the largest difference of a covered pixel's red.

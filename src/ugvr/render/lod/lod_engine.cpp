@@ -503,7 +503,9 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   co.tf_cull = !boundary_overlay_on(settings);
   // A slice shows the field where the volume is transparent too: no node may be dropped or left coarse for being
   // transparent (or uniform) under the transfer function; the cut is then the plain screen-size criterion.
-  if (!settings.slices.empty()) co.tf_cull = false, co.tf_error = false;
+  // An isosurface likewise: its geometry is the field's whatever the transfer function's opacity (0 there dropped
+  // every node: no surface) or colour (uniform: the root alone, the coarsest surface).
+  if (!settings.slices.empty() || settings.mode == RenderMode::Isosurface) co.tf_cull = false, co.tf_error = false;
   I.tf_errors.set_field(I.field);
   I.tf_errors.update(tf);
   co.tf_errors = &I.tf_errors;

@@ -70,10 +70,12 @@ struct TimeCriticalRenderer::Impl {
 
   // The boundary overlay bounds the data the cut draws: then nothing may be dropped for being transparent under the
   // transfer function (lod_engine.h).
-  // Slices likewise, and no node may stay coarse for being transparent or uniform under it (tf_error off).
+  // Slices likewise, and no node may stay coarse for being transparent or uniform under it (tf_error off); and
+  // isosurfaces, whose geometry is the field's whatever the transfer function's opacity and colour.
   void cull_for(const RenderSettings& settings) {
-    const bool tf_cull = !boundary_overlay_on(settings) && settings.slices.empty();
-    const bool tf_error = settings.slices.empty();
+    const bool iso = settings.mode == RenderMode::Isosurface;
+    const bool tf_cull = !boundary_overlay_on(settings) && settings.slices.empty() && !iso;
+    const bool tf_error = settings.slices.empty() && !iso;
     if (cut.options().tf_cull == tf_cull && cut.options().tf_error == tf_error) return;
     ActiveCutOptions co = cut.options();
     co.tf_cull = tf_cull;
