@@ -39,6 +39,7 @@ const view = {
   pointsEdited: false, // the opacity points were edited (sent); false: the preset's ramp
   mode: "ea",
   isoOpacity: 1,
+  interpolation: "trilinear",  // the isosurfaces' reconstruction (lod engine): "trilinear" | "tricubic"
   lighting: true,
   volumeLighting: false,
   boundary: 0,
@@ -157,6 +158,7 @@ function isoValue() {
 function showIso() {
   $("iso-row").hidden = view.mode !== "iso";
   $("iso-opacity-row").hidden = view.mode !== "iso";
+  $("interpolation-row").hidden = view.mode !== "iso";
   $("iso-value").textContent = Number(isoValue().toPrecision(4)).toString();
 }
 
@@ -313,7 +315,8 @@ function resendState() {
   const settings = { type: "settings", field: view.field, mode: view.mode, boundary_opacity: view.boundary,
                      clip: clipPlane(), fps: view.fullQuality ? 0 : view.fps, iso_opacity: view.isoOpacity,
                      lighting: view.lighting, volume_lighting: view.volumeLighting,
-                     early_termination_opacity: view.earlyTermination, sample_step: view.sampleStep };
+                     early_termination_opacity: view.earlyTermination, sample_step: view.sampleStep,
+                     interpolation: view.interpolation };
   if (view.mode === "iso") settings.iso_value = isoValue();
   if (view.background) settings.background = view.background;
   send(settings);  // first: a field change resets explicit points
@@ -511,6 +514,10 @@ $("mode").addEventListener("change", (e) => {
 $("iso").addEventListener("input", () => {
   showIso();
   queue({ type: "settings", iso_value: isoValue() });
+});
+$("interpolation").addEventListener("change", (e) => {
+  view.interpolation = e.target.value;
+  queue({ type: "settings", interpolation: view.interpolation });
 });
 $("iso-opacity").addEventListener("input", (e) => {
   view.isoOpacity = Number(e.target.value);

@@ -147,6 +147,18 @@ test("isosurface mode and its value slider change the image", async () => {
   const moved = changedFraction(iso, await canvasPixels(page));
   console.log(`iso value ${v0.toPrecision(4)} -> ${sent.toPrecision(4)}: ${(moved * 100).toFixed(1)} % of pixels changed`);
   assert.ok(moved > 0.01, `another iso value, another surface (${moved})`);
+  // The surface's reconstruction (docs/tricubic.md): the tricubic B-spline draws a smoother surface, trilinear again
+  // the same image.
+  const trilinear = await canvasPixels(page);
+  await page.selectOption("#interpolation", "tricubic");
+  await waitConverged(page, CONVERGE_MS);
+  assert.equal((await lastSent("settings", "interpolation")).interpolation, "tricubic");
+  const smooth = changedFraction(trilinear, await canvasPixels(page));
+  console.log(`tricubic: ${(smooth * 100).toFixed(1)} % of pixels changed`);
+  assert.ok(smooth > 0.001, `the tricubic surface differs from the trilinear one (${smooth})`);
+  await page.selectOption("#interpolation", "trilinear");
+  await waitConverged(page, CONVERGE_MS);
+  assert.ok(changedFraction(trilinear, await canvasPixels(page)) < 0.002, "trilinear again draws the same image");
   await page.selectOption("#mode", "ea");
   await waitConverged(page, CONVERGE_MS);
   assert.ok(changedFraction(volume, await canvasPixels(page)) < 0.002, "back to the volume");

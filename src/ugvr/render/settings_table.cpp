@@ -60,9 +60,9 @@ const std::array<RenderSettingInfo, 16> kTable = {{
     {"hide_volume", "--hide-volume", "hide_volume", "", "Where the volume is hidden around the slices",
      "none (default), front (the side each slice's normal points to), back or all", std::nullopt,
      "page: web/slices.js's own panel, not one control"},
-    {"interpolation", "--interpolation", "", "", "Reconstruction between voxels for isosurfaces (lod engine)",
-     "trilinear (default) or tricubic (cubic B-spline, analytic normals; docs/tricubic.md)", std::nullopt,
-     "viewer: not yet (issue 22 part 1 added it to the CLI and the JSON settings only)"},
+    {"interpolation", "--interpolation", "interpolation", "interpolation",
+     "Reconstruction between voxels for isosurfaces (lod engine)",
+     "trilinear (default) or tricubic (cubic B-spline, analytic normals; docs/tricubic.md)", std::nullopt, ""},
 }};
 
 }  // namespace

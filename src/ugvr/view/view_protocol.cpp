@@ -191,6 +191,12 @@ SettingsMessage parse_settings(const json& j) {
     const json& v = j["hide_volume"];
     m.hide_volume = parse_hide_volume(v.is_string() ? v.get<std::string>() : v.dump(), "hide_volume");
   }
+  if (j.contains("interpolation")) {
+    const json& v = j["interpolation"];
+    if (!v.is_string() || (v != "trilinear" && v != "tricubic"))
+      fail_field("interpolation", "expected \"trilinear\" or \"tricubic\", found " + v.dump());
+    m.interpolation = parse_interpolation(v.get<std::string>(), "interpolation");
+  }
   return m;
 }
 

@@ -14,7 +14,7 @@
 //    "field":NAME, "boundary_opacity":A, "clip":{"point":[x,y,z],"normal":[x,y,z]}|null, "iso_opacity":A,
 //    "lighting":B, "volume_lighting":B, "early_termination_opacity":A, "sample_step":D, "background":[r,g,b],
 //    "slices":[{"point":[x,y,z],"normal":[x,y,z],"opacity":A,"color_map":NAME,"range":[lo,hi]|null}...],
-//    "hide_volume":"none"|"front"|"back"|"all"}
+//    "hide_volume":"none"|"front"|"back"|"all", "interpolation":"trilinear"|"tricubic"}
 //       every key optional: step in (0, 8] voxels (the resting step), fps in [0, 240] (0: every frame at full
 //       quality), full_quality asks for one converged frame of the current view now; field one of the scene's
 //       fields (a non-empty name of at most kMaxFieldName bytes; switching resets explicit transfer-function
@@ -25,7 +25,8 @@
 //       in (0, 1] (a ray stops at this opacity); sample_step in world units, >= 0 (0: the engine's level of detail,
 //       step_voxels); background [r, g, b] in [0, 1] (opaque: frames are JPEG while moving); slices: the whole
 //       list of cutting planes (replaces the tab's; [] removes them; render_settings.h Slice, at most kMaxSlices,
-//       web/slices.js sends it), hide_volume where the volume is hidden around them. These are
+//       web/slices.js sends it), hide_volume where the volume is hidden around them; interpolation the
+//       isosurfaces' reconstruction in the LOD engine (docs/tricubic.md). These are
 //       RenderSettings fields: src/ugvr/render/settings_table.h maps each to its message key and gives the ranges
 //   {"type":"engine", "engine":"exact"|"lod"|"hybrid"}   which engine draws this tab: the exact engine over the
 //       grid, the level-of-detail engine over the brick store, or the hybrid engine (the same store's voxels while
@@ -130,6 +131,7 @@ struct SettingsMessage {
   std::optional<std::array<double, 4>> background;  // alpha always 1
   std::optional<std::vector<Slice>> slices;         // the whole list
   std::optional<HideVolume> hide_volume;
+  std::optional<Interpolation> interpolation;
 };
 
 // The engines a tab can be drawn by (SceneInfo::engines says which this viewer has).

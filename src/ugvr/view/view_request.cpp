@@ -93,6 +93,7 @@ void apply_message(ViewState& state, const ClientMessage& m, const SceneInfo& sc
     if (set->background) rs.background = *set->background;
     if (set->slices) rs.slices = *set->slices;
     if (set->hide_volume) rs.hide_volume = *set->hide_volume;
+    if (set->interpolation) rs.interpolation = *set->interpolation;
     rs.validate("settings");
     if (set->step_voxels) r.step_voxels = *set->step_voxels;
     if (set->fps) r.fps = *set->fps;
