@@ -189,7 +189,8 @@ NormalError normal_error(const Image& im, const Camera& cam) {
 // in_loop: with a slice outside the volume (so nothing of it is drawn), which compiles the variant that evaluates the
 // spline inside the sample loop (shaders/lod_raycast.comp, TRICUBIC_WALK): the reference for the walk's bracketing.
 Image render_iso(const std::string& store, double iso, Interpolation interpolation, bool in_loop = false,
-                 const CutSpec& cut = CutSpec{CutSpec::Kind::Leaves, 0}, LodRenderStats* stats = nullptr) {
+                 const CutSpec& cut = CutSpec{CutSpec::Kind::Leaves, 0}, LodRenderStats* stats = nullptr,
+                 const TransferFunction& tf = grey_tf()) {
   LodEngine lod(store, *shared().gl);
   lod.set_field("d");
   RenderSettings s;
@@ -204,7 +205,7 @@ Image render_iso(const std::string& store, double iso, Interpolation interpolati
     outside.normal = {0, 0, 1};
     s.slices = {outside};
   }
-  return lod.render(sphere_camera(), grey_tf(), s, cut, stats);
+  return lod.render(sphere_camera(), tf, s, cut, stats);
 }
 
 Image render_sphere(Interpolation interpolation) {
@@ -506,19 +507,13 @@ TEST(LodTricubic, LevelsAgreeOnAQuadraticField) {
 TEST(LodEngineIso, TheCutIgnoresTheTransferFunctionsOpacityAndUniformity) {
   REQUIRE_GL();
   const std::string& store = lattice_store("sines", Bricks::Many);
-  LodEngine lod(store, *shared().gl);
-  lod.set_field("d");
-  RenderSettings s;
-  s.width = s.height = 96;
-  s.background = {0, 0, 0, 1};
-  s.mode = RenderMode::Isosurface;
-  s.iso_values = {kSinesIso};
   TransferFunction transparent = grey_tf();
   transparent.opacity_points = {{0.0, 0.0}, {1.0, 0.0}};
-  const Image leaves = lod.render(sphere_camera(), grey_tf(), s, CutSpec{CutSpec::Kind::Leaves, 0});
+  const Image leaves = render_iso(store, kSinesIso, Interpolation::Trilinear);
   for (const TransferFunction& tf : {grey_tf(), transparent}) {
     LodRenderStats st;
-    const Image im = lod.render(sphere_camera(), tf, s, CutSpec{CutSpec::Kind::Pixels, 1}, &st);
+    const Image im =
+        render_iso(store, kSinesIso, Interpolation::Trilinear, false, CutSpec{CutSpec::Kind::Pixels, 1}, &st, tf);
     EXPECT_EQ(st.cut_nodes, 64u) << "opacity " << tf.opacity_points[0].opacity;
     EXPECT_EQ(compare_images(im, leaves).max_abs, 0.0) << "opacity " << tf.opacity_points[0].opacity;
   }

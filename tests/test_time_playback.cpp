@@ -51,6 +51,13 @@ FrameRequest request_for(const BrickStoreReader& store) {
   return q;
 }
 
+// Frames of `q` until one is converged (at most 101).
+Frame converge(InteractiveLodRenderer& r, const FrameRequest& q) {
+  Frame frame = r.render(q);
+  for (int i = 0; i < 100 && !frame.stats.converged; ++i) frame = r.render(q);
+  return frame;
+}
+
 const TimeCriticalFrame& detail_of(const Frame& f) {
   return dynamic_cast<const InteractiveLodFrameStats&>(*f.stats.detail).frame;
 }
@@ -69,8 +76,7 @@ TEST(TimePlayback, StepSwitchKeepsTheCutAndReadsTheNextStepAhead) {
     tco.loader_threads = 2;
     InteractiveLodRenderer r(scene, tco);
     FrameRequest q = request_for(store);
-    Frame frame = r.render(q);
-    for (int i = 0; i < 100 && !frame.stats.converged; ++i) frame = r.render(q);
+    Frame frame = converge(r, q);
     ASSERT_TRUE(frame.stats.converged);
     const uint64_t cut = frame.stats.cut_nodes;
     const Image step0 = frame.image;
@@ -122,8 +128,7 @@ TEST(TimePlayback, PlayingFramesDrawOnlyPrefetchedBricks) {
   tco.loader_threads = 1;
   InteractiveLodRenderer r(scene, tco);
   FrameRequest q = request_for(store);
-  Frame frame = r.render(q);
-  for (int i = 0; i < 100 && !frame.stats.converged; ++i) frame = r.render(q);
+  Frame frame = converge(r, q);
   ASSERT_TRUE(frame.stats.converged);
   const uint64_t cut = frame.stats.cut_nodes;
   // Play 0 -> 1 -> 2 -> 0 with no wait between the steps.

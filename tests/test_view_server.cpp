@@ -114,21 +114,50 @@ const Shared& shared() {
   return s;
 }
 
+// Holds a viewer's background build (ViewServerOptions::before_build) until open(), so that what each phase shows is
+// checked, not raced. Opened on every way out (a failed assertion returns early), as the server's destructor waits
+// for the build: declare the gate after the server, so that it opens first.
+class BuildGate {
+ public:
+  std::function<void()> hold() const {
+    return [f = future_] { f.wait(); };
+  }
+  void open() {
+    if (!opened_) promise_.set_value();
+    opened_ = true;
+  }
+  ~BuildGate() { open(); }
+
+ private:
+  std::promise<void> promise_;
+  std::shared_future<void> future_ = promise_.get_future().share();
+  bool opened_ = false;
+};
+
+// Starts the viewer with `options` into `server`, or ends the test: skipped where there is no GL context
+// (UGVR_NO_GL_TESTS), failed otherwise. The gates given after the options are opened first, so that no build stays
+// held by a server that never started.
+#define START_VIEW_SERVER(server, options, ...)                                               \
+  do {                                                                                        \
+    try {                                                                                     \
+      server = std::make_unique<ViewServer>(options);                                         \
+    } catch (const Error& e) {                                                                \
+      for (BuildGate * gate_ : std::initializer_list<BuildGate*>{__VA_ARGS__}) gate_->open(); \
+      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();                          \
+      FAIL() << "cannot start the server: " << e.what();                                      \
+    }                                                                                         \
+  } while (0)
+
 // A server on a free loopback port (the extra arguments set options o_ after the defaults: 16 MiB of RAM per session,
 // the shared store), or a failure (a skip with UGVR_NO_GL_TESTS) when there is no OpenGL 4.5.
-#define START_SERVER(server, ...)                                    \
-  std::unique_ptr<ViewServer> server;                                \
-  do {                                                               \
-    ViewServerOptions o_;                                            \
-    o_.ram_per_session = 16 << 20;                                   \
-    o_.store = shared().store;                                       \
-    __VA_ARGS__;                                                     \
-    try {                                                            \
-      server = std::make_unique<ViewServer>(o_);                     \
-    } catch (const Error& e) {                                       \
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what(); \
-      FAIL() << "cannot start the server: " << e.what();             \
-    }                                                                \
+#define START_SERVER(server, ...)     \
+  std::unique_ptr<ViewServer> server; \
+  do {                                \
+    ViewServerOptions o_;             \
+    o_.ram_per_session = 16 << 20;    \
+    o_.store = shared().store;        \
+    __VA_ARGS__;                      \
+    START_VIEW_SERVER(server, o_);    \
   } while (0)
 
 void set_receive_timeout(tcp::socket& s, int seconds) {
@@ -710,26 +739,6 @@ TEST(ViewServer, SetViewMovesTheTabsAndCurrentViewFollowsThem) {
   EXPECT_THROW(server->set_view(std::nullopt, TransferFunction{}), Error) << "an empty transfer function";
 }
 
-// Holds a viewer's background build (ViewServerOptions::before_build) until open(), so that what each phase shows is
-// checked, not raced. Opened on every way out (a failed assertion returns early), as the server's destructor waits
-// for the build: declare the gate after the server, so that it opens first.
-class BuildGate {
- public:
-  std::function<void()> hold() const {
-    return [f = future_] { f.wait(); };
-  }
-  void open() {
-    if (!opened_) promise_.set_value();
-    opened_ = true;
-  }
-  ~BuildGate() { open(); }
-
- private:
-  std::promise<void> promise_;
-  std::shared_future<void> future_ = promise_.get_future().share();
-  bool opened_ = false;
-};
-
 // `ugvr view MESH`: the exact engine shows the grid while its store is built in the background, then every tab moves
 // to the store with the view it had.
 TEST(ViewServer, ShowsAGridWithTheExactEngineWhileItsStoreIsBuilt) {
@@ -746,13 +755,7 @@ TEST(ViewServer, ShowsAGridWithTheExactEngineWhileItsStoreIsBuilt) {
     o.build = small_build();
     o.fps = 30;
     o.before_build = gate.hold();
-    try {
-      server = std::make_unique<ViewServer>(o);
-    } catch (const Error& e) {
-      gate.open();
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
-      FAIL() << "cannot start the server: " << e.what();
-    }
+    START_VIEW_SERVER(server, o, &gate);
   }
   Client c(server->port());
   c.send(R"({"type":"hello","width":48,"height":40})");
@@ -811,13 +814,7 @@ TEST(ViewServer, EachTabSwitchesBetweenTheExactAndTheLodEngine) {
       o.fps = 30;
       o.free_grid = free_grid;
       o.before_build = gate.hold();
-      try {
-        server = std::make_unique<ViewServer>(o);
-      } catch (const Error& e) {
-        gate.open();
-        if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
-        FAIL() << "cannot start the server: " << e.what();
-      }
+      START_VIEW_SERVER(server, o, &gate);
     }
     Client a(server->port()), b(server->port());
     a.send(R"({"type":"hello","width":48,"height":40})");
@@ -986,12 +983,7 @@ TEST(ViewServer, StopsWhileSwitchingToTheBuiltStore) {
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
   };
   std::unique_ptr<ViewServer> server;
-  try {
-    server = std::make_unique<ViewServer>(o);
-  } catch (const Error& e) {
-    if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
-    FAIL() << "cannot start the server: " << e.what();
-  }
+  START_VIEW_SERVER(server, o);
   ASSERT_EQ(opened.wait_for(std::chrono::seconds(60)), std::future_status::ready) << "the store was never opened";
   auto stopped = std::async(std::launch::async, [&] { server->stop(); });
   // A lost stop would hang here: fail instead (the test binary then cannot end cleanly, which CI also sees).
@@ -1006,12 +998,7 @@ TEST(ViewServer, AFailedBuildIsReportedAndTheExactEngineGoesOn) {
     o.store = "/proc/ugvr-cannot-write/here.ugvr";
     o.dataset = std::make_shared<Dataset>(make_box());
     o.build = small_build();
-    try {
-      server = std::make_unique<ViewServer>(o);
-    } catch (const Error& e) {
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
-      FAIL() << "cannot start the server: " << e.what();
-    }
+    START_VIEW_SERVER(server, o);
   }
   Client c(server->port());
   c.send(R"({"type":"hello","width":32,"height":32})");
@@ -1110,13 +1097,7 @@ TEST(ViewServer, AGridThatCannotBeReadIsReportedToThePageAndTheCaller) {
       throw Error("broken.vtu: not a VTK XML file");
     };
     o.on_failure = [&failed](const std::string& m) { failed.set_value(m); };
-    try {
-      server = std::make_unique<ViewServer>(o);
-    } catch (const Error& e) {
-      reading.open();
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
-      FAIL() << "cannot start the server: " << e.what();
-    }
+    START_VIEW_SERVER(server, o, &reading);
   }
   Client c(server->port());
   c.send(R"({"type":"hello","width":32,"height":32})");
@@ -1149,13 +1130,7 @@ TEST(ViewServer, AGridOverTheBudgetIsShownFromItsStoreBuiltOutOfCore) {
     o.notice = "the grid would take about 9 GiB in memory, over the memory budget";
     o.build = small_build();
     o.before_build = build.hold();
-    try {
-      server = std::make_unique<ViewServer>(o);
-    } catch (const Error& e) {
-      build.open();
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
-      FAIL() << "cannot start the server: " << e.what();
-    }
+    START_VIEW_SERVER(server, o, &build);
   }
   Client c(server->port());
   c.send(R"({"type":"hello","width":32,"height":32})");
@@ -1250,13 +1225,7 @@ TEST(ViewServer, AnOutOfCoreBuildShowsItsCoarsePreviewWhileTheStoreIsBuilt) {
     o.build = small_build();
     o.build.preview_depth = 2;
     o.build.on_preview = [hold = after_preview.hold()](const std::string&) { hold(); };
-    try {
-      server = std::make_unique<ViewServer>(o);
-    } catch (const Error& e) {
-      after_preview.open();
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
-      FAIL() << "cannot start the server: " << e.what();
-    }
+    START_VIEW_SERVER(server, o, &after_preview);
   }
   Client c(server->port());
   c.send(R"({"type":"hello","width":32,"height":32})");
@@ -1316,13 +1285,7 @@ TEST(ViewServer, AnOutOfCoreBuildShowsItsPointSketchThenItsPreview) {
     o.build.preview_depth = 2;
     o.build.on_sketch = [hold = after_sketch.hold()](const std::string&, int) { hold(); };
     o.build.on_preview = [hold = after_preview.hold()](const std::string&) { hold(); };
-    try {
-      server = std::make_unique<ViewServer>(o);
-    } catch (const Error& e) {
-      after_sketch.open(), after_preview.open();
-      if (std::getenv("UGVR_NO_GL_TESTS")) GTEST_SKIP() << e.what();
-      FAIL() << "cannot start the server: " << e.what();
-    }
+    START_VIEW_SERVER(server, o, &after_sketch, &after_preview);
   }
   Client c(server->port());
   c.send(R"({"type":"hello","width":32,"height":32})");

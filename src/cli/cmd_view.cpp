@@ -57,16 +57,12 @@ bool is_store(const std::vector<std::string>& inputs) {
   return inputs.size() == 1 && std::filesystem::path(inputs[0]).extension() == ".ugvr";
 }
 
-// Whether `path` is a brick store that opens (header, node table and field records check out).
+// view::store_opens, saying why a store that exists is built again.
 bool store_opens(const std::string& path) {
-  if (!std::filesystem::exists(path)) return false;
-  try {
-    BrickStoreReader reader(path);
-    return true;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "ugvr view: rebuilding %s (%s)\n", path.c_str(), e.what());
-    return false;
-  }
+  std::string why;
+  if (view::store_opens(path, &why)) return true;
+  if (!why.empty()) std::fprintf(stderr, "ugvr view: rebuilding %s (%s)\n", path.c_str(), why.c_str());
+  return false;
 }
 
 void run_view(const Options& o) {
@@ -192,13 +188,9 @@ void run_view(const Options& o) {
         vo.load = [inputs = o.inputs, read = o.read] { return std::make_shared<Dataset>(read_dataset(inputs, read)); };
         std::fprintf(stderr, "ugvr view: building the brick store %s in the background\n", vo.store.c_str());
       } else {
-        const std::string why = "the grid would take about " + format_bytes(need.bytes) + " in memory (" + need.basis +
-                                "), over the memory budget of " + format_bytes(budget) + " (" + budget_source + ")";
-        if (o.inputs.size() != 1 || std::filesystem::path(o.inputs[0]).extension() != ".vtu")
-          fail_in(o.inputs[0], why +
-                                   "; only a .vtu file is built out of core: convert it (`ugvr convert`) on a larger "
-                                   "machine, or raise the budget with --memory-budget or $" +
-                                   view::kViewMemoryBudgetEnv);
+        const std::string why = view::over_budget_reason(need, budget, budget_source);
+        view::require_out_of_core_input(o.inputs, why,
+                                        std::string("--memory-budget or $") + view::kViewMemoryBudgetEnv);
         vo.out_of_core_input = o.inputs[0];
         vo.out_of_core_budget = budget;
         vo.notice = why +

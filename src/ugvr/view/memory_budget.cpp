@@ -107,4 +107,19 @@ uint64_t view_memory_budget(std::optional<uint64_t> flag, std::string* source) {
   return uint64_t(double(ram) * kViewMemoryFraction);
 }
 
+std::string over_budget_reason(const InCoreEstimate& need, uint64_t budget, const std::string& source) {
+  return "the grid would take about " + format_bytes(need.bytes) + " in memory (" + need.basis +
+         "), over the memory budget of " + format_bytes(budget) + " (" + source + ")";
+}
+
+void require_out_of_core_input(const std::vector<std::string>& inputs, const std::string& why,
+                               const std::string& raise) {
+  if (inputs.size() == 1 && fs::path(inputs[0]).extension() == ".vtu") return;
+  fail_in(inputs.empty() ? std::string("input") : inputs[0],
+          why +
+              "; only a .vtu file is built out of core: convert it (`ugvr convert`) on a larger machine, or raise "
+              "the budget with " +
+              raise);
+}
+
 }  // namespace ugvr::view

@@ -41,6 +41,14 @@ struct InCoreEstimate {
 // Throws ugvr::Error naming a file that cannot be read.
 InCoreEstimate estimate_in_core(const std::vector<std::string>& inputs);
 
+// "the grid would take about 26.3 GiB in memory (99890616 cells, ...), over the memory budget of 11.7 GiB (SOURCE)":
+// why a grid is not read whole (`ugvr view`, `ugvr render`, `ugvr.render`).
+std::string over_budget_reason(const InCoreEstimate& need, uint64_t budget, const std::string& source);
+// Only a single .vtu is built out of core: any other input over the budget throws ugvr::Error naming it, `why` and
+// the advice (convert it, or raise the budget with `raise`, e.g. "--memory-budget or $UGVR_VIEW_MEMORY_BUDGET").
+void require_out_of_core_input(const std::vector<std::string>& inputs, const std::string& why,
+                               const std::string& raise);
+
 // "8GiB" and the like, as the byte-size flags take them (CLI::AsSizeValue(true)): a count with an optional unit, KiB
 // MiB GiB TiB in powers of 1024, k M G T (with or without B) in powers of 1000. Throws ugvr::Error naming `what`.
 uint64_t parse_byte_size(const std::string& text, const std::string& what);

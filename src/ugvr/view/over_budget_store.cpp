@@ -7,10 +7,8 @@
 #include <thread>
 
 #include "ugvr/core/error.h"
-#include "ugvr/core/memory.h"
 #include "ugvr/octree/coarse_preview.h"
 #include "ugvr/render/renderer_factory.h"
-#include "ugvr/store/brick_store.h"
 #include "ugvr/view/memory_budget.h"
 #include "ugvr/view/view_store.h"
 
@@ -26,13 +24,8 @@ std::optional<OverBudgetStore> store_for_a_mesh_over_budget(const std::vector<st
   const InCoreEstimate need = estimate_in_core(inputs);
   if (need.bytes <= budget) return std::nullopt;
   OverBudgetStore out;
-  out.why = "the grid would take about " + format_bytes(need.bytes) + " in memory (" + need.basis +
-            "), over the memory budget of " + format_bytes(budget) + " (" + source + ")";
-  if (inputs.size() != 1 || std::filesystem::path(inputs[0]).extension() != ".vtu")
-    fail_in(inputs[0], out.why +
-                           "; only a .vtu file is built out of core: convert it (`ugvr convert`) on a larger "
-                           "machine, or raise the budget with $" +
-                           kViewMemoryBudgetEnv);
+  out.why = over_budget_reason(need, budget, source);
+  require_out_of_core_input(inputs, out.why, std::string("$") + kViewMemoryBudgetEnv);
   if (engine == "exact")
     throw OptionError("engine", "exact: " + out.why + "; the store's engines (lod, hybrid) draw it");
   OctreeBuildOptions build;
@@ -42,13 +35,9 @@ std::optional<OverBudgetStore> store_for_a_mesh_over_budget(const std::vector<st
   const std::vector<std::string> fields = field.empty() ? std::vector<std::string>{} : std::vector<std::string>{field};
   out.path = cached_store_path(inputs, fields, build);
   out.shown = "store";
-  if (std::filesystem::exists(out.path)) {
-    try {
-      BrickStoreReader check(out.path);
-      if (say) std::fprintf(stderr, "%s: drawing the store built earlier, %s\n", out.why.c_str(), out.path.c_str());
-      return out;
-    } catch (const std::exception&) {  // unreadable: built again
-    }
+  if (store_opens(out.path)) {  // one that exists but does not open is built again
+    if (say) std::fprintf(stderr, "%s: drawing the store built earlier, %s\n", out.why.c_str(), out.path.c_str());
+    return out;
   }
   std::filesystem::create_directories(std::filesystem::path(out.path).parent_path());
   build.preview_depth = coarse_preview_depth_for(budget, build.resolution, 1);

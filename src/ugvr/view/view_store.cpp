@@ -66,4 +66,15 @@ std::vector<std::string> default_view_fields(const Dataset& dataset, size_t max_
   return dataset.blocks.empty() ? std::vector<std::string>{} : default_field_names(dataset.blocks[0], max_fields);
 }
 
+bool store_opens(const std::string& path, std::string* why) {
+  if (!std::filesystem::exists(path)) return false;
+  try {
+    const BrickStoreReader reader(path);
+    return true;
+  } catch (const std::exception& e) {
+    if (why) *why = e.what();
+    return false;
+  }
+}
+
 }  // namespace ugvr::view

@@ -17,6 +17,10 @@ namespace ugvr::view {
 
 std::string view_cache_dir();
 
+// Whether `path` is a brick store that opens (header, node table and field records check out); when it exists but
+// does not open, `why` (if given) says what is wrong (the caller builds it again).
+bool store_opens(const std::string& path, std::string* why = nullptr);
+
 // The cached store's path for these input files (their canonical paths, sizes and modification times), the fields
 // asked for (empty: the default ones) and build settings. The directory is not created here.
 std::string cached_store_path(std::span<const std::string> inputs, std::span<const std::string> fields,

@@ -130,6 +130,19 @@ std::vector<double> prefilter_matrix(int r) {
   return m;
 }
 
+// A 3-D texture of `format` over the atlas's texels, filtered linearly, clamped at its edges (the samples' texture and
+// the spline coefficients' share the layout).
+GlTexture atlas_texture(GLenum format, const int* texels, const char* what) {
+  GlTexture t(GL_TEXTURE_3D);
+  glTextureStorage3D(t.id(), 1, format, texels[0], texels[1], texels[2]);
+  check_gl(what);
+  glTextureParameteri(t.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
+    glTextureParameteri(t.id(), w, GL_CLAMP_TO_EDGE);
+  return t;
+}
+
 }  // namespace
 
 bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector<double>& coefficients) {
@@ -191,13 +204,7 @@ BrickAtlas::BrickAtlas(uint32_t resolution, uint64_t slots, int max_3d) : resolu
   for (int a = 0; a < 3; ++a) texels_[a] = slots_[a] * side;
   const char* no_bracket = std::getenv("UGVR_TRICUBIC_NO_BRACKET");
   no_bracket_ = no_bracket && *no_bracket;
-  texture_ = GlTexture(GL_TEXTURE_3D);
-  glTextureStorage3D(texture_.id(), 1, GL_RG16, texels_[0], texels_[1], texels_[2]);
-  check_gl("allocating the brick atlas");
-  glTextureParameteri(texture_.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-  glTextureParameteri(texture_.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
-    glTextureParameteri(texture_.id(), w, GL_CLAMP_TO_EDGE);
+  texture_ = atlas_texture(GL_RG16, texels_, "allocating the brick atlas");
 }
 
 uint64_t BrickAtlas::bytes() const {
@@ -207,14 +214,7 @@ uint64_t BrickAtlas::bytes() const {
 
 void BrickAtlas::add_coefficients() {
   if (has_coefficients()) return;
-  GlTexture t(GL_TEXTURE_3D);
-  glTextureStorage3D(t.id(), 1, GL_R16, texels_[0], texels_[1], texels_[2]);
-  check_gl("allocating the brick atlas's spline coefficients");
-  glTextureParameteri(t.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-  glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  for (GLenum w : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
-    glTextureParameteri(t.id(), w, GL_CLAMP_TO_EDGE);
-  coefficients_ = std::move(t);
+  coefficients_ = atlas_texture(GL_R16, texels_, "allocating the brick atlas's spline coefficients");
   // Until a slot uploads with the coefficients its margin is the whole range: the spline decides everywhere.
   const std::vector<float> everywhere(capacity(), 1.0f);
   margins_.upload(everywhere.data(), everywhere.size() * sizeof(float));

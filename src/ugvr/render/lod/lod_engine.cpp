@@ -84,6 +84,11 @@ bool boundary_overlay_on(const RenderSettings& settings) {
   return settings.boundary_overlay_opacity > 0 && settings.mode != RenderMode::Mip;
 }
 
+TfCutRules tf_cut_rules(const RenderSettings& settings) {
+  const bool field_shown = !settings.slices.empty() || settings.mode == RenderMode::Isosurface;
+  return {!field_shown && !boundary_overlay_on(settings), !field_shown};
+}
+
 struct LodEngine::Impl {
   BrickStoreReader store;
   const GlContext& gl;
@@ -498,14 +503,8 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   CutOptions co;
   co.field = I.field;
   co.max_nodes = I.budget_slots();
-  // The overlay draws the boundary of the drawn nodes' data: a node transparent under the transfer function still
-  // holds data, and dropping it would put a false boundary around it.
-  co.tf_cull = !boundary_overlay_on(settings);
-  // A slice shows the field where the volume is transparent too: no node may be dropped or left coarse for being
-  // transparent (or uniform) under the transfer function; the cut is then the plain screen-size criterion.
-  // An isosurface likewise: its geometry is the field's whatever the transfer function's opacity (0 there dropped
-  // every node: no surface) or colour (uniform: the root alone, the coarsest surface).
-  if (!settings.slices.empty() || settings.mode == RenderMode::Isosurface) co.tf_cull = false, co.tf_error = false;
+  const TfCutRules rules = tf_cut_rules(settings);
+  co.tf_cull = rules.cull, co.tf_error = rules.error;
   I.tf_errors.set_field(I.field);
   I.tf_errors.update(tf);
   co.tf_errors = &I.tf_errors;

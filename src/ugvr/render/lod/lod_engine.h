@@ -68,6 +68,16 @@ struct LodRenderStats {
 // then keep nodes that are transparent under the transfer function (CutOptions / ActiveCutOptions::tf_cull false).
 bool boundary_overlay_on(const RenderSettings& settings);
 
+// Which of the cut's transfer-function rules apply to a frame of `settings` (CutOptions / ActiveCutOptions): `cull`
+// drops nodes transparent under the transfer function, `error` keeps nodes uniform under it coarse. Not with the
+// boundary overlay (cull: a transparent node still bounds the data), slices (they show the field where the volume is
+// transparent) or isosurfaces (their geometry is the field's whatever the transfer function: a zero opacity drew no
+// surface, a constant colour the root brick alone); the cut is then the plain screen-size criterion.
+struct TfCutRules {
+  bool cull = true, error = true;
+};
+TfCutRules tf_cut_rules(const RenderSettings& settings);
+
 // Thrown by LodEngine::render_nodes when the device refused an atlas that the budget allowed (llvmpipe caps a texture
 // at 1 GiB): atlas_budget_bricks() is now what it does allocate; choose the cut again within it and render again.
 class AtlasRefused : public Error {

@@ -68,18 +68,13 @@ struct TimeCriticalRenderer::Impl {
     return d;
   }
 
-  // The boundary overlay bounds the data the cut draws: then nothing may be dropped for being transparent under the
-  // transfer function (lod_engine.h).
-  // Slices likewise, and no node may stay coarse for being transparent or uniform under it (tf_error off); and
-  // isosurfaces, whose geometry is the field's whatever the transfer function's opacity and colour.
+  // The transfer-function rules of the cut for these settings (lod_engine.h, tf_cut_rules).
   void cull_for(const RenderSettings& settings) {
-    const bool iso = settings.mode == RenderMode::Isosurface;
-    const bool tf_cull = !boundary_overlay_on(settings) && settings.slices.empty() && !iso;
-    const bool tf_error = settings.slices.empty() && !iso;
-    if (cut.options().tf_cull == tf_cull && cut.options().tf_error == tf_error) return;
+    const TfCutRules rules = tf_cut_rules(settings);
+    if (cut.options().tf_cull == rules.cull && cut.options().tf_error == rules.error) return;
     ActiveCutOptions co = cut.options();
-    co.tf_cull = tf_cull;
-    co.tf_error = tf_error;
+    co.tf_cull = rules.cull;
+    co.tf_error = rules.error;
     cut.set_options(co);
   }
 };
