@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -42,6 +43,7 @@
 #include "ugvr/render/lod/lod_cut.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/renderer_factory.h"
+#include "ugvr/render/time_budget.h"
 #include "ugvr/render/transfer_function.h"
 #include "ugvr/store/brick_store.h"
 #include "ugvr/ugvr.h"
@@ -668,12 +670,17 @@ auto naming_option(F&& f) {
   try {
     return f();
   } catch (const OptionError& e) {
-    throw OptionError(e.option, e.option + ": " + e.what());
+    // The library names the CLI's flag ("time-budget"); Python's keyword has underscores.
+    std::string name = e.option;
+    std::replace(name.begin(), name.end(), '-', '_');
+    throw OptionError(name, name + ": " + e.what());
   }
 }
 
 // What render() hands back to __init__.py.
 py::tuple render(py::object source, const py::dict& kwargs, py::object progress_cb) {
+  // time_budget= counts from here, reading and preparing the input included, as `ugvr render --time-budget`.
+  const auto start = std::chrono::steady_clock::now();
   const Options o{kwargs};
   // Checked before any data is read, in `ugvr render`'s order (cmd_render.cpp run_render).
   const std::string engine = o.str("engine", "auto");
@@ -732,6 +739,11 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
     const int64_t t = o.integer("threads");
     if (t < 1 || t > 4096) fail_in("threads", "must be a positive integer");
     threads = int(t);
+  }
+  std::optional<double> time_budget;
+  if (o.has("time_budget")) {
+    time_budget = o.number("time_budget");
+    if (!(*time_budget > 0) || !std::isfinite(*time_budget)) fail_in("time_budget", "must be > 0 seconds");
   }
   RenderSettings settings = settings_from(o);
   const bool as_float = o.str("dtype", "uint8") == "float32";
@@ -804,12 +816,14 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
       OpenedInput opened;
       // A mesh over the memory budget is never read whole: drawn from its store, built out of core into the viewer's
       // cache (view/over_budget_store.h; "drew_from" in the stats).
-      std::optional<view::OverBudgetStore> big = naming_option([&] {
-        return view::store_for_a_mesh_over_budget(inputs, ro.field, engine, std::nullopt,
-                                                  std::chrono::steady_clock::now(), false);
-      });
+      std::optional<view::OverBudgetStore> big = naming_option(
+          [&] { return view::store_for_a_mesh_over_budget(inputs, ro.field, engine, time_budget, start, false); });
+      // Within a time budget a store is drawn by its time-critical cut, refined while time is left.
+      const bool store_input = inputs.size() == 1 && std::filesystem::path(inputs[0]).extension() == ".ugvr";
+      RendererOptions opts = ro;
+      if (time_budget && (big || engine == "lod" || (engine == "auto" && store_input))) opts.interactive = true;
       renderer = naming_option([&] {
-        return open_renderer_default_field(big ? std::vector<std::string>{big->path} : inputs, read, ro, &opened);
+        return open_renderer_default_field(big ? std::vector<std::string>{big->path} : inputs, read, opts, &opened);
       });
       if (big) {
         out.warnings.push_back(big->why + ": drawn from its store " + big->path + ", built out of core");
@@ -839,7 +853,9 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
     request.camera = out.camera;
     request.tf = out.tf;
     request.settings = settings;
-    out.frame = renderer->render(request);
+    json budget_report;
+    out.frame = time_budget ? render_within_budget(*renderer, request, *time_budget, start, budget_report, false)
+                            : renderer->render(request);
     out.field = renderer->field_name();
     out.stats = {
         {"engine", std::string(renderer->engine())},     {"device", renderer->device()}, {"field", out.field},
@@ -847,6 +863,13 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
         {"settings", settings_to_json(settings)}};
     out.frame.stats.to_json(out.stats);
     if (!out.drew_from.empty()) out.stats["drew_from"] = out.drew_from;
+    if (time_budget) {
+      if (!out.drew_from.empty()) {
+        budget_report["drew_from"] = out.drew_from;
+        budget_report["drew"] = "the " + out.drew_from + ": " + budget_report["drew"].get<std::string>();
+      }
+      out.stats["time_budget"] = budget_report;
+    }
     return out;
   });
   PyTransferFunction used;

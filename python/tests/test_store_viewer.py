@@ -95,3 +95,29 @@ def test_a_mesh_over_the_memory_budget_is_drawn_from_its_store(small_vtu, tmp_pa
         ugvr.render(str(small_vtu), size=48, engine="exact")
     monkeypatch.delenv("UGVR_VIEW_MEMORY_BUDGET")
     assert "drew_from" not in ugvr.render(str(small_vtu), size=48, view="iso", field="pressure").stats
+
+
+def test_time_budget(mesh, small_vtu, tmp_path, monkeypatch):
+    """time_budget=S (`ugvr render --time-budget S`): a store's time-critical cut refined while time is left, the exact
+    image at the largest scale that fits (the probe alone when nothing fits), and for a file over the memory budget
+    what of its store is built by then; stats["time_budget"] says what was drawn."""
+    store = ugvr.build(mesh, tmp_path / "t.ugvr", max_depth=2)
+    ample = ugvr.render(store, size=64, view="iso", time_budget=300)
+    report = ample.stats["time_budget"]
+    assert ample.stats["engine"] == "lod" and report["within_budget"] and report["frames"] >= 1, report
+    assert "level-of-detail cut" in report["drew"] and ample.shape == (64, 64, 4)
+    # A Dataset with the exact engine and no time at all: the 64-pixel probe, magnified to the size asked for.
+    tight = ugvr.render(mesh, size=(128, 96), view="iso", time_budget=1e-6)
+    report = tight.stats["time_budget"]
+    assert report["scale"] == 0.5 and not report["within_budget"], report
+    assert "magnified to 128 x 96" in report["drew"] and tight.shape == (96, 128, 4)
+    assert "time_budget" not in ugvr.render(mesh, size=32).stats
+    with pytest.raises(ugvr.Error, match="time_budget"):
+        ugvr.render(mesh, size=32, time_budget=0)
+    # Over the memory budget: drawn from what is built within the time (here the whole store: it is small).
+    monkeypatch.setenv("UGVR_VIEW_MEMORY_BUDGET", "100KiB")
+    monkeypatch.setenv("UGVR_CACHE_DIR", str(tmp_path / "cache"))
+    big = ugvr.render(str(small_vtu), size=48, view="iso", field="pressure", time_budget=300)
+    report = big.stats["time_budget"]
+    assert report["drew_from"] == big.stats["drew_from"] == "store" and report["drew"].startswith("the store: "), report
+    assert np.asarray(big).std() > 0

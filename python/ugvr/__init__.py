@@ -343,7 +343,7 @@ def render(source, field=None, view=None, camera=None, view_angle=None, tf=None,
            no_lighting=False, volume_lighting=None, background=None, early_termination=None, sample_step=None,
            settings=None, threads=None, cut="pixels:1", gpu="auto", gpu_memory=None, ram_memory=None,
            step_voxels=None, time_step=None, dtype="uint8", progress=None, slices=None, hide_volume=None,
-           **read_options):
+           time_budget=None, **read_options):
     """One image of a Dataset, a Store, or a file (path or [grid, solution]), as `ugvr render` draws it.
 
     Keywords are `ugvr render`'s flags: field="NAME[:x|y|z|k|magnitude]", view="+x|-x|+y|-y|+z|-z|iso",
@@ -356,7 +356,9 @@ def render(source, field=None, view=None, camera=None, view_angle=None, tf=None,
     slices=[(px, py, pz, nx, ny, nz[, opacity]) or {"point": .., "normal": .., "opacity": .., "color_map": NAME,
     "range": (lo, hi), "contours": N or (v1, ..), "contour_color": (r, g, b), "contour_width": PIXELS}, ...] draws
     cutting planes (--slice, --slice-contours; docs/slices.md), hide_volume="none|front|back|all" where the volume is
-    hidden around them (--hide-volume).
+    hidden around them (--hide-volume). time_budget=S (--time-budget): the best image drawable within S seconds of
+    the call, reading included -- a store's cut refined while time is left, the exact image at the largest scale that
+    fits, or for a file over the memory budget what of its store is built by then (stats["time_budget"] says what).
 
     progress(stage, fraction) is called (with the GIL) during long work -- the exact engine's walk mesh, built on a
     Dataset's first render -- and cancels it by returning False (ugvr.Error "cancelled"). The GIL is released while rendering, so other Python
@@ -381,7 +383,7 @@ def render(source, field=None, view=None, camera=None, view_angle=None, tf=None,
                    background=background, early_termination=early_termination, sample_step=sample_step,
                    settings=settings, threads=threads, cut=cut, gpu=gpu,
                    gpu_memory=_bytes(gpu_memory, "gpu_memory"), ram_memory=_bytes(ram_memory, "ram_memory"),
-                   step_voxels=step_voxels, time_step=time_step, dtype=dtype)
+                   step_voxels=step_voxels, time_step=time_step, dtype=dtype, time_budget=time_budget)
     array, stats, used_camera, used_tf, warnings = _ugvr._render(_source(source), options, progress)
     return Image(array, stats, used_camera, used_tf, warnings)
 

@@ -36,6 +36,7 @@
 #include "ugvr/render/image.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/renderer_factory.h"
+#include "ugvr/render/time_budget.h"
 #include "ugvr/render/transfer_function.h"
 #include "ugvr/store/brick_store.h"
 #include "ugvr/view/over_budget_store.h"
@@ -350,74 +351,7 @@ void render_store_time_steps(const Options& o, Renderer& renderer, const BrickSt
                  store.path().c_str(), o.out_dir.c_str(), renderer.field_name().c_str(), median(frame_seconds));
 }
 
-// --time-budget S (issue 24): a still image from what can be drawn within S seconds of the command's start, reading
-// and preparing the input included. The exact engine draws a probe at a small size, then the largest image whose
-// estimated time (time grows with the pixel count) fits what is left, magnified to the requested size; the level of
-// detail engine refines its time-critical cut frame after frame while the next frame still fits. `report` says
-// what was drawn (--stats "time_budget").
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-Frame render_within_budget(Renderer& renderer, FrameRequest request, double budget, Clock::time_point start,
-                           nlohmann::json& report) {
-  const int w = request.settings.width, h = request.settings.height;
-  report = {{"seconds", budget}, {"open_seconds", seconds_since(start)}};
-  Frame frame;
-  std::string drew;
-  if (renderer.engine() == "lod") {
-    int frames = 0;
-    double left = budget - seconds_since(start);
-    do {
-      // The time-critical cut aims at the time left for this frame (at least a frame a second's worth of detail).
-      request.target_fps = 1 / std::clamp(left, 0.05, 1.0);
-      frame = renderer.render(request);
-      ++frames;
-      left = budget - seconds_since(start);
-    } while (!frame.stats.converged && left > frame.stats.seconds);
-    char buf[200];
-    std::snprintf(buf, sizeof buf, "level-of-detail cut of %llu nodes after %d frames, %s, texel error %.2f px",
-                  (unsigned long long)frame.stats.cut_nodes, frames,
-                  frame.stats.converged ? "converged" : "still refining", frame.stats.texel_error);
-    drew = buf;
-    report["frames"] = frames;
-  } else {
-    request.target_fps = 0;
-    // A probe at most 64 pixels a side measures the time per pixel.
-    const double probe = std::min(1.0, 64.0 / std::max(w, h));
-    const auto sized = [&](double scale) {
-      FrameRequest r = request;
-      r.settings.width = std::max(1, int(std::lround(w * scale)));
-      r.settings.height = std::max(1, int(std::lround(h * scale)));
-      Frame f = renderer.render(r);
-      f.stats.scale = scale;
-      return f;
-    };
-    frame = sized(probe);
-    const double per_full = frame.stats.seconds / (probe * probe);  // the full size's estimated time
-    const double left = budget - seconds_since(start);
-    double scale = probe;
-    if (probe < 1 && left > 0 && per_full > 0) {
-      scale = std::clamp(std::sqrt(left / per_full), probe, 1.0);
-      if (scale > probe) frame = sized(scale > 0.97 ? 1.0 : scale);
-    }
-    scale = frame.stats.scale;
-    if (frame.image.width != w || frame.image.height != h) frame.image = resize_bilinear(frame.image, w, h);
-    char buf[200];
-    std::snprintf(buf, sizeof buf, "exact image at scale %.3f (%d x %d), magnified to %d x %d", scale,
-                  std::max(1, int(std::lround(w * scale))), std::max(1, int(std::lround(h * scale))), w, h);
-    drew = scale == 1 ? "exact image at full size" : std::string(buf);
-    report["scale"] = scale;
-    report["probe_scale"] = probe;
-  }
-  report["total_seconds"] = seconds_since(start);
-  report["within_budget"] = report["total_seconds"].get<double>() <= budget;
-  report["drew"] = drew;
-  if (Progress::enabled())
-    std::fprintf(stderr, "time budget %.3g s: %s, in %.3g s%s\n", budget, drew.c_str(),
-                 report["total_seconds"].get<double>(),
-                 report["within_budget"].get<bool>() ? "" : " (over: reading and preparing the input took longer)");
-  return frame;
-}
 
 void run_render(const Options& o, std::optional<double> time_budget) {
   const Clock::time_point start = Clock::now();
@@ -620,7 +554,7 @@ void run_render(const Options& o, std::optional<double> time_budget) {
   for (int f = 0; f < frames; ++f) {
     if (time_budget) {  // one image (--frames does not apply)
       const double cpu0 = process_cpu_seconds();
-      Frame frame = render_within_budget(*renderer, request, *time_budget, start, budget_report);
+      Frame frame = render_within_budget(*renderer, request, *time_budget, start, budget_report, Progress::enabled());
       if (big) {
         budget_report["drew_from"] = big->shown;
         budget_report["drew"] = "the " + big->shown + ": " + budget_report["drew"].get<std::string>();
