@@ -71,6 +71,7 @@ window.ugvrViewer = {
   get views() { return viewsReceived; },
   get fields() { return scene ? scene.fields.map((f) => ({ name: f.name, range: f.range.slice(), bins: f.histogram.length })) : []; },
   get field() { return view.field; },
+  get focusBrush() { return { hidden: $("focus-brush-row").hidden, range: focusBrush.range && focusBrush.range.slice() }; },
   get range() { return [tfEditor.lo, tfEditor.hi]; },
   get tf() {
     return { preset: view.preset, opacity: view.opacity, opacity_points: tfEditor.flatPoints(), rgb_points: currentColors(),
@@ -346,6 +347,7 @@ function onScene(m) {
   const focusField = $("focus-field").value;
   $("focus-field").replaceChildren(new Option("(none)", ""),
                                    ...m.fields.map((f) => new Option(f.name, f.name, f.name === focusField, f.name === focusField)));
+  showFocusBrush();  // the new scene's histogram of the focus field, or hidden when the field is gone
   const keep = !first && fieldInfo(view.field);
   if (!keep) {
     view.field = m.field;
@@ -448,6 +450,20 @@ requestAnimationFrame(tick);
 
 new ResizeObserver(() => send({ type: "resize", ...canvasSize() })).observe(canvas);
 
+// The brush on the focus field's histogram: a drag sets the range and applies the focus when it ends.
+const focusBrush = new FocusBrush($("focus-brush"), (lo, hi) => {
+  $("focus-min").value = String(+lo.toPrecision(6));
+  $("focus-max").value = String(+hi.toPrecision(6));
+  focusFromRange();
+  $("interest-apply").click();
+});
+function showFocusBrush() {
+  const info = fieldInfo($("focus-field").value);
+  $("focus-brush-row").hidden = !info;
+  if (!info) return;
+  focusBrush.setField(info.range[0], info.range[1], info.histogram);
+  focusBrush.setRange(Number.parseFloat($("focus-min").value), Number.parseFloat($("focus-max").value));
+}
 $("focus-field").addEventListener("change", () => {
   const info = fieldInfo($("focus-field").value);
   // A new field: the middle half of its range to start from.
@@ -457,9 +473,13 @@ $("focus-field").addEventListener("change", () => {
     $("focus-max").value = String(+(info.range[0] + 0.75 * w).toPrecision(6));
   }
   focusFromRange();
+  showFocusBrush();
 });
-$("focus-min").addEventListener("change", focusFromRange);
-$("focus-max").addEventListener("change", focusFromRange);
+for (const id of ["focus-min", "focus-max"])
+  $(id).addEventListener("change", () => {
+    focusFromRange();
+    showFocusBrush();
+  });
 $("roi-whole").addEventListener("click", () => {
   if (!scene) return;
   $("roi-lo").value = scene.bounds.min.join(",");
@@ -474,6 +494,7 @@ $("interest-apply").addEventListener("click", () => {
 $("interest-clear").addEventListener("click", () => {
   $("focus-field").value = "";
   $("focus-text").value = "";
+  showFocusBrush();
   $("roi").checked = false;
   view.interest = { type: "interest", focus: null, roi: null };
   $("interest-note").textContent = "";

@@ -89,3 +89,50 @@ test("a box of interest makes the rest context: fewer exact nodes, the image cha
   assert.ok(!cleared.status.exact.focus_excluded, "no context without a focus");
   assert.equal(cleared.status.exact.nodes, before.status.exact.nodes, "the same exact nodes as before the box");
 });
+
+test("a brush on the focus field's histogram sets the focus when the drag ends", async () => {
+  const before = await waitConverged(page, CONVERGE_MS);
+  const scene = await hook("scene");
+  const field = scene.fields.find((f) => f.range[1] > f.range[0]);
+  assert.ok(field, "a field that varies");
+  assert.equal((await hook("focusBrush")).hidden, true, "no brush before a focus field is chosen");
+  await page.selectOption("#focus-field", field.name);
+  const shown = await hook("focusBrush");
+  assert.equal(shown.hidden, false, "the brush shows the focus field's histogram");
+  const [lo, hi] = field.range, w = hi - lo;
+  assert.ok(Math.abs(shown.range[0] - (lo + 0.25 * w)) < 1e-5 * w && Math.abs(shown.range[1] - (lo + 0.75 * w)) < 1e-5 * w,
+            `it starts on the middle half of the range: ${shown.range}`);
+  const sentBefore = (await hook("log")).filter((m) => m.type === "interest").length;
+  // Drag from 10 % to 30 % of the plot (the canvas is drawn 1:1; its plot has 4 pixels of padding on each side).
+  const box = await page.locator("#focus-brush").boundingBox();
+  const at = (f) => box.x + 4 + f * (box.width - 8);
+  const y = box.y + box.height / 2;
+  await page.mouse.move(at(0.1), y);
+  await page.mouse.down();
+  await page.mouse.move(at(0.2), y, { steps: 4 });
+  const during = (await hook("log")).filter((m) => m.type === "interest").length;
+  assert.equal(during, sentBefore, "nothing is sent while dragging");
+  await page.mouse.move(at(0.3), y, { steps: 4 });
+  await page.mouse.up();
+  const sent = await waitFor("the brushed interest message", async () => {
+    const all = (await hook("log")).filter((m) => m.type === "interest");
+    return all.length > sentBefore ? all.pop() : null;
+  }, CONVERGE_MS);
+  const m = sent.focus.match(/^(.*):([^:]+):([^:]+)$/);
+  assert.ok(m && m[1] === field.name, `the focus names the field: ${sent.focus}`);
+  const bmin = Number(m[2]), bmax = Number(m[3]);
+  // Within a pixel of the drag's ends (the plot is about 290 pixels wide).
+  assert.ok(Math.abs(bmin - (lo + 0.1 * w)) < 0.01 * w && Math.abs(bmax - (lo + 0.3 * w)) < 0.01 * w,
+            `brushed ${bmin}..${bmax} of ${lo}..${hi}`);
+  assert.equal(await page.locator("#interest-note").textContent(), "focus set");
+  assert.deepEqual((await hook("focusBrush")).range.map((v) => +v.toPrecision(6)), [bmin, bmax]);
+  await waitFor("a frame of the brushed focus", async () => (await hook("frames")) > before.frames, CONVERGE_MS);
+  const s = await waitConverged(page, CONVERGE_MS);
+  console.log(`brushed ${field.name} ${bmin}..${bmax}: exact ${s.status.exact.nodes} of ${s.status.exact.candidates}, ` +
+              `${s.status.exact.focus_excluded} context nodes`);
+  assert.ok(s.status.exact.focus_excluded > 0, "nodes outside the brushed range are context");
+
+  await page.click("#interest-clear");
+  assert.equal((await hook("focusBrush")).hidden, true, "clearing the focus hides the brush");
+  await waitConverged(page, CONVERGE_MS);
+});

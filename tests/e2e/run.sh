@@ -41,5 +41,5 @@ UGVR="$ugvr" UGVR_MESH="$tmp/mixed.vtu" timeout -k 5 300 node --test-reporter=sp
 UGVR="$ugvr" UGVR_SERIES="$tmp/wake.pvd" timeout -k 5 300 node --test-reporter=spec "$here/time.test.mjs"
 # The same panel over a time store (the level-of-detail engine, steps read at the tab's cut).
 UGVR="$ugvr" UGVR_TIME_STORE="$tmp/wake.ugvr" timeout -k 5 300 node --test-reporter=spec "$here/time_store.test.mjs"
-# The hybrid engine over a store with cells: exact at rest, the engine picker, the interest panel's box.
-UGVR="$ugvr" UGVR_CELLS_STORE="$tmp/mixed-cells.ugvr" timeout -k 5 300 node --test-reporter=spec "$here/hybrid.test.mjs"
+# The hybrid engine over a store with cells: exact at rest, the engine picker, the interest panel's box and brush.
+UGVR="$ugvr" UGVR_CELLS_STORE="$tmp/mixed-cells.ugvr" timeout -k 5 420 node --test-reporter=spec "$here/hybrid.test.mjs"

@@ -1,0 +1,89 @@
+// ugvr view: the focus brush (issue 17, SimVis's brush on a histogram). One canvas shows the histogram of the focus
+// field's values (log-scaled counts, as the transfer-function editor's) with the brushed value range highlighted. Drag
+// across it to brush a new range; onBrush(lo, hi) is called when the drag ends (the page then sends the focus, so a
+// drag costs one frame of the new interest, not one per pointer move). A drag shorter than 3 pixels is a click and
+// changes nothing.
+"use strict";
+
+class FocusBrush {
+  constructor(canvas, onBrush) {
+    this.canvas = canvas;
+    this.ctx = canvas.getContext("2d");
+    this.onBrush = onBrush;
+    this.lo = 0, this.hi = 1;         // the field's range
+    this.histogram = [];
+    this.range = null;                // [min, max] brushed, in data values; null: none
+    this.anchor = null;               // the drag's start in canvas pixels, while dragging
+    this.pad = 4;
+    canvas.addEventListener("pointerdown", (e) => this.pointerDown(e));
+    canvas.addEventListener("pointermove", (e) => this.pointerMove(e));
+    canvas.addEventListener("pointerup", (e) => this.pointerUp(e));
+    canvas.addEventListener("pointercancel", () => { this.anchor = null; });
+  }
+
+  setField(lo, hi, histogram) {
+    this.lo = lo, this.hi = hi > lo ? hi : lo + 0.5;
+    if (!(hi > lo)) this.lo = lo - 0.5;
+    this.histogram = histogram || [];
+    this.draw();
+  }
+  setRange(min, max) {
+    this.range = Number.isFinite(min) && Number.isFinite(max) ? [Math.min(min, max), Math.max(min, max)] : null;
+    this.draw();
+  }
+
+  // Data value <-> canvas x (the plot spans the canvas less its padding).
+  toPx(v) { return this.pad + ((v - this.lo) / (this.hi - this.lo)) * (this.canvas.width - 2 * this.pad); }
+  fromPx(px) {
+    const f = Math.min(1, Math.max(0, (px - this.pad) / (this.canvas.width - 2 * this.pad)));
+    return this.lo + f * (this.hi - this.lo);
+  }
+  eventPx(e) {
+    const b = this.canvas.getBoundingClientRect();
+    return ((e.clientX - b.left) * this.canvas.width) / b.width;
+  }
+
+  pointerDown(e) {
+    this.anchor = this.eventPx(e);
+    this.canvas.setPointerCapture?.(e.pointerId);
+  }
+  pointerMove(e) {
+    if (this.anchor === null) return;
+    const x = this.eventPx(e);
+    if (Math.abs(x - this.anchor) >= 3) this.setRange(this.fromPx(this.anchor), this.fromPx(x));
+  }
+  pointerUp(e) {
+    if (this.anchor === null) return;
+    const x = this.eventPx(e), anchor = this.anchor;
+    this.anchor = null;
+    if (Math.abs(x - anchor) < 3) return;
+    this.setRange(this.fromPx(anchor), this.fromPx(x));
+    this.onBrush(this.range[0], this.range[1]);
+  }
+
+  draw() {
+    const ctx = this.ctx, w = this.canvas.width, h = this.canvas.height, p = this.pad;
+    ctx.clearRect(0, 0, w, h);
+    const inRange = (v) => this.range && v >= this.range[0] && v <= this.range[1];
+    const bins = this.histogram.length;
+    if (bins > 0) {
+      const top = Math.log1p(Math.max(...this.histogram));
+      const bw = (w - 2 * p) / bins;
+      for (let b = 0; b < bins; ++b) {
+        const f = top > 0 ? Math.log1p(this.histogram[b]) / top : 0;
+        const bh = f * (h - 2 * p);
+        const centre = this.lo + ((b + 0.5) / bins) * (this.hi - this.lo);
+        ctx.fillStyle = inRange(centre) ? "#d9a441" : "#4a4f5c";
+        ctx.fillRect(p + b * bw, h - p - bh, Math.max(1, bw - 0.5), bh);
+      }
+    }
+    if (this.range) {
+      const x0 = this.toPx(this.range[0]), x1 = this.toPx(this.range[1]);
+      ctx.fillStyle = "rgba(217, 164, 65, 0.18)";
+      ctx.fillRect(x0, 0, Math.max(1, x1 - x0), h);
+      ctx.strokeStyle = "#d9a441";
+      ctx.lineWidth = 1;
+      ctx.strokeRect(x0 + 0.5, 0.5, Math.max(1, x1 - x0 - 1), h - 1);
+    }
+  }
+}
