@@ -8,6 +8,8 @@ set(assets "index.html|/index.html|text/html\; charset=utf-8"
            "focus_brush.js|/focus_brush.js|text/javascript\; charset=utf-8"
            "files.js|/files.js|text/javascript\; charset=utf-8"
            "slices.js|/slices.js|text/javascript\; charset=utf-8"
+           "view_rays.js|/view_rays.js|text/javascript\; charset=utf-8"
+           "roi_box.js|/roi_box.js|text/javascript\; charset=utf-8"
            "time_panel.js|/time_panel.js|text/javascript\; charset=utf-8"
            "style.css|/style.css|text/css\; charset=utf-8")
 set(arrays "")

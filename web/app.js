@@ -434,7 +434,24 @@ ws.onmessage = async (event) => {
 
 // ---- input ----
 
-installCameraControls(canvas, () => camera, () => { cameraDirty = true; }, ugvrSlices.canvasDrag(canvas));
+// A drag on the view moves a cutting plane (slices.js) or a face of the box of interest (roi_box.js) when one of
+// them takes it, else the camera.
+function firstGrab(...grabs) {
+  let taken = null;
+  return {
+    down(e) {
+      taken = grabs.find((g) => g.down(e)) || null;
+      return taken !== null;
+    },
+    move(e, dx, dy) { taken?.move(e, dx, dy); },
+    up(e) {
+      taken?.up(e);
+      taken = null;
+    },
+  };
+}
+installCameraControls(canvas, () => camera, () => { cameraDirty = true; },
+                      firstGrab(ugvrSlices.canvasDrag(canvas), ugvrRoi.canvasDrag(canvas)));
 
 function tick() {
   if (cameraDirty && camera) {

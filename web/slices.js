@@ -84,39 +84,10 @@ const ugvrSlices = (() => {
   let dragMode = false;
   let drag = null;  // {index, canvas, perWorld: screen pixels per world unit along the normal, dir: its unit direction}
 
-  // The camera's ray through canvas point (x, y) (CSS pixels from the top left), as camera.h's CameraRays: the image
-  // spans the vertical view angle (or 2 parallel_scale) top to bottom.
-  function rayAt(rect, x, y) {
-    const forward = norm(sub(camera.focal_point, camera.position));
-    const right = norm(cross(forward, camera.view_up));
-    const up = cross(right, forward);
-    const sx = (2 * x) / rect.width - 1, sy = 1 - (2 * y) / rect.height;
-    const aspect = rect.width / rect.height;
-    if (camera.parallel_projection) {
-      const h = camera.parallel_scale;
-      return {origin: add(camera.position, add(mul(right, sx * h * aspect), mul(up, sy * h))), dir: forward};
-    }
-    const h = Math.tan((camera.view_angle * Math.PI) / 360);
-    return {origin: camera.position, dir: norm(add(forward, add(mul(right, sx * h * aspect), mul(up, sy * h))))};
-  }
-
-  // Where world point p appears on the canvas (CSS pixels), or null behind the camera.
-  function project(rect, p) {
-    const forward = norm(sub(camera.focal_point, camera.position));
-    const right = norm(cross(forward, camera.view_up));
-    const up = cross(right, forward);
-    const d = sub(p, camera.position);
-    const z = dot(d, forward);
-    const h = camera.parallel_projection ? camera.parallel_scale : z * Math.tan((camera.view_angle * Math.PI) / 360);
-    if (!(h > 0)) return null;
-    const aspect = rect.width / rect.height;
-    return [(dot(d, right) / (h * aspect) + 1) * rect.width / 2, (1 - dot(d, up) / h) * rect.height / 2];
-  }
-
   // The plane under canvas point (x, y): {index, t, point}, or null.
   function pick(rect, x, y) {
     if (!camera) return null;
-    const ray = rayAt(rect, x, y);
+    const ray = viewRayAt(camera, rect, x, y);
     const lo = bounds().min, hi = bounds().max;
     const eps = 1e-9 * vlen(sub(hi, lo));
     let best = null;
@@ -148,18 +119,10 @@ const ugvrSlices = (() => {
         const rect = canvas.getBoundingClientRect();
         const hit = pick(rect, e.clientX - rect.left, e.clientY - rect.top);
         if (!hit) return false;
-        // The normal's direction on screen and its length per world unit, at the picked point.
+        // The normal's direction on screen and its length per world unit, at the picked point (view_rays.js).
         const {normal} = planeOf(planes[hit.index]);
         const span = vlen(sub(bounds().max, bounds().min)) || 1;
-        const a = project(rect, hit.point), b = project(rect, add(hit.point, mul(normal, 1e-3 * span)));
-        let dir = [0, -1], perWorld = rect.height / span;  // the normal along the view: up moves it forward
-        if (a && b) {
-          const v = [(b[0] - a[0]) / (1e-3 * span), (b[1] - a[1]) / (1e-3 * span)];
-          const len = Math.hypot(v[0], v[1]);
-          // Seen nearly edge-on the normal is a short vector on screen: below 1/10 of the bounds per canvas height,
-          // fall back to that, so that a drag never throws the plane across the data.
-          if (len > (0.1 * rect.height) / span) dir = [v[0] / len, v[1] / len], perWorld = len;
-        }
+        const {dir, perWorld} = screenAxis(camera, rect, hit.point, normal, span);
         drag = {index: hit.index, perWorld, dir};
         return true;
       },

@@ -136,3 +136,54 @@ test("a brush on the focus field's histogram sets the focus when the drag ends",
   assert.equal((await hook("focusBrush")).hidden, true, "clearing the focus hides the brush");
   await waitConverged(page, CONVERGE_MS);
 });
+
+test("the box of interest is dragged on the view: a face moves along its axis, the focus is applied on release", async () => {
+  const before = await waitConverged(page, CONVERGE_MS);
+  const scene = await hook("scene");
+  await page.click("#roi-whole");
+  await page.check("#roi-drag");
+  const roi = (expr) => page.evaluate(`ugvrRoi.${expr}`);
+  assert.equal(await roi("dragMode"), true);
+  // A face seen from the camera: the drag from its centre takes that face.
+  let face = null, from = null;
+  for (let axis = 0; axis < 3 && !face; ++axis)
+    for (let side = 0; side < 2 && !face; ++side) {
+      const c = await roi(`faceCentre(${axis}, ${side})`);
+      const hit = c && (await roi(`faceAt(${c[0]}, ${c[1]})`));
+      if (hit && hit.axis === axis && hit.side === side) face = hit, from = c;
+    }
+  assert.ok(face, "a face of the whole-data box is seen");
+  const lo = scene.bounds.min, hi = scene.bounds.max, k = face.axis, extent = hi[k] - lo[k];
+  // Drag the face's centre towards where it would be a quarter of the extent inwards.
+  const centre = lo.map((v, i) => 0.5 * (v + hi[i]));
+  centre[k] = face.side ? hi[k] - 0.25 * extent : lo[k] + 0.25 * extent;
+  const to = await roi(`pageOf(${JSON.stringify(centre)})`);
+  const sentBefore = (await hook("log")).filter((m) => m.type === "interest").length;
+  const cameraBefore = await hook("camera");
+  await page.mouse.move(from[0], from[1]);
+  await page.mouse.down();
+  await page.mouse.move(0.5 * (from[0] + to[0]), 0.5 * (from[1] + to[1]), { steps: 4 });
+  assert.equal(await roi("dragging"), true, "the box took the drag, not the camera");
+  assert.equal((await hook("log")).filter((m) => m.type === "interest").length, sentBefore, "nothing sent while dragging");
+  await page.mouse.move(to[0], to[1], { steps: 4 });
+  await page.mouse.up();
+  const sent = await waitFor("the dragged box's interest message", async () => {
+    const all = (await hook("log")).filter((m) => m.type === "interest");
+    return all.length > sentBefore ? all.pop() : null;
+  }, CONVERGE_MS);
+  const m = sent.roi.match(/^box:(.*)$/);
+  const v = m[1].split(",").map(Number), blo = v.slice(0, 3), bhi = v.slice(3);
+  const moved = face.side ? hi[k] - bhi[k] : blo[k] - lo[k];
+  console.log(`dragged face ${"xyz"[k]}${face.side ? "+" : "-"} inwards by ${(moved / extent).toFixed(3)} of the extent`);
+  assert.ok(moved > 0.1 * extent && moved < 0.4 * extent, `the face moved about a quarter inwards: ${sent.roi}`);
+  for (let i = 0; i < 3; ++i) {
+    if (i !== k || face.side) assert.ok(Math.abs(blo[i] - lo[i]) < 1e-5 * (hi[i] - lo[i] || 1), `lo ${i} kept: ${sent.roi}`);
+    if (i !== k || !face.side) assert.ok(Math.abs(bhi[i] - hi[i]) < 1e-5 * (hi[i] - lo[i] || 1), `hi ${i} kept: ${sent.roi}`);
+  }
+  assert.deepEqual(await hook("camera"), cameraBefore, "the camera did not move");
+  const s = await waitConverged(page, CONVERGE_MS);
+  assert.ok(s.status.exact.focus_excluded > 0, "nodes outside the smaller box are context");
+  await page.uncheck("#roi-drag");
+  await page.click("#interest-clear");
+  await waitConverged(page, CONVERGE_MS);
+});
