@@ -20,6 +20,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
 #include <memory>
@@ -27,6 +28,7 @@
 #include <random>
 
 #include "gl_test_support.h"
+#include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/gpu/gl_context.h"
 #include "ugvr/grid/dataset.h"
@@ -976,6 +978,41 @@ TEST(LodTricubic, ExtendedPrefilterMatchesTheWholeLattice) {
   std::vector<double> c;
   ASSERT_TRUE(cubic_coefficients(r, bricks.slot(1, 1, 1), c, &partial));
   EXPECT_NE(c, alone);
+}
+
+TEST(LodTricubic, AVoxelVolumeWithoutAStoreGetsAnErrorWithAdvice) {
+  // `ugvr render vol.nrrd --iso V --interpolation tricubic`: the exact engine drew it trilinearly and said nothing; the
+  // lod engine refuses a non-store. The flag's error now says how to get tricubic isosurfaces, and the store it
+  // advises draws them.
+  test::ScratchDir dir;
+  const std::string nrrd = dir.file("sines.nrrd");
+  {
+    std::ofstream f(nrrd, std::ios::binary);
+    f << "NRRD0004\ntype: float\ndimension: 3\nsizes: 33 33 33\nspacings: 0.03125 0.03125 0.03125\nencoding: raw\n"
+         "endian: little\n\n";
+    for (int k = 0; k < kPoints; ++k)
+      for (int j = 0; j < kPoints; ++j)
+        for (int i = 0; i < kPoints; ++i) {
+          const float v = float(sines_value(lattice_point(i, j, k)));
+          f.write(reinterpret_cast<const char*>(&v), sizeof v);
+        }
+  }
+  for (const char* engine : {"", " --engine lod", " --engine exact"}) {
+    const test::CommandResult r = test::run_ugvr(
+        "render " + nrrd + engine + " --iso 0.25 --interpolation tricubic --size 32 -o " + dir.file("x.png"));
+    EXPECT_NE(r.status, 0) << engine << ": " << r.out;
+    EXPECT_NE(r.out.find("--interpolation"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("ugvr build"), std::string::npos) << r.out;
+  }
+  const std::string store = dir.file("sines.ugvr");
+  const test::CommandResult b = test::run_ugvr("build " + nrrd + " --brick 9 --max-depth 2 --error 0 -o " + store);
+  ASSERT_EQ(b.status, 0) << b.out;
+  const test::CommandResult r =
+      test::run_ugvr("render " + store + " --iso 0.25 --interpolation tricubic --size 32 -o " + dir.file("x.png"));
+  EXPECT_EQ(r.status, 0) << r.out;
+  // Trilinear (the default) still draws the volume as it is.
+  const test::CommandResult t = test::run_ugvr("render " + nrrd + " --iso 0.25 --size 32 -o " + dir.file("y.png"));
+  EXPECT_EQ(t.status, 0) << t.out;
 }
 
 TEST(LodTricubic, SettingParsesAndRejectsUnknownNames) {
