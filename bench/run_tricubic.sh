@@ -8,8 +8,11 @@
 # way (default 5; the median after the first, `--stats`'s median_frame_seconds), alternated ROUNDS times (default 2).
 # FIELD=sines instead samples sin(3πx) sin(3πy) sin(3πz) (iso 0.25: blobs of about 3 voxels' radius, the field of
 # tests/test_lod_tricubic.cpp), and BRICKS=1 builds one brick of N samples (depth 0) instead of 64 bricks of 9.
+# PER_BRICK=1 adds, in each round, tricubic with each brick prefiltered alone (UGVR_TRICUBIC_EXTENSION=0, as before
+# the same-level neighbourhood of docs/tricubic.md, "Seams") after the default (the neighbourhood): frame time and the
+# first frame's upload time (load_seconds, all bricks uploaded then) before/after in one run.
 # Usage: bench/run_tricubic.sh [OUT_DIR=/tmp/ugvr-tricubic]; UGVR (default build/ugvr), N, SIZE, FRAMES, ROUNDS,
-# FIELD (sphere), BRICKS (64), PYTHON. One JSON line per render is appended to bench/results/tricubic.jsonl.
+# FIELD (sphere), BRICKS (64), PER_BRICK, PYTHON. One JSON line per render is appended to bench/results/tricubic.jsonl.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-/tmp/ugvr-tricubic}
@@ -54,13 +57,26 @@ store="$out/$field$n-$bricks.ugvr"
 cat > "$out/camera.json" <<'CAM'
 {"position": [1.6, 1.3, 2.0], "focal_point": [0.5, 0.5, 0.5], "view_up": [0, 1, 0], "view_angle": 24}
 CAM
+variants="trilinear tricubic"
+[ "${PER_BRICK:-0}" = 1 ] && variants="trilinear tricubic tricubic-per-brick"
 for round in $(seq "$rounds"); do
-  for interp in trilinear tricubic; do
-    "$ugvr" --quiet render "$store" --engine lod --cut leaves --camera "$out/camera.json" --size "$size" --iso $iso \
-      --interpolation $interp -o "$out/$interp.png" --stats "$out/$interp.json" --frames "$frames"
+  for variant in $variants; do
+    interp=${variant%-per-brick}
+    extension=""
+    [ "$variant" = tricubic-per-brick ] && extension=0
+    UGVR_TRICUBIC_EXTENSION=$extension "$ugvr" --quiet render "$store" --engine lod --cut leaves \
+      --camera "$out/camera.json" --size "$size" --iso $iso --interpolation "$interp" -o "$out/$variant.png" \
+      --stats "$out/$variant.json" --frames "$frames"
+    # The upload: one frame at 64² (its stats are the frame that uploads every brick of the cut).
+    UGVR_TRICUBIC_EXTENSION=$extension "$ugvr" --quiet render "$store" --engine lod --cut leaves \
+      --camera "$out/camera.json" --size 64 --iso $iso --interpolation "$interp" -o "$out/$variant-64.png" \
+      --stats "$out/$variant-upload.json" --frames 1
     "$py" -c "
-import json; s = json.load(open('$out/$interp.json'))
-print(json.dumps({'bench': 'tricubic', 'field': '$field', 'bricks': $bricks, 'interpolation': '$interp', 'n': $n,
-                  'size': $size, 'round': $round, 'median_frame_seconds': s['median_frame_seconds']}))" | tee -a "$jsonl"
+import json; s = json.load(open('$out/$variant.json')); u = json.load(open('$out/$variant-upload.json'))
+print(json.dumps({'bench': 'tricubic', 'field': '$field', 'bricks': $bricks, 'interpolation': '$variant', 'n': $n,
+                  'size': $size, 'round': $round, 'median_frame_seconds': s['median_frame_seconds'],
+                  'upload_seconds': u['load_seconds'], 'bricks_loaded': u['bricks_loaded_last_frame'],
+                  'neighbour_reads': u.get('neighbour_reads'), 'uploaded_bytes': u.get('uploaded_bytes')}))" \
+      | tee -a "$jsonl"
   done
 done

@@ -444,6 +444,17 @@ void run_render(const Options& o, std::optional<double> time_budget) {
                                                 Progress::enabled());
     });
   if (big && time_budget) budget_lod = true;
+  // Tricubic isosurfaces are the lod engine's, drawn from a brick store's bricks (docs/tricubic.md): the exact engine
+  // interpolates each cell with its own interpolant and would ignore the setting silently, and the lod engine draws
+  // stores only. A voxel volume (NRRD, raw, .vti) or a mesh is built into a store first.
+  if (settings.mode == RenderMode::Isosurface && settings.interpolation == Interpolation::Tricubic && !big &&
+      !(o.inputs.size() == 1 && (is_brick_store(o.inputs[0]) || is_piece_index(o.inputs[0]))))
+    fail_flag("--interpolation",
+              "tricubic isosurfaces are drawn by the lod engine from a brick store, and " +
+                  (o.inputs.empty() ? std::string("the input") : o.inputs[0]) +
+                  " is not one: build it with `ugvr build INPUT -o STORE.ugvr` (a voxel volume of N³ samples keeps "
+                  "its samples with --brick 9 --max-depth D where 8·2^D = N - 1, e.g. N = 33: D = 2), then render "
+                  "STORE.ugvr --interpolation tricubic");
   if (budget_lod) ro.interactive = true;
   OpenedInput opened;
   std::shared_ptr<ExactScene> time_scene;

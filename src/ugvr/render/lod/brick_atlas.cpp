@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <map>
 
 #include "ugvr/core/error.h"
 #include "ugvr/store/brick_pad.h"
@@ -145,35 +146,120 @@ GlTexture atlas_texture(GLenum format, const int* texels, const char* what) {
 
 }  // namespace
 
-bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector<double>& coefficients) {
+namespace {
+
+// prefilter_matrix(n) for the lines of n samples, computed once per length and thread.
+const std::vector<double>& prefilter_for(int n) {
+  thread_local std::map<int, std::vector<double>> matrices;
+  auto it = matrices.find(n);
+  if (it == matrices.end()) it = matrices.emplace(n, prefilter_matrix(n)).first;
+  return it->second;
+}
+
+// Whether every sample of a slot has data.
+bool all_data(uint32_t resolution, const uint16_t* texels) {
   const int r = int(resolution), s = r + 2;
-  const auto at = [&](int x, int y, int z) { return (size_t(z) * s + y) * s + x; };
   for (int z = 1; z <= r; ++z)
     for (int y = 1; y <= r; ++y)
       for (int x = 1; x <= r; ++x)
-        if (texels[2 * at(x, y, z) + 1] == 0) return false;
-  thread_local int cached_r = -1;
-  thread_local std::vector<double> m;
-  if (cached_r != r) m = prefilter_matrix(r), cached_r = r;
-  coefficients.assign(size_t(s) * s * s, 0.0);
-  for (size_t i = 0; i < coefficients.size(); ++i) coefficients[i] = double(texels[2 * i]) / 65535.0;
-  // Axis by axis, in place: the line's samples are its texels 1 .. r (the brick's), its coefficients all s texels.
-  // Each pass runs over every line of the slot, apron lines included: the apron planes of the axes done before hold
-  // coefficients there, which the later axes filter like the rest (the tensor product).
-  std::vector<double> line(r);
-  for (int axis = 0; axis < 3; ++axis) {
-    const size_t stride = axis == 0 ? 1 : axis == 1 ? size_t(s) : size_t(s) * s;
-    for (int b = 0; b < s; ++b)
-      for (int a = 0; a < s; ++a) {
-        const size_t base = axis == 0 ? at(0, a, b) : axis == 1 ? at(a, 0, b) : at(a, b, 0);
-        for (int j = 0; j < r; ++j) line[j] = coefficients[base + (j + 1) * stride];
-        for (int i = 0; i < s; ++i) {
-          double c = 0;
-          for (int j = 0; j < r; ++j) c += m[size_t(i) * r + j] * line[j];
-          coefficients[base + i * stride] = c;
-        }
-      }
+        if (texels[2 * ((size_t(z) * s + y) * s + x) + 1] == 0) return false;
+  return true;
+}
+
+// How far the prefilter's block reaches past the brick on each side of each axis (lo[a], hi[a] samples): `k` where
+// the face neighbour is usable, else 0, then sides dropped until every neighbour the box reaches is usable.
+void extension_box(uint32_t resolution, const CubicNeighbourhood* n, int k, int lo[3], int hi[3]) {
+  bool usable[27] = {};
+  if (n)
+    for (int d = 0; d < 27; ++d) usable[d] = d != 13 && (*n)[d] && all_data(resolution, (*n)[d]);
+  const auto index = [](int dx, int dy, int dz) { return (dx + 1) + 3 * (dy + 1) + 9 * (dz + 1); };
+  for (int a = 0; a < 3; ++a) {
+    int minus[3] = {0, 0, 0}, plus[3] = {0, 0, 0};
+    minus[a] = -1, plus[a] = 1;
+    lo[a] = usable[index(minus[0], minus[1], minus[2])] ? k : 0;
+    hi[a] = usable[index(plus[0], plus[1], plus[2])] ? k : 0;
   }
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int d[3] = {dx, dy, dz};
+          bool reached = index(dx, dy, dz) != 13;
+          for (int a = 0; a < 3; ++a) reached = reached && (d[a] == 0 || (d[a] < 0 ? lo[a] : hi[a]) > 0);
+          if (!reached || usable[index(dx, dy, dz)]) continue;
+          for (int a = 0; a < 3; ++a) {
+            if (d[a] < 0) lo[a] = 0;
+            if (d[a] > 0) hi[a] = 0;
+          }
+          changed = true;
+        }
+  }
+}
+
+// Applies the prefilter along `axis` of `in` (dims[0] × dims[1] × dims[2], x fastest): each line of dims[axis]
+// samples gives its coefficients at rows first .. first + count - 1 of prefilter_matrix(dims[axis]); `out` has the
+// same dims but count along axis.
+void prefilter_axis(const std::vector<double>& in, const int dims[3], int axis, int first, int count,
+                    std::vector<double>& out) {
+  const int n = dims[axis];
+  const std::vector<double>& m = prefilter_for(n);
+  int od[3] = {dims[0], dims[1], dims[2]};
+  od[axis] = count;
+  out.assign(size_t(od[0]) * od[1] * od[2], 0.0);
+  const size_t in_stride = axis == 0 ? 1 : axis == 1 ? size_t(dims[0]) : size_t(dims[0]) * dims[1];
+  const size_t out_stride = axis == 0 ? 1 : axis == 1 ? size_t(od[0]) : size_t(od[0]) * od[1];
+  const int u = axis == 0 ? 1 : 0, v = axis == 2 ? 1 : 2;  // the other two axes
+  std::vector<double> line(n);
+  for (int b = 0; b < dims[v]; ++b)
+    for (int a = 0; a < dims[u]; ++a) {
+      int pi[3] = {0, 0, 0}, po[3] = {0, 0, 0};
+      pi[u] = po[u] = a, pi[v] = po[v] = b;
+      const size_t in_base = (size_t(pi[2]) * dims[1] + pi[1]) * dims[0] + pi[0];
+      const size_t out_base = (size_t(po[2]) * od[1] + po[1]) * od[0] + po[0];
+      for (int j = 0; j < n; ++j) line[j] = in[in_base + j * in_stride];
+      for (int i = 0; i < count; ++i) {
+        const double* row = m.data() + size_t(first + i) * n;
+        double c = 0;
+        for (int j = 0; j < n; ++j) c += row[j] * line[j];
+        out[out_base + i * out_stride] = c;
+      }
+    }
+}
+
+}  // namespace
+
+bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector<double>& coefficients,
+                        const CubicNeighbourhood* neighbours, int extension) {
+  const int r = int(resolution), s = r + 2;
+  if (!all_data(resolution, texels)) return false;
+  int lo[3], hi[3];
+  extension_box(resolution, neighbours, std::clamp(extension, 0, r - 1), lo, hi);
+  // The block of samples: brick sample q (-lo .. r - 1 + hi along each axis) from the brick or the neighbour it lies
+  // in (shared borders: the neighbour's sample q -/+ (r - 1)).
+  const int dims[3] = {r + lo[0] + hi[0], r + lo[1] + hi[1], r + lo[2] + hi[2]};
+  std::vector<double> block(static_cast<size_t>(dims[0]) * dims[1] * dims[2]);
+  for (int z = 0; z < dims[2]; ++z)
+    for (int y = 0; y < dims[1]; ++y)
+      for (int x = 0; x < dims[0]; ++x) {
+        const int q[3] = {x - lo[0], y - lo[1], z - lo[2]};
+        int d[3], t[3];
+        for (int a = 0; a < 3; ++a) {
+          d[a] = q[a] < 0 ? -1 : q[a] > r - 1 ? 1 : 0;
+          t[a] = q[a] - d[a] * (r - 1) + 1;  // texel in that brick's slot
+        }
+        const int which = (d[0] + 1) + 3 * (d[1] + 1) + 9 * (d[2] + 1);
+        const uint16_t* from = which == 13 ? texels : (*neighbours)[size_t(which)];
+        block[(size_t(z) * dims[1] + y) * dims[0] + x] =
+            double(from[2 * ((size_t(t[2]) * s + t[1]) * s + t[0])]) / 65535.0;
+      }
+  // Axis by axis (the tensor product): the coefficients of brick samples -1 .. r are the block's rows lo .. lo + r + 1.
+  std::vector<double> a, b;
+  int d1[3] = {s, dims[1], dims[2]};
+  prefilter_axis(block, dims, 0, lo[0], s, a);
+  int d2[3] = {s, s, dims[2]};
+  prefilter_axis(a, d1, 1, lo[1], s, b);
+  prefilter_axis(b, d2, 2, lo[2], s, coefficients);
   return true;
 }
 
@@ -204,6 +290,8 @@ BrickAtlas::BrickAtlas(uint32_t resolution, uint64_t slots, int max_3d) : resolu
   for (int a = 0; a < 3; ++a) texels_[a] = slots_[a] * side;
   const char* no_bracket = std::getenv("UGVR_TRICUBIC_NO_BRACKET");
   no_bracket_ = no_bracket && *no_bracket;
+  const char* extension = std::getenv("UGVR_TRICUBIC_EXTENSION");
+  if (extension && *extension) extension_ = std::max(0, std::atoi(extension));
   texture_ = atlas_texture(GL_RG16, texels_, "allocating the brick atlas");
 }
 
@@ -221,14 +309,14 @@ void BrickAtlas::add_coefficients() {
   check_gl("allocating the brick atlas's cubic margins");
 }
 
-void BrickAtlas::upload(uint64_t slot, const uint16_t* texels) {
+void BrickAtlas::upload(uint64_t slot, const uint16_t* texels, const CubicNeighbourhood* neighbours) {
   const int side = int(resolution_) + 2;
   const int x = int(slot % uint64_t(slots_[0])), y = int((slot / uint64_t(slots_[0])) % uint64_t(slots_[1]));
   const int z = int(slot / (uint64_t(slots_[0]) * slots_[1]));
   glTextureSubImage3D(texture_.id(), 0, x * side, y * side, z * side, side, side, side, GL_RG, GL_UNSIGNED_SHORT,
                       texels);
   if (!has_coefficients()) return;  // the margin and coefficients serve tricubic frames only
-  const bool prefiltered = cubic_coefficients(resolution_, texels, scratch_);
+  const bool prefiltered = cubic_coefficients(resolution_, texels, scratch_, neighbours, extension_);
   // [-1/2, 3/2] to [0, 1] (brick_atlas.h); without the prefilter, the samples themselves.
   std::vector<uint16_t> codes(size_t(side) * side * side);
   for (size_t i = 0; i < codes.size(); ++i) {

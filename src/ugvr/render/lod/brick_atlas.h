@@ -29,6 +29,7 @@
 
 #include <epoxy/gl.h>
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -57,13 +58,32 @@ void make_atlas_slot(uint32_t resolution, float* samples, const uint8_t* mask, d
 uint16_t cubic_margin_code(uint32_t resolution, const uint16_t* texels,
                            const std::vector<double>* coefficients = nullptr);
 
+// A brick's same-level neighbourhood for the prefilter: the texels (make_atlas_slot's layout) of the 27 bricks at
+// offsets (dx, dy, dz) in {-1, 0, 1}³, index (dx + 1) + 3 (dy + 1) + 9 (dz + 1) (the brick itself at 13, unused);
+// null where there is none. Neighbouring bricks share their border samples: neighbour (-1, 0, 0)'s sample R - 1 - m
+// along x is the brick's sample -m.
+using CubicNeighbourhood = std::array<const uint16_t*, 27>;
+// Samples the prefilter takes from each neighbour (k): 0.27^4 = 0.5 % of a border coefficient's error left
+// (LodTricubic.ExtendedPrefilterMatchesTheWholeLattice measures it).
+constexpr int kCubicExtension = 4;
+
 // The coefficients of the interpolating cubic B-spline of one slot's samples (make_atlas_slot's layout; the values
 // code / 65535), into `coefficients`, (R+2)³ x fastest: along each axis the R samples give R + 2 coefficients
 // (the brick's and its apron's) such that the spline passes through every sample, with the not-a-knot condition at
 // both ends (no jump of the third derivative at the second and the next-to-last sample; natural, zero second
 // difference, below 5 samples), applied axis by axis. False, and nothing written, where the brick has samples
 // without data.
-bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector<double>& coefficients);
+//
+// With `neighbours`, the prefilter is solved over the brick extended by `extension` samples (default
+// kCubicExtension) into each same-level neighbour that has one (docs/tricubic.md, "Seams"): the recursive filter's
+// influence decays as (2 - sqrt 3)^k, so the coefficients at the brick and its apron are within about 0.27^k of the
+// whole lattice's, and two neighbours hold nearly the same spline across their shared face (value and derivatives).
+// The not-a-knot ends move to the extension's far ends. A side whose neighbour is missing (the domain's border, a
+// coarser leaf there, a neighbour with samples without data) keeps the brick's own end, as without neighbours; the
+// extended block is a box, so a side is dropped too when a diagonal neighbour it needs is missing.
+// Without neighbours (or with none present), exactly the per-brick solve above.
+bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector<double>& coefficients,
+                        const CubicNeighbourhood* neighbours = nullptr, int extension = kCubicExtension);
 
 class BrickAtlas {
  public:
@@ -85,8 +105,10 @@ class BrickAtlas {
   const int* texels_per_axis() const { return texels_; }
   // Uploads make_atlas_slot's texels into slot `slot`, and once coefficients are added their spline's coefficients
   // and the slot's cubic margin (the whole range instead when UGVR_TRICUBIC_NO_BRACKET is set: the spline at every
-  // sample of the in-loop variant, with slices; a reference for tests: the walk would end at every sample).
-  void upload(uint64_t slot, const uint16_t* texels);
+  // sample of the in-loop variant, with slices; a reference for tests: the walk would end at every sample). With
+  // `neighbours` the prefilter reaches into them (cubic_coefficients; UGVR_TRICUBIC_EXTENSION samples if set).
+  // `neighbours` (tricubic only): the brick's same-level neighbourhood for the prefilter (cubic_coefficients).
+  void upload(uint64_t slot, const uint16_t* texels, const CubicNeighbourhood* neighbours = nullptr);
 
   // Most slots an atlas can have for R within max_3d texels per axis.
   static uint64_t max_slots(uint32_t resolution, int max_3d);
@@ -94,6 +116,9 @@ class BrickAtlas {
  private:
   uint32_t resolution_ = 0;
   bool no_bracket_ = false;
+  // Samples taken from each neighbour by the prefilter: kCubicExtension, or UGVR_TRICUBIC_EXTENSION (0: each brick's
+  // own samples alone, as before the neighbourhood; for benchmarks and before/after measurements in one run).
+  int extension_ = kCubicExtension;
   int slots_[3] = {0, 0, 0};
   int texels_[3] = {0, 0, 0};
   GlTexture texture_;

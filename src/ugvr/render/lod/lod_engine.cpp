@@ -1,6 +1,7 @@
 #include "ugvr/render/lod/lod_engine.h"
 
 #include <epoxy/gl.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
@@ -12,12 +13,14 @@
 #include <map>
 #include <memory>
 #include <tuple>
+#include <unordered_map>
 
 #include "lod_shared.h"  // shaders/lod_shared.h: what the engine and shaders/lod_raycast.comp agree on
 #include "ugvr/core/error.h"
 #include "ugvr/gpu/gl_program.h"
 #include "ugvr/render/gpu_readback.h"
 #include "ugvr/render/lod/brick_atlas.h"
+#include "ugvr/render/lod/brick_cache.h"
 #include "ugvr/render/lod/brick_residency.h"
 #include "ugvr/render/lod/cell_cache.h"
 #include "ugvr/render/lod/hybrid_select.h"
@@ -30,6 +33,9 @@ namespace ugvr {
 namespace {
 
 constexpr size_t kLoadBatch = 64;  // bricks decoded in parallel between uploads (bounds staging memory)
+// Tricubic uploads also decode the batch's same-level neighbours for the prefilter (brick_atlas.h,
+// CubicNeighbourhood): the batch shrinks so that they stay within this many bytes of texels.
+constexpr uint64_t kNeighbourStagingBytes = uint64_t(64) << 20;
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -80,6 +86,10 @@ void check_contract(const ComputeProgram& program) {
 
 }  // namespace
 
+bool tricubic_iso(const RenderSettings& settings) {
+  return settings.mode == RenderMode::Isosurface && settings.interpolation == Interpolation::Tricubic;
+}
+
 bool boundary_overlay_on(const RenderSettings& settings) {
   return settings.boundary_overlay_opacity > 0 && settings.mode != RenderMode::Mip;
 }
@@ -129,9 +139,20 @@ struct LodEngine::Impl {
   // options.focus and roi resolved against the store (field indices), when they are set: the constructor,
   // set_interest.
   NodeInterest interest;
+  // Tricubic isosurfaces were asked for (sticky, as the atlas's coefficients are): the budget counts the coefficient
+  // texture and the margins from then on.
+  bool cubic = false;
+  // Bytes of the atlas per slot: texels at 4 bytes, and with `cubic` 2 bytes of coefficient and a float of margin.
+  uint64_t slot_bytes() const;
   uint64_t budget_slots() const;
   void ensure_atlas(uint64_t needed);
   uint64_t load(std::span<const uint64_t> nodes, BrickResidency& residency);
+  // Tricubic uploads: the nodes with bricks by (level, i, j, k), built on first use; a node's same-level neighbour at
+  // offset (dx, dy, dz), or kNoNode.
+  std::unordered_map<uint64_t, uint64_t> same_level;
+  uint64_t neighbour(uint64_t node, int dx, int dy, int dz);
+  uint64_t load_cubic(const BrickSlotTable::Plan& plan, BrickResidency& residency, double lo, double hi);
+  uint64_t neighbour_reads = 0;  // of the last load
   void upload_transfer_function(const TransferFunction& tf);
   lod_gpu::LodFrame frame_parameters(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
                                      bool overlay) const;
@@ -156,12 +177,15 @@ ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, boo
   return it->second;
 }
 
-uint64_t LodEngine::Impl::budget_slots() const {
+uint64_t LodEngine::Impl::slot_bytes() const {
   const uint64_t side = store.resolution() + 2;
-  const uint64_t per_brick = side * side * side * 4;
+  return side * side * side * (cubic ? 6 : 4) + (cubic ? sizeof(float) : 0);
+}
+
+uint64_t LodEngine::Impl::budget_slots() const {
   // Slots stay below NODE_CONTEXT, the state's context bit (lod_shared.h).
   return std::min({BrickAtlas::max_slots(store.resolution(), gl.max_3d_texture_size()),
-                   std::max<uint64_t>(1, options.atlas_budget_bytes / per_brick), device_slots,
+                   std::max<uint64_t>(1, options.atlas_budget_bytes / slot_bytes()), device_slots,
                    uint64_t(lod_gpu::NODE_CONTEXT)});
 }
 
@@ -200,8 +224,7 @@ void LodEngine::Impl::ensure_atlas(uint64_t needed) {
     }
     if (ok == 0) throw;
     device_slots = ok;
-    const uint64_t side = store.resolution() + 2;
-    const uint64_t bytes = ok * side * side * side * 4;
+    const uint64_t bytes = ok * slot_bytes();
     // In the unit --gpu-memory takes (MiB, or KiB below 16 MiB), rounded down.
     const std::string flag =
         bytes >= (uint64_t(16) << 20) ? std::to_string(bytes >> 20) + "MiB" : std::to_string(bytes >> 10) + "KiB";
@@ -221,6 +244,8 @@ void LodEngine::Impl::ensure_atlas(uint64_t needed) {
 uint64_t LodEngine::Impl::load(std::span<const uint64_t> nodes, BrickResidency& residency) {
   const BrickSlotTable::Plan plan = residency.plan(nodes);
   const double lo = store.layout().fields[field].min, hi = store.layout().fields[field].max;
+  neighbour_reads = 0;
+  if (atlas.has_coefficients()) return load_cubic(plan, residency, lo, hi);
   std::vector<std::vector<uint16_t>> read(kLoadBatch);
   std::vector<BrickResidency::Texels> ram(kLoadBatch);
   for (size_t b = 0; b < plan.missing.size(); b += kLoadBatch) {
@@ -228,6 +253,86 @@ uint64_t LodEngine::Impl::load(std::span<const uint64_t> nodes, BrickResidency& 
     residency.fetch(plan, b, count, field, lo, hi, ram, read);
     for (size_t i = 0; i < count; ++i) {
       atlas.upload(plan.slots[b + i], ram[i] ? ram[i]->data() : read[i].data());
+      residency.place(plan.missing[b + i], plan.slots[b + i]);
+    }
+  }
+  if (!plan.missing.empty()) check_gl("uploading bricks");
+  return plan.missing.size();
+}
+
+uint64_t LodEngine::Impl::neighbour(uint64_t node, int dx, int dy, int dz) {
+  const auto key = [](uint64_t level, int64_t i, int64_t j, int64_t k) {
+    return level << 60 | uint64_t(i) << 40 | uint64_t(j) << 20 | uint64_t(k);
+  };
+  if (same_level.empty())
+    for (uint64_t n = 0; n < store.node_count(); ++n) {
+      const BrickNode& b = store.node(n);
+      if (b.has_brick()) same_level.emplace(key(b.level, b.i, b.j, b.k), n);
+    }
+  const BrickNode& b = store.node(node);
+  const int64_t i = int64_t(b.i) + dx, j = int64_t(b.j) + dy, k = int64_t(b.k) + dz;
+  const int64_t side = int64_t(1) << b.level;  // nodes of a level per axis of the root cell
+  if (i < 0 || j < 0 || k < 0 || i >= side || j >= side || k >= side) return kNoNode;
+  const auto it = same_level.find(key(b.level, i, j, k));
+  return it == same_level.end() ? kNoNode : it->second;
+}
+
+// load() for tricubic frames: each brick is prefiltered over its same-level neighbourhood (brick_atlas.h,
+// cubic_coefficients), so that neighbours hold nearly the same spline across their shared faces (docs/tricubic.md,
+// "Seams"). The neighbours' texels come from the batch itself, the session's RAM tier where it has them, or the
+// store (read here, in parallel; counted in neighbour_reads); they live for one batch, whose size keeps them within
+// kNeighbourStagingBytes. A neighbour that is not in the store at that level (a coarser leaf there, the domain's
+// border) leaves that side to the brick's own end condition. Every brick's coefficients are final when it uploads:
+// nothing is refined later.
+uint64_t LodEngine::Impl::load_cubic(const BrickSlotTable::Plan& plan, BrickResidency& residency, double lo,
+                                     double hi) {
+  const uint32_t r = store.resolution();
+  const uint64_t side = r + 2, texel_bytes = side * side * side * 4;
+  const size_t batch = size_t(std::clamp<uint64_t>(kNeighbourStagingBytes / (27 * texel_bytes), 1, kLoadBatch));
+  BrickCache* ram = residency.ram();
+  const bool ram_usable = ram && ram->field() == field && ram->step() == store.step();
+  std::vector<std::vector<uint16_t>> read(batch);
+  std::vector<BrickResidency::Texels> from_ram(batch);
+  for (size_t b = 0; b < plan.missing.size(); b += batch) {
+    const size_t count = std::min(batch, plan.missing.size() - b);
+    residency.fetch(plan, b, count, field, lo, hi, from_ram, read);
+    std::unordered_map<uint64_t, const uint16_t*> texels;
+    for (size_t i = 0; i < count; ++i) texels[plan.missing[b + i]] = from_ram[i] ? from_ram[i]->data() : read[i].data();
+    // The batch's neighbourhoods: what the batch lacks, from RAM or read.
+    std::vector<std::array<uint64_t, 27>> around(count);
+    std::vector<uint64_t> to_read;
+    std::vector<BrickResidency::Texels> held;
+    for (size_t i = 0; i < count; ++i)
+      for (int d = 0; d < 27; ++d) {
+        const uint64_t n = d == 13 ? kNoNode : neighbour(plan.missing[b + i], d % 3 - 1, d / 3 % 3 - 1, d / 9 - 1);
+        around[i][size_t(d)] = n;
+        if (n == kNoNode || texels.count(n)) continue;
+        if (ram_usable && ram->resident(n)) {
+          if (BrickResidency::Texels t = ram->get(n)) {
+            texels[n] = t->data();
+            held.push_back(std::move(t));
+            continue;
+          }
+        }
+        texels[n] = nullptr;
+        to_read.push_back(n);
+      }
+    std::vector<std::vector<uint16_t>> extra(to_read.size());
+    tbb::parallel_for(size_t(0), to_read.size(), [&](size_t i) {
+      thread_local std::vector<float> samples;
+      thread_local std::vector<uint8_t> mask;
+      samples.resize(size_t(r) * r * r);
+      mask.resize(size_t(r) * r * r);
+      store.read_brick(to_read[i], field, samples.data(), mask.data());
+      make_atlas_slot(r, samples.data(), mask.data(), lo, hi, extra[i]);
+    });
+    for (size_t i = 0; i < to_read.size(); ++i) texels[to_read[i]] = extra[i].data();
+    neighbour_reads += to_read.size();
+    for (size_t i = 0; i < count; ++i) {
+      CubicNeighbourhood hood{};
+      for (size_t d = 0; d < 27; ++d)
+        if (around[i][d] != kNoNode) hood[d] = texels[around[i][d]];
+      atlas.upload(plan.slots[b + i], texels[plan.missing[b + i]], &hood);
       residency.place(plan.missing[b + i], plan.slots[b + i]);
     }
   }
@@ -502,6 +607,7 @@ Image LodEngine::render(const Camera& camera, const TransferFunction& tf, const 
   // The cut, within what the atlas may hold.
   CutOptions co;
   co.field = I.field;
+  if (tricubic_iso(settings)) I.cubic = true;  // the cut then fits the atlas with its coefficients
   co.max_nodes = I.budget_slots();
   const TfCutRules rules = tf_cut_rules(settings);
   co.tf_cull = rules.cull, co.tf_error = rules.error;
@@ -609,9 +715,18 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   tf.validate("transfer function");
   if (settings.iso_values.size() > size_t(lod_gpu::MAX_ISO))
     fail_in("lod engine", "at most " + std::to_string(lod_gpu::MAX_ISO) + " isosurface values");
-  if (nodes.size() > I.budget_slots())
-    fail_in("lod engine", "a cut of " + std::to_string(nodes.size()) + " bricks exceeds the atlas budget of " +
-                              std::to_string(I.budget_slots()) + " (--gpu-memory)");
+  const bool was_cubic = I.cubic;
+  if (tricubic_iso(settings)) I.cubic = true;
+  if (nodes.size() > I.budget_slots()) {
+    const std::string why = "a cut of " + std::to_string(nodes.size()) + " bricks exceeds the atlas budget of " +
+                            std::to_string(I.budget_slots()) + " bricks of " + std::to_string(I.slot_bytes()) +
+                            " bytes" + (I.cubic ? " (samples, tricubic coefficients and cubic margin)" : "") +
+                            ": raise --gpu-memory or draw a coarser cut";
+    // The first tricubic frame shrank the budget under a cut chosen without the coefficients: the caller chooses
+    // again within atlas_budget_bricks(), as when the device refuses an atlas.
+    if (I.cubic && !was_cubic) throw AtlasRefused(why);
+    fail_in("lod engine", why);
+  }
   const auto t0 = std::chrono::steady_clock::now();
   LodRenderStats st;
   if (stats) st = *stats;  // render() passes its cut figures through
@@ -622,14 +737,18 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   st.cut_nodes = nodes.size();
 
   const auto t1 = std::chrono::steady_clock::now();
+  // An atlas sized before tricubic frames may hold more slots than the budget allows with their coefficients.
+  if (I.cubic && I.have_atlas && !I.atlas.has_coefficients() && I.atlas.capacity() > I.budget_slots())
+    I.have_atlas = false;
   I.ensure_atlas(nodes.size());
-  if (settings.mode == RenderMode::Isosurface && settings.interpolation == Interpolation::Tricubic &&
-      !I.atlas.has_coefficients()) {
+  if (I.cubic && !I.atlas.has_coefficients()) {
     I.atlas.add_coefficients();              // the prefiltered spline (brick_atlas.h), from the first tricubic frame
     I.slot_table.reset(I.atlas.capacity());  // on: the bricks resident before have none, upload them again
   }
   st.bricks_loaded = I.load(nodes, residency);
   st.bricks_read_sync = residency.sync_reads();
+  st.neighbour_reads = I.neighbour_reads;
+  st.uploaded_bytes = st.bricks_loaded * I.slot_bytes();
   std::vector<uint32_t> state(I.store.node_count(), lod_gpu::NODE_SKIP);
   for (uint64_t n : nodes) {
     state[n] = uint32_t(I.slot_table.slot(n));

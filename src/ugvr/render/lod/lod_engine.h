@@ -45,6 +45,10 @@ struct LodRenderStats {
   uint64_t cut_nodes = 0;
   uint64_t bricks_loaded = 0;     // uploaded to the atlas this frame
   uint64_t bricks_read_sync = 0;  // of those, read from the store on the render thread (not from the RAM tier)
+  // Bytes uploaded with them: texels, and in a tricubic atlas their coefficients and cubic margins.
+  uint64_t uploaded_bytes = 0;
+  // Tricubic: same-level neighbours of the uploaded bricks read from the store for their prefilter (brick_atlas.h).
+  uint64_t neighbour_reads = 0;
   uint64_t culled_frustum = 0, culled_tf = 0;
   bool budget_limited = false;
   int max_level = 0;
@@ -63,6 +67,9 @@ struct LodRenderStats {
   bool cell_budget_full = false;
   double cells_seconds = 0;  // choosing, reading, preparing and uploading cells
 };
+
+// Whether settings draw tricubic isosurfaces (the other modes ignore the interpolation).
+bool tricubic_iso(const RenderSettings& settings);
 
 // Whether settings draw the boundary overlay: opacity > 0, and not in MIP mode (as the exact engine). The cut must
 // then keep nodes that are transparent under the transfer function (CutOptions / ActiveCutOptions::tf_cull false).

@@ -71,6 +71,8 @@ void LodFrameStats::to_json(nlohmann::json& j) const {
   j["culled_tf"] = st.culled_tf;
   j["budget_limited"] = st.budget_limited;
   j["bricks_loaded_last_frame"] = st.bricks_loaded;
+  j["uploaded_bytes"] = st.uploaded_bytes;    // texels, and with tricubic the coefficients and margins
+  j["neighbour_reads"] = st.neighbour_reads;  // tricubic: neighbours read for the prefilter (docs/tricubic.md)
   j["cut_seconds"] = st.cut_seconds;
   j["load_seconds"] = st.load_seconds;
   j["gpu_seconds"] = st.gpu_seconds;
@@ -100,7 +102,7 @@ void InteractiveLodFrameStats::to_json(nlohmann::json& j) const {
   j["max_texel_error"] = f.max_error;
   j["mean_texel_error"] = f.mean_error;
   j["uploads"] = f.uploads;
-  j["uploaded_bytes"] = f.uploads * uint64_t(std::pow(brick_resolution + 2, 3)) * 4;
+  j["uploaded_bytes"] = f.render.uploaded_bytes;  // texels, and with tricubic the coefficients and margins
   j["sync_reads"] = f.sync_reads;
   j["requested"] = f.requested;
   j["ram_hits"] = f.cache.hits;
