@@ -4,6 +4,8 @@
 // ends every rank with status 0; a rank that fails ends the job with its message.
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/socket.h>
+#include <sys/time.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -50,18 +52,23 @@ class ViewJob {
       : out_(dir.file("view.out")), err_(dir.file("view.err")) {
     setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
     setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
-    const std::string command = "exec " + env + " timeout 300 " + std::string(UGVR_MPIEXEC) + " --oversubscribe -np " +
-                                std::to_string(ranks) + " " + UGVR_BINARY + " --quiet view " + args + " >" + out_ +
-                                " 2>" + err_;
+    const std::string command = "exec env " + env + " timeout 300 " + std::string(UGVR_MPIEXEC) +
+                                " --oversubscribe -np " + std::to_string(ranks) + " " + UGVR_BINARY + " --quiet view " +
+                                args + " >" + out_ + " 2>" + err_;
     pid_ = fork();
     if (pid_ == 0) {
+      setpgid(0, 0);  // a group of its own: the destructor ends mpirun and its ranks with it
       execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
       _exit(127);
     }
   }
+  // A test that failed half-way leaves the job running: SIGTERM to the group (timeout passes it to mpirun, which
+  // ends its ranks), then SIGKILL. Killing timeout alone would leave mpirun and the ranks behind.
   ~ViewJob() {
-    if (pid_ > 0 && !status_) {
-      kill(pid_, SIGKILL);
+    if (pid_ <= 0 || status_) return;
+    kill(-pid_, SIGTERM);
+    if (!exited(std::chrono::seconds(10))) {
+      kill(-pid_, SIGKILL);
       waitpid(pid_, nullptr, 0);
     }
   }
@@ -106,6 +113,9 @@ class Tab {
     tcp::resolver resolver(ioc_);
     net::connect(ws_.next_layer(), resolver.resolve("127.0.0.1", std::to_string(port)));
     ws_.handshake("127.0.0.1:" + std::to_string(port), "/ws");
+    // A frame that never comes fails the test in a minute instead of hanging it.
+    const timeval limit{60, 0};
+    setsockopt(ws_.next_layer().native_handle(), SOL_SOCKET, SO_RCVTIMEO, &limit, sizeof limit);
   }
   void send(const json& message) { ws_.write(net::buffer(message.dump())); }
   // The next text message (binary frames are kept in `image`).
@@ -207,6 +217,25 @@ TEST_F(MpiView, TwoRanksServeTheExactImageFollowTheCameraAndStopCleanly) {
     const ImageDifference m = compare_images(tab.png(file("moved.png")), shown);
     std::printf("after the camera moved: psnr %.2f dB against the first frame\n", m.psnr_db);
     EXPECT_LT(m.psnr_db, 30) << "the image did not follow the camera";
+
+    // Moving at a rate no rank holds (240 fps): the frame after the first moving one is drawn smaller, from the
+    // slowest rank's time, and magnified; once the view rests the frame is full scale again.
+    tab.send({{"type", "settings"}, {"fps", 240}});
+    json step = camera({40, 12, 30});
+    step["type"] = "camera";
+    tab.send(step);
+    ASSERT_EQ(tab.converged_frame(6)["type"], "status");
+    step = camera({36, 16, 36});
+    step["type"] = "camera";
+    tab.send(step);
+    json reduced = tab.next_text();
+    while (reduced["type"] != "status" || reduced["request"].get<uint64_t>() < 7) reduced = tab.next_text();
+    EXPECT_LT(reduced["scale"].get<double>(), 1) << reduced.dump();
+    ASSERT_FALSE(reduced["converged"].get<bool>()) << reduced.dump();
+    EXPECT_EQ(reduced["width"], kSide) << "magnified to the canvas";
+    const json rested = tab.converged_frame(7);
+    ASSERT_EQ(rested["type"], "status") << rested.dump();
+    EXPECT_EQ(rested["scale"].get<double>(), 1);
   }
   ASSERT_EQ(kill(job.rank0_pid, SIGTERM), 0);
   const std::optional<int> status = job.exited(std::chrono::seconds(60));
