@@ -149,7 +149,9 @@ void run_view_mpi(const Options& o, view::ViewServerOptions vo) {
     c.renderer = mpi::open_view_leader(inputs, read, ro, &c.fields);
     return c;
   };
-  serve(std::move(vo), "MPI: " + std::to_string(mpi::size()) + " ranks draw every frame; rank 0 is pid " +
+  serve(std::move(vo), "MPI: " + std::to_string(mpi::size()) +
+                           " ranks draw every frame (one engine; no histograms, MIP or time steps under MPI: "
+                           "docs/mpi.md); rank 0 is pid " +
                            std::to_string(::getpid()) + " (SIGINT or SIGTERM to it stops every rank)");
 }
 #endif

@@ -283,5 +283,15 @@ TEST_F(MpiView, ARankThatFailsEndsTheJobWithItsMessage) {
   EXPECT_NE(job.log().find("rank 1 fails on purpose"), std::string::npos) << job.log();
 }
 
+TEST_F(MpiView, WhatCannotRunCollectivelyIsRefusedAtStartNotHung) {
+  for (const std::string& args :
+       {std::string("view --demo --port 0"), "view " + file("u.vtk") + " --store " + file("s.ugvr") + " --port 0"}) {
+    const test::CommandResult r = test::mpirun(2, args);
+    EXPECT_NE(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("under MPI"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("serving"), std::string::npos) << r.out;
+  }
+}
+
 }  // namespace
 }  // namespace ugvr
