@@ -29,6 +29,14 @@
 #include "ugvr/view/view_protocol.h"
 #include "ugvr/view/view_server.h"
 #include "ugvr/view/view_store.h"
+#ifdef UGVR_HAVE_MPI
+#include <tbb/global_control.h>
+
+#include "ugvr/core/progress.h"
+#include "ugvr/mpi/mpi_session.h"
+#include "ugvr/mpi/mpi_view.h"
+#include "ugvr/render/renderer_factory.h"
+#endif
 
 namespace ugvr::cli {
 namespace {
@@ -51,6 +59,7 @@ struct Options {
   uint64_t tabs_memory = 0;       // --tabs-memory (view/tab_memory.h); 0: the memory budget
   double play = 0;                // --play: steps a second a new tab starts playing at (0: paused)
   std::string engine = "hybrid";  // --engine: what draws a store that keeps cells (ViewServerOptions::hybrid)
+  int threads = 0;                // --threads: under mpirun, each rank's worker threads (0: every core)
 };
 
 bool is_store(const std::vector<std::string>& inputs) {
@@ -64,6 +73,88 @@ bool store_opens(const std::string& path) {
   if (!why.empty()) std::fprintf(stderr, "ugvr view: rebuilding %s (%s)\n", path.c_str(), why.c_str());
   return false;
 }
+
+// Serves `vo` until SIGINT or SIGTERM (or the grid fails to load). `mpi_note`: said once serving (the MPI ranks).
+void serve(view::ViewServerOptions vo, const std::string& mpi_note = "") {
+  // Blocked before any thread starts, so that every thread inherits the mask and only sigwait below sees them.
+  // SIGUSR1 is the viewer's own: the grid could not be loaded (on_failure below).
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGUSR1);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  // A grid that cannot be loaded leaves the viewer nothing to show: it says why in the page and here, then exits
+  // non-zero (a script or a user waiting on it learns it failed; a page already open keeps the message).
+  auto failure = std::make_shared<std::string>();
+  auto failure_mutex = std::make_shared<std::mutex>();
+  vo.on_failure = [failure, failure_mutex](const std::string& message) {
+    {
+      std::lock_guard lock(*failure_mutex);
+      *failure = message;
+    }
+    ::kill(::getpid(), SIGUSR1);
+  };
+
+  view::ViewServer server(std::move(vo));
+  // Printed even with --quiet: it is the command's output (scripts read the URL from it).
+  std::printf("ugvr view: serving %s (%s)\n", server.url().c_str(), server.renderer().c_str());
+  std::fflush(stdout);
+  if (!mpi_note.empty()) std::fprintf(stderr, "ugvr view: %s\n", mpi_note.c_str());
+  int sig = 0;
+  sigwait(&signals, &sig);
+  if (sig == SIGUSR1) {
+    // Time for the pages to receive the "failed" progress before the sockets close.
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    server.stop();
+    std::lock_guard lock(*failure_mutex);
+    throw Error(*failure);
+  }
+  std::fprintf(stderr, "ugvr view: stopping\n");
+  server.stop();
+}
+
+#ifdef UGVR_HAVE_MPI
+// `mpirun -np N ugvr view INPUT` (docs/mpi.md, "The viewer on a cluster"): rank 0 serves `vo` with every frame drawn
+// by all ranks (mpi/mpi_view.h); the other ranks draw what it broadcasts until it says quit. What the collective
+// renderer cannot do is refused here, before anything is read.
+void run_view_mpi(const Options& o, view::ViewServerOptions vo) {
+  const std::string advice = "under MPI the viewer shows a partitioned store's index, a brick store or a mesh";
+  if (o.demo) fail_in("--demo", advice + " (build the demo with `ugvr generate` first)");
+  if (is_series_input(o.inputs)) fail_in("INPUT", "time series are not shown under MPI yet; " + advice);
+  if (!o.store_path.empty() || o.free_grid)
+    fail_in(o.free_grid ? "--free-grid" : "--store",
+            "no store is built under MPI: a mesh is drawn by the exact engine, every rank its part");
+  // Each rank's threads for the whole job (ranks sharing a node's cores should not each take all of them).
+  std::optional<tbb::global_control> thread_limit;
+  if (o.threads > 0) thread_limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
+  RendererOptions ro;
+  ro.gpu = o.gpu;
+  ro.lod.atlas_budget_bytes = o.gpu_memory;
+  if (mpi::rank() > 0) {
+    // Signals end the job through rank 0, which tells every rank to quit: a follower killed by mpirun's forwarded
+    // SIGTERM while rank 0 still broadcasts would make the stop an abort.
+    sigset_t signals;
+    sigemptyset(&signals);
+    sigaddset(&signals, SIGINT);
+    sigaddset(&signals, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+    Progress::set_enabled(false);
+    mpi::follow_view(o.inputs, o.read, ro);
+    return;
+  }
+  vo.collective = [inputs = o.inputs, read = o.read, ro] {
+    view::CollectiveRenderer c;
+    c.renderer = mpi::open_view_leader(inputs, read, ro, &c.fields);
+    return c;
+  };
+  serve(std::move(vo), "MPI: " + std::to_string(mpi::size()) +
+                           " ranks draw every frame (one engine; no histograms, MIP or time steps under MPI: "
+                           "docs/mpi.md); rank 0 is pid " +
+                           std::to_string(::getpid()) + " (SIGINT or SIGTERM to it stops every rank)");
+}
+#endif
 
 void run_view(const Options& o) {
   if (o.port < 0 || o.port > 65535) fail_in("--port", "must be in [0, 65535] (0: a free port)");
@@ -117,6 +208,11 @@ void run_view(const Options& o) {
       vo.preset = o.tf;  // rescaled to the field's range by the viewer
     }
   }
+
+#ifdef UGVR_HAVE_MPI
+  if (mpi::active()) return run_view_mpi(o, std::move(vo));
+#endif
+  if (o.threads != 0) fail_in("--threads", "is for `mpirun ... ugvr view` (each rank's threads)");
 
   // A time series of several steps (a .pvd, .series, numbered files, or a multi-step file such as Exodus): the exact
   // engine alone, with a time slider (no store: a store holds one step).
@@ -202,42 +298,7 @@ void run_view(const Options& o) {
     }
   }
 
-  // Blocked before any thread starts, so that every thread inherits the mask and only sigwait below sees them.
-  // SIGUSR1 is the viewer's own: the grid could not be loaded (on_failure below).
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  sigaddset(&signals, SIGUSR1);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-
-  // A grid that cannot be loaded leaves the viewer nothing to show: it says why in the page and here, then exits
-  // non-zero (a script or a user waiting on it learns it failed; a page already open keeps the message).
-  auto failure = std::make_shared<std::string>();
-  auto failure_mutex = std::make_shared<std::mutex>();
-  vo.on_failure = [failure, failure_mutex](const std::string& message) {
-    {
-      std::lock_guard lock(*failure_mutex);
-      *failure = message;
-    }
-    ::kill(::getpid(), SIGUSR1);
-  };
-
-  view::ViewServer server(std::move(vo));
-  // Printed even with --quiet: it is the command's output (scripts read the URL from it).
-  std::printf("ugvr view: serving %s (%s)\n", server.url().c_str(), server.renderer().c_str());
-  std::fflush(stdout);
-  int sig = 0;
-  sigwait(&signals, &sig);
-  if (sig == SIGUSR1) {
-    // Time for the pages to receive the "failed" progress before the sockets close.
-    std::this_thread::sleep_for(std::chrono::milliseconds(500));
-    server.stop();
-    std::lock_guard lock(*failure_mutex);
-    throw Error(*failure);
-  }
-  std::fprintf(stderr, "ugvr view: stopping\n");
-  server.stop();
+  serve(std::move(vo));
 }
 
 }  // namespace
@@ -299,6 +360,10 @@ void register_view(CLI::App& app) {
                   "A time series: every new tab starts playing the steps, looping, at this many a second (the page's "
                   "pause button stops it)")
       ->type_name("RATE");
+  cmd->add_option("--threads", opts->threads,
+                  "Under mpirun: each rank's worker threads (default: every core; ranks sharing a machine's cores "
+                  "should divide them)")
+      ->check(CLI::Range(1, 4096));
   cmd->add_option("--fps", opts->fps, "Frame-rate target while interacting (0: every frame at full quality)")
       ->default_str("10");
   cmd->add_option("--engine", opts->engine,

@@ -149,12 +149,16 @@ class MpiRenderer final : public Renderer {
 }  // namespace
 
 std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, const ReadOptions& read,
-                                        RendererOptions options, OpenedInput* opened) {
+                                        RendererOptions options, OpenedInput* opened,
+                                        std::vector<std::string>* fields) {
+  std::vector<std::string> unused;
+  if (!fields) fields = &unused;
   if (options.interactive) throw OptionError("fps", "interactive rendering (--fps, --path) is not supported under MPI");
   if (inputs.size() == 1 && is_piece_index(inputs[0])) {
     // A partitioned store: rank r of R draws the kd subtree of pieces [r N/R, (r+1) N/R), whose union is a box, and
     // the ranks composite in the order of the tree cut above those subtrees.
     const PieceIndex index = read_piece_index(inputs[0]);
+    for (const BrickStoreField& f : index.fields) fields->push_back(f.name);
     const int n = index.count(), ranks = size();
     if (n % ranks != 0 || (ranks & (ranks - 1)) != 0)
       fail_in(inputs[0], std::to_string(ranks) + " ranks cannot share its " + std::to_string(n) +
@@ -178,6 +182,7 @@ std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, 
     // Balanced by the octree's leaves: they are small where the data is detailed, so equal counts are about equal
     // numbers of bricks to draw.
     const BrickStoreReader& reader = scene->engine.store();
+    for (const BrickStoreField& f : reader.layout().fields) fields->push_back(f.name);
     std::vector<Vec3d> centres;
     for (uint64_t n = 0; n < reader.nodes().size(); ++n)
       if (reader.nodes()[n].is_leaf()) centres.push_back(reader.bounds(n).center());
@@ -190,10 +195,8 @@ std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, 
   options.device = "cpu";
   auto dataset = std::make_shared<Dataset>(read_dataset(inputs, read));
   if (opened) opened->warnings = dataset->warnings;
-  if (options.field.empty() && !dataset->blocks.empty()) {
-    const std::vector<std::string> names = default_field_names(dataset->blocks[0], 1);
-    if (!names.empty()) options.field = names[0];
-  }
+  if (!dataset->blocks.empty()) *fields = default_field_names(dataset->blocks[0], 4);
+  if (options.field.empty() && !fields->empty()) options.field = fields->front();
   auto scene = std::make_shared<ExactScene>(std::move(dataset), options.progress);
   KdTree tree = build_kd_tree(cell_centroids(scene->engine.walk_mesh()), size());
   // Each rank keeps only the cells that meet its box: its rays enter at its part's faces instead of walking the

@@ -22,7 +22,10 @@ namespace ugvr::mpi {
 // engine for a store, one cut per frame. Interactive sessions (OptionError("fps")) and MIP (OptionError("mode"), thrown
 // by render) are not supported yet.
 // UGVR_MPI_FAIL_RANK=k makes rank k throw in its first render (the tests' failing rank).
+// `fields` (when given) receives the fields a frame may bind (settings.field): a partitioned store's or a brick
+// store's, or a mesh's default ones (default_field_names, at most 4; the first is bound when options.field is empty).
 std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, const ReadOptions& read,
-                                        RendererOptions options, OpenedInput* opened = nullptr);
+                                        RendererOptions options, OpenedInput* opened = nullptr,
+                                        std::vector<std::string>* fields = nullptr);
 
 }  // namespace ugvr::mpi

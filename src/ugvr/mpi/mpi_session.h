@@ -9,9 +9,12 @@ namespace ugvr::mpi {
 // True when mpirun / mpiexec (Open MPI, MPICH, PMIx or Slurm's PMI) launched this process.
 bool launched_under_mpi();
 
-// MPI_Init (with thread support for the main thread only: ranks call MPI from one thread) once; a no-op when not
-// launched under MPI. finalize() is MPI_Finalize when initialised.
+// MPI_Init once, asking for MPI_THREAD_SERIALIZED (one thread at a time may call MPI, not only the main one: the
+// viewer's render thread does on rank 0); a no-op when not launched under MPI. finalize() is MPI_Finalize when
+// initialised.
 void init(int* argc, char*** argv);
+// The library granted MPI_THREAD_SERIALIZED or more (`ugvr view` under MPI needs it).
+bool threads_serialized();
 void finalize();
 bool active();  // initialised and not finalised
 int rank();     // 0 when not active

@@ -103,6 +103,15 @@ struct EngineHost::Tab {
 };
 
 EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options)) {
+  if (options_.collective) {
+    // Before any GL context of ours: the collective renderer made its own on this thread (the LOD engine), current
+    // here from now on.
+    CollectiveRenderer opened = options_.collective();
+    collective_ = std::move(opened.renderer);
+    renderer_ = collective_->device();
+    scene_ = collective_scene(opened.fields);
+    return;
+  }
   gl_ = std::make_shared<GlContext>(options_.gpu);
   renderer_ = gl_->renderer();
   notice_ = options_.notice;
@@ -212,8 +221,9 @@ void EngineHost::finish_load() {
 }
 
 EngineHost::~EngineHost() {
-  load_.reset();   // stops the walk mesh (a read under way finishes first)
-  build_.reset();  // cancels a build still running
+  collective_.reset();  // under MPI: the other ranks are told to quit
+  load_.reset();        // stops the walk mesh (a read under way finishes first)
+  build_.reset();       // cancels a build still running
   tabs_.clear();
   exact_.reset();
   lod_.reset();
@@ -242,6 +252,30 @@ SceneInfo EngineHost::lod_scene() const {
     for (uint32_t s = 0; s < store.step_count(); ++s) sc.times.push_back(store.step_time(s));
     sc.time_step = std::min(options_.time_step, store.step_count() - 1);
   }
+  return sc;
+}
+
+SceneInfo EngineHost::collective_scene(const std::vector<std::string>& fields) {
+  SceneInfo sc;
+  // The ranges are the whole data's on every rank (mpi_renderer.h); histograms would need every rank's data: none.
+  for (const std::string& name : fields) {
+    collective_->set_field(name);
+    const FieldRange range = collective_->field_range();
+    sc.fields.push_back({name, range.min, range.max, {}});
+  }
+  if (sc.fields.empty()) sc.fields.push_back({collective_->field_name(), 0, 1, {}});
+  sc.field = first_varying(sc.fields);
+  collective_->set_field(sc.field);
+  sc.bounds = collective_->bounds();
+  sc.camera = options_.camera.value_or(default_camera(sc.bounds, 30));
+  sc.tf = options_.tf;
+  sc.preset = options_.preset;
+  sc.background = options_.background;
+  sc.fps = options_.fps;
+  sc.width = options_.width, sc.height = options_.height;
+  sc.renderer = renderer_;
+  sc.engine = collective_->engine() == kExactEngine ? kExactEngine : kLodEngine;
+  sc.engines = {{sc.engine, renderer_}};
   return sc;
 }
 
@@ -358,7 +392,7 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   const bool picked = (request.engine == kExactEngine && exact_) || (request.engine == kLodEngine && lod_) ||
                       (request.engine == kHybridEngine && hybrid_available());
   const std::string engine = picked ? request.engine : scene_.engine;
-  const bool on_store = engine == kLodEngine || engine == kHybridEngine;
+  const bool on_store = !collective_ && (engine == kLodEngine || engine == kHybridEngine);
   // "lod" and "hybrid" draw with the one engine of the store, shared by the tabs: each frame sets which this tab
   // picked (a tab's session starts afresh when it switches, below).
   if (on_store) {
@@ -367,7 +401,7 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
     lod_->options.hybrid = hybrid;  // the renderer's name for the frame's stats (LodRendererBase::engine)
     lod_->engine.set_interest(request.focus, request.roi, request.context_saturation, request.context_opacity);
   }
-  if (!tab.renderer || tab.engine != engine) {
+  if (!collective_ && (!tab.renderer || tab.engine != engine)) {
     RendererOptions ro;
     ro.interactive = true;
     ro.time_critical.ram_budget_bytes = job.ram_budget ? job.ram_budget : options_.ram_per_session;
@@ -389,6 +423,9 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   // The tabs streaming now share the frame time: each targets its rate x their number (FrameJob::target_fps).
   fr.target_fps = job.target_fps;
   fr.full_quality = job.full_quality;
+  // The collective renderer (MPI) is not a session: it cannot tell one tab's resting view from another's moving one,
+  // so a tab at rest asks it for full quality.
+  if (collective_ && job.resting) fr.full_quality = true;
   fr.step_voxels = request.step_voxels;
   const bool timed = engine == kExactEngine && exact_ && exact_->series;
   if (timed) fr.time_step = request.time_step.value_or(scene_.time_step);
@@ -428,7 +465,7 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   // Playing: the next step is read while this frame is encoded and sent (the switch then costs the field swap). The
   // store's renderer starts the read after this frame's draw, for the nodes it drew.
   if (timed_store && request.playing) fr.prefetch_time_step = (*fr.time_step + 1) % lod_->engine.store().step_count();
-  ugvr::Frame f = tab.renderer->render(fr);
+  ugvr::Frame f = (collective_ ? *collective_ : *tab.renderer).render(fr);
   if (playing)
     tab.step_started = render_start;
   else

@@ -104,6 +104,7 @@ class EngineHost {
  private:
   struct Tab;
   SceneInfo lod_scene() const;
+  SceneInfo collective_scene(const std::vector<std::string>& fields);
   // `store` (the build's coarse preview, or the store itself) becomes the one shown, to every tab afresh.
   void show_store(std::shared_ptr<LodScene> store);
   std::vector<EngineChoice> engines() const;  // what the tabs may pick now
@@ -120,8 +121,10 @@ class EngineHost {
   std::map<uint64_t, std::unique_ptr<Tab>> tabs_;  // each tab's renderer and frame counters
   std::unique_ptr<BackgroundBuild> build_;
   std::unique_ptr<GridLoad> load_;  // the grid being read and prepared; null once done (or never)
-  std::string notice_;              // options.notice: said with every progress of the load
-  bool build_started_ = false;      // the store's build was started from the loaded grid
+  // MPI (ViewServerOptions::collective): draws every tab; then there is no GL context, store or grid here.
+  std::shared_ptr<Renderer> collective_;
+  std::string notice_;          // options.notice: said with every progress of the load
+  bool build_started_ = false;  // the store's build was started from the loaded grid
   // The build's previews (the point sketch, then the coarse preview): the last one tried (shown, or failed to open),
   // and the one shown: its depth (0: none, or the store itself is shown) and whether it is the sketch.
   std::string preview_tried_;

@@ -34,7 +34,18 @@
 #include "ugvr/render/camera.h"
 #include "ugvr/render/transfer_function.h"
 
+namespace ugvr {
+class Renderer;
+}
+
 namespace ugvr::view {
+
+// `mpirun -np N ugvr view` (docs/mpi.md, "The viewer on a cluster"): the renderer every tab draws with, one that
+// draws each frame on all ranks together (mpi/mpi_view.h), and the fields the page may pick.
+struct CollectiveRenderer {
+  std::shared_ptr<Renderer> renderer;
+  std::vector<std::string> fields;
+};
 
 struct ViewServerOptions {
   // The .ugvr brick store to show. With `dataset` set, the store does not exist yet: it is built there in the
@@ -92,6 +103,9 @@ struct ViewServerOptions {
   double fps = 10;                // initial frame-rate target of each session
   double play_rate = 0;           // a time series: > 0 starts every new tab playing at this many steps a second
   std::string token;              // forced token (tests); empty: random when not loopback
+  // MPI: called on the render thread instead of opening `store` or loading a grid; its renderer draws every tab, as
+  // the only engine (no build, no histograms, no degree of interest). Empty: the single-process viewer.
+  std::function<CollectiveRenderer()> collective;
 };
 
 class ViewServer {

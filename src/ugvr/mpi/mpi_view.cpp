@@ -1,0 +1,186 @@
+#include "ugvr/mpi/mpi_view.h"
+
+#include <mpi.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <exception>
+#include <nlohmann/json.hpp>
+#include <string_view>
+
+#include "ugvr/core/error.h"
+#include "ugvr/mpi/mpi_renderer.h"
+#include "ugvr/mpi/mpi_session.h"
+
+namespace ugvr::mpi {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// The smallest image scale while the view moves: below a quarter of each side the picture no longer tells the user
+// where the camera is going.
+constexpr double kMinMovingScale = 0.25;
+
+// Step 1 and 2 of the protocol (mpi_view.h), rank 0's side: an empty text is the quit.
+void broadcast_text(const std::string& text) {
+  uint64_t length = text.size();
+  MPI_Bcast(&length, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+  if (length > 0) MPI_Bcast(const_cast<char*>(text.data()), int(length), MPI_CHAR, 0, MPI_COMM_WORLD);
+}
+
+// The followers' side: "" means quit.
+std::string receive_text() {
+  uint64_t length = 0;
+  MPI_Bcast(&length, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+  std::string text(length, '\0');
+  if (length > 0) MPI_Bcast(text.data(), int(length), MPI_CHAR, 0, MPI_COMM_WORLD);
+  return text;
+}
+
+// Steps 3 and 4, on every rank: the collective frame, then the slowest rank's time for it.
+struct DrawnFrame {
+  Frame frame;
+  double slowest_seconds = 0;
+};
+DrawnFrame draw_collectively(Renderer& renderer, const FrameRequest& request) {
+  const Clock::time_point start = Clock::now();
+  DrawnFrame out;
+  out.frame = renderer.render(request);
+  const double mine = std::chrono::duration<double>(Clock::now() - start).count();
+  MPI_Allreduce(&mine, &out.slowest_seconds, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  return out;
+}
+
+class ViewLeader final : public Renderer {
+ public:
+  explicit ViewLeader(std::unique_ptr<Renderer> collective) : collective_(std::move(collective)) {}
+  // The followers wait for the next request: this is their last.
+  ~ViewLeader() override {
+    if (active()) broadcast_text("");
+  }
+  ViewLeader(const ViewLeader&) = delete;
+  ViewLeader& operator=(const ViewLeader&) = delete;
+
+  std::string_view engine() const override { return collective_->engine(); }
+  std::string device() const override { return collective_->device(); }
+  // Rank 0 only: each frame's request names the field every rank binds.
+  void set_field(std::string_view name) override { collective_->set_field(name); }
+  const std::string& field_name() const override { return collective_->field_name(); }
+  FieldRange field_range() const override { return collective_->field_range(); }
+  Bounds bounds() const override { return collective_->bounds(); }
+  void describe(nlohmann::json& j) const override { collective_->describe(j); }
+  std::string summary(const FrameStats& last) const override { return collective_->summary(last); }
+
+  Frame render(const FrameRequest& request) override {
+    refuse_unsupported(request);
+    const Clock::time_point start = Clock::now();
+    // The viewer asks for full quality when the tab's view rests (engine_host.cpp): then a full-scale frame.
+    const bool moving = request.target_fps > 0 && !request.full_quality;
+    const double scale = moving ? moving_scale_ : 1.0;
+    FrameRequest drawn = request;
+    drawn.settings.width = std::max(1, int(std::lround(scale * request.settings.width)));
+    drawn.settings.height = std::max(1, int(std::lround(scale * request.settings.height)));
+    drawn.target_fps = 0;  // the compositing renderer draws every frame whole
+    // Every rank binds the field rank 0 has bound (the followers never saw rank 0's set_field).
+    if (drawn.settings.field.empty()) drawn.settings.field = collective_->field_name();
+    drawn.prefetch_time_step.reset();
+    // What every rank draws is the decoded text, so that rank 0 draws the same numbers as the others; a request that
+    // does not survive the trip fails here, before any rank hears of it.
+    const std::string text = encode_frame_request(drawn);
+    drawn = decode_frame_request(text);
+
+    broadcast_text(text);
+    DrawnFrame d;
+    try {
+      d = draw_collectively(*collective_, drawn);
+    } catch (const std::exception& e) {
+      // The other ranks are inside this frame's collectives: only ending the job frees them.
+      abort_job(std::string("error: ") + e.what(), 1);
+    }
+    if (moving) adapt_scale(scale, d.slowest_seconds, request.target_fps);
+
+    Frame frame = std::move(d.frame);
+    if (frame.image.width != request.settings.width || frame.image.height != request.settings.height)
+      frame.image = resize_bilinear(frame.image, request.settings.width, request.settings.height);
+    frame.stats.scale = scale;
+    frame.stats.converged = scale >= 1;
+    frame.stats.resting = !moving;
+    frame.stats.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    return frame;
+  }
+
+ private:
+  // Refused on rank 0 before the broadcast (the page says why, the ranks carry on).
+  static void refuse_unsupported(const FrameRequest& request) {
+    if (request.settings.mode == RenderMode::Mip)
+      fail_in("mode",
+              "maximum intensity projection is not supported under MPI yet (ranks' maxima would need max "
+              "compositing, docs/mpi.md)");
+    if (request.time_step) fail_in("time", "time steps are not shown under MPI yet (docs/mpi.md)");
+  }
+
+  // The frame-rate controller of a moving view: the slowest rank's time at `scale` decides the next scale. The cost
+  // of a frame is about proportional to its pixels, so the side scales by the square root of the time ratio.
+  void adapt_scale(double scale, double slowest_seconds, double target_fps) {
+    if (!(slowest_seconds > 0)) return;
+    const double wanted = scale * std::sqrt((1.0 / target_fps) / slowest_seconds);
+    moving_scale_ = std::clamp(wanted, kMinMovingScale, 1.0);
+  }
+
+  std::unique_ptr<Renderer> collective_;
+  double moving_scale_ = 1;  // the image scale of the next moving frame
+};
+
+}  // namespace
+
+std::string encode_frame_request(const FrameRequest& request) {
+  nlohmann::json j;
+  j["camera"] = camera_to_json(request.camera);
+  j["tf"] = paraview_preset_json(request.tf);
+  j["settings"] = settings_to_json(request.settings);
+  j["step_voxels"] = request.step_voxels;
+  j["full_quality"] = request.full_quality;
+  j["target_fps"] = request.target_fps;
+  if (request.time_step) j["time_step"] = *request.time_step;
+  return j.dump();
+}
+
+FrameRequest decode_frame_request(const std::string& bytes) {
+  constexpr std::string_view source = "the frame request between MPI ranks";
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(bytes);
+  } catch (const nlohmann::json::exception& e) {
+    fail_in(source, e.what());
+  }
+  for (const char* key : {"camera", "tf", "settings", "step_voxels", "full_quality", "target_fps"})
+    if (!j.contains(key)) fail_in(source, std::string("missing \"") + key + "\"");
+  FrameRequest r;
+  r.camera = camera_from_json(j["camera"], source);
+  const std::vector<TransferFunction> tf = parse_paraview_presets(j["tf"].get<std::string>(), source);
+  if (tf.size() != 1) fail_in(source, "expected one transfer function");
+  r.tf = tf[0];
+  r.settings = settings_from_json(j["settings"], source);
+  r.step_voxels = j["step_voxels"].get<double>();
+  r.full_quality = j["full_quality"].get<bool>();
+  r.target_fps = j["target_fps"].get<double>();
+  if (j.contains("time_step")) r.time_step = j["time_step"].get<uint32_t>();
+  return r;
+}
+
+std::unique_ptr<Renderer> open_view_leader(const std::vector<std::string>& inputs, const ReadOptions& read,
+                                           const RendererOptions& options, std::vector<std::string>* fields) {
+  if (!threads_serialized())
+    fail_in("MPI", "the MPI library does not allow calls from the viewer's render thread (MPI_THREAD_SERIALIZED)");
+  return std::make_unique<ViewLeader>(mpi::open_renderer(inputs, read, options, nullptr, fields));
+}
+
+void follow_view(const std::vector<std::string>& inputs, const ReadOptions& read, const RendererOptions& options) {
+  std::unique_ptr<Renderer> collective = mpi::open_renderer(inputs, read, options);
+  for (std::string text = receive_text(); !text.empty(); text = receive_text())
+    draw_collectively(*collective, decode_frame_request(text));
+}
+
+}  // namespace ugvr::mpi
