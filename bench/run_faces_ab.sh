@@ -3,8 +3,11 @@
 # alternated in one session (V1 V2 ... V1 V2 ...), at the exact-render camera and transfer function of a scene, one
 # JSON line per render (median frame wall and CPU time of FRAMES frames, and the load) and the medians over the rounds
 # with each variant's ratio to the first at the end.
-# Usage: bench/run_faces_ab.sh SCENE LABEL:UGVR:STORE:SHADER_DIR ... (SCENE: blunt-fin or lox-post)
-#   ROUNDS (5), FRAMES (5), SIZE (512), CUT (pixels:1), SCRATCH (/tmp/ugvr-faces-ab).
+# Usage: bench/run_faces_ab.sh SCENE LABEL:UGVR:STORE:SHADER_DIR[:ENV] ... (SCENE: blunt-fin, lox-post, or any name
+#   with CAMERA and TF set to its files); ENV: VAR=VALUE assignments, comma-separated, for that variant's render
+#   (e.g. UGVR_NO_FACE_PLANES=1: the boundary faces without their planes, the shader main had before them).
+#   ROUNDS (5), FRAMES (5), SIZE (512), CUT (pixels:1), SCRATCH (/tmp/ugvr-faces-ab), CAMERA and TF (default the
+#   scene's in bench/results/exact-render), EXTRA (more render options, e.g. --keep-range).
 # The faces off in the same binary and store (the stencil alone, the shader main had before the faces):
 #   bench/run_faces_ab.sh --faces-off SHADER_DIR OUT_DIR   copies SHADER_DIR with FACES forced to 0.
 set -euo pipefail
@@ -30,9 +33,12 @@ results="$scratch/$scene.jsonl"
 : >"$results"
 for ((r = 0; r < rounds; ++r)); do
   for spec in "$@"; do
-    IFS=: read -r label ugvr store shaders <<<"$spec"
-    UGVR_SHADER_DIR=$shaders "$ugvr" --quiet render "$store" --engine lod --cut "$cut" \
-      --camera "bench/results/exact-render/$scene-camera.json" --tf "bench/results/exact-render/$scene-tf.json" \
+    IFS=: read -r label ugvr store shaders environment <<<"$spec"
+    IFS=, read -r -a assignments <<<"${environment:-}"
+    # shellcheck disable=SC2086  # EXTRA: options, split on purpose
+    env "${assignments[@]}" UGVR_SHADER_DIR="$shaders" "$ugvr" --quiet render "$store" --engine lod --cut "$cut" \
+      --camera "${CAMERA:-bench/results/exact-render/$scene-camera.json}" \
+      --tf "${TF:-bench/results/exact-render/$scene-tf.json}" ${EXTRA:-} \
       --size "$size" --frames "$frames" -o "$scratch/$label.pfm" --stats "$scratch/stats.json"
     python3 -c "import json; s=json.load(open('$scratch/stats.json')); print(json.dumps({'bench':'faces_ab','scene':'$scene','variant':'$label','round':$r,'wall':s['median_frame_seconds'],'cpu':s['median_frame_cpu_seconds'],'load':float(open('/proc/loadavg').read().split()[0])}, separators=(',', ':')))" |
       tee -a "$results"

@@ -161,6 +161,21 @@ int side_of_faces(uvec2 fe, vec3 p) {
   return side;
 }
 
+// Adds a crossing (t, +1 entering / -1 leaving, the face's normal) to g_f*, sorted; false: MAX_FACE_HITS already.
+bool add_crossing(float th, float sg, vec3 n) {
+  if (g_nh == MAX_FACE_HITS) return false;
+  int j = g_nh++;
+  for (; j > 0 && g_fh[j - 1] > th; --j) {
+    g_fh[j] = g_fh[j - 1];
+    g_fs[j] = g_fs[j - 1];
+    g_fn[j] = g_fn[j - 1];
+  }
+  g_fh[j] = th;
+  g_fs[j] = sg;
+  g_fn[j] = n;
+  return true;
+}
+
 // Intersects the line o + d·t with the triangles of one node's run `fe` (Möller-Trumbore, barycentric tolerance 1e-6
 // so that a ray through a shared edge meets at least one of its triangles: two meeting it count once, below). Adds
 // the crossings in [t0, t1) to g_f*, sorted (false: more than MAX_FACE_HITS). `state`: if < 0 on entry, set to the
@@ -198,18 +213,7 @@ bool cell_faces(uvec2 fe, vec3 o, vec3 d, float t0, float t1, float eps, inout i
       } else if (th <= ahead_t + eps) {
         ahead_s += sg;
       }
-      if (th < t1) {
-        if (g_nh == MAX_FACE_HITS) return false;
-        int j = g_nh++;
-        for (; j > 0 && g_fh[j - 1] > th; --j) {
-          g_fh[j] = g_fh[j - 1];
-          g_fs[j] = g_fs[j - 1];
-          g_fn[j] = g_fn[j - 1];
-        }
-        g_fh[j] = th;
-        g_fs[j] = sg;
-        g_fn[j] = n;
-      }
+      if (th < t1 && !add_crossing(th, sg, n)) return false;
     } else if (th > behind_t + eps) {
       behind_t = th;
       behind_s = sg;
@@ -221,18 +225,38 @@ bool cell_faces(uvec2 fe, vec3 o, vec3 d, float t0, float t1, float eps, inout i
   return true;
 }
 
+// cell_faces for a cell whose faces all lie on one plane and cover its section (FACE_PLANE; the plane n·p = w at
+// face_tri[at]): the line crosses the boundary in the cell where it crosses the plane, so one division stands for the
+// triangles. The state as cell_faces sets it: from the crossing ahead or behind, or the side of the plane for a line
+// parallel to it (side_of_faces' answer there).
+bool plane_faces(uint at, vec3 o, vec3 d, float t0, float t1, inout int state) {
+  vec3 n = vec3(face_tri[at], face_tri[at + 1u], face_tri[at + 2u]);
+  float h = face_tri[at + 3u] - dot(n, o);  // > 0: o lies inside, behind the outward normal
+  float dn = dot(d, n);
+  if (dn == 0.0) {
+    if (state < 0) state = h >= 0.0 ? 1 : 0;
+    return true;
+  }
+  float th = h / dn;
+  float sg = dn < 0.0 ? 1.0 : -1.0;  // against the outward normal: entering
+  if (state < 0) state = (th >= t0) == (sg > 0.0) ? 0 : 1;
+  return !(th >= t0 && th < t1) || add_crossing(th, sg, n);
+}
+
 // The crossings of the ray with the mesh boundary inside cut node `node` (box lo, size), between t0 and t1, into
 // g_f*, and the state at t0: 1 inside the mesh, 0 outside, -1 unknown (the stencil decides). A node that lists its
-// faces is one call of cell_faces. A node with more than the cap (a coarse node) is walked along the ray through its
-// descendants in the store's tree (all of them are on the GPU, drawn or not) and below a leaf in its virtual nodes:
-// at each position, down to the first node that lists its faces or has none, whose faces are tested over the stretch
-// of the ray inside it; a child the tree lacks holds no cells, so no faces. So the boundary is the same at every level
-// of the cut. Unknown where no face is near, or past MAX_FACE_HITS crossings.
+// faces is one call of cell_faces, one whose faces lie on one plane one call of plane_faces. A node with more than
+// the cap (a coarse node) is walked along the ray through its descendants in the store's tree (all of them are on the
+// GPU, drawn or not) and below a leaf in its virtual nodes: at each position, down to the first node that lists its
+// faces, has them on one plane, or has none, whose faces are tested over the stretch of the ray inside it; a child the
+// tree lacks holds no cells, so no faces. So the boundary is the same at every level of the cut. Unknown where no face
+// is near, or past MAX_FACE_HITS crossings.
 int node_faces(uint node, vec3 clo, float csize, vec3 o, vec3 d, vec3 inv_d, float t0, float t1, float eps) {
   g_nh = 0;
   uvec2 fe = face_node[node];
   if (fe.y == 0u) return -1;
   int state = -1;
+  if (fe.y == FACE_PLANE) return plane_faces(fe.x, o, d, t0, t1, state) ? state : -1;
   float ts = t0;
   uvec2 first_fe = uvec2(0u);  // the first cell with faces on the way, and the middle of the ray's stretch in it
   float first_mid = 0.0;
@@ -263,7 +287,9 @@ int node_faces(uint node, vec3 clo, float csize, vec3 o, vec3 d, vec3 inv_d, flo
     }
     vec3 tx = ((lo + mix(vec3(0.0), vec3(size), greaterThan(inv_d, vec3(0.0)))) - o) * inv_d;
     float te = max(min(min(tx.x, tx.y), min(tx.z, t1)), ts + eps);
-    if (e.y > 0u) {
+    if (e.y == FACE_PLANE) {
+      if (!plane_faces(e.x, o, d, ts, te, state)) return -1;
+    } else if (e.y > 0u) {
       if (!cell_faces(e, o, d, ts, te, eps, state)) return -1;
       if (first_fe.y == 0u) {
         first_fe = e;

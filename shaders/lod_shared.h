@@ -62,10 +62,15 @@ const int FRAME_BLOCK_BINDING = 6;      // uniform block LodFrame (below)
 const int PREINT_TEXTURE_BINDING = 7;   // sampler1D rgba32f: the transfer function's integrals (pre-integration)
 // The mesh's boundary faces (FACES variants; store/brick_store_format.h BoundaryHeaderRecord):
 const int FACE_NODE_BUFFER_BINDING = 8;  // uvec2 per store node: first reference, count (0: none; FACE_OVERFLOW:
-                                         // more than the cap, none listed: the node's descendants have them)
+                                         // more than the cap, none listed: the node's descendants have them;
+                                         // FACE_PLANE: first is where the node's plane lies in the triangle buffer)
 const int FACE_REF_BUFFER_BINDING = 9;   // uint per reference: a triangle index
-const int FACE_TRI_BUFFER_BINDING = 10;  // float[9] per triangle: corners in normalised coordinates, outward order
+const int FACE_TRI_BUFFER_BINDING = 10;  // float[9] per triangle: corners in normalised coordinates, outward order;
+                                         // after the triangles, float[4] per plane: n.xyz, w (n·p = w, n outward)
 const uint FACE_OVERFLOW = 0xFFFFFFFFu;  // store_format::kBoundaryOverflow
+// All the faces the node reaches lie on one plane and cover its section of the node (octree/boundary_faces.h
+// boundary_face_planes; set by the engine, not stored): one ray-plane test stands for the triangles and the walk.
+const uint FACE_PLANE = 0xFFFFFFFEu;
 const int MAX_FACE_HITS = 8;  // face crossings kept per ray and node (more: the rest of the node is lost to the state)
 // Slices (SLICES variants; render_settings.h Slice): their colour tables, one row of SLICE_TEXELS per slice over the
 // slice's own range (texel i at u = i / (SLICE_TEXELS - 1)), rgba32f, linear along a row. LOD_MAX_SLICES is

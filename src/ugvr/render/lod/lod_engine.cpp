@@ -12,6 +12,7 @@
 #include <cstring>
 #include <map>
 #include <memory>
+#include <optional>
 #include <tuple>
 #include <unordered_map>
 
@@ -26,6 +27,7 @@
 #include "ugvr/render/lod/hybrid_select.h"
 #include "ugvr/render/lod/tf_error.h"
 #include "ugvr/render/optical_table.h"
+#include "ugvr/store/boundary_planes.h"
 #include "ugvr/store/brick_store.h"
 
 namespace ugvr {
@@ -512,6 +514,51 @@ void LodEngine::Impl::choose_exact(std::span<const uint64_t> cut, const Camera& 
   st.cells_seconds = seconds_since(t0);
 }
 
+namespace {
+
+// The boundary faces for the shader: per entry (node, then virtual node) its first reference and count as stored (a
+// node over the cap: count FACE_OVERFLOW, the shader looks in its descendants), except an entry whose faces all lie
+// on one plane that they cover (boundary_face_planes): count FACE_PLANE and, instead of a reference, where the plane
+// lies in the triangle buffer, past the triangles (n.xyz, w: n·p = w, n outward). The references and the triangles.
+void upload_boundary_faces(const BrickStoreReader& store, bool with_planes, GlBuffer& face_nodes, GlBuffer& face_refs,
+                           GlBuffer& face_tris) {
+  static_assert(lod_gpu::FACE_OVERFLOW == store_format::kBoundaryOverflow);
+  static_assert(lod_gpu::FACE_PLANE != store_format::kBoundaryOverflow);
+  const StoreBoundary& b = store.boundary();
+  std::vector<std::optional<BoundaryPlane>> planes(b.nodes.size());
+  if (with_planes) {
+    const std::vector<OctreeNode> tree(store.nodes().begin(), store.nodes().end());
+    planes = boundary_face_planes(b, tree);
+  }
+  std::vector<float> tris(b.triangles.size() * 9);
+  if (!b.triangles.empty()) std::memcpy(tris.data(), b.triangles.data(), tris.size() * sizeof(float));
+  std::vector<uint32_t> entries(b.nodes.size() * 2);
+  for (size_t n = 0; n < b.nodes.size(); ++n) {
+    entries[2 * n] = b.nodes[n].first;
+    entries[2 * n + 1] = b.nodes[n].count;
+    if (const std::optional<BoundaryPlane>& p = planes[n]) {
+      if (tris.size() + 4 >= lod_gpu::FACE_PLANE) continue;  // past what an entry can address: the triangles
+      entries[2 * n] = uint32_t(tris.size());
+      entries[2 * n + 1] = lod_gpu::FACE_PLANE;
+      tris.insert(tris.end(), {float(p->normal.x), float(p->normal.y), float(p->normal.z), float(p->offset)});
+    }
+  }
+  const uint32_t none = 0;
+  face_nodes.upload(entries.data(), entries.size() * sizeof(uint32_t));
+  if (b.refs.empty()) {
+    face_refs.upload(&none, sizeof none);
+  } else {
+    face_refs.upload(b.refs.data(), b.refs.size() * sizeof(uint32_t));
+  }
+  if (tris.empty()) {
+    face_tris.upload(&none, sizeof none);
+  } else {
+    face_tris.upload(tris.data(), tris.size() * sizeof(float));
+  }
+}
+
+}  // namespace
+
 LodEngine::LodEngine(const std::string& store_path, const GlContext& gl, LodOptions options)
     : impl_(std::make_unique<Impl>(store_path, gl, options)) {
   Impl& I = *impl_;
@@ -523,27 +570,9 @@ LodEngine::LodEngine(const std::string& store_path, const GlContext& gl, LodOpti
   gl.make_current();
   I.faces = I.store.has_boundary();
   if (I.faces) {
-    // Per node (first reference, count) as stored (a node over the cap: count FACE_OVERFLOW, the shader looks in its
-    // descendants), the references and the triangles.
-    static_assert(lod_gpu::FACE_OVERFLOW == store_format::kBoundaryOverflow);
-    const StoreBoundary& b = I.store.boundary();
-    std::vector<uint32_t> entries(b.nodes.size() * 2);
-    for (size_t n = 0; n < b.nodes.size(); ++n) {
-      entries[2 * n] = b.nodes[n].first;
-      entries[2 * n + 1] = b.nodes[n].count;
-    }
-    const uint32_t none = 0;
-    I.face_nodes.upload(entries.data(), entries.size() * sizeof(uint32_t));
-    if (b.refs.empty()) {
-      I.face_refs.upload(&none, sizeof none);
-    } else {
-      I.face_refs.upload(b.refs.data(), b.refs.size() * sizeof(uint32_t));
-    }
-    if (b.triangles.empty()) {
-      I.face_tris.upload(&none, sizeof none);
-    } else {
-      I.face_tris.upload(b.triangles.data(), b.triangles.size() * sizeof(b.triangles[0]));
-    }
+    // UGVR_NO_FACE_PLANES set: the triangles everywhere, the same image (for comparisons: tests, bench).
+    const bool planes = !std::getenv("UGVR_NO_FACE_PLANES");
+    upload_boundary_faces(I.store, planes, I.face_nodes, I.face_refs, I.face_tris);
   }
   I.program_for(LOD_MODE_EA, false, false);  // compile errors surface here, not at the first frame
   // The octree, static: first child and child mask | level << 8 per node.

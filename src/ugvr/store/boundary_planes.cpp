@@ -1,0 +1,187 @@
+#include "ugvr/store/boundary_planes.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iterator>
+
+namespace ugvr {
+namespace {
+
+using store_format::BoundaryNodeEntry;
+using store_format::BoundaryTriangleRecord;
+using store_format::kBoundaryOverflow;
+
+Vec3d cross(const Vec3d& a, const Vec3d& b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+double dot(const Vec3d& a, const Vec3d& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+// How far (normalised coordinates) a corner may lie off a plane and still be on it, and how much of a cell's section
+// of the plane its triangles may leave open (relative): float corners of one flat face lie on their plane to ~1e-7.
+constexpr double kPlaneTolerance = 1e-6;
+constexpr double kCoverTolerance = 1e-5;
+
+Vec3d triangle_corner(const BoundaryTriangleRecord& t, int i) {
+  return Vec3d{t.p[3 * i], t.p[3 * i + 1], t.p[3 * i + 2]};
+}
+
+// The convex polygon `poly` clipped to the closed box (Sutherland-Hodgman, one face at a time).
+std::vector<Vec3d> clip_to_box(std::vector<Vec3d> poly, const Bounds& box) {
+  for (int axis = 0; axis < 3 && !poly.empty(); ++axis) {
+    for (int upper = 0; upper < 2 && !poly.empty(); ++upper) {
+      const double bound = upper ? box.hi[axis] : box.lo[axis];
+      auto inside = [&](const Vec3d& p) { return upper ? p[axis] <= bound : p[axis] >= bound; };
+      std::vector<Vec3d> kept;
+      for (size_t i = 0; i < poly.size(); ++i) {
+        const Vec3d& a = poly[i];
+        const Vec3d& b = poly[(i + 1) % poly.size()];
+        if (inside(a)) kept.push_back(a);
+        if (inside(a) != inside(b)) {
+          const double f = (bound - a[axis]) / (b[axis] - a[axis]);
+          Vec3d x = a + (b - a) * f;
+          x[axis] = bound;
+          kept.push_back(x);
+        }
+      }
+      poly = std::move(kept);
+    }
+  }
+  return poly;
+}
+
+double polygon_area(const std::vector<Vec3d>& poly, const Vec3d& normal) {
+  Vec3d sum{};
+  for (size_t i = 0; i < poly.size(); ++i) sum = sum + cross(poly[i], poly[(i + 1) % poly.size()]);
+  return 0.5 * std::abs(dot(sum, normal));
+}
+
+// The plane's section of the box: a square in the plane larger than the box, clipped to it.
+double section_area(const BoundaryPlane& plane, const Bounds& box) {
+  const Vec3d& n = plane.normal;
+  const Vec3d helper = std::abs(n.x) < 0.6 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0};
+  Vec3d u = cross(n, helper);
+  u = u * (1.0 / std::sqrt(dot(u, u)));
+  const Vec3d v = cross(n, u);
+  const Vec3d centre = (box.lo + box.hi) * 0.5;
+  const Vec3d c = centre - n * (dot(n, centre) - plane.offset);
+  const Vec3d diag = box.hi - box.lo;
+  const double r = std::sqrt(dot(diag, diag));
+  return polygon_area(clip_to_box({c - u * r - v * r, c + u * r - v * r, c + u * r + v * r, c - u * r + v * r}, box),
+                      n);
+}
+
+// What an entry reaches: whether any triangle, whether they all lie on one plane facing one way, and if so which
+// triangles (ascending, each once) and the plane.
+struct Reach {
+  bool any = false;
+  bool planar = false;
+  BoundaryPlane plane;
+  std::vector<uint32_t> triangles;
+};
+
+bool same_plane(const BoundaryPlane& a, const BoundaryPlane& b) {
+  return dot(a.normal, b.normal) > 1.0 - 1e-12 && std::abs(a.offset - b.offset) <= kPlaneTolerance;
+}
+
+// The plane of a run of triangles, from its largest (the best-conditioned normal), if all lie on it facing one way.
+std::optional<BoundaryPlane> plane_of(const StoreBoundary& b, std::span<const uint32_t> run) {
+  double largest = 0;
+  BoundaryPlane plane;
+  for (uint32_t t : run) {
+    const Vec3d p0 = triangle_corner(b.triangles[t], 0);
+    const Vec3d n = cross(triangle_corner(b.triangles[t], 1) - p0, triangle_corner(b.triangles[t], 2) - p0);
+    const double len = std::sqrt(dot(n, n));
+    if (len > largest) {
+      largest = len;
+      plane.normal = n * (1.0 / len);
+      plane.offset = dot(plane.normal, p0);
+    }
+  }
+  if (!(largest > 0)) return std::nullopt;
+  for (uint32_t t : run) {
+    const Vec3d p0 = triangle_corner(b.triangles[t], 0);
+    const Vec3d n = cross(triangle_corner(b.triangles[t], 1) - p0, triangle_corner(b.triangles[t], 2) - p0);
+    if (dot(n, plane.normal) < 0) return std::nullopt;  // a face of the other orientation: a sheet, two sides
+    for (int i = 0; i < 3; ++i)
+      if (std::abs(dot(plane.normal, triangle_corner(b.triangles[t], i)) - plane.offset) > kPlaneTolerance)
+        return std::nullopt;
+  }
+  return plane;
+}
+
+}  // namespace
+
+std::vector<std::optional<BoundaryPlane>> boundary_face_planes(const StoreBoundary& boundary,
+                                                               std::span<const OctreeNode> nodes) {
+  std::vector<std::optional<BoundaryPlane>> out(boundary.nodes.size());
+  if (boundary.empty() || nodes.empty()) return out;
+  // Bottom-up over the entries (depth first from the root, with each entry's cell): an entry's reach is its own run,
+  // or the union of its children's (tree children for a node over the cap, else its 8 virtual nodes).
+  auto visit = [&](auto& self, uint64_t entry, const Bounds& cell) -> Reach {
+    Reach r;
+    if (entry >= boundary.nodes.size()) return r;
+    const BoundaryNodeEntry e = boundary.nodes[entry];
+    if (e.count == 0) return r;
+    r.any = true;
+    if (e.count != kBoundaryOverflow) {
+      const std::span<const uint32_t> run(boundary.refs.data() + e.first, e.count);
+      if (const auto plane = plane_of(boundary, run)) {
+        r.planar = true;
+        r.plane = *plane;
+        r.triangles.assign(run.begin(), run.end());
+        std::sort(r.triangles.begin(), r.triangles.end());
+      }
+    } else {
+      r.planar = true;
+      const Vec3d half = (cell.hi - cell.lo) * 0.5;
+      bool first = true;
+      for (int o = 0; o < 8; ++o) {
+        uint64_t child = kNoNode;
+        if (e.first != 0) {
+          child = uint64_t(e.first) + uint64_t(o);
+        } else if (entry < nodes.size()) {
+          child = nodes[entry].child(o);
+        }
+        if (child == kNoNode) continue;
+        Bounds c;
+        c.lo = cell.lo + Vec3d{(o & 1) * half.x, (o >> 1 & 1) * half.y, (o >> 2 & 1) * half.z};
+        c.hi = c.lo + half;
+        Reach k = self(self, child, c);
+        if (!k.any) continue;
+        if (!k.planar || (!first && !same_plane(k.plane, r.plane))) {
+          r.planar = false;
+        } else if (r.planar) {
+          if (first) r.plane = k.plane;
+          first = false;
+          std::vector<uint32_t> merged;
+          std::set_union(r.triangles.begin(), r.triangles.end(), k.triangles.begin(), k.triangles.end(),
+                         std::back_inserter(merged));
+          r.triangles = std::move(merged);
+        }
+      }
+      if (first) r.planar = false;  // over the cap but no child reached: leave it to the walk
+    }
+    if (!r.planar) {
+      r.triangles = {};
+      return r;
+    }
+    const double section = section_area(r.plane, cell);
+    double covered = 0;
+    for (uint32_t t : r.triangles) {
+      const BoundaryTriangleRecord& tri = boundary.triangles[t];
+      covered +=
+          polygon_area(clip_to_box({triangle_corner(tri, 0), triangle_corner(tri, 1), triangle_corner(tri, 2)}, cell),
+                       r.plane.normal);
+    }
+    const double cell_area = (cell.hi.x - cell.lo.x) * (cell.hi.x - cell.lo.x);
+    if (section > 1e-9 * cell_area && std::abs(covered - section) <= kCoverTolerance * section) out[entry] = r.plane;
+    return r;
+  };
+  Bounds root;
+  root.lo = Vec3d{0, 0, 0};
+  root.hi = Vec3d{1, 1, 1};
+  visit(visit, 0, root);
+  return out;
+}
+
+}  // namespace ugvr
