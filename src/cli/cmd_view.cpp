@@ -35,6 +35,7 @@
 #include "ugvr/core/progress.h"
 #include "ugvr/mpi/mpi_session.h"
 #include "ugvr/mpi/mpi_view.h"
+#include "ugvr/mpi/piece_index.h"
 #include "ugvr/render/renderer_factory.h"
 #endif
 
@@ -147,11 +148,17 @@ void run_view_mpi(const Options& o, view::ViewServerOptions vo) {
   vo.collective = [inputs = o.inputs, read = o.read, ro] {
     view::CollectiveRenderer c;
     c.renderer = mpi::open_view_leader(inputs, read, ro, &c.fields);
+    if (inputs.size() == 1 && is_piece_index(inputs[0])) {
+      const PieceIndex index = read_piece_index(inputs[0]);
+      for (int k = 0; k < index.count(); ++k) c.histogram_stores.push_back(index.store_path(k));
+    } else if (inputs.size() == 1 && is_brick_store(inputs[0])) {
+      c.histogram_stores = inputs;
+    }
     return c;
   };
   serve(std::move(vo), "MPI: " + std::to_string(mpi::size()) +
-                           " ranks draw every frame (one engine; no histograms, MIP or time steps under MPI: "
-                           "docs/mpi.md); rank 0 is pid " +
+                           " ranks draw every frame (one engine; no MIP or time steps, a mesh's fields without "
+                           "histograms under MPI: docs/mpi.md); rank 0 is pid " +
                            std::to_string(::getpid()) + " (SIGINT or SIGTERM to it stops every rank)");
 }
 #endif

@@ -253,7 +253,15 @@ TEST_F(MpiView, APartitionedStoreOnTwoRanksEqualsItsOneProcessRender) {
   {
     Tab tab(job.port);
     tab.send({{"type", "hello"}, {"width", kSide}, {"height", kSide}});
-    ASSERT_EQ(tab.next_text()["type"], "scene");
+    const json scene = tab.next_text();
+    ASSERT_EQ(scene["type"], "scene");
+    // The pieces' coarse levels give the transfer-function editor its histogram (summed over the pieces).
+    for (const json& f : scene["fields"]) {
+      uint64_t counted = 0;
+      for (const json& c : f["histogram"]) counted += c.get<uint64_t>();
+      EXPECT_GT(f["histogram"].size(), 1u) << f.dump();
+      EXPECT_GT(counted, 0u) << f.dump();
+    }
     const json first = tab.converged_frame(1);
     ASSERT_EQ(first["type"], "status") << first.dump();
     EXPECT_EQ(first["engine"], "lod");

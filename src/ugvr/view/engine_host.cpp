@@ -14,6 +14,7 @@
 #include "ugvr/octree/input.h"
 #include "ugvr/render/lod/lod_renderer.h"
 #include "ugvr/render/renderer_factory.h"
+#include "ugvr/store/brick_store.h"
 #include "ugvr/view/field_histogram.h"
 #include "ugvr/view/jpeg.h"
 
@@ -109,7 +110,7 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
     CollectiveRenderer opened = options_.collective();
     collective_ = std::move(opened.renderer);
     renderer_ = collective_->device();
-    scene_ = collective_scene(opened.fields);
+    scene_ = collective_scene(opened.fields, opened.histogram_stores);
     return;
   }
   gl_ = std::make_shared<GlContext>(options_.gpu);
@@ -255,13 +256,25 @@ SceneInfo EngineHost::lod_scene() const {
   return sc;
 }
 
-SceneInfo EngineHost::collective_scene(const std::vector<std::string>& fields) {
+SceneInfo EngineHost::collective_scene(const std::vector<std::string>& fields,
+                                       const std::vector<std::string>& histogram_stores) {
   SceneInfo sc;
-  // The ranges are the whole data's on every rank (mpi_renderer.h); histograms would need every rank's data: none.
+  // The ranges are the whole data's on every rank (mpi_renderer.h). The histograms come from the stores' coarse
+  // levels, as store_fields' (a mesh's would need every rank's cells: none).
+  std::vector<BrickStoreReader> stores;
+  for (const std::string& path : histogram_stores) stores.emplace_back(path);
   for (const std::string& name : fields) {
     collective_->set_field(name);
     const FieldRange range = collective_->field_range();
-    sc.fields.push_back({name, range.min, range.max, {}});
+    std::vector<uint64_t> histogram;
+    for (const BrickStoreReader& store : stores)
+      for (uint32_t i = 0; i < store.field_count(); ++i) {
+        if (store.layout().fields[i].name != name) continue;
+        const std::vector<uint64_t> h = store_histogram(store, i, kHistogramBins, kHistogramMaxLevel);
+        if (histogram.empty()) histogram.assign(h.size(), 0);
+        for (size_t b = 0; b < h.size() && b < histogram.size(); ++b) histogram[b] += h[b];
+      }
+    sc.fields.push_back({name, range.min, range.max, std::move(histogram)});
   }
   if (sc.fields.empty()) sc.fields.push_back({collective_->field_name(), 0, 1, {}});
   sc.field = first_varying(sc.fields);

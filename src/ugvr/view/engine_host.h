@@ -104,7 +104,7 @@ class EngineHost {
  private:
   struct Tab;
   SceneInfo lod_scene() const;
-  SceneInfo collective_scene(const std::vector<std::string>& fields);
+  SceneInfo collective_scene(const std::vector<std::string>& fields, const std::vector<std::string>& histogram_stores);
   // `store` (the build's coarse preview, or the store itself) becomes the one shown, to every tab afresh.
   void show_store(std::shared_ptr<LodScene> store);
   std::vector<EngineChoice> engines() const;  // what the tabs may pick now

@@ -45,6 +45,9 @@ namespace ugvr::view {
 struct CollectiveRenderer {
   std::shared_ptr<Renderer> renderer;
   std::vector<std::string> fields;
+  // Stores whose coarse levels give the fields' histograms, summed (a store, or a partitioned store's pieces: they
+  // share the whole data's field ranges, so their bins agree); read by rank 0 alone. Empty (a mesh): no histograms.
+  std::vector<std::string> histogram_stores;
 };
 
 struct ViewServerOptions {
