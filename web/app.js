@@ -461,6 +461,7 @@ function tick() {
     if (view.clip.on && view.clip.axis === "view") queueClip();  // the plane faces the viewer
   }
   for (const m of queued.splice(0)) send(m);
+  ugvrRoi.draw();  // the box of interest over the view, when the camera, the box or the size changed
   requestAnimationFrame(tick);
 }
 requestAnimationFrame(tick);

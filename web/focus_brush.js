@@ -1,5 +1,5 @@
 // ugvr view: the focus brush (issue 17, SimVis's brush on a histogram). One canvas shows the histogram of the focus
-// field's values (log-scaled counts, as the transfer-function editor's) with the brushed value range highlighted. Drag
+// field's values (tf_editor.js's drawLogHistogram, loaded before) with the brushed value range highlighted. Drag
 // across it to brush a new range; onBrush(lo, hi) is called when the drag ends (the page then sends the focus, so a
 // drag costs one frame of the new interest, not one per pointer move). A drag shorter than 3 pixels is a click and
 // changes nothing.
@@ -64,19 +64,12 @@ class FocusBrush {
   draw() {
     const ctx = this.ctx, w = this.canvas.width, h = this.canvas.height, p = this.pad;
     ctx.clearRect(0, 0, w, h);
-    const inRange = (v) => this.range && v >= this.range[0] && v <= this.range[1];
     const bins = this.histogram.length;
-    if (bins > 0) {
-      const top = Math.log1p(Math.max(...this.histogram));
-      const bw = (w - 2 * p) / bins;
-      for (let b = 0; b < bins; ++b) {
-        const f = top > 0 ? Math.log1p(this.histogram[b]) / top : 0;
-        const bh = f * (h - 2 * p);
-        const centre = this.lo + ((b + 0.5) / bins) * (this.hi - this.lo);
-        ctx.fillStyle = inRange(centre) ? "#d9a441" : "#4a4f5c";
-        ctx.fillRect(p + b * bw, h - p - bh, Math.max(1, bw - 0.5), bh);
-      }
-    }
+    const inRange = (b) => {
+      const centre = this.lo + ((b + 0.5) / bins) * (this.hi - this.lo);
+      return this.range && centre >= this.range[0] && centre <= this.range[1];
+    };
+    drawLogHistogram(ctx, this.histogram, p, w - p, p, h - p, (b) => (inRange(b) ? "#d9a441" : "#4a4f5c"));
     if (this.range) {
       const x0 = this.toPx(this.range[0]), x1 = this.toPx(this.range[1]);
       ctx.fillStyle = "rgba(217, 164, 65, 0.18)";

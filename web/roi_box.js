@@ -4,7 +4,8 @@
 // along its axis (following the pointer's motion projected on that axis on screen, view_rays.js), within the data's
 // bounds and never past the opposite face; the corners follow in the panel while dragging, and the focus is applied
 // (one interest message) when the drag ends. Loaded after view_rays.js and before app.js, whose globals (scene,
-// camera) it reads only when the user acts or a frame is drawn; app.js chains canvasDrag with the planes' own.
+// camera) it reads only when the user acts or a frame is drawn; app.js chains canvasDrag with the planes' own and
+// calls draw() at each of its animation frames.
 "use strict";
 
 const ugvrRoi = (() => {
@@ -106,14 +107,9 @@ const ugvrRoi = (() => {
         ctx.stroke();
       }
   }
-  const loop = () => {
-    draw();
-    requestAnimationFrame(loop);
-  };
-  requestAnimationFrame(loop);
-
   return {
     canvasDrag,
+    draw,  // app.js's animation frame calls it: redraws only what changed
     set dragMode(on) {
       dragMode = Boolean(on);
       $("roi-drag").checked = dragMode;

@@ -5,6 +5,20 @@
 // each change; the page sends the points at most once per animation frame.
 "use strict";
 
+// A histogram's bars, log(1 + count) scaled to the tallest bin, across x0..x1 and rising from y1 towards y0 (canvas
+// pixels); fill(b) is bin b's colour. Also the focus brush's (focus_brush.js).
+function drawLogHistogram(ctx, histogram, x0, x1, y0, y1, fill) {
+  const bins = histogram.length;
+  if (bins === 0) return;
+  const top = Math.log1p(Math.max(...histogram));
+  const bw = (x1 - x0) / bins;
+  for (let b = 0; b < bins; ++b) {
+    const bh = (top > 0 ? Math.log1p(histogram[b]) / top : 0) * (y1 - y0);
+    ctx.fillStyle = fill(b);
+    ctx.fillRect(x0 + b * bw, y1 - bh, Math.max(1, bw - 0.5), bh);
+  }
+}
+
 class TfEditor {
   constructor(canvas, onEdit) {
     this.canvas = canvas;
@@ -134,18 +148,7 @@ class TfEditor {
   draw() {
     const ctx = this.ctx, w = this.canvas.width, h = this.canvas.height, r = this.plot;
     ctx.clearRect(0, 0, w, h);
-    // Histogram: log(1 + count), scaled to the tallest bin.
-    const bins = this.histogram.length;
-    if (bins > 0) {
-      const top = Math.log1p(Math.max(...this.histogram));
-      ctx.fillStyle = "#4a4f5c";
-      const bw = (r.x1 - r.x0) / bins;
-      for (let b = 0; b < bins; ++b) {
-        const f = top > 0 ? Math.log1p(this.histogram[b]) / top : 0;
-        const bh = f * (r.y1 - r.y0);
-        ctx.fillRect(r.x0 + b * bw, r.y1 - bh, Math.max(1, bw - 0.5), bh);
-      }
-    }
+    drawLogHistogram(ctx, this.histogram, r.x0, r.x1, r.y0, r.y1, () => "#4a4f5c");
     // Colour bar.
     const by = h - this.pad - this.barHeight;
     for (let px = r.x0; px < r.x1; ++px) {

@@ -202,16 +202,7 @@ void EngineHost::finish_load() {
     scene_.engines = engines();
     return;
   }
-  SceneInfo sc;
-  sc.fields = grid.fields;
-  sc.bounds = grid.bounds;
-  sc.field = first_varying(sc.fields);
-  sc.camera = options_.camera.value_or(default_camera(sc.bounds, 30));
-  sc.tf = options_.tf;
-  sc.preset = options_.preset;
-  sc.background = options_.background;
-  sc.fps = options_.fps;
-  sc.width = options_.width, sc.height = options_.height;
+  SceneInfo sc = base_scene(grid.fields, grid.bounds);
   sc.renderer = exact_renderer_;
   sc.engine = kExactEngine;
   sc.engines = engines();
@@ -231,17 +222,22 @@ EngineHost::~EngineHost() {
   gl_.reset();
 }
 
-SceneInfo EngineHost::lod_scene() const {
+SceneInfo EngineHost::base_scene(std::vector<FieldInfo> fields, const Bounds& bounds) const {
   SceneInfo sc;
-  sc.fields = store_fields(lod_->engine);
+  sc.fields = std::move(fields);
   sc.field = first_varying(sc.fields);
-  sc.bounds = lod_->engine.bounds();
+  sc.bounds = bounds;
   sc.camera = options_.camera.value_or(default_camera(sc.bounds, 30));
   sc.tf = options_.tf;
   sc.preset = options_.preset;
   sc.background = options_.background;
   sc.fps = options_.fps;
   sc.width = options_.width, sc.height = options_.height;
+  return sc;
+}
+
+SceneInfo EngineHost::lod_scene() const {
+  SceneInfo sc = base_scene(store_fields(lod_->engine), lod_->engine.bounds());
   sc.renderer = renderer_;
   // A store with cells is drawn hybrid by default (docs/hybrid.md): voxels while moving, exact cells at rest; `ugvr
   // view --engine lod` makes lod the default (a tab may still pick hybrid).
@@ -258,9 +254,9 @@ SceneInfo EngineHost::lod_scene() const {
 
 SceneInfo EngineHost::collective_scene(const std::vector<std::string>& fields,
                                        const std::vector<std::string>& histogram_stores) {
-  SceneInfo sc;
   // The ranges are the whole data's on every rank (mpi_renderer.h). The histograms come from the stores' coarse
   // levels, as store_fields' (a mesh's would need every rank's cells: none).
+  std::vector<FieldInfo> infos;
   std::vector<BrickStoreReader> stores;
   for (const std::string& path : histogram_stores) stores.emplace_back(path);
   for (const std::string& name : fields) {
@@ -274,18 +270,11 @@ SceneInfo EngineHost::collective_scene(const std::vector<std::string>& fields,
         if (histogram.empty()) histogram.assign(h.size(), 0);
         for (size_t b = 0; b < h.size() && b < histogram.size(); ++b) histogram[b] += h[b];
       }
-    sc.fields.push_back({name, range.min, range.max, std::move(histogram)});
+    infos.push_back({name, range.min, range.max, std::move(histogram)});
   }
-  if (sc.fields.empty()) sc.fields.push_back({collective_->field_name(), 0, 1, {}});
-  sc.field = first_varying(sc.fields);
+  if (infos.empty()) infos.push_back({collective_->field_name(), 0, 1, {}});
+  SceneInfo sc = base_scene(std::move(infos), collective_->bounds());
   collective_->set_field(sc.field);
-  sc.bounds = collective_->bounds();
-  sc.camera = options_.camera.value_or(default_camera(sc.bounds, 30));
-  sc.tf = options_.tf;
-  sc.preset = options_.preset;
-  sc.background = options_.background;
-  sc.fps = options_.fps;
-  sc.width = options_.width, sc.height = options_.height;
   sc.renderer = renderer_;
   sc.engine = collective_->engine() == kExactEngine ? kExactEngine : kLodEngine;
   sc.engines = {{sc.engine, renderer_}};

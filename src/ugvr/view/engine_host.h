@@ -103,6 +103,9 @@ class EngineHost {
 
  private:
   struct Tab;
+  // What every scene takes from the options (camera, transfer function, background, rate, size) around its fields
+  // (the first varying one shown) and bounds.
+  SceneInfo base_scene(std::vector<FieldInfo> fields, const Bounds& bounds) const;
   SceneInfo lod_scene() const;
   SceneInfo collective_scene(const std::vector<std::string>& fields, const std::vector<std::string>& histogram_stores);
   // `store` (the build's coarse preview, or the store itself) becomes the one shown, to every tab afresh.
