@@ -43,11 +43,11 @@ InCoreEstimate estimate_in_core(const std::vector<std::string>& inputs) {
   }
   if (counts) {
     e.points = counts->points, e.cells = counts->cells;
-    e.bytes = uint64_t(double(e.cells) * kViewBytesPerCell + double(e.points) * kViewBytesPerPoint);
+    e.bytes = uint64_t(kViewFixedBytes + double(e.cells) * kViewBytesPerCell + double(e.points) * kViewBytesPerPoint);
     e.basis = std::to_string(e.cells) + " cells, " + std::to_string(e.points) + " points";
     return e;
   }
-  e.bytes = uint64_t(double(e.input_bytes) * kViewBytesPerInputByte);
+  e.bytes = uint64_t(kViewFixedBytes + double(e.input_bytes) * kViewBytesPerInputByte);
   e.basis = format_bytes(e.input_bytes) + " on disk";
   return e;
 }
