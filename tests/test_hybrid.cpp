@@ -516,49 +516,80 @@ TEST(Hybrid, InterestFlagsAreChecked) {
 }
 
 // Progressive refinement (Callahan 2006) in the time-critical session: while the view moves no node is exact; once it
-// rests and the cut has converged, exact_batch more nodes turn exact per frame in priority order, every frame shown,
-// and the session reports convergence only when every candidate is exact; a move starts again with none.
+// rests and the cut has converged, more nodes turn exact per frame in priority order, every frame shown, and the
+// session reports convergence only when every candidate is exact; a move starts again with none. With exact_growth 1
+// each resting frame adds exact_batch nodes; with the default 2 the exact set doubles (4, 8, 16, ... may be exact), so
+// it converges in fewer frames.
 TEST(Hybrid, ProgressiveRefinementAtRest) {
   REQUIRE_GL();
   const Fixture& f = fixture();
   const TransferFunction tf = test_tf(f);
   const RenderSettings rs = test_settings();
+  const BrickStoreReader store(f.store);
+  std::vector<uint64_t> frames_to_exact;
+  for (const double growth : {1.0, 2.0}) {
+    SCOPED_TRACE("exact_growth " + std::to_string(growth));
+    LodOptions ho;
+    ho.hybrid = true;
+    LodEngine engine(f.store, *f.gl, ho);
+    engine.set_field("pressure");
+    TimeCriticalOptions tco;
+    tco.target_fps = 1000;  // a budget while moving
+    tco.exact_batch = 4;
+    tco.exact_growth = growth;
+    tco.pixels = 0.05;  // the converged cut: the leaves, as the still image's
+    TimeCriticalRenderer session(engine, tco);
+    Camera cam = camera_preset("iso", store.layout().data);
+    std::vector<uint64_t> exact;
+    bool converged = false;
+    TimeCriticalFrame fr;
+    for (int i = 0; i < 60 && !converged; ++i) {
+      session.frame(cam, tf, rs, &fr);
+      exact.push_back(fr.render.exact_nodes);
+      converged = fr.converged;
+    }
+    ASSERT_TRUE(converged);
+    EXPECT_EQ(exact.front(), 0u);  // the first frame is not at rest
+    const uint64_t candidates = fr.render.exact_candidates;
+    EXPECT_EQ(fr.render.exact_nodes, candidates);
+    EXPECT_GT(candidates, 16u);  // enough for the two schedules to differ
+    // Frame by frame: never fewer exact nodes than before; at most 4 more (fixed batches), or at most the doubling
+    // limit 4, 8, 16, ... and, while candidates remain, as many as it allows (the cell budget is not full here).
+    size_t grew = 0, first_exact = 0;
+    for (size_t i = 1; i < exact.size(); ++i) {
+      EXPECT_GE(exact[i], exact[i - 1]);
+      grew += exact[i] > exact[i - 1];
+      if (exact[i] > 0 && first_exact == 0) first_exact = i;
+      if (growth == 1) {
+        EXPECT_LE(exact[i], exact[i - 1] + 4);
+      } else if (first_exact > 0) {
+        const uint64_t limit = uint64_t(4) << (i - first_exact);
+        EXPECT_LE(exact[i], limit) << "frame " << i;
+        EXPECT_EQ(exact[i], std::min(limit, candidates)) << "frame " << i;
+      }
+    }
+    EXPECT_GE(grew, 3u);
+    frames_to_exact.push_back(exact.size() - first_exact);
+    // A move: no exact node in the moving frame.
+    cam.position = cam.position + Vec3d{0.01, 0, 0};
+    session.frame(cam, tf, rs, &fr);
+    EXPECT_EQ(fr.render.exact_nodes, 0u);
+    EXPECT_FALSE(fr.converged);
+  }
+  ASSERT_EQ(frames_to_exact.size(), 2u);
+  EXPECT_LT(frames_to_exact[1], frames_to_exact[0]);
+  std::printf("resting frames from the first exact node to all exact: fixed batches %zu, doubling %zu\n",
+              size_t(frames_to_exact[0]), size_t(frames_to_exact[1]));
+  // Out-of-range options are refused.
   LodOptions ho;
   ho.hybrid = true;
   LodEngine engine(f.store, *f.gl, ho);
-  engine.set_field("pressure");
-  TimeCriticalOptions tco;
-  tco.target_fps = 1000;  // a budget while moving
-  tco.exact_batch = 4;
-  tco.pixels = 0.05;  // the converged cut: the leaves, as the still image's
-  TimeCriticalRenderer session(engine, tco);
-  const BrickStoreReader store(f.store);
-  Camera cam = camera_preset("iso", store.layout().data);
-  std::vector<uint64_t> exact;
-  bool converged = false;
-  TimeCriticalFrame fr;
-  for (int i = 0; i < 60 && !converged; ++i) {
-    session.frame(cam, tf, rs, &fr);
-    exact.push_back(fr.render.exact_nodes);
-    converged = fr.converged;
-  }
-  ASSERT_TRUE(converged);
-  EXPECT_EQ(exact.front(), 0u);  // the first frame is not at rest
-  EXPECT_EQ(fr.render.exact_nodes, fr.render.exact_candidates);
-  EXPECT_GT(fr.render.exact_nodes, 8u);
-  // Batch by batch: each resting frame adds at most 4, never fewer nodes than the frame before (until all).
-  size_t grew = 0;
-  for (size_t i = 1; i < exact.size(); ++i) {
-    EXPECT_GE(exact[i], exact[i - 1]);
-    EXPECT_LE(exact[i], exact[i - 1] + 4);
-    grew += exact[i] > exact[i - 1];
-  }
-  EXPECT_GE(grew, 3u);
-  // A move: no exact node in the moving frame.
-  cam.position = cam.position + Vec3d{0.01, 0, 0};
-  session.frame(cam, tf, rs, &fr);
-  EXPECT_EQ(fr.render.exact_nodes, 0u);
-  EXPECT_FALSE(fr.converged);
+  TimeCriticalOptions bad;
+  bad.exact_growth = 0.5;
+  EXPECT_THROW(TimeCriticalRenderer(engine, bad), Error);
+  bad = {};
+  bad.exact_batch = 0;
+  EXPECT_THROW(TimeCriticalRenderer(engine, bad), Error);
 }
 
 TEST(Hybrid, ParseFocus) {

@@ -38,7 +38,7 @@ struct TimeCriticalRenderer::Impl {
   TimeCriticalFrame switch_report;     // switch_time_step's figures, for the next frame's report
   bool rest_converged = false;         // the cut converged in the last frame, at rest
   int stalled_frames = 0;              // resting frames in a row in which the cut could not refine for lack of memory
-  uint64_t exact_limit = 0;  // hybrid: nodes that may be exact in the next frame (grows by exact_batch at rest)
+  uint64_t exact_limit = 0;  // hybrid: nodes that may be exact in the next frame (grows at rest: exact_growth)
 
   Impl(LodEngine& e, TimeCriticalOptions o)
       : engine(e),
@@ -94,6 +94,8 @@ TimeCriticalRenderer::TimeCriticalRenderer(LodEngine& engine, TimeCriticalOption
   if (options.uploads_per_frame < 1 || options.reads_per_frame < 1 || options.resting_uploads_per_frame < 1 ||
       options.resting_reads_per_frame < 1)
     fail_in("time-critical renderer", "uploads and reads per frame must be >= 1");
+  if (options.exact_batch < 1 || !(options.exact_growth >= 1) || !std::isfinite(options.exact_growth))
+    fail_in("time-critical renderer", "exact_batch must be >= 1 and exact_growth finite and >= 1");
 }
 
 TimeCriticalRenderer::~TimeCriticalRenderer() = default;
@@ -288,8 +290,16 @@ Image TimeCriticalRenderer::frame(const Camera& camera, const TransferFunction& 
   const bool fine = f.resting && I.rest_converged;
   I.engine.set_step_voxels(fine ? I.options.resting_step_voxels : I.options.moving_step_voxels);
   f.budget_samples = f.resting ? FrameController::kUnlimited : I.controller.budget();
-  // Hybrid: at rest with the cut converged, exact_batch more nodes turn exact each frame; any change starts again.
-  I.exact_limit = fine && I.engine.hybrid() ? I.exact_limit + I.options.exact_batch : 0;
+  // Hybrid: at rest with the cut converged, more nodes turn exact each frame (TimeCriticalOptions::exact_growth); any
+  // change starts again. The growth is on the limit, not on the nodes made exact: a cell budget that holds fewer
+  // leaves the limit ahead, which costs nothing.
+  if (fine && I.engine.hybrid()) {
+    const double grown = double(I.exact_limit) * (I.options.exact_growth - 1);
+    const uint64_t more = std::max<uint64_t>(I.options.exact_batch, grown >= 1e18 ? uint64_t(1e18) : uint64_t(grown));
+    I.exact_limit = I.exact_limit > UINT64_MAX - more ? UINT64_MAX : I.exact_limit + more;
+  } else {
+    I.exact_limit = 0;
+  }
   Image image = I.step(camera, tf, settings, f.resting, I.policy.current(), f);
   I.rest_converged = f.resting && f.converged;
   f.converged = fine && f.converged && exact_complete(f.render);

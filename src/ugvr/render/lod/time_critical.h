@@ -48,9 +48,15 @@ struct TimeCriticalOptions {
   double resting_step_voxels = 0.5;  // and once it rests and the cut has converged
   int loader_threads = 0;            // RAM cache workers (0: hardware concurrency)
   double min_scale = 0.25;           // smallest image scale while moving (quality_policy.h)
-  // Hybrid engines (LodOptions::hybrid; docs/hybrid.md): once the view rests and the cut has converged, this many
-  // more nodes turn exact per frame, in priority order (progressive refinement, Callahan 2006); none while it moves.
-  uint64_t exact_batch = 64;
+  // Hybrid engines (LodOptions::hybrid; docs/hybrid.md): once the view rests and the cut has converged, more nodes
+  // turn exact each frame, in priority order (progressive refinement, Callahan 2006); none while it moves. The first
+  // resting frame turns exact_batch; each later one max(exact_batch, (exact_growth - 1) × the nodes already exact),
+  // so the exact set grows geometrically: N candidates take about log(N / exact_batch) / log(exact_growth) frames
+  // instead of N / exact_batch, each costing at most about exact_growth times the exact work of the frame before
+  // (every resting frame draws all of its exact nodes again, so fixed batches made the wait quadratic in N).
+  // exact_growth 1: fixed batches of exact_batch.
+  uint64_t exact_batch = 64;  // >= 1
+  double exact_growth = 2;    // >= 1
 };
 
 struct TimeCriticalFrame {
