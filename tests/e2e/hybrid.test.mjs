@@ -144,6 +144,16 @@ test("the box of interest is dragged on the view: a face moves along its axis, t
   await page.check("#roi-drag");
   const roi = (expr) => page.evaluate(`ugvrRoi.${expr}`);
   assert.equal(await roi("dragMode"), true);
+  // The box is drawn over the image: its wireframe's pixels on the overlay canvas (drawn from app.js's frame loop).
+  const overlayPixels = () =>
+    page.evaluate(() => {
+      const o = document.getElementById("roi-overlay");
+      const d = o.getContext("2d").getImageData(0, 0, o.width, o.height).data;
+      let n = 0;
+      for (let i = 3; i < d.length; i += 4) n += d[i] > 0;
+      return n;
+    });
+  await waitFor("the box's wireframe on the overlay", async () => (await overlayPixels()) > 200, 10_000, 100);
   // A face seen from the camera: the drag from its centre takes that face.
   let face = null, from = null;
   for (let axis = 0; axis < 3 && !face; ++axis)
