@@ -147,7 +147,9 @@ void run_view_mpi(const Options& o, view::ViewServerOptions vo) {
   }
   vo.collective = [inputs = o.inputs, read = o.read, ro] {
     view::CollectiveRenderer c;
-    c.renderer = mpi::open_view_leader(inputs, read, ro, &c.fields);
+    OpenedInput opened;
+    c.renderer = mpi::open_view_leader(inputs, read, ro, &c.fields, &opened);
+    c.histogram_dataset = opened.dataset;
     if (inputs.size() == 1 && is_piece_index(inputs[0])) {
       const PieceIndex index = read_piece_index(inputs[0]);
       for (int k = 0; k < index.count(); ++k) c.histogram_stores.push_back(index.store_path(k));
@@ -157,8 +159,8 @@ void run_view_mpi(const Options& o, view::ViewServerOptions vo) {
     return c;
   };
   serve(std::move(vo), "MPI: " + std::to_string(mpi::size()) +
-                           " ranks draw every frame (one engine; no MIP or time steps, a mesh's fields without "
-                           "histograms under MPI: docs/mpi.md); rank 0 is pid " +
+                           " ranks draw every frame (one engine; no MIP or time steps under MPI: docs/mpi.md); "
+                           "rank 0 is pid " +
                            std::to_string(::getpid()) + " (SIGINT or SIGTERM to it stops every rank)");
 }
 #endif

@@ -194,7 +194,7 @@ std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, 
   if (options.device == "gpu") throw OptionError("device", "under MPI the exact engine renders on the CPU");
   options.device = "cpu";
   auto dataset = std::make_shared<Dataset>(read_dataset(inputs, read));
-  if (opened) opened->warnings = dataset->warnings;
+  if (opened) opened->warnings = dataset->warnings, opened->dataset = dataset;
   if (!dataset->blocks.empty()) *fields = default_field_names(dataset->blocks[0], 4);
   if (options.field.empty() && !fields->empty()) options.field = fields->front();
   auto scene = std::make_shared<ExactScene>(std::move(dataset), options.progress);

@@ -171,10 +171,11 @@ FrameRequest decode_frame_request(const std::string& bytes) {
 }
 
 std::unique_ptr<Renderer> open_view_leader(const std::vector<std::string>& inputs, const ReadOptions& read,
-                                           const RendererOptions& options, std::vector<std::string>* fields) {
+                                           const RendererOptions& options, std::vector<std::string>* fields,
+                                           OpenedInput* opened) {
   if (!threads_serialized())
     fail_in("MPI", "the MPI library does not allow calls from the viewer's render thread (MPI_THREAD_SERIALIZED)");
-  return std::make_unique<ViewLeader>(mpi::open_renderer(inputs, read, options, nullptr, fields));
+  return std::make_unique<ViewLeader>(mpi::open_renderer(inputs, read, options, opened, fields));
 }
 
 void follow_view(const std::vector<std::string>& inputs, const ReadOptions& read, const RendererOptions& options) {

@@ -32,10 +32,11 @@ FrameRequest decode_frame_request(const std::string& bytes);  // throws ugvr::Er
 // it collectively; while the view moves (a target_fps and not full_quality: the viewer asks for full quality once a
 // tab's view rests) it draws at a reduced scale chosen from the slowest rank's time, magnified to the requested size
 // (FrameStats::scale, converged false), and at full scale once the view rests. Destroying it tells the followers to
-// quit. `fields` receives the fields the page may pick (mpi::open_renderer). Throws ugvr::Error when MPI cannot be
-// called from this thread (no MPI_THREAD_SERIALIZED).
+// quit. `fields` receives the fields the page may pick, `opened` the reader's warnings and a mesh's dataset
+// (mpi::open_renderer). Throws ugvr::Error when MPI cannot be called from this thread (no MPI_THREAD_SERIALIZED).
 std::unique_ptr<Renderer> open_view_leader(const std::vector<std::string>& inputs, const ReadOptions& read,
-                                           const RendererOptions& options, std::vector<std::string>* fields);
+                                           const RendererOptions& options, std::vector<std::string>* fields,
+                                           OpenedInput* opened = nullptr);
 
 // Ranks > 0: opens `inputs` the same way and draws every request rank 0 broadcasts, until it says quit. What fails
 // here throws (the caller ends the job with abort_job).

@@ -52,6 +52,9 @@ bool is_brick_store(const std::string& path);  // a .ugvr, or a file with the st
 // What open_renderer opened besides the renderer.
 struct OpenedInput {
   std::vector<std::string> warnings;  // the reader's (ignored cells, padding, ...)
+  // A mesh's dataset as read, whole (under MPI too, where each rank draws its part of it): what the viewer's
+  // histograms are counted from. Set by mpi::open_renderer; null for a store.
+  std::shared_ptr<const Dataset> dataset;
 };
 
 // Opens `inputs` (a mesh in any readable format, a PLOT3D grid + solution, or one .ugvr store) and makes the

@@ -110,7 +110,7 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
     CollectiveRenderer opened = options_.collective();
     collective_ = std::move(opened.renderer);
     renderer_ = collective_->device();
-    scene_ = collective_scene(opened.fields, opened.histogram_stores);
+    scene_ = collective_scene(opened);
     return;
   }
   gl_ = std::make_shared<GlContext>(options_.gpu);
@@ -252,17 +252,22 @@ SceneInfo EngineHost::lod_scene() const {
   return sc;
 }
 
-SceneInfo EngineHost::collective_scene(const std::vector<std::string>& fields,
-                                       const std::vector<std::string>& histogram_stores) {
+SceneInfo EngineHost::collective_scene(const CollectiveRenderer& opened) {
   // The ranges are the whole data's on every rank (mpi_renderer.h). The histograms come from the stores' coarse
-  // levels, as store_fields' (a mesh's would need every rank's cells: none).
+  // levels, as store_fields', or from a mesh's values, as the grid's (GridLoad): over the same whole-data ranges.
+  const std::vector<std::string>& fields = opened.fields;
   std::vector<FieldInfo> infos;
   std::vector<BrickStoreReader> stores;
-  for (const std::string& path : histogram_stores) stores.emplace_back(path);
-  for (const std::string& name : fields) {
+  for (const std::string& path : opened.histogram_stores) stores.emplace_back(path);
+  std::optional<OctreeInput> mesh;
+  if (opened.histogram_dataset) mesh.emplace(prepare_octree_input(*opened.histogram_dataset, fields));
+  for (size_t k = 0; k < fields.size(); ++k) {
+    const std::string& name = fields[k];
     collective_->set_field(name);
     const FieldRange range = collective_->field_range();
     std::vector<uint64_t> histogram;
+    if (mesh && k < mesh->scalars.size())
+      histogram = field_histogram(*mesh->scalars[k].field, mesh->scalars[k].component, kHistogramBins);
     for (const BrickStoreReader& store : stores)
       for (uint32_t i = 0; i < store.field_count(); ++i) {
         if (store.layout().fields[i].name != name) continue;

@@ -107,7 +107,7 @@ class EngineHost {
   // (the first varying one shown) and bounds.
   SceneInfo base_scene(std::vector<FieldInfo> fields, const Bounds& bounds) const;
   SceneInfo lod_scene() const;
-  SceneInfo collective_scene(const std::vector<std::string>& fields, const std::vector<std::string>& histogram_stores);
+  SceneInfo collective_scene(const CollectiveRenderer& opened);
   // `store` (the build's coarse preview, or the store itself) becomes the one shown, to every tab afresh.
   void show_store(std::shared_ptr<LodScene> store);
   std::vector<EngineChoice> engines() const;  // what the tabs may pick now

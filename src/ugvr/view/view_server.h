@@ -46,8 +46,11 @@ struct CollectiveRenderer {
   std::shared_ptr<Renderer> renderer;
   std::vector<std::string> fields;
   // Stores whose coarse levels give the fields' histograms, summed (a store, or a partitioned store's pieces: they
-  // share the whole data's field ranges, so their bins agree); read by rank 0 alone. Empty (a mesh): no histograms.
+  // share the whole data's field ranges, so their bins agree); read by rank 0 alone.
   std::vector<std::string> histogram_stores;
+  // A mesh: the dataset rank 0 read (whole, as every rank does before keeping its part), whose fields' values give
+  // the histograms, as the single-process viewer's grid does.
+  std::shared_ptr<const Dataset> histogram_dataset;
 };
 
 struct ViewServerOptions {
