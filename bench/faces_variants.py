@@ -22,7 +22,7 @@ import sys
 VARIANTS = {
     'off': [('#ifndef FACES\n#define FACES 0', '#undef FACES\n#define FACES 0\n#if 0')],
     'plumb': [('bool fpend = face_node[node].y != 0u;', 'bool fpend = false;')],
-    'notrigger': [('if (fpend && ((vb.g > 0.001', 'if (false && fpend && ((vb.g > 0.001')],
+    'notrigger': [('if (!crossings && fpend && ((vb.g > 0.001', 'if (false && fpend && ((vb.g > 0.001')],
     'nopass': [('fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);', 'fstate = -1;')],
     'nfcheap': [('fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);',
                  'fstate = int(face_node[node].y & 1u); g_nh = int(face_node[node].x & 1u); g_fh[0] = tstart; '
