@@ -14,6 +14,14 @@ Usage: bench/faces_variants.py SHADER_DIR OUT_ROOT VARIANT...   writes OUT_ROOT/
   noside     no nearest-face rule (side_of_faces) where the line meets no face
   nowalk     nodes over the cap treated as having no faces (no walk through descendants or virtual nodes)
   tri4       at most 4 triangles of a cell tested
+Counting variants (draw the right image; the frame's `samples` and `bricks_entered` in `render --stats` are replaced
+by two counts, c0 and c1, summed over the rays; render one frame):
+  count-entries   c0: node entries into nodes with faces, c1: face passes (node_faces calls)
+  count-kinds     face passes at c0: a node on one plane (FACE_PLANE), c1: a node over the cap (a walk); the rest of
+                  the passes (count-entries' c1 minus both) at a node that lists its triangles
+  count-calls     c0: cells whose triangles are tested (cell_faces), c1: cells clipped at their plane (plane_faces)
+  count-planes12  cell_faces calls whose triangles lie on c0: one plane (not covering the section), c1: two planes
+  count-planes34  the same, c0: three planes, c1: four or more (1e-4 apart in normal and offset, normalised)
 """
 import os
 import shutil
@@ -22,7 +30,7 @@ import sys
 VARIANTS = {
     'off': [('#ifndef FACES\n#define FACES 0', '#undef FACES\n#define FACES 0\n#if 0')],
     'plumb': [('bool fpend = face_node[node].y != 0u;', 'bool fpend = false;')],
-    'notrigger': [('if (fpend && ((vb.g > 0.001', 'if (false && fpend && ((vb.g > 0.001')],
+    'notrigger': [('if (!crossings && fpend && ((vb.g > 0.001', 'if (false && fpend && ((vb.g > 0.001')],
     'nopass': [('fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);', 'fstate = -1;')],
     'nfcheap': [('fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);',
                  'fstate = int(face_node[node].y & 1u); g_nh = int(face_node[node].x & 1u); g_fh[0] = tstart; '
@@ -38,6 +46,45 @@ VARIANTS = {
     vec3 p0 = vec3(face_tri[b], face_tri[b + 1u], face_tri[b + 2u]);
     vec3 e1''')],
 }
+
+# The counting variants' shared part: two counters, and the number of distinct planes of a cell's triangles.
+COUNT_COMMON = [('int g_nh;\n', '''int g_nh;
+uint g_c0 = 0u, g_c1 = 0u;
+int distinct_planes(uvec2 fe) {
+  vec4 pl[8];
+  int np = 0;
+  for (uint i = 0u; i < fe.y; ++i) {
+    uint b = face_ref[fe.x + i] * 9u;
+    vec3 p0 = vec3(face_tri[b], face_tri[b + 1u], face_tri[b + 2u]);
+    vec3 n = normalize(cross(vec3(face_tri[b + 3u], face_tri[b + 4u], face_tri[b + 5u]) - p0,
+                             vec3(face_tri[b + 6u], face_tri[b + 7u], face_tri[b + 8u]) - p0));
+    vec4 q = vec4(n, dot(n, p0));
+    bool found = false;
+    for (int k = 0; k < np; ++k) found = found || distance(pl[k], q) < 1e-4;
+    if (!found && np < 8) pl[np++] = q;
+  }
+  return np;
+}
+'''), ('  atomicAdd(counters[COUNTER_SAMPLES], samples);',
+        '  samples = g_c0;\n  bricks = g_c1;\n  atomicAdd(counters[COUNTER_SAMPLES], samples);')]
+CELL_FACES = 'bool cell_faces(uvec2 fe, vec3 o, vec3 d, float t0, float t1, float eps, inout int state) {\n'
+PLANE_FACES = 'bool plane_faces(uint at, vec3 o, vec3 d, float t0, float t1, inout int state) {\n'
+NODE_FACES = '    int fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);\n'
+VARIANTS.update({
+    'count-entries': COUNT_COMMON + [
+        ('  bool fpend = face_node[node].y != 0u;\n',
+         '  bool fpend = face_node[node].y != 0u;\n  if (fpend) ++g_c0;\n'),
+        (NODE_FACES, '    ++g_c1;\n' + NODE_FACES)],
+    'count-kinds': COUNT_COMMON + [
+        (NODE_FACES, '    if (face_node[node].y == FACE_PLANE) ++g_c0;\n'
+                     '    if (face_node[node].y == FACE_OVERFLOW) ++g_c1;\n' + NODE_FACES)],
+    'count-calls': COUNT_COMMON + [(CELL_FACES, CELL_FACES + '  ++g_c0;\n'),
+                                   (PLANE_FACES, PLANE_FACES + '  ++g_c1;\n')],
+    'count-planes12': COUNT_COMMON + [
+        (CELL_FACES, CELL_FACES + '  int np = distinct_planes(fe);\n  if (np == 1) ++g_c0;\n  if (np == 2) ++g_c1;\n')],
+    'count-planes34': COUNT_COMMON + [
+        (CELL_FACES, CELL_FACES + '  int np = distinct_planes(fe);\n  if (np == 3) ++g_c0;\n  if (np >= 4) ++g_c1;\n')],
+})
 
 
 def main():

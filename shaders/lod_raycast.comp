@@ -106,10 +106,14 @@ layout(std430, binding = FACE_NODE_BUFFER_BINDING) readonly buffer FaceNodes { u
 layout(std430, binding = FACE_REF_BUFFER_BINDING) readonly buffer FaceRefs { uint face_ref[]; };
 layout(std430, binding = FACE_TRI_BUFFER_BINDING) readonly buffer FaceTris { float face_tri[]; };
 
-// The current node's crossings along the ray: t, +1 entering / -1 leaving, the face's normal (normalised coordinates).
+// The current node's crossings along the ray: t, +1 entering / -1 leaving, the face's normal (normalised coordinates;
+// the overlay's only: without it, not kept, as its stores in add_crossing's shifts cost llvmpipe even though nothing
+// reads them).
 float g_fh[MAX_FACE_HITS];
 float g_fs[MAX_FACE_HITS];
+#if OVERLAY
 vec3 g_fn[MAX_FACE_HITS];
+#endif
 int g_nh;
 
 // The point of triangle (a, b, c) nearest to p (Ericson, "Real-Time Collision Detection", 5.1.5).
@@ -168,11 +172,15 @@ bool add_crossing(float th, float sg, vec3 n) {
   for (; j > 0 && g_fh[j - 1] > th; --j) {
     g_fh[j] = g_fh[j - 1];
     g_fs[j] = g_fs[j - 1];
+#if OVERLAY
     g_fn[j] = g_fn[j - 1];
+#endif
   }
   g_fh[j] = th;
   g_fs[j] = sg;
+#if OVERLAY
   g_fn[j] = n;
+#endif
   return true;
 }
 
@@ -846,6 +854,321 @@ void composite_face(vec3 n, vec3 dir_world, inout vec3 radiance, inout float tra
 #endif
 #endif
 
+// The samples of one node (atlas line c0 + c1·t, sample step, world voxel size, cubic margin, context) from tstart to
+// its exit t_exit (t: where the ray entered it); the ray's accumulation (radiance onwards) carried from node to node.
+// `crossings` is a literal at each call (march_node's two passes) and every call is inlined, so the first pass's
+// loop has no crossing code at all (fstate is -1 there: the stencil decides) and only the second's pays for it.
+// First pass, fpend: the node has faces not yet looked at; the loop stops at the first sample near the boundary
+// (returns true, tstart set where the second pass starts).
+bool sample_run(const bool crossings, float t, float t_exit, vec3 c0, vec3 c1, float step, vec3 voxel, float margin,
+                bool context, bool fpend, int fstate, inout float tstart, vec3 dir_world, float t_end, float t_base,
+                float vol_lo, float vol_hi, inout vec3 radiance, inout float transmittance, inout float mip_max,
+                inout uint samples, inout bool have_prev, inout float prev_value, inout float prev_t,
+                inout bool prev_sure, inout bool ov_inside, inout float ov_t, inout int sj) {
+  bool restart = false;
+#if FACES
+  // fj: the next crossing to pass. fnext: g_fh[fj], or beyond any sample when there is none or the stencil decides:
+  // the sample loop compares each sample with this one float, where reading g_fh[fj] cost llvmpipe a gather per
+  // sample (fj differs between the lanes) even where no face was ever looked at.
+  int fj = 0;
+  float fnext = crossings && fstate >= 0 && g_nh > 0 ? g_fh[0] : 3.0e38;
+#endif
+  float k = floor(tstart / step);
+  float sa = tstart;
+  vec2 va = vec2(0.0);
+#if MODE == LOD_MODE_EA
+  vec4 ia = vec4(0.0);  // the integrals at the previous sample's value
+#endif
+#if MODE == LOD_MODE_EA && VOLUME_LIGHTING
+  float shade_a = 1.0;
+#endif
+  for (float sb = tstart;;) {
+    vec3 c = c0 + c1 * sb;
+#if TRICUBIC && !TRICUBIC_WALK
+    // The stencil trilinear (as in the trilinear path), the value the spline's wherever its sign could differ.
+    vec2 vb = texture(u_atlas, c).rg;
+    vb.r = bracket_value(c, vb.r, margin);
+#else
+    vec2 vb = texture(u_atlas, c).rg;
+#endif
+#if SLICES
+    float stencil_b = vb.g;  // before the faces' state replaces it (below)
+#endif
+    ++samples;
+    bool first = sb == tstart;
+#if FACES
+    if (!crossings && fpend && ((vb.g > 0.001 && vb.g < 0.999) || (!first && (vb.g >= 0.5) != (va.g >= 0.5)))) {
+      fpend = false;
+      restart = true;
+      tstart = first ? tstart : sa;
+      break;
+    }
+    if (crossings && fstate >= 0) {  // the segment [sa, sb] lies wholly on one side of the faces
+      va.g = vb.g = fstate == 1 ? 1.0 : 0.0;
+    }
+#endif
+#if OVERLAY
+    // The overlay's state is read at each segment's midpoint tm, never at a node's faces: there the point just
+    // inside a crossing, whose node gives the normal's brick, could be located in the neighbour by rounding. A
+    // change between ov_t and tm: entering, the overlay lies before this segment's valid part; leaving, after it.
+    // (Past t_end only where the last node's exit passes it by rounding: outside the ray, no state.)
+    float tm = 0.5 * (sa + sb);
+    bool ov_state = !first && tm < t_end;
+#if FACES
+    bool ov_cross = ov_state && (!crossings || fstate < 0) && (texture(u_atlas, c0 + c1 * tm).g >= 0.5) != ov_inside;
+#else
+    bool ov_cross = ov_state && (texture(u_atlas, c0 + c1 * tm).g >= 0.5) != ov_inside;
+#endif
+    bool ov_leave = ov_cross && ov_inside;
+    if (ov_cross && !ov_inside) {
+      composite_overlay(boundary_crossing(ov_t, tm, false), dir_world, radiance, transmittance);
+      ov_inside = true;
+      if (transmittance <= u_min_transmittance) break;
+    }
+#endif
+#if MODE == LOD_MODE_EA
+    {
+#if VOLUME_LIGHTING
+      // The shade at each sample (the gradient where the data there is not transparent); a segment takes the mean
+      // of its ends'.
+      float shade_b = 1.0;
+      if (vb.g >= 0.5 && tf_at(vb.r).a > 0.0) {
+        vec3 g = gradient_at(c, voxel);
+        float gl = length(g);
+        if (gl > 0.0) shade_b = AMBIENT + DIFFUSE * abs(dot(g, dir_world)) / gl;
+      }
+      float shade = 0.5 * (shade_a + shade_b);
+      shade_a = shade_b;
+#else
+      const float shade = 1.0;
+#endif
+      bool ga = va.g >= 0.5, gb = vb.g >= 0.5;
+      float ua = va.r * u_tf_map.x + u_tf_map.y, ub = vb.r * u_tf_map.x + u_tf_map.y;
+      vec4 ib = integral_at(ub);
+#if SLICES
+      float tmid = 0.5 * (sa + sb);
+      bool shown = tmid >= vol_lo && tmid <= vol_hi;
+#else
+      const bool shown = true;
+#endif
+      if (!first && (ga || gb) && shown) {
+        float len = sb - sa;
+        vec4 mean;
+        if (ga && gb && abs(ub - ua) >= 0.5 / (float(TF_TEXELS) - 1.0)) {
+          mean = (ib - ia) / (ub - ua);
+        } else {
+          // The value is linear between the samples. Where only one end is valid, the stencil's 1/2 crossing (linear
+          // between them) ends the data, and the value is the same line up to there.
+          float u0 = ua, u1 = ub;
+          if (!(ga && gb)) {
+            float f = clamp((0.5 - va.g) / (vb.g - va.g), 0.0, 1.0);
+            float uf = mix(ua, ub, f);
+            if (ga) {
+              u1 = uf;
+              len *= f;
+            } else {
+              u0 = uf;
+              len *= 1.0 - f;
+            }
+          }
+          vec4 p = texture(u_tf, (clamp(0.5 * (u0 + u1), 0.0, 1.0) * (float(TF_TEXELS) - 1.0) + 0.5) /
+                                     float(TF_TEXELS));
+          mean = vec4(p.rgb * p.a, p.a);
+        }
+        if (context && mean.a > 0.0) mean = context_sample(mean);
+        if (mean.a > 0.0) {
+          float a = 1.0 - exp(-mean.a * len);
+          radiance += transmittance * a * shade * (mean.rgb / mean.a);
+          transmittance *= 1.0 - a;
+        }
+      }
+      ia = ib;
+    }
+#elif MODE == LOD_MODE_MIP
+#if SLICES
+    if (vb.g >= 0.5 && sb >= vol_lo && sb <= vol_hi) mip_max = max(mip_max, vb.r);
+#else
+    if (vb.g >= 0.5) mip_max = max(mip_max, vb.r);
+#endif
+#elif TRICUBIC_WALK
+    if (vb.g < 0.5) {
+      have_prev = false;
+    } else if (!(have_prev && sb <= prev_t)) {  // a resumed walk's first sample: the known one stays
+      bool sure = true;  // the spline's sign here is the trilinear value's for every iso value
+      bool crosses = false;
+      for (int i = 0; i < u_iso_count; ++i) {
+        float iso = iso_value(i);
+        sure = sure && abs(vb.r - iso) >= margin;
+        crosses = crosses || (have_prev && (prev_value < iso) != (vb.r < iso));
+      }
+      if (have_prev && (crosses || !sure || !prev_sure)) {
+        g_cand = true;
+        g_cand_ta = max(prev_t, t), g_cand_fa = prev_value, g_cand_sure = prev_sure, g_cand_tb = sb;
+        g_cand_t = t, g_cand_c0 = c0, g_cand_c1 = c1, g_cand_voxel = voxel;
+        g_cand_step = step, g_cand_exit = t_exit, g_cand_margin = margin;
+        g_cand_transmittance = transmittance;
+        transmittance = 0.0;  // stops the walk
+      }
+      have_prev = true;
+      prev_value = vb.r;
+      prev_t = sb;
+      prev_sure = sure;
+    }
+#else
+    if (vb.g < 0.5) {
+      have_prev = false;
+    } else {
+      if (have_prev && vb.r != prev_value) {
+        bool up = vb.r > prev_value;
+        for (int i = 0; i < u_iso_count; ++i) {
+          float iso = iso_value(up ? i : u_iso_count - 1 - i);
+          if ((prev_value < iso) == (vb.r < iso)) continue;
+#if TRICUBIC
+          // Bracketed by the samples (their signs are the spline's: bracket_value), located on the spline (a
+          // crossing of the previous node's last segment has prev_t at this node's entry t, up to rounding:
+          // searched from t in this node's brick).
+          float th = cubic_crossing(max(prev_t, t), prev_value, sb, vb.r, iso, c0, c1);
+#else
+          float th = prev_t + (iso - prev_value) / (vb.r - prev_value) * (sb - prev_t);
+#endif
+#if SLICES
+          if (th < vol_lo || th > vol_hi) continue;
+#endif
+          vec3 ch = c0 + c1 * max(th, t);  // a crossing just before this brick: its entry
+#if TRICUBIC
+          vec3 color = shade_surface(tf_at(iso).rgb, cubic_gradient(ch, voxel), dir_world);
+#else
+          vec3 color = shade_surface(tf_at(iso).rgb, gradient_at(ch, voxel), dir_world);
+#endif
+          radiance += transmittance * u_iso_opacity * color;
+          transmittance *= 1.0 - u_iso_opacity;
+        }
+      }
+      have_prev = true;
+      prev_value = vb.r;
+      prev_t = sb;
+    }
+#endif
+#if OVERLAY
+    if (ov_leave) {
+      composite_overlay(boundary_crossing(ov_t, tm, true), dir_world, radiance, transmittance);
+      ov_inside = false;
+    }
+    if (ov_state) ov_t = tm;
+#endif
+#if FACES
+    // Passing crossings at sb (those within u_nudge of it are one, their signs summed): the state after them.
+    if (crossings && fnext <= sb) {
+      float sum = 0.0;
+#if OVERLAY
+      vec3 fn = vec3(0.0);
+#endif
+      for (; fj < g_nh && g_fh[fj] <= sb + u_nudge; ++fj) {
+        sum += g_fs[fj];
+#if OVERLAY
+        fn = g_fn[fj];
+#endif
+      }
+      int next = sum > 0.0 ? 1 : sum < 0.0 ? 0 : fstate;
+#if OVERLAY
+      if (next != fstate && sb < t_end) {
+        composite_face(fn, dir_world, radiance, transmittance);
+        ov_inside = next == 1;
+        ov_t = sb;
+      }
+#endif
+      fstate = next;
+      fnext = fj < g_nh ? g_fh[fj] : 3.0e38;
+    }
+#endif
+#if SLICES
+    // The slices at this sample (it was put on their crossing): inside the data, the brick's value there. Inside:
+    // where the stencil is wholly valid, even if the faces' state says otherwise (a seam of the mesh, such as an
+    // O-grid's cut, has faces on both sides whose crossings may leave the state wrong over a segment: too short to
+    // see in the volume, a crack in a slice); near the boundary (the stencil strictly between), the faces' state.
+    bool slice_inside = stencil_b >= 0.999 || (stencil_b > 0.001 && vb.g >= 0.5);
+    for (; sj < g_ns && g_st[sj] <= sb; ++sj)
+      if (slice_inside) composite_slice(g_si[sj], vb.r, c, voxel, t_base + sb, dir_world, radiance, transmittance);
+#endif
+    if (transmittance <= u_min_transmittance || sb >= t_exit) break;
+    sa = sb;
+    va = vb;
+    // The next grid point past sa (float rounding may need a second try), or the exit; with faces, or the next
+    // crossing if that comes first.
+    do {
+      k += 1.0;
+      sb = min(k * step, t_exit);
+    } while (!(sb > sa));
+    float sb_grid = sb;
+#if FACES
+    if (crossings && fnext < sb) {
+      sb = max(fnext, sa);
+      if (!(sb > sa)) sb = min(sa + u_nudge, t_exit);
+    }
+#endif
+#if SLICES
+    if (sj < g_ns && g_st[sj] < sb) sb = g_st[sj];  // > sa: those up to sa are passed
+#endif
+    if (sb < sb_grid) k -= 1.0;  // the grid point stays ahead
+  }
+  return restart;
+}
+
+// One cut node's brick (main's walk found it: tree index, state (slot and NODE_CONTEXT), box lo, size and level),
+// from the ray's entry t to its exit t_exit: sample_run, then where it stopped near the boundary the node's faces and
+// sample_run again with their crossings.
+void march_node(uint node, uint state, vec3 lo, float size, int level, float t, float t_exit, vec3 base, vec3 dir,
+                vec3 inv_dir, vec3 dir_world, float t_end, float t_base, float vol_lo, float vol_hi,
+                inout vec3 radiance, inout float transmittance, inout float mip_max, inout uint samples,
+                inout bool have_prev, inout float prev_value, inout float prev_t, inout bool prev_sure,
+                inout bool ov_inside, inout float ov_t, inout int sj) {
+  // Focus+context: a node of zero interest is drawn as context (context_sample); its state is its slot otherwise.
+  bool context = (state & NODE_CONTEXT) != 0u;
+  state &= ~NODE_CONTEXT;
+  // The atlas coordinate is affine in t inside one node: c(t) = c0 + c1 · t.
+  vec3 scale = vec3(float(u_resolution - 1) / size) * u_atlas_inv;
+  vec3 c0 = (slot_origin(state) + 1.5) * u_atlas_inv + (base - lo) * scale;
+  vec3 c1 = dir * scale;
+  float step = u_fixed_step ? u_step0 : u_step0 / float(1 << level);
+  vec3 voxel = u_root_size * (size / float(u_resolution - 1));
+  float margin = 0.0;
+#if TRICUBIC
+  margin = cubic_margin(state);
+#endif
+#if FACES
+  // The faces are looked at lazily: only once the stencil along the ray is neither wholly valid nor wholly empty (a
+  // sample strictly between, or a change), i.e. near the boundary; before that the stencil is the faces' answer (up
+  // to a feature thinner than a voxel). Most rays through a node the boundary crosses never come near it. Then the
+  // first pass stops before that sample's segment, the faces are intersected from the previous sample on (fstate:
+  // inside the mesh (1) or not (0) at tstart; -1: the stencil decides), and a second pass starts there with their
+  // crossings (node_faces stays out of the sample loop, whose code llvmpipe compiles far slower with it inside). The
+  // first pass has no crossing code (sample_run): on llvmpipe each branch of the sample loop costs on every sample
+  // whether taken or not (8 rays a SIMD vector, masks, more live values), and most samples, in nodes without faces
+  // and in those with faces before the trigger, need none of it.
+  bool fpend = face_node[node].y != 0u;
+  g_nh = 0;
+#else
+  const bool fpend = false;
+#endif
+  // Samples at the node's entry t, at the level's grid points k·step inside, and at its exit; sa, va: the previous
+  // sample of this node (none before the entry).
+  float tstart = t;
+  bool restart = sample_run(false, t, t_exit, c0, c1, step, voxel, margin, context, fpend, -1, tstart, dir_world,
+                            t_end, t_base, vol_lo, vol_hi, radiance, transmittance, mip_max, samples, have_prev,
+                            prev_value, prev_t, prev_sure, ov_inside, ov_t, sj);
+#if FACES
+  if (restart) {
+    int fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);
+#if OVERLAY
+    if (fstate >= 0) ov_inside = fstate == 1;  // the faces know better than the stencil
+#endif
+    sample_run(true, t, t_exit, c0, c1, step, voxel, margin, context, false, fstate, tstart, dir_world, t_end, t_base,
+               vol_lo, vol_hi, radiance, transmittance, mip_max, samples, have_prev, prev_value, prev_t, prev_sure,
+               ov_inside, ov_t, sj);
+  }
+#endif
+}
+
 void main() {
   ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
   if (pix.x >= u_size.x || pix.y >= u_size.y) return;
@@ -881,12 +1204,19 @@ void main() {
     t = max(t, max(max(min(ba.x, bb.x), min(ba.y, bb.y)), min(ba.z, bb.z)));
     t_end = min(t_end, min(min(max(ba.x, bb.x), max(ba.y, bb.y)), max(ba.z, bb.z)));
   }
+  // Declared whatever the variant (march_node takes them; unused, they fold away): the volume's t-range and the next
+  // slice crossing (SLICES), the overlay's state (OVERLAY), the tricubic walk's sign (TRICUBIC_WALK).
+  float vol_lo = -3.0e38, vol_hi = 3.0e38;
+  int sj = 0;  // the next crossing to pass
+  bool ov_inside = false;
+  float ov_t = t;
+  bool prev_sure = true;
 #if SLICES
   // The crossings in [t, t_end], sorted; the volume shows in [vol_lo, vol_hi] only (hide_volume: front keeps each
   // plane's negative side, back its positive side). Each bound is a crossing, hence a sample: a segment between two
   // samples is wholly in or out, decided at its middle.
   g_ns = 0;
-  float vol_lo = u_hide_volume == 3 ? 1.0 : -3.0e38, vol_hi = u_hide_volume == 3 ? -1.0 : 3.0e38;
+  if (u_hide_volume == 3) vol_lo = 1.0, vol_hi = -1.0;
   for (int i = 0; i < u_slice_count; ++i) {
     float f0 = dot(u_slice_plane[i].xyz, base) + u_slice_plane[i].w, df = dot(u_slice_plane[i].xyz, dir);
     if (u_hide_volume == 1 || u_hide_volume == 2) {
@@ -906,7 +1236,6 @@ void main() {
     g_st[j] = ts;
     g_si[j] = i;
   }
-  int sj = 0;  // the next crossing to pass
 #endif
 #if OVERLAY
   // Like the exact engine's faces: crossings between the ray's start and end only. A ray that starts at the root
@@ -914,8 +1243,6 @@ void main() {
   // there (the clip plane's cut and the eye are no boundary). ov_t: the last point whose state (ov_inside) is known.
   g_base = base;
   g_dir = dir;
-  bool ov_inside = false;
-  float ov_t = t;
   bool clip_end = t_end < t_out - t_base;
   bool ov_ran = t < t_end;  // the ray has a stretch to walk at all
   if (ov_ran && (t > 0.0 || t_in < 0.0)) ov_inside = validity(base + dir * (t + u_nudge)) >= 0.5;
@@ -923,9 +1250,6 @@ void main() {
 
   bool have_prev = false;
   float prev_value = 0.0, prev_t = 0.0;
-#if TRICUBIC_WALK
-  bool prev_sure = true;
-#endif
   uint samples = 0u, bricks = 0u;
 #if MODE == LOD_MODE_EA
   vec4 end_lo = texture(u_tf, 0.5 / float(TF_TEXELS)), end_hi = texture(u_tf, 1.0 - 0.5 / float(TF_TEXELS));
@@ -998,287 +1322,10 @@ void main() {
     }
 #endif
 
-    // Focus+context: a node of zero interest is drawn as context (context_sample); its state is its slot otherwise.
-    bool context = (state & NODE_CONTEXT) != 0u;
-    state &= ~NODE_CONTEXT;
-    // The atlas coordinate is affine in t inside one node: c(t) = c0 + c1 · t.
-    vec3 scale = vec3(float(u_resolution - 1) / size) * u_atlas_inv;
-    vec3 c0 = (slot_origin(state) + 1.5) * u_atlas_inv + (base - lo) * scale;
-    vec3 c1 = dir * scale;
-    float step = u_fixed_step ? u_step0 : u_step0 / float(1 << level);
-    vec3 voxel = u_root_size * (size / float(u_resolution - 1));
-#if TRICUBIC
-    float margin = cubic_margin(state);
-#endif
     ++bricks;
-#if FACES
-    // fstate: inside the mesh (1) or not (0) over the current segment, from the node's faces; -1: the stencil decides.
-    // fj: the next crossing to pass. The faces are looked at lazily: only once the stencil along the ray is neither
-    // wholly valid nor wholly empty (a sample strictly between, or a change), i.e. near the boundary; before that the
-    // stencil is the faces' answer (up to a feature thinner than a voxel). Most rays through a node the boundary
-    // crosses never come near it. Then the sample loop stops before that sample's segment, the faces are intersected
-    // from the previous sample on, and the loop starts again there (a second pass; the call stays out of the sample
-    // loop, whose code llvmpipe compiles far slower with it inside).
-    bool fpend = face_node[node].y != 0u;
-    int fstate = -1;
-    int fj = 0;
-    // The next crossing to pass, g_fh[fj], or beyond any sample when there is none or the stencil decides: the sample
-    // loop compares each sample with this one float, where reading g_fh[fj] cost llvmpipe a gather per sample (fj
-    // differs between the lanes) even where no face was ever looked at.
-    float fnext = 3.0e38;
-    g_nh = 0;
-#endif
-    // Samples at the node's entry t, at the level's grid points k·step inside, and at its exit; sa, va: the previous
-    // sample of this node (none before the entry).
-    float tstart = t;
-#if FACES
-    for (int pass = 0; pass < 2; ++pass) {
-    bool restart = false;
-#endif
-    float k = floor(tstart / step);
-    float sa = tstart;
-    vec2 va = vec2(0.0);
-#if MODE == LOD_MODE_EA
-    vec4 ia = vec4(0.0);  // the integrals at the previous sample's value
-#endif
-#if MODE == LOD_MODE_EA && VOLUME_LIGHTING
-    float shade_a = 1.0;
-#endif
-    for (float sb = tstart;;) {
-      vec3 c = c0 + c1 * sb;
-#if TRICUBIC && !TRICUBIC_WALK
-      // The stencil trilinear (as in the trilinear path), the value the spline's wherever its sign could differ.
-      vec2 vb = texture(u_atlas, c).rg;
-      vb.r = bracket_value(c, vb.r, margin);
-#else
-      vec2 vb = texture(u_atlas, c).rg;
-#endif
-#if SLICES
-      float stencil_b = vb.g;  // before the faces' state replaces it (below)
-#endif
-      ++samples;
-      bool first = sb == tstart;
-#if FACES
-      if (fpend && ((vb.g > 0.001 && vb.g < 0.999) || (!first && (vb.g >= 0.5) != (va.g >= 0.5)))) {
-        fpend = false;
-        restart = true;
-        tstart = first ? tstart : sa;
-        break;
-      }
-      if (fstate >= 0) {  // the segment [sa, sb] lies wholly on one side of the faces
-        va.g = vb.g = fstate == 1 ? 1.0 : 0.0;
-      }
-#endif
-#if OVERLAY
-      // The overlay's state is read at each segment's midpoint tm, never at a node's faces: there the point just
-      // inside a crossing, whose node gives the normal's brick, could be located in the neighbour by rounding. A
-      // change between ov_t and tm: entering, the overlay lies before this segment's valid part; leaving, after it.
-      // (Past t_end only where the last node's exit passes it by rounding: outside the ray, no state.)
-      float tm = 0.5 * (sa + sb);
-      bool ov_state = !first && tm < t_end;
-#if FACES
-      bool ov_cross = ov_state && fstate < 0 && (texture(u_atlas, c0 + c1 * tm).g >= 0.5) != ov_inside;
-#else
-      bool ov_cross = ov_state && (texture(u_atlas, c0 + c1 * tm).g >= 0.5) != ov_inside;
-#endif
-      bool ov_leave = ov_cross && ov_inside;
-      if (ov_cross && !ov_inside) {
-        composite_overlay(boundary_crossing(ov_t, tm, false), dir_world, radiance, transmittance);
-        ov_inside = true;
-        if (transmittance <= u_min_transmittance) break;
-      }
-#endif
-#if MODE == LOD_MODE_EA
-      {
-#if VOLUME_LIGHTING
-        // The shade at each sample (the gradient where the data there is not transparent); a segment takes the mean
-        // of its ends'.
-        float shade_b = 1.0;
-        if (vb.g >= 0.5 && tf_at(vb.r).a > 0.0) {
-          vec3 g = gradient_at(c, voxel);
-          float gl = length(g);
-          if (gl > 0.0) shade_b = AMBIENT + DIFFUSE * abs(dot(g, dir_world)) / gl;
-        }
-        float shade = 0.5 * (shade_a + shade_b);
-        shade_a = shade_b;
-#else
-        const float shade = 1.0;
-#endif
-        bool ga = va.g >= 0.5, gb = vb.g >= 0.5;
-        float ua = va.r * u_tf_map.x + u_tf_map.y, ub = vb.r * u_tf_map.x + u_tf_map.y;
-        vec4 ib = integral_at(ub);
-#if SLICES
-        float tmid = 0.5 * (sa + sb);
-        bool shown = tmid >= vol_lo && tmid <= vol_hi;
-#else
-        const bool shown = true;
-#endif
-        if (!first && (ga || gb) && shown) {
-          float len = sb - sa;
-          vec4 mean;
-          if (ga && gb && abs(ub - ua) >= 0.5 / (float(TF_TEXELS) - 1.0)) {
-            mean = (ib - ia) / (ub - ua);
-          } else {
-            // The value is linear between the samples. Where only one end is valid, the stencil's 1/2 crossing (linear
-            // between them) ends the data, and the value is the same line up to there.
-            float u0 = ua, u1 = ub;
-            if (!(ga && gb)) {
-              float f = clamp((0.5 - va.g) / (vb.g - va.g), 0.0, 1.0);
-              float uf = mix(ua, ub, f);
-              if (ga) {
-                u1 = uf;
-                len *= f;
-              } else {
-                u0 = uf;
-                len *= 1.0 - f;
-              }
-            }
-            vec4 p = texture(u_tf, (clamp(0.5 * (u0 + u1), 0.0, 1.0) * (float(TF_TEXELS) - 1.0) + 0.5) /
-                                       float(TF_TEXELS));
-            mean = vec4(p.rgb * p.a, p.a);
-          }
-          if (context && mean.a > 0.0) mean = context_sample(mean);
-          if (mean.a > 0.0) {
-            float a = 1.0 - exp(-mean.a * len);
-            radiance += transmittance * a * shade * (mean.rgb / mean.a);
-            transmittance *= 1.0 - a;
-          }
-        }
-        ia = ib;
-      }
-#elif MODE == LOD_MODE_MIP
-#if SLICES
-      if (vb.g >= 0.5 && sb >= vol_lo && sb <= vol_hi) mip_max = max(mip_max, vb.r);
-#else
-      if (vb.g >= 0.5) mip_max = max(mip_max, vb.r);
-#endif
-#elif TRICUBIC_WALK
-      if (vb.g < 0.5) {
-        have_prev = false;
-      } else if (!(have_prev && sb <= prev_t)) {  // a resumed walk's first sample: the known one stays
-        bool sure = true;  // the spline's sign here is the trilinear value's for every iso value
-        bool crosses = false;
-        for (int i = 0; i < u_iso_count; ++i) {
-          float iso = iso_value(i);
-          sure = sure && abs(vb.r - iso) >= margin;
-          crosses = crosses || (have_prev && (prev_value < iso) != (vb.r < iso));
-        }
-        if (have_prev && (crosses || !sure || !prev_sure)) {
-          g_cand = true;
-          g_cand_ta = max(prev_t, t), g_cand_fa = prev_value, g_cand_sure = prev_sure, g_cand_tb = sb;
-          g_cand_t = t, g_cand_c0 = c0, g_cand_c1 = c1, g_cand_voxel = voxel;
-          g_cand_step = step, g_cand_exit = t_exit, g_cand_margin = margin;
-          g_cand_transmittance = transmittance;
-          transmittance = 0.0;  // stops the walk
-        }
-        have_prev = true;
-        prev_value = vb.r;
-        prev_t = sb;
-        prev_sure = sure;
-      }
-#else
-      if (vb.g < 0.5) {
-        have_prev = false;
-      } else {
-        if (have_prev && vb.r != prev_value) {
-          bool up = vb.r > prev_value;
-          for (int i = 0; i < u_iso_count; ++i) {
-            float iso = iso_value(up ? i : u_iso_count - 1 - i);
-            if ((prev_value < iso) == (vb.r < iso)) continue;
-#if TRICUBIC
-            // Bracketed by the samples (their signs are the spline's: bracket_value), located on the spline (a
-            // crossing of the previous node's last segment has prev_t at this node's entry t, up to rounding:
-            // searched from t in this node's brick).
-            float th = cubic_crossing(max(prev_t, t), prev_value, sb, vb.r, iso, c0, c1);
-#else
-            float th = prev_t + (iso - prev_value) / (vb.r - prev_value) * (sb - prev_t);
-#endif
-#if SLICES
-            if (th < vol_lo || th > vol_hi) continue;
-#endif
-            vec3 ch = c0 + c1 * max(th, t);  // a crossing just before this brick: its entry
-#if TRICUBIC
-            vec3 color = shade_surface(tf_at(iso).rgb, cubic_gradient(ch, voxel), dir_world);
-#else
-            vec3 color = shade_surface(tf_at(iso).rgb, gradient_at(ch, voxel), dir_world);
-#endif
-            radiance += transmittance * u_iso_opacity * color;
-            transmittance *= 1.0 - u_iso_opacity;
-          }
-        }
-        have_prev = true;
-        prev_value = vb.r;
-        prev_t = sb;
-      }
-#endif
-#if OVERLAY
-      if (ov_leave) {
-        composite_overlay(boundary_crossing(ov_t, tm, true), dir_world, radiance, transmittance);
-        ov_inside = false;
-      }
-      if (ov_state) ov_t = tm;
-#endif
-#if FACES
-      // Passing crossings at sb (those within u_nudge of it are one, their signs summed): the state after them.
-      if (fnext <= sb) {
-        float sum = 0.0;
-        vec3 fn = vec3(0.0);
-        for (; fj < g_nh && g_fh[fj] <= sb + u_nudge; ++fj) {
-          sum += g_fs[fj];
-          fn = g_fn[fj];
-        }
-        int next = sum > 0.0 ? 1 : sum < 0.0 ? 0 : fstate;
-#if OVERLAY
-        if (next != fstate && sb < t_end) {
-          composite_face(fn, dir_world, radiance, transmittance);
-          ov_inside = next == 1;
-          ov_t = sb;
-        }
-#endif
-        fstate = next;
-        fnext = fj < g_nh ? g_fh[fj] : 3.0e38;
-      }
-#endif
-#if SLICES
-      // The slices at this sample (it was put on their crossing): inside the data, the brick's value there. Inside:
-      // where the stencil is wholly valid, even if the faces' state says otherwise (a seam of the mesh, such as an
-      // O-grid's cut, has faces on both sides whose crossings may leave the state wrong over a segment: too short to
-      // see in the volume, a crack in a slice); near the boundary (the stencil strictly between), the faces' state.
-      bool slice_inside = stencil_b >= 0.999 || (stencil_b > 0.001 && vb.g >= 0.5);
-      for (; sj < g_ns && g_st[sj] <= sb; ++sj)
-        if (slice_inside) composite_slice(g_si[sj], vb.r, c, voxel, t_base + sb, dir_world, radiance, transmittance);
-#endif
-      if (transmittance <= u_min_transmittance || sb >= t_exit) break;
-      sa = sb;
-      va = vb;
-      // The next grid point past sa (float rounding may need a second try), or the exit; with faces, or the next
-      // crossing if that comes first.
-      do {
-        k += 1.0;
-        sb = min(k * step, t_exit);
-      } while (!(sb > sa));
-      float sb_grid = sb;
-#if FACES
-      if (fnext < sb) {
-        sb = max(fnext, sa);
-        if (!(sb > sa)) sb = min(sa + u_nudge, t_exit);
-      }
-#endif
-#if SLICES
-      if (sj < g_ns && g_st[sj] < sb) sb = g_st[sj];  // > sa: those up to sa are passed
-#endif
-      if (sb < sb_grid) k -= 1.0;  // the grid point stays ahead
-    }
-#if FACES
-    if (!restart) break;
-    fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);
-    fj = 0;
-    fnext = fstate >= 0 && g_nh > 0 ? g_fh[0] : 3.0e38;
-#if OVERLAY
-    if (fstate >= 0) ov_inside = fstate == 1;  // the faces know better than the stencil
-#endif
-    }
-#endif
+    march_node(node, state, lo, size, level, t, t_exit, base, dir, inv_dir, dir_world, t_end, t_base, vol_lo, vol_hi,
+               radiance, transmittance, mip_max, samples, have_prev, prev_value, prev_t, prev_sure, ov_inside, ov_t,
+               sj);
     t = t_exit;
   }
 #if TRICUBIC_WALK
