@@ -11,8 +11,11 @@
 # PER_BRICK=1 adds, in each round, tricubic with each brick prefiltered alone (UGVR_TRICUBIC_EXTENSION=0, as before
 # the same-level neighbourhood of docs/tricubic.md, "Seams") after the default (the neighbourhood): frame time and the
 # first frame's upload time (load_seconds, all bricks uploaded then) before/after in one run.
+# LEVELS=1 adds, in each round, tricubic without the level blend (UGVR_TRICUBIC_LEVEL_BLEND=0: each level's own
+# spline, as before docs/tricubic.md's "Level borders") after the default; with CUT=pixels:N (default leaves) the cut
+# mixes levels, so that the blend's extra upload (the ancestors' neighbourhoods) and its frame time show.
 # Usage: bench/run_tricubic.sh [OUT_DIR=/tmp/ugvr-tricubic]; UGVR (default build/ugvr), N, SIZE, FRAMES, ROUNDS,
-# FIELD (sphere), BRICKS (64), PER_BRICK, PYTHON. One JSON line per render is appended to bench/results/tricubic.jsonl.
+# FIELD (sphere), BRICKS (64), PER_BRICK, LEVELS, CUT (leaves), PYTHON. One JSON line per render is appended to bench/results/tricubic.jsonl.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-/tmp/ugvr-tricubic}
@@ -58,22 +61,30 @@ cat > "$out/camera.json" <<'CAM'
 {"position": [1.6, 1.3, 2.0], "focal_point": [0.5, 0.5, 0.5], "view_up": [0, 1, 0], "view_angle": 24}
 CAM
 variants="trilinear tricubic"
-[ "${PER_BRICK:-0}" = 1 ] && variants="trilinear tricubic tricubic-per-brick"
+[ "${PER_BRICK:-0}" = 1 ] && variants="$variants tricubic-per-brick"
+[ "${LEVELS:-0}" = 1 ] && variants="$variants tricubic-no-level-blend"
+cut=${CUT:-leaves}
+upload_size=64
+[ "$cut" != leaves ] && upload_size=$size
 for round in $(seq "$rounds"); do
   for variant in $variants; do
-    interp=${variant%-per-brick}
+    interp=${variant%%-*}
     extension=""
     [ "$variant" = tricubic-per-brick ] && extension=0
-    UGVR_TRICUBIC_EXTENSION=$extension "$ugvr" --quiet render "$store" --engine lod --cut leaves \
+    blend=""
+    [ "$variant" = tricubic-no-level-blend ] && blend=0
+    UGVR_TRICUBIC_EXTENSION=$extension UGVR_TRICUBIC_LEVEL_BLEND=$blend "$ugvr" --quiet render "$store" --engine lod --cut "$cut" \
       --camera "$out/camera.json" --size "$size" --iso $iso --interpolation "$interp" -o "$out/$variant.png" \
       --stats "$out/$variant.json" --frames "$frames"
-    # The upload: one frame at 64² (its stats are the frame that uploads every brick of the cut).
-    UGVR_TRICUBIC_EXTENSION=$extension "$ugvr" --quiet render "$store" --engine lod --cut leaves \
-      --camera "$out/camera.json" --size 64 --iso $iso --interpolation "$interp" -o "$out/$variant-64.png" \
+    # The upload: one frame at 64² (its stats are the frame that uploads every brick of the cut); at SIZE² with a
+    # CUT other than leaves (a pixels cut depends on the image's size).
+    UGVR_TRICUBIC_EXTENSION=$extension UGVR_TRICUBIC_LEVEL_BLEND=$blend "$ugvr" --quiet render "$store" --engine lod --cut "$cut" \
+      --camera "$out/camera.json" --size "$upload_size" --iso $iso --interpolation "$interp" -o "$out/$variant-64.png" \
       --stats "$out/$variant-upload.json" --frames 1
     "$py" -c "
 import json; s = json.load(open('$out/$variant.json')); u = json.load(open('$out/$variant-upload.json'))
 print(json.dumps({'bench': 'tricubic', 'field': '$field', 'bricks': $bricks, 'interpolation': '$variant', 'n': $n,
+                  'cut': '$cut', 'cut_nodes': u.get('cut_nodes'), 'mean_level': u.get('cut_mean_level'),
                   'size': $size, 'round': $round, 'median_frame_seconds': s['median_frame_seconds'],
                   'upload_seconds': u['load_seconds'], 'bricks_loaded': u['bricks_loaded_last_frame'],
                   'neighbour_reads': u.get('neighbour_reads'), 'uploaded_bytes': u.get('uploaded_bytes')}))" \

@@ -34,12 +34,14 @@
 #include "ugvr/grid/dataset.h"
 #include "ugvr/grid/structured_cells.h"
 #include "ugvr/grid/structured_grid.h"
+#include "ugvr/io/reader.h"
 #include "ugvr/octree/builder.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/image.h"
 #include "ugvr/render/lod/brick_atlas.h"
 #include "ugvr/render/lod/lod_engine.h"
 #include "ugvr/render/render_settings.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 namespace {
@@ -387,15 +389,16 @@ SinesError sines_error(const Image& im, const Lattice* cpu) {
 }
 
 // The jump of the rendered normal's error between neighbouring pixels (right and down) whose analytic hits lie on the
-// same stretch of surface (less than half a voxel apart, both lit at a cosine above 0.3), split by whether a plane
-// between the 64-brick store's bricks passes between the two hits: a seam shows as larger jumps across the borders
-// than elsewhere. Degrees; the largest, and the mean of the largest 1 % (robust to a single pixel).
+// same stretch of surface (less than half a voxel apart, both lit at a cosine above 0.3), split by whether one of
+// `planes` (x, y or z = plane; by default those between the 64-brick store's bricks) passes between the two hits: a
+// seam shows as larger jumps across the borders than elsewhere. Degrees; the largest, and the mean of the largest 1 %
+// (robust to a single pixel).
 struct BorderJumps {
   double across_max = 0, across_top = 0, elsewhere_max = 0, elsewhere_top = 0;
   int across = 0, elsewhere = 0;  // pairs
 };
 
-BorderJumps border_jumps(const Image& im) {
+BorderJumps border_jumps(const Image& im, std::vector<double> planes = {0.25, 0.5, 0.75}) {
   const Camera cam = sphere_camera();
   const CameraRays rays(cam, im.width, im.height);
   const double h = 1.0 / (kPoints - 1);
@@ -429,7 +432,7 @@ BorderJumps border_jumps(const Image& im) {
         bool crosses = false;
         const double pa[3] = {a.p.x, a.p.y, a.p.z}, pb[3] = {b.p.x, b.p.y, b.p.z};
         for (int axis = 0; axis < 3; ++axis)
-          for (double plane : {0.25, 0.5, 0.75}) crosses = crosses || (pa[axis] - plane) * (pb[axis] - plane) < 0;
+          for (double plane : planes) crosses = crosses || (pa[axis] - plane) * (pb[axis] - plane) < 0;
         (crosses ? across : elsewhere).push_back(std::abs(a.error - b.error));
       }
   const auto top = [](std::vector<double>& v, double& max, double& mean_top) {
@@ -621,12 +624,22 @@ TEST(LodTricubic, LevelsOnTheSines) {
   ::unsetenv("UGVR_TRICUBIC_EXTENSION");
   const Image after_leaves = render_iso(store, kSinesIso, Interpolation::Tricubic);
   const Image after_mixed = render_iso(store, kSinesIso, Interpolation::Tricubic, false, mixed, &st);
+  ::setenv("UGVR_TRICUBIC_LEVEL_BLEND", "0", 1);
+  const Image unblended_mixed = render_iso(store, kSinesIso, Interpolation::Tricubic, false, mixed);
+  ::unsetenv("UGVR_TRICUBIC_LEVEL_BLEND");
   const Image lin_leaves = render_iso(store, kSinesIso, Interpolation::Trilinear);
   const Image lin_mixed = render_iso(store, kSinesIso, Interpolation::Trilinear, false, mixed);
   const ImageDifference before = compare_images(before_mixed, before_leaves);
   const ImageDifference after = compare_images(after_mixed, after_leaves);
   const ImageDifference lin = compare_images(lin_mixed, lin_leaves);
+  const ImageDifference unblended = compare_images(unblended_mixed, after_leaves);
   const SinesError eb = sines_error(before_mixed, nullptr), ea = sines_error(after_mixed, nullptr);
+  const SinesError eu = sines_error(unblended_mixed, nullptr);
+  std::printf(
+      "sines, cut %s, the level blend: without it max %.4f PSNR %.1f dB from the leaves, normal error %.4f deg; with "
+      "it max %.4f PSNR %.1f dB, %.4f deg\n",
+      cut_spec_name(mixed).c_str(), unblended.max_abs, unblended.psnr_db, eu.analytic_degrees, after.max_abs,
+      after.psnr_db, ea.analytic_degrees);
   std::printf(
       "sines, 64 bricks, cut %s (%llu nodes, mean level %.2f, max %d) against the leaves: tricubic per brick (before) "
       "max %.4f PSNR %.1f dB, neighbourhood (after) max %.4f PSNR %.1f dB, trilinear max %.4f PSNR %.1f dB; mean "
@@ -635,11 +648,165 @@ TEST(LodTricubic, LevelsOnTheSines) {
       before.psnr_db, after.max_abs, after.psnr_db, lin.max_abs, lin.psnr_db, eb.analytic_degrees, ea.analytic_degrees);
   ASSERT_LT(st.mean_level, double(st.max_level)) << "the cut must mix levels";
   // Measured 2026-11-27 (llvmpipe, 15 nodes of levels 1 and 2): 40.4 dB from the leaves both ways (the coarse level
-  // holds less of the sines: the levels' own difference, which no apron removes), trilinear 29.6 dB; the mixed cut's
-  // normals 0.135° before, 0.093° after from the analytic ones (the brick borders within each level are gone).
+  // holds less of the sines: the levels' own difference, which neither the apron nor the level blend removes),
+  // trilinear 29.6 dB; the mixed cut's normals 0.135° before, 0.093° after from the analytic ones (the brick borders
+  // within each level are gone); with the level blend (both rows) 0.160° and 0.101°: the fine side takes the coarse
+  // spline next to the coarse octant.
   EXPECT_GT(after.psnr_db, lin.psnr_db + 6);
   EXPECT_GE(after.psnr_db, before.psnr_db - 0.1) << "the neighbourhood must not move the levels apart";
   EXPECT_LT(ea.analytic_degrees, 0.8 * eb.analytic_degrees);
+}
+
+// A cut that mixes levels 1 and 2 in a checkerboard: the level-1 nodes with i + j + k odd, and the children of the
+// others (36 nodes). Every plane at 0.5 inside the cube is then a level border, and those at 0.25 and 0.75 are
+// borders between bricks of one level (or inside a coarse node).
+Image render_checkerboard(const std::string& store, double iso, Interpolation interpolation,
+                          LodRenderStats* stats = nullptr) {
+  LodEngine lod(store, *shared().gl);
+  lod.set_field("d");
+  std::vector<uint64_t> nodes;
+  for (uint64_t n = 0; n < lod.store().node_count(); ++n) {
+    const BrickNode& b = lod.store().node(n);
+    if (!b.has_brick()) continue;
+    if (b.level == 1 && (b.i + b.j + b.k) % 2 == 1) nodes.push_back(n);
+    if (b.level == 2 && ((b.i >> 1) + (b.j >> 1) + (b.k >> 1)) % 2 == 0) nodes.push_back(n);
+  }
+  EXPECT_EQ(nodes.size(), 36u);
+  RenderSettings s;
+  s.width = s.height = 128;
+  s.background = {0, 0, 0, 1};
+  s.mode = RenderMode::Isosurface;
+  s.iso_values = {iso};
+  s.interpolation = interpolation;
+  return lod.render_nodes(sphere_camera(), grey_tf(), s, nodes, stats);
+}
+
+// The jump of the rendered normal's error between neighbouring pixels whose hits lie on either side of a plane at
+// 0.5 (the checkerboard's level borders), and elsewhere; and the normal error within half a voxel of those planes
+// and elsewhere.
+struct LevelBorders {
+  BorderJumps jumps;
+  double near_degrees = 0, away_degrees = 0;
+  int near = 0;
+};
+LevelBorders level_borders(const Image& im) {
+  LevelBorders l;
+  l.jumps = border_jumps(im, {0.5});
+  const Camera cam = sphere_camera();
+  const CameraRays rays(cam, im.width, im.height);
+  const double h = 1.0 / (kPoints - 1);
+  int away = 0;
+  for (int y = 0; y < im.height; ++y)
+    for (int x = 0; x < im.width; ++x) {
+      const Ray r = rays.pixel(x, y);
+      const double t = first_crossing(r, sines_value, kSinesIso, 0.02 * h);
+      if (t < 0 || !(im.pixel(x, y)[0] > 0)) continue;
+      const Vec3d p = r.origin + r.direction * t;
+      const Vec3d g = sines_gradient(p);
+      if (std::abs(dot(g, r.direction)) / length(g) < 0.3) continue;
+      const double err = angle_error(cosine_of(im.pixel(x, y)[0]), g, r.direction);
+      const bool near = std::min({std::abs(p.x - 0.5), std::abs(p.y - 0.5), std::abs(p.z - 0.5)}) < 0.5 * h;
+      (near ? l.near_degrees : l.away_degrees) += err;
+      ++(near ? l.near : away);
+    }
+  if (l.near > 0) l.near_degrees /= l.near;
+  if (away > 0) l.away_degrees /= away;
+  return l;
+}
+
+// Level borders on general data (docs/tricubic.md, "Level borders"): the sines with the checkerboard cut of levels 1
+// and 2, each level's own spline (UGVR_TRICUBIC_LEVEL_BLEND=0, before) against the fine bricks blended into the
+// coarse spline next to coarse nodes (after), in one run: the normal jumps across the level borders and elsewhere,
+// and the normal error at them and elsewhere.
+TEST(LodTricubic, SinesNoSeamAtLevelBorders) {
+  REQUIRE_GL();
+  const std::string& store = lattice_store("sines", Bricks::Many);
+  ::setenv("UGVR_TRICUBIC_LEVEL_BLEND", "0", 1);
+  const Image before = render_checkerboard(store, kSinesIso, Interpolation::Tricubic);
+  ::unsetenv("UGVR_TRICUBIC_LEVEL_BLEND");
+  LodRenderStats st;
+  const Image after = render_checkerboard(store, kSinesIso, Interpolation::Tricubic, &st);
+  const Image lin = render_checkerboard(store, kSinesIso, Interpolation::Trilinear);
+  const Image leaves = render_iso(store, kSinesIso, Interpolation::Tricubic);
+  struct Row {
+    const char* name;
+    LevelBorders l;
+    ImageDifference d;
+  };
+  const Row rows[] = {{"trilinear", level_borders(lin), compare_images(lin, leaves)},
+                      {"tricubic, each level's spline (before)", level_borders(before), compare_images(before, leaves)},
+                      {"tricubic, level blend (after)", level_borders(after), compare_images(after, leaves)}};
+  for (const Row& r : rows)
+    std::printf(
+        "sines, checkerboard of levels 1 and 2, %s: normal jump across a level border max %.4f (top 1%% %.4f, %d "
+        "pairs), elsewhere max %.4f (top 1%% %.4f, %d pairs); normal error within half a voxel of a level border "
+        "%.4f deg (%d px), elsewhere %.4f; against the tricubic leaves PSNR %.1f dB\n",
+        r.name, r.l.jumps.across_max, r.l.jumps.across_top, r.l.jumps.across, r.l.jumps.elsewhere_max,
+        r.l.jumps.elsewhere_top, r.l.jumps.elsewhere, r.l.near_degrees, r.l.near, r.l.away_degrees, r.d.psnr_db);
+  const LevelBorders &b = rows[1].l, &a = rows[2].l;
+  ASSERT_GT(a.jumps.across, 100);
+  ASSERT_GT(a.near, 50);
+  EXPECT_EQ(st.bricks_loaded, 36u);
+  // Measured 2026-11-27 (llvmpipe): see docs/tricubic.md, "Level borders".
+  EXPECT_GT(b.jumps.across_top, 1.2 * b.jumps.elsewhere_top) << "the test sees the seam where there is one";
+  EXPECT_LE(a.jumps.across_top, a.jumps.elsewhere_top) << "no jump at the level borders beyond the one elsewhere";
+  // The blend trades the fine level's accuracy for continuity next to coarse nodes: the error there grows towards
+  // the coarse level's, and stays no larger than elsewhere.
+  EXPECT_LE(a.near_degrees, a.away_degrees);
+}
+
+// The blend depends on the cut around a brick: when the camera moves and the cut changes next to a resident brick,
+// it is uploaded again with its new neighbours' levels. One engine draws the leaves, then the checkerboard (4 new
+// coarse nodes, and the 28 fine bricks it kept that now touch them; the 4 in the cube's corners touch none), then the
+// leaves again (the 28 again); each frame draws what a fresh engine draws for its cut, up to the hardware filter's
+// rounding in another slot, far below the blend's own change of the image.
+TEST(LodTricubic, LevelBlendFollowsTheCut) {
+  REQUIRE_GL();
+  const std::string& store = lattice_store("sines", Bricks::Many);
+  LodEngine lod(store, *shared().gl);
+  lod.set_field("d");
+  RenderSettings s;
+  s.width = s.height = 64;
+  s.background = {0, 0, 0, 1};
+  s.mode = RenderMode::Isosurface;
+  s.iso_values = {kSinesIso};
+  s.interpolation = Interpolation::Tricubic;
+  std::vector<uint64_t> checkerboard, leaves;
+  for (uint64_t n = 0; n < lod.store().node_count(); ++n) {
+    const BrickNode& b = lod.store().node(n);
+    if (!b.has_brick()) continue;
+    if (b.level == 1 && (b.i + b.j + b.k) % 2 == 1) checkerboard.push_back(n);
+    if (b.level == 2 && ((b.i >> 1) + (b.j >> 1) + (b.k >> 1)) % 2 == 0) checkerboard.push_back(n);
+    if (b.level == 2) leaves.push_back(n);
+  }
+  const auto fresh = [&](const std::vector<uint64_t>& nodes) {
+    LodEngine other(store, *shared().gl);
+    other.set_field("d");
+    return other.render_nodes(sphere_camera(), grey_tf(), s, nodes);
+  };
+  LodRenderStats first, second, third;
+  lod.render_nodes(sphere_camera(), grey_tf(), s, leaves, &first);
+  const Image refined_cut = lod.render_nodes(sphere_camera(), grey_tf(), s, checkerboard, &second);
+  const Image back = lod.render_nodes(sphere_camera(), grey_tf(), s, leaves, &third);
+  std::printf("level blend and the cut: bricks uploaded %llu (leaves), %llu (then the checkerboard), %llu (back)\n",
+              (unsigned long long)first.bricks_loaded, (unsigned long long)second.bricks_loaded,
+              (unsigned long long)third.bricks_loaded);
+  EXPECT_EQ(first.bricks_loaded, 64u);
+  EXPECT_EQ(second.bricks_loaded, 32u) << "4 new coarse nodes and the 28 kept leaves next to them";
+  EXPECT_GE(third.bricks_loaded, 28u);
+  const Image blended = fresh(checkerboard);
+  ::setenv("UGVR_TRICUBIC_LEVEL_BLEND", "0", 1);
+  const Image unblended = fresh(checkerboard);
+  ::unsetenv("UGVR_TRICUBIC_LEVEL_BLEND");
+  const ImageDifference blend_change = compare_images(blended, unblended);
+  const ImageDifference to_checkerboard = compare_images(refined_cut, blended);
+  const ImageDifference to_leaves = compare_images(back, fresh(leaves));
+  std::printf(
+      "max difference from a fresh engine's frame: %.2e (checkerboard), %.2e (leaves); the blend changes the "
+      "checkerboard's image by %.2e\n",
+      to_checkerboard.max_abs, to_leaves.max_abs, blend_change.max_abs);
+  EXPECT_LT(to_checkerboard.max_abs, 0.01 * blend_change.max_abs);
+  EXPECT_LT(to_leaves.max_abs, 0.01 * blend_change.max_abs);
 }
 
 // The atlas budget counts what tricubic frames add per slot (2 bytes of coefficient a texel and a float of cubic
@@ -977,6 +1144,210 @@ TEST(LodTricubic, ExtendedPrefilterMatchesTheWholeLattice) {
   std::vector<double> c;
   ASSERT_TRUE(cubic_coefficients(r, bricks.slot(1, 1, 1), c, &partial));
   EXPECT_NE(c, alone);
+}
+
+// The uniform cubic B-spline of one slot's coefficients (cubic_coefficients' layout) at sample coordinates u
+// (0 .. R-1 per axis), or its derivative of order `order[a]` (0..2) along each axis, in sample units.
+double slot_spline(int r, const std::vector<double>& c, const double u[3], const int order[3] = nullptr) {
+  const int s = r + 2;
+  int i[3];
+  double w[3][4];
+  for (int a = 0; a < 3; ++a) {
+    i[a] = std::clamp(int(std::floor(u[a])), 0, r - 2);
+    const double f = u[a] - i[a], g = 1 - f;
+    switch (order ? order[a] : 0) {
+      case 0: Lattice::weights(f, false, w[a]); break;
+      case 1: Lattice::weights(f, true, w[a]); break;
+      default: w[a][0] = g, w[a][1] = 3 * f - 2, w[a][2] = 1 - 3 * f, w[a][3] = f; break;  // second derivative
+    }
+  }
+  double v = 0;
+  for (int z = 0; z < 4; ++z)
+    for (int y = 0; y < 4; ++y)
+      for (int x = 0; x < 4; ++x)
+        v += w[0][x] * w[1][y] * w[2][z] * c[(size_t(i[2] + z) * s + i[1] + y) * s + i[0] + x];
+  return v;
+}
+
+TEST(LodTricubic, RefinedCoefficientsDrawTheParentsSpline) {
+  // refine_coefficients (brick_atlas.h) puts a node's spline onto a child's lattice exactly (dyadic knot insertion):
+  // the child's spline equals the parent's over the child's whole cell, for every octant, and the refinement
+  // reproduces the parent's coefficients where the lattices coincide only up to the B-spline's smoothing (it is not a
+  // copy of the samples: a child with the parent's samples at every other point and its own between would differ).
+  constexpr int r = 9, s = r + 2;
+  std::mt19937 rng(22);
+  std::uniform_real_distribution<double> uni(0, 1);
+  std::vector<double> parent(size_t(s) * s * s);
+  for (double& c : parent) c = uni(rng);
+  for (int octant = 0; octant < 8; ++octant) {
+    std::vector<double> child;
+    refine_coefficients(r, parent, octant, child);
+    ASSERT_EQ(child.size(), parent.size());
+    double worst = 0;
+    for (int t = 0; t < 300; ++t) {
+      double u[3], up[3];
+      for (int a = 0; a < 3; ++a) {
+        u[a] = (r - 1) * uni(rng);
+        up[a] = ((octant >> a & 1) ? 0.5 * (r - 1) : 0.0) + 0.5 * u[a];
+      }
+      worst = std::max(worst, std::abs(slot_spline(r, child, u) - slot_spline(r, parent, up)));
+    }
+    EXPECT_LT(worst, 1e-12) << "octant " << octant;
+  }
+}
+
+TEST(LodTricubic, LevelBlendMeetsTheCoarseSplineAtTheBorder) {
+  // A fine brick's coefficients blended into a coarser level's (blend_towards_coarser) towards its -x face: on that
+  // face the spline is the coarse one with its first and second derivatives (across the face and along it), and
+  // past the zone it is the fine brick's own, for any coefficients (random here). An edge direction blends along its
+  // edge only.
+  constexpr int r = 9, s = r + 2;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> uni(0, 1);
+  std::vector<double> fine(size_t(s) * s * s), coarse(fine.size());
+  for (double& c : fine) c = uni(rng);
+  for (double& c : coarse) c = uni(rng);
+  CubicLevelBlend blend(1);
+  blend[0].coefficients = coarse;
+  blend[0].towards[12] = true;  // (-1, 0, 0)
+  std::vector<double> mixed = fine;
+  blend_towards_coarser(r, blend, mixed);
+  double at_face = 0, unblended_face = 0, past_zone = 0;
+  const int orders[][3] = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {0, 1, 0}, {1, 0, 1}};
+  for (int t = 0; t < 200; ++t) {
+    const double face[3] = {0.0, (r - 1) * uni(rng), (r - 1) * uni(rng)};
+    for (const auto& o : orders) {
+      at_face = std::max(at_face, std::abs(slot_spline(r, mixed, face, o) - slot_spline(r, coarse, face, o)));
+      unblended_face =
+          std::max(unblended_face, std::abs(slot_spline(r, fine, face, o) - slot_spline(r, coarse, face, o)));
+    }
+    // Cells whose stencil lies past the zone (samples >= 2 + kCubicBlendZone): the fine spline.
+    const double far[3] = {double(2 + kCubicBlendZone(r) + 1) + (r - 3 - kCubicBlendZone(r) - 1) * uni(rng),
+                           (r - 1) * uni(rng), (r - 1) * uni(rng)};
+    past_zone = std::max(past_zone, std::abs(slot_spline(r, mixed, far) - slot_spline(r, fine, far)));
+  }
+  EXPECT_LT(at_face, 1e-12) << "value, first and second derivatives of the coarse spline on the shared face";
+  EXPECT_GT(unblended_face, 0.1) << "the test sees the two splines differ there";
+  EXPECT_LT(past_zone, 1e-12);
+  // The weight: 1 at the coefficients the face reads, easing to 0, and 0 at the far face's.
+  std::array<bool, 27> edge{};
+  edge[size_t(0 + 3 * 0 + 9 * 1)] = true;  // (-1, -1, 0)
+  EXPECT_EQ(level_blend_weight(r, blend[0].towards, 2, 5, 5), 1.0);
+  EXPECT_GT(level_blend_weight(r, blend[0].towards, 4, 5, 5), 0.0);
+  EXPECT_LT(level_blend_weight(r, blend[0].towards, 4, 5, 5), 1.0);
+  EXPECT_EQ(level_blend_weight(r, blend[0].towards, r - 1, 5, 5), 0.0);
+  EXPECT_EQ(level_blend_weight(r, edge, 1, 1, 5), 1.0);
+  EXPECT_EQ(level_blend_weight(r, edge, 1, r - 1, 5), 0.0) << "an edge's zone is along the edge";
+}
+
+// A real store's level borders on the CPU (the coefficients the atlas uploads: cubic_coefficients with the
+// neighbourhood, blend_towards_coarser with the ancestor's spline refined): the blunt fin's Density, every level-4
+// brick B whose -x neighbour region lies in another level-3 node N (as where the cut draws N coarse and B fine), all
+// with data everywhere. On B's -x face, B's spline against N's: value and gradient (per fine sample), before (each
+// level's own spline) and after (B blended into level 3's). The gradient's jump is what moves the shading, the value's
+// the surface (by value / gradient).
+TEST(LodTricubic, BluntFinFineAndCoarseAgreeAtLevelBorders) {
+  UGVR_REQUIRE_DATA("blunt-fin/bluntfinxyz.bin");
+  // Levels 4 and 3 of bricks of 9, fully subdivided: small enough that many bricks lie wholly inside the curvilinear
+  // mesh (its box fills a third of the root cube's height, and bricks with samples outside keep their samples).
+  constexpr int kFine = 4;
+  test::ScratchDir dir;
+  const Dataset ds = read_dataset(std::vector<std::string>{test::data_path("blunt-fin/bluntfinxyz.bin"),
+                                                           test::data_path("blunt-fin/bluntfinq.bin")});
+  OctreeBuildOptions o;
+  o.resolution = 9;
+  o.max_depth = kFine;
+  o.error = 0;
+  const std::vector<std::string> fields = {"Density"};
+  build_octree(prepare_octree_input(ds, fields), o, dir.file("s.ugvr"));
+  const BrickStoreReader store(dir.file("s.ugvr"));
+  const int r = int(store.resolution());
+  const uint32_t field = uint32_t(store.field_index("Density"));
+  const double lo = store.layout().fields[field].min, hi = store.layout().fields[field].max;
+  std::map<std::array<int64_t, 4>, uint64_t> by_key;
+  for (uint64_t n = 0; n < store.node_count(); ++n) {
+    const BrickNode& b = store.node(n);
+    if (b.has_brick()) by_key[{int64_t(b.level), int64_t(b.i), int64_t(b.j), int64_t(b.k)}] = n;
+  }
+  std::map<uint64_t, std::vector<uint16_t>> texels;
+  const auto slot = [&](uint64_t n) -> const uint16_t* {
+    auto it = texels.find(n);
+    if (it != texels.end()) return it->second.data();
+    std::vector<float> samples(size_t(r) * r * r);
+    std::vector<uint8_t> mask(samples.size());
+    store.read_brick(n, field, samples.data(), mask.data());
+    make_atlas_slot(uint32_t(r), samples.data(), mask.data(), lo, hi, texels[n]);
+    return texels[n].data();
+  };
+  const auto find = [&](int64_t level, int64_t i, int64_t j, int64_t k) {
+    const auto it = by_key.find({level, i, j, k});
+    return it == by_key.end() ? kNoNode : it->second;
+  };
+  // A node's coefficients over its same-level neighbourhood (what the engine uploads before any blend), or empty.
+  const auto coefficients = [&](uint64_t n) {
+    const BrickNode& b = store.node(n);
+    CubicNeighbourhood hood{};
+    for (int d = 0; d < 27; ++d) {
+      const uint64_t m =
+          d == 13 ? kNoNode
+                  : find(b.level, int64_t(b.i) + d % 3 - 1, int64_t(b.j) + d / 3 % 3 - 1, int64_t(b.k) + d / 9 - 1);
+      if (m != kNoNode) hood[size_t(d)] = slot(m);
+    }
+    std::vector<double> c;
+    if (!cubic_coefficients(uint32_t(r), slot(n), c, &hood)) c.clear();
+    return c;
+  };
+  double value_before = 0, value_after = 0, gradient_before = 0, gradient_after = 0, gradient_scale = 0;
+  double value_same = 0, gradient_same = 0;  // the coarse level's own brick border there: B's ancestor against N
+  int faces = 0;
+  for (const auto& [key, n] : by_key) {
+    if (key[0] != kFine || key[1] % 2 != 0) continue;  // at the -x border of its parent
+    const uint64_t parent = find(kFine - 1, key[1] / 2, key[2] / 2, key[3] / 2),
+                   coarse = find(kFine - 1, key[1] / 2 - 1, key[2] / 2, key[3] / 2);
+    if (parent == kNoNode || coarse == kNoNode) continue;
+    std::vector<double> fine = coefficients(n), a = coefficients(parent), c = coefficients(coarse);
+    if (fine.empty() || a.empty() || c.empty()) continue;
+    CubicLevelBlend blend(1);
+    refine_coefficients(uint32_t(r), a, int(key[1] & 1) | int(key[2] & 1) << 1 | int(key[3] & 1) << 2,
+                        blend[0].coefficients);
+    blend[0].towards[12] = true;  // (-1, 0, 0)
+    std::vector<double> blended = fine;
+    blend_towards_coarser(uint32_t(r), blend, blended);
+    ++faces;
+    for (int t = 0; t <= 16; ++t)
+      for (int u = 0; u <= 16; ++u) {
+        const double on_fine[3] = {0.0, (r - 1) * t / 16.0, (r - 1) * u / 16.0};
+        const double on_coarse[3] = {double(r - 1), (key[2] & 1) * 0.5 * (r - 1) + 0.5 * on_fine[1],
+                                     (key[3] & 1) * 0.5 * (r - 1) + 0.5 * on_fine[2]};
+        const double on_ancestor[3] = {0.0, on_coarse[1], on_coarse[2]};
+        const double vc = slot_spline(r, c, on_coarse);
+        value_same = std::max(value_same, std::abs(slot_spline(r, a, on_ancestor) - vc));
+        value_before = std::max(value_before, std::abs(slot_spline(r, fine, on_fine) - vc));
+        value_after = std::max(value_after, std::abs(slot_spline(r, blended, on_fine) - vc));
+        for (int axis = 0; axis < 3; ++axis) {
+          int order[3] = {0, 0, 0};
+          order[axis] = 1;
+          const double gc = 0.5 * slot_spline(r, c, on_coarse, order);  // per fine sample
+          gradient_scale = std::max(gradient_scale, std::abs(gc));
+          gradient_before = std::max(gradient_before, std::abs(slot_spline(r, fine, on_fine, order) - gc));
+          gradient_after = std::max(gradient_after, std::abs(slot_spline(r, blended, on_fine, order) - gc));
+          gradient_same = std::max(gradient_same, std::abs(0.5 * slot_spline(r, a, on_ancestor, order) - gc));
+        }
+      }
+  }
+  std::printf(
+      "blunt fin Density, %d level-4 faces on a level-3 node: max |fine - coarse| on the face, value %.2e before, "
+      "%.2e after; gradient %.2e before, %.2e after (largest gradient there %.2e; normalised units per fine sample); "
+      "the level-3 bricks' own border there: value %.2e, gradient %.2e\n",
+      faces, value_before, value_after, gradient_before, gradient_after, gradient_scale, value_same, gradient_same);
+  ASSERT_GT(faces, 20);
+  EXPECT_GT(gradient_before, 2 * gradient_same) << "the test sees the levels differ at the border";
+  // After: the level border is the coarse level's own brick border (B's ancestor against N, the same level), no
+  // worse. That border is not at the sines' noise floor here: bricks next to the mesh's boundary (samples without
+  // data) drop their sides of the neighbourhood prefilter (docs/tricubic.md, "Brick borders").
+  EXPECT_LE(value_after, value_same + 1e-9);
+  EXPECT_LE(gradient_after, gradient_same + 1e-9);
+  EXPECT_LT(gradient_after, 0.5 * gradient_before);
 }
 
 TEST(LodTricubic, AVoxelVolumeWithoutAStoreGetsAnErrorWithAdvice) {

@@ -263,6 +263,56 @@ bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector
   return true;
 }
 
+void refine_coefficients(uint32_t resolution, const std::vector<double>& parent, int octant,
+                         std::vector<double>& child) {
+  const int r = int(resolution), s = r + 2;
+  std::vector<double> a = parent, b(a.size());
+  for (int axis = 0; axis < 3; ++axis) {
+    const int offset = (octant >> axis & 1) ? r - 1 : 0;
+    const size_t stride = axis == 0 ? 1 : axis == 1 ? size_t(s) : size_t(s) * s;
+    for (int z = 0; z < s; ++z)
+      for (int y = 0; y < s; ++y)
+        for (int x = 0; x < s; ++x) {
+          const int t[3] = {x, y, z};
+          const size_t at = (size_t(z) * s + y) * s + x, line = at - size_t(t[axis]) * stride;
+          const auto p = [&](int m) { return a[line + size_t(m + 1) * stride]; };  // parent sample index m
+          const int f = offset + t[axis] - 1;
+          const int m = f >= 0 ? f / 2 : -1;  // floor(f / 2); f >= -1
+          b[at] = (f & 1) ? 0.5 * (p(m) + p(m + 1)) : (p(m - 1) + 6 * p(m) + p(m + 1)) / 8;
+        }
+    std::swap(a, b);
+  }
+  child = std::move(a);
+}
+
+double level_blend_weight(uint32_t resolution, const std::array<bool, 27>& towards, int tx, int ty, int tz) {
+  const int r = int(resolution), zone = kCubicBlendZone(resolution);
+  const int q[3] = {tx - 1, ty - 1, tz - 1};  // sample index
+  double weight = 0;
+  for (int d = 0; d < 27; ++d) {
+    if (d == 13 || !towards[size_t(d)]) continue;
+    const int dir[3] = {d % 3 - 1, d / 3 % 3 - 1, d / 9 - 1};
+    int distance = -1;  // to the coarser node's region, samples (Chebyshev)
+    for (int a = 0; a < 3; ++a)
+      if (dir[a] != 0) distance = std::max(distance, dir[a] < 0 ? q[a] : r - 1 - q[a]);
+    const double u = std::clamp(double(distance - 1) / zone, 0.0, 1.0);
+    weight = std::max(weight, 1 - u * u * (3 - 2 * u));  // smoothstep from 1 to 0
+  }
+  return weight;
+}
+
+void blend_towards_coarser(uint32_t resolution, const CubicLevelBlend& blend, std::vector<double>& coefficients) {
+  const int s = int(resolution) + 2;
+  for (const CubicLevelTarget& target : blend)
+    for (int z = 0; z < s; ++z)
+      for (int y = 0; y < s; ++y)
+        for (int x = 0; x < s; ++x) {
+          const double w = level_blend_weight(resolution, target.towards, x, y, z);
+          const size_t i = (size_t(z) * s + y) * s + x;
+          coefficients[i] += w * (target.coefficients[i] - coefficients[i]);
+        }
+}
+
 uint64_t BrickAtlas::max_slots(uint32_t resolution, int max_3d) {
   const uint64_t per_axis = uint64_t(max_3d) / (resolution + 2);
   return per_axis * per_axis * per_axis;
@@ -292,6 +342,8 @@ BrickAtlas::BrickAtlas(uint32_t resolution, uint64_t slots, int max_3d) : resolu
   no_bracket_ = no_bracket && *no_bracket;
   const char* extension = std::getenv("UGVR_TRICUBIC_EXTENSION");
   if (extension && *extension) extension_ = std::max(0, std::atoi(extension));
+  const char* level_blend = std::getenv("UGVR_TRICUBIC_LEVEL_BLEND");
+  if (level_blend && *level_blend) level_blend_ = std::atoi(level_blend) != 0;
   texture_ = atlas_texture(GL_RG16, texels_, "allocating the brick atlas");
 }
 
@@ -309,7 +361,8 @@ void BrickAtlas::add_coefficients() {
   check_gl("allocating the brick atlas's cubic margins");
 }
 
-void BrickAtlas::upload(uint64_t slot, const uint16_t* texels, const CubicNeighbourhood* neighbours) {
+void BrickAtlas::upload(uint64_t slot, const uint16_t* texels, const CubicNeighbourhood* neighbours,
+                        const CubicLevelBlend* levels) {
   const int side = int(resolution_) + 2;
   const int x = int(slot % uint64_t(slots_[0])), y = int((slot / uint64_t(slots_[0])) % uint64_t(slots_[1]));
   const int z = int(slot / (uint64_t(slots_[0]) * slots_[1]));
@@ -317,6 +370,7 @@ void BrickAtlas::upload(uint64_t slot, const uint16_t* texels, const CubicNeighb
                       texels);
   if (!has_coefficients()) return;  // the margin and coefficients serve tricubic frames only
   const bool prefiltered = cubic_coefficients(resolution_, texels, scratch_, neighbours, extension_);
+  if (prefiltered && levels && level_blend_) blend_towards_coarser(resolution_, *levels, scratch_);
   // [-1/2, 3/2] to [0, 1] (brick_atlas.h); without the prefilter, the samples themselves.
   std::vector<uint16_t> codes(size_t(side) * side * side);
   for (size_t i = 0; i < codes.size(); ++i) {

@@ -29,6 +29,7 @@
 
 #include <epoxy/gl.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -85,6 +86,37 @@ constexpr int kCubicExtension = 4;
 bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector<double>& coefficients,
                         const CubicNeighbourhood* neighbours = nullptr, int extension = kCubicExtension);
 
+// Level borders (docs/tricubic.md, "Level borders"). A node's uniform cubic B-spline is also a B-spline on its
+// children's lattice, of half the spacing (dyadic knot insertion, exact): along an axis the child's coefficient at
+// global child index f (f = offset + j, offset 0 or R - 1 by the octant) is (p[m-1] + 6 p[m] + p[m+1]) / 8 for even
+// f = 2m and (p[m] + p[m+1]) / 2 for odd f = 2m + 1, p the parent's coefficients by parent sample index. A child
+// slot's R + 2 coefficients per axis need parent indices -1 .. R: the parent's slot holds exactly those.
+// `parent` and `child` are slots' coefficients ((R+2)³, x fastest, cubic_coefficients' layout); `octant` is the
+// child's (bit a set: the upper half along axis a).
+void refine_coefficients(uint32_t resolution, const std::vector<double>& parent, int octant,
+                         std::vector<double>& child);
+
+// A fine brick whose cut neighbours are coarser blends its coefficients, in a zone next to them, into the coarser
+// level's spline refined onto its lattice (refine_coefficients): weight 1 at the coefficients a point on the shared
+// face reads (sample distance <= 1 from it: the apron, the border and the next), so there the fine spline is the
+// coarse one, value and first and second derivatives; easing to 0 over kCubicBlendZone(R) samples, LaMar's blend
+// ratio (ch. 6) on the coefficients instead of the values. Any coefficients give a C² spline, so the blend is smooth.
+// The weight is a function of the distance to the coarser nodes alone (Chebyshev, in samples, max over the
+// directions), so two same-level bricks along the same coarse node give their shared coefficients the same weight.
+struct CubicLevelTarget {
+  std::vector<double> coefficients;  // (R+2)³: the coarser level's spline on this brick's lattice
+  std::array<bool, 27> towards{};    // CubicNeighbourhood's directions whose cut node is of that coarser level
+};
+// One target per coarser level that the cut puts next to the brick, the finest first (applied in that order).
+using CubicLevelBlend = std::vector<CubicLevelTarget>;
+// Samples over which the weight eases from 1 to 0: half the brick less one, so that the weight is 0 at the far
+// border's coefficients (a finer neighbour there blends into this level's unblended spline).
+constexpr int kCubicBlendZone(uint32_t resolution) { return std::max(1, (int(resolution) - 1) / 2); }
+// The weight at slot texel (tx, ty, tz) (0 .. R+1) towards the directions `towards`.
+double level_blend_weight(uint32_t resolution, const std::array<bool, 27>& towards, int tx, int ty, int tz);
+// Blends `coefficients` (a slot's, cubic_coefficients') into each target in turn.
+void blend_towards_coarser(uint32_t resolution, const CubicLevelBlend& blend, std::vector<double>& coefficients);
+
 class BrickAtlas {
  public:
   BrickAtlas() = default;
@@ -108,7 +140,12 @@ class BrickAtlas {
   // sample of the in-loop variant, with slices; a reference for tests: the walk would end at every sample). With
   // `neighbours` the prefilter reaches into them (cubic_coefficients; UGVR_TRICUBIC_EXTENSION samples if set).
   // `neighbours` (tricubic only): the brick's same-level neighbourhood for the prefilter (cubic_coefficients).
-  void upload(uint64_t slot, const uint16_t* texels, const CubicNeighbourhood* neighbours = nullptr);
+  // `levels` (tricubic only): the brick's coarser cut neighbours' splines (blend_towards_coarser), unless
+  // UGVR_TRICUBIC_LEVEL_BLEND=0 (each level's own spline, as before; for before/after measurements in one run).
+  void upload(uint64_t slot, const uint16_t* texels, const CubicNeighbourhood* neighbours = nullptr,
+              const CubicLevelBlend* levels = nullptr);
+  bool level_blend() const { return level_blend_; }
+  int extension() const { return extension_; }  // samples the prefilter takes from each neighbour
 
   // Most slots an atlas can have for R within max_3d texels per axis.
   static uint64_t max_slots(uint32_t resolution, int max_3d);
@@ -119,6 +156,7 @@ class BrickAtlas {
   // Samples taken from each neighbour by the prefilter: kCubicExtension, or UGVR_TRICUBIC_EXTENSION (0: each brick's
   // own samples alone, as before the neighbourhood; for benchmarks and before/after measurements in one run).
   int extension_ = kCubicExtension;
+  bool level_blend_ = true;
   int slots_[3] = {0, 0, 0};
   int texels_[3] = {0, 0, 0};
   GlTexture texture_;

@@ -15,6 +15,7 @@
 #include <optional>
 #include <tuple>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "lod_shared.h"  // shaders/lod_shared.h: what the engine and shaders/lod_raycast.comp agree on
 #include "ugvr/core/error.h"
@@ -153,7 +154,20 @@ struct LodEngine::Impl {
   // offset (dx, dy, dz), or kNoNode.
   std::unordered_map<uint64_t, uint64_t> same_level;
   uint64_t neighbour(uint64_t node, int dx, int dy, int dz);
-  uint64_t load_cubic(const BrickSlotTable::Plan& plan, BrickResidency& residency, double lo, double hi);
+  // The node with a brick at (level, i, j, k), or kNoNode.
+  uint64_t neighbour_key_node(uint64_t level, int64_t i, int64_t j, int64_t k);
+  uint64_t load_cubic(std::span<const uint64_t> nodes, const BrickSlotTable::Plan& plan, BrickResidency& residency,
+                      double lo, double hi);
+  // Level borders (brick_atlas.h, CubicLevelBlend): per direction (CubicNeighbourhood's index) the level of the cut
+  // node there when it is coarser than the brick's, else kNotCoarser. A resident brick whose coarser neighbours
+  // changed since its upload (uploaded_levels) is uploaded again into its slot.
+  static constexpr uint8_t kNotCoarser = 0xff;
+  using CoarserLevels = std::array<uint8_t, 27>;
+  CoarserLevels coarser_levels(uint64_t node, const std::unordered_map<uint64_t, uint64_t>& cut_by_key) const;
+  std::unordered_map<uint64_t, CoarserLevels> uploaded_levels;
+  // The spline of `ancestor`'s level refined onto `node`'s lattice (refine_coefficients), from the ancestor's
+  // coefficients.
+  std::vector<double> refined_onto(uint64_t node, uint64_t ancestor, const std::vector<double>& coefficients) const;
   uint64_t neighbour_reads = 0;  // of the last load
   void upload_transfer_function(const TransferFunction& tf);
   lod_gpu::LodFrame frame_parameters(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
@@ -247,7 +261,7 @@ uint64_t LodEngine::Impl::load(std::span<const uint64_t> nodes, BrickResidency& 
   const BrickSlotTable::Plan plan = residency.plan(nodes);
   const double lo = store.layout().fields[field].min, hi = store.layout().fields[field].max;
   neighbour_reads = 0;
-  if (atlas.has_coefficients()) return load_cubic(plan, residency, lo, hi);
+  if (atlas.has_coefficients()) return load_cubic(nodes, plan, residency, lo, hi);
   std::vector<std::vector<uint16_t>> read(kLoadBatch);
   std::vector<BrickResidency::Texels> ram(kLoadBatch);
   for (size_t b = 0; b < plan.missing.size(); b += kLoadBatch) {
@@ -262,21 +276,61 @@ uint64_t LodEngine::Impl::load(std::span<const uint64_t> nodes, BrickResidency& 
   return plan.missing.size();
 }
 
-uint64_t LodEngine::Impl::neighbour(uint64_t node, int dx, int dy, int dz) {
-  const auto key = [](uint64_t level, int64_t i, int64_t j, int64_t k) {
-    return level << 60 | uint64_t(i) << 40 | uint64_t(j) << 20 | uint64_t(k);
-  };
+namespace {
+// A node by (level, i, j, k): 4 bits of level and 20 of each index (the store's depth limit).
+uint64_t level_key(uint64_t level, int64_t i, int64_t j, int64_t k) {
+  return level << 60 | uint64_t(i) << 40 | uint64_t(j) << 20 | uint64_t(k);
+}
+}  // namespace
+
+LodEngine::Impl::CoarserLevels LodEngine::Impl::coarser_levels(
+    uint64_t node, const std::unordered_map<uint64_t, uint64_t>& cut_by_key) const {
+  CoarserLevels levels;
+  levels.fill(kNotCoarser);
+  const BrickNode& b = store.node(node);
+  const int64_t side = int64_t(1) << b.level;
+  for (int d = 0; d < 27; ++d) {
+    if (d == 13) continue;
+    const int64_t i = int64_t(b.i) + d % 3 - 1, j = int64_t(b.j) + d / 3 % 3 - 1, k = int64_t(b.k) + d / 9 - 1;
+    if (i < 0 || j < 0 || k < 0 || i >= side || j >= side || k >= side) continue;
+    for (int level = int(b.level) - 1; level >= 0; --level) {
+      const int up = int(b.level) - level;
+      if (cut_by_key.count(level_key(uint64_t(level), i >> up, j >> up, k >> up))) {
+        levels[size_t(d)] = uint8_t(level);
+        break;
+      }
+    }
+  }
+  return levels;
+}
+
+std::vector<double> LodEngine::Impl::refined_onto(uint64_t node, uint64_t ancestor,
+                                                  const std::vector<double>& coefficients) const {
+  const BrickNode &b = store.node(node), &a = store.node(ancestor);
+  std::vector<double> c = coefficients;
+  for (uint32_t level = a.level + 1; level <= b.level; ++level) {
+    const uint32_t up = b.level - level;  // the descendant at `level` on the way to node
+    const int octant = int((b.i >> up) & 1) | int((b.j >> up) & 1) << 1 | int((b.k >> up) & 1) << 2;
+    refine_coefficients(store.resolution(), c, octant, c);
+  }
+  return c;
+}
+
+uint64_t LodEngine::Impl::neighbour_key_node(uint64_t level, int64_t i, int64_t j, int64_t k) {
   if (same_level.empty())
     for (uint64_t n = 0; n < store.node_count(); ++n) {
       const BrickNode& b = store.node(n);
-      if (b.has_brick()) same_level.emplace(key(b.level, b.i, b.j, b.k), n);
+      if (b.has_brick()) same_level.emplace(level_key(b.level, b.i, b.j, b.k), n);
     }
-  const BrickNode& b = store.node(node);
-  const int64_t i = int64_t(b.i) + dx, j = int64_t(b.j) + dy, k = int64_t(b.k) + dz;
-  const int64_t side = int64_t(1) << b.level;  // nodes of a level per axis of the root cell
+  const int64_t side = int64_t(1) << level;  // nodes of a level per axis of the root cell
   if (i < 0 || j < 0 || k < 0 || i >= side || j >= side || k >= side) return kNoNode;
-  const auto it = same_level.find(key(b.level, i, j, k));
+  const auto it = same_level.find(level_key(level, i, j, k));
   return it == same_level.end() ? kNoNode : it->second;
+}
+
+uint64_t LodEngine::Impl::neighbour(uint64_t node, int dx, int dy, int dz) {
+  const BrickNode& b = store.node(node);
+  return neighbour_key_node(b.level, int64_t(b.i) + dx, int64_t(b.j) + dy, int64_t(b.k) + dz);
 }
 
 // load() for tricubic frames: each brick is prefiltered over its same-level neighbourhood (brick_atlas.h,
@@ -284,15 +338,43 @@ uint64_t LodEngine::Impl::neighbour(uint64_t node, int dx, int dy, int dz) {
 // "Seams"). The neighbours' texels come from the batch itself, the session's RAM tier where it has them, or the
 // store (read here, in parallel; counted in neighbour_reads); they live for one batch, whose size keeps them within
 // kNeighbourStagingBytes. A neighbour that is not in the store at that level (a coarser leaf there, the domain's
-// border) leaves that side to the brick's own end condition. Every brick's coefficients are final when it uploads:
-// nothing is refined later.
-uint64_t LodEngine::Impl::load_cubic(const BrickSlotTable::Plan& plan, BrickResidency& residency, double lo,
-                                     double hi) {
+// border) leaves that side to the brick's own end condition.
+// Level borders: a brick next to coarser cut nodes blends into their level's spline (CubicLevelBlend), computed from
+// its ancestor at that level (prefiltered over the ancestor's own neighbourhood, read as above) refined onto the
+// brick's lattice. That depends on the cut around the brick, so a resident brick is uploaded again when its coarser
+// neighbours change (counted in the frame's bricks_loaded).
+uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const BrickSlotTable::Plan& cut_plan,
+                                     BrickResidency& residency, double lo, double hi) {
   const uint32_t r = store.resolution();
   const uint64_t side = r + 2, texel_bytes = side * side * side * 4;
-  const size_t batch = size_t(std::clamp<uint64_t>(kNeighbourStagingBytes / (27 * texel_bytes), 1, kLoadBatch));
+  // A brick's neighbourhood, and its ancestors' at a level border: two neighbourhoods a brick at most.
+  const size_t batch = size_t(std::clamp<uint64_t>(kNeighbourStagingBytes / (2 * 27 * texel_bytes), 1, kLoadBatch));
   BrickCache* ram = residency.ram();
   const bool ram_usable = ram && ram->field() == field && ram->step() == store.step();
+  const bool blend = atlas.level_blend();
+  std::unordered_map<uint64_t, uint64_t> cut_by_key;
+  if (blend)
+    for (uint64_t n : nodes) {
+      const BrickNode& b = store.node(n);
+      cut_by_key.emplace(level_key(b.level, b.i, b.j, b.k), n);
+    }
+  // The cut's levels around each brick; resident bricks whose coarser neighbours changed go again into their slots.
+  BrickSlotTable::Plan plan = cut_plan;
+  std::unordered_map<uint64_t, CoarserLevels> levels_of;
+  for (uint64_t n : nodes) {
+    CoarserLevels levels;
+    levels.fill(kNotCoarser);
+    if (blend) levels = coarser_levels(n, cut_by_key);
+    levels_of[n] = levels;
+  }
+  const std::unordered_set<uint64_t> planned(plan.missing.begin(), plan.missing.end());
+  for (uint64_t n : nodes) {
+    if (planned.count(n) || !residency.gpu().contains(n)) continue;
+    const auto was = uploaded_levels.find(n);
+    if (was != uploaded_levels.end() && was->second == levels_of[n]) continue;
+    plan.missing.push_back(n);
+    plan.slots.push_back(residency.gpu().slot(n));
+  }
   std::vector<std::vector<uint16_t>> read(batch);
   std::vector<BrickResidency::Texels> from_ram(batch);
   for (size_t b = 0; b < plan.missing.size(); b += batch) {
@@ -300,25 +382,45 @@ uint64_t LodEngine::Impl::load_cubic(const BrickSlotTable::Plan& plan, BrickResi
     residency.fetch(plan, b, count, field, lo, hi, from_ram, read);
     std::unordered_map<uint64_t, const uint16_t*> texels;
     for (size_t i = 0; i < count; ++i) texels[plan.missing[b + i]] = from_ram[i] ? from_ram[i]->data() : read[i].data();
-    // The batch's neighbourhoods: what the batch lacks, from RAM or read.
-    std::vector<std::array<uint64_t, 27>> around(count);
     std::vector<uint64_t> to_read;
     std::vector<BrickResidency::Texels> held;
-    for (size_t i = 0; i < count; ++i)
-      for (int d = 0; d < 27; ++d) {
-        const uint64_t n = d == 13 ? kNoNode : neighbour(plan.missing[b + i], d % 3 - 1, d / 3 % 3 - 1, d / 9 - 1);
-        around[i][size_t(d)] = n;
-        if (n == kNoNode || texels.count(n)) continue;
-        if (ram_usable && ram->resident(n)) {
-          if (BrickResidency::Texels t = ram->get(n)) {
-            texels[n] = t->data();
-            held.push_back(std::move(t));
-            continue;
-          }
+    // node's texels: the batch's, the RAM tier's, or to be read.
+    const auto want = [&](uint64_t n) {
+      if (n == kNoNode || texels.count(n)) return;
+      if (ram_usable && ram->resident(n)) {
+        if (BrickResidency::Texels t = ram->get(n)) {
+          texels[n] = t->data();
+          held.push_back(std::move(t));
+          return;
         }
-        texels[n] = nullptr;
-        to_read.push_back(n);
       }
+      texels[n] = nullptr;
+      to_read.push_back(n);
+    };
+    const auto around_of = [&](uint64_t n) {
+      std::array<uint64_t, 27> around;
+      for (int d = 0; d < 27; ++d)
+        around[size_t(d)] = d == 13 ? kNoNode : neighbour(n, d % 3 - 1, d / 3 % 3 - 1, d / 9 - 1);
+      return around;
+    };
+    // The batch's neighbourhoods, and those of the ancestors at the coarser levels next to its bricks.
+    std::vector<std::array<uint64_t, 27>> around(count);
+    std::unordered_map<uint64_t, std::array<uint64_t, 27>> ancestors;
+    for (size_t i = 0; i < count; ++i) {
+      const uint64_t n = plan.missing[b + i];
+      around[i] = around_of(n);
+      for (uint64_t m : around[i]) want(m);
+      const BrickNode& node = store.node(n);
+      for (uint8_t level : levels_of[n]) {
+        if (level == kNotCoarser) continue;
+        const int up = int(node.level) - level;
+        const uint64_t a = neighbour_key_node(level, node.i >> up, node.j >> up, node.k >> up);
+        if (a == kNoNode || ancestors.count(a)) continue;
+        ancestors[a] = around_of(a);
+        want(a);
+        for (uint64_t m : ancestors[a]) want(m);
+      }
+    }
     std::vector<std::vector<uint16_t>> extra(to_read.size());
     tbb::parallel_for(size_t(0), to_read.size(), [&](size_t i) {
       thread_local std::vector<float> samples;
@@ -330,12 +432,41 @@ uint64_t LodEngine::Impl::load_cubic(const BrickSlotTable::Plan& plan, BrickResi
     });
     for (size_t i = 0; i < to_read.size(); ++i) texels[to_read[i]] = extra[i].data();
     neighbour_reads += to_read.size();
-    for (size_t i = 0; i < count; ++i) {
+    const auto hood_of = [&](const std::array<uint64_t, 27>& ids) {
       CubicNeighbourhood hood{};
       for (size_t d = 0; d < 27; ++d)
-        if (around[i][d] != kNoNode) hood[d] = texels[around[i][d]];
-      atlas.upload(plan.slots[b + i], texels[plan.missing[b + i]], &hood);
-      residency.place(plan.missing[b + i], plan.slots[b + i]);
+        if (ids[d] != kNoNode) hood[d] = texels.at(ids[d]);
+      return hood;
+    };
+    // The ancestors' splines (their level's, prefiltered over their own neighbourhoods); none where they lack data.
+    std::vector<uint64_t> ancestor_ids;
+    for (const auto& [a, ids] : ancestors) ancestor_ids.push_back(a);
+    std::vector<std::vector<double>> ancestor_coefficients(ancestor_ids.size());
+    std::vector<char> ancestor_ok(ancestor_ids.size(), 0);
+    tbb::parallel_for(size_t(0), ancestor_ids.size(), [&](size_t i) {
+      const CubicNeighbourhood hood = hood_of(ancestors.at(ancestor_ids[i]));
+      ancestor_ok[i] =
+          cubic_coefficients(r, texels.at(ancestor_ids[i]), ancestor_coefficients[i], &hood, atlas.extension());
+    });
+    for (size_t i = 0; i < count; ++i) {
+      const uint64_t n = plan.missing[b + i];
+      const CubicNeighbourhood hood = hood_of(around[i]);
+      CubicLevelBlend levels;
+      const BrickNode& node = store.node(n);
+      for (int level = int(node.level) - 1; level >= 0; --level) {  // the finest coarser level first
+        CubicLevelTarget target;
+        for (size_t d = 0; d < 27; ++d) target.towards[d] = levels_of[n][d] == level;
+        if (std::none_of(target.towards.begin(), target.towards.end(), [](bool t) { return t; })) continue;
+        const int up = int(node.level) - level;
+        const uint64_t a = neighbour_key_node(uint64_t(level), node.i >> up, node.j >> up, node.k >> up);
+        const auto at = std::find(ancestor_ids.begin(), ancestor_ids.end(), a);
+        if (at == ancestor_ids.end() || !ancestor_ok[size_t(at - ancestor_ids.begin())]) continue;
+        target.coefficients = refined_onto(n, a, ancestor_coefficients[size_t(at - ancestor_ids.begin())]);
+        levels.push_back(std::move(target));
+      }
+      atlas.upload(plan.slots[b + i], texels[n], &hood, &levels);
+      residency.place(n, plan.slots[b + i]);
+      uploaded_levels[n] = levels_of[n];
     }
   }
   if (!plan.missing.empty()) check_gl("uploading bricks");
