@@ -2,11 +2,13 @@
 # Issue 18's store with time built out of core: a generated series of STEPS steps of N cells each, built into one
 # store with time in core and out of core at --memory MEMORY, alternated ROUNDS times:
 #   1. ugvr generate --cells N --time-steps STEPS -o S/w.pvd                       (skipped when S/w.pvd exists)
-#   2. ugvr build S/w.pvd --time all --error 0 --fields pressure --max-depth DEPTH --json [--out-of-core] --memory M
+#   2. ugvr build S/w.pvd --time all --error 0 --fields pressure --max-depth DEPTH --json
+#        in core: --memory 64GiB (the in-core build only warns past --memory; 64GiB keeps it from choosing out of core)
+#        out of core: --out-of-core --memory MEMORY
 # and reports per build the wall time, CPU time and peak RSS (/usr/bin/time -v), the store's size and nodes, and
 # whether the two stores agree (node count, store size). One JSON line per build to bench/results/time_ooc.jsonl.
 # Usage: bench/run_time_ooc.sh [N=2000000] [STEPS=6] [SCRATCH=/tmp/ugvr-time-ooc]
-#   UGVR (default build/ugvr), MEMORY (256MiB), DEPTH (8), ROUNDS (1). Scratch: the series (about 60 bytes a hexahedral
+#   UGVR (default build/ugvr), MEMORY (256MiB), DEPTH (6), ROUNDS (1). Scratch: the series (about 60 bytes a hexahedral
 #   cell a step) and, out of core, one step's soup and pending nodes' files (about 3 times a step's file).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -16,7 +18,7 @@ steps=${2:-6}
 scratch=${3:-/tmp/ugvr-time-ooc}
 ugvr=${UGVR:-$root/build/ugvr}
 memory=${MEMORY:-256MiB}
-depth=${DEPTH:-8}
+depth=${DEPTH:-6}
 rounds=${ROUNDS:-1}
 out=bench/results/time_ooc.jsonl
 mkdir -p "$scratch" bench/results
@@ -34,12 +36,12 @@ step_bytes=$(stat -c %s "$scratch/w_0000.vtu")
 echo "series: $steps steps of $n cells, $step_bytes bytes a step; load: $(uptime | sed 's/.*load average: //')"
 for round in $(seq 1 "$rounds"); do
   for mode in in-core out-of-core; do
-    flag=""
-    [ "$mode" = out-of-core ] && flag="--out-of-core"
+    flag="--memory 64GiB"
+    [ "$mode" = out-of-core ] && flag="--out-of-core --memory $memory"
     store="$scratch/$mode.ugvr"
     load=$(uptime | sed 's/.*load average: //' | cut -d, -f1)
     /usr/bin/time -v "$ugvr" --quiet build "$series" --time all --error 0 --fields pressure --max-depth "$depth" \
-      --memory "$memory" $flag --json -o "$store" >"$scratch/$mode.json" 2>"$scratch/$mode.time"
+      $flag --json -o "$store" >"$scratch/$mode.json" 2>"$scratch/$mode.time"
     line=$(python3 - "$scratch/$mode.json" "$mode" "$round" "$(wall "$scratch/$mode.time")" \
       "$(cpu "$scratch/$mode.time")" "$(peak_rss "$scratch/$mode.time")" "$load" "$commit" "$n" "$steps" "$memory" <<'PY'
 import json, sys

@@ -790,6 +790,15 @@ namespace ugvr {
 
 namespace {
 
+// What a store with time holds beside one step's build, from the second step on: the first step's tree (twice: the
+// build's copy) and, until the commit, the writer's node tables of the steps written (block offsets, sizes,
+// checksums, value ranges, errors and transfer-function error entries: 68 bytes a node and field and 16 a node;
+// 96 a node and field counts both, with slack).
+uint64_t held_for_steps(uint64_t nodes, uint64_t fields, size_t steps_written) {
+  constexpr uint64_t kStepTableBytes = 96;
+  return 2 * nodes * sizeof(OctreeNode) + uint64_t(steps_written) * nodes * fields * kStepTableBytes;
+}
+
 bool is_vtu_step(const TimeStep& step) {
   if (step.files.size() != 1 || step.reader_step >= 0) return false;
   std::string ext = std::filesystem::path(step.files[0]).extension().string();
@@ -847,7 +856,6 @@ OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::s
   lattice.resolution = options.resolution;
   std::optional<BrickStoreWriter> writer;
   HeldBoundary boundary_held;
-  size_t preload = 0;
   std::vector<OctreeNode> tree;  // the first step's, filled by every later step
   double soup_seconds = 0, brick_seconds = 0;
   // One step at a time: its cells to a soup (its points and values held a slice at a time), then its bricks. The
@@ -871,13 +879,15 @@ OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::s
       boundary_held =
           find_boundary(root_file, source.layout(), cells, options, memory_budget, temp_path.string(), stats);
       writer.emplace(path, layout);
-      preload = records_per_worker(options, layout.fields.size(), memory_budget, boundary_held.bytes());
     } else if (source.geometry_hash() != geometry) {
       fail_geometry_differs(series, steps[k], steps[0], "points and cells hashed as they were read");
     }
     std::vector<store_format::StepFieldRange> ranges;
     for (const BrickStoreField& f : source.fields()) ranges.push_back({f.min, f.max});
     writer->begin_step(uint32_t(k), ranges);
+    const size_t preload =
+        records_per_worker(options, source.fields().size(), memory_budget,
+                           boundary_held.bytes() + held_for_steps(tree.size(), source.fields().size(), k));
     const auto bricks_start = std::chrono::steady_clock::now();
     Progress progress(label + ": bricks", OutOfCoreBuild::kVolumeUnits, options.progress);
     OutOfCoreBuild build(options, source, lattice, *writer, temp_path, preload, progress, boundary_held.faces, tree);
