@@ -211,7 +211,8 @@ TEST(TimeStore, MugAllStepsInOneStore) {
 }
 
 // A generated series with --error > 0: the tree is the union of the steps' trees (at least the first step's own), and
-// the out-of-core builder and changing geometry are refused with a clear message.
+// the out-of-core builder (at --error 0 only: tests/test_octree_out_of_core_steps.cpp) and changing geometry are
+// refused with a clear message.
 TEST(TimeStore, GeneratedSeriesUnionTreeAndRefusals) {
   test::ScratchDir dir;
   ASSERT_EQ(run_ugvr("generate -o " + dir.file("w.pvd") + " --cells 3000 --time-steps 3").status, 0);

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "cli/cli_numbers.h"
 #include "cli/commands.h"
@@ -154,7 +155,8 @@ void register_build(CLI::App& app) {
                 "Store samples losslessly as float32 (default: 16 bits, within 7.6e-6 of each field's range)");
   cmd->add_flag("--out-of-core", opts->out_of_core,
                 "Stream the cells through temporary files next to the output instead of loading the mesh (one .vtu "
-                "input; chosen by itself when the .vtu is larger than 40% of --memory)");
+                "input, or with --time a series of .vtu steps at --error 0; chosen by itself when the (first "
+                "step's) .vtu is larger than 40% of --memory)");
   cmd->add_flag("--json", opts->json, "Print the summary as one JSON object (for benchmarks)");
   cmd->add_option(
          "--pieces", opts->pieces,
@@ -197,16 +199,24 @@ void register_build(CLI::App& app) {
     validate_build_options(opts->build);
     const bool vtu = opts->input.files.size() == 1 && extension_lower(opts->input.files[0]) == ".vtu";
     const bool timed = !opts->time.empty();
-    if (timed && opts->out_of_core)
-      throw Error(
-          "--out-of-core --time: the out-of-core builder makes stores of one step; build a store with time in "
-          "core (leave out --out-of-core) or one store per step");
     if (timed && opts->input.read.time_step >= 0)
       throw Error("--time and --time-step: give one (--time N selects a single step too)");
-    if (opts->out_of_core && !vtu) throw Error(opts->input.files[0] + ": --out-of-core reads a single .vtu file");
+    if (opts->out_of_core && !vtu && !timed)
+      throw Error(opts->input.files[0] +
+                  ": --out-of-core reads a single .vtu file (or, with --time, a series of them)");
+    std::optional<TimeSeries> series;
+    std::vector<uint32_t> steps;
+    if (timed) {
+      series = list_time_steps(opts->input.files, opts->input.read);
+      steps = parse_step_selection(opts->time, series->size(), "--time");
+    }
+    // Chosen by itself when the (first step's) .vtu is larger than 40% of --memory: the in-core build's 2.5x peak
+    // would not fit. A series only at --error 0, which is all the out-of-core build of a series does.
+    auto large = [&](const std::string& file) { return std::filesystem::file_size(file) > opts->memory / 5 * 2; };
     const bool out_of_core =
-        !timed &&
-        (opts->out_of_core || (vtu && std::filesystem::file_size(opts->input.files[0]) > opts->memory / 5 * 2));
+        timed ? opts->out_of_core || (opts->build.error == 0 && out_of_core_steps_possible(*series, steps) &&
+                                      large(out_of_core_step_file(*series, steps[0])))
+              : opts->out_of_core || (vtu && large(opts->input.files[0]));
     if (!opts->preview.empty()) {
       if (!out_of_core) throw Error("--preview " + opts->preview + ": a preview is made by out-of-core builds only");
       if (extension_lower(opts->preview) != ".ugvr") throw Error(opts->preview + ": the preview must be a .ugvr file");
@@ -226,10 +236,13 @@ void register_build(CLI::App& app) {
     }
     OctreeBuildStats s;
     std::string names;
-    if (timed) {
-      const TimeSeries series = list_time_steps(opts->input.files, opts->input.read);
-      const std::vector<uint32_t> steps = parse_step_selection(opts->time, series.size(), "--time");
-      s = build_octree_steps(series, steps, opts->fields, opts->build, opts->output);
+    if (timed && out_of_core) {
+      if (!opts->out_of_core) std::fprintf(stderr, "note: building out of core (a step is large for --memory)\n");
+      s = build_octree_out_of_core_steps(*series, steps, opts->fields, opts->build, opts->memory, opts->output);
+      const BrickStoreReader store(opts->output);
+      for (const BrickStoreField& f : store.layout().fields) names += (names.empty() ? "" : ",") + f.name;
+    } else if (timed) {
+      s = build_octree_steps(*series, steps, opts->fields, opts->build, opts->output);
       const BrickStoreReader store(opts->output);
       for (const BrickStoreField& f : store.layout().fields) names += (names.empty() ? "" : ",") + f.name;
     } else if (out_of_core) {

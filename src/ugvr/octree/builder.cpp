@@ -9,7 +9,6 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -25,6 +24,7 @@
 #include "ugvr/octree/node_error.h"
 #include "ugvr/octree/split.h"
 #include "ugvr/octree/subdivide.h"
+#include "ugvr/octree/time_steps.h"
 #include "ugvr/store/brick_pad.h"
 
 namespace ugvr {
@@ -268,29 +268,14 @@ OctreeBuildStats build_octree_steps(const TimeSeries& series, std::span<const ui
                                     std::span<const std::string> selectors, const OctreeBuildOptions& options,
                                     const std::string& path) {
   validate_build_options(options);
-  if (steps.empty()) throw Error(series.source + ": no time step selected");
-  if (options.leaf_cells && steps.size() > 1)
-    throw Error(series.source +
-                ": --cells keeps one step's values in each cell block; a store of several time steps "
-                "cannot keep them yet (build one store per step with --time-step N, or leave out --cells)");
-  for (size_t k = 0; k < steps.size(); ++k) {
-    if (steps[k] >= series.size())
-      throw Error(series.source + ": time step " + std::to_string(steps[k]) + " out of range (the series has " +
-                  std::to_string(series.size()) + ")");
-    if (k > 0 && steps[k] <= steps[k - 1])
-      throw Error(series.source + ": time steps must be given in increasing order");
-  }
+  check_step_selection(series, steps, options);
   const auto start = std::chrono::steady_clock::now();
   std::optional<tbb::global_control> threads;
   if (options.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(options.threads));
   const size_t S = steps.size();
   OctreeBuildStats stats;
   stats.time_steps = uint32_t(S);
-  auto step_name = [&](size_t k) {
-    char buf[96];
-    std::snprintf(buf, sizeof buf, "step %zu/%zu (#%u, t = %g)", k + 1, S, steps[k], series.steps[steps[k]].time);
-    return std::string(buf);
-  };
+  auto step_name = [&](size_t k) { return step_label(series, steps, k); };
   // One step's dataset and what the builder takes from it; the previous one is released first.
   struct Loaded {
     std::unique_ptr<Dataset> dataset;
@@ -308,11 +293,7 @@ OctreeBuildStats build_octree_steps(const TimeSeries& series, std::span<const ui
     }
     const uint64_t f = geometry_fingerprint(*out.dataset);
     if (k == 0 && fingerprint == 0) fingerprint = f;
-    if (f != fingerprint)
-      throw Error(series.source + ": the geometry of time step " + std::to_string(steps[k]) +
-                  " differs from that of step " + std::to_string(steps[0]) +
-                  " (geometry fingerprint): a store shares one mesh over its steps, so build one store per step "
-                  "(ugvr build SERIES --time-step N -o step_N.ugvr)");
+    if (f != fingerprint) fail_geometry_differs(series, steps[k], steps[0], "geometry fingerprint");
     out.input = prepare_octree_input(*out.dataset, names);
     if (names.empty())  // the fields the first step picked, kept for every step (a field constant at first stays)
       for (const BrickStoreField& fd : out.input.fields) names.push_back(fd.name);

@@ -11,6 +11,7 @@
 #include <array>
 #include <atomic>
 #include <bit>
+#include <cctype>
 #include <chrono>
 #include <filesystem>
 #include <mutex>
@@ -32,6 +33,7 @@
 #include "ugvr/octree/point_sketch.h"
 #include "ugvr/octree/soup_boundary.h"
 #include "ugvr/octree/split.h"
+#include "ugvr/octree/time_steps.h"
 #include "ugvr/octree/vtu_cells.h"
 #include "ugvr/store/brick_pad.h"
 
@@ -41,6 +43,11 @@ namespace {
 double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
+
+// A later time step's cells do not follow the first step's tree: its geometry differs.
+struct OtherGeometry : Error {
+  using Error::Error;
+};
 
 // Per-thread scratch: the split test's table, the sampler's, and a one-cell mesh for the flatness test.
 struct Scratch {
@@ -57,9 +64,12 @@ class OutOfCoreBuild {
     std::vector<FieldError> errors;
   };
 
+  // `tree` empty: the tree is shaped by the split rule as the cells stream through (node ids given at split time);
+  // else the tree to fill (a store's later time steps: the first step's tree, ids and all), whose cells are routed
+  // down it as they were for that step.
   OutOfCoreBuild(const OctreeBuildOptions& options, const VtuCellSource& source, const BrickLattice& lattice,
                  BrickStoreWriter& writer, const std::filesystem::path& temp, size_t preload_bytes, Progress& progress,
-                 std::span<const uint64_t> boundary_faces)
+                 std::span<const uint64_t> boundary_faces, std::span<const OctreeNode> tree = {})
       : o_(options),
         layout_(source.layout()),
         slots_(source.slots()),
@@ -70,11 +80,16 @@ class OutOfCoreBuild {
         preload_bytes_(preload_bytes),
         progress_(progress),
         boundary_faces_(boundary_faces),
-        F_(uint32_t(fields_.size())) {
+        F_(uint32_t(fields_.size())),
+        fixed_tree_(!tree.empty()) {
     for (const BrickStoreField& f : fields_) thresholds_.push_back(o_.error * (f.max - f.min));
-    nodes_.push_back(OctreeNode{});
-    errors_.grow_to_at_least(F_);
-    tf_errors_.grow_to_at_least(F_);
+    if (fixed_tree_) {
+      nodes_.assign(tree.begin(), tree.end());
+    } else {
+      nodes_.push_back(OctreeNode{});
+    }
+    errors_.grow_to_at_least(nodes_.size() * F_);
+    tf_errors_.grow_to_at_least(nodes_.size() * F_);
   }
 
   std::unique_ptr<Result> process(uint64_t id, const std::string& file) {
@@ -83,16 +98,17 @@ class OutOfCoreBuild {
     const Bounds box = lattice_.node_box(node.level, ijk);
     Scratch& scratch = scratch_.local();
 
-    // Stream the file through the split test, keeping the records while they fit (a leaf needs them all).
+    // Stream the file through the split test, keeping the records while they fit (a leaf needs them all). A fixed
+    // tree's interior node needs neither: its cells go straight to its children.
     std::vector<std::byte> kept;
-    bool complete = true, split = false;
-    {
+    bool complete = true, split = fixed_tree_ && !node.is_leaf();
+    if (!split) {
       scratch.table.begin(box, o_.resolution, thresholds_, o_.error == 0);
       SoupReader reader(file, layout_);
       const std::byte* rec = nullptr;
       while (reader.next(rec)) {
         const SoupCell cell(rec, layout_);
-        if (node.level < o_.max_depth && !is_flat(cell, scratch)) split = feed(cell, scratch);
+        if (!fixed_tree_ && node.level < o_.max_depth && !is_flat(cell, scratch)) split = feed(cell, scratch);
         if (split) break;
         if (complete && kept.size() + cell.bytes() <= preload_bytes_) {
           kept.insert(kept.end(), rec, rec + cell.bytes());
@@ -115,7 +131,7 @@ class OutOfCoreBuild {
     reset_sums();
     // The interpolant check (split.h, InterpolantCheck) needs the leaf's brick: a node the voxel rule keeps whole is
     // sampled as a leaf first, and split after all if its brick departs from the cells' interpolant.
-    const bool check = o_.error > 0 && node.level < o_.max_depth;
+    const bool check = !fixed_tree_ && o_.error > 0 && node.level < o_.max_depth;
     if (!split) {
       bool pieces = false;
       std::unique_ptr<LocalMesh> welded;  // the leaf's mesh, kept for its cell block
@@ -171,23 +187,12 @@ class OutOfCoreBuild {
       std::filesystem::remove(file);
       uint8_t mask = 0;
       for (int o = 0; o < 8; ++o) mask |= uint8_t(!files[size_t(o)].empty()) << o;
-      const int count = std::popcount(mask);
-      const uint64_t first = uint64_t(nodes_.grow_by(size_t(count)) - nodes_.begin());
-      errors_.grow_to_at_least((first + uint64_t(count)) * F_);
-      tf_errors_.grow_to_at_least((first + uint64_t(count)) * F_);
-      nodes_[id].first_child = first;
-      nodes_[id].child_mask = mask;
+      const uint64_t first = fixed_tree_ ? fixed_children(node, mask) : add_children(id, node, mask);
       std::array<std::unique_ptr<Result>, 8> kids;
       tbb::task_group group;
       uint64_t child = first;
       for (int o = 0; o < 8; ++o) {
         if (!(mask >> o & 1)) continue;
-        OctreeNode& c = nodes_[child];
-        c.parent = id;
-        c.level = uint8_t(node.level + 1);
-        c.i = 2 * node.i + uint32_t(o & 1);
-        c.j = 2 * node.j + uint32_t((o >> 1) & 1);
-        c.k = 2 * node.k + uint32_t((o >> 2) & 1);
         group.run([this, &kids, &files, o, child] { kids[size_t(o)] = process(child, files[size_t(o)]); });
         ++child;
       }
@@ -226,6 +231,38 @@ class OutOfCoreBuild {
   static constexpr uint64_t kVolumeUnits = uint64_t(1) << 62;
 
  private:
+  // The children a split makes (those of `mask`, the octants its cells reached): a block of consecutive ids, taken now.
+  uint64_t add_children(uint64_t id, const OctreeNode& node, uint8_t mask) {
+    const int count = std::popcount(mask);
+    const uint64_t first = uint64_t(nodes_.grow_by(size_t(count)) - nodes_.begin());
+    errors_.grow_to_at_least((first + uint64_t(count)) * F_);
+    tf_errors_.grow_to_at_least((first + uint64_t(count)) * F_);
+    nodes_[id].first_child = first;
+    nodes_[id].child_mask = mask;
+    uint64_t child = first;
+    for (int o = 0; o < 8; ++o) {
+      if (!(mask >> o & 1)) continue;
+      OctreeNode& c = nodes_[child++];
+      c.parent = id;
+      c.level = uint8_t(node.level + 1);
+      c.i = 2 * node.i + uint32_t(o & 1);
+      c.j = 2 * node.j + uint32_t((o >> 1) & 1);
+      c.k = 2 * node.k + uint32_t((o >> 2) & 1);
+    }
+    return first;
+  }
+
+  // A fixed tree's children: the same octants must have been reached as when the tree was made, or the cells are not
+  // those the tree was made from (the geometry hash missed a difference; the routing cannot).
+  uint64_t fixed_children(const OctreeNode& node, uint8_t mask) const {
+    if (mask != node.child_mask)
+      throw OtherGeometry("the cells of node (level " + std::to_string(node.level) + ", " + std::to_string(node.i) +
+                          " " + std::to_string(node.j) + " " + std::to_string(node.k) + ") reach children " +
+                          std::to_string(mask) + ", not the tree's " + std::to_string(node.child_mask) +
+                          ": the geometry differs");
+    return node.first_child;
+  }
+
   bool is_flat(const SoupCell& cell, Scratch& s) const {
     UnstructuredMesh& m = s.one_cell;
     const int n = cell.vertex_count();
@@ -512,6 +549,7 @@ class OutOfCoreBuild {
   Progress& progress_;
   std::span<const uint64_t> boundary_faces_;  // the mesh's, pack_face(cell id, face), ascending (leaf_cells only)
   uint32_t F_;
+  bool fixed_tree_;  // the tree is given (see the constructor)
   std::vector<double> thresholds_;
   tbb::concurrent_vector<OctreeNode> nodes_;
   tbb::concurrent_vector<FieldError> errors_;                     // node x field
@@ -549,6 +587,100 @@ class PreviewFile {
   bool temporary_;
   TempRegistration registration_;
 };
+
+// The cells of `source` into the root's soup file. The points and vertex scalars are held while the records are
+// written: half of the budget beyond the program's own, at least 1 MiB (each slice costs a pass over the cells and an
+// open file).
+uint64_t write_root_soup(VtuCellSource& source, const std::string& root_file, uint64_t memory_budget,
+                         const std::string& temp, const std::string& label, const Progress::Observer& observer) {
+  const uint64_t base = uint64_t(48) << 20;
+  const uint64_t point_budget = std::max((memory_budget > base ? memory_budget - base : 0) / 2, uint64_t(1) << 20);
+  Progress progress(label, source.file_cell_count(), observer);
+  SoupWriter soup(root_file, source.layout());
+  const uint64_t cells = source.write_soup(soup, point_budget, temp, &progress);
+  soup.close();
+  return cells;
+}
+
+// The mesh boundary as the build holds it: its triangles, for the store's boundary section once the tree is known,
+// and (leaf cells only) its faces, 8 bytes each, for the leaves' cell blocks.
+struct HeldBoundary {
+  std::vector<MeshFaceTriangle> triangles;
+  std::vector<uint64_t> faces;
+  uint64_t bytes() const { return triangles.size() * sizeof(MeshFaceTriangle) + faces.size() * sizeof(uint64_t); }
+};
+
+// The boundary's triangles (octree/soup_boundary.h), found while the budget is free and held through the build;
+// assigned to the nodes once the tree is known. Their node lists take about 150 bytes a triangle at the end (the
+// section, and each triangle in double precision while it is tested against boxes): more than half of the budget,
+// and the store keeps the stencil's boundary, with a note saying so (stats.boundary_note).
+HeldBoundary find_boundary(const std::string& root_file, const SoupLayout& layout, uint64_t cells,
+                           const OctreeBuildOptions& options, uint64_t memory_budget, const std::string& temp,
+                           OctreeBuildStats& stats) {
+  HeldBoundary held;
+  if (options.boundary_faces_per_node == 0 && !options.leaf_cells) return held;
+  const auto boundary_start = std::chrono::steady_clock::now();
+  SoupBoundaryStats bst;
+  held.triangles = soup_boundary_triangles(root_file, layout, cells, memory_budget, temp, options.progress, &bst,
+                                           options.leaf_cells ? &held.faces : nullptr);
+  if (options.boundary_faces_per_node == 0) held.triangles = {};
+  const uint64_t need = held.triangles.size() * uint64_t(150);
+  if (need > memory_budget / 2) {
+    stats.boundary_note = "the mesh boundary's " + std::to_string(held.triangles.size()) + " triangles need about " +
+                          std::to_string(need >> 20) +
+                          " MiB, over half of the memory budget: the store keeps the stencil's boundary (a budget of " +
+                          std::to_string((2 * need >> 20) + 1) + " MiB or more keeps the exact one)";
+    held.triangles = {};
+  }
+  stats.boundary_seconds = seconds_since(boundary_start);
+  return held;
+}
+
+// What the budget pays for besides cells: the program and its store writer (about 48 MiB), and per worker the file
+// buffers of a split (9 soup buffers of 1 MiB and their slack) and the bricks of the subtree in progress (8 per
+// level, R³ (4F + 1) bytes each). The rest is shared by the workers, each of which may hold one node's records: a
+// twelfth of its share, as sampling them takes up to about 10 times their size (the records with their vector's
+// slack, the welded mesh, the sampler's prepared cells, about 400 bytes a cell, and its buckets, and what the
+// allocator keeps between leaves; measured on 100M tetrahedra); at least 64 KiB.
+size_t records_per_worker(const OctreeBuildOptions& options, size_t field_count, uint64_t memory_budget,
+                          uint64_t held_bytes) {
+  const auto workers = uint64_t(std::max(1, tbb::this_task_arena::max_concurrency()));
+  const uint64_t brick_bytes =
+      uint64_t(options.resolution) * options.resolution * options.resolution * (4 * uint64_t(field_count) + 1);
+  const uint64_t reserve =
+      (uint64_t(48) << 20) + workers * ((uint64_t(18) << 20) + 8 * uint64_t(options.max_depth + 1) * brick_bytes);
+  const uint64_t held = reserve + held_bytes;
+  const uint64_t available = memory_budget > held ? memory_budget - held : 0;
+  return size_t(std::max<uint64_t>(available / (12 * workers), uint64_t(64) << 10));
+}
+
+// The boundary's triangles assigned to the finished tree's nodes (the store's boundary section); frees them.
+StoreBoundary place_boundary(HeldBoundary& held, const Bounds& root, std::span<const OctreeNode> nodes,
+                             const OctreeBuildOptions& options, OctreeBuildStats& stats) {
+  held.faces = {};
+  const auto boundary_start = std::chrono::steady_clock::now();
+  BoundaryFaceStats bst;
+  StoreBoundary boundary = store_boundary_faces(held.triangles, root, nodes, options.boundary_faces_per_node, &bst);
+  held.triangles = {};
+  stats.boundary_bytes = boundary.bytes();
+  stats.boundary_triangles = bst.triangles;
+  stats.boundary_overflow_nodes = bst.overflow_nodes;
+  stats.boundary_seconds += seconds_since(boundary_start);
+  return boundary;
+}
+
+// What a finished OutOfCoreBuild counted, into the stats (added: a store with time sums its steps).
+void add_build_counts(const OutOfCoreBuild& build, const VtuCellSource& source, OctreeBuildStats& stats) {
+  stats.leaf_samples += build.leaf_samples();
+  stats.valid_samples += build.valid_samples();
+  stats.leaves_in_pieces += build.leaves_in_pieces();
+  stats.point_passes += source.passes();
+  stats.sampler_seconds += build.sampler_seconds();
+  stats.cell_blocks += build.cell_blocks();
+  stats.leaf_cells += build.leaf_cells();
+  stats.cell_bytes += build.cell_bytes();
+  stats.cell_seconds += build.cell_seconds();
+}
 
 }  // namespace
 
@@ -592,17 +724,8 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
     }
   }
   const std::string root_file = (temp_path / "root").string();
-  uint64_t cells = 0;
-  {
-    // Points and vertex scalars are held while the cells are written: half of the budget beyond the program's own,
-    // at least 1 MiB (each slice costs a pass over the cells and an open file).
-    const uint64_t base = uint64_t(48) << 20;
-    const uint64_t point_budget = std::max((memory_budget > base ? memory_budget - base : 0) / 2, uint64_t(1) << 20);
-    Progress progress("cells to disk", source.file_cell_count(), options.progress);
-    SoupWriter soup(root_file, source.layout());
-    cells = source.write_soup(soup, point_budget, temp_path.string(), &progress);
-    soup.close();
-  }
+  const uint64_t cells =
+      write_root_soup(source, root_file, memory_budget, temp_path.string(), "cells to disk", options.progress);
   const Bounds data_bounds = source.bounds();
   BrickLattice lattice;
   lattice.root = octree_root(data_bounds);
@@ -630,49 +753,11 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
     if (options.on_preview) options.on_preview(preview->path());
   }
 
-  // The boundary's triangles (octree/soup_boundary.h), found while the budget is free and held through the build;
-  // assigned to the nodes once the tree is known. Their node lists take about 150 bytes a triangle at the end (the
-  // section, and each triangle in double precision while it is tested against boxes): more than half of the budget,
-  // and the store keeps the stencil's boundary, with a note saying so.
-  // The leaves' cell blocks need the boundary's faces themselves (8 bytes each), held through the build too.
-  std::vector<MeshFaceTriangle> boundary_triangles;
-  std::vector<uint64_t> boundary_faces;
-  if (options.boundary_faces_per_node > 0 || options.leaf_cells) {
-    const auto boundary_start = std::chrono::steady_clock::now();
-    SoupBoundaryStats bst;
-    boundary_triangles =
-        soup_boundary_triangles(root_file, source.layout(), cells, memory_budget, temp_path.string(), options.progress,
-                                &bst, options.leaf_cells ? &boundary_faces : nullptr);
-    if (options.boundary_faces_per_node == 0) boundary_triangles = {};
-    const uint64_t need = boundary_triangles.size() * uint64_t(150);
-    if (need > memory_budget / 2) {
-      stats.boundary_note =
-          "the mesh boundary's " + std::to_string(boundary_triangles.size()) + " triangles need about " +
-          std::to_string(need >> 20) +
-          " MiB, over half of the memory budget: the store keeps the stencil's boundary (a budget of " +
-          std::to_string((2 * need >> 20) + 1) + " MiB or more keeps the exact one)";
-      boundary_triangles = {};
-    }
-    stats.boundary_seconds = seconds_since(boundary_start);
-  }
-
+  // Found while the budget is free; the leaves' cell blocks need the boundary's faces, held through the build too.
+  HeldBoundary boundary_held =
+      find_boundary(root_file, source.layout(), cells, options, memory_budget, temp_path.string(), stats);
   BrickStoreWriter writer(path, layout);
-
-  // What the budget pays for besides cells: the program and its store writer (about 48 MiB), and per worker the file
-  // buffers of a split (9 soup buffers of 1 MiB and their slack) and the bricks of the subtree in progress (8 per
-  // level, R³ (4F + 1) bytes each). The rest is shared by the workers, each of which may hold one node's records: a
-  // twelfth of its share, as sampling them takes up to about 10 times their size (the records with their vector's
-  // slack, the welded mesh, the sampler's prepared cells, about 400 bytes a cell, and its buckets, and what the
-  // allocator keeps between leaves; measured on 100M tetrahedra); at least 64 KiB.
-  const auto workers = uint64_t(std::max(1, tbb::this_task_arena::max_concurrency()));
-  const uint64_t brick_bytes =
-      uint64_t(options.resolution) * options.resolution * options.resolution * (4 * uint64_t(layout.fields.size()) + 1);
-  const uint64_t reserve =
-      (uint64_t(48) << 20) + workers * ((uint64_t(18) << 20) + 8 * uint64_t(options.max_depth + 1) * brick_bytes);
-  const uint64_t held =
-      reserve + boundary_triangles.size() * sizeof(MeshFaceTriangle) + boundary_faces.size() * sizeof(uint64_t);
-  const uint64_t available = memory_budget > held ? memory_budget - held : 0;
-  const size_t preload = size_t(std::max<uint64_t>(available / (12 * workers), uint64_t(64) << 10));
+  const size_t preload = records_per_worker(options, layout.fields.size(), memory_budget, boundary_held.bytes());
   stats.cells = cells;
   // here: writing the cells to disk
   stats.subdivide_seconds = seconds_since(start) - stats.preview_seconds - stats.sketch_seconds;
@@ -680,28 +765,11 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   std::vector<OctreeNode> nodes;
   {
     Progress progress("bricks", OutOfCoreBuild::kVolumeUnits, options.progress);
-    OutOfCoreBuild build(options, source, lattice, writer, temp_path, preload, progress, boundary_faces);
+    OutOfCoreBuild build(options, source, lattice, writer, temp_path, preload, progress, boundary_held.faces);
     build.process(0, root_file);
     nodes = build.nodes();
-    stats.leaf_samples = build.leaf_samples();
-    stats.valid_samples = build.valid_samples();
-    stats.leaves_in_pieces = build.leaves_in_pieces();
-    stats.point_passes = source.passes();
-    stats.sampler_seconds = build.sampler_seconds();
-    stats.cell_blocks = build.cell_blocks();
-    stats.leaf_cells = build.leaf_cells();
-    stats.cell_bytes = build.cell_bytes();
-    stats.cell_seconds = build.cell_seconds();
-    boundary_faces = {};
-    const auto boundary_start = std::chrono::steady_clock::now();
-    BoundaryFaceStats bst;
-    const StoreBoundary boundary =
-        store_boundary_faces(boundary_triangles, lattice.root, nodes, options.boundary_faces_per_node, &bst);
-    boundary_triangles = {};
-    stats.boundary_bytes = boundary.bytes();
-    stats.boundary_triangles = bst.triangles;
-    stats.boundary_overflow_nodes = bst.overflow_nodes;
-    stats.boundary_seconds += seconds_since(boundary_start);
+    add_build_counts(build, source, stats);
+    const StoreBoundary boundary = place_boundary(boundary_held, lattice.root, nodes, options, stats);
     writer.commit(nodes, build.errors(),
                   options.tf_errors ? build.tf_errors() : std::vector<store_format::TfErrorEntry>{}, &boundary);
   }
@@ -710,6 +778,140 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   stats.store_bytes = std::filesystem::file_size(path);
   if (options.tf_errors)
     stats.tf_error_table_bytes = stats.nodes * layout.fields.size() * sizeof(store_format::TfErrorEntry);
+  stats.seconds = seconds_since(start);
+  const BrickStoreReader store(path);
+  for (uint64_t id = 0; id < store.node_count(); ++id) stats.bricks += store.node(id).has_brick();
+  return stats;
+}
+
+}  // namespace ugvr
+
+namespace ugvr {
+
+namespace {
+
+// What a store with time holds beside one step's build, from the second step on: the first step's tree (twice: the
+// build's copy) and, until the commit, the writer's node tables of the steps written (block offsets, sizes,
+// checksums, value ranges, errors and transfer-function error entries: 68 bytes a node and field and 16 a node;
+// 96 a node and field counts both, with slack).
+uint64_t held_for_steps(uint64_t nodes, uint64_t fields, size_t steps_written) {
+  constexpr uint64_t kStepTableBytes = 96;
+  return 2 * nodes * sizeof(OctreeNode) + uint64_t(steps_written) * nodes * fields * kStepTableBytes;
+}
+
+bool is_vtu_step(const TimeStep& step) {
+  if (step.files.size() != 1 || step.reader_step >= 0) return false;
+  std::string ext = std::filesystem::path(step.files[0]).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return ext == ".vtu";
+}
+
+}  // namespace
+
+bool out_of_core_steps_possible(const TimeSeries& series, std::span<const uint32_t> steps) {
+  for (uint32_t s : steps)
+    if (s >= series.size() || !is_vtu_step(series.steps[s])) return false;
+  return !steps.empty();
+}
+
+std::string out_of_core_step_file(const TimeSeries& series, uint32_t step) {
+  const TimeStep& t = series.steps.at(step);
+  if (is_vtu_step(t)) return t.files[0];
+  std::string what = t.files.empty() ? std::string("no file") : t.files[0];
+  if (t.files.size() > 1) what += " and " + std::to_string(t.files.size() - 1) + " more part(s)";
+  if (t.reader_step >= 0) what += " (step " + std::to_string(t.reader_step) + " of a multi-step file)";
+  throw Error(series.source + ": time step " + std::to_string(step) + " is " + what +
+              ": the out-of-core build streams steps that are one .vtu file each (build in core: leave out "
+              "--out-of-core)");
+}
+
+OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::span<const uint32_t> steps,
+                                                std::span<const std::string> selectors,
+                                                const OctreeBuildOptions& options, uint64_t memory_budget,
+                                                const std::string& path) {
+  validate_build_options(options);
+  check_step_selection(series, steps, options);
+  if (options.error > 0)
+    throw Error(series.source + ": --out-of-core --time builds at --error 0 only (its split rule is geometric: one " +
+                "tree for every step); above 0 the tree is the union of the steps' trees, which the in-core build " +
+                "makes (leave out --out-of-core), or build one store per step (--time-step N --out-of-core)");
+  if (options.preview_depth > 0 || options.point_sketch)
+    throw Error(series.source + ": --preview and --sketch are not made for a store with time (--time); leave them out");
+  std::vector<std::string> files;
+  for (uint32_t s : steps) files.push_back(out_of_core_step_file(series, s));  // every step checked before any work
+
+  const auto start = std::chrono::steady_clock::now();
+  std::optional<tbb::global_control> threads;
+  if (options.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(options.threads));
+  const ScratchFolder scratch(path);  // "<path>.cells", removed however the build ends (core/temp_files.h)
+  const std::filesystem::path temp_path(scratch.path());
+  const std::string root_file = (temp_path / "root").string();
+  const size_t S = steps.size();
+
+  OctreeBuildStats stats;
+  stats.time_steps = uint32_t(S);
+  std::vector<std::string> names(selectors.begin(), selectors.end());
+  uint64_t geometry = 0;
+  BrickLattice lattice;
+  lattice.resolution = options.resolution;
+  std::optional<BrickStoreWriter> writer;
+  HeldBoundary boundary_held;
+  std::vector<OctreeNode> tree;  // the first step's, filled by every later step
+  double soup_seconds = 0, brick_seconds = 0;
+  // One step at a time: its cells to a soup (its points and values held a slice at a time), then its bricks. The
+  // first step shapes the tree (the geometric split rule at --error 0); every later step routes its cells down that
+  // tree, so its node ids, and the store's, are the first step's.
+  for (size_t k = 0; k < S; ++k) {
+    const std::string label = step_label(series, steps, k);
+    const auto soup_start = std::chrono::steady_clock::now();
+    VtuCellSource source(files[k], names);
+    if (names.empty())  // the fields the first step picked, kept for every step (a field constant at first stays)
+      for (const BrickStoreField& f : source.fields()) names.push_back(f.name);
+    const uint64_t cells = write_root_soup(source, root_file, memory_budget, temp_path.string(),
+                                           label + ": cells to disk", options.progress);
+    soup_seconds += seconds_since(soup_start);
+    if (k == 0) {
+      geometry = source.geometry_hash();
+      stats.cells = cells;
+      lattice.root = octree_root(source.bounds());
+      BrickStoreLayout layout = store_layout(options, source.fields(), lattice.root, source.bounds(), true);
+      for (uint32_t s : steps) layout.times.push_back(series.steps[s].time);
+      boundary_held =
+          find_boundary(root_file, source.layout(), cells, options, memory_budget, temp_path.string(), stats);
+      writer.emplace(path, layout);
+    } else if (source.geometry_hash() != geometry) {
+      fail_geometry_differs(series, steps[k], steps[0], "points and cells hashed as they were read");
+    }
+    std::vector<store_format::StepFieldRange> ranges;
+    for (const BrickStoreField& f : source.fields()) ranges.push_back({f.min, f.max});
+    writer->begin_step(uint32_t(k), ranges);
+    const size_t preload =
+        records_per_worker(options, source.fields().size(), memory_budget,
+                           boundary_held.bytes() + held_for_steps(tree.size(), source.fields().size(), k));
+    const auto bricks_start = std::chrono::steady_clock::now();
+    Progress progress(label + ": bricks", OutOfCoreBuild::kVolumeUnits, options.progress);
+    OutOfCoreBuild build(options, source, lattice, *writer, temp_path, preload, progress, boundary_held.faces, tree);
+    try {
+      build.process(0, root_file);
+    } catch (const OtherGeometry& e) {
+      fail_geometry_differs(series, steps[k], steps[0], e.what());
+    }
+    progress.finish();
+    if (k == 0) tree = build.nodes();
+    add_build_counts(build, source, stats);
+    writer->end_step(build.errors(), options.tf_errors ? build.tf_errors() : std::vector<store_format::TfErrorEntry>{});
+    brick_seconds += seconds_since(bricks_start);
+  }
+  const StoreBoundary boundary = place_boundary(boundary_held, lattice.root, tree, options, stats);
+  writer->commit(tree, {}, {}, &boundary);
+  count_tree_shape(tree, stats);
+  stats.first_step_nodes = stats.nodes;
+  stats.read_seconds = soup_seconds;
+  stats.subdivide_seconds = soup_seconds;  // out of core the tree is shaped as the first step's bricks are made
+  stats.brick_seconds = brick_seconds;
+  stats.store_bytes = std::filesystem::file_size(path);
+  if (options.tf_errors)
+    stats.tf_error_table_bytes = S * stats.nodes * writer->layout().fields.size() * sizeof(store_format::TfErrorEntry);
   stats.seconds = seconds_since(start);
   const BrickStoreReader store(path);
   for (uint64_t id = 0; id < store.node_count(); ++id) stats.bricks += store.node(id).has_brick();

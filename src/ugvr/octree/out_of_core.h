@@ -39,6 +39,7 @@
 #include <span>
 #include <string>
 
+#include "ugvr/io/time_series.h"
 #include "ugvr/octree/builder.h"
 
 namespace ugvr {
@@ -46,5 +47,23 @@ namespace ugvr {
 OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors,
                                           const OctreeBuildOptions& options, uint64_t memory_budget,
                                           const std::string& path);
+
+// A store with time (format version 6; docs/time-series.md, "Stores with time") of steps `steps` of a series whose
+// steps are one .vtu file each, out of core within `memory_budget`, one step at a time: the first step's cells shape
+// the tree as build_octree_out_of_core does; every later step's cells are written to a soup of their own and routed
+// down that tree (the same routing, so the same node ids), each leaf sampling them. The same store as
+// build_octree_steps: the same tree, each step's bricks bit for bit, the same leaf errors. The geometry is checked
+// without a step in memory: the points and cells are hashed as they are read (VtuCellSource::geometry_hash), and a
+// step whose hash differs from the first's stops the build naming both steps. At --error 0 only (the split rule is
+// then geometric: one tree for every step); above 0, and with a preview or a sketch, throws ugvr::Error with advice.
+OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::span<const uint32_t> steps,
+                                                std::span<const std::string> selectors,
+                                                const OctreeBuildOptions& options, uint64_t memory_budget,
+                                                const std::string& path);
+
+// Whether every selected step is one .vtu file (what build_octree_out_of_core_steps streams).
+bool out_of_core_steps_possible(const TimeSeries& series, std::span<const uint32_t> steps);
+// The .vtu file of step `step`; throws ugvr::Error naming the step's file(s) when it is not one .vtu file.
+std::string out_of_core_step_file(const TimeSeries& series, uint32_t step);
 
 }  // namespace ugvr

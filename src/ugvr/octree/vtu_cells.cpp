@@ -60,6 +60,31 @@ void read_scalars(XmlArrayReader& reader, const Selected& s, uint64_t first, siz
   }
 }
 
+// FNV-1a over 64-bit words, fed as the data streams by: the hash of a sequence whatever the chunks it came in.
+class StreamHash {
+ public:
+  void add(const void* data, size_t bytes) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < bytes; ++i) {
+      word_ |= uint64_t(p[i]) << (8 * filled_);
+      if (++filled_ == 8) mix_word();
+    }
+  }
+  uint64_t value() {
+    if (filled_ > 0) mix_word();
+    return h_ ^ (h_ >> 31);
+  }
+
+ private:
+  void mix_word() {
+    h_ = (h_ ^ word_) * 0x100000001b3ull;
+    word_ = 0;
+    filled_ = 0;
+  }
+  uint64_t h_ = 0xcbf29ce484222325ull, word_ = 0;
+  int filled_ = 0;
+};
+
 }  // namespace
 
 struct VtuCellSource::Markup {
@@ -154,12 +179,16 @@ VtuCellSource::VtuCellSource(std::string path, std::span<const std::string> sele
     XmlArrayReader reader(m.file, m.encoding(), *m.points);
     reader.expect_count(3 * points, "NumberOfPoints=" + std::to_string(points) + " x 3 components");
     std::vector<float> buf(3 * kChunk);
+    StreamHash hash;
+    hash.add(&points, sizeof points);
     for (uint64_t p0 = 0; p0 < points; p0 += kChunk) {
       const size_t n = size_t(std::min<uint64_t>(kChunk, points - p0));
       reader.read(std::span(buf.data(), 3 * n));
       for (size_t i = 0; i < n; ++i) bounds_.add(Vec3d{buf[3 * i], buf[3 * i + 1], buf[3 * i + 2]});
+      hash.add(buf.data(), 3 * n * sizeof(float));
     }
     reader.finish();
+    points_hash_ = hash.value();
   }
   points_ = points;
   auto name_of = [&](const Selected& s) {
@@ -389,7 +418,12 @@ uint64_t VtuCellSource::write_soup(SoupWriter& soup, uint64_t point_budget, cons
   Vec3f positions[kMaxCellVertices];
   std::vector<float> vvalues(size_t(Fv) * kMaxCellVertices);
   uint64_t written = 0;
+  StreamHash cell_hash;
   auto emit = [&](uint64_t c, CellType t, int n, const uint32_t* corners, const float* cell) {
+    const auto type = uint8_t(t);
+    cell_hash.add(&c, sizeof c);
+    cell_hash.add(&type, 1);
+    cell_hash.add(corners, size_t(n) * sizeof(uint32_t));
     for (uint32_t k = 0; k < Fc; ++k) {
       if (!std::isfinite(cell[k])) fail_in(path_, "cell " + std::to_string(c) + ": a value is not finite");
       cell_lo[k] = std::min(cell_lo[k], double(cell[k])), cell_hi[k] = std::max(cell_hi[k], double(cell[k]));
@@ -456,6 +490,7 @@ uint64_t VtuCellSource::write_soup(SoupWriter& soup, uint64_t point_budget, cons
     fields_[at].min = cell_lo[k], fields_[at].max = cell_hi[k];
   }
   if (written == 0) fail_in(path_, "the file has no volume cells");
+  cells_hash_ = cell_hash.value();
   return written;
 }
 

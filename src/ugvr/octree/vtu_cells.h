@@ -63,6 +63,10 @@ class VtuCellSource {
       const std::function<void(uint64_t, std::span<const Vec3f>, std::span<const float>)>& f) const;
   // Slices of the points the last write_soup took (1: all points at once).
   uint64_t passes() const { return passes_; }
+  // The geometry as the build sees it, hashed while it is streamed (no step held in memory): the points (as float,
+  // from the constructor's pass) and, once write_soup has run, every volume cell's type and corner ids in file order.
+  // Two files with equal hashes give the same soup but for its values: what a store with time shares over its steps.
+  uint64_t geometry_hash() const { return points_hash_ ^ (cells_hash_ * 0x9e3779b97f4a7c15ull); }
 
   struct Markup;  // the parsed file (pugixml), private to the implementation
 
@@ -71,6 +75,7 @@ class VtuCellSource {
   std::unique_ptr<Markup> markup_;
   uint64_t cells_ = 0;
   uint64_t points_ = 0, passes_ = 0;
+  uint64_t points_hash_ = 0, cells_hash_ = 0;  // see geometry_hash
   Bounds bounds_;
   SoupLayout layout_;
   std::vector<Slot> slots_;

@@ -1,0 +1,241 @@
+// A store with time built out of core (build_octree_out_of_core_steps; docs/time-series.md, "Stores with time"):
+// the same store as the in-core build of the same series, the geometry checked as the steps stream by, a progress
+// bar per step, and `ugvr build SERIES --time --out-of-core` then `ugvr info`.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "store_test_support.h"
+#include "test_data.h"
+#include "ugvr/io/reader.h"
+#include "ugvr/io/time_series.h"
+#include "ugvr/io/vtu_writer.h"
+#include "ugvr/octree/builder.h"
+#include "ugvr/octree/out_of_core.h"
+#include "ugvr/store/brick_store.h"
+
+namespace ugvr {
+namespace {
+
+using test::run_ugvr;
+
+// A generated series of `steps` steps (the wake's vortex street moving) as NAME.pvd and NAME_000k.vtu.
+TimeSeries generated_series(const test::ScratchDir& dir, int cells, int steps) {
+  const test::CommandResult g = run_ugvr("generate -o " + dir.file("w.pvd") + " --kind tet --cells " +
+                                         std::to_string(cells) + " --time-steps " + std::to_string(steps));
+  EXPECT_EQ(g.status, 0) << g.out;
+  return list_time_steps(std::vector<std::string>{dir.file("w.pvd")});
+}
+
+OctreeBuildOptions options_at_error_0(int max_depth) {
+  OctreeBuildOptions o;
+  o.resolution = 5;
+  o.max_depth = max_depth;
+  o.error = 0;
+  return o;
+}
+
+// Step `step` of both stores: the same tree (by place), each brick bit for bit (both quantized over the step's own
+// range), the same leaf errors and transfer-function error entries; an interior node's error can only be lower out
+// of core (measured at its children's samples alone, docs/octree-build.md).
+void expect_same_step(BrickStoreReader& in_core, BrickStoreReader& ooc, uint32_t step) {
+  SCOPED_TRACE("step " + std::to_string(step));
+  in_core.set_step(step);
+  ooc.set_step(step);
+  ASSERT_EQ(in_core.node_count(), ooc.node_count());
+  for (uint32_t f = 0; f < in_core.field_count(); ++f) {
+    EXPECT_EQ(in_core.step_range(step, f).min, ooc.step_range(step, f).min);
+    EXPECT_EQ(in_core.step_range(step, f).max, ooc.step_range(step, f).max);
+  }
+  const auto a = test::nodes_by_place(in_core), b = test::nodes_by_place(ooc);
+  const size_t n = size_t(in_core.resolution()) * in_core.resolution() * in_core.resolution();
+  std::vector<float> va(n), vb(n);
+  std::vector<uint8_t> ma(n), mb(n);
+  for (const auto& [place, ia] : a) {
+    const auto it = b.find(place);
+    ASSERT_NE(it, b.end()) << "level " << place[0] << " node " << place[1] << " " << place[2] << " " << place[3];
+    const uint64_t ib = it->second;
+    EXPECT_EQ(in_core.node(ia).child_mask, ooc.node(ib).child_mask);
+    ASSERT_EQ(in_core.node(ia).has_brick(), ooc.node(ib).has_brick());
+    for (uint32_t f = 0; f < in_core.field_count(); ++f) {
+      const FieldStats &sa = in_core.stats(ia, f), &sb = ooc.stats(ib, f);
+      EXPECT_EQ(sa.min, sb.min);
+      EXPECT_EQ(sa.max, sb.max);
+      if (in_core.node(ia).is_leaf()) {
+        EXPECT_EQ(sa.error_max, sb.error_max) << "node " << ia;
+        const auto& ta = in_core.tf_errors()[ia * in_core.field_count() + f];
+        const auto& tb = ooc.tf_errors()[ib * ooc.field_count() + f];
+        EXPECT_EQ(ta.bound[0], tb.bound[0]) << "node " << ia;
+      } else {
+        EXPECT_LE(sb.error_max, sa.error_max);
+      }
+      if (!in_core.node(ia).has_brick()) continue;
+      in_core.read_brick(ia, f, va.data(), ma.data());
+      ooc.read_brick(ib, f, vb.data(), mb.data());
+      ASSERT_EQ(ma, mb) << "node " << ia;
+      ASSERT_EQ(std::memcmp(va.data(), vb.data(), 4 * n), 0) << "node " << ia << " field " << f;
+    }
+  }
+}
+
+// Whether some brick of field `f` differs between two steps of a store (the series is not the same step thrice).
+bool steps_differ(const BrickStoreReader& r, uint32_t f, uint32_t s0, uint32_t s1) {
+  const size_t n = size_t(r.resolution()) * r.resolution() * r.resolution();
+  std::vector<float> a(n), b(n);
+  for (uint64_t id = 0; id < r.node_count(); ++id) {
+    if (!r.node(id).has_brick()) continue;
+    r.read_brick(id, f, a.data(), nullptr, s0);
+    r.read_brick(id, f, b.data(), nullptr, s1);
+    if (a != b) return true;
+  }
+  return false;
+}
+
+TEST(OutOfCoreSteps, SameStoreAsInCore) {
+  test::ScratchDir dir;
+  const TimeSeries series = generated_series(dir, 4000, 3);
+  ASSERT_EQ(series.size(), 3u);
+  const std::vector<uint32_t> steps = {0, 1, 2};
+  const std::vector<std::string> fields = {"pressure", "wall_distance"};
+  for (const bool float32 : {true, false}) {
+    SCOPED_TRACE(float32 ? "float32" : "quant16");
+    OctreeBuildOptions o = options_at_error_0(4);
+    if (float32) o.encoding.samples = SampleEncoding::Float32;
+    const OctreeBuildStats a = build_octree_steps(series, steps, fields, o, dir.file("in.ugvr"));
+    // A budget so small that the larger leaves are sampled in pieces, and one with room (the boundary kept).
+    for (const uint64_t budget : {uint64_t(1), uint64_t(256) << 20}) {
+      SCOPED_TRACE("budget " + std::to_string(budget));
+      const OctreeBuildStats b = build_octree_out_of_core_steps(series, steps, fields, o, budget, dir.file("ooc.ugvr"));
+      EXPECT_EQ(b.time_steps, 3u);
+      EXPECT_EQ(a.nodes, b.nodes);
+      EXPECT_EQ(a.leaves, b.leaves);
+      EXPECT_EQ(a.cells, b.cells);
+      if (budget == 1) {
+        EXPECT_GT(b.leaves_in_pieces, 0u);
+      }
+      BrickStoreReader in_core(dir.file("in.ugvr")), ooc(dir.file("ooc.ugvr"));
+      ASSERT_EQ(ooc.step_count(), 3u);
+      for (uint32_t s = 0; s < 3; ++s) {
+        EXPECT_EQ(ooc.step_time(s), in_core.step_time(s));
+        expect_same_step(in_core, ooc, s);
+      }
+      // The field records hold the union of the steps' ranges, as in core.
+      for (uint32_t f = 0; f < 2; ++f) {
+        EXPECT_EQ(in_core.layout().fields[f].min, ooc.layout().fields[f].min);
+        EXPECT_EQ(in_core.layout().fields[f].max, ooc.layout().fields[f].max);
+      }
+      EXPECT_TRUE(steps_differ(ooc, 0, 0, 2)) << "the steps' pressure bricks are all the same";
+      EXPECT_EQ(ooc.has_boundary(), budget > 1);
+      if (budget > 1) {
+        EXPECT_EQ(ooc.boundary().triangles.size(), in_core.boundary().triangles.size());
+      }
+    }
+  }
+  // Nothing is left beside the output (the scratch folder of cells is gone).
+  EXPECT_FALSE(std::filesystem::exists(dir.file("ooc.ugvr.cells")));
+}
+
+// One progress bar per step, for writing its cells and for its bricks, each finished.
+TEST(OutOfCoreSteps, ProgressPerStep) {
+  test::ScratchDir dir;
+  const TimeSeries series = generated_series(dir, 2000, 2);
+  OctreeBuildOptions o = options_at_error_0(3);
+  std::set<std::string> finished;
+  o.progress = [&](const std::string& label, double fraction) {
+    if (fraction >= 1.0) finished.insert(label);
+  };
+  const std::vector<uint32_t> steps = {0, 1};
+  build_octree_out_of_core_steps(series, steps, {}, o, uint64_t(256) << 20, dir.file("o.ugvr"));
+  for (const std::string k : {"1/2 (#0, t = 0)", "2/2 (#1, t = 0.5)"}) {
+    EXPECT_TRUE(finished.count("step " + k + ": cells to disk")) << k;
+    EXPECT_TRUE(finished.count("step " + k + ": bricks")) << k;
+  }
+}
+
+// A step of other geometry stops the build naming both steps, whether its cells differ or only a point moved; nothing
+// is written.
+TEST(OutOfCoreSteps, RefusesAStepOfOtherGeometry) {
+  test::ScratchDir dir;
+  ASSERT_EQ(run_ugvr("generate -o " + dir.file("g_0001.vtu") + " --kind tet --cells 2000").status, 0);
+  ASSERT_EQ(run_ugvr("generate -o " + dir.file("g_0002.vtu") + " --kind tet --cells 3000").status, 0);
+  // The same cells with one point moved by 1e-3 (read, moved, written again): the hash sees it, the routing may not.
+  Dataset moved = read_dataset(std::vector<std::string>{dir.file("g_0001.vtu")});
+  auto& mesh = std::get<UnstructuredMesh>(moved.blocks[0].grid);
+  mesh.points[7].x += 1e-3f;
+  write_vtu(moved, dir.file("m_0002.vtu"));
+  std::filesystem::copy_file(dir.file("g_0001.vtu"), dir.file("m_0001.vtu"));
+  for (const std::string pattern : {"g_%04d.vtu", "m_%04d.vtu"}) {
+    SCOPED_TRACE(pattern);
+    const TimeSeries series = list_time_steps(std::vector<std::string>{dir.file(pattern)});
+    const std::vector<uint32_t> steps = {0, 1};
+    const std::string e = test::error_of([&] {
+      build_octree_out_of_core_steps(series, steps, {}, options_at_error_0(3), uint64_t(256) << 20, dir.file("x.ugvr"));
+    });
+    EXPECT_NE(e.find("the geometry of time step 1 differs from that of step 0"), std::string::npos) << e;
+    EXPECT_NE(e.find("build one store per step"), std::string::npos) << e;
+    EXPECT_FALSE(std::filesystem::exists(dir.file("x.ugvr")));
+    EXPECT_FALSE(std::filesystem::exists(dir.file("x.ugvr.cells")));
+  }
+}
+
+// What it cannot build, refused up front with advice: --error > 0, a step that is not one .vtu file (named).
+TEST(OutOfCoreSteps, RefusesWhatItCannotBuild) {
+  test::ScratchDir dir;
+  const TimeSeries series = generated_series(dir, 2000, 2);
+  const std::vector<uint32_t> steps = {0, 1};
+  OctreeBuildOptions o = options_at_error_0(3);
+  o.error = 0.01;
+  std::string e = test::error_of(
+      [&] { build_octree_out_of_core_steps(series, steps, {}, o, uint64_t(256) << 20, dir.file("x.ugvr")); });
+  EXPECT_NE(e.find("--error 0 only"), std::string::npos) << e;
+  EXPECT_NE(e.find("leave out --out-of-core"), std::string::npos) << e;
+
+  // A .series whose second step is a legacy .vtk file.
+  std::filesystem::copy_file(dir.file("w_0001.vtu"), dir.file("b.vtk"));
+  {
+    std::ofstream f(dir.file("mixed.series"));
+    f << R"({"files": [{"name": "w_0000.vtu", "time": 0}, {"name": "b.vtk", "time": 1}]})";
+  }
+  const TimeSeries mixed = list_time_steps(std::vector<std::string>{dir.file("mixed.series")});
+  EXPECT_FALSE(out_of_core_steps_possible(mixed, steps));
+  e = test::error_of([&] {
+    build_octree_out_of_core_steps(mixed, steps, {}, options_at_error_0(3), uint64_t(256) << 20, dir.file("x.ugvr"));
+  });
+  EXPECT_NE(e.find("time step 1 is "), std::string::npos) << e;
+  EXPECT_NE(e.find("b.vtk"), std::string::npos) << e;
+  EXPECT_NE(e.find("one .vtu file each"), std::string::npos) << e;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("x.ugvr")));
+}
+
+// The command line: `ugvr build SERIES --time all --out-of-core`, then `ugvr info` lists the steps; without
+// --out-of-core a step too large for --memory is built out of core by itself (and says so).
+TEST(OutOfCoreSteps, CommandLineBuildsAndInfoListsTheSteps) {
+  test::ScratchDir dir;
+  generated_series(dir, 3000, 3);
+  const std::string common = " --time all --brick 8 --max-depth 4 --error 0 --fields pressure ";
+  const test::CommandResult b =
+      run_ugvr("build " + dir.file("w.pvd") + common + "--out-of-core --memory 64MiB --json -o " + dir.file("o.ugvr"));
+  ASSERT_EQ(b.status, 0) << b.out;
+  EXPECT_NE(b.out.find("\"out_of_core\":true"), std::string::npos) << b.out;
+  EXPECT_NE(b.out.find("\"time_steps\":3"), std::string::npos) << b.out;
+  const test::CommandResult info = run_ugvr("info " + dir.file("o.ugvr"));
+  ASSERT_EQ(info.status, 0) << info.out;
+  EXPECT_NE(info.out.find("time:     3 steps"), std::string::npos) << info.out;
+  // A --memory so small that the first step's file is over 40% of it: out of core without asking.
+  const uint64_t step_bytes = std::filesystem::file_size(dir.file("w_0000.vtu"));
+  const test::CommandResult a = run_ugvr("build " + dir.file("w.pvd") + common + "--memory " +
+                                         std::to_string(step_bytes * 2) + " -o " + dir.file("a.ugvr"));
+  ASSERT_EQ(a.status, 0) << a.out;
+  EXPECT_NE(a.out.find("note: building out of core"), std::string::npos) << a.out;
+  // The same store as the explicit build.
+  BrickStoreReader x(dir.file("o.ugvr")), y(dir.file("a.ugvr"));
+  for (uint32_t s = 0; s < 3; ++s) expect_same_step(x, y, s);
+}
+
+}  // namespace
+}  // namespace ugvr
