@@ -12,6 +12,7 @@
 #include <functional>
 #include <string>
 
+#include "test_paths.h"
 #include "ugvr/core/error.h"
 
 namespace ugvr::test {

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "cli/demo_scene.h"
+#include "test_paths.h"
 #include "ugvr/core/error.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/lod/view_metrics.h"
