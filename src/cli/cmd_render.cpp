@@ -464,6 +464,10 @@ void run_render(const Options& o, std::optional<double> time_budget) {
                                 ": tricubic isosurfaces of a voxel volume are drawn by the lod engine from "
                                 "its store (leave --engine out, or --engine lod)");
     if (timed) fail_flag("--interpolation", "tricubic of a series: build a store with `ugvr build SERIES --time ...`");
+    // Every rank would build the same cache entry, and the ranks' renderer draws the inputs given.
+    if (under_mpi)
+      fail_flag("--interpolation", "tricubic of a voxel volume under mpirun: build its store first (`ugvr build " +
+                                       o.inputs[0] + " -o STORE.ugvr`, or --pieces N) and render that");
     voxel = flag_errors(
         [&] { return view::voxel_store_for_tricubic(o.inputs, o.read, settings.field, Progress::enabled()); });
     if (time_budget) budget_lod = true;
