@@ -51,6 +51,7 @@
 #include "ugvr/view/view_protocol.h"
 #include "ugvr/view/view_server.h"
 #include "ugvr/view/view_store.h"
+#include "ugvr/view/voxel_store.h"
 
 namespace ugvr::python {
 namespace {
@@ -614,6 +615,10 @@ double fraction(const Options& o, const char* key) {
 }
 
 // `ugvr render`'s settings_from_flags (src/cli/render_flags.cpp) over keyword arguments.
+bool tricubic_isosurface(const RenderSettings& s) {
+  return s.mode == RenderMode::Isosurface && s.interpolation == Interpolation::Tricubic;
+}
+
 RenderSettings settings_from(const Options& o) {
   RenderSettings s;
   if (o.has("settings")) s = read_render_settings(o.str("settings"));
@@ -646,6 +651,10 @@ RenderSettings settings_from(const Options& o) {
         settings_from_json(json{{"slices", parse_json_text(o.str("slices_json"), "slices")}}, "slices").slices;
     s.slices.insert(s.slices.end(), added.begin(), added.end());
   }
+  // interpolation="trilinear|tricubic" (--interpolation): parsed as the settings' key, so the names and errors agree.
+  if (o.has("interpolation"))
+    s.interpolation =
+        settings_from_json(json{{"interpolation", o.str("interpolation")}}, "interpolation").interpolation;
   if (o.has("hide_volume")) s.hide_volume = parse_hide_volume(o.str("hide_volume"), "hide_volume");
   if (o.has("boundary_opacity")) s.boundary_overlay_opacity = fraction(o, "boundary_opacity");
   if (o.has("early_termination")) s.early_termination_opacity = o.number("early_termination");
@@ -780,6 +789,11 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
     dataset = source.cast<DatasetPtr>();
     if (engine == "lod")
       fail_in("engine", "the lod engine renders a brick store: ugvr.build(dataset, \"x.ugvr\") makes one");
+    if (tricubic_isosurface(settings))
+      fail_in("settings",
+              "interpolation \"tricubic\": isosurfaces on the spline are drawn by the lod engine from a "
+              "brick store: ugvr.build(dataset, \"x.ugvr\") makes one (a voxel file rendered by its path "
+              "has its store built and cached)");
   } else {
     inputs = source.cast<std::vector<std::string>>();
   }
@@ -796,6 +810,7 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
     json stats;
     std::vector<std::string> warnings;
     std::string drew_from;  // a mesh over the memory budget: "store" (view/over_budget_store.h)
+    json voxel_store;       // a voxel volume's tricubic store: its path, and whether this call built it
   };
   Result r = without_gil(&progress, [&] {
     std::optional<tbb::global_control> limit;
@@ -820,11 +835,35 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
           [&] { return view::store_for_a_mesh_over_budget(inputs, ro.field, engine, time_budget, start, false); });
       // Within a time budget a store is drawn by its time-critical cut, refined while time is left.
       const bool store_input = inputs.size() == 1 && std::filesystem::path(inputs[0]).extension() == ".ugvr";
+      // Tricubic isosurfaces are the lod engine's, from a store: a voxel volume's is built once into the cache
+      // (view/voxel_store.h, as `ugvr render`); a mesh has its own interpolants, which the exact engine draws.
+      std::optional<view::VoxelStore> voxel;
+      if (tricubic_isosurface(settings) && !big && !store_input &&
+          !(inputs.size() == 1 && extension_lower(inputs[0]) == ".json")) {
+        if (!view::is_voxel_volume_input(inputs))
+          fail_in("settings",
+                  "interpolation \"tricubic\": isosurfaces on the spline are drawn by the lod engine from "
+                  "a brick store, and " +
+                      (inputs.empty() ? std::string("the input") : inputs[0]) +
+                      " is not one (nor a voxel volume: NRRD, raw, .vti, whose store is built here): "
+                      "ugvr.build(INPUT, \"x.ugvr\") makes one");
+        if (engine != "auto" && engine != "lod")
+          fail_in("engine", engine +
+                                ": tricubic isosurfaces of a voxel volume are drawn by the lod engine from its "
+                                "store (leave engine out, or \"lod\")");
+        voxel = view::voxel_store_for_tricubic(inputs, read, ro.field, false);
+      }
       RendererOptions opts = ro;
-      if (time_budget && (big || engine == "lod" || (engine == "auto" && store_input))) opts.interactive = true;
+      if (time_budget && (big || voxel || engine == "lod" || (engine == "auto" && store_input)))
+        opts.interactive = true;
       renderer = naming_option([&] {
+        if (voxel) return open_renderer_default_field({voxel->path}, read, opts, &opened);
         return open_renderer_default_field(big ? std::vector<std::string>{big->path} : inputs, read, opts, &opened);
       });
+      if (voxel) {
+        out.voxel_store = {{"path", voxel->path}, {"built", voxel->built}};
+        if (!voxel->lattice.note.empty()) out.warnings.push_back(inputs[0] + ": " + voxel->lattice.note);
+      }
       if (big) {
         out.warnings.push_back(big->why + ": drawn from its store " + big->path + ", built out of core");
         out.drew_from = big->shown;
@@ -863,6 +902,7 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
         {"settings", settings_to_json(settings)}};
     out.frame.stats.to_json(out.stats);
     if (!out.drew_from.empty()) out.stats["drew_from"] = out.drew_from;
+    if (!out.voxel_store.is_null()) out.stats["voxel_store"] = out.voxel_store;
     if (time_budget) {
       if (!out.drew_from.empty()) {
         budget_report["drew_from"] = out.drew_from;

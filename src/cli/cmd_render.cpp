@@ -40,6 +40,7 @@
 #include "ugvr/render/transfer_function.h"
 #include "ugvr/store/brick_store.h"
 #include "ugvr/view/over_budget_store.h"
+#include "ugvr/view/voxel_store.h"
 #ifdef UGVR_HAVE_MPI
 #include "ugvr/mpi/mpi_renderer.h"
 #include "ugvr/mpi/mpi_session.h"
@@ -446,15 +447,31 @@ void run_render(const Options& o, std::optional<double> time_budget) {
   if (big && time_budget) budget_lod = true;
   // Tricubic isosurfaces are the lod engine's, drawn from a brick store's bricks (docs/tricubic.md): the exact engine
   // interpolates each cell with its own interpolant and would ignore the setting silently, and the lod engine draws
-  // stores only. A voxel volume (NRRD, raw, .vti) or a mesh is built into a store first.
+  // stores only. A voxel volume (NRRD, raw, .vti) is drawn from its store, built once into the cache on a lattice
+  // that keeps its samples (view/voxel_store.h); a mesh has its own interpolants and stays an error with advice.
+  std::optional<view::VoxelStore> voxel;
   if (settings.mode == RenderMode::Isosurface && settings.interpolation == Interpolation::Tricubic && !big &&
-      !(o.inputs.size() == 1 && (is_brick_store(o.inputs[0]) || is_piece_index(o.inputs[0]))))
-    fail_flag("--interpolation",
-              "tricubic isosurfaces are drawn by the lod engine from a brick store, and " +
-                  (o.inputs.empty() ? std::string("the input") : o.inputs[0]) +
-                  " is not one: build it with `ugvr build INPUT -o STORE.ugvr` (a voxel volume of N³ samples keeps "
-                  "its samples with --brick 9 --max-depth D where 8·2^D = N - 1, e.g. N = 33: D = 2), then render "
-                  "STORE.ugvr --interpolation tricubic");
+      !(o.inputs.size() == 1 && (is_brick_store(o.inputs[0]) || is_piece_index(o.inputs[0])))) {
+    if (!view::is_voxel_volume_input(o.inputs))
+      fail_flag("--interpolation",
+                "tricubic isosurfaces are drawn by the lod engine from a brick store, and " +
+                    (o.inputs.empty() ? std::string("the input") : o.inputs[0]) +
+                    " is not one (nor a voxel volume: NRRD, raw, .vti, whose store is built here): the exact engine "
+                    "draws a mesh with its cells' own interpolants; for the spline build a store with `ugvr build "
+                    "INPUT -o STORE.ugvr`, then render STORE.ugvr --interpolation tricubic");
+    if (o.engine != "auto" && o.engine != "lod")
+      fail_flag("--engine", o.engine +
+                                ": tricubic isosurfaces of a voxel volume are drawn by the lod engine from "
+                                "its store (leave --engine out, or --engine lod)");
+    if (timed) fail_flag("--interpolation", "tricubic of a series: build a store with `ugvr build SERIES --time ...`");
+    // Every rank would build the same cache entry, and the ranks' renderer draws the inputs given.
+    if (under_mpi)
+      fail_flag("--interpolation", "tricubic of a voxel volume under mpirun: build its store first (`ugvr build " +
+                                       o.inputs[0] + " -o STORE.ugvr`, or --pieces N) and render that");
+    voxel = flag_errors(
+        [&] { return view::voxel_store_for_tricubic(o.inputs, o.read, settings.field, Progress::enabled()); });
+    if (time_budget) budget_lod = true;
+  }
   if (budget_lod) ro.interactive = true;
   OpenedInput opened;
   std::shared_ptr<ExactScene> time_scene;
@@ -486,6 +503,7 @@ void run_render(const Options& o, std::optional<double> time_budget) {
       return open_piece_renderer(read_piece_index(o.inputs[0]), {}, ro);
     }
     if (big) return open_renderer_default_field({big->path}, o.read, ro, &opened);
+    if (voxel) return open_renderer_default_field({voxel->path}, o.read, ro, &opened);
     return open_renderer_default_field(o.inputs, o.read, ro, &opened);
   });
   if (big && big->build) big->build.reset();  // the preview or sketch is open: the build stops (nothing is kept)
@@ -621,6 +639,8 @@ void run_render(const Options& o, std::optional<double> time_budget) {
     renderer->describe(j);
     if (last.detail) last.detail->to_json(j);
     if (time_budget) j["time_budget"] = budget_report;
+    // Where a voxel volume's tricubic isosurface was drawn from, and whether this render built it (false: cached).
+    if (voxel) j["voxel_store"] = {{"path", voxel->path}, {"built", voxel->built}};
     write_json_file(o.stats, j);
   }
 
