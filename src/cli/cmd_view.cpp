@@ -281,6 +281,13 @@ void run_view(const Options& o) {
                : o.demo
                    ? view::cached_store_path("demo", "generate mixed " + std::to_string(demo.cells), fields, vo.build)
                    : view::cached_store_path(o.inputs, fields, vo.build);
+    if (o.store_path.empty()) {
+      uint64_t cached = 0;
+      for (const view::CachedStore& s : view::cached_stores(view::view_cache_dir())) cached += s.bytes;
+      if (cached > view::kCacheReminderBytes)
+        std::fprintf(stderr, "note: the store cache %s holds %s (`ugvr cache` lists it; --prune SIZE, --clear)\n",
+                     view::view_cache_dir().c_str(), format_bytes(cached).c_str());
+    }
     if (store_opens(vo.store)) {
       std::fprintf(stderr, "ugvr view: showing the brick store built earlier, %s\n", vo.store.c_str());
     } else if (o.demo) {

@@ -18,6 +18,7 @@ void register_render(CLI::App& app);
 void register_build(CLI::App&);
 void register_compare(CLI::App& app);
 void register_view(CLI::App& app);
+void register_cache(CLI::App& app);
 
 // Adds the positional INPUT argument every reading subcommand takes: one file, or a PLOT3D grid file followed by
 // its solution file.

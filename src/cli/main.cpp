@@ -28,6 +28,7 @@ int run(int argc, char** argv) {
   ugvr::cli::register_build(app);
   ugvr::cli::register_compare(app);
   ugvr::cli::register_view(app);
+  ugvr::cli::register_cache(app);
 
   // Under MPI a failing rank must take the job down (mpi::abort_job): the others may be waiting for it in a
   // collective, and a plain return would leave them hanging.

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <system_error>
 
+#include "ugvr/core/error.h"
 #include "ugvr/octree/input.h"
 #include "ugvr/store/brick_store.h"
 
@@ -31,6 +32,40 @@ std::string view_cache_dir() {
   if (const std::string d = env("XDG_CACHE_HOME"); !d.empty()) return d + "/ugvr";
   if (const std::string d = env("HOME"); !d.empty()) return d + "/.cache/ugvr";
   return (std::filesystem::temp_directory_path() / "ugvr-cache").string();
+}
+
+std::vector<CachedStore> cached_stores(const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::vector<CachedStore> out;
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return out;
+  for (auto it = fs::directory_iterator(dir, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
+    std::error_code e;
+    if (it->path().extension() != ".ugvr" || !it->is_regular_file(e)) continue;
+    CachedStore s{it->path().string(), uint64_t(it->file_size(e)), it->last_write_time(e)};
+    if (!e) out.push_back(std::move(s));
+  }
+  std::sort(out.begin(), out.end(), [](const CachedStore& a, const CachedStore& b) {
+    return a.built != b.built ? a.built > b.built : a.path < b.path;
+  });
+  return out;
+}
+
+std::vector<CachedStore> prune_cached_stores(const std::string& dir, uint64_t max_bytes) {
+  std::vector<CachedStore> stores = cached_stores(dir);
+  uint64_t total = 0;
+  for (const CachedStore& s : stores) total += s.bytes;
+  std::vector<CachedStore> removed;
+  while (!stores.empty() && (total > max_bytes || max_bytes == 0)) {
+    const CachedStore oldest = stores.back();
+    stores.pop_back();
+    std::error_code ec;
+    std::filesystem::remove(oldest.path, ec);
+    if (ec) fail_in(oldest.path, "cannot remove it: " + ec.message());
+    total -= oldest.bytes;
+    removed.push_back(oldest);
+  }
+  return removed;
 }
 
 std::string cached_store_path(const std::string& stem, const std::string& key, std::span<const std::string> fields,

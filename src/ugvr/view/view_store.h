@@ -6,6 +6,8 @@
 // once; editing the file (new size or time) or choosing other fields or options builds a new one.
 #pragma once
 
+#include <cstdint>
+#include <filesystem>
 #include <span>
 #include <string>
 #include <vector>
@@ -16,6 +18,21 @@
 namespace ugvr::view {
 
 std::string view_cache_dir();
+
+// The stores in a cache directory (its *.ugvr files; previews and sketches are stores too), newest first by
+// modification time, which is when each was built (a build writes a temporary file and renames it). Nothing removes
+// them by itself: a viewer may hold any of them open, and only the user knows which are still wanted (`ugvr cache`).
+struct CachedStore {
+  std::string path;
+  uint64_t bytes = 0;
+  std::filesystem::file_time_type built;
+};
+std::vector<CachedStore> cached_stores(const std::string& dir);
+// Removes the oldest stores of `dir` until the others take at most `max_bytes` (0: all of them); returns those
+// removed, oldest first. Throws ugvr::Error naming a store that cannot be removed.
+std::vector<CachedStore> prune_cached_stores(const std::string& dir, uint64_t max_bytes);
+// Above this total the viewer reminds the user of `ugvr cache` when it starts.
+inline constexpr uint64_t kCacheReminderBytes = uint64_t(20) << 30;
 
 // Whether `path` is a brick store that opens (header, node table and field records check out); when it exists but
 // does not open, `why` (if given) says what is wrong (the caller builds it again).
