@@ -82,17 +82,23 @@ std::string cached_store_path(const std::string& stem, const std::string& key, s
   return view_cache_dir() + "/" + stem + "-" + hash + ".ugvr";
 }
 
-std::string cached_store_path(std::span<const std::string> inputs, std::span<const std::string> fields,
-                              const OctreeBuildOptions& build) {
+nlohmann::json files_identity(std::span<const std::string> inputs) {
   namespace fs = std::filesystem;
-  nlohmann::json key = nlohmann::json::array();
+  nlohmann::json files = nlohmann::json::array();
   for (const std::string& in : inputs) {
     std::error_code ec;
     const fs::path p = fs::weakly_canonical(in, ec);
     const auto size = fs::file_size(in, ec);
     const auto time = fs::last_write_time(in, ec).time_since_epoch().count();
-    key.push_back({p.string(), ec ? 0 : uint64_t(size), int64_t(time)});
+    files.push_back({p.string(), ec ? 0 : uint64_t(size), int64_t(time)});
   }
+  return files;
+}
+
+std::string cached_store_path(std::span<const std::string> inputs, std::span<const std::string> fields,
+                              const OctreeBuildOptions& build) {
+  namespace fs = std::filesystem;
+  const nlohmann::json key = files_identity(inputs);
   const std::string stem = inputs.empty() ? "store" : fs::path(inputs[0]).stem().string();
   return cached_store_path(stem, key.dump(), fields, build);
 }

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <span>
 #include <string>
 #include <vector>
@@ -37,6 +38,10 @@ inline constexpr uint64_t kCacheReminderBytes = uint64_t(20) << 30;
 // Whether `path` is a brick store that opens (header, node table and field records check out); when it exists but
 // does not open, `why` (if given) says what is wrong (the caller builds it again).
 bool store_opens(const std::string& path, std::string* why = nullptr);
+
+// What identifies input files in a cache key: per file its canonical path, size and modification time (a file that
+// cannot be read: size 0), as a JSON array of [path, size, time].
+nlohmann::json files_identity(std::span<const std::string> inputs);
 
 // The cached store's path for these input files (their canonical paths, sizes and modification times), the fields
 // asked for (empty: the default ones) and build settings. The directory is not created here.

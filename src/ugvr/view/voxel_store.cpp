@@ -112,16 +112,8 @@ namespace {
 // What the store is built from: the files as they are now, and what else decides the samples (the raw layout, the
 // time step, the lattice rule). The lattice itself follows from the file, so the key needs no read.
 std::string voxel_store_key(std::span<const std::string> inputs, const ReadOptions& read) {
-  namespace fs = std::filesystem;
-  nlohmann::json files = nlohmann::json::array();
-  for (const std::string& in : inputs) {
-    std::error_code ec;
-    const fs::path p = fs::weakly_canonical(in, ec);
-    const auto size = fs::file_size(in, ec);
-    const auto time = fs::last_write_time(in, ec).time_since_epoch().count();
-    files.push_back({p.string(), ec ? 0 : uint64_t(size), int64_t(time)});
-  }
-  nlohmann::json key = {{"files", files}, {"lattice", "tricubic voxel lattice 1"}, {"time_step", read.time_step}};
+  nlohmann::json key = {
+      {"files", files_identity(inputs)}, {"lattice", "tricubic voxel lattice 1"}, {"time_step", read.time_step}};
   if (extension_lower(inputs[0]) == ".raw")
     key["raw"] = {read.raw.dims,   read.raw.type,       read.raw.spacing,
                   read.raw.origin, read.raw.big_endian, read.raw.header_bytes};
