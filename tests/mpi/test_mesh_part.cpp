@@ -101,5 +101,35 @@ TEST(MeshPart, FieldsFollowTheKeptCellsAndPoints) {
   }
 }
 
+// A cut travels between ranks as bytes (append_block_bytes): two blocks back to back come back equal, in order, and
+// bytes cut short are refused naming their source.
+TEST(MeshPart, ABlockRoundTripsThroughItsBytes) {
+  test::ScratchDir dir;
+  ASSERT_EQ(test::run_ugvr("generate --cells 2000 --kind mixed -o " + dir.file("m.vtu")).status, 0);
+  const Dataset source = read_dataset(std::vector<std::string>{dir.file("m.vtu")});
+  const Block& block = source.blocks.at(0);
+  Bounds half = block_point_bounds(block);
+  half.hi.y = 0.5 * (half.lo.y + half.hi.y);
+  const Block cut = cells_meeting_box(block, half);
+  std::vector<std::byte> bytes;
+  append_block_bytes(block, bytes);
+  append_block_bytes(cut, bytes);
+  std::span<const std::byte> rest(bytes);
+  const Block a = read_block_bytes(rest, "test");
+  const Block b = read_block_bytes(rest, "test");
+  EXPECT_TRUE(rest.empty());
+  EXPECT_TRUE(std::get<UnstructuredMesh>(a.grid) == std::get<UnstructuredMesh>(block.grid));
+  EXPECT_TRUE(a.fields == block.fields);
+  EXPECT_TRUE(std::get<UnstructuredMesh>(b.grid) == std::get<UnstructuredMesh>(cut.grid));
+  EXPECT_TRUE(b.fields == cut.fields);
+  std::span<const std::byte> short_bytes(bytes.data(), bytes.size() / 4);
+  try {
+    read_block_bytes(short_bytes, "rank 3's part");
+    ADD_FAILURE() << "bytes cut short were read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("rank 3's part"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace ugvr

@@ -1,6 +1,7 @@
 #include "ugvr/mpi/mesh_part.h"
 
 #include <algorithm>
+#include <cstring>
 #include <fstream>
 #include <numeric>
 
@@ -109,6 +110,93 @@ std::vector<Vec3d> sampled_cell_centroids(const Block& block, uint64_t first, ui
   std::vector<Vec3d> out;
   for (uint64_t c = first; c < mesh.cell_count(); c += std::max<uint64_t>(stride, 1)) out.push_back(centroid(mesh, c));
   return out;
+}
+
+namespace {
+
+template <class T>
+void put(std::vector<std::byte>& out, std::span<const T> values) {
+  const auto bytes = std::as_bytes(values);
+  out.insert(out.end(), bytes.begin(), bytes.end());
+}
+void put_u64(std::vector<std::byte>& out, uint64_t v) { put(out, std::span<const uint64_t>(&v, 1)); }
+
+// Copies the next n bytes of `in` to `to`.
+void take(std::span<const std::byte>& in, void* to, uint64_t n, std::string_view source) {
+  if (n > in.size()) fail_in(source, "a part's bytes end early");
+  if (n > 0) std::memcpy(to, in.data(), size_t(n));
+  in = in.subspan(size_t(n));
+}
+uint64_t take_u64(std::span<const std::byte>& in, std::string_view source) {
+  uint64_t v = 0;
+  take(in, &v, sizeof v, source);
+  return v;
+}
+// A count whose bytes (count x size) must fit in what is left: checked before anything is allocated.
+uint64_t take_count(std::span<const std::byte>& in, uint64_t size, std::string_view source) {
+  const uint64_t n = take_u64(in, source);
+  if (size > 0 && n > in.size() / size) fail_in(source, "a part's counts exceed its bytes");
+  return n;
+}
+
+}  // namespace
+
+void append_block_bytes(const Block& block, std::vector<std::byte>& out) {
+  const UnstructuredMesh& mesh = unstructured(block, "append_block_bytes");
+  put_u64(out, mesh.point_count());
+  put_u64(out, mesh.cell_count());
+  put_u64(out, mesh.connectivity.size());
+  put_u64(out, block.fields.size());
+  put(out, std::span<const Vec3f>(mesh.points));
+  put(out, std::span<const CellType>(mesh.cell_types));
+  put(out, std::span<const uint64_t>(mesh.cell_offsets));
+  put(out, std::span<const uint32_t>(mesh.connectivity));
+  for (const Field& f : block.fields) {
+    put_u64(out, f.name().size());
+    put(out, std::span<const char>(f.name()));
+    const uint8_t kind[2] = {uint8_t(f.association()), uint8_t(f.data().type())};
+    put(out, std::span<const uint8_t>(kind));
+    put_u64(out, uint64_t(f.components()));
+    put_u64(out, f.tuples());
+    put(out, std::span<const std::byte>(f.data().bytes(), size_t(f.data().byte_size())));
+  }
+}
+
+Block read_block_bytes(std::span<const std::byte>& bytes, std::string_view source) {
+  UnstructuredMesh mesh;
+  const uint64_t points = take_count(bytes, sizeof(Vec3f), source);
+  const uint64_t cells = take_count(bytes, 1, source);
+  const uint64_t indices = take_count(bytes, sizeof(uint32_t), source);
+  const uint64_t fields = take_count(bytes, 1, source);
+  mesh.points.resize(points);
+  take(bytes, mesh.points.data(), points * sizeof(Vec3f), source);
+  mesh.cell_types.resize(cells);
+  take(bytes, mesh.cell_types.data(), cells, source);
+  if (cells + 1 > bytes.size() / sizeof(uint64_t)) fail_in(source, "a part's counts exceed its bytes");
+  mesh.cell_offsets.resize(cells + 1);
+  take(bytes, mesh.cell_offsets.data(), (cells + 1) * sizeof(uint64_t), source);
+  mesh.connectivity.resize(indices);
+  take(bytes, mesh.connectivity.data(), indices * sizeof(uint32_t), source);
+  mesh.validate(source);
+  Block block;
+  for (uint64_t i = 0; i < fields; ++i) {
+    std::string name(take_count(bytes, 1, source), '\0');
+    take(bytes, name.data(), name.size(), source);
+    uint8_t kind[2] = {};
+    take(bytes, kind, 2, source);
+    if (kind[0] > uint8_t(Association::Cell) || kind[1] > uint8_t(ScalarType::Float64))
+      fail_in(source, "a part's field '" + name + "' has a bad association or type");
+    const ScalarType type = ScalarType(kind[1]);
+    const uint64_t components = take_u64(bytes, source);
+    const uint64_t tuples = take_count(bytes, scalar_size(type) * std::max<uint64_t>(components, 1), source);
+    if (components < 1 || components > 64) fail_in(source, "a part's field '" + name + "' has a bad component count");
+    DataArray data(type, int(components), tuples);
+    take(bytes, data.bytes(), data.byte_size(), source);
+    block.fields.add(Field(std::move(name), Association(kind[0]), std::move(data)));
+  }
+  block.grid = std::move(mesh);
+  block.validate_fields(source);
+  return block;
 }
 
 std::vector<uint32_t> slab_pieces(const Block& block, uint32_t pieces, int axis) {

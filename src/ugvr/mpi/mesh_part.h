@@ -36,6 +36,16 @@ std::vector<Vec3d> sampled_cell_centroids(const Block& block, uint64_t first, ui
 std::vector<std::string> write_pvtu(const Block& block, const std::string& path,
                                     std::span<const uint32_t> piece_of_cell, uint32_t pieces);
 
+// An unstructured block as bytes, to send a part to the rank that draws it (mpi_part_read.cpp), appended to `out`.
+// Layout (host byte order: the ranks of one job share it), all counts uint64:
+//   points, cells, indices, fields
+//   points x Vec3f | cells x uint8 type | (cells + 1) x uint64 offset | indices x uint32 connectivity
+//   per field: name length, name bytes, uint8 association, uint8 scalar type, uint64 components, uint64 tuples, values
+void append_block_bytes(const Block& block, std::vector<std::byte>& out);
+// The block at `bytes` (advanced past it). Throws ugvr::Error naming `source` when the bytes run short or the mesh
+// does not validate.
+Block read_block_bytes(std::span<const std::byte>& bytes, std::string_view source);
+
 // Two ways to deal cells into pieces by their centroids: `pieces` slabs of equal cell counts along `axis` (a solver's
 // one-dimensional decomposition), or the boxes of a kd-tree balanced by count (a partitioner's compact pieces).
 std::vector<uint32_t> slab_pieces(const Block& block, uint32_t pieces, int axis);

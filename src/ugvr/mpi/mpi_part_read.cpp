@@ -5,7 +5,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <map>
+#include <span>
 
 #include "ugvr/core/error.h"
 #include "ugvr/io/pvtu_pieces.h"
@@ -76,6 +79,38 @@ std::vector<Vec3d> gather_samples(const std::vector<Vec3d>& mine) {
   return out;
 }
 
+// Every rank's bytes for every other (MPI_Alltoallv), what this rank receives concatenated in sender order. MPI counts
+// bytes in int: a message or a rank's total beyond 2 GiB is refused with advice rather than truncated.
+std::vector<std::byte> exchange_parts(const std::vector<std::vector<std::byte>>& outgoing, const std::string& path) {
+  const int n = size();
+  constexpr uint64_t kMaxMessage = uint64_t(std::numeric_limits<int>::max());
+  std::vector<int> send_counts(static_cast<size_t>(n)), send_displs(static_cast<size_t>(n));
+  std::vector<int> recv_counts(static_cast<size_t>(n)), recv_displs(static_cast<size_t>(n));
+  std::vector<std::byte> send;
+  for (int r = 0; r < n; ++r) {
+    const std::vector<std::byte>& to = outgoing[size_t(r)];
+    if (send.size() + to.size() > kMaxMessage)
+      fail_in(path,
+              "a rank's parts for the others exceed 2 GiB, more than one MPI exchange carries: run more ranks "
+              "(or UGVR_MPI_WHOLE_MESH=1)");
+    send_displs[size_t(r)] = int(send.size());
+    send_counts[size_t(r)] = int(to.size());
+    send.insert(send.end(), to.begin(), to.end());
+  }
+  MPI_Alltoall(send_counts.data(), 1, MPI_INT, recv_counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  uint64_t total = 0;
+  for (int r = 0; r < n; ++r)
+    recv_displs[size_t(r)] = int(std::min(total, kMaxMessage)), total += uint64_t(recv_counts[size_t(r)]);
+  if (total > kMaxMessage)
+    fail_in(path, "rank " + std::to_string(rank()) +
+                      "'s part exceeds 2 GiB, more than one MPI exchange carries: run "
+                      "more ranks (or UGVR_MPI_WHOLE_MESH=1)");
+  std::vector<std::byte> received(total);
+  MPI_Alltoallv(send.data(), send_counts.data(), send_displs.data(), MPI_BYTE, received.data(), recv_counts.data(),
+                recv_displs.data(), MPI_BYTE, MPI_COMM_WORLD);
+  return received;
+}
+
 // What default_field_names (octree/input.h) picks, from the whole mesh's magnitude ranges.
 std::vector<std::string> default_fields(const std::vector<std::string>& names, const std::vector<bool>& vertex,
                                         const MinMax& magnitude, size_t max_fields) {
@@ -111,18 +146,21 @@ PartRead read_pvtu_part(const std::string& path, const std::string& selector, si
   const size_t pieces = files.size();
   const int me = rank(), ranks = size();
   const auto owner = [&](size_t k) { return int(k % size_t(ranks)); };
+  PartRead out;
+  out.pieces_total = uint32_t(pieces);
 
-  // Pass 1: the split, from the pieces each rank owns.
+  // Pass 1: each rank reads the pieces it owns, once, and keeps them until they are dealt out.
   const std::optional<GridCounts> headers = grid_counts_from_headers(std::vector<std::string>{path});
   const uint64_t stride =
       headers ? std::max<uint64_t>(1, (headers->cells + kMaxSplitSamples - 1) / kMaxSplitSamples) : 1;
   MinMax piece_bounds(3 * pieces);
   std::vector<uint64_t> piece_cells(pieces, 0);
   std::vector<Vec3d> samples;
-  std::vector<std::string> piece_fields(pieces);  // "name\n" per field, "v"/"c" first: the owner's record
+  std::vector<std::string> piece_fields(pieces);  // per owned piece: "v|c" + name + "\n" per field
+  std::vector<std::pair<size_t, Dataset>> owned;
   for (size_t k = 0; k < pieces; ++k) {
     if (owner(k) != me) continue;
-    const Dataset ds = read_vtk_xml(files[k]);
+    Dataset ds = read_vtk_xml(files[k]);
     const Block& block = piece_block(ds, files[k]);
     const Bounds b = block_point_bounds(block);
     if (!b.empty())
@@ -132,11 +170,12 @@ PartRead read_pvtu_part(const std::string& path, const std::string& selector, si
     samples.insert(samples.end(), s.begin(), s.end());
     for (const Field& f : block.fields)
       piece_fields[k] += (f.association() == Association::Vertex ? "v" : "c") + f.name() + "\n";
+    out.cells_read += piece_cells[k];
+    ++out.pieces_read;
+    owned.emplace_back(k, std::move(ds));
   }
   piece_bounds.reduce();
   MPI_Allreduce(MPI_IN_PLACE, piece_cells.data(), int(pieces), MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
-  PartRead out;
-  out.pieces_total = uint32_t(pieces);
   for (uint64_t c : piece_cells) out.cells_total += c;
   const auto first = std::find_if(piece_cells.begin(), piece_cells.end(), [](uint64_t c) { return c > 0; });
   if (first == piece_cells.end()) fail_in(path, "its pieces hold no volume cells");
@@ -162,20 +201,15 @@ PartRead read_pvtu_part(const std::string& path, const std::string& selector, si
   samples = {};
   out.split_samples = all_samples.size();
   out.tree = build_kd_tree(std::move(all_samples), ranks);
-  const Bounds& box = out.tree.boxes[size_t(me)];
 
-  // Pass 2: the part, piece by piece; the fields' ranges over every piece read, whole.
+  // The fields' ranges over the owned pieces, whole: every piece once, so the reduction is the whole mesh's.
   std::vector<std::string> selectors = names;
   if (!selector.empty() && std::find(names.begin(), names.end(), selector) == names.end())
     selectors.push_back(selector);
   MinMax magnitude(names.size()), engine(selectors.size());
-  auto part = std::make_shared<Dataset>();
-  part->format = "VTK XML PUnstructuredGrid (.pvtu), this rank's part";
-  part->sources.push_back(path);
-  for (size_t k = 0; k < pieces; ++k) {
-    if (piece_cells[k] == 0 || !meets(piece_box(k), box)) continue;
-    Dataset ds = read_vtk_xml(files[k]);
-    const Block& block = piece_block(ds, files[k]);
+  for (const auto& [k, ds] : owned) {
+    if (piece_cells[k] == 0) continue;
+    const Block& block = ds.blocks[0];
     for (size_t i = 0; i < names.size(); ++i) {
       const Field* f = block.fields.find(names[i], vertex[i] ? Association::Vertex : Association::Cell);
       if (!f)
@@ -185,17 +219,45 @@ PartRead read_pvtu_part(const std::string& path, const std::string& selector, si
       if (r.nan_count < f->tuples()) magnitude.add(i, r.min, r.max);
     }
     for (size_t i = 0; i < selectors.size(); ++i) add_engine_range(block, selectors[i], engine, i);
-    Block kept = cells_meeting_box(block, box);
-    const uint64_t n = std::get<UnstructuredMesh>(kept.grid).cell_count();
-    out.cells_read += piece_cells[k];
-    out.cells_kept += n;
-    ++out.pieces_read;
-    for (std::string& w : ds.warnings) part->warnings.push_back(std::move(w));
-    part->sources.push_back(files[k]);
-    if (n > 0) part->blocks.push_back(std::move(kept));
   }
   magnitude.reduce();
   engine.reduce();
+
+  // Pass 2: each owner cuts its pieces to every box they meet and sends the cuts to the boxes' ranks.
+  std::vector<std::vector<std::byte>> outgoing(static_cast<size_t>(ranks));
+  for (int r = 0; r < ranks; ++r)
+    for (const auto& [k, ds] : owned) {
+      if (piece_cells[k] == 0 || !meets(piece_box(k), out.tree.boxes[size_t(r)])) continue;
+      const Block cut = cells_meeting_box(ds.blocks[0], out.tree.boxes[size_t(r)]);
+      if (std::get<UnstructuredMesh>(cut.grid).cell_count() == 0) continue;
+      std::vector<std::byte>& to = outgoing[size_t(r)];
+      const uint64_t piece = k;
+      to.insert(to.end(), reinterpret_cast<const std::byte*>(&piece), reinterpret_cast<const std::byte*>(&piece + 1));
+      append_block_bytes(cut, to);
+    }
+  auto part = std::make_shared<Dataset>();
+  part->format = "VTK XML PUnstructuredGrid (.pvtu), this rank's part";
+  part->sources.push_back(path);
+  for (auto& [k, ds] : owned)
+    for (std::string& w : ds.warnings) part->warnings.push_back(std::move(w));
+  owned = {};
+  const std::vector<std::byte> incoming = exchange_parts(outgoing, path);
+  outgoing = {};
+  // The cuts arrive by sender; the part lists them in piece order (the order a whole read numbers cells in).
+  std::map<uint64_t, Block> cuts;
+  for (std::span<const std::byte> rest(incoming); !rest.empty();) {
+    uint64_t piece = 0;
+    if (rest.size() < sizeof piece) fail_in(path, "a part's bytes end early");
+    std::memcpy(&piece, rest.data(), sizeof piece);
+    rest = rest.subspan(sizeof piece);
+    if (piece >= pieces) fail_in(path, "a part names a piece out of range");
+    cuts.emplace(piece, read_block_bytes(rest, files[size_t(piece)]));
+  }
+  for (auto& [k, block] : cuts) {
+    out.cells_kept += std::get<UnstructuredMesh>(block.grid).cell_count();
+    part->sources.push_back(files[size_t(k)]);
+    part->blocks.push_back(std::move(block));
+  }
   if (part->blocks.empty())
     fail_in(path, "rank " + std::to_string(me) + " of " + std::to_string(ranks) +
                       ": its kd box meets no cell (fewer cells than ranks?)");
