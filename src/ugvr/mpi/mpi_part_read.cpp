@@ -149,7 +149,7 @@ PartRead read_pvtu_part(const std::string& path, const std::string& selector, si
   PartRead out;
   out.pieces_total = uint32_t(pieces);
 
-  // Pass 1: each rank reads the pieces it owns, once, and keeps them until they are dealt out.
+  // Each rank reads the pieces it owns, once, and keeps them until they are dealt out.
   const std::optional<GridCounts> headers = grid_counts_from_headers(std::vector<std::string>{path});
   const uint64_t stride =
       headers ? std::max<uint64_t>(1, (headers->cells + kMaxSplitSamples - 1) / kMaxSplitSamples) : 1;
@@ -223,11 +223,15 @@ PartRead read_pvtu_part(const std::string& path, const std::string& selector, si
   magnitude.reduce();
   engine.reduce();
 
-  // Pass 2: each owner cuts its pieces to every box they meet and sends the cuts to the boxes' ranks.
+  // The cuts dealt out: each owner cuts its pieces to every box they meet, dropping each piece once cut (so the owned
+  // pieces shrink as the outgoing bytes grow), and sends every rank its cuts. Per destination, in piece order.
+  auto part = std::make_shared<Dataset>();
+  part->format = "VTK XML PUnstructuredGrid (.pvtu), this rank's part";
+  part->sources.push_back(path);
   std::vector<std::vector<std::byte>> outgoing(static_cast<size_t>(ranks));
-  for (int r = 0; r < ranks; ++r)
-    for (const auto& [k, ds] : owned) {
-      if (piece_cells[k] == 0 || !meets(piece_box(k), out.tree.boxes[size_t(r)])) continue;
+  for (auto& [k, ds] : owned) {
+    for (int r = 0; r < ranks && piece_cells[k] > 0; ++r) {
+      if (!meets(piece_box(k), out.tree.boxes[size_t(r)])) continue;
       const Block cut = cells_meeting_box(ds.blocks[0], out.tree.boxes[size_t(r)]);
       if (std::get<UnstructuredMesh>(cut.grid).cell_count() == 0) continue;
       std::vector<std::byte>& to = outgoing[size_t(r)];
@@ -235,11 +239,9 @@ PartRead read_pvtu_part(const std::string& path, const std::string& selector, si
       to.insert(to.end(), reinterpret_cast<const std::byte*>(&piece), reinterpret_cast<const std::byte*>(&piece + 1));
       append_block_bytes(cut, to);
     }
-  auto part = std::make_shared<Dataset>();
-  part->format = "VTK XML PUnstructuredGrid (.pvtu), this rank's part";
-  part->sources.push_back(path);
-  for (auto& [k, ds] : owned)
     for (std::string& w : ds.warnings) part->warnings.push_back(std::move(w));
+    ds = Dataset{};
+  }
   owned = {};
   const std::vector<std::byte> incoming = exchange_parts(outgoing, path);
   outgoing = {};
