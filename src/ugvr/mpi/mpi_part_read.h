@@ -14,7 +14,8 @@
 //  4. Each owner cuts its pieces to every box they meet (cells_meeting_box: restrict_walk_mesh's test) and sends the
 //     cuts to the boxes' ranks in one MPI_Alltoallv (append_block_bytes); a rank lays what it receives out as one
 //     block per piece in piece order (the order in which restricting a whole read numbers cells).
-// Peak memory per rank: the owned pieces, the outgoing and the incoming cuts at once, then the part and its walk mesh.
+// Memory per rank: the owned pieces (dropped one by one as they are cut) and the outgoing cuts, then the outgoing and
+// incoming bytes, then the part and its walk mesh (the peak).
 #pragma once
 #include <map>
 #include <memory>
