@@ -42,6 +42,7 @@
 #include "ugvr/core/file.h"
 #include "ugvr/core/memory.h"
 #include "ugvr/core/progress.h"
+#include "ugvr/io/pvtu_pieces.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/vtk_cell_import.h"
 #include "ugvr/io/vtk_xml_array.h"
@@ -961,6 +962,19 @@ Dataset read_structured(std::unique_ptr<XmlDoc> doc, StructuredKind kind) {
 Dataset read_pstructured(std::unique_ptr<XmlDoc> pdoc, StructuredKind kind);
 
 }  // namespace
+
+bool is_pvtu_path(const std::string& path) { return extension_lower(path) == ".pvtu"; }
+
+std::vector<std::string> pvtu_piece_files(const std::string& path) {
+  const std::unique_ptr<XmlDoc> doc = load_doc(path);
+  if (doc->type != "PUnstructuredGrid")
+    fail_in(path, "VTKFile type \"" + doc->type.substr(0, 40) + "\", expected PUnstructuredGrid");
+  const pugi::xml_node grid = single_child(*doc, doc->root, "PUnstructuredGrid");
+  if (!grid) doc->fail(doc->root, "no <PUnstructuredGrid> element");
+  std::vector<std::string> paths = pvtu_piece_paths(*doc, grid);
+  if (paths.empty()) doc->fail(grid, "<PUnstructuredGrid> lists no <Piece Source=...>");
+  return paths;
+}
 
 Dataset read_vtk_xml(const std::string& path) {
   std::unique_ptr<XmlDoc> doc = load_doc(path);

@@ -7,12 +7,16 @@
 #include <chrono>
 #include <cstdlib>
 #include <ctime>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string_view>
 
 #include "ugvr/core/error.h"
+#include "ugvr/io/pvtu_pieces.h"
 #include "ugvr/mpi/kd_partition.h"
 #include "ugvr/mpi/mpi_compositor.h"
+#include "ugvr/mpi/mpi_part_read.h"
 #include "ugvr/mpi/mpi_session.h"
 #include "ugvr/mpi/piece_index.h"
 #include "ugvr/mpi/piece_renderer.h"
@@ -28,6 +32,23 @@ double process_cpu_seconds() {
   return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
+// How a rank got its part of a mesh: the whole input read (every format) or only the pieces of a .pvtu its box needs
+// (mpi_part_read.h). Figures for --stats; a store has none.
+struct ReadFigures {
+  std::string how;           // "whole", "pvtu-part"; empty for a store
+  uint64_t cells_total = 0;  // the mesh's volume cells
+  uint64_t cells_read = 0;   // decoded from the input by this rank
+  uint64_t cells_kept = 0;   // in the rank's part (its engine's cells)
+  double seconds = 0;        // reading, cutting and the part's walk mesh, the split's exchanges included
+};
+
+// The whole mesh's figures a part does not know by itself: its bounds (the default camera) and each field's range
+// (the default transfer function), the same on every rank.
+struct WholeMesh {
+  std::optional<Bounds> bounds;
+  std::map<std::string, FieldRange> ranges;
+};
+
 // The compositing renderer's own figures (--stats), then the rank's engine's.
 struct MpiFrameStats : EngineFrameStats {
   int ranks = 1;
@@ -40,6 +61,10 @@ struct MpiFrameStats : EngineFrameStats {
   // the engine does not say) and the process's peak resident set so far.
   std::vector<double> rank_render_seconds, rank_render_cpu_seconds, rank_samples, rank_engine_bytes,
       rank_peak_rss_bytes;
+  // How each rank read its part (ReadFigures): cells decoded from the input, cells kept, seconds.
+  std::string read;
+  uint64_t cells_total = 0;
+  std::vector<double> rank_cells_read, rank_cells_kept, rank_read_seconds;
   std::shared_ptr<const EngineFrameStats> rank0;
   void to_json(nlohmann::json& j) const override {
     if (rank0) rank0->to_json(j);
@@ -53,12 +78,20 @@ struct MpiFrameStats : EngineFrameStats {
                 {"rank_samples", rank_samples},
                 {"rank_engine_bytes", rank_engine_bytes},
                 {"rank_peak_rss_bytes", rank_peak_rss_bytes}};
+    if (!read.empty()) {
+      j["mpi"]["read"] = read;
+      j["mpi"]["cells_total"] = cells_total;
+      j["mpi"]["rank_cells_read"] = rank_cells_read;
+      j["mpi"]["rank_cells_kept"] = rank_cells_kept;
+      j["mpi"]["rank_read_seconds"] = rank_read_seconds;
+    }
   }
 };
 
 class MpiRenderer final : public Renderer {
  public:
-  MpiRenderer(std::unique_ptr<Renderer> local, KdTree tree) : local_(std::move(local)), tree_(std::move(tree)) {
+  MpiRenderer(std::unique_ptr<Renderer> local, KdTree tree, ReadFigures read = {}, WholeMesh whole = {})
+      : local_(std::move(local)), tree_(std::move(tree)), read_(std::move(read)), whole_(std::move(whole)) {
     nlohmann::json j;
     local_->describe(j);
     if (j.contains("engine_bytes") && j["engine_bytes"].is_number()) engine_bytes_ = j["engine_bytes"].get<double>();
@@ -67,8 +100,11 @@ class MpiRenderer final : public Renderer {
   std::string device() const override { return local_->device() + ", " + std::to_string(size()) + " MPI ranks"; }
   void set_field(std::string_view name) override { local_->set_field(name); }
   const std::string& field_name() const override { return local_->field_name(); }
-  FieldRange field_range() const override { return local_->field_range(); }
-  Bounds bounds() const override { return local_->bounds(); }
+  FieldRange field_range() const override {
+    const auto it = whole_.ranges.find(local_->field_name());
+    return it != whole_.ranges.end() ? it->second : local_->field_range();
+  }
+  Bounds bounds() const override { return whole_.bounds ? *whole_.bounds : local_->bounds(); }
   void describe(nlohmann::json& j) const override {
     local_->describe(j);
     j["mpi_ranks"] = size();
@@ -110,9 +146,15 @@ class MpiRenderer final : public Renderer {
 
     rusage usage{};
     getrusage(RUSAGE_SELF, &usage);  // ru_maxrss in KiB on Linux
-    constexpr int kFigures = 5;
-    const double mine_figures[kFigures] = {local.stats.seconds, cpu_seconds, double(local.stats.samples), engine_bytes_,
-                                           double(usage.ru_maxrss) * 1024.0};
+    constexpr int kFigures = 8;
+    const double mine_figures[kFigures] = {local.stats.seconds,
+                                           cpu_seconds,
+                                           double(local.stats.samples),
+                                           engine_bytes_,
+                                           double(usage.ru_maxrss) * 1024.0,
+                                           double(read_.cells_read),
+                                           double(read_.cells_kept),
+                                           read_.seconds};
     std::vector<double> all_figures(rank() == 0 ? kFigures * size_t(size()) : 0);
     MPI_Gather(mine_figures, kFigures, MPI_DOUBLE, all_figures.data(), kFigures, MPI_DOUBLE, 0, MPI_COMM_WORLD);
 
@@ -128,7 +170,12 @@ class MpiRenderer final : public Renderer {
       stats->rank_samples.push_back(all_figures[i + 2]);
       stats->rank_engine_bytes.push_back(all_figures[i + 3]);
       stats->rank_peak_rss_bytes.push_back(all_figures[i + 4]);
+      stats->rank_cells_read.push_back(all_figures[i + 5]);
+      stats->rank_cells_kept.push_back(all_figures[i + 6]);
+      stats->rank_read_seconds.push_back(all_figures[i + 7]);
     }
+    stats->read = read_.how;
+    stats->cells_total = read_.cells_total;
     std::vector<float> blended = composite(premultiplied(local.image), width, height, order, &stats->composite_seconds);
 
     Frame frame;
@@ -143,14 +190,34 @@ class MpiRenderer final : public Renderer {
  private:
   std::unique_ptr<Renderer> local_;
   KdTree tree_;
+  ReadFigures read_;
+  WholeMesh whole_;
   double engine_bytes_ = 0;
 };
+
+// A .pvtu on several ranks: each reads only the pieces its box needs (mpi_part_read.h) and draws its part, clipped to
+// its box, as the whole-read path's restrict_to_box does; the whole mesh's bounds and ranges come from the read.
+std::unique_ptr<Renderer> open_pvtu_part(const std::string& path, RendererOptions options, OpenedInput* opened,
+                                         std::vector<std::string>& fields) {
+  const auto t0 = std::chrono::steady_clock::now();
+  PartRead part = read_pvtu_part(path, options.field, 4);
+  fields = part.fields;
+  if (options.field.empty() && !fields.empty()) options.field = fields.front();
+  // The viewer's histograms are counted from this: a part here, so the viewer reads whole meshes (MeshRead::Whole).
+  if (opened) opened->warnings = part.dataset->warnings, opened->dataset = part.dataset;
+  auto scene = std::make_shared<ExactScene>(part.dataset, options.progress);
+  scene->engine.set_clip_box(part.tree.boxes[size_t(rank())]);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ReadFigures figures{"pvtu-part", part.cells_total, part.cells_read, part.cells_kept, seconds};
+  WholeMesh whole{part.bounds, std::move(part.ranges)};
+  return std::make_unique<MpiRenderer>(make_renderer(scene, options), std::move(part.tree), figures, std::move(whole));
+}
 
 }  // namespace
 
 std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, const ReadOptions& read,
-                                        RendererOptions options, OpenedInput* opened,
-                                        std::vector<std::string>* fields) {
+                                        RendererOptions options, OpenedInput* opened, std::vector<std::string>* fields,
+                                        MeshRead mesh_read) {
   std::vector<std::string> unused;
   if (!fields) fields = &unused;
   if (options.interactive) throw OptionError("fps", "interactive rendering (--fps, --path) is not supported under MPI");
@@ -193,22 +260,30 @@ std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, 
   if (store) throw OptionError("engine", "a brick store (.ugvr) renders with the lod engine");
   if (options.device == "gpu") throw OptionError("device", "under MPI the exact engine renders on the CPU");
   options.device = "cpu";
+  const char* whole = std::getenv("UGVR_MPI_WHOLE_MESH");
+  const bool whole_mesh = whole && std::string_view(whole) == "1";
+  if (size() > 1 && !whole_mesh && mesh_read == MeshRead::PartWherePossible && inputs.size() == 1 &&
+      is_pvtu_path(inputs[0]))
+    return open_pvtu_part(inputs[0], std::move(options), opened, *fields);
+  const auto t0 = std::chrono::steady_clock::now();
   auto dataset = std::make_shared<Dataset>(read_dataset(inputs, read));
   if (opened) opened->warnings = dataset->warnings, opened->dataset = dataset;
   if (!dataset->blocks.empty()) *fields = default_field_names(dataset->blocks[0], 4);
   if (options.field.empty() && !fields->empty()) options.field = fields->front();
   auto scene = std::make_shared<ExactScene>(std::move(dataset), options.progress);
+  ReadFigures figures{"whole", scene->engine.cell_count(), scene->engine.cell_count(), 0, 0};
   KdTree tree = build_kd_tree(cell_centroids(scene->engine.walk_mesh()), size());
   // Each rank keeps only the cells that meet its box: its rays enter at its part's faces instead of walking the
   // cells in front of the box (and the rank holds about 1/N of the walk mesh). The tree above is built from the whole
   // mesh first, identically on every rank. One rank keeps all (its box is infinite), as before. UGVR_MPI_WHOLE_MESH=1
   // keeps the whole mesh on every rank (the clip box alone): the benchmark's baseline (bench/run_mpi_exact.sh).
-  const char* whole = std::getenv("UGVR_MPI_WHOLE_MESH");
-  if (size() > 1 && !(whole && std::string_view(whole) == "1"))
+  if (size() > 1 && !whole_mesh)
     scene->engine.restrict_to_box(tree.boxes[size_t(rank())]);
   else
     scene->engine.set_clip_box(tree.boxes[size_t(rank())]);
-  return std::make_unique<MpiRenderer>(make_renderer(scene, options), std::move(tree));
+  figures.cells_kept = scene->engine.cell_count();
+  figures.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return std::make_unique<MpiRenderer>(make_renderer(scene, options), std::move(tree), figures);
 }
 
 }  // namespace ugvr::mpi

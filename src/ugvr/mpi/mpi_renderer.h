@@ -1,7 +1,7 @@
 // `mpirun -np N ugvr render ...`: data-parallel rendering with sort-last compositing (docs/mpi.md).
 //
-// Every rank opens the whole input (reading only its part is future work: docs/mpi.md), builds the same kd-tree over
-// the cells' centroids (kd_partition.h) and renders only the stretch of each ray inside its own box, into a
+// Every rank opens the whole input (a .pvtu: only the pieces its box needs, mpi_part_read.h), builds the same kd-tree
+// over the cells' centroids (kd_partition.h) and renders only the stretch of each ray inside its own box, into a
 // premultiplied image over a transparent background with early ray termination off (a rank cannot know what lies in
 // front of it). The images are blended front to back in the tree's visibility order (mpi_compositor.h) and the
 // background applied once, on rank 0, which alone gets the frame. Emission-absorption splits exactly at the boxes'
@@ -17,6 +17,11 @@
 
 namespace ugvr::mpi {
 
+// How a mesh's ranks get their parts: a .pvtu read piece by piece, each rank only the pieces its box needs
+// (mpi_part_read.h; other formats are read whole on every rank), or every input read whole on every rank (the
+// viewer: its histograms are counted from rank 0's copy of the whole mesh).
+enum class MeshRead { PartWherePossible, Whole };
+
 // Opens `inputs` on every rank as open_renderer_default_field does (the same default field), wrapped in the
 // compositing renderer. Exact engine on the CPU only (options.device "gpu" is an OptionError("device")); the LOD
 // engine for a store, one cut per frame. Interactive sessions (OptionError("fps")) and MIP (OptionError("mode"), thrown
@@ -26,6 +31,7 @@ namespace ugvr::mpi {
 // store's, or a mesh's default ones (default_field_names, at most 4; the first is bound when options.field is empty).
 std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, const ReadOptions& read,
                                         RendererOptions options, OpenedInput* opened = nullptr,
-                                        std::vector<std::string>* fields = nullptr);
+                                        std::vector<std::string>* fields = nullptr,
+                                        MeshRead mesh_read = MeshRead::PartWherePossible);
 
 }  // namespace ugvr::mpi

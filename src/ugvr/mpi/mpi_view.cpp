@@ -175,11 +175,11 @@ std::unique_ptr<Renderer> open_view_leader(const std::vector<std::string>& input
                                            OpenedInput* opened) {
   if (!threads_serialized())
     fail_in("MPI", "the MPI library does not allow calls from the viewer's render thread (MPI_THREAD_SERIALIZED)");
-  return std::make_unique<ViewLeader>(mpi::open_renderer(inputs, read, options, opened, fields));
+  return std::make_unique<ViewLeader>(mpi::open_renderer(inputs, read, options, opened, fields, MeshRead::Whole));
 }
 
 void follow_view(const std::vector<std::string>& inputs, const ReadOptions& read, const RendererOptions& options) {
-  std::unique_ptr<Renderer> collective = mpi::open_renderer(inputs, read, options);
+  std::unique_ptr<Renderer> collective = mpi::open_renderer(inputs, read, options, nullptr, nullptr, MeshRead::Whole);
   for (std::string text = receive_text(); !text.empty(); text = receive_text())
     draw_collectively(*collective, decode_frame_request(text));
 }
