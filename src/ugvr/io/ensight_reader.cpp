@@ -1015,7 +1015,7 @@ CaseFile parse_case(const std::string& path) {
     } else if (section == "time") {
       if (key == "time set") {
         finish_ts();
-        int n;
+        int n = 0;
         const auto w = split_words(value);
         if (w.empty() || !is_int(w[0], n)) fail_line("'time set:' needs a number");
         if (c.time_sets.count(n)) fail_line("time set " + std::to_string(n) + " is defined twice");
