@@ -601,6 +601,39 @@ TEST(Hybrid, ParseFocus) {
     EXPECT_THROW(parse_focus(bad), Error) << bad;
 }
 
+// Smooth brush edges at the node level: a node whose values come within a range's edge has an interest between 0 and
+// 1 (the window at the gap between the ranges), so it stays a candidate, its priority scaled by that interest. A range
+// above every value: without an edge no node is a candidate; with an edge of four times the field's range all are.
+TEST(Hybrid, NodesWithinTheEdgeAreCandidatesByTheirInterest) {
+  const Fixture& f = fixture();
+  const BrickStoreReader store(f.store);
+  const BrickStoreField& fd = store.layout().fields[0];
+  const double w = fd.max - fd.min;
+  std::vector<uint64_t> all(store.node_count());
+  for (uint64_t n = 0; n < all.size(); ++n) all[n] = n;
+  const Camera cam = camera_preset("iso", store.layout().data);
+  const TfNodeErrors no_errors(store, 0);
+  const std::vector<ExactCandidate> base = exact_candidates(store, all, cam, 96, 96, no_errors);
+  ASSERT_GT(base.size(), 4u);
+  const std::string above = "pressure:" + std::to_string(fd.max + 0.5 * w) + ":" + std::to_string(fd.max + w);
+  NodeInterest hard{resolve_focus(store, parse_focus(above)), std::nullopt};
+  uint64_t excluded = 0;
+  EXPECT_TRUE(exact_candidates(store, all, cam, 96, 96, no_errors, hard, &excluded).empty());
+  EXPECT_EQ(excluded, base.size());
+  NodeInterest soft{resolve_focus(store, parse_focus(above + "~" + std::to_string(4 * w))), std::nullopt};
+  const std::vector<ExactCandidate> edged = exact_candidates(store, all, cam, 96, 96, no_errors, soft, &excluded);
+  EXPECT_EQ(excluded, 0u);
+  ASSERT_EQ(edged.size(), base.size());
+  for (const ExactCandidate& c : edged) {
+    const auto b = std::find_if(base.begin(), base.end(), [&](const ExactCandidate& x) { return x.node == c.node; });
+    ASSERT_NE(b, base.end()) << c.node;
+    const double doi = node_interest(store, c.node, soft);
+    EXPECT_GT(doi, 0.0) << c.node;
+    EXPECT_LT(doi, 1.0) << c.node;
+    EXPECT_DOUBLE_EQ(c.priority, b->priority * doi) << c.node;
+  }
+}
+
 // `ugvr render STORE --engine hybrid`: the cut is the leaves, the stats say how much is exact; a store without cells
 // renders its voxels and says why.
 TEST(Hybrid, CommandLine) {
