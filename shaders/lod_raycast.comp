@@ -621,6 +621,31 @@ vec4 context_sample(vec4 mean) {
   return vec4(mix(vec3(luminance), c, u_context.x) * a, a);
 }
 
+// Smooth brush edges: a value's interest at `distance` outside a focus range with edge `edge` (hybrid_select.h
+// focus_window, the same function).
+float focus_window(float distance, float edge) {
+  if (distance <= 0.0) return 1.0;
+  if (!(distance < edge)) return 0.0;
+  float x = distance / edge;
+  return 1.0 - x * x * (3.0 - 2.0 * x);
+}
+
+// The degree of interest of transfer-function coordinate u under the u_focus windows: the least of a group's, the
+// greatest group's (hybrid_select.h node_interest, per value instead of per node range).
+float sample_interest(float u) {
+  int n = int(u_context.z);
+  float best = 0.0, all = 1.0;
+  for (int i = 0; i < n; ++i) {
+    vec4 w = u_focus[i];
+    all = min(all, focus_window(max(max(w.x - u, u - w.y), 0.0), w.z));
+    if (i + 1 == n || u_focus[min(i + 1, LOD_MAX_FOCUS_WINDOWS - 1)].w != w.w) {
+      best = max(best, all);
+      all = 1.0;
+    }
+  }
+  return best;
+}
+
 vec3 slot_origin(uint slot) {
   uint sx = uint(u_slots.x), sy = uint(u_slots.y);
   return vec3(float(slot % sx), float((slot / sx) % sy), float(slot / (sx * sy))) * float(u_resolution + 2);
@@ -954,6 +979,7 @@ bool sample_run(const bool crossings, float t, float t_exit, vec3 c0, vec3 c1, f
       if (!first && (ga || gb) && shown) {
         float len = sb - sa;
         vec4 mean;
+        float um = 0.5 * (ua + ub);  // the segment's middle value (of its valid part), for its interest
         if (ga && gb && abs(ub - ua) >= 0.5 / (float(TF_TEXELS) - 1.0)) {
           mean = (ib - ia) / (ub - ua);
         } else {
@@ -971,11 +997,18 @@ bool sample_run(const bool crossings, float t, float t_exit, vec3 c0, vec3 c1, f
               len *= 1.0 - f;
             }
           }
-          vec4 p = texture(u_tf, (clamp(0.5 * (u0 + u1), 0.0, 1.0) * (float(TF_TEXELS) - 1.0) + 0.5) /
-                                     float(TF_TEXELS));
+          um = 0.5 * (u0 + u1);
+          vec4 p = texture(u_tf, (clamp(um, 0.0, 1.0) * (float(TF_TEXELS) - 1.0) + 0.5) / float(TF_TEXELS));
           mean = vec4(p.rgb * p.a, p.a);
         }
-        if (context && mean.a > 0.0) mean = context_sample(mean);
+        if (context && mean.a > 0.0) {
+          mean = context_sample(mean);
+        } else if (u_context.z > 0.0 && mean.a > 0.0) {
+          // Smooth brush edges: the focus border follows the values, not the nodes. Interest 1 leaves the segment
+          // as it was, bit for bit.
+          float interest = sample_interest(um);
+          if (interest < 1.0) mean = mix(context_sample(mean), mean, interest);
+        }
         if (mean.a > 0.0) {
           float a = 1.0 - exp(-mean.a * len);
           radiance += transmittance * a * shade * (mean.rgb / mean.a);

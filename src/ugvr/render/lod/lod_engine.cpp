@@ -508,6 +508,30 @@ void LodEngine::Impl::upload_transfer_function(const TransferFunction& tf) {
   glTextureSubImage1D(preint_texture.id(), 0, 0, n, GL_RGBA, GL_FLOAT, integrals.data());
 }
 
+namespace {
+
+// Smooth brush edges (docs/hybrid.md): the focus ranges as windows on each sample's value (LodFrame u_focus, count in
+// u_context.z), in transfer-function coordinates. Only when every range is on the rendered field, there is no region
+// of interest (whose border is a box, not a value), some range has an edge (without one the node-level rule stays,
+// bit for bit), they fit the block and the transfer function has a width; otherwise none, and the nodes' interest
+// alone decides (NODE_CONTEXT).
+void set_focus_windows(lod_gpu::LodFrame& f, const NodeInterest& interest, uint32_t field, double t_lo,
+                       double tf_width) {
+  const std::vector<ResolvedFocus>& focus = interest.focus;
+  const bool on_field =
+      std::all_of(focus.begin(), focus.end(), [&](const ResolvedFocus& r) { return r.field == field; });
+  const bool edged = std::any_of(focus.begin(), focus.end(), [](const ResolvedFocus& r) { return r.edge > 0; });
+  if (focus.empty() || interest.roi || !on_field || !edged || focus.size() > size_t(LOD_MAX_FOCUS_WINDOWS) ||
+      !(tf_width > 0))
+    return;
+  for (size_t i = 0; i < focus.size(); ++i)
+    f.u_focus[i] = {float((focus[i].min - t_lo) / tf_width), float((focus[i].max - t_lo) / tf_width),
+                    float(focus[i].edge / tf_width), float(focus[i].group)};
+  f.u_context.z = float(focus.size());
+}
+
+}  // namespace
+
 // The shader's per-frame parameters: computed in double, passed as float. Coordinates are normalised to the root cell
 // (lod_shared.h).
 lod_gpu::LodFrame LodEngine::Impl::frame_parameters(const Camera& camera, const TransferFunction& tf,
@@ -574,6 +598,7 @@ lod_gpu::LodFrame LodEngine::Impl::frame_parameters(const Camera& camera, const 
                   norm(b.hi.z, root.lo.z, root_size.z), 0.0f};
   }
   f.u_context = {float(options.context_saturation), float(options.context_opacity), 0.0f, 0.0f};
+  set_focus_windows(f, interest, field, t_lo, tf_width);
   return f;
 }
 
