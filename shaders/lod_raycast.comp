@@ -36,6 +36,9 @@
 #ifndef TRICUBIC
 #define TRICUBIC 0  // isosurfaces on the cubic B-spline of the bricks' samples (LOD_MODE_ISO only; docs/tricubic.md)
 #endif
+#ifndef FOCUS_WINDOWS
+#define FOCUS_WINDOWS 0  // smooth brush edges: each sample's interest from the u_focus windows (docs/hybrid.md)
+#endif
 #ifndef HYBRID
 #define HYBRID 0  // exact cells in the nodes granted them (emission-absorption without overlay; docs/hybrid.md)
 #endif
@@ -621,30 +624,33 @@ vec4 context_sample(vec4 mean) {
   return vec4(mix(vec3(luminance), c, u_context.x) * a, a);
 }
 
-// Smooth brush edges: a value's interest at `distance` outside a focus range with edge `edge` (hybrid_select.h
-// focus_window, the same function).
-float focus_window(float distance, float edge) {
-  if (distance <= 0.0) return 1.0;
-  if (!(distance < edge)) return 0.0;
-  float x = distance / edge;
-  return 1.0 - x * x * (3.0 - 2.0 * x);
-}
-
-// The degree of interest of transfer-function coordinate u under the u_focus windows: the least of a group's, the
-// greatest group's (hybrid_select.h node_interest, per value instead of per node range).
+#if FOCUS_WINDOWS
+// Smooth brush edges: the degree of interest of transfer-function coordinate u under the FOCUS_WINDOWS windows of
+// u_focus (x MIN, y MAX, z 1 / EDGE, w group): per range 1 - smoothstep over the edge (hybrid_select.h focus_window),
+// a group's the least of its ranges', the result the greatest group's (node_interest, per value instead of per node
+// range). A compile-time count, so that the loop unrolls into uniform loads: llvmpipe runs this for every segment.
 float sample_interest(float u) {
-  int n = int(u_context.z);
   float best = 0.0, all = 1.0;
-  for (int i = 0; i < n; ++i) {
+  for (int i = 0; i < FOCUS_WINDOWS; ++i) {
     vec4 w = u_focus[i];
-    all = min(all, focus_window(max(max(w.x - u, u - w.y), 0.0), w.z));
-    if (i + 1 == n || u_focus[min(i + 1, LOD_MAX_FOCUS_WINDOWS - 1)].w != w.w) {
+    float x = clamp(max(w.x - u, u - w.y) * w.z, 0.0, 1.0);
+    all = min(all, 1.0 - x * x * (3.0 - 2.0 * x));
+    if (i + 1 == FOCUS_WINDOWS || u_focus[min(i + 1, LOD_MAX_FOCUS_WINDOWS - 1)].w != w.w) {
       best = max(best, all);
       all = 1.0;
     }
   }
   return best;
 }
+
+// A segment's mean mixed between its context version (context_sample's, with the luminance taken from the
+// premultiplied colour: no division) and itself by `interest`.
+vec4 interest_mix(vec4 mean, float interest) {
+  vec3 grey = vec3(dot(mean.rgb, vec3(0.2126, 0.7152, 0.0722)));
+  vec4 context = vec4(mix(grey, mean.rgb, u_context.x), mean.a) * u_context.y;
+  return mix(context, mean, interest);
+}
+#endif
 
 vec3 slot_origin(uint slot) {
   uint sx = uint(u_slots.x), sy = uint(u_slots.y);
@@ -1001,14 +1007,15 @@ bool sample_run(const bool crossings, float t, float t_exit, vec3 c0, vec3 c1, f
           vec4 p = texture(u_tf, (clamp(um, 0.0, 1.0) * (float(TF_TEXELS) - 1.0) + 0.5) / float(TF_TEXELS));
           mean = vec4(p.rgb * p.a, p.a);
         }
-        if (context && mean.a > 0.0) {
-          mean = context_sample(mean);
-        } else if (u_context.z > 0.0 && mean.a > 0.0) {
+        if (context && mean.a > 0.0) mean = context_sample(mean);
+#if FOCUS_WINDOWS
+        if (!context) {
           // Smooth brush edges: the focus border follows the values, not the nodes. Interest 1 leaves the segment
           // as it was, bit for bit.
           float interest = sample_interest(um);
-          if (interest < 1.0) mean = mix(context_sample(mean), mean, interest);
+          mean = interest < 1.0 ? interest_mix(mean, interest) : mean;
         }
+#endif
         if (mean.a > 0.0) {
           float a = 1.0 - exp(-mean.a * len);
           radiance += transmittance * a * shade * (mean.rgb / mean.a);

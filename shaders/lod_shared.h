@@ -168,11 +168,12 @@ layout(std140, binding = FRAME_BLOCK_BINDING) uniform LodFrame {
   int u_cell_data;                     // 508 HYBRID: the field is per cell (else per vertex)
   vec4 u_box_lo;                       // 512 data-parallel rendering (src/ugvr/mpi): only t inside the box
   vec4 u_box_hi;                       // 528 [lo, hi] (xyz, normalised) is drawn; read only when u_box_lo.w > 0.5
-  vec4
-      u_context;  // 544 focus+context, NODE_CONTEXT nodes: x saturation kept, y extinction scale (emission-absorption);
-                  //     z the number of u_focus windows (0: none, the node-level rule alone)
-  // 560 the focus ranges on the rendered field, one window each (lod_engine.cpp focus_windows): x MIN, y MAX, z EDGE
-  // in transfer-function coordinates (u_tf_map's), w the range's group (ranges of one group ANDed, groups ORed).
+  // 544 focus+context, NODE_CONTEXT nodes: x saturation kept, y extinction scale (emission-absorption); z the number
+  // of u_focus windows (0: none, the node-level rule alone; > 0: the FOCUS_WINDOWS variant, which reads them)
+  vec4 u_context;
+  // 560 the focus ranges on the rendered field, one window each (lod_engine.cpp set_focus_windows): x MIN, y MAX, z
+  // 1 / EDGE in transfer-function coordinates (u_tf_map's), w the range's group (one group's ranges ANDed, groups
+  // ORed).
   vec4 u_focus[LOD_MAX_FOCUS_WINDOWS];
 };
 
