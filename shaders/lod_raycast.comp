@@ -347,6 +347,50 @@ vec4 integral_at(float u) {
 }
 #endif
 
+#if FOCUS_WINDOWS
+// Smooth brush edges: the degree of interest of transfer-function coordinate u under the FOCUS_WINDOWS windows of
+// u_focus (x MIN, y MAX, z 1 / EDGE, w group): per range 1 - smoothstep over the edge (hybrid_select.h focus_window),
+// a group's the least of its ranges', the result the greatest group's (node_interest, per value instead of per node
+// range). A compile-time count, so that the loop unrolls into uniform loads: llvmpipe runs this for every segment.
+float sample_interest(float u) {
+  float best = 0.0, all = 1.0;
+  for (int i = 0; i < FOCUS_WINDOWS; ++i) {
+    vec4 w = u_focus[i];
+    float x = clamp(max(w.x - u, u - w.y) * w.z, 0.0, 1.0);
+    all = min(all, 1.0 - x * x * (3.0 - 2.0 * x));
+    if (i + 1 == FOCUS_WINDOWS || u_focus[min(i + 1, LOD_MAX_FOCUS_WINDOWS - 1)].w != w.w) {
+      best = max(best, all);
+      all = 1.0;
+    }
+  }
+  return best;
+}
+
+// A segment's mean mixed between its context version (context_sample's, with the luminance taken from the
+// premultiplied colour: no division) and itself by `interest`.
+vec4 interest_mix(vec4 mean, float interest) {
+  vec3 grey = vec3(dot(mean.rgb, vec3(0.2126, 0.7152, 0.0722)));
+  vec4 context = vec4(mix(grey, mean.rgb, u_context.x), mean.a) * u_context.y;
+  return mix(context, mean, interest);
+}
+
+// The same for an exact piece, integrated in closed form from accumulator `before` to `after`: the piece's mean
+// colour and transmittance T are recovered from the two, its extinction scaled by k = mix(context opacity, 1,
+// interest) (T^k) and its colour mixed as interest_mix mixes colour × extinction.
+vec4 interest_mix_piece(vec4 before, vec4 after, float interest) {
+  if (!(before.a > 0.0)) return after;
+  float t = after.a / before.a;
+  float k = max(mix(u_context.y, 1.0, interest), 1e-6);
+  float tk = pow(max(t, 0.0), k);
+  // Premultiplied: the piece's radiance is before.a · (1 - T) · colour; the mixed one before.a · (1 - T^k) · mixed.
+  float scale = 1.0 - t > 1e-6 ? (1.0 - tk) / (1.0 - t) : k;
+  vec3 d = after.rgb - before.rgb;
+  vec3 grey = vec3(dot(d, vec3(0.2126, 0.7152, 0.0722)));
+  vec3 mixed = mix(mix(grey, d, u_context.x) * u_context.y, d, interest) / k;
+  return vec4(before.rgb + mixed * scale, before.a * tk);
+}
+#endif
+
 #if HYBRID
 // Exact nodes (Muigg 2007; docs/hybrid.md). A cut node whose state has NODE_EXACT is drawn by walking its own cells,
 // the exact engine's walk (cell_walk.glsl, in float): the cells overlapping the node, replicated across node borders
@@ -400,7 +444,14 @@ void piece(real ta, real tb, float sa, float sb, int k) {
   if (tb <= g_t_lo || ta >= g_t_hi || !(tb > ta)) return;
   if (ta < g_t_lo) sa = sa + (sb - sa) * float((g_t_lo - ta) / (tb - ta)), ta = g_t_lo;
   if (tb > g_t_hi) sb = sa + (sb - sa) * float((g_t_hi - ta) / (tb - ta)), tb = g_t_hi;
+#if FOCUS_WINDOWS
+  vec4 before = g_acc;
+#endif
   optical_integrate(sa, sb, float(tb - ta) / g_len, 1.0, g_acc, g_hint);
+#if FOCUS_WINDOWS
+  float interest = sample_interest(0.5 * (sa + sb) * u_focus_map.x + u_focus_map.y);
+  if (interest < 1.0) g_acc = interest_mix_piece(before, g_acc, interest);
+#endif
 }
 
 // The ray's frame (ray_frame.h, Duff et al. 2017) for the walk, once per ray.
@@ -623,34 +674,6 @@ vec4 context_sample(vec4 mean) {
   float a = mean.a * u_context.y;
   return vec4(mix(vec3(luminance), c, u_context.x) * a, a);
 }
-
-#if FOCUS_WINDOWS
-// Smooth brush edges: the degree of interest of transfer-function coordinate u under the FOCUS_WINDOWS windows of
-// u_focus (x MIN, y MAX, z 1 / EDGE, w group): per range 1 - smoothstep over the edge (hybrid_select.h focus_window),
-// a group's the least of its ranges', the result the greatest group's (node_interest, per value instead of per node
-// range). A compile-time count, so that the loop unrolls into uniform loads: llvmpipe runs this for every segment.
-float sample_interest(float u) {
-  float best = 0.0, all = 1.0;
-  for (int i = 0; i < FOCUS_WINDOWS; ++i) {
-    vec4 w = u_focus[i];
-    float x = clamp(max(w.x - u, u - w.y) * w.z, 0.0, 1.0);
-    all = min(all, 1.0 - x * x * (3.0 - 2.0 * x));
-    if (i + 1 == FOCUS_WINDOWS || u_focus[min(i + 1, LOD_MAX_FOCUS_WINDOWS - 1)].w != w.w) {
-      best = max(best, all);
-      all = 1.0;
-    }
-  }
-  return best;
-}
-
-// A segment's mean mixed between its context version (context_sample's, with the luminance taken from the
-// premultiplied colour: no division) and itself by `interest`.
-vec4 interest_mix(vec4 mean, float interest) {
-  vec3 grey = vec3(dot(mean.rgb, vec3(0.2126, 0.7152, 0.0722)));
-  vec4 context = vec4(mix(grey, mean.rgb, u_context.x), mean.a) * u_context.y;
-  return mix(context, mean, interest);
-}
-#endif
 
 vec3 slot_origin(uint slot) {
   uint sx = uint(u_slots.x), sy = uint(u_slots.y);

@@ -175,6 +175,7 @@ layout(std140, binding = FRAME_BLOCK_BINDING) uniform LodFrame {
   // 1 / EDGE in transfer-function coordinates (u_tf_map's), w the range's group (one group's ranges ANDed, groups
   // ORed).
   vec4 u_focus[LOD_MAX_FOCUS_WINDOWS];
+  vec4 u_focus_map;  // 624 HYBRID with u_focus: a cell value's transfer-function coordinate = value · x + y
 };
 
 #ifdef __cplusplus
@@ -192,7 +193,8 @@ static_assert(offsetof(LodFrame, u_iso) + sizeof(LodFrame::u_iso) == offsetof(Lo
 static_assert(offsetof(LodFrame, u_slice_plane) % 16 == 0 && offsetof(LodFrame, u_slice_map) % 16 == 0);
 static_assert(offsetof(LodFrame, u_slice_count) == 496 && offsetof(LodFrame, u_box_lo) == 512);
 static_assert(offsetof(LodFrame, u_box_hi) == 528 && offsetof(LodFrame, u_context) == 544);
-static_assert(offsetof(LodFrame, u_focus) == 560 && sizeof(LodFrame) == 560 + LOD_MAX_FOCUS_WINDOWS * sizeof(vec4));
+static_assert(offsetof(LodFrame, u_focus) == 560 && offsetof(LodFrame, u_focus_map) == 624 && sizeof(LodFrame) == 640);
+static_assert(LOD_MAX_FOCUS_WINDOWS == 4);  // u_focus_map's offset above
 static_assert(MAX_ISO % 4 == 0 && sizeof(LodFrame::u_iso) == MAX_ISO * sizeof(float));
 
 }  // namespace ugvr::lod_gpu

@@ -23,7 +23,7 @@
 // A node of zero interest is no candidate: it is drawn from its brick and loads no cells; with focus or a region set,
 // it is drawn as context (desaturated and faint, LodOptions::context_*, Muigg eq. 3.15). The candidates' priority is
 // multiplied by their interest. The store's per-node ranges bound the values, they do not say how much of a node is
-// inside: the smooth border within a node is drawn per sample by the LOD shader (lod_engine.cpp focus_windows).
+// inside: the smooth border within a node is drawn per sample by the LOD shader (lod_engine.cpp set_focus_windows).
 #pragma once
 
 #include <cstdint>

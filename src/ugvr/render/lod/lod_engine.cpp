@@ -541,6 +541,7 @@ void set_focus_windows(lod_gpu::LodFrame& f, const NodeInterest& interest, uint3
     f.u_focus[i] = {float((focus[i].min - t_lo) / tf_width), float((focus[i].max - t_lo) / tf_width),
                     inverse_edge(focus[i].edge / tf_width), float(focus[i].group)};
   f.u_context.z = float(focus.size());
+  f.u_focus_map = {float(1 / tf_width), float(-t_lo / tf_width), 0.0f, 0.0f};
 }
 
 }  // namespace
