@@ -36,6 +36,9 @@
 #ifndef TRICUBIC
 #define TRICUBIC 0  // isosurfaces on the cubic B-spline of the bricks' samples (LOD_MODE_ISO only; docs/tricubic.md)
 #endif
+#ifndef FOCUS_WINDOWS
+#define FOCUS_WINDOWS 0  // smooth brush edges: each sample's interest from the u_focus windows (docs/hybrid.md)
+#endif
 #ifndef HYBRID
 #define HYBRID 0  // exact cells in the nodes granted them (emission-absorption without overlay; docs/hybrid.md)
 #endif
@@ -344,6 +347,50 @@ vec4 integral_at(float u) {
 }
 #endif
 
+#if FOCUS_WINDOWS
+// Smooth brush edges: the degree of interest of transfer-function coordinate u under the FOCUS_WINDOWS windows of
+// u_focus (x MIN, y MAX, z 1 / EDGE, w group): per range 1 - smoothstep over the edge (hybrid_select.h focus_window),
+// a group's the least of its ranges', the result the greatest group's (node_interest, per value instead of per node
+// range). A compile-time count, so that the loop unrolls into uniform loads: llvmpipe runs this for every segment.
+float sample_interest(float u) {
+  float best = 0.0, all = 1.0;
+  for (int i = 0; i < FOCUS_WINDOWS; ++i) {
+    vec4 w = u_focus[i];
+    float x = clamp(max(w.x - u, u - w.y) * w.z, 0.0, 1.0);
+    all = min(all, 1.0 - x * x * (3.0 - 2.0 * x));
+    if (i + 1 == FOCUS_WINDOWS || u_focus[min(i + 1, LOD_MAX_FOCUS_WINDOWS - 1)].w != w.w) {
+      best = max(best, all);
+      all = 1.0;
+    }
+  }
+  return best;
+}
+
+// A segment's mean mixed between its context version (context_sample's, with the luminance taken from the
+// premultiplied colour: no division) and itself by `interest`.
+vec4 interest_mix(vec4 mean, float interest) {
+  vec3 grey = vec3(dot(mean.rgb, vec3(0.2126, 0.7152, 0.0722)));
+  vec4 context = vec4(mix(grey, mean.rgb, u_context.x), mean.a) * u_context.y;
+  return mix(context, mean, interest);
+}
+
+// The same for an exact piece, integrated in closed form from accumulator `before` to `after`: the piece's mean
+// colour and transmittance T are recovered from the two, its extinction scaled by k = mix(context opacity, 1,
+// interest) (T^k) and its colour mixed as interest_mix mixes colour × extinction.
+vec4 interest_mix_piece(vec4 before, vec4 after, float interest) {
+  if (!(before.a > 0.0)) return after;
+  float t = after.a / before.a;
+  float k = max(mix(u_context.y, 1.0, interest), 1e-6);
+  float tk = pow(max(t, 0.0), k);
+  // Premultiplied: the piece's radiance is before.a · (1 - T) · colour; the mixed one before.a · (1 - T^k) · mixed.
+  float scale = 1.0 - t > 1e-6 ? (1.0 - tk) / (1.0 - t) : k;
+  vec3 d = after.rgb - before.rgb;
+  vec3 grey = vec3(dot(d, vec3(0.2126, 0.7152, 0.0722)));
+  vec3 mixed = mix(mix(grey, d, u_context.x) * u_context.y, d, interest) / k;
+  return vec4(before.rgb + mixed * scale, before.a * tk);
+}
+#endif
+
 #if HYBRID
 // Exact nodes (Muigg 2007; docs/hybrid.md). A cut node whose state has NODE_EXACT is drawn by walking its own cells,
 // the exact engine's walk (cell_walk.glsl, in float): the cells overlapping the node, replicated across node borders
@@ -397,7 +444,14 @@ void piece(real ta, real tb, float sa, float sb, int k) {
   if (tb <= g_t_lo || ta >= g_t_hi || !(tb > ta)) return;
   if (ta < g_t_lo) sa = sa + (sb - sa) * float((g_t_lo - ta) / (tb - ta)), ta = g_t_lo;
   if (tb > g_t_hi) sb = sa + (sb - sa) * float((g_t_hi - ta) / (tb - ta)), tb = g_t_hi;
+#if FOCUS_WINDOWS
+  vec4 before = g_acc;
+#endif
   optical_integrate(sa, sb, float(tb - ta) / g_len, 1.0, g_acc, g_hint);
+#if FOCUS_WINDOWS
+  float interest = sample_interest(0.5 * (sa + sb) * u_focus_map.x + u_focus_map.y);
+  if (interest < 1.0) g_acc = interest_mix_piece(before, g_acc, interest);
+#endif
 }
 
 // The ray's frame (ray_frame.h, Duff et al. 2017) for the walk, once per ray.
@@ -954,6 +1008,7 @@ bool sample_run(const bool crossings, float t, float t_exit, vec3 c0, vec3 c1, f
       if (!first && (ga || gb) && shown) {
         float len = sb - sa;
         vec4 mean;
+        float um = 0.5 * (ua + ub);  // the segment's middle value (of its valid part), for its interest
         if (ga && gb && abs(ub - ua) >= 0.5 / (float(TF_TEXELS) - 1.0)) {
           mean = (ib - ia) / (ub - ua);
         } else {
@@ -971,11 +1026,19 @@ bool sample_run(const bool crossings, float t, float t_exit, vec3 c0, vec3 c1, f
               len *= 1.0 - f;
             }
           }
-          vec4 p = texture(u_tf, (clamp(0.5 * (u0 + u1), 0.0, 1.0) * (float(TF_TEXELS) - 1.0) + 0.5) /
-                                     float(TF_TEXELS));
+          um = 0.5 * (u0 + u1);
+          vec4 p = texture(u_tf, (clamp(um, 0.0, 1.0) * (float(TF_TEXELS) - 1.0) + 0.5) / float(TF_TEXELS));
           mean = vec4(p.rgb * p.a, p.a);
         }
         if (context && mean.a > 0.0) mean = context_sample(mean);
+#if FOCUS_WINDOWS
+        if (!context) {
+          // Smooth brush edges: the focus border follows the values, not the nodes. Interest 1 leaves the segment
+          // as it was, bit for bit.
+          float interest = sample_interest(um);
+          mean = interest < 1.0 ? interest_mix(mean, interest) : mean;
+        }
+#endif
         if (mean.a > 0.0) {
           float a = 1.0 - exp(-mean.a * len);
           radiance += transmittance * a * shade * (mean.rgb / mean.a);

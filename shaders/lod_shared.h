@@ -96,6 +96,9 @@ const uint NODE_EXACT = 0x80000000u;
 // is context, of zero interest under the focus or region of interest: its samples are drawn desaturated and faint
 // (LodFrame u_context). Atlas slots stay far below it (lod_engine.cpp checks), and exact nodes never carry it.
 const uint NODE_CONTEXT = 0x40000000u;
+// Smooth brush edges (docs/hybrid.md): the focus ranges the shader windows per sample (LodFrame u_focus) at most.
+// A macro, as it sizes the block's array in both languages.
+#define LOD_MAX_FOCUS_WINDOWS 4
 
 const uint TREE_CHILD_MASK = 0xFFu;  // the child mask in a tree entry's y
 const uint TREE_LEVEL_SHIFT = 8u;    // the node's level above it
@@ -165,7 +168,14 @@ layout(std140, binding = FRAME_BLOCK_BINDING) uniform LodFrame {
   int u_cell_data;                     // 508 HYBRID: the field is per cell (else per vertex)
   vec4 u_box_lo;                       // 512 data-parallel rendering (src/ugvr/mpi): only t inside the box
   vec4 u_box_hi;                       // 528 [lo, hi] (xyz, normalised) is drawn; read only when u_box_lo.w > 0.5
-  vec4 u_context;  // 544 focus+context, NODE_CONTEXT nodes: x saturation kept, y extinction scale (emission-absorption)
+  // 544 focus+context, NODE_CONTEXT nodes: x saturation kept, y extinction scale (emission-absorption); z the number
+  // of u_focus windows (0: none, the node-level rule alone; > 0: the FOCUS_WINDOWS variant, which reads them)
+  vec4 u_context;
+  // 560 the focus ranges on the rendered field, one window each (lod_engine.cpp set_focus_windows): x MIN, y MAX, z
+  // 1 / EDGE in transfer-function coordinates (u_tf_map's), w the range's group (one group's ranges ANDed, groups
+  // ORed).
+  vec4 u_focus[LOD_MAX_FOCUS_WINDOWS];
+  vec4 u_focus_map;  // 624 HYBRID with u_focus: a cell value's transfer-function coordinate = value · x + y
 };
 
 #ifdef __cplusplus
@@ -182,7 +192,9 @@ static_assert(offsetof(LodFrame, u_tf_map) % 8 == 0 && offsetof(LodFrame, u_iso)
 static_assert(offsetof(LodFrame, u_iso) + sizeof(LodFrame::u_iso) == offsetof(LodFrame, u_slice_plane));
 static_assert(offsetof(LodFrame, u_slice_plane) % 16 == 0 && offsetof(LodFrame, u_slice_map) % 16 == 0);
 static_assert(offsetof(LodFrame, u_slice_count) == 496 && offsetof(LodFrame, u_box_lo) == 512);
-static_assert(sizeof(LodFrame) == 560 && offsetof(LodFrame, u_box_hi) == 528 && offsetof(LodFrame, u_context) == 544);
+static_assert(offsetof(LodFrame, u_box_hi) == 528 && offsetof(LodFrame, u_context) == 544);
+static_assert(offsetof(LodFrame, u_focus) == 560 && offsetof(LodFrame, u_focus_map) == 624 && sizeof(LodFrame) == 640);
+static_assert(LOD_MAX_FOCUS_WINDOWS == 4);  // u_focus_map's offset above
 static_assert(MAX_ISO % 4 == 0 && sizeof(LodFrame::u_iso) == MAX_ISO * sizeof(float));
 
 }  // namespace ugvr::lod_gpu

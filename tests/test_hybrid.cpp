@@ -601,6 +601,79 @@ TEST(Hybrid, ParseFocus) {
     EXPECT_THROW(parse_focus(bad), Error) << bad;
 }
 
+// Smooth brush edges at the node level: a node whose values come within a range's edge has an interest between 0 and
+// 1 (the window at the gap between the ranges), so it stays a candidate, its priority scaled by that interest. A range
+// above every value: without an edge no node is a candidate; with an edge of four times the field's range all are.
+TEST(Hybrid, NodesWithinTheEdgeAreCandidatesByTheirInterest) {
+  const Fixture& f = fixture();
+  const BrickStoreReader store(f.store);
+  const BrickStoreField& fd = store.layout().fields[0];
+  const double w = fd.max - fd.min;
+  std::vector<uint64_t> all(store.node_count());
+  for (uint64_t n = 0; n < all.size(); ++n) all[n] = n;
+  const Camera cam = camera_preset("iso", store.layout().data);
+  const TfNodeErrors no_errors(store, 0);
+  const std::vector<ExactCandidate> base = exact_candidates(store, all, cam, 96, 96, no_errors);
+  ASSERT_GT(base.size(), 4u);
+  const std::string above = "pressure:" + std::to_string(fd.max + 0.5 * w) + ":" + std::to_string(fd.max + w);
+  NodeInterest hard{resolve_focus(store, parse_focus(above)), std::nullopt};
+  uint64_t excluded = 0;
+  EXPECT_TRUE(exact_candidates(store, all, cam, 96, 96, no_errors, hard, &excluded).empty());
+  EXPECT_EQ(excluded, base.size());
+  NodeInterest soft{resolve_focus(store, parse_focus(above + "~" + std::to_string(4 * w))), std::nullopt};
+  const std::vector<ExactCandidate> edged = exact_candidates(store, all, cam, 96, 96, no_errors, soft, &excluded);
+  EXPECT_EQ(excluded, 0u);
+  ASSERT_EQ(edged.size(), base.size());
+  for (const ExactCandidate& c : edged) {
+    const auto b = std::find_if(base.begin(), base.end(), [&](const ExactCandidate& x) { return x.node == c.node; });
+    ASSERT_NE(b, base.end()) << c.node;
+    const double doi = node_interest(store, c.node, soft);
+    EXPECT_GT(doi, 0.0) << c.node;
+    EXPECT_LT(doi, 1.0) << c.node;
+    EXPECT_DOUBLE_EQ(c.priority, b->priority * doi) << c.node;
+  }
+}
+
+// Smooth brush edges in exact nodes: with every focus range on the drawn field, the cells' pieces are mixed with their
+// context colour by their values' interest as the bricks' samples are, so the hybrid image with an edge stays as close
+// to the voxels' image with the same edge as it is without one. The range lies above every value with an edge of
+// four times the field's range: every value's interest is strictly between 0 and 1 (0.16 to 0.84), every node with
+// cells a candidate and exact.
+TEST(Hybrid, ExactPiecesFollowTheBrushEdge) {
+  REQUIRE_GL();
+  const Fixture& f = fixture();
+  TransferFunction tf = test_tf(f);
+  for (OpacityPoint& p : tf.opacity_points) p.opacity *= 0.1;  // unsaturated rays: a fainter context shows
+  RenderSettings rs = test_settings();
+  rs.width = rs.height = 48;  // every leaf exact, twice: the walk's cost on llvmpipe
+  const BrickStoreReader store(f.store);
+  const BrickStoreField& fd = store.layout().fields[0];
+  const double w = fd.max - fd.min;
+  const Camera cam = camera_preset("iso", store.layout().data);
+  LodOptions edged;
+  edged.focus = parse_focus("pressure:" + std::to_string(fd.max + 0.5 * w) + ":" + std::to_string(fd.max + w) + "~" +
+                            std::to_string(4 * w));
+  const auto draw = [&](LodOptions o, bool hybrid, LodRenderStats* st = nullptr) {
+    o.hybrid = hybrid;
+    LodEngine e(f.store, *f.gl, o);
+    e.set_field("pressure");
+    return e.render(cam, tf, rs, CutSpec{CutSpec::Kind::Leaves, 0}, st);
+  };
+  LodRenderStats st;
+  const Image h0 = draw({}, true), l0 = draw({}, false), he = draw(edged, true, &st), le = draw(edged, false);
+  EXPECT_GT(st.exact_nodes, 0u);
+  EXPECT_EQ(st.focus_excluded, 0u);
+  const double plain = compare_images(h0, l0).psnr_db, with_edge = compare_images(he, le).psnr_db;
+  const double moved = compare_images(he, h0).psnr_db;
+  std::printf(
+      "hybrid vs voxels: %.2f dB plain, %.2f dB with the edge; hybrid with the edge vs plain %.2f dB "
+      "(max %.3f)\n",
+      plain, with_edge, moved, compare_images(he, h0).max_abs);
+  EXPECT_GT(compare_images(he, h0).max_abs, 0.005) << "the edge must change the image to judge";
+  EXPECT_GE(with_edge, plain - 3.0) << "the exact nodes are windowed as the voxels are";
+  EXPECT_GT(with_edge, moved + 10.0);
+}
+
 // `ugvr render STORE --engine hybrid`: the cut is the leaves, the stats say how much is exact; a store without cells
 // renders its voxels and says why.
 TEST(Hybrid, CommandLine) {

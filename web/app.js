@@ -468,11 +468,13 @@ requestAnimationFrame(tick);
 
 new ResizeObserver(() => send({ type: "resize", ...canvasSize() })).observe(canvas);
 
-// The brush on the focus field's histogram: a drag sets the range and applies the focus when it ends.
-const focusBrush = new FocusBrush($("focus-brush"), (lo, hi) => {
+// The brush on the focus field's histogram: a drag sets the range and applies the focus, with the brush's smooth
+// edge (FIELD:MIN:MAX~EDGE), when it ends.
+const focusBrush = new FocusBrush($("focus-brush"), (lo, hi, edge) => {
   $("focus-min").value = String(+lo.toPrecision(6));
   $("focus-max").value = String(+hi.toPrecision(6));
   focusFromRange();
+  if ($("focus-text").value && edge > 0) $("focus-text").value += `~${+edge.toPrecision(6)}`;
   $("interest-apply").click();
 });
 function showFocusBrush() {

@@ -2,10 +2,15 @@
 // field's values (tf_editor.js's drawLogHistogram, loaded before) with the brushed value range highlighted. Drag
 // across it to brush a new range; onBrush(lo, hi) is called when the drag ends (the page then sends the focus, so a
 // drag costs one frame of the new interest, not one per pointer move). A drag shorter than 3 pixels is a click and
-// changes nothing.
+// changes nothing. The brush has a smooth edge (docs/hybrid.md): onBrush's third argument, EDGE_FRACTION of the
+// field's range, over which the interest falls to 0 outside the range (drawn as a fainter band on either side).
 "use strict";
 
 class FocusBrush {
+  // A fiftieth of the field's range: narrow enough to keep the brushed range what the user drew, wide enough to span
+  // a few samples of a node's brick, so that the focus border is seen to follow the data rather than the nodes.
+  static EDGE_FRACTION = 0.02;
+
   constructor(canvas, onBrush) {
     this.canvas = canvas;
     this.ctx = canvas.getContext("2d");
@@ -31,6 +36,9 @@ class FocusBrush {
     this.range = Number.isFinite(min) && Number.isFinite(max) ? [Math.min(min, max), Math.max(min, max)] : null;
     this.draw();
   }
+
+  // The brush's edge in data values.
+  edge() { return FocusBrush.EDGE_FRACTION * (this.hi - this.lo); }
 
   // Data value <-> canvas x (the plot spans the canvas less its padding).
   toPx(v) { return this.pad + ((v - this.lo) / (this.hi - this.lo)) * (this.canvas.width - 2 * this.pad); }
@@ -58,7 +66,7 @@ class FocusBrush {
     this.anchor = null;
     if (Math.abs(x - anchor) < 3) return;
     this.setRange(this.fromPx(anchor), this.fromPx(x));
-    this.onBrush(this.range[0], this.range[1]);
+    this.onBrush(this.range[0], this.range[1], this.edge());
   }
 
   draw() {
@@ -72,6 +80,10 @@ class FocusBrush {
     drawLogHistogram(ctx, this.histogram, p, w - p, p, h - p, (b) => (inRange(b) ? "#d9a441" : "#4a4f5c"));
     if (this.range) {
       const x0 = this.toPx(this.range[0]), x1 = this.toPx(this.range[1]);
+      const e = this.toPx(this.range[0] + this.edge()) - x0;
+      ctx.fillStyle = "rgba(217, 164, 65, 0.08)";  // the edges, where the interest falls off
+      ctx.fillRect(x0 - e, 0, e, h);
+      ctx.fillRect(x1, 0, e, h);
       ctx.fillStyle = "rgba(217, 164, 65, 0.18)";
       ctx.fillRect(x0, 0, Math.max(1, x1 - x0), h);
       ctx.strokeStyle = "#d9a441";

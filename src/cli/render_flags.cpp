@@ -223,8 +223,9 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
   cmd->add_option("--focus", opts->focus,
                   "lod, hybrid: the focus, nodes whose FIELD values meet [MIN, MAX] (ranges joined by '+': all of "
                   "them; groups separated by ',': any); hybrid draws exact cells only there; the rest is context, "
-                  "drawn desaturated and faint")
-      ->type_name("FIELD:MIN:MAX[+...][,...]");
+                  "drawn desaturated and faint; ~EDGE: a smooth edge, the interest falling to 0 over EDGE outside "
+                  "[MIN, MAX] (per sample where every range is on the rendered field)")
+      ->type_name("FIELD:MIN:MAX[~EDGE][+...][,...]");
   cmd->add_option("--roi", opts->roi,
                   "lod, hybrid: region of interest in world coordinates, a box (two opposite corners) or a sphere; "
                   "with --focus both must hold; outside it, context as for --focus")

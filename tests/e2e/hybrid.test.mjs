@@ -118,9 +118,10 @@ test("a brush on the focus field's histogram sets the focus when the drag ends",
     const all = (await hook("log")).filter((m) => m.type === "interest");
     return all.length > sentBefore ? all.pop() : null;
   }, CONVERGE_MS);
-  const m = sent.focus.match(/^(.*):([^:]+):([^:]+)$/);
-  assert.ok(m && m[1] === field.name, `the focus names the field: ${sent.focus}`);
-  const bmin = Number(m[2]), bmax = Number(m[3]);
+  const m = sent.focus.match(/^(.*):([^:]+):([^:~]+)~([^:~]+)$/);
+  assert.ok(m && m[1] === field.name, `the focus names the field, with an edge: ${sent.focus}`);
+  const bmin = Number(m[2]), bmax = Number(m[3]), edge = Number(m[4]);
+  assert.ok(Math.abs(edge - 0.02 * w) < 1e-5 * w, `the brush's edge is a fiftieth of the range: ${edge}`);
   // Within a pixel of the drag's ends (the plot is about 290 pixels wide).
   assert.ok(Math.abs(bmin - (lo + 0.1 * w)) < 0.01 * w && Math.abs(bmax - (lo + 0.3 * w)) < 0.01 * w,
             `brushed ${bmin}..${bmax} of ${lo}..${hi}`);

@@ -46,14 +46,21 @@ std::string number_text(double v) {
 std::vector<FocusRange> parse_focus(std::string_view text) {
   std::vector<FocusRange> out;
   const auto bad = [&](const std::string& why) { fail_in("--focus " + std::string(text), why); };
-  if (text.empty()) bad("empty (FIELD:MIN:MAX[+FIELD:MIN:MAX...][,...])");
+  if (text.empty()) bad("empty (FIELD:MIN:MAX[~EDGE][+FIELD:MIN:MAX[~EDGE]...][,...])");
   uint32_t group = 0;
   for (const std::string_view any : split(text, ',')) {
-    for (const std::string_view item : split(any, '+')) {
+    for (std::string_view item : split(any, '+')) {
+      FocusRange f;
+      // The edge's '~' comes after MAX, so after the last ':' (a field name's own '~' lies before it).
+      const size_t tilde = item.rfind('~');
+      if (tilde != std::string_view::npos && (item.rfind(':') == std::string_view::npos || tilde > item.rfind(':'))) {
+        f.edge = finite_number(item.substr(tilde + 1), bad);
+        if (!(f.edge >= 0)) bad("the edge in \"" + std::string(item) + "\" is negative");
+        item = item.substr(0, tilde);
+      }
       const size_t c2 = item.rfind(':');
       const size_t c1 = c2 == std::string_view::npos || c2 == 0 ? std::string_view::npos : item.rfind(':', c2 - 1);
-      if (c1 == std::string_view::npos || c1 == 0) bad("\"" + std::string(item) + "\" is not FIELD:MIN:MAX");
-      FocusRange f;
+      if (c1 == std::string_view::npos || c1 == 0) bad("\"" + std::string(item) + "\" is not FIELD:MIN:MAX[~EDGE]");
       f.field = std::string(item.substr(0, c1));
       f.min = finite_number(item.substr(c1 + 1, c2 - c1 - 1), bad);
       f.max = finite_number(item.substr(c2 + 1), bad);
@@ -71,6 +78,7 @@ std::string focus_text(std::span<const FocusRange> focus) {
   for (size_t i = 0; i < focus.size(); ++i) {
     if (i > 0) out += focus[i].group == focus[i - 1].group ? "+" : ",";
     out += focus[i].field + ":" + number_text(focus[i].min) + ":" + number_text(focus[i].max);
+    if (focus[i].edge > 0) out += "~" + number_text(focus[i].edge);
   }
   return out;
 }
@@ -128,24 +136,34 @@ std::vector<ResolvedFocus> resolve_focus(const BrickStoreReader& store, std::spa
       for (const BrickStoreField& fd : store.layout().fields) names += (names.empty() ? "" : ", ") + fd.name;
       fail_in(store.path(), "--focus: no field \"" + f.field + "\" in the store (fields: " + names + ")");
     }
-    out.push_back({uint32_t(i), f.min, f.max, f.group});
+    out.push_back({uint32_t(i), f.min, f.max, f.group, f.edge});
   }
   return out;
 }
 
+double focus_window(double distance, double edge) {
+  if (distance <= 0) return 1;
+  if (!(distance < edge)) return 0;
+  const double x = distance / edge;
+  return 1 - x * x * (3 - 2 * x);
+}
+
 double node_interest(const BrickStoreReader& store, uint64_t node, std::span<const ResolvedFocus> focus) {
   if (focus.empty()) return 1;
-  // Ranges of one group are consecutive (parse_focus): a group holds when none of its ranges misses.
+  // Ranges of one group are consecutive (parse_focus): a group's interest is its least range's, the focus's its
+  // greatest group's.
+  double best = 0;
   for (size_t i = 0; i < focus.size();) {
-    bool all = true;
+    double all = 1;
     const uint32_t group = focus[i].group;
     for (; i < focus.size() && focus[i].group == group; ++i) {
       const FieldStats& s = store.stats(node, focus[i].field);
-      all = all && double(s.min) <= focus[i].max && double(s.max) >= focus[i].min;
+      const double gap = std::max({0.0, double(s.min) - focus[i].max, focus[i].min - double(s.max)});
+      all = std::min(all, focus_window(gap, focus[i].edge));
     }
-    if (all) return 1;
+    best = std::max(best, all);
   }
-  return 0;
+  return best;
 }
 
 double node_interest(const BrickStoreReader& store, uint64_t node, const NodeInterest& interest) {
@@ -162,14 +180,15 @@ std::vector<ExactCandidate> exact_candidates(const BrickStoreReader& store, std:
   const ViewMetrics view(camera, width, height, store.layout().root);
   for (uint64_t n : cut) {
     if (store.cell_block(n).offset == 0) continue;
-    if (node_interest(store, n, interest) == 0) {
+    const double doi = node_interest(store, n, interest);
+    if (doi == 0) {
       if (excluded) ++*excluded;
       continue;
     }
     const double e = tf.ready() ? tf.error(n) : std::nan("");
     if (e == 0) continue;
     const double data_error = std::isnan(e) ? 1.0 : e;
-    out.push_back({n, view.texel_pixels(store.bounds(n), store.resolution()) * data_error});
+    out.push_back({n, view.texel_pixels(store.bounds(n), store.resolution()) * data_error * doi});
   }
   std::sort(out.begin(), out.end(), [](const ExactCandidate& a, const ExactCandidate& b) {
     return a.priority != b.priority ? a.priority > b.priority : a.node < b.node;

@@ -10,16 +10,20 @@
 // grants candidates in this order within its budget; the rest stay resampled.
 //
 // Degree of interest (Muigg's DOI; SimVis's brushes as value ranges, LaMar's region of interest as a box or sphere).
-// A node's interest is 1 or 0:
-//  - focus (`--focus`): a list of value-range brushes on any of the store's fields, ranges joined by '+' ANDed, the
-//    groups separated by ',' ORed ("pressure:0:1+velocity:2:3,temperature:5:9"); a range holds for a node where it
-//    overlaps the node's value range of its field (the store's conservative subtree min / max);
+// A node's interest is in [0, 1]:
+//  - focus (`--focus`): a list of value-range brushes on any of the store's fields, ranges joined by '+' ANDed (the
+//    least of their interests), the groups separated by ',' ORed (the greatest) ("pressure:0:1+velocity:2:3,
+//    temperature:5:9"). A range may have a smooth edge ("pressure:0:1~0.1", SimVis's brushes): a value's interest is
+//    1 in [MIN, MAX] and falls to 0 over EDGE outside it (focus_window). For a node, a range's interest is the window
+//    at the distance between [MIN, MAX] and the node's value range of its field (the store's conservative subtree
+//    min / max): the most any of its values can have, 1 where the ranges overlap. Without edges: 1 or 0 as before;
 //  - region of interest (`--roi box:X0,Y0,Z0,X1,Y1,Z1` or `sphere:CX,CY,CZ,R`, world coordinates): it holds where the
 //    node's box meets the region;
 //  - both given, both must hold. None: every node's interest is 1.
 // A node of zero interest is no candidate: it is drawn from its brick and loads no cells; with focus or a region set,
-// it is drawn as context (desaturated and faint, LodOptions::context_*, Muigg eq. 3.15). The interest is binary: the
-// store's per-node ranges bound the values, they do not say how much of a node is inside (no smooth brush edges).
+// it is drawn as context (desaturated and faint, LodOptions::context_*, Muigg eq. 3.15). The candidates' priority is
+// multiplied by their interest. The store's per-node ranges bound the values, they do not say how much of a node is
+// inside: the smooth border within a node is drawn per sample by the LOD shader (lod_engine.cpp set_focus_windows).
 #pragma once
 
 #include <cstdint>
@@ -39,10 +43,12 @@ struct FocusRange {
   std::string field;  // a store field name
   double min = 0, max = 0;
   uint32_t group = 0;  // ranges of one group (joined by '+') must all hold; any group (separated by ',') will do
+  double edge = 0;     // >= 0, the field's units: the interest falls from 1 at MIN / MAX to 0 at EDGE beyond them
   bool operator==(const FocusRange&) const = default;
 };
-// "FIELD:MIN:MAX[+FIELD:MIN:MAX...][,...]" (a field name may itself hold ':', as "velocity:magnitude": MIN and MAX are
-// the last two; it may not hold ',' or '+'). Throws ugvr::Error naming the text and what is wrong.
+// "FIELD:MIN:MAX[~EDGE][+FIELD:MIN:MAX[~EDGE]...][,...]" (a field name may itself hold ':', as "velocity:magnitude":
+// MIN and MAX are the last two; it may not hold ',' or '+'; a '~' after the last ':' starts the edge). Throws
+// ugvr::Error naming the text and what is wrong.
 std::vector<FocusRange> parse_focus(std::string_view text);
 // The text parse_focus reads back (numbers with 17 significant digits).
 std::string focus_text(std::span<const FocusRange> focus);
@@ -63,11 +69,17 @@ struct RegionOfInterest {
 RegionOfInterest parse_roi(std::string_view text, std::string_view source = "--roi");
 std::string roi_text(const RegionOfInterest& roi);
 
+// The interest of a value at `distance` (>= 0) outside a range whose edge is `edge`: 1 at the range, falling smoothly
+// (1 - smoothstep) to 0 at the edge's end; a range without edge: 1 at distance 0, else 0. shaders/lod_raycast.comp
+// focus_window is the same function.
+double focus_window(double distance, double edge);
+
 // A focus range resolved against a store: field index and range.
 struct ResolvedFocus {
   uint32_t field = 0;
   double min = 0, max = 0;
   uint32_t group = 0;
+  double edge = 0;
 };
 // Field names to indices; throws ugvr::Error listing the store's fields for an unknown name.
 std::vector<ResolvedFocus> resolve_focus(const BrickStoreReader& store, std::span<const FocusRange> focus);
@@ -78,8 +90,8 @@ struct NodeInterest {
   std::optional<RegionOfInterest> roi;
   bool any() const { return !focus.empty() || roi.has_value(); }
 };
-// 1 when the node meets the focus (some group all of whose ranges overlap its value ranges; no focus: 1) and the
-// region of interest (no region: 1), else 0.
+// The focus's interest (above; no focus: 1), times 1 where the node meets the region of interest (no region: 1) and
+// 0 where it does not.
 double node_interest(const BrickStoreReader& store, uint64_t node, const NodeInterest& interest);
 double node_interest(const BrickStoreReader& store, uint64_t node, std::span<const ResolvedFocus> focus);
 

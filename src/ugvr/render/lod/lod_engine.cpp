@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -107,10 +108,10 @@ struct LodEngine::Impl {
   const GlContext& gl;
   LodOptions options;
   uint32_t field = 0;
-  // By (mode, volume lighting, boundary overlay, slices, tricubic, hybrid): compile-time variants.
-  std::map<std::tuple<int, bool, bool, bool, bool, bool>, ComputeProgram> programs;
+  // By (mode, volume lighting, boundary overlay, slices, tricubic, hybrid, focus windows): compile-time variants.
+  std::map<std::tuple<int, bool, bool, bool, bool, bool, int>, ComputeProgram> programs;
   ComputeProgram& program_for(int mode, bool volume_lighting, bool overlay, bool slices = false, bool tricubic = false,
-                              bool hybrid = false);
+                              bool hybrid = false, int focus_windows = 0);
   GlBuffer tree, state, counters, readback;
   // The boundary faces (store format version 4), static; `faces` false: the store has none, and the shader is compiled
   // without them (FACES 0: the stencil alone, at no cost).
@@ -176,8 +177,8 @@ struct LodEngine::Impl {
 };
 
 ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, bool overlay, bool slices, bool tricubic,
-                                             bool hybrid) {
-  auto it = programs.find({mode, volume_lighting, overlay, slices, tricubic, hybrid});
+                                             bool hybrid, int focus_windows) {
+  auto it = programs.find({mode, volume_lighting, overlay, slices, tricubic, hybrid, focus_windows});
   if (it == programs.end()) {
     ComputeProgram p("lod_raycast.comp", {{"MODE", std::to_string(mode)},
                                           {"VOLUME_LIGHTING", volume_lighting ? "1" : "0"},
@@ -185,10 +186,15 @@ ComputeProgram& LodEngine::Impl::program_for(int mode, bool volume_lighting, boo
                                           {"FACES", faces ? "1" : "0"},
                                           {"SLICES", slices ? "1" : "0"},
                                           {"TRICUBIC", tricubic ? "1" : "0"},
-                                          {"HYBRID", hybrid ? "1" : "0"}});
+                                          {"HYBRID", hybrid ? "1" : "0"},
+                                          // A variant, not a branch on u_context.z: inside the sample loop's
+                                          // per-lane branches llvmpipe ran even the untaken test, at 1.3x the frame.
+                                          {"FOCUS_WINDOWS", std::to_string(focus_windows)}});
     check_contract(p);
-    it =
-        programs.emplace(std::make_tuple(mode, volume_lighting, overlay, slices, tricubic, hybrid), std::move(p)).first;
+    it = programs
+             .emplace(std::make_tuple(mode, volume_lighting, overlay, slices, tricubic, hybrid, focus_windows),
+                      std::move(p))
+             .first;
   }
   return it->second;
 }
@@ -508,6 +514,38 @@ void LodEngine::Impl::upload_transfer_function(const TransferFunction& tf) {
   glTextureSubImage1D(preint_texture.id(), 0, 0, n, GL_RGBA, GL_FLOAT, integrals.data());
 }
 
+namespace {
+
+// 1 / EDGE for the shader's window, which multiplies by it (no division per sample); a range without an edge (or one
+// too narrow for float) gets the largest float: any distance > 0 then reaches the window's end at once.
+float inverse_edge(double edge) {
+  const double inv = edge > 0 ? 1 / edge : HUGE_VAL;
+  return float(std::min(inv, double(std::numeric_limits<float>::max())));
+}
+
+// Smooth brush edges (docs/hybrid.md): the focus ranges as windows on each sample's value (LodFrame u_focus, count in
+// u_context.z), in transfer-function coordinates. Only when every range is on the rendered field, there is no region
+// of interest (whose border is a box, not a value), some range has an edge (without one the node-level rule stays,
+// bit for bit), they fit the block and the transfer function has a width; otherwise none, and the nodes' interest
+// alone decides (NODE_CONTEXT).
+void set_focus_windows(lod_gpu::LodFrame& f, const NodeInterest& interest, uint32_t field, double t_lo,
+                       double tf_width) {
+  const std::vector<ResolvedFocus>& focus = interest.focus;
+  const bool on_field =
+      std::all_of(focus.begin(), focus.end(), [&](const ResolvedFocus& r) { return r.field == field; });
+  const bool edged = std::any_of(focus.begin(), focus.end(), [](const ResolvedFocus& r) { return r.edge > 0; });
+  if (focus.empty() || interest.roi || !on_field || !edged || focus.size() > size_t(LOD_MAX_FOCUS_WINDOWS) ||
+      !(tf_width > 0))
+    return;
+  for (size_t i = 0; i < focus.size(); ++i)
+    f.u_focus[i] = {float((focus[i].min - t_lo) / tf_width), float((focus[i].max - t_lo) / tf_width),
+                    inverse_edge(focus[i].edge / tf_width), float(focus[i].group)};
+  f.u_context.z = float(focus.size());
+  f.u_focus_map = {float(1 / tf_width), float(-t_lo / tf_width), 0.0f, 0.0f};
+}
+
+}  // namespace
+
 // The shader's per-frame parameters: computed in double, passed as float. Coordinates are normalised to the root cell
 // (lod_shared.h).
 lod_gpu::LodFrame LodEngine::Impl::frame_parameters(const Camera& camera, const TransferFunction& tf,
@@ -574,6 +612,7 @@ lod_gpu::LodFrame LodEngine::Impl::frame_parameters(const Camera& camera, const 
                   norm(b.hi.z, root.lo.z, root_size.z), 0.0f};
   }
   f.u_context = {float(options.context_saturation), float(options.context_opacity), 0.0f, 0.0f};
+  set_focus_windows(f, interest, field, t_lo, tf_width);
   return f;
 }
 
@@ -950,8 +989,10 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   const bool slices = !settings.slices.empty() || settings.hide_volume != HideVolume::None;
   // Tricubic interpolation is an isosurface variant only (docs/tricubic.md); the other modes ignore the setting.
   const bool tricubic = mode == LOD_MODE_ISO && settings.interpolation == Interpolation::Tricubic;
-  const ComputeProgram& program =
-      I.program_for(mode, mode == LOD_MODE_EA && settings.volume_lighting, overlay, slices, tricubic, hybrid);
+  const lod_gpu::LodFrame frame = I.frame_parameters(camera, tf, settings, overlay);
+  const int focus_windows = mode == LOD_MODE_EA ? int(frame.u_context.z) : 0;  // set_focus_windows's count
+  const ComputeProgram& program = I.program_for(mode, mode == LOD_MODE_EA && settings.volume_lighting, overlay, slices,
+                                                tricubic, hybrid, focus_windows);
   if (hybrid) {
     I.cells->bind();
     if (!I.optical_tf || !(*I.optical_tf == tf)) {
@@ -966,7 +1007,6 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
     glBindTextureUnit(lod_gpu::SLICE_TEXTURE_BINDING, I.slice_texture.id());
   }
   glUseProgram(program.id());
-  const lod_gpu::LodFrame frame = I.frame_parameters(camera, tf, settings, overlay);
   I.frame_block.upload(&frame, sizeof frame);
   glBindBufferBase(GL_UNIFORM_BUFFER, lod_gpu::FRAME_BLOCK_BINDING, I.frame_block.id());
   glBindImageTexture(lod_gpu::OUT_IMAGE_BINDING, I.out_texture.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);

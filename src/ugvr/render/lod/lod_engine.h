@@ -102,10 +102,13 @@ struct LodOptions {
   bool hybrid = false;
   uint64_t cell_budget_bytes = 0;
   uint64_t max_exact_nodes = UINT64_MAX;
-  // Degree of interest (hybrid_select.h): with focus ranges and/or a region of interest, only nodes of interest 1 get
+  // Degree of interest (hybrid_select.h): with focus ranges and/or a region of interest, only nodes of interest > 0 get
   // exact cells, and the others (context) are drawn from their bricks desaturated and faint (Muigg eq. 3.15), in
   // emission-absorption mode: their colour keeps context_saturation of its saturation (mixed towards its luminance)
   // and their extinction is scaled by context_opacity. Both in [0, 1]; 1 and 1 draw the context as the focus.
+  // Focus ranges with an edge (FIELD:MIN:MAX~EDGE), all on the rendered field and no region: each sample (and each
+  // exact cell piece) is mixed between its full colour and its context colour by its own value's interest (smooth
+  // brush edges).
   std::vector<FocusRange> focus;
   std::optional<RegionOfInterest> roi;
   double context_saturation = 0.2, context_opacity = 0.3;
