@@ -6,6 +6,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <string>
 #include <vector>
@@ -140,7 +141,8 @@ TEST(OutOfCoreSteps, SameStoreAsInCore) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("ooc.ugvr.cells")));
 }
 
-// One progress bar per step, for writing its cells and for its bricks, each finished.
+// One progress bar per step, for writing its cells (the first step) or its values (the later ones) and for its
+// bricks, each finished.
 TEST(OutOfCoreSteps, ProgressPerStep) {
   test::ScratchDir dir;
   const TimeSeries series = generated_series(dir, 2000, 2);
@@ -151,10 +153,89 @@ TEST(OutOfCoreSteps, ProgressPerStep) {
   };
   const std::vector<uint32_t> steps = {0, 1};
   build_octree_out_of_core_steps(series, steps, {}, o, uint64_t(256) << 20, dir.file("o.ugvr"));
-  for (const std::string k : {"1/2 (#0, t = 0)", "2/2 (#1, t = 0.5)"}) {
-    EXPECT_TRUE(finished.count("step " + k + ": cells to disk")) << k;
+  EXPECT_TRUE(finished.count("step 1/2 (#0, t = 0): cells to disk"));
+  EXPECT_TRUE(finished.count("step 2/2 (#1, t = 0.5): values to disk"));
+  EXPECT_FALSE(finished.count("step 2/2 (#1, t = 0.5): cells to disk")) << "a later step wrote a soup";
+  for (const std::string k : {"1/2 (#0, t = 0)", "2/2 (#1, t = 0.5)"})
     EXPECT_TRUE(finished.count("step " + k + ": bricks")) << k;
+}
+
+// The scratch folder's files, by the name before the first '-' or digit ("node", "leaf", "values", "root", ...).
+std::set<std::string> scratch_kinds(const std::string& folder) {
+  std::set<std::string> kinds;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator(folder, ec)) {
+    const std::string name = e.path().filename().string();
+    kinds.insert(name.substr(0, name.find_first_of("-0123456789")));
   }
+  return kinds;
+}
+
+// A later step routes nothing: its bricks are made from the leaves the first step kept (leaf-<id>) and the step's
+// values, with no soup ("root") and no interior node's files ("node-...") in the scratch folder; it samples in pieces
+// the leaves the first step did (at a budget that forces pieces), and the store is still the in-core one.
+TEST(OutOfCoreSteps, LaterStepsGatherTheKeptLeavesWithoutRouting) {
+  test::ScratchDir dir;
+  const TimeSeries series = generated_series(dir, 4000, 3);
+  const std::vector<uint32_t> steps = {0, 1, 2};
+  const std::vector<std::string> fields = {"pressure", "wall_distance"};
+  OctreeBuildOptions o = options_at_error_0(4);
+  const std::string scratch = dir.file("ooc.ugvr.cells");
+  std::map<std::string, std::set<std::string>> seen;  // progress label -> the scratch folder's kinds of files
+  o.progress = [&](const std::string& label, double) {
+    for (const std::string& k : scratch_kinds(scratch)) seen[label].insert(k);
+  };
+  build_octree_out_of_core_steps(series, steps, fields, o, 1, dir.file("ooc.ugvr"));
+  const std::string first = "step 1/3 (#0, t = 0): bricks", later = "step 3/3 (#2, t = 0.666667): bricks";
+  ASSERT_TRUE(seen.count(first) && seen.count(later)) << seen.rbegin()->first;
+  EXPECT_TRUE(seen[first].count("node")) << "the first step routes through interior nodes";
+  EXPECT_TRUE(seen[later].count("leaf"));
+  EXPECT_TRUE(seen[later].count("values"));
+  EXPECT_FALSE(seen[later].count("node")) << "a later step routed cells through interior nodes";
+  EXPECT_FALSE(seen[later].count("root")) << "a later step wrote a soup";
+  EXPECT_FALSE(std::filesystem::exists(scratch));
+
+  // Pieces in every step: three times those of the first step built alone at the same budget.
+  const std::vector<uint32_t> one = {0};
+  o.progress = nullptr;
+  const OctreeBuildStats a = build_octree_out_of_core_steps(series, one, fields, o, 1, dir.file("one.ugvr"));
+  const OctreeBuildStats b = build_octree_out_of_core_steps(series, steps, fields, o, 1, dir.file("ooc.ugvr"));
+  ASSERT_GT(a.leaves_in_pieces, 0u);
+  EXPECT_EQ(b.leaves_in_pieces, 3 * a.leaves_in_pieces);
+  const OctreeBuildStats c = build_octree_steps(series, steps, fields, o, dir.file("in.ugvr"));
+  EXPECT_EQ(c.nodes, b.nodes);
+  BrickStoreReader in_core(dir.file("in.ugvr")), ooc(dir.file("ooc.ugvr"));
+  for (uint32_t s = 0; s < 3; ++s) expect_same_step(in_core, ooc, s);
+}
+
+// A later step whose selected field sits elsewhere (point data in the first step, cell data here) is refused naming
+// both steps: its records would otherwise be the first step's with values put in the wrong place.
+TEST(OutOfCoreSteps, RefusesAFieldThatMovedBetweenPointsAndCells) {
+  test::ScratchDir dir;
+  ASSERT_EQ(run_ugvr("generate -o " + dir.file("p_0001.vtu") + " --kind tet --cells 2000").status, 0);
+  Dataset d = read_dataset(std::vector<std::string>{dir.file("p_0001.vtu")});
+  const auto& mesh = std::get<UnstructuredMesh>(d.blocks[0].grid);
+  const Field* pressure = d.blocks[0].fields.find("pressure");
+  ASSERT_NE(pressure, nullptr);
+  ASSERT_EQ(pressure->association(), Association::Vertex);
+  FieldSet moved;
+  for (const Field& f : d.blocks[0].fields)
+    if (f.name() != "pressure") moved.add(f);
+  moved.add(
+      Field("pressure", Association::Cell, DataArray::from(std::vector<float>(size_t(mesh.cell_count()), 1.5f), 1)));
+  d.blocks[0].fields = std::move(moved);
+  write_vtu(d, dir.file("p_0002.vtu"));
+  const TimeSeries series = list_time_steps(std::vector<std::string>{dir.file("p_%04d.vtu")});
+  const std::vector<uint32_t> steps = {0, 1};
+  const std::vector<std::string> fields = {"pressure"};
+  const std::string e = test::error_of([&] {
+    build_octree_out_of_core_steps(series, steps, fields, options_at_error_0(3), uint64_t(256) << 20,
+                                   dir.file("x.ugvr"));
+  });
+  EXPECT_NE(e.find("field 'pressure' is a vertex (point) field in time step 0 but a cell field in step 1"),
+            std::string::npos)
+      << e;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("x.ugvr")));
 }
 
 // A step of other geometry stops the build naming both steps, whether its cells differ or only a point moved; nothing
