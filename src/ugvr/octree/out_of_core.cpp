@@ -52,6 +52,7 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
 struct StepLeaves {
   bool keep = false;                   // the first of several steps: keep each leaf's file
   const StepValues* values = nullptr;  // a later step: each leaf from its kept file with these values
+  SoupLayout kept_layout;              // a later step: the kept files' (the first step's)
   bool last = false;                   // the last step: each kept file removed once its leaf is done
 };
 
@@ -282,32 +283,35 @@ class OutOfCoreBuild {
   // memory when they fit the worker's share, as a routed leaf's records are kept (so the same leaves are sampled in
   // pieces); else written, a share at a time, to a file of this step's, `file`, for sample_in_pieces to stream.
   bool gather_leaf(uint64_t id, const std::string& kept_file, std::vector<std::byte>& kept, std::string& file) {
-    if (std::filesystem::file_size(kept_file) <= preload_bytes_) {
-      kept = load(kept_file);
-      leaves_.values->put_into(kept);
-      return true;
-    }
-    file = (temp_ / ("step-leaf-" + std::to_string(id))).string();
-    SoupWriter out(file, layout_);
-    SoupReader in(kept_file, layout_);
+    SoupReader in(kept_file, leaves_.kept_layout);
+    std::unique_ptr<SoupWriter> out;  // once the records are over the share
     std::vector<std::byte> share;
     auto write_share = [&] {
+      if (!out) {
+        file = (temp_ / ("step-leaf-" + std::to_string(id))).string();
+        out = std::make_unique<SoupWriter>(file, layout_);
+      }
       leaves_.values->put_into(share);
       for (size_t at = 0; at < share.size();) {
         const SoupCell cell(share.data() + at, layout_);
-        out.add(cell);
+        out->add(cell);
         at += cell.bytes();
       }
       share.clear();
     };
     const std::byte* rec = nullptr;
     while (in.next(rec)) {
-      const size_t bytes = SoupCell(rec, layout_).bytes();
-      if (!share.empty() && share.size() + bytes > preload_bytes_) write_share();
-      share.insert(share.end(), rec, rec + bytes);
+      const SoupCell cell(rec, leaves_.kept_layout);
+      if (!share.empty() && share.size() + layout_.record_bytes(cell.vertex_count()) > preload_bytes_) write_share();
+      append_record_geometry(cell, layout_, share);
+    }
+    if (!out) {
+      leaves_.values->put_into(share);
+      kept = std::move(share);
+      return true;
     }
     write_share();
-    out.close();
+    out->close();
     return false;
   }
 
@@ -861,20 +865,6 @@ uint64_t held_for_steps(uint64_t nodes, uint64_t fields, size_t steps_written) {
   return 2 * nodes * sizeof(OctreeNode) + uint64_t(steps_written) * nodes * fields * kStepTableBytes;
 }
 
-// A later step's records are the first step's with its values put in, so each selected field must sit where it sat
-// in the first step (a vertex field there is one here).
-void check_same_slots(const TimeSeries& series, std::span<const uint32_t> steps, size_t k,
-                      std::span<const VtuCellSource::Slot> first, const VtuCellSource& source) {
-  for (size_t f = 0; f < first.size(); ++f) {
-    if (source.slots()[f].association == first[f].association) continue;
-    auto kind = [](Association a) { return a == Association::Vertex ? "a vertex (point) field" : "a cell field"; };
-    throw Error(series.source + ": field '" + source.fields()[f].name + "' is " + kind(first[f].association) +
-                " in time step " + std::to_string(steps[0]) + " but " + kind(source.slots()[f].association) +
-                " in step " + std::to_string(steps[k]) +
-                ": the out-of-core build keeps the first step's layout (build in core: leave out --out-of-core)");
-  }
-}
-
 bool is_vtu_step(const TimeStep& step) {
   if (step.files.size() != 1 || step.reader_step >= 0) return false;
   std::string ext = std::filesystem::path(step.files[0]).extension().string();
@@ -939,7 +929,6 @@ OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::s
   // to files (no soup), and each leaf's records the kept ones with those values put in, on the first step's node ids.
   const std::string values_prefix = (temp_path / "values-").string();
   SoupLayout first_layout;
-  std::vector<VtuCellSource::Slot> first_slots;
   for (size_t k = 0; k < S; ++k) {
     const std::string label = step_label(series, steps, k);
     const auto soup_start = std::chrono::steady_clock::now();
@@ -953,7 +942,6 @@ OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::s
       soup_seconds += seconds_since(soup_start);
       geometry = source.geometry_hash();
       first_layout = source.layout();
-      first_slots = source.slots();
       stats.cells = cells;
       lattice.root = octree_root(source.bounds());
       BrickStoreLayout layout = store_layout(options, source.fields(), lattice.root, source.bounds(), true);
@@ -962,7 +950,6 @@ OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::s
           find_boundary(root_file, source.layout(), cells, options, memory_budget, temp_path.string(), stats);
       writer.emplace(path, layout);
     } else {
-      check_same_slots(series, steps, k, first_slots, source);
       {
         Progress progress(label + ": values to disk", source.file_cell_count(), options.progress);
         source.write_values(values_prefix, &progress);
@@ -970,7 +957,7 @@ OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::s
       soup_seconds += seconds_since(soup_start);
       if (source.geometry_hash() != geometry)
         fail_geometry_differs(series, steps[k], steps[0], "points and cells hashed as they were read");
-      values.emplace(values_prefix, first_layout, source.point_count(), source.file_cell_count());
+      values.emplace(values_prefix, source.layout(), source.point_count(), source.file_cell_count());
     }
     std::vector<store_format::StepFieldRange> ranges;
     for (const BrickStoreField& f : source.fields()) ranges.push_back({f.min, f.max});
@@ -983,6 +970,7 @@ OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::s
     StepLeaves leaves;
     leaves.keep = k == 0 && S > 1;
     leaves.values = values ? &*values : nullptr;
+    leaves.kept_layout = first_layout;
     leaves.last = k + 1 == S;
     OutOfCoreBuild build(options, source, lattice, *writer, temp_path, preload, progress, boundary_held.faces, tree,
                          leaves);

@@ -57,6 +57,7 @@ class SoupCell {
   }
   float cell_value(uint32_t field) const { return load<float>(layout_->cell_value_offset(vertex_count(), field)); }
   size_t bytes() const { return layout_->record_bytes(vertex_count()); }
+  const SoupLayout& layout() const { return *layout_; }
   const std::byte* data() const { return p_; }
 
  private:

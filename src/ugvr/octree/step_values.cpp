@@ -98,6 +98,17 @@ std::string step_cell_values_path(const std::string& prefix, uint32_t field) {
   return prefix + "c" + std::to_string(field);
 }
 
+void append_record_geometry(const SoupCell& cell, const SoupLayout& layout, std::vector<std::byte>& out) {
+  const int n = cell.vertex_count();
+  const size_t geometry = layout.vertex_value_offset(n, 0, 0);  // header, vertex ids and positions: 16 + 16 n
+  if (cell.layout() == layout) {
+    out.insert(out.end(), cell.data(), cell.data() + cell.bytes());
+    return;
+  }
+  out.insert(out.end(), cell.data(), cell.data() + geometry);
+  out.resize(out.size() + layout.record_bytes(n) - geometry, std::byte{0});
+}
+
 ValueFileWriter::ValueFileWriter(std::string path) : path_(std::move(path)) {
   file_ = std::fopen(path_.c_str(), "wb");
   if (!file_) fail_io(path_, "cannot create the temporary value file");

@@ -45,10 +45,14 @@ class ValueFileWriter {
   std::vector<float> buffer_;
 };
 
+// Appends `cell` to `out` in `layout` (which may be another step's: a field can be a vertex field in one step and a
+// cell field in the next), its geometry copied and its values left for StepValues::put_into (zero until then).
+void append_record_geometry(const SoupCell& cell, const SoupLayout& layout, std::vector<std::byte>& out);
+
 // One step's value files, opened for reading by any number of threads at once.
 class StepValues {
  public:
-  // `points`, `cells`: the .vtu's counts (each file's length, checked); `layout`: the records' (the first step's).
+  // `points`, `cells`: the .vtu's counts (each file's length, checked); `layout`: the step's records'.
   StepValues(const std::string& prefix, const SoupLayout& layout, uint64_t points, uint64_t cells);
   ~StepValues();
   StepValues(const StepValues&) = delete;
