@@ -277,6 +277,18 @@ TEST(OutOfCoreSteps, RefusesWhatItCannotBuild) {
       [&] { build_octree_out_of_core_steps(series, steps, {}, o, uint64_t(256) << 20, dir.file("x.ugvr")); });
   EXPECT_NE(e.find("--error 0 only"), std::string::npos) << e;
   EXPECT_NE(e.find("leave out --out-of-core"), std::string::npos) << e;
+  EXPECT_NE(e.find("largest selected step is " + dir.file("w_000")), std::string::npos) << e;
+  // The advice's command for one store per step builds (a series with --time-step is no out-of-core input).
+  const std::string command = "ugvr build " + dir.file("w_0000.vtu") + " --out-of-core --error 0.01 -o ";
+  const size_t at = e.find(command);
+  ASSERT_NE(at, std::string::npos) << e;
+  EXPECT_NE(e.find("likewise for the other 1 step(s)"), std::string::npos) << e;
+  const std::string output = e.substr(at + command.size(), e.find(' ', at + command.size()) - at - command.size());
+  EXPECT_EQ(output, dir.file("w_0000.ugvr"));
+  const test::CommandResult per_step =
+      run_ugvr("--quiet " + e.substr(at + 5, command.size() - 5) + output + " --max-depth 3 --memory 64MiB");
+  EXPECT_EQ(per_step.status, 0) << per_step.out;
+  EXPECT_TRUE(std::filesystem::exists(output));
 
   // A .series whose second step is a legacy .vtk file.
   std::filesystem::copy_file(dir.file("w_0001.vtu"), dir.file("b.vtk"));

@@ -865,6 +865,31 @@ uint64_t held_for_steps(uint64_t nodes, uint64_t fields, size_t steps_written) {
   return 2 * nodes * sizeof(OctreeNode) + uint64_t(steps_written) * nodes * fields * kStepTableBytes;
 }
 
+// Why --error > 0 is refused, and what builds instead, as commands that run: the in-core build (with the largest
+// selected step's file, which it holds one at a time, named), --error 0, or one store per step from its .vtu file
+// (`--time-step N` with a series is not an out-of-core input).
+std::string error_above_0_advice(const TimeSeries& series, std::span<const uint32_t> steps,
+                                 std::span<const std::string> files, double error) {
+  size_t largest = 0;
+  for (size_t k = 1; k < files.size(); ++k)
+    if (std::filesystem::file_size(files[k]) > std::filesystem::file_size(files[largest])) largest = k;
+  char e[32];
+  std::snprintf(e, sizeof e, "%g", error);
+  const std::string mib = std::to_string((std::filesystem::file_size(files[largest]) + (1 << 19)) >> 20);
+  std::string advice =
+      series.source + ": --out-of-core --time builds at --error 0 only: above 0 the store's tree is the union of the " +
+      "steps' trees, each shaped by its own step's values, which out of core would take a pass over every step " +
+      "before the first brick. Either leave out --out-of-core (the in-core build holds one step at a time, its mesh " +
+      "and the tree's cell lists; the largest selected step is " + files[largest] + ", " + mib + " MiB), or give " +
+      "--error 0 (the tree split by the geometry alone, one store for every step), or build one store per step out " +
+      "of core from its .vtu file: ugvr build " + files[0] + " --out-of-core --error " + e + " -o " +
+      std::filesystem::path(files[0]).replace_extension(".ugvr").string();
+  if (steps.size() > 1)
+    advice += " (step " + std::to_string(steps[0]) + "), and likewise for the other " +
+              std::to_string(steps.size() - 1) + " step(s)";
+  return advice;
+}
+
 bool is_vtu_step(const TimeStep& step) {
   if (step.files.size() != 1 || step.reader_step >= 0) return false;
   std::string ext = std::filesystem::path(step.files[0]).extension().string();
@@ -897,14 +922,11 @@ OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::s
                                                 const std::string& path) {
   validate_build_options(options);
   check_step_selection(series, steps, options);
-  if (options.error > 0)
-    throw Error(series.source + ": --out-of-core --time builds at --error 0 only (its split rule is geometric: one " +
-                "tree for every step); above 0 the tree is the union of the steps' trees, which the in-core build " +
-                "makes (leave out --out-of-core), or build one store per step (--time-step N --out-of-core)");
-  if (options.preview_depth > 0 || options.point_sketch)
-    throw Error(series.source + ": --preview and --sketch are not made for a store with time (--time); leave them out");
   std::vector<std::string> files;
   for (uint32_t s : steps) files.push_back(out_of_core_step_file(series, s));  // every step checked before any work
+  if (options.error > 0) throw Error(error_above_0_advice(series, steps, files, options.error));
+  if (options.preview_depth > 0 || options.point_sketch)
+    throw Error(series.source + ": --preview and --sketch are not made for a store with time (--time); leave them out");
 
   const auto start = std::chrono::steady_clock::now();
   std::optional<tbb::global_control> threads;
