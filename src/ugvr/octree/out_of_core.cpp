@@ -870,12 +870,17 @@ uint64_t held_for_steps(uint64_t nodes, uint64_t fields, size_t steps_written) {
 // (`--time-step N` with a series is not an out-of-core input).
 std::string error_above_0_advice(const TimeSeries& series, std::span<const uint32_t> steps,
                                  std::span<const std::string> files, double error) {
+  auto size_of = [](const std::string& file) {  // 0 for a file that cannot be read: the refusal comes first
+    std::error_code ec;
+    const uintmax_t bytes = std::filesystem::file_size(file, ec);
+    return ec ? uintmax_t(0) : bytes;
+  };
   size_t largest = 0;
   for (size_t k = 1; k < files.size(); ++k)
-    if (std::filesystem::file_size(files[k]) > std::filesystem::file_size(files[largest])) largest = k;
+    if (size_of(files[k]) > size_of(files[largest])) largest = k;
   char e[32];
   std::snprintf(e, sizeof e, "%g", error);
-  const std::string mib = std::to_string((std::filesystem::file_size(files[largest]) + (1 << 19)) >> 20);
+  const std::string mib = std::to_string((size_of(files[largest]) + (1 << 19)) >> 20);
   std::string advice =
       series.source + ": --out-of-core --time builds at --error 0 only: above 0 the store's tree is the union of the " +
       "steps' trees, each shaped by its own step's values, which out of core would take a pass over every step " +
