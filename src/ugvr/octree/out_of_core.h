@@ -58,13 +58,14 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
 // over its worker's share); interior nodes read nothing, their bricks come from their children's. So every step's
 // bricks land on the first step's node ids. The same store as build_octree_steps: the same tree, each step's bricks
 // bit for bit, the same leaf errors.
-//   Disk (the scratch folder "<path>.cells", next to the output): the kept leaves, about the first step's soup (a cell
-// overlapping several leaves is in each; 176 bytes a hexahedron with one scalar) from the end of the first step to the
-// last step, which removes each once its leaf is done; a step's value files, 4 (Fv points + Fc cells) bytes; and a
-// leaf over its worker's share written with its values, one per worker at a time. During the first step, as for one
-// step (about twice its soup at most). Memory: a later step holds no points: a worker's share of records as before,
-// plus about 4 bytes a corner and 4 (Fv + 1) a distinct vertex while the values are put in (less than sampling
-// takes), and the writer's per-step node tables (held_for_steps).
+//   Disk (the scratch folder "<path>.cells", next to the output): from the end of the first step to the last step
+// the kept leaves, about 1.3 times the first step's soup (a cell overlapping several leaves is in each; 176 bytes a
+// hexahedron with one scalar: 470 MB for 2M hexahedra at depth 5), removed one by one as the last step is done with
+// them; a step's value files, 4 (Fv points + Fc cells) bytes; and a leaf over its worker's share written with its
+// values, one per worker at a time. During the first step, as for one step (about twice its soup at most). Memory: a
+// later step holds no points: a worker's share of records as before, plus about 4 bytes a corner and 4 (Fv + 1) a
+// distinct vertex while the values are put in (less than sampling takes), and the writer's per-step node tables
+// (held_for_steps).
 //   The geometry is checked without a step in memory: the points and cells are hashed as they are read
 // (VtuCellSource::geometry_hash), and a step whose hash differs from the first's stops the build naming both steps.
 // At --error 0 only (the split rule is then geometric: one tree for every step); above 0, and with a preview or a
