@@ -240,6 +240,62 @@ TEST(OutOfCoreSteps, AFieldThatMovesBetweenPointsAndCells) {
   }
 }
 
+// A .vtu of 8 hexahedra on a 3 x 3 x 3 point lattice with a triangle between each two (the build drops them), a
+// vertex field "p" and a cell field "c" scaled by `scale`, in ASCII.
+void write_hexes_and_triangles(const std::string& path, float scale) {
+  std::ofstream f(path);
+  f << "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\">\n<UnstructuredGrid>\n"
+    << "<Piece NumberOfPoints=\"27\" NumberOfCells=\"16\">\n<Points><DataArray type=\"Float32\" "
+    << "NumberOfComponents=\"3\" format=\"ascii\">\n";
+  for (int z = 0; z < 3; ++z)
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < 3; ++x) f << x << " " << y << " " << z << "\n";
+  f << "</DataArray></Points>\n<Cells><DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
+  auto id = [](int x, int y, int z) { return x + 3 * (y + 3 * z); };
+  std::string offsets, types;
+  int offset = 0;
+  for (int z = 0; z < 2; ++z)
+    for (int y = 0; y < 2; ++y)
+      for (int x = 0; x < 2; ++x) {
+        f << id(x, y, z) << " " << id(x + 1, y, z) << " " << id(x + 1, y + 1, z) << " " << id(x, y + 1, z) << " "
+          << id(x, y, z + 1) << " " << id(x + 1, y, z + 1) << " " << id(x + 1, y + 1, z + 1) << " "
+          << id(x, y + 1, z + 1) << "\n";
+        f << id(x, y, z) << " " << id(x + 1, y, z) << " " << id(x, y + 1, z) << "\n";
+        offset += 8;
+        offsets += std::to_string(offset) + " ";
+        offset += 3;
+        offsets += std::to_string(offset) + " ";
+        types += "12 5 ";
+      }
+  f << "</DataArray>\n<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">" << offsets
+    << "</DataArray>\n<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">" << types
+    << "</DataArray>\n</Cells>\n<PointData><DataArray type=\"Float32\" Name=\"p\" format=\"ascii\">\n";
+  for (int i = 0; i < 27; ++i) f << scale * float((i * 7) % 11) << " ";
+  f << "</DataArray></PointData>\n<CellData><DataArray type=\"Float32\" Name=\"c\" format=\"ascii\">\n";
+  for (int c = 0; c < 16; ++c) f << (c % 2 ? 1000.0f : scale * float(c * c % 13)) << " ";
+  f << "</DataArray></CellData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
+}
+
+// A later step's cell values are found by the cell's index in its file, which counts the cells the build drops
+// (here a triangle after each hexahedron, with a cell value far outside the hexahedra's): the same store as in core.
+TEST(OutOfCoreSteps, CellValuesOfAFileWithDroppedCells) {
+  test::ScratchDir dir;
+  write_hexes_and_triangles(dir.file("h_0001.vtu"), 1.0f);
+  write_hexes_and_triangles(dir.file("h_0002.vtu"), -2.0f);
+  const TimeSeries series = list_time_steps(std::vector<std::string>{dir.file("h_%04d.vtu")});
+  ASSERT_EQ(series.size(), 2u);
+  const std::vector<uint32_t> steps = {0, 1};
+  const std::vector<std::string> fields = {"c", "p"};
+  const OctreeBuildOptions o = options_at_error_0(2);
+  build_octree_steps(series, steps, fields, o, dir.file("in.ugvr"));
+  build_octree_out_of_core_steps(series, steps, fields, o, uint64_t(256) << 20, dir.file("ooc.ugvr"));
+  BrickStoreReader in_core(dir.file("in.ugvr")), ooc(dir.file("ooc.ugvr"));
+  for (uint32_t s = 0; s < 2; ++s) expect_same_step(in_core, ooc, s);
+  EXPECT_EQ(ooc.step_range(1, 0).min, -2.0f * 12);  // the hexahedra's, not the triangles' 1000
+  EXPECT_EQ(ooc.step_range(1, 0).max, 0.0f);
+  EXPECT_TRUE(steps_differ(ooc, 0, 0, 1));
+}
+
 // A step of other geometry stops the build naming both steps, whether its cells differ or only a point moved; nothing
 // is written.
 TEST(OutOfCoreSteps, RefusesAStepOfOtherGeometry) {
