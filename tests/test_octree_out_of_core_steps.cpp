@@ -6,6 +6,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <string>
 #include <vector>
@@ -140,7 +141,8 @@ TEST(OutOfCoreSteps, SameStoreAsInCore) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("ooc.ugvr.cells")));
 }
 
-// One progress bar per step, for writing its cells and for its bricks, each finished.
+// One progress bar per step, for writing its cells (the first step) or its values (the later ones) and for its
+// bricks, each finished.
 TEST(OutOfCoreSteps, ProgressPerStep) {
   test::ScratchDir dir;
   const TimeSeries series = generated_series(dir, 2000, 2);
@@ -151,10 +153,147 @@ TEST(OutOfCoreSteps, ProgressPerStep) {
   };
   const std::vector<uint32_t> steps = {0, 1};
   build_octree_out_of_core_steps(series, steps, {}, o, uint64_t(256) << 20, dir.file("o.ugvr"));
-  for (const std::string k : {"1/2 (#0, t = 0)", "2/2 (#1, t = 0.5)"}) {
-    EXPECT_TRUE(finished.count("step " + k + ": cells to disk")) << k;
+  EXPECT_TRUE(finished.count("step 1/2 (#0, t = 0): cells to disk"));
+  EXPECT_TRUE(finished.count("step 2/2 (#1, t = 0.5): values to disk"));
+  EXPECT_FALSE(finished.count("step 2/2 (#1, t = 0.5): cells to disk")) << "a later step wrote a soup";
+  for (const std::string k : {"1/2 (#0, t = 0)", "2/2 (#1, t = 0.5)"})
     EXPECT_TRUE(finished.count("step " + k + ": bricks")) << k;
+}
+
+// The scratch folder's files, by the name before the first '-' or digit ("node", "leaf", "values", "root", ...).
+std::set<std::string> scratch_kinds(const std::string& folder) {
+  std::set<std::string> kinds;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator(folder, ec)) {
+    const std::string name = e.path().filename().string();
+    kinds.insert(name.substr(0, name.find_first_of("-0123456789")));
   }
+  return kinds;
+}
+
+// A later step routes nothing: its bricks are made from the leaves the first step kept (leaf-<id>) and the step's
+// values, with no soup ("root") and no interior node's files ("node-...") in the scratch folder; it samples in pieces
+// the leaves the first step did (at a budget that forces pieces), and the store is still the in-core one.
+TEST(OutOfCoreSteps, LaterStepsGatherTheKeptLeavesWithoutRouting) {
+  test::ScratchDir dir;
+  const TimeSeries series = generated_series(dir, 4000, 3);
+  const std::vector<uint32_t> steps = {0, 1, 2};
+  const std::vector<std::string> fields = {"pressure", "wall_distance"};
+  OctreeBuildOptions o = options_at_error_0(4);
+  const std::string scratch = dir.file("ooc.ugvr.cells");
+  std::map<std::string, std::set<std::string>> seen;  // progress label -> the scratch folder's kinds of files
+  o.progress = [&](const std::string& label, double) {
+    for (const std::string& k : scratch_kinds(scratch)) seen[label].insert(k);
+  };
+  build_octree_out_of_core_steps(series, steps, fields, o, 1, dir.file("ooc.ugvr"));
+  const std::string first = "step 1/3 (#0, t = 0): bricks", later = "step 3/3 (#2, t = 0.666667): bricks";
+  ASSERT_TRUE(seen.count(first) && seen.count(later)) << seen.rbegin()->first;
+  EXPECT_TRUE(seen[first].count("node")) << "the first step routes through interior nodes";
+  EXPECT_TRUE(seen[later].count("leaf"));
+  EXPECT_TRUE(seen[later].count("values"));
+  EXPECT_FALSE(seen[later].count("node")) << "a later step routed cells through interior nodes";
+  EXPECT_FALSE(seen[later].count("root")) << "a later step wrote a soup";
+  EXPECT_FALSE(std::filesystem::exists(scratch));
+
+  // Pieces in every step: three times those of the first step built alone at the same budget.
+  const std::vector<uint32_t> one = {0};
+  o.progress = nullptr;
+  const OctreeBuildStats a = build_octree_out_of_core_steps(series, one, fields, o, 1, dir.file("one.ugvr"));
+  const OctreeBuildStats b = build_octree_out_of_core_steps(series, steps, fields, o, 1, dir.file("ooc.ugvr"));
+  ASSERT_GT(a.leaves_in_pieces, 0u);
+  EXPECT_EQ(b.leaves_in_pieces, 3 * a.leaves_in_pieces);
+  const OctreeBuildStats c = build_octree_steps(series, steps, fields, o, dir.file("in.ugvr"));
+  EXPECT_EQ(c.nodes, b.nodes);
+  BrickStoreReader in_core(dir.file("in.ugvr")), ooc(dir.file("ooc.ugvr"));
+  for (uint32_t s = 0; s < 3; ++s) expect_same_step(in_core, ooc, s);
+}
+
+// A field that is point data in one step and cell data in the next: a later step's records are the first step's
+// geometry laid out for its own fields, so the store is still the in-core one.
+TEST(OutOfCoreSteps, AFieldThatMovesBetweenPointsAndCells) {
+  test::ScratchDir dir;
+  ASSERT_EQ(run_ugvr("generate -o " + dir.file("p_0001.vtu") + " --kind tet --cells 2000").status, 0);
+  Dataset d = read_dataset(std::vector<std::string>{dir.file("p_0001.vtu")});
+  const auto& mesh = std::get<UnstructuredMesh>(d.blocks[0].grid);
+  const Field* pressure = d.blocks[0].fields.find("pressure");
+  ASSERT_NE(pressure, nullptr);
+  ASSERT_EQ(pressure->association(), Association::Vertex);
+  FieldSet moved;
+  for (const Field& f : d.blocks[0].fields)
+    if (f.name() != "pressure") moved.add(f);
+  std::vector<float> per_cell(size_t(mesh.cell_count()));
+  for (size_t c = 0; c < per_cell.size(); ++c) per_cell[c] = float(c % 97) * 0.25f - 3.0f;
+  moved.add(Field("pressure", Association::Cell, DataArray::from(std::move(per_cell), 1)));
+  d.blocks[0].fields = std::move(moved);
+  write_vtu(d, dir.file("p_0002.vtu"));
+  const TimeSeries series = list_time_steps(std::vector<std::string>{dir.file("p_%04d.vtu")});
+  const std::vector<uint32_t> steps = {0, 1};
+  const std::vector<std::string> fields = {"pressure", "velocity:x"};
+  const OctreeBuildOptions o = options_at_error_0(3);
+  build_octree_steps(series, steps, fields, o, dir.file("in.ugvr"));
+  for (const uint64_t budget : {uint64_t(1), uint64_t(256) << 20}) {
+    SCOPED_TRACE("budget " + std::to_string(budget));
+    build_octree_out_of_core_steps(series, steps, fields, o, budget, dir.file("ooc.ugvr"));
+    BrickStoreReader in_core(dir.file("in.ugvr")), ooc(dir.file("ooc.ugvr"));
+    for (uint32_t s = 0; s < 2; ++s) expect_same_step(in_core, ooc, s);
+    EXPECT_EQ(ooc.step_range(1, 0).min, -3.0f);
+  }
+}
+
+// A .vtu of 8 hexahedra on a 3 x 3 x 3 point lattice with a triangle between each two (the build drops them), a
+// vertex field "p" and a cell field "c" scaled by `scale`, in ASCII.
+void write_hexes_and_triangles(const std::string& path, float scale) {
+  std::ofstream f(path);
+  f << "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\">\n<UnstructuredGrid>\n"
+    << "<Piece NumberOfPoints=\"27\" NumberOfCells=\"16\">\n<Points><DataArray type=\"Float32\" "
+    << "NumberOfComponents=\"3\" format=\"ascii\">\n";
+  for (int z = 0; z < 3; ++z)
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < 3; ++x) f << x << " " << y << " " << z << "\n";
+  f << "</DataArray></Points>\n<Cells><DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
+  auto id = [](int x, int y, int z) { return x + 3 * (y + 3 * z); };
+  std::string offsets, types;
+  int offset = 0;
+  for (int z = 0; z < 2; ++z)
+    for (int y = 0; y < 2; ++y)
+      for (int x = 0; x < 2; ++x) {
+        f << id(x, y, z) << " " << id(x + 1, y, z) << " " << id(x + 1, y + 1, z) << " " << id(x, y + 1, z) << " "
+          << id(x, y, z + 1) << " " << id(x + 1, y, z + 1) << " " << id(x + 1, y + 1, z + 1) << " "
+          << id(x, y + 1, z + 1) << "\n";
+        f << id(x, y, z) << " " << id(x + 1, y, z) << " " << id(x, y + 1, z) << "\n";
+        offset += 8;
+        offsets += std::to_string(offset) + " ";
+        offset += 3;
+        offsets += std::to_string(offset) + " ";
+        types += "12 5 ";
+      }
+  f << "</DataArray>\n<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">" << offsets
+    << "</DataArray>\n<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">" << types
+    << "</DataArray>\n</Cells>\n<PointData><DataArray type=\"Float32\" Name=\"p\" format=\"ascii\">\n";
+  for (int i = 0; i < 27; ++i) f << scale * float((i * 7) % 11) << " ";
+  f << "</DataArray></PointData>\n<CellData><DataArray type=\"Float32\" Name=\"c\" format=\"ascii\">\n";
+  for (int c = 0; c < 16; ++c) f << (c % 2 ? 1000.0f : scale * float(c * c % 13)) << " ";
+  f << "</DataArray></CellData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
+}
+
+// A later step's cell values are found by the cell's index in its file, which counts the cells the build drops
+// (here a triangle after each hexahedron, with a cell value far outside the hexahedra's): the same store as in core.
+TEST(OutOfCoreSteps, CellValuesOfAFileWithDroppedCells) {
+  test::ScratchDir dir;
+  write_hexes_and_triangles(dir.file("h_0001.vtu"), 1.0f);
+  write_hexes_and_triangles(dir.file("h_0002.vtu"), -2.0f);
+  const TimeSeries series = list_time_steps(std::vector<std::string>{dir.file("h_%04d.vtu")});
+  ASSERT_EQ(series.size(), 2u);
+  const std::vector<uint32_t> steps = {0, 1};
+  const std::vector<std::string> fields = {"c", "p"};
+  const OctreeBuildOptions o = options_at_error_0(2);
+  build_octree_steps(series, steps, fields, o, dir.file("in.ugvr"));
+  build_octree_out_of_core_steps(series, steps, fields, o, uint64_t(256) << 20, dir.file("ooc.ugvr"));
+  BrickStoreReader in_core(dir.file("in.ugvr")), ooc(dir.file("ooc.ugvr"));
+  for (uint32_t s = 0; s < 2; ++s) expect_same_step(in_core, ooc, s);
+  EXPECT_EQ(ooc.step_range(1, 0).min, -2.0f * 12);  // the hexahedra's, not the triangles' 1000
+  EXPECT_EQ(ooc.step_range(1, 0).max, 0.0f);
+  EXPECT_TRUE(steps_differ(ooc, 0, 0, 1));
 }
 
 // A step of other geometry stops the build naming both steps, whether its cells differ or only a point moved; nothing
@@ -194,6 +333,18 @@ TEST(OutOfCoreSteps, RefusesWhatItCannotBuild) {
       [&] { build_octree_out_of_core_steps(series, steps, {}, o, uint64_t(256) << 20, dir.file("x.ugvr")); });
   EXPECT_NE(e.find("--error 0 only"), std::string::npos) << e;
   EXPECT_NE(e.find("leave out --out-of-core"), std::string::npos) << e;
+  EXPECT_NE(e.find("largest selected step is " + dir.file("w_000")), std::string::npos) << e;
+  // The advice's command for one store per step builds (a series with --time-step is no out-of-core input).
+  const std::string command = "ugvr build " + dir.file("w_0000.vtu") + " --out-of-core --error 0.01 -o ";
+  const size_t at = e.find(command);
+  ASSERT_NE(at, std::string::npos) << e;
+  EXPECT_NE(e.find("likewise for the other 1 step(s)"), std::string::npos) << e;
+  const std::string output = e.substr(at + command.size(), e.find(' ', at + command.size()) - at - command.size());
+  EXPECT_EQ(output, dir.file("w_0000.ugvr"));
+  const test::CommandResult per_step =
+      run_ugvr("--quiet " + e.substr(at + 5, command.size() - 5) + output + " --max-depth 3 --memory 64MiB");
+  EXPECT_EQ(per_step.status, 0) << per_step.out;
+  EXPECT_TRUE(std::filesystem::exists(output));
 
   // A .series whose second step is a legacy .vtk file.
   std::filesystem::copy_file(dir.file("w_0001.vtu"), dir.file("b.vtk"));

@@ -33,6 +33,7 @@
 #include "ugvr/octree/point_sketch.h"
 #include "ugvr/octree/soup_boundary.h"
 #include "ugvr/octree/split.h"
+#include "ugvr/octree/step_values.h"
 #include "ugvr/octree/time_steps.h"
 #include "ugvr/octree/vtu_cells.h"
 #include "ugvr/store/brick_pad.h"
@@ -44,10 +45,20 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-// A later time step's cells do not follow the first step's tree: its geometry differs.
-struct OtherGeometry : Error {
-  using Error::Error;
+// Where a leaf's records come from over the steps of a store with time. A single-step build, and the first step,
+// route them down from the root; the first of several steps keeps each leaf's file (its records as routed) as
+// "leaf-<id>" in the scratch folder, and every later step takes a leaf's records from that file with its own values
+// put in (octree/step_values.h), the tree given: no interior node streams anything then.
+struct StepLeaves {
+  bool keep = false;                   // the first of several steps: keep each leaf's file
+  const StepValues* values = nullptr;  // a later step: each leaf from its kept file with these values
+  SoupLayout kept_layout;              // a later step: the kept files' (the first step's)
+  bool last = false;                   // the last step: each kept file removed once its leaf is done
 };
+
+std::string kept_leaf_path(const std::filesystem::path& temp, uint64_t id) {
+  return (temp / ("leaf-" + std::to_string(id))).string();
+}
 
 // Per-thread scratch: the split test's table, the sampler's, and a one-cell mesh for the flatness test.
 struct Scratch {
@@ -65,11 +76,12 @@ class OutOfCoreBuild {
   };
 
   // `tree` empty: the tree is shaped by the split rule as the cells stream through (node ids given at split time);
-  // else the tree to fill (a store's later time steps: the first step's tree, ids and all), whose cells are routed
-  // down it as they were for that step.
+  // else the tree to fill (a store's later time steps: the first step's tree, ids and all), whose leaves' records
+  // are the first step's with `leaves.values` put in.
   OutOfCoreBuild(const OctreeBuildOptions& options, const VtuCellSource& source, const BrickLattice& lattice,
                  BrickStoreWriter& writer, const std::filesystem::path& temp, size_t preload_bytes, Progress& progress,
-                 std::span<const uint64_t> boundary_faces, std::span<const OctreeNode> tree = {})
+                 std::span<const uint64_t> boundary_faces, std::span<const OctreeNode> tree = {},
+                 StepLeaves leaves = {})
       : o_(options),
         layout_(source.layout()),
         slots_(source.slots()),
@@ -81,7 +93,10 @@ class OutOfCoreBuild {
         progress_(progress),
         boundary_faces_(boundary_faces),
         F_(uint32_t(fields_.size())),
-        fixed_tree_(!tree.empty()) {
+        fixed_tree_(!tree.empty()),
+        leaves_(leaves) {
+    if (fixed_tree_ != (leaves_.values != nullptr))
+      throw Error("internal: a given tree is filled from kept leaves and a step's values, nothing else");
     for (const BrickStoreField& f : fields_) thresholds_.push_back(o_.error * (f.max - f.min));
     if (fixed_tree_) {
       nodes_.assign(tree.begin(), tree.end());
@@ -92,17 +107,23 @@ class OutOfCoreBuild {
     tf_errors_.grow_to_at_least(nodes_.size() * F_);
   }
 
-  std::unique_ptr<Result> process(uint64_t id, const std::string& file) {
+  // `input`: the node's records routed from its parent; for a later step's leaf, its kept file (a later step's
+  // interior node reads nothing).
+  std::unique_ptr<Result> process(uint64_t id, const std::string& input) {
     const OctreeNode node = nodes_[id];
     const std::array<uint32_t, 3> ijk{node.i, node.j, node.k};
     const Bounds box = lattice_.node_box(node.level, ijk);
     Scratch& scratch = scratch_.local();
 
     // Stream the file through the split test, keeping the records while they fit (a leaf needs them all). A fixed
-    // tree's interior node needs neither: its cells go straight to its children.
+    // tree's interior node needs neither (its children gather their own), and its leaves take their records from
+    // their kept files, in memory when they fit, else to a file of this step's (`file` then).
     std::vector<std::byte> kept;
+    std::string file = input;
     bool complete = true, split = fixed_tree_ && !node.is_leaf();
-    if (!split) {
+    if (!split && leaves_.values) {
+      complete = gather_leaf(id, input, kept, file);
+    } else if (!split) {
       scratch.table.begin(box, o_.resolution, thresholds_, o_.error == 0);
       SoupReader reader(file, layout_);
       const std::byte* rec = nullptr;
@@ -176,23 +197,29 @@ class OutOfCoreBuild {
           }
         }
         welded.reset();
-        std::filesystem::remove(file);
+        done_with_leaf_files(id, input, file);
         for (const ErrorSum& s : sums) r->errors.push_back(s.result());
         progress_.add(kVolumeUnits >> std::min(3 * int(node.level), 62));
       }
     }
     if (split) {
       std::vector<std::byte>().swap(kept);
-      const std::array<std::string, 8> files = route("node-" + std::to_string(id), box, file);
-      std::filesystem::remove(file);
-      uint8_t mask = 0;
-      for (int o = 0; o < 8; ++o) mask |= uint8_t(!files[size_t(o)].empty()) << o;
-      const uint64_t first = fixed_tree_ ? fixed_children(node, mask) : add_children(id, node, mask);
+      std::array<std::string, 8> files;
+      uint8_t mask = node.child_mask;
+      uint64_t first = node.first_child;
+      if (!fixed_tree_) {
+        files = route("node-" + std::to_string(id), box, file);
+        std::filesystem::remove(file);
+        mask = 0;
+        for (int o = 0; o < 8; ++o) mask |= uint8_t(!files[size_t(o)].empty()) << o;
+        first = add_children(id, node, mask);
+      }
       std::array<std::unique_ptr<Result>, 8> kids;
       tbb::task_group group;
       uint64_t child = first;
       for (int o = 0; o < 8; ++o) {
         if (!(mask >> o & 1)) continue;
+        if (fixed_tree_) files[size_t(o)] = kept_leaf_path(temp_, child);  // read only if the child is a leaf
         group.run([this, &kids, &files, o, child] { kids[size_t(o)] = process(child, files[size_t(o)]); });
         ++child;
       }
@@ -252,15 +279,53 @@ class OutOfCoreBuild {
     return first;
   }
 
-  // A fixed tree's children: the same octants must have been reached as when the tree was made, or the cells are not
-  // those the tree was made from (the geometry hash missed a difference; the routing cannot).
-  uint64_t fixed_children(const OctreeNode& node, uint8_t mask) const {
-    if (mask != node.child_mask)
-      throw OtherGeometry("the cells of node (level " + std::to_string(node.level) + ", " + std::to_string(node.i) +
-                          " " + std::to_string(node.j) + " " + std::to_string(node.k) + ") reach children " +
-                          std::to_string(mask) + ", not the tree's " + std::to_string(node.child_mask) +
-                          ": the geometry differs");
-    return node.first_child;
+  // A later step's leaf: the records the first step routed to it (its kept file) with this step's values put in. In
+  // memory when they fit the worker's share, as a routed leaf's records are kept (so the same leaves are sampled in
+  // pieces); else written, a share at a time, to a file of this step's, `file`, for sample_in_pieces to stream.
+  bool gather_leaf(uint64_t id, const std::string& kept_file, std::vector<std::byte>& kept, std::string& file) {
+    SoupReader in(kept_file, leaves_.kept_layout);
+    std::unique_ptr<SoupWriter> out;  // once the records are over the share
+    std::vector<std::byte> share;
+    auto write_share = [&] {
+      if (!out) {
+        file = (temp_ / ("step-leaf-" + std::to_string(id))).string();
+        out = std::make_unique<SoupWriter>(file, layout_);
+      }
+      leaves_.values->put_into(share);
+      for (size_t at = 0; at < share.size();) {
+        const SoupCell cell(share.data() + at, layout_);
+        out->add(cell);
+        at += cell.bytes();
+      }
+      share.clear();
+    };
+    const std::byte* rec = nullptr;
+    while (in.next(rec)) {
+      const SoupCell cell(rec, leaves_.kept_layout);
+      if (!share.empty() && share.size() + layout_.record_bytes(cell.vertex_count()) > preload_bytes_) write_share();
+      append_record_geometry(cell, layout_, share);
+    }
+    if (!out) {
+      leaves_.values->put_into(share);
+      kept = std::move(share);
+      return true;
+    }
+    write_share();
+    out->close();
+    return false;
+  }
+
+  // A finished leaf's files: its routed file kept for the later steps (the first of several), or removed; a later
+  // step's own file removed, and the kept one too at the last step.
+  void done_with_leaf_files(uint64_t id, const std::string& input, const std::string& file) {
+    if (leaves_.values) {
+      if (file != input) std::filesystem::remove(file);
+      if (leaves_.last) std::filesystem::remove(input);
+    } else if (leaves_.keep) {
+      std::filesystem::rename(input, kept_leaf_path(temp_, id));
+    } else {
+      std::filesystem::remove(input);
+    }
   }
 
   bool is_flat(const SoupCell& cell, Scratch& s) const {
@@ -550,6 +615,7 @@ class OutOfCoreBuild {
   std::span<const uint64_t> boundary_faces_;  // the mesh's, pack_face(cell id, face), ascending (leaf_cells only)
   uint32_t F_;
   bool fixed_tree_;  // the tree is given (see the constructor)
+  StepLeaves leaves_;
   std::vector<double> thresholds_;
   tbb::concurrent_vector<OctreeNode> nodes_;
   tbb::concurrent_vector<FieldError> errors_;                     // node x field
@@ -799,6 +865,36 @@ uint64_t held_for_steps(uint64_t nodes, uint64_t fields, size_t steps_written) {
   return 2 * nodes * sizeof(OctreeNode) + uint64_t(steps_written) * nodes * fields * kStepTableBytes;
 }
 
+// Why --error > 0 is refused, and what builds instead, as commands that run: the in-core build (with the largest
+// selected step's file, which it holds one at a time, named), --error 0, or one store per step from its .vtu file
+// (`--time-step N` with a series is not an out-of-core input).
+std::string error_above_0_advice(const TimeSeries& series, std::span<const uint32_t> steps,
+                                 std::span<const std::string> files, double error) {
+  auto size_of = [](const std::string& file) {  // 0 for a file that cannot be read: the refusal comes first
+    std::error_code ec;
+    const uintmax_t bytes = std::filesystem::file_size(file, ec);
+    return ec ? uintmax_t(0) : bytes;
+  };
+  size_t largest = 0;
+  for (size_t k = 1; k < files.size(); ++k)
+    if (size_of(files[k]) > size_of(files[largest])) largest = k;
+  char e[32];
+  std::snprintf(e, sizeof e, "%g", error);
+  const std::string mib = std::to_string((size_of(files[largest]) + (1 << 19)) >> 20);
+  std::string advice =
+      series.source + ": --out-of-core --time builds at --error 0 only: above 0 the store's tree is the union of the " +
+      "steps' trees, each shaped by its own step's values, which out of core would take a pass over every step " +
+      "before the first brick. Either leave out --out-of-core (the in-core build holds one step at a time, its mesh " +
+      "and the tree's cell lists; the largest selected step is " + files[largest] + ", " + mib + " MiB), or give " +
+      "--error 0 (the tree split by the geometry alone, one store for every step), or build one store per step out " +
+      "of core from its .vtu file: ugvr build " + files[0] + " --out-of-core --error " + e + " -o " +
+      std::filesystem::path(files[0]).replace_extension(".ugvr").string();
+  if (steps.size() > 1)
+    advice += " (step " + std::to_string(steps[0]) + "), and likewise for the other " +
+              std::to_string(steps.size() - 1) + " step(s)";
+  return advice;
+}
+
 bool is_vtu_step(const TimeStep& step) {
   if (step.files.size() != 1 || step.reader_step >= 0) return false;
   std::string ext = std::filesystem::path(step.files[0]).extension().string();
@@ -831,14 +927,11 @@ OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::s
                                                 const std::string& path) {
   validate_build_options(options);
   check_step_selection(series, steps, options);
-  if (options.error > 0)
-    throw Error(series.source + ": --out-of-core --time builds at --error 0 only (its split rule is geometric: one " +
-                "tree for every step); above 0 the tree is the union of the steps' trees, which the in-core build " +
-                "makes (leave out --out-of-core), or build one store per step (--time-step N --out-of-core)");
-  if (options.preview_depth > 0 || options.point_sketch)
-    throw Error(series.source + ": --preview and --sketch are not made for a store with time (--time); leave them out");
   std::vector<std::string> files;
   for (uint32_t s : steps) files.push_back(out_of_core_step_file(series, s));  // every step checked before any work
+  if (options.error > 0) throw Error(error_above_0_advice(series, steps, files, options.error));
+  if (options.preview_depth > 0 || options.point_sketch)
+    throw Error(series.source + ": --preview and --sketch are not made for a store with time (--time); leave them out");
 
   const auto start = std::chrono::steady_clock::now();
   std::optional<tbb::global_control> threads;
@@ -858,20 +951,24 @@ OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::s
   HeldBoundary boundary_held;
   std::vector<OctreeNode> tree;  // the first step's, filled by every later step
   double soup_seconds = 0, brick_seconds = 0;
-  // One step at a time: its cells to a soup (its points and values held a slice at a time), then its bricks. The
-  // first step shapes the tree (the geometric split rule at --error 0); every later step routes its cells down that
-  // tree, so its node ids, and the store's, are the first step's.
+  // One step at a time. The first: its cells to a soup (its points and values held a slice at a time), routed down
+  // the tree it shapes (the geometric split rule at --error 0), each leaf's file kept. Every later step: its values
+  // to files (no soup), and each leaf's records the kept ones with those values put in, on the first step's node ids.
+  const std::string values_prefix = (temp_path / "values-").string();
+  SoupLayout first_layout;
   for (size_t k = 0; k < S; ++k) {
     const std::string label = step_label(series, steps, k);
     const auto soup_start = std::chrono::steady_clock::now();
     VtuCellSource source(files[k], names);
     if (names.empty())  // the fields the first step picked, kept for every step (a field constant at first stays)
       for (const BrickStoreField& f : source.fields()) names.push_back(f.name);
-    const uint64_t cells = write_root_soup(source, root_file, memory_budget, temp_path.string(),
-                                           label + ": cells to disk", options.progress);
-    soup_seconds += seconds_since(soup_start);
+    std::optional<StepValues> values;
     if (k == 0) {
+      const uint64_t cells = write_root_soup(source, root_file, memory_budget, temp_path.string(),
+                                             label + ": cells to disk", options.progress);
+      soup_seconds += seconds_since(soup_start);
       geometry = source.geometry_hash();
+      first_layout = source.layout();
       stats.cells = cells;
       lattice.root = octree_root(source.bounds());
       BrickStoreLayout layout = store_layout(options, source.fields(), lattice.root, source.bounds(), true);
@@ -879,8 +976,15 @@ OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::s
       boundary_held =
           find_boundary(root_file, source.layout(), cells, options, memory_budget, temp_path.string(), stats);
       writer.emplace(path, layout);
-    } else if (source.geometry_hash() != geometry) {
-      fail_geometry_differs(series, steps[k], steps[0], "points and cells hashed as they were read");
+    } else {
+      {
+        Progress progress(label + ": values to disk", source.file_cell_count(), options.progress);
+        source.write_values(values_prefix, &progress);
+      }
+      soup_seconds += seconds_since(soup_start);
+      if (source.geometry_hash() != geometry)
+        fail_geometry_differs(series, steps[k], steps[0], "points and cells hashed as they were read");
+      values.emplace(values_prefix, source.layout(), source.point_count(), source.file_cell_count());
     }
     std::vector<store_format::StepFieldRange> ranges;
     for (const BrickStoreField& f : source.fields()) ranges.push_back({f.min, f.max});
@@ -890,12 +994,14 @@ OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::s
                            boundary_held.bytes() + held_for_steps(tree.size(), source.fields().size(), k));
     const auto bricks_start = std::chrono::steady_clock::now();
     Progress progress(label + ": bricks", OutOfCoreBuild::kVolumeUnits, options.progress);
-    OutOfCoreBuild build(options, source, lattice, *writer, temp_path, preload, progress, boundary_held.faces, tree);
-    try {
-      build.process(0, root_file);
-    } catch (const OtherGeometry& e) {
-      fail_geometry_differs(series, steps[k], steps[0], e.what());
-    }
+    StepLeaves leaves;
+    leaves.keep = k == 0 && S > 1;
+    leaves.values = values ? &*values : nullptr;
+    leaves.kept_layout = first_layout;
+    leaves.last = k + 1 == S;
+    OutOfCoreBuild build(options, source, lattice, *writer, temp_path, preload, progress, boundary_held.faces, tree,
+                         leaves);
+    build.process(0, k == 0 ? root_file : kept_leaf_path(temp_path, 0));
     progress.finish();
     if (k == 0) tree = build.nodes();
     add_build_counts(build, source, stats);

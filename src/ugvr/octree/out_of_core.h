@@ -49,13 +49,27 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
                                           const std::string& path);
 
 // A store with time (format version 6; docs/time-series.md, "Stores with time") of steps `steps` of a series whose
-// steps are one .vtu file each, out of core within `memory_budget`, one step at a time: the first step's cells shape
-// the tree as build_octree_out_of_core does; every later step's cells are written to a soup of their own and routed
-// down that tree (the same routing, so the same node ids), each leaf sampling them. The same store as
-// build_octree_steps: the same tree, each step's bricks bit for bit, the same leaf errors. The geometry is checked
-// without a step in memory: the points and cells are hashed as they are read (VtuCellSource::geometry_hash), and a
-// step whose hash differs from the first's stops the build naming both steps. At --error 0 only (the split rule is
-// then geometric: one tree for every step); above 0, and with a preview or a sketch, throws ugvr::Error with advice.
+// steps are one .vtu file each, out of core within `memory_budget`, one step at a time. The first step is built as
+// build_octree_out_of_core builds one: its soup routed down the tree it shapes; but each leaf's file (the records
+// routed to it) is kept in the scratch folder as "leaf-<id>" instead of being deleted. The geometry is static, so a
+// later step's leaf holds the same cells: each later step writes only its values (octree/step_values.h: a float per
+// point and selected vertex scalar, per cell and cell scalar; no soup, no point slices), and each leaf takes its kept
+// records with those values put in (read by runs of the ids they name), then is sampled as before (in pieces when
+// over its worker's share); interior nodes read nothing, their bricks come from their children's. So every step's
+// bricks land on the first step's node ids. The same store as build_octree_steps: the same tree, each step's bricks
+// bit for bit, the same leaf errors.
+//   Disk (the scratch folder "<path>.cells", next to the output): from the end of the first step to the last step
+// the kept leaves, about 1.3 times the first step's soup (a cell overlapping several leaves is in each; 176 bytes a
+// hexahedron with one scalar: 470 MB for 2M hexahedra at depth 5), removed one by one as the last step is done with
+// them; a step's value files, 4 (Fv points + Fc cells) bytes; and a leaf over its worker's share written with its
+// values, one per worker at a time. During the first step, as for one step (about twice its soup at most). Memory: a
+// later step holds no points: a worker's share of records as before, plus about 4 bytes a corner and 4 (Fv + 1) a
+// distinct vertex while the values are put in (less than sampling takes), and the writer's per-step node tables
+// (held_for_steps).
+//   The geometry is checked without a step in memory: the points and cells are hashed as they are read
+// (VtuCellSource::geometry_hash), and a step whose hash differs from the first's stops the build naming both steps.
+// At --error 0 only (the split rule is then geometric: one tree for every step); above 0, and with a preview or a
+// sketch, throws ugvr::Error with advice.
 OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::span<const uint32_t> steps,
                                                 std::span<const std::string> selectors,
                                                 const OctreeBuildOptions& options, uint64_t memory_budget,

@@ -32,6 +32,14 @@ struct SoupLayout {
   uint32_t vertex_fields = 0, cell_fields = 0;
 
   size_t record_bytes(int n) const { return 16 + 16 * size_t(n) + 4 * (vertex_fields * size_t(n) + cell_fields); }
+  // Where a value sits in a record of n vertices (the layout above).
+  size_t vertex_value_offset(int n, uint32_t field, int i) const {
+    return 16 + 16 * size_t(n) + 4 * (field * size_t(n) + size_t(i));
+  }
+  size_t cell_value_offset(int n, uint32_t field) const {
+    return 16 + 16 * size_t(n) + 4 * (vertex_fields * size_t(n) + field);
+  }
+  bool operator==(const SoupLayout&) const = default;
 };
 
 // A view of one record in a buffer.
@@ -45,14 +53,11 @@ class SoupCell {
   uint32_t vertex(int i) const { return load<uint32_t>(16 + 4 * size_t(i)); }
   Vec3f position(int i) const { return load<Vec3f>(16 + 4 * size_t(vertex_count()) + 12 * size_t(i)); }
   float vertex_value(uint32_t field, int i) const {
-    const size_t n = size_t(vertex_count());
-    return load<float>(16 + 16 * n + 4 * (field * n + size_t(i)));
+    return load<float>(layout_->vertex_value_offset(vertex_count(), field, i));
   }
-  float cell_value(uint32_t field) const {
-    const size_t n = size_t(vertex_count());
-    return load<float>(16 + 16 * n + 4 * (layout_->vertex_fields * n + field));
-  }
+  float cell_value(uint32_t field) const { return load<float>(layout_->cell_value_offset(vertex_count(), field)); }
   size_t bytes() const { return layout_->record_bytes(vertex_count()); }
+  const SoupLayout& layout() const { return *layout_; }
   const std::byte* data() const { return p_; }
 
  private:

@@ -16,6 +16,7 @@
 #include "ugvr/grid/cell_type.h"
 #include "ugvr/io/vtk_xml_array.h"
 #include "ugvr/io/vtk_xml_document.h"
+#include "ugvr/octree/step_values.h"
 
 namespace ugvr {
 
@@ -392,6 +393,40 @@ class CornerFile {
   bool writing_ = false;
 };
 
+// What every pass that emits the volume cells checks and sums, the same whether it writes a soup or a step's values:
+// the geometry's hash (each cell's index, type and corner ids in file order), the cell scalars' finiteness and ranges.
+class EmittedCells {
+ public:
+  EmittedCells(const std::string& path, uint32_t cell_fields)
+      : path_(path), lo_(cell_fields, INFINITY), hi_(cell_fields, -INFINITY) {}
+  void add(uint64_t c, CellType t, int n, const uint32_t* corners, const float* cell) {
+    const auto type = uint8_t(t);
+    hash_.add(&c, sizeof c);
+    hash_.add(&type, 1);
+    hash_.add(corners, size_t(n) * sizeof(uint32_t));
+    for (size_t k = 0; k < lo_.size(); ++k) {
+      if (!std::isfinite(cell[k])) fail_in(path_, "cell " + std::to_string(c) + ": a value is not finite");
+      lo_[k] = std::min(lo_[k], double(cell[k])), hi_[k] = std::max(hi_[k], double(cell[k]));
+    }
+    ++count_;
+  }
+  uint64_t count() const { return count_; }
+  uint64_t hash() { return hash_.value(); }
+  // The cell scalars' ranges into their fields.
+  void set_ranges(std::span<const VtuCellSource::Slot> slots, std::vector<BrickStoreField>& fields) const {
+    for (size_t f = 0; f < slots.size(); ++f) {
+      if (slots[f].association != Association::Cell) continue;
+      fields[f].min = lo_[slots[f].index], fields[f].max = hi_[slots[f].index];
+    }
+  }
+
+ private:
+  const std::string& path_;
+  StreamHash hash_;
+  std::vector<double> lo_, hi_;
+  uint64_t count_ = 0;
+};
+
 }  // namespace
 
 void VtuCellSource::for_each_point_slice(
@@ -414,22 +449,12 @@ uint64_t VtuCellSource::write_soup(SoupWriter& soup, uint64_t point_budget, cons
   const uint64_t per_point = 12 + 4 * uint64_t(Fv);
   const uint64_t slice = std::max<uint64_t>(1, std::min<uint64_t>(points_, point_budget / per_point));
   passes_ = (points_ + slice - 1) / slice;
-  std::vector<double> cell_lo(Fc, INFINITY), cell_hi(Fc, -INFINITY);
   Vec3f positions[kMaxCellVertices];
   std::vector<float> vvalues(size_t(Fv) * kMaxCellVertices);
-  uint64_t written = 0;
-  StreamHash cell_hash;
+  EmittedCells emitted(path_, Fc);
   auto emit = [&](uint64_t c, CellType t, int n, const uint32_t* corners, const float* cell) {
-    const auto type = uint8_t(t);
-    cell_hash.add(&c, sizeof c);
-    cell_hash.add(&type, 1);
-    cell_hash.add(corners, size_t(n) * sizeof(uint32_t));
-    for (uint32_t k = 0; k < Fc; ++k) {
-      if (!std::isfinite(cell[k])) fail_in(path_, "cell " + std::to_string(c) + ": a value is not finite");
-      cell_lo[k] = std::min(cell_lo[k], double(cell[k])), cell_hi[k] = std::max(cell_hi[k], double(cell[k]));
-    }
+    emitted.add(c, t, n, corners, cell);
     soup.add(c, t, n, corners, positions, vvalues.data(), cell);
-    ++written;
   };
   std::vector<Vec3f> pos;
   std::vector<float> val;
@@ -482,16 +507,55 @@ uint64_t VtuCellSource::write_soup(SoupWriter& soup, uint64_t point_budget, cons
                    emit(c, t, n, corners, cell);
                  });
   }
-  for (uint32_t k = 0; k < Fc; ++k) {
-    size_t at = 0;
-    for (size_t f = 0; f < slots_.size(); ++f) {
-      if (slots_[f].association == Association::Cell && slots_[f].index == k) at = f;
+  emitted.set_ranges(slots_, fields_);
+  if (emitted.count() == 0) fail_in(path_, "the file has no volume cells");
+  cells_hash_ = emitted.hash();
+  return emitted.count();
+}
+
+uint64_t VtuCellSource::write_values(const std::string& prefix, Progress* progress) {
+  const Markup& m = *markup_;
+  // The vertex scalars, each streamed on its own: nothing is held but a chunk.
+  uint32_t vertex_field = 0;
+  std::vector<float> chunk(kChunk);
+  for (const Selected& s : m.selected) {
+    if (s.association != Association::Vertex) continue;
+    ValueFileWriter out(step_vertex_values_path(prefix, vertex_field++));
+    XmlArrayReader reader(m.file, m.encoding(), s.array);
+    reader.expect_count(points_ * uint64_t(s.array.components), s.array.label);
+    for (uint64_t t0 = 0; t0 < points_; t0 += kChunk) {
+      const size_t n = size_t(std::min<uint64_t>(kChunk, points_ - t0));
+      read_scalars(reader, s, t0, n, chunk.data());
+      out.append(chunk.data(), n);
     }
-    fields_[at].min = cell_lo[k], fields_[at].max = cell_hi[k];
+    reader.finish();
+    out.close();
   }
-  if (written == 0) fail_in(path_, "the file has no volume cells");
-  cells_hash_ = cell_hash.value();
-  return written;
+  passes_ = 1;
+  // The cells, for the geometry's hash and the cell scalars, each to its file at the cell's index.
+  const uint32_t Fc = layout_.cell_fields;
+  std::vector<std::unique_ptr<ValueFileWriter>> cell_out;
+  for (uint32_t k = 0; k < Fc; ++k)
+    cell_out.push_back(std::make_unique<ValueFileWriter>(step_cell_values_path(prefix, k)));
+  EmittedCells emitted(path_, Fc);
+  uint64_t next = 0;  // the next cell index each file is at
+  stream_cells(m, cells_, points_, Fc > 0, progress,
+               [&](uint64_t c, CellType t, int n, const uint32_t* corners, const float* cell) {
+                 emitted.add(c, t, n, corners, cell);
+                 for (uint32_t k = 0; k < Fc; ++k) {
+                   cell_out[k]->append_zeros(c - next);
+                   cell_out[k]->append(cell + k, 1);
+                 }
+                 next = c + 1;
+               });
+  for (uint32_t k = 0; k < Fc; ++k) {
+    cell_out[k]->append_zeros(cells_ - next);
+    cell_out[k]->close();
+  }
+  emitted.set_ranges(slots_, fields_);
+  if (emitted.count() == 0) fail_in(path_, "the file has no volume cells");
+  cells_hash_ = emitted.hash();
+  return emitted.count();
 }
 
 }  // namespace ugvr

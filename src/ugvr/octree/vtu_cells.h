@@ -56,12 +56,17 @@ class VtuCellSource {
   // vertex scalars (at least one point); corner files go to `temp_dir`. Fails on NaN or infinite selected values.
   uint64_t write_soup(SoupWriter& soup, uint64_t point_budget, const std::string& temp_dir,
                       Progress* progress = nullptr);
+  // A later time step's values for the first step's records (octree/step_values.h: the files "<prefix>v<k>" and
+  // "<prefix>c<k>"), in place of a soup: each vertex scalar streamed to its file, then the cells once, for their
+  // scalars and for geometry_hash and the cell scalars' ranges (as write_soup finds them). Holds a chunk of values, not
+  // the points. Returns the volume cells' count; fails on NaN or infinite selected values.
+  uint64_t write_values(const std::string& prefix, Progress* progress = nullptr);
   // Streams the points and the selected vertex scalars in slices of at most `slice_bytes` (at least one point):
   // f(first point index, positions, values) with the slice's values scalar-major (vertex scalars in slot order).
   void for_each_point_slice(
       uint64_t slice_bytes,
       const std::function<void(uint64_t, std::span<const Vec3f>, std::span<const float>)>& f) const;
-  // Slices of the points the last write_soup took (1: all points at once).
+  // Slices of the points the last write_soup took (1: all points at once; write_values: 1).
   uint64_t passes() const { return passes_; }
   // The geometry as the build sees it, hashed while it is streamed (no step held in memory): the points (as float,
   // from the constructor's pass) and, once write_soup has run, every volume cell's type and corner ids in file order.

@@ -1,0 +1,229 @@
+#include "ugvr/octree/step_values.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+
+#include "ugvr/core/error.h"
+
+namespace ugvr {
+namespace {
+
+constexpr size_t kBufferFloats = size_t(1) << 18;  // 1 MiB written at a time
+
+[[noreturn]] void fail_io(const std::string& path, const char* what) {
+  fail_in(path, std::string(what) + ": " + std::strerror(errno));
+}
+
+void read_exact(const std::string& path, int fd, void* out, size_t bytes, uint64_t offset) {
+  auto* p = static_cast<char*>(out);
+  while (bytes > 0) {
+    const ssize_t got = ::pread(fd, p, bytes, off_t(offset));
+    if (got < 0 && errno == EINTR) continue;
+    if (got < 0) fail_io(path, "cannot read the temporary value file");
+    if (got == 0) fail_in(path, "the temporary value file ends early");
+    p += got, bytes -= size_t(got), offset += uint64_t(got);
+  }
+}
+
+// The distinct ids of a batch of records in ascending order, and each id's index among them: through a table over
+// their range when it is not much larger than the references (the ids of a node of an ordered mesh: linear time), else
+// by sorting (as weld_soup_records does).
+template <class T>
+class DistinctIds {
+ public:
+  explicit DistinctIds(std::vector<T> refs) : ids_(std::move(refs)) {
+    if (ids_.empty()) return;
+    const auto [lo, hi] = std::minmax_element(ids_.begin(), ids_.end());
+    first_ = *lo;
+    const uint64_t range = uint64_t(*hi) - uint64_t(*lo) + 1;
+    if (range <= 4 * uint64_t(ids_.size())) {
+      local_of_.assign(range, 0);
+      for (T id : ids_) local_of_[id - first_] = 1;
+      ids_.clear();
+      for (uint64_t r = 0; r < range; ++r)
+        if (local_of_[r]) local_of_[r] = uint32_t(ids_.size()), ids_.push_back(T(first_ + r));
+      return;
+    }
+    std::sort(ids_.begin(), ids_.end());
+    ids_.erase(std::unique(ids_.begin(), ids_.end()), ids_.end());
+  }
+  const std::vector<T>& ids() const { return ids_; }
+  size_t index(T id) const {
+    return local_of_.empty() ? size_t(std::lower_bound(ids_.begin(), ids_.end(), id) - ids_.begin())
+                             : local_of_[id - first_];
+  }
+
+ private:
+  std::vector<T> ids_;
+  std::vector<uint32_t> local_of_;
+  T first_ = 0;
+};
+
+// The values at `ids` (ascending, distinct, each below the file's length) of a value file, read in runs: ids at most
+// kGap apart share a read (reading through a small gap is cheaper than another call), up to kRun values a read.
+template <class T>
+void gather(const std::string& path, int fd, std::span<const T> ids, float* out) {
+  constexpr uint64_t kGap = 1024, kRun = uint64_t(1) << 16;
+  std::vector<float> run;
+  for (size_t s = 0; s < ids.size();) {
+    size_t e = s + 1;
+    while (e < ids.size() && uint64_t(ids[e] - ids[e - 1]) <= kGap && uint64_t(ids[e] - ids[s]) < kRun) ++e;
+    const uint64_t first = ids[s], count = uint64_t(ids[e - 1] - ids[s]) + 1;
+    run.resize(size_t(count));
+    read_exact(path, fd, run.data(), size_t(count) * sizeof(float), first * sizeof(float));
+    for (size_t j = s; j < e; ++j) out[j] = run[size_t(ids[j] - first)];
+    s = e;
+  }
+}
+
+template <class T>
+void check_below(const std::string& path, const std::vector<T>& ids, uint64_t count, const char* what) {
+  if (!ids.empty() && uint64_t(ids.back()) >= count)
+    fail_in(path, std::string("a record names ") + what + " " + std::to_string(ids.back()) + ", beyond the step's " +
+                      std::to_string(count) + ": the records are not of this step's mesh");
+}
+
+}  // namespace
+
+std::string step_vertex_values_path(const std::string& prefix, uint32_t field) {
+  return prefix + "v" + std::to_string(field);
+}
+
+std::string step_cell_values_path(const std::string& prefix, uint32_t field) {
+  return prefix + "c" + std::to_string(field);
+}
+
+void append_record_geometry(const SoupCell& cell, const SoupLayout& layout, std::vector<std::byte>& out) {
+  const int n = cell.vertex_count();
+  const size_t geometry = layout.vertex_value_offset(n, 0, 0);  // header, vertex ids and positions: 16 + 16 n
+  if (cell.layout() == layout) {
+    out.insert(out.end(), cell.data(), cell.data() + cell.bytes());
+    return;
+  }
+  out.insert(out.end(), cell.data(), cell.data() + geometry);
+  out.resize(out.size() + layout.record_bytes(n) - geometry, std::byte{0});
+}
+
+ValueFileWriter::ValueFileWriter(std::string path) : path_(std::move(path)) {
+  file_ = std::fopen(path_.c_str(), "wb");
+  if (!file_) fail_io(path_, "cannot create the temporary value file");
+  buffer_.reserve(kBufferFloats);
+}
+
+ValueFileWriter::~ValueFileWriter() {
+  if (file_) std::fclose(file_);
+}
+
+void ValueFileWriter::flush() {
+  if (!buffer_.empty() && std::fwrite(buffer_.data(), sizeof(float), buffer_.size(), file_) != buffer_.size())
+    fail_io(path_, "cannot write the temporary value file");
+  buffer_.clear();
+}
+
+void ValueFileWriter::append(const float* values, size_t count) {
+  while (count > 0) {
+    const size_t n = std::min(count, kBufferFloats - buffer_.size());
+    buffer_.insert(buffer_.end(), values, values + n);
+    values += n, count -= n;
+    if (buffer_.size() == kBufferFloats) flush();
+  }
+}
+
+void ValueFileWriter::append_zeros(uint64_t count) {
+  const float zero = 0.0f;
+  for (uint64_t i = 0; i < count; ++i) append(&zero, 1);
+}
+
+void ValueFileWriter::close() {
+  if (!file_) return;
+  flush();
+  const int rc = std::fclose(file_);
+  file_ = nullptr;
+  if (rc != 0) fail_io(path_, "cannot close the temporary value file");
+}
+
+StepValues::File StepValues::open_values(const std::string& path, uint64_t count) {
+  File f{path, ::open(path.c_str(), O_RDONLY | O_CLOEXEC)};
+  if (f.fd < 0) fail_io(path, "cannot open the temporary value file");
+  struct stat st {};
+  if (::fstat(f.fd, &st) != 0 || uint64_t(st.st_size) != count * sizeof(float)) {
+    ::close(f.fd);
+    fail_in(path, "the temporary value file holds " + std::to_string(uint64_t(st.st_size) / sizeof(float)) +
+                      " values, not " + std::to_string(count));
+  }
+  return f;
+}
+
+StepValues::StepValues(const std::string& prefix, const SoupLayout& layout, uint64_t points, uint64_t cells)
+    : layout_(layout), points_(points), cells_(cells) {
+  try {
+    for (uint32_t f = 0; f < layout.vertex_fields; ++f)
+      vertex_files_.push_back(open_values(step_vertex_values_path(prefix, f), points));
+    for (uint32_t f = 0; f < layout.cell_fields; ++f)
+      cell_files_.push_back(open_values(step_cell_values_path(prefix, f), cells));
+  } catch (...) {
+    for (const File& f : vertex_files_) ::close(f.fd);
+    for (const File& f : cell_files_) ::close(f.fd);
+    throw;
+  }
+}
+
+StepValues::~StepValues() {
+  for (const File& f : vertex_files_) ::close(f.fd);
+  for (const File& f : cell_files_) ::close(f.fd);
+}
+
+void StepValues::put_into(std::span<std::byte> records) const {
+  const uint32_t Fv = layout_.vertex_fields, Fc = layout_.cell_fields;
+  std::vector<size_t> offsets;
+  std::vector<uint32_t> corners;
+  std::vector<uint64_t> cells;
+  for (size_t at = 0; at < records.size();) {
+    const SoupCell cell(records.data() + at, layout_);
+    offsets.push_back(at);
+    for (int i = 0; i < cell.vertex_count() && Fv > 0; ++i) corners.push_back(cell.vertex(i));
+    if (Fc > 0) cells.push_back(cell.id());
+    at += cell.bytes();
+  }
+  if (Fv > 0) {
+    const DistinctIds<uint32_t> points(std::move(corners));
+    const std::vector<uint32_t>& ids = points.ids();
+    check_below(vertex_files_[0].path, ids, points_, "point");
+    std::vector<float> values(size_t(Fv) * ids.size());
+    for (uint32_t f = 0; f < Fv; ++f)
+      gather<uint32_t>(vertex_files_[f].path, vertex_files_[f].fd, ids, values.data() + f * ids.size());
+    for (size_t at : offsets) {
+      std::byte* record = records.data() + at;
+      const SoupCell cell(record, layout_);
+      const int n = cell.vertex_count();
+      for (int i = 0; i < n; ++i) {
+        const size_t local = points.index(cell.vertex(i));
+        for (uint32_t f = 0; f < Fv; ++f)
+          std::memcpy(record + layout_.vertex_value_offset(n, f, i), &values[f * ids.size() + local], sizeof(float));
+      }
+    }
+  }
+  if (Fc > 0) {
+    const DistinctIds<uint64_t> distinct(std::move(cells));
+    const std::vector<uint64_t>& ids = distinct.ids();
+    check_below(cell_files_[0].path, ids, cells_, "cell");
+    std::vector<float> values(size_t(Fc) * ids.size());
+    for (uint32_t f = 0; f < Fc; ++f)
+      gather<uint64_t>(cell_files_[f].path, cell_files_[f].fd, ids, values.data() + f * ids.size());
+    for (size_t at : offsets) {
+      std::byte* record = records.data() + at;
+      const SoupCell cell(record, layout_);
+      const size_t local = distinct.index(cell.id());
+      for (uint32_t f = 0; f < Fc; ++f)
+        std::memcpy(record + layout_.cell_value_offset(cell.vertex_count(), f), &values[f * ids.size() + local],
+                    sizeof(float));
+    }
+  }
+}
+
+}  // namespace ugvr
