@@ -445,8 +445,8 @@ uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const Bric
     std::vector<char> ancestor_ok(ancestor_ids.size(), 0);
     tbb::parallel_for(size_t(0), ancestor_ids.size(), [&](size_t i) {
       const CubicNeighbourhood hood = hood_of(ancestors.at(ancestor_ids[i]));
-      ancestor_ok[i] =
-          cubic_coefficients(r, texels.at(ancestor_ids[i]), ancestor_coefficients[i], &hood, atlas.extension());
+      ancestor_ok[i] = cubic_coefficients(r, texels.at(ancestor_ids[i]), ancestor_coefficients[i], &hood,
+                                          atlas.extension(), atlas.fill());
     });
     for (size_t i = 0; i < count; ++i) {
       const uint64_t n = plan.missing[b + i];
