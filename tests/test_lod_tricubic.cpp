@@ -1518,6 +1518,58 @@ TEST(LodTricubic, BluntFinSameLevelBricksAgreeNextToTheBoundary) {
   EXPECT_LT(worst[1][1][1], 0.1 * worst[0][1][1]);
 }
 
+// The cubic margin of bricks with samples without data (cubic_margin_code with the filled coefficients): wherever
+// the walk reads the trilinear value (the trilinear stencil >= 1/2), the spline differs from it by at most the
+// margin, on every blunt-fin brick of levels 3 and 4 with samples without data. The margins are wider than those of
+// the samples kept as coefficients (before the fill; printed): the not-a-knot ends of blocks that meet the domain's
+// border next to the fill's kink put large coefficients into the apron, which the bound must cover (a frame cost,
+// bench/README.md).
+TEST(LodTricubic, BluntFinCubicMarginBoundsTheFilledSpline) {
+  UGVR_REQUIRE_DATA("blunt-fin/bluntfinxyz.bin");
+  BluntFinBricks fin;
+  const int r = fin.r, s = r + 2;
+  std::mt19937 rng(22);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  double worst_ratio = 0, margin_before = 0, margin_after = 0;
+  int partial = 0, points = 0;
+  for (const auto& [key, n] : fin.by_key) {
+    if (key[0] < BluntFinBricks::kFine - 1 || fin.has_all_data(n)) continue;
+    ++partial;
+    const uint16_t* t = fin.slot(n);
+    const std::vector<double> c = fin.coefficients(n, true);
+    ASSERT_FALSE(c.empty());
+    const double margin = cubic_margin_code(uint32_t(r), t, &c);
+    margin_after += margin;
+    margin_before += cubic_margin_code(uint32_t(r), t);
+    const auto texel = [&](int x, int y, int z, int channel) {
+      return double(t[2 * ((size_t(z) * s + y) * s + x) + size_t(channel)]);
+    };
+    for (int k = 0; k < 400; ++k) {
+      const double u[3] = {unit(rng) * (r - 1), unit(rng) * (r - 1), unit(rng) * (r - 1)};  // sample coordinates
+      int i[3];
+      double f[3];
+      for (int a = 0; a < 3; ++a) i[a] = std::min(int(u[a]), r - 2), f[a] = u[a] - i[a];
+      double lin = 0, stencil = 0;
+      for (int corner = 0; corner < 8; ++corner) {
+        const int a = corner & 1, b = corner >> 1 & 1, d = corner >> 2;
+        const double w = (a ? f[0] : 1 - f[0]) * (b ? f[1] : 1 - f[1]) * (d ? f[2] : 1 - f[2]);
+        lin += w * texel(i[0] + a + 1, i[1] + b + 1, i[2] + d + 1, 0);
+        stencil += w * texel(i[0] + a + 1, i[1] + b + 1, i[2] + d + 1, 1) / 65535.0;
+      }
+      if (stencil < 0.5) continue;  // outside the mesh: the walk reads nothing there
+      ++points;
+      worst_ratio = std::max(worst_ratio, std::abs(65535.0 * slot_spline(r, c, u) - lin) / margin);
+    }
+  }
+  std::printf(
+      "blunt fin, %d bricks with samples without data, %d points with data: max |spline - trilinear| / margin %.3f; "
+      "mean margin %.0f codes with the fill, %.0f with the samples kept\n",
+      partial, points, worst_ratio, margin_after / partial, margin_before / partial);
+  ASSERT_GT(partial, 20);
+  ASSERT_GT(points, 1000);
+  EXPECT_LE(worst_ratio, 1.0);
+}
+
 // The lattice a voxel volume's store gets for tricubic isosurfaces (view/voxel_store.h): ·2^D intervals across
 // the largest extent, keeping the samples where that count allows it.
 ImageGrid voxel_grid(uint32_t nx, uint32_t ny, uint32_t nz, Vec3d spacing = {1, 1, 1}) {

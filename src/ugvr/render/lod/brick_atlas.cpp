@@ -304,6 +304,8 @@ bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector
         all_valid = all_valid && valid[at];
       }
   // With data everywhere the block is the samples as they are: the same coefficients, bit for bit, as before fills.
+  // (Extending a partial block's box k samples past a missing neighbour too, all filled, was tried: the two sides of
+  // a face where one brick's block has data everywhere and drops that side then disagree more, 3.1e-2 in gradient.)
   if (!all_valid && !extend_into_samples_without_data(block, valid, dims)) return false;
   // Axis by axis (the tensor product): the coefficients of brick samples -1 .. r are the block's rows lo .. lo + r + 1.
   std::vector<double> a, b;
