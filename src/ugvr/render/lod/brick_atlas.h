@@ -62,8 +62,9 @@ uint16_t cubic_margin_code(uint32_t resolution, const uint16_t* texels,
 
 // A brick's same-level neighbourhood for the prefilter: the texels (make_atlas_slot's layout) of the 27 bricks at
 // offsets (dx, dy, dz) in {-1, 0, 1}³, index (dx + 1) + 3 (dy + 1) + 9 (dz + 1) (the brick itself at 13, unused);
-// null where there is none. Neighbouring bricks share their border samples: neighbour (-1, 0, 0)'s sample R - 1 - m
-// along x is the brick's sample -m.
+// null where there is none (the engine passes an all-zero slot, samples without data, for a position inside the root
+// cell that has no brick at that level, so that the fill reaches into it). Neighbouring bricks share their border
+// samples: neighbour (-1, 0, 0)'s sample R - 1 - m along x is the brick's sample -m.
 using CubicNeighbourhood = std::array<const uint16_t*, 27>;
 // Samples the prefilter takes from each neighbour (k): 0.27^4 = 0.5 % of a border coefficient's error left
 // (LodTricubic.ExtendedPrefilterMatchesTheWholeLattice measures it).
