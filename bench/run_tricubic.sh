@@ -14,8 +14,13 @@
 # LEVELS=1 adds, in each round, tricubic without the level blend (UGVR_TRICUBIC_LEVEL_BLEND=0: each level's own
 # spline, as before docs/tricubic.md's "Level borders") after the default; with CUT=pixels:N (default leaves) the cut
 # mixes levels, so that the blend's extra upload (the ancestors' neighbourhoods) and its frame time show.
+# FILL=1 adds, in each round, tricubic without the fill of samples without data (UGVR_TRICUBIC_FILL=0: bricks with
+# samples without data keep their samples and their neighbours drop that side, as before docs/tricubic.md's "Samples
+# without data") after the default; it matters only on a store with samples outside the mesh: STORE=PATH ISO=V
+# renders that store (its first field; e.g. the blunt fin's Density) instead of the generated NRRD's, from the default
+# view framed on its data.
 # Usage: bench/run_tricubic.sh [OUT_DIR=/tmp/ugvr-tricubic]; UGVR (default build/ugvr), N, SIZE, FRAMES, ROUNDS,
-# FIELD (sphere), BRICKS (64), PER_BRICK, LEVELS, CUT (leaves), PYTHON. One JSON line per render is appended to bench/results/tricubic.jsonl.
+# FIELD (sphere), BRICKS (64), PER_BRICK, LEVELS, FILL, CUT (leaves), STORE, ISO, PYTHON. One JSON line per render is appended to bench/results/tricubic.jsonl.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-/tmp/ugvr-tricubic}
@@ -35,8 +40,12 @@ mkdir -p "$out" bench/results
 commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
 echo "{\"bench\":\"session\",\"date\":\"$(date -u +%FT%TZ)\",\"commit\":\"$commit\",\"machine\":\"$(nproc) cores, load $(cut -d' ' -f1 /proc/loadavg)\"}" | tee -a "$jsonl"
 
+if [ -n "${STORE:-}" ]; then
+  [ -n "${ISO:-}" ] || { echo "STORE needs ISO" >&2; exit 2; }
+  field=$(basename "$STORE" .ugvr) iso=$ISO bricks=0
+fi
 nrrd="$out/$field$n.nrrd"
-"$py" - "$nrrd" "$n" "$field" <<'PY'
+[ -z "${STORE:-}" ] && "$py" - "$nrrd" "$n" "$field" <<'PY'
 import math, struct, sys
 path, n, field = sys.argv[1], int(sys.argv[2]), sys.argv[3]
 h = 1.0 / (n - 1)
@@ -54,15 +63,18 @@ with open(path, "wb") as f:
              "endian: little\n\n" % (n, n, n, h, h, h)).encode())
     f.write(struct.pack("<%df" % len(vals), *vals))
 PY
-store="$out/$field$n-$bricks.ugvr"
+store=${STORE:-$out/$field$n-$bricks.ugvr}
 # shellcheck disable=SC2086 # two arguments
-"$ugvr" --quiet build "$nrrd" $brick_args --error 0 -o "$store"
+[ -z "${STORE:-}" ] && "$ugvr" --quiet build "$nrrd" $brick_args --error 0 -o "$store"
 cat > "$out/camera.json" <<'CAM'
 {"position": [1.6, 1.3, 2.0], "focal_point": [0.5, 0.5, 0.5], "view_up": [0, 1, 0], "view_angle": 24}
 CAM
+camera_args=(--camera "$out/camera.json")
+[ -n "${STORE:-}" ] && camera_args=()
 variants="trilinear tricubic"
 [ "${PER_BRICK:-0}" = 1 ] && variants="$variants tricubic-per-brick"
 [ "${LEVELS:-0}" = 1 ] && variants="$variants tricubic-no-level-blend"
+[ "${FILL:-0}" = 1 ] && variants="$variants tricubic-no-fill"
 cut=${CUT:-leaves}
 upload_size=64
 [ "$cut" != leaves ] && upload_size=$size
@@ -73,13 +85,15 @@ for round in $(seq "$rounds"); do
     [ "$variant" = tricubic-per-brick ] && extension=0
     blend=""
     [ "$variant" = tricubic-no-level-blend ] && blend=0
-    UGVR_TRICUBIC_EXTENSION=$extension UGVR_TRICUBIC_LEVEL_BLEND=$blend "$ugvr" --quiet render "$store" --engine lod --cut "$cut" \
-      --camera "$out/camera.json" --size "$size" --iso $iso --interpolation "$interp" -o "$out/$variant.png" \
+    fill=""
+    [ "$variant" = tricubic-no-fill ] && fill=0
+    UGVR_TRICUBIC_EXTENSION=$extension UGVR_TRICUBIC_LEVEL_BLEND=$blend UGVR_TRICUBIC_FILL=$fill "$ugvr" --quiet render "$store" --engine lod --cut "$cut" \
+      "${camera_args[@]}" --size "$size" --iso $iso --interpolation "$interp" -o "$out/$variant.png" \
       --stats "$out/$variant.json" --frames "$frames"
     # The upload: one frame at 64² (its stats are the frame that uploads every brick of the cut); at SIZE² with a
     # CUT other than leaves (a pixels cut depends on the image's size).
-    UGVR_TRICUBIC_EXTENSION=$extension UGVR_TRICUBIC_LEVEL_BLEND=$blend "$ugvr" --quiet render "$store" --engine lod --cut "$cut" \
-      --camera "$out/camera.json" --size "$upload_size" --iso $iso --interpolation "$interp" -o "$out/$variant-64.png" \
+    UGVR_TRICUBIC_EXTENSION=$extension UGVR_TRICUBIC_LEVEL_BLEND=$blend UGVR_TRICUBIC_FILL=$fill "$ugvr" --quiet render "$store" --engine lod --cut "$cut" \
+      "${camera_args[@]}" --size "$upload_size" --iso $iso --interpolation "$interp" -o "$out/$variant-64.png" \
       --stats "$out/$variant-upload.json" --frames 1
     "$py" -c "
 import json; s = json.load(open('$out/$variant.json')); u = json.load(open('$out/$variant-upload.json'))

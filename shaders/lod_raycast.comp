@@ -1418,9 +1418,13 @@ void main() {
     bool sure = true;
     for (int i = 0; i < u_iso_count; ++i) sure = sure && abs(vt - iso_value(i)) >= g_cand_margin;
     if (sure) break;
-    // The next sample of the node's grid (as the walk places them), on the spline.
+    // The next sample of the node's grid (as the walk places them), on the spline; not past the data (the stencil
+    // below 1/2 there, as the walk's samples): the coefficients there hold the fill of samples without data, a smooth
+    // extension of the field whose crossings are outside the mesh (docs/tricubic.md, "Samples without data"). The walk
+    // resumes at tb and meets the sample without data itself.
     float k = floor(tb / g_cand_step) + 1.0, tn = min(k * g_cand_step, g_cand_exit);
     if (!(tn > tb)) tn = min((k + 1.0) * g_cand_step, g_cand_exit);
+    if (texture(u_atlas, g_cand_c0 + g_cand_c1 * tn).g < 0.5) break;
     ta = tb, fa = fb, tb = tn;
     fb = cubic_at(g_cand_c0 + g_cand_c1 * tb, bvec3(false));
   }

@@ -168,10 +168,13 @@ bool all_data(uint32_t resolution, const uint16_t* texels) {
 
 // How far the prefilter's block reaches past the brick on each side of each axis (lo[a], hi[a] samples): `k` where
 // the face neighbour is usable, else 0, then sides dropped until every neighbour the box reaches is usable.
-void extension_box(uint32_t resolution, const CubicNeighbourhood* n, int k, int lo[3], int hi[3]) {
+// With `fill`, a neighbour is usable wherever it exists (its samples without data are filled like the brick's), so
+// that two same-level bricks next to the mesh boundary solve over the same lattice; without, only with data
+// everywhere (the approximating spline's days: a side of partial neighbours was dropped).
+void extension_box(uint32_t resolution, const CubicNeighbourhood* n, int k, bool fill, int lo[3], int hi[3]) {
   bool usable[27] = {};
   if (n)
-    for (int d = 0; d < 27; ++d) usable[d] = d != 13 && (*n)[d] && all_data(resolution, (*n)[d]);
+    for (int d = 0; d < 27; ++d) usable[d] = d != 13 && (*n)[d] && (fill || all_data(resolution, (*n)[d]));
   const auto index = [](int dx, int dy, int dz) { return (dx + 1) + 3 * (dy + 1) + 9 * (dz + 1); };
   for (int a = 0; a < 3; ++a) {
     int minus[3] = {0, 0, 0}, plus[3] = {0, 0, 0};
@@ -227,18 +230,63 @@ void prefilter_axis(const std::vector<double>& in, const int dims[3], int axis, 
     }
 }
 
+// Gives the block's samples without data (valid[i] == 0) the values of a deterministic extension of the data
+// (docs/tricubic.md, "Samples without data"): layer by layer outward from the data, by Chebyshev distance (a
+// breadth-first pass over the 26 neighbours), each sample the mean of its 26 neighbours of earlier layers, as
+// store/brick_pad.h grows its one layer. A filled value depends only on the samples within its distance from the
+// data, so two bricks whose blocks overlap there fill it alike; the prefilter then sees a continuous field across
+// the boundary and the spline interpolates every data sample. False where the block has no data at all.
+bool extend_into_samples_without_data(std::vector<double>& block, const std::vector<uint8_t>& valid,
+                                      const int dims[3]) {
+  const size_t nx = size_t(dims[0]), ny = size_t(dims[1]), nz = size_t(dims[2]);
+  std::vector<int> layer(block.size(), -1);
+  std::vector<size_t> frontier, next;
+  for (size_t i = 0; i < block.size(); ++i)
+    if (valid[i]) layer[i] = 0, frontier.push_back(i);
+  if (frontier.empty()) return false;
+  const auto around = [&](size_t i, auto&& visit) {
+    const size_t x = i % nx, y = i / nx % ny, z = i / (nx * ny);
+    for (size_t dz = z ? z - 1 : 0; dz <= std::min(z + 1, nz - 1); ++dz)
+      for (size_t dy = y ? y - 1 : 0; dy <= std::min(y + 1, ny - 1); ++dy)
+        for (size_t dx = x ? x - 1 : 0; dx <= std::min(x + 1, nx - 1); ++dx) {
+          const size_t j = (dz * ny + dy) * nx + dx;
+          if (j != i) visit(j);
+        }
+  };
+  for (int l = 1; !frontier.empty(); ++l) {
+    next.clear();
+    for (size_t i : frontier)
+      around(i, [&](size_t j) {
+        if (layer[j] < 0) layer[j] = l, next.push_back(j);
+      });
+    for (size_t j : next) {
+      double sum = 0;
+      int count = 0;
+      around(j, [&](size_t m) {
+        if (layer[m] >= 0 && layer[m] < l) sum += block[m], ++count;
+      });
+      block[j] = sum / count;  // count >= 1: j was reached from the previous layer
+    }
+    std::swap(frontier, next);
+  }
+  return true;
+}
+
 }  // namespace
 
 bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector<double>& coefficients,
-                        const CubicNeighbourhood* neighbours, int extension) {
+                        const CubicNeighbourhood* neighbours, int extension, bool fill) {
   const int r = int(resolution), s = r + 2;
-  if (!all_data(resolution, texels)) return false;
+  const bool complete = all_data(resolution, texels);
+  if (!complete && !fill) return false;
   int lo[3], hi[3];
-  extension_box(resolution, neighbours, std::clamp(extension, 0, r - 1), lo, hi);
+  extension_box(resolution, neighbours, std::clamp(extension, 0, r - 1), fill, lo, hi);
   // The block of samples: brick sample q (-lo .. r - 1 + hi along each axis) from the brick or the neighbour it lies
   // in (shared borders: the neighbour's sample q -/+ (r - 1)).
   const int dims[3] = {r + lo[0] + hi[0], r + lo[1] + hi[1], r + lo[2] + hi[2]};
   std::vector<double> block(static_cast<size_t>(dims[0]) * dims[1] * dims[2]);
+  std::vector<uint8_t> valid(block.size());
+  bool all_valid = true;
   for (int z = 0; z < dims[2]; ++z)
     for (int y = 0; y < dims[1]; ++y)
       for (int x = 0; x < dims[0]; ++x) {
@@ -250,9 +298,15 @@ bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector
         }
         const int which = (d[0] + 1) + 3 * (d[1] + 1) + 9 * (d[2] + 1);
         const uint16_t* from = which == 13 ? texels : (*neighbours)[size_t(which)];
-        block[(size_t(z) * dims[1] + y) * dims[0] + x] =
-            double(from[2 * ((size_t(t[2]) * s + t[1]) * s + t[0])]) / 65535.0;
+        const size_t texel = (size_t(t[2]) * s + t[1]) * s + t[0], at = (size_t(z) * dims[1] + y) * dims[0] + x;
+        block[at] = double(from[2 * texel]) / 65535.0;
+        valid[at] = from[2 * texel + 1] != 0;
+        all_valid = all_valid && valid[at];
       }
+  // With data everywhere the block is the samples as they are: the same coefficients, bit for bit, as before fills.
+  // (Extending a partial block's box k samples past a missing neighbour too, all filled, was tried: the two sides of
+  // a face where one brick's block has data everywhere and drops that side then disagree more, 3.1e-2 in gradient.)
+  if (!all_valid && !extend_into_samples_without_data(block, valid, dims)) return false;
   // Axis by axis (the tensor product): the coefficients of brick samples -1 .. r are the block's rows lo .. lo + r + 1.
   std::vector<double> a, b;
   int d1[3] = {s, dims[1], dims[2]};
@@ -342,6 +396,8 @@ BrickAtlas::BrickAtlas(uint32_t resolution, uint64_t slots, int max_3d) : resolu
   no_bracket_ = no_bracket && *no_bracket;
   const char* extension = std::getenv("UGVR_TRICUBIC_EXTENSION");
   if (extension && *extension) extension_ = std::max(0, std::atoi(extension));
+  const char* fill = std::getenv("UGVR_TRICUBIC_FILL");
+  if (fill && *fill) fill_ = std::atoi(fill) != 0;
   const char* level_blend = std::getenv("UGVR_TRICUBIC_LEVEL_BLEND");
   if (level_blend && *level_blend) level_blend_ = std::atoi(level_blend) != 0;
   texture_ = atlas_texture(GL_RG16, texels_, "allocating the brick atlas");
@@ -369,7 +425,7 @@ void BrickAtlas::upload(uint64_t slot, const uint16_t* texels, const CubicNeighb
   glTextureSubImage3D(texture_.id(), 0, x * side, y * side, z * side, side, side, side, GL_RG, GL_UNSIGNED_SHORT,
                       texels);
   if (!has_coefficients()) return;  // the margin and coefficients serve tricubic frames only
-  const bool prefiltered = cubic_coefficients(resolution_, texels, scratch_, neighbours, extension_);
+  const bool prefiltered = cubic_coefficients(resolution_, texels, scratch_, neighbours, extension_, fill_);
   if (prefiltered && levels && level_blend_) blend_towards_coarser(resolution_, *levels, scratch_);
   // [-1/2, 3/2] to [0, 1] (brick_atlas.h); without the prefilter, the samples themselves.
   std::vector<uint16_t> codes(size_t(side) * side * side);

@@ -13,8 +13,9 @@
 // frame): R16, the same size and slot layout as the atlas; slot texels hold the coefficients of the interpolating
 // cubic B-spline of the brick's samples (LaMar 2000 ch. 3, the prefilter; cubic_coefficients), mapped from [-1/2,
 // 3/2] of the normalised range to [0, 1] so that the coefficients' overshoot past the data (4% at a sine's peak)
-// is kept, at half the values' precision. Bricks with samples without data keep their samples (the approximating
-// spline): the prefilter would spread the filler into the data.
+// is kept, at half the values' precision. Samples without data (next to the mesh boundary) take a smooth extension of
+// the data before the prefilter (cubic_coefficients' `fill`), so that the spline interpolates the data there too and
+// same-level neighbours agree on their shared face; the shader still decides inside/outside by the stencil (G).
 // With it, the cubic margins (docs/tricubic.md, "Finding the surface"): a float per slot in a storage buffer, slot s's
 // at index s, a bound M on |spline − trilinear| anywhere in the slot's cells in the normalised [0, 1] units of the
 // values (cubic_margin_code / 65535). The tricubic isosurface brackets crossings on the trilinear value and evaluates
@@ -61,8 +62,9 @@ uint16_t cubic_margin_code(uint32_t resolution, const uint16_t* texels,
 
 // A brick's same-level neighbourhood for the prefilter: the texels (make_atlas_slot's layout) of the 27 bricks at
 // offsets (dx, dy, dz) in {-1, 0, 1}³, index (dx + 1) + 3 (dy + 1) + 9 (dz + 1) (the brick itself at 13, unused);
-// null where there is none. Neighbouring bricks share their border samples: neighbour (-1, 0, 0)'s sample R - 1 - m
-// along x is the brick's sample -m.
+// null where there is none (the engine passes an all-zero slot, samples without data, for a position inside the root
+// cell that has no brick at that level, so that the fill reaches into it). Neighbouring bricks share their border
+// samples: neighbour (-1, 0, 0)'s sample R - 1 - m along x is the brick's sample -m.
 using CubicNeighbourhood = std::array<const uint16_t*, 27>;
 // Samples the prefilter takes from each neighbour (k): 0.27^4 = 0.5 % of a border coefficient's error left
 // (LodTricubic.ExtendedPrefilterMatchesTheWholeLattice measures it).
@@ -72,19 +74,30 @@ constexpr int kCubicExtension = 4;
 // code / 65535), into `coefficients`, (R+2)³ x fastest: along each axis the R samples give R + 2 coefficients
 // (the brick's and its apron's) such that the spline passes through every sample, with the not-a-knot condition at
 // both ends (no jump of the third derivative at the second and the next-to-last sample; natural, zero second
-// difference, below 5 samples), applied axis by axis. False, and nothing written, where the brick has samples
-// without data.
+// difference, below 5 samples), applied axis by axis.
+//
+// Samples without data (`fill`, the default): before the prefilter, every sample of the block (below) without data
+// takes the mean of its 26 neighbours one layer nearer the data, layer by layer outward (Chebyshev distance from the
+// data, as store/brick_pad.h's one layer), whatever value its texel held. The fill is a function of the samples around
+// it, so two same-level bricks fill the samples both of their blocks hold alike, and partial neighbours take part in
+// the neighbourhood like any other: the seam next to the mesh boundary goes (docs/tricubic.md, "Samples without
+// data"). The filled values only shape the spline next to the data: the shader draws no surface where the stencil
+// says there is none. A block with data everywhere is prefiltered as it is, so its coefficients are the same, bit
+// for bit, with or without `fill`. False, and nothing written, where the block has no data at all, or (without
+// `fill`, as before it: the approximating spline, the samples kept) where the brick has samples without data.
 //
 // With `neighbours`, the prefilter is solved over the brick extended by `extension` samples (default
 // kCubicExtension) into each same-level neighbour that has one (docs/tricubic.md, "Seams"): the recursive filter's
 // influence decays as (2 - sqrt 3)^k, so the coefficients at the brick and its apron are within about 0.27^k of the
 // whole lattice's, and two neighbours hold nearly the same spline across their shared face (value and derivatives).
 // The not-a-knot ends move to the extension's far ends. A side whose neighbour is missing (the domain's border, a
-// coarser leaf there, a neighbour with samples without data) keeps the brick's own end, as without neighbours; the
-// extended block is a box, so a side is dropped too when a diagonal neighbour it needs is missing.
+// coarser leaf or an empty octant there; without `fill`, also a neighbour with samples without data) keeps the
+// brick's own end, as without neighbours; the extended block is a box, so a side is dropped too when a diagonal
+// neighbour it needs is missing.
 // Without neighbours (or with none present), exactly the per-brick solve above.
 bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector<double>& coefficients,
-                        const CubicNeighbourhood* neighbours = nullptr, int extension = kCubicExtension);
+                        const CubicNeighbourhood* neighbours = nullptr, int extension = kCubicExtension,
+                        bool fill = true);
 
 // Level borders (docs/tricubic.md, "Level borders"). A node's uniform cubic B-spline is also a B-spline on its
 // children's lattice, of half the spacing (dyadic knot insertion, exact): along an axis the child's coefficient at
@@ -145,6 +158,7 @@ class BrickAtlas {
   void upload(uint64_t slot, const uint16_t* texels, const CubicNeighbourhood* neighbours = nullptr,
               const CubicLevelBlend* levels = nullptr);
   bool level_blend() const { return level_blend_; }
+  bool fill() const { return fill_; }           // samples without data filled before the prefilter (cubic_coefficients)
   int extension() const { return extension_; }  // samples the prefilter takes from each neighbour
 
   // Most slots an atlas can have for R within max_3d texels per axis.
@@ -157,6 +171,9 @@ class BrickAtlas {
   // own samples alone, as before the neighbourhood; for benchmarks and before/after measurements in one run).
   int extension_ = kCubicExtension;
   bool level_blend_ = true;
+  // cubic_coefficients' `fill`, unless UGVR_TRICUBIC_FILL=0 (bricks with samples without data keep their samples, and
+  // their neighbours drop that side, as before; for before/after measurements in one run).
+  bool fill_ = true;
   int slots_[3] = {0, 0, 0};
   int texels_[3] = {0, 0, 0};
   GlTexture texture_;

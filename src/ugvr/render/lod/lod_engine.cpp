@@ -382,6 +382,8 @@ uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const Bric
     plan.slots.push_back(residency.gpu().slot(n));
   }
   std::vector<std::vector<uint16_t>> read(batch);
+  constexpr uint64_t kNoData = kNoNode - 1;
+  const std::vector<uint16_t> no_data(side * side * side * 2, 0);  // value 0, stencil 0: no sample has data
   std::vector<BrickResidency::Texels> from_ram(batch);
   for (size_t b = 0; b < plan.missing.size(); b += batch) {
     const size_t count = std::min(batch, plan.missing.size() - b);
@@ -392,7 +394,7 @@ uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const Bric
     std::vector<BrickResidency::Texels> held;
     // node's texels: the batch's, the RAM tier's, or to be read.
     const auto want = [&](uint64_t n) {
-      if (n == kNoNode || texels.count(n)) return;
+      if (n == kNoNode || n == kNoData || texels.count(n)) return;
       if (ram_usable && ram->resident(n)) {
         if (BrickResidency::Texels t = ram->get(n)) {
           texels[n] = t->data();
@@ -403,10 +405,22 @@ uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const Bric
       texels[n] = nullptr;
       to_read.push_back(n);
     };
+    // A same-level position inside the root cell without a brick (an empty octant, or a coarser leaf there) is
+    // kNoData: a brick whose samples all lack data, which the prefilter fills like any partial neighbour
+    // (brick_atlas.h, cubic_coefficients), so that the bricks around it extend their splines into it alike; outside the
+    // root cell kNoNode: the side is dropped (the domain's border, the not-a-knot end).
     const auto around_of = [&](uint64_t n) {
       std::array<uint64_t, 27> around;
-      for (int d = 0; d < 27; ++d)
-        around[size_t(d)] = d == 13 ? kNoNode : neighbour(n, d % 3 - 1, d / 3 % 3 - 1, d / 9 - 1);
+      const BrickNode& node = store.node(n);
+      const int64_t per_axis = int64_t(1) << node.level;
+      for (int d = 0; d < 27; ++d) {
+        const int64_t q[3] = {int64_t(node.i) + d % 3 - 1, int64_t(node.j) + d / 3 % 3 - 1,
+                              int64_t(node.k) + d / 9 - 1};
+        const bool inside =
+            q[0] >= 0 && q[1] >= 0 && q[2] >= 0 && q[0] < per_axis && q[1] < per_axis && q[2] < per_axis;
+        const uint64_t m = d == 13 ? kNoNode : neighbour_key_node(node.level, q[0], q[1], q[2]);
+        around[size_t(d)] = d != 13 && m == kNoNode && inside ? kNoData : m;
+      }
       return around;
     };
     // The batch's neighbourhoods, and those of the ancestors at the coarser levels next to its bricks.
@@ -441,7 +455,10 @@ uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const Bric
     const auto hood_of = [&](const std::array<uint64_t, 27>& ids) {
       CubicNeighbourhood hood{};
       for (size_t d = 0; d < 27; ++d)
-        if (ids[d] != kNoNode) hood[d] = texels.at(ids[d]);
+        if (ids[d] == kNoData)
+          hood[d] = no_data.data();
+        else if (ids[d] != kNoNode)
+          hood[d] = texels.at(ids[d]);
       return hood;
     };
     // The ancestors' splines (their level's, prefiltered over their own neighbourhoods); none where they lack data.
@@ -451,8 +468,8 @@ uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const Bric
     std::vector<char> ancestor_ok(ancestor_ids.size(), 0);
     tbb::parallel_for(size_t(0), ancestor_ids.size(), [&](size_t i) {
       const CubicNeighbourhood hood = hood_of(ancestors.at(ancestor_ids[i]));
-      ancestor_ok[i] =
-          cubic_coefficients(r, texels.at(ancestor_ids[i]), ancestor_coefficients[i], &hood, atlas.extension());
+      ancestor_ok[i] = cubic_coefficients(r, texels.at(ancestor_ids[i]), ancestor_coefficients[i], &hood,
+                                          atlas.extension(), atlas.fill());
     });
     for (size_t i = 0; i < count; ++i) {
       const uint64_t n = plan.missing[b + i];
