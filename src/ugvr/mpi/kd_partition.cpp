@@ -93,6 +93,15 @@ std::vector<int> KdTree::visibility_order(const Camera& camera) const {
   return out;
 }
 
+int KdTree::part_of(const Vec3d& p) const {
+  int node = 0;
+  while (nodes[size_t(node)].axis >= 0) {
+    const KdNode& n = nodes[size_t(node)];
+    node = n.child[coord(p, n.axis) < n.split ? 0 : 1];
+  }
+  return nodes[size_t(node)].part;
+}
+
 std::vector<Vec3d> cell_centroids(const WalkMesh& mesh) {
   std::vector<Vec3d> out(mesh.cell_count());
   for (uint32_t c = 0; c < mesh.cell_count(); ++c) {

@@ -31,6 +31,8 @@ struct KdTree {
   std::vector<KdNode> nodes;  // nodes[0] is the root
   std::vector<Bounds> boxes;  // per part; faces outside every split are +-infinity
   int parts() const { return int(boxes.size()); }
+  // The part whose half-open box holds `p` (a point on a split plane goes to child[1], as build_kd_tree splits).
+  int part_of(const Vec3d& p) const;
   // The parts front to back as seen by `camera`: at each split the side the eye is on first (perspective), or the
   // side the view direction leaves first (parallel projection). Exact for the convex boxes of a kd-tree.
   std::vector<int> visibility_order(const Camera& camera) const;

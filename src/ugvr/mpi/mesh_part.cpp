@@ -20,35 +20,12 @@ const UnstructuredMesh& unstructured(const Block& block, std::string_view what) 
   return *mesh;
 }
 
-Bounds cell_bounds(const UnstructuredMesh& mesh, uint64_t c) {
-  Bounds b;
-  for (uint32_t v : mesh.cell(c)) b.add(to_double(mesh.points[v]));
-  return b;
-}
-
 bool closed_overlap(const Bounds& a, const Bounds& box) {
   return a.lo.x <= box.hi.x && a.hi.x >= box.lo.x && a.lo.y <= box.hi.y && a.hi.y >= box.lo.y && a.lo.z <= box.hi.z &&
          a.hi.z >= box.lo.z;
 }
 
-Vec3d centroid(const UnstructuredMesh& mesh, uint64_t c) {
-  const auto v = mesh.cell(c);
-  Vec3d sum{0, 0, 0};
-  for (uint32_t i : v) sum = sum + to_double(mesh.points[i]);
-  return sum * (1.0 / double(v.size()));
-}
-
 double coord(const Vec3d& p, int axis) { return axis == 0 ? p.x : axis == 1 ? p.y : p.z; }
-
-// The kd part whose half-open box holds `p` (points on a plane go right, as build_kd_tree splits them).
-int part_of(const KdTree& tree, const Vec3d& p) {
-  int node = 0;
-  while (tree.nodes[size_t(node)].axis >= 0) {
-    const KdNode& n = tree.nodes[size_t(node)];
-    node = n.child[coord(p, n.axis) < n.split ? 0 : 1];
-  }
-  return tree.nodes[size_t(node)].part;
-}
 
 std::string pvtu_type_attributes(ScalarType type, int components) {
   return " type=\"" + std::string(scalar_type_name(type)) + "\" NumberOfComponents=\"" + std::to_string(components) +
@@ -56,6 +33,19 @@ std::string pvtu_type_attributes(ScalarType type, int components) {
 }
 
 }  // namespace
+
+Bounds cell_bounds(const UnstructuredMesh& mesh, uint64_t c) {
+  Bounds b;
+  for (uint32_t v : mesh.cell(c)) b.add(to_double(mesh.points[v]));
+  return b;
+}
+
+Vec3d cell_centroid(const UnstructuredMesh& mesh, uint64_t c) {
+  const auto v = mesh.cell(c);
+  Vec3d sum{0, 0, 0};
+  for (uint32_t i : v) sum = sum + to_double(mesh.points[i]);
+  return sum * (1.0 / double(v.size()));
+}
 
 Block block_subset(const Block& block, std::span<const uint8_t> keep) {
   const UnstructuredMesh& mesh = unstructured(block, "block_subset");
@@ -108,7 +98,8 @@ Bounds block_point_bounds(const Block& block) {
 std::vector<Vec3d> sampled_cell_centroids(const Block& block, uint64_t first, uint64_t stride) {
   const UnstructuredMesh& mesh = unstructured(block, "sampled_cell_centroids");
   std::vector<Vec3d> out;
-  for (uint64_t c = first; c < mesh.cell_count(); c += std::max<uint64_t>(stride, 1)) out.push_back(centroid(mesh, c));
+  for (uint64_t c = first; c < mesh.cell_count(); c += std::max<uint64_t>(stride, 1))
+    out.push_back(cell_centroid(mesh, c));
   return out;
 }
 
@@ -202,7 +193,7 @@ Block read_block_bytes(std::span<const std::byte>& bytes, std::string_view sourc
 std::vector<uint32_t> slab_pieces(const Block& block, uint32_t pieces, int axis) {
   const UnstructuredMesh& mesh = unstructured(block, "slab_pieces");
   std::vector<double> key(mesh.cell_count());
-  for (uint64_t c = 0; c < key.size(); ++c) key[c] = coord(centroid(mesh, c), axis);
+  for (uint64_t c = 0; c < key.size(); ++c) key[c] = coord(cell_centroid(mesh, c), axis);
   std::vector<uint64_t> order(key.size());
   std::iota(order.begin(), order.end(), uint64_t(0));
   std::stable_sort(order.begin(), order.end(), [&](uint64_t a, uint64_t b) { return key[a] < key[b]; });
@@ -216,7 +207,7 @@ std::vector<uint32_t> kd_pieces(const Block& block, uint32_t pieces) {
   const UnstructuredMesh& mesh = unstructured(block, "kd_pieces");
   const KdTree tree = build_kd_tree(sampled_cell_centroids(block, 0, 1), int(pieces));
   std::vector<uint32_t> out(mesh.cell_count());
-  for (uint64_t c = 0; c < out.size(); ++c) out[c] = uint32_t(part_of(tree, centroid(mesh, c)));
+  for (uint64_t c = 0; c < out.size(); ++c) out[c] = uint32_t(tree.part_of(cell_centroid(mesh, c)));
   return out;
 }
 

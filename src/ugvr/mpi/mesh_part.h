@@ -26,6 +26,11 @@ Block block_subset(const Block& block, std::span<const uint8_t> keep);
 // engine's walk mesh counts them.
 Bounds block_point_bounds(const Block& block);
 
+// A cell's bounding box (its float32 vertices, in double) and its centroid (the mean of its vertices, as
+// cell_centroids of kd_partition.h computes them), for the pieces' and the parts' kd-trees.
+Bounds cell_bounds(const UnstructuredMesh& mesh, uint64_t c);
+Vec3d cell_centroid(const UnstructuredMesh& mesh, uint64_t c);
+
 // Cell centroids (the mean of each cell's vertices, as cell_centroids of kd_partition.h computes them) of the cells
 // c = first, first + stride, ... of an unstructured block: the sample the kd-tree of a part read is built from.
 std::vector<Vec3d> sampled_cell_centroids(const Block& block, uint64_t first, uint64_t stride);

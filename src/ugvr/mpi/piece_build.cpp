@@ -8,24 +8,12 @@
 #include <filesystem>
 
 #include "ugvr/core/error.h"
+#include "ugvr/mpi/mesh_part.h"
 
 namespace ugvr {
 namespace {
 
 double coord(const Vec3d& p, int axis) { return axis == 0 ? p.x : axis == 1 ? p.y : p.z; }
-
-Bounds cell_bounds(const UnstructuredMesh& mesh, uint64_t c) {
-  Bounds b;
-  for (uint32_t v : mesh.cell(c)) b.add(to_double(mesh.points[v]));
-  return b;
-}
-
-Vec3d cell_centroid(const UnstructuredMesh& mesh, uint64_t c) {
-  const auto ids = mesh.cell(c);
-  Vec3d sum{0, 0, 0};
-  for (uint32_t v : ids) sum = sum + to_double(mesh.points[v]);
-  return sum * (1.0 / double(ids.size()));
-}
 
 // Calls f(piece) for every piece whose closed box meets `b` (a cell's bounding box already grown by the margin).
 template <class F>
@@ -37,16 +25,6 @@ void for_each_piece_meeting(const KdTree& tree, int node, const Bounds& b, F&& f
   }
   if (coord(b.lo, n.axis) <= n.split) for_each_piece_meeting(tree, n.child[0], b, f);
   if (coord(b.hi, n.axis) >= n.split) for_each_piece_meeting(tree, n.child[1], b, f);
-}
-
-// The piece whose half-open box holds `p` (as build_kd_tree partitions the centroids: on the plane goes right).
-int owner(const KdTree& tree, const Vec3d& p) {
-  int node = 0;
-  while (tree.nodes[size_t(node)].axis >= 0) {
-    const KdNode& n = tree.nodes[size_t(node)];
-    node = n.child[coord(p, n.axis) < n.split ? 0 : 1];
-  }
-  return tree.nodes[size_t(node)].part;
 }
 
 Bounds grown(Bounds b, double margin) {
@@ -73,7 +51,7 @@ PiecePlan plan_pieces(const OctreeInput& input, int pieces, uint32_t resolution,
   plan.tree = build_kd_tree(std::move(centroids), pieces);
   std::vector<std::atomic<uint64_t>> owned(static_cast<size_t>(pieces)), held(static_cast<size_t>(pieces));
   tbb::parallel_for(uint64_t(0), mesh.cell_count(), [&](uint64_t c) {
-    owned[size_t(owner(plan.tree, cell_centroid(mesh, c)))].fetch_add(1, std::memory_order_relaxed);
+    owned[size_t(plan.tree.part_of(cell_centroid(mesh, c)))].fetch_add(1, std::memory_order_relaxed);
     for_each_piece_meeting(plan.tree, 0, grown(cell_bounds(mesh, c), plan.ghost_margin),
                            [&](int k) { held[size_t(k)].fetch_add(1, std::memory_order_relaxed); });
   });
