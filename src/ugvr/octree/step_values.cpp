@@ -1,9 +1,5 @@
 #include "ugvr/octree/step_values.h"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
@@ -17,17 +13,6 @@ constexpr size_t kBufferFloats = size_t(1) << 18;  // 1 MiB written at a time
 
 [[noreturn]] void fail_io(const std::string& path, const char* what) {
   fail_in(path, std::string(what) + ": " + std::strerror(errno));
-}
-
-void read_exact(const std::string& path, int fd, void* out, size_t bytes, uint64_t offset) {
-  auto* p = static_cast<char*>(out);
-  while (bytes > 0) {
-    const ssize_t got = ::pread(fd, p, bytes, off_t(offset));
-    if (got < 0 && errno == EINTR) continue;
-    if (got < 0) fail_io(path, "cannot read the temporary value file");
-    if (got == 0) fail_in(path, "the temporary value file ends early");
-    p += got, bytes -= size_t(got), offset += uint64_t(got);
-  }
 }
 
 // The distinct ids of a batch of records in ascending order, and each id's index among them: through a table over
@@ -67,7 +52,7 @@ class DistinctIds {
 // The values at `ids` (ascending, distinct, each below the file's length) of a value file, read in runs: ids at most
 // kGap apart share a read (reading through a small gap is cheaper than another call), up to kRun values a read.
 template <class T>
-void gather(const std::string& path, int fd, std::span<const T> ids, float* out) {
+void gather(const InputFile& file, std::span<const T> ids, float* out) {
   constexpr uint64_t kGap = 1024, kRun = uint64_t(1) << 16;
   std::vector<float> run;
   for (size_t s = 0; s < ids.size();) {
@@ -75,7 +60,7 @@ void gather(const std::string& path, int fd, std::span<const T> ids, float* out)
     while (e < ids.size() && uint64_t(ids[e] - ids[e - 1]) <= kGap && uint64_t(ids[e] - ids[s]) < kRun) ++e;
     const uint64_t first = ids[s], count = uint64_t(ids[e - 1] - ids[s]) + 1;
     run.resize(size_t(count));
-    read_exact(path, fd, run.data(), size_t(count) * sizeof(float), first * sizeof(float));
+    file.read_at(first * sizeof(float), run.data(), size_t(count) * sizeof(float));
     for (size_t j = s; j < e; ++j) out[j] = run[size_t(ids[j] - first)];
     s = e;
   }
@@ -147,83 +132,70 @@ void ValueFileWriter::close() {
   if (rc != 0) fail_io(path_, "cannot close the temporary value file");
 }
 
-StepValues::File StepValues::open_values(const std::string& path, uint64_t count) {
-  File f{path, ::open(path.c_str(), O_RDONLY | O_CLOEXEC)};
-  if (f.fd < 0) fail_io(path, "cannot open the temporary value file");
-  struct stat st {};
-  if (::fstat(f.fd, &st) != 0 || uint64_t(st.st_size) != count * sizeof(float)) {
-    ::close(f.fd);
-    fail_in(path, "the temporary value file holds " + std::to_string(uint64_t(st.st_size) / sizeof(float)) +
-                      " values, not " + std::to_string(count));
-  }
-  return f;
+InputFile StepValues::open_values(const std::string& path, uint64_t count) {
+  InputFile file(path);
+  if (file.size() != count * sizeof(float))
+    fail_in(path, "the temporary value file holds " + std::to_string(file.size() / sizeof(float)) + " values, not " +
+                      std::to_string(count));
+  return file;
 }
 
 StepValues::StepValues(const std::string& prefix, const SoupLayout& layout, uint64_t points, uint64_t cells)
     : layout_(layout), points_(points), cells_(cells) {
-  try {
-    for (uint32_t f = 0; f < layout.vertex_fields; ++f)
-      vertex_files_.push_back(open_values(step_vertex_values_path(prefix, f), points));
-    for (uint32_t f = 0; f < layout.cell_fields; ++f)
-      cell_files_.push_back(open_values(step_cell_values_path(prefix, f), cells));
-  } catch (...) {
-    for (const File& f : vertex_files_) ::close(f.fd);
-    for (const File& f : cell_files_) ::close(f.fd);
-    throw;
-  }
+  for (uint32_t f = 0; f < layout.vertex_fields; ++f)
+    vertex_files_.push_back(open_values(step_vertex_values_path(prefix, f), points));
+  for (uint32_t f = 0; f < layout.cell_fields; ++f)
+    cell_files_.push_back(open_values(step_cell_values_path(prefix, f), cells));
 }
 
-StepValues::~StepValues() {
-  for (const File& f : vertex_files_) ::close(f.fd);
-  for (const File& f : cell_files_) ::close(f.fd);
+StepValues::~StepValues() = default;
+
+// Reads the values of `files` (one per field) at the distinct ids of `refs` (one per record, or per corner) and
+// writes them into the records through `put(record, cell, ref index within the record, field, value)`.
+template <class T, class Visit, class Put>
+void StepValues::fill(std::span<std::byte> records, std::span<const size_t> offsets,
+                      const std::vector<InputFile>& files, uint64_t count, const char* what, Visit&& ids_of,
+                      Put&& put) const {
+  std::vector<T> refs;
+  for (size_t at : offsets) ids_of(SoupCell(records.data() + at, layout_), refs);
+  const DistinctIds<T> distinct(std::move(refs));
+  const std::vector<T>& ids = distinct.ids();
+  check_below(files[0].path(), ids, count, what);
+  const size_t F = files.size();
+  std::vector<float> values(F * ids.size());
+  for (size_t f = 0; f < F; ++f) gather<T>(files[f], ids, values.data() + f * ids.size());
+  std::vector<T> mine;
+  for (size_t at : offsets) {
+    std::byte* record = records.data() + at;
+    const SoupCell cell(record, layout_);
+    mine.clear();
+    ids_of(cell, mine);
+    for (size_t i = 0; i < mine.size(); ++i) {
+      const size_t local = distinct.index(mine[i]);
+      for (size_t f = 0; f < F; ++f) put(record, cell, i, uint32_t(f), values[f * ids.size() + local]);
+    }
+  }
 }
 
 void StepValues::put_into(std::span<std::byte> records) const {
-  const uint32_t Fv = layout_.vertex_fields, Fc = layout_.cell_fields;
   std::vector<size_t> offsets;
-  std::vector<uint32_t> corners;
-  std::vector<uint64_t> cells;
-  for (size_t at = 0; at < records.size();) {
-    const SoupCell cell(records.data() + at, layout_);
-    offsets.push_back(at);
-    for (int i = 0; i < cell.vertex_count() && Fv > 0; ++i) corners.push_back(cell.vertex(i));
-    if (Fc > 0) cells.push_back(cell.id());
-    at += cell.bytes();
-  }
-  if (Fv > 0) {
-    const DistinctIds<uint32_t> points(std::move(corners));
-    const std::vector<uint32_t>& ids = points.ids();
-    check_below(vertex_files_[0].path, ids, points_, "point");
-    std::vector<float> values(size_t(Fv) * ids.size());
-    for (uint32_t f = 0; f < Fv; ++f)
-      gather<uint32_t>(vertex_files_[f].path, vertex_files_[f].fd, ids, values.data() + f * ids.size());
-    for (size_t at : offsets) {
-      std::byte* record = records.data() + at;
-      const SoupCell cell(record, layout_);
-      const int n = cell.vertex_count();
-      for (int i = 0; i < n; ++i) {
-        const size_t local = points.index(cell.vertex(i));
-        for (uint32_t f = 0; f < Fv; ++f)
-          std::memcpy(record + layout_.vertex_value_offset(n, f, i), &values[f * ids.size() + local], sizeof(float));
-      }
-    }
-  }
-  if (Fc > 0) {
-    const DistinctIds<uint64_t> distinct(std::move(cells));
-    const std::vector<uint64_t>& ids = distinct.ids();
-    check_below(cell_files_[0].path, ids, cells_, "cell");
-    std::vector<float> values(size_t(Fc) * ids.size());
-    for (uint32_t f = 0; f < Fc; ++f)
-      gather<uint64_t>(cell_files_[f].path, cell_files_[f].fd, ids, values.data() + f * ids.size());
-    for (size_t at : offsets) {
-      std::byte* record = records.data() + at;
-      const SoupCell cell(record, layout_);
-      const size_t local = distinct.index(cell.id());
-      for (uint32_t f = 0; f < Fc; ++f)
-        std::memcpy(record + layout_.cell_value_offset(cell.vertex_count(), f), &values[f * ids.size() + local],
-                    sizeof(float));
-    }
-  }
+  for (size_t at = 0; at < records.size(); at += SoupCell(records.data() + at, layout_).bytes()) offsets.push_back(at);
+  if (!vertex_files_.empty())
+    fill<uint32_t>(
+        records, offsets, vertex_files_, points_, "point",
+        [](const SoupCell& cell, std::vector<uint32_t>& out) {
+          for (int i = 0; i < cell.vertex_count(); ++i) out.push_back(cell.vertex(i));
+        },
+        [&](std::byte* record, const SoupCell& cell, size_t corner, uint32_t f, float v) {
+          std::memcpy(record + layout_.vertex_value_offset(cell.vertex_count(), f, int(corner)), &v, sizeof(float));
+        });
+  if (!cell_files_.empty())
+    fill<uint64_t>(
+        records, offsets, cell_files_, cells_, "cell",
+        [](const SoupCell& cell, std::vector<uint64_t>& out) { out.push_back(cell.id()); },
+        [&](std::byte* record, const SoupCell& cell, size_t, uint32_t f, float v) {
+          std::memcpy(record + layout_.cell_value_offset(cell.vertex_count(), f), &v, sizeof(float));
+        });
 }
 
 }  // namespace ugvr

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "ugvr/core/file.h"
 #include "ugvr/octree/soup.h"
 
 namespace ugvr {
@@ -65,15 +66,14 @@ class StepValues {
   void put_into(std::span<std::byte> records) const;
 
  private:
-  struct File {
-    std::string path;
-    int fd = -1;
-  };
-  static File open_values(const std::string& path, uint64_t count);
+  static InputFile open_values(const std::string& path, uint64_t count);
+  template <class T, class Visit, class Put>
+  void fill(std::span<std::byte> records, std::span<const size_t> offsets, const std::vector<InputFile>& files,
+            uint64_t count, const char* what, Visit&& ids_of, Put&& put) const;
 
   SoupLayout layout_;
   uint64_t points_ = 0, cells_ = 0;
-  std::vector<File> vertex_files_, cell_files_;
+  std::vector<InputFile> vertex_files_, cell_files_;
 };
 
 }  // namespace ugvr
