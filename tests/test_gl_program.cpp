@@ -202,14 +202,17 @@ TEST(LodGpuContract, DriverLaysOutTheFrameBlockAsTheCppStruct) {
                                        UGVR_MEMBER(u_cell_data),
                                        UGVR_MEMBER(u_box_lo),
                                        UGVR_MEMBER(u_box_hi),
-                                       UGVR_MEMBER(u_context)};
+                                       UGVR_MEMBER(u_context),
+                                       Member{"u_focus[0]", offsetof(lod_gpu::LodFrame, u_focus)},
+                                       UGVR_MEMBER(u_focus_map)};
   const std::vector<std::vector<std::pair<std::string, std::string>>> variants = {
       {{"MODE", "0"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "0"}},
       {{"MODE", "0"}, {"VOLUME_LIGHTING", "1"}, {"OVERLAY", "1"}},
       {{"MODE", "1"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "0"}},
       {{"MODE", "2"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "1"}},
       {{"MODE", "0"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "1"}, {"SLICES", "1"}},
-      {{"MODE", "1"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "0"}, {"SLICES", "1"}}};
+      {{"MODE", "1"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "0"}, {"SLICES", "1"}},
+      {{"MODE", "0"}, {"VOLUME_LIGHTING", "0"}, {"OVERLAY", "0"}, {"FOCUS_WINDOWS", "2"}}};
   for (const auto& defines : variants) {
     SCOPED_TRACE("MODE " + defines[0].second + " OVERLAY " + defines[2].second);
     const ComputeProgram p("lod_raycast.comp", defines);
@@ -232,7 +235,7 @@ TEST(LodGpuContract, DriverLaysOutTheFrameBlockAsTheCppStruct) {
       glGetProgramResourceiv(p.id(), GL_UNIFORM, index, 3, properties, 3, nullptr, values);
       EXPECT_EQ(values[0], GLint(m.offset)) << m.name;
       EXPECT_EQ(values[1], GLint(block)) << m.name;
-      if (std::string(m.name).ends_with("[0]")) {  // the vec4 arrays: u_iso, u_slice_plane, u_slice_map
+      if (std::string(m.name).ends_with("[0]")) {  // the vec4 arrays: u_iso, u_slice_plane, u_slice_map, u_focus
         EXPECT_EQ(values[2], GLint(sizeof(lod_gpu::vec4)));
       }
     }
