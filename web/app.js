@@ -71,7 +71,9 @@ window.ugvrViewer = {
   get views() { return viewsReceived; },
   get fields() { return scene ? scene.fields.map((f) => ({ name: f.name, range: f.range.slice(), bins: f.histogram.length })) : []; },
   get field() { return view.field; },
-  get focusBrush() { return { hidden: $("focus-brush-row").hidden, range: focusBrush.range && focusBrush.range.slice() }; },
+  get focusBrush() {
+    return { hidden: $("focus-brush-row").hidden, range: focusBrush.range && focusBrush.range.slice(), edge: focusBrush.edge() };
+  },
   get range() { return [tfEditor.lo, tfEditor.hi]; },
   get tf() {
     return { preset: view.preset, opacity: view.opacity, opacity_points: tfEditor.flatPoints(), rgb_points: currentColors(),

@@ -2,14 +2,17 @@
 // field's values (tf_editor.js's drawLogHistogram, loaded before) with the brushed value range highlighted. Drag
 // across it to brush a new range; onBrush(lo, hi) is called when the drag ends (the page then sends the focus, so a
 // drag costs one frame of the new interest, not one per pointer move). A drag shorter than 3 pixels is a click and
-// changes nothing. The brush has a smooth edge (docs/hybrid.md): onBrush's third argument, EDGE_FRACTION of the
-// field's range, over which the interest falls to 0 outside the range (drawn as a fainter band on either side).
+// changes nothing. The brush has a smooth edge (docs/hybrid.md): onBrush's third argument, over which the interest
+// falls to 0 outside the range, drawn as a fainter band on either side; EDGE_FRACTION of the field's range to start
+// with. Dragging a band's outer end (within HANDLE_PX of it) sets the edge instead of the range: both bands follow,
+// and onBrush is called when that drag ends too.
 "use strict";
 
 class FocusBrush {
   // A fiftieth of the field's range: narrow enough to keep the brushed range what the user drew, wide enough to span
   // a few samples of a node's brick, so that the focus border is seen to follow the data rather than the nodes.
   static EDGE_FRACTION = 0.02;
+  static HANDLE_PX = 4;
 
   constructor(canvas, onBrush) {
     this.canvas = canvas;
@@ -19,6 +22,8 @@ class FocusBrush {
     this.histogram = [];
     this.range = null;                // [min, max] brushed, in data values; null: none
     this.anchor = null;               // the drag's start in canvas pixels, while dragging
+    this.edgeDrag = false;            // whether the drag under way sets the edge (a band's end was grabbed)
+    this.edgeFraction = FocusBrush.EDGE_FRACTION;
     this.pad = 4;
     canvas.addEventListener("pointerdown", (e) => this.pointerDown(e));
     canvas.addEventListener("pointermove", (e) => this.pointerMove(e));
@@ -38,7 +43,20 @@ class FocusBrush {
   }
 
   // The brush's edge in data values.
-  edge() { return FocusBrush.EDGE_FRACTION * (this.hi - this.lo); }
+  edge() { return this.edgeFraction * (this.hi - this.lo); }
+  // Whether canvas x is on the outer end of either edge band (the handles that set the edge).
+  onEdgeHandle(x) {
+    if (!this.range) return false;
+    const e = this.toPx(this.lo + this.edge()) - this.toPx(this.lo);
+    return Math.abs(x - (this.toPx(this.range[0]) - e)) <= FocusBrush.HANDLE_PX ||
+           Math.abs(x - (this.toPx(this.range[1]) + e)) <= FocusBrush.HANDLE_PX;
+  }
+  // The edge that puts a band's outer end at canvas x: its distance from the nearer end of the range (0 inside it).
+  edgeAt(x) {
+    const v = this.lo + ((x - this.pad) / (this.canvas.width - 2 * this.pad)) * (this.hi - this.lo);
+    const d = v < this.range[0] ? this.range[0] - v : v > this.range[1] ? v - this.range[1] : 0;
+    return Math.min(1, d / (this.hi - this.lo));
+  }
 
   // Data value <-> canvas x (the plot spans the canvas less its padding).
   toPx(v) { return this.pad + ((v - this.lo) / (this.hi - this.lo)) * (this.canvas.width - 2 * this.pad); }
@@ -53,19 +71,27 @@ class FocusBrush {
 
   pointerDown(e) {
     this.anchor = this.eventPx(e);
+    this.edgeDrag = this.onEdgeHandle(this.anchor);
     this.canvas.setPointerCapture?.(e.pointerId);
   }
   pointerMove(e) {
     if (this.anchor === null) return;
     const x = this.eventPx(e);
-    if (Math.abs(x - this.anchor) >= 3) this.setRange(this.fromPx(this.anchor), this.fromPx(x));
+    if (Math.abs(x - this.anchor) < 3) return;
+    if (this.edgeDrag) {
+      this.edgeFraction = this.edgeAt(x);
+      this.draw();
+    } else {
+      this.setRange(this.fromPx(this.anchor), this.fromPx(x));
+    }
   }
   pointerUp(e) {
     if (this.anchor === null) return;
     const x = this.eventPx(e), anchor = this.anchor;
     this.anchor = null;
     if (Math.abs(x - anchor) < 3) return;
-    this.setRange(this.fromPx(anchor), this.fromPx(x));
+    if (this.edgeDrag) this.edgeFraction = this.edgeAt(x);
+    else this.setRange(this.fromPx(anchor), this.fromPx(x));
     this.onBrush(this.range[0], this.range[1], this.edge());
   }
 
@@ -89,6 +115,11 @@ class FocusBrush {
       ctx.strokeStyle = "#d9a441";
       ctx.lineWidth = 1;
       ctx.strokeRect(x0 + 0.5, 0.5, Math.max(1, x1 - x0 - 1), h - 1);
+      ctx.strokeStyle = "rgba(217, 164, 65, 0.5)";  // the handles: the bands' outer ends
+      ctx.beginPath();
+      ctx.moveTo(x0 - e + 0.5, 0), ctx.lineTo(x0 - e + 0.5, h);
+      ctx.moveTo(x1 + e - 0.5, 0), ctx.lineTo(x1 + e - 0.5, h);
+      ctx.stroke();
     }
   }
 }

@@ -103,16 +103,22 @@ test("a brush on the focus field's histogram sets the focus when the drag ends",
   assert.ok(Math.abs(shown.range[0] - (lo + 0.25 * w)) < 1e-5 * w && Math.abs(shown.range[1] - (lo + 0.75 * w)) < 1e-5 * w,
             `it starts on the middle half of the range: ${shown.range}`);
   const sentBefore = (await hook("log")).filter((m) => m.type === "interest").length;
-  // Drag from 10 % to 30 % of the plot (the canvas is drawn 1:1; its plot has 4 pixels of padding on each side).
+  // Drag across a fifth of the plot ending a tenth below its fullest bin (the free stream, which every node holds), so
+  // that the range holds data only the nodes by the wing reach (the canvas is drawn 1:1; its plot has 4 pixels of
+  // padding on each side); kept inside the plot with room for the edge handle's drag below.
+  const hist = field.histogram;
+  let peak = 0;
+  hist.forEach((c, i) => { if (c > hist[peak]) peak = i; });
+  const f0 = Math.min(Math.max(peak / hist.length - 0.3, 0.02), 0.6), f1 = f0 + 0.2;
   const box = await page.locator("#focus-brush").boundingBox();
   const at = (f) => box.x + 4 + f * (box.width - 8);
   const y = box.y + box.height / 2;
-  await page.mouse.move(at(0.1), y);
+  await page.mouse.move(at(f0), y);
   await page.mouse.down();
-  await page.mouse.move(at(0.2), y, { steps: 4 });
+  await page.mouse.move(at(f0 + 0.1), y, { steps: 4 });
   const during = (await hook("log")).filter((m) => m.type === "interest").length;
   assert.equal(during, sentBefore, "nothing is sent while dragging");
-  await page.mouse.move(at(0.3), y, { steps: 4 });
+  await page.mouse.move(at(f1), y, { steps: 4 });
   await page.mouse.up();
   const sent = await waitFor("the brushed interest message", async () => {
     const all = (await hook("log")).filter((m) => m.type === "interest");
@@ -123,7 +129,7 @@ test("a brush on the focus field's histogram sets the focus when the drag ends",
   const bmin = Number(m[2]), bmax = Number(m[3]), edge = Number(m[4]);
   assert.ok(Math.abs(edge - 0.02 * w) < 1e-5 * w, `the brush's edge is a fiftieth of the range: ${edge}`);
   // Within a pixel of the drag's ends (the plot is about 290 pixels wide).
-  assert.ok(Math.abs(bmin - (lo + 0.1 * w)) < 0.01 * w && Math.abs(bmax - (lo + 0.3 * w)) < 0.01 * w,
+  assert.ok(Math.abs(bmin - (lo + f0 * w)) < 0.01 * w && Math.abs(bmax - (lo + f1 * w)) < 0.01 * w,
             `brushed ${bmin}..${bmax} of ${lo}..${hi}`);
   assert.equal(await page.locator("#interest-note").textContent(), "focus set");
   assert.deepEqual((await hook("focusBrush")).range.map((v) => +v.toPrecision(6)), [bmin, bmax]);
@@ -132,6 +138,28 @@ test("a brush on the focus field's histogram sets the focus when the drag ends",
   console.log(`brushed ${field.name} ${bmin}..${bmax}: exact ${s.status.exact.nodes} of ${s.status.exact.candidates}, ` +
               `${s.status.exact.focus_excluded} context nodes`);
   assert.ok(s.status.exact.focus_excluded > 0, "nodes outside the brushed range are context");
+  assert.ok(s.status.exact.nodes > 0, "nodes inside the brushed range (it holds the fullest bin) are exact");
+
+  // The right band's outer end is a handle: dragging it from the range's end + a fiftieth to 15 % beyond the end sets
+  // the edge to about 15 % of the range (its distance from the range's end) and applies it; the range stays.
+  const sentBeforeEdge = (await hook("log")).filter((m) => m.type === "interest").length;
+  const handle = (bmax - lo) / w + 0.02;
+  await page.mouse.move(at(handle), y);
+  await page.mouse.down();
+  await page.mouse.move(at(f1 + 0.15), y, { steps: 4 });
+  await page.mouse.up();
+  const edged = await waitFor("the interest message with the dragged edge", async () => {
+    const all = (await hook("log")).filter((m) => m.type === "interest");
+    return all.length > sentBeforeEdge ? all.pop() : null;
+  }, CONVERGE_MS);
+  const me = edged.focus.match(/^(.*):([^:]+):([^:~]+)~([^:~]+)$/);
+  assert.ok(me, `the focus keeps an edge: ${edged.focus}`);
+  assert.ok(Math.abs(Number(me[2]) - bmin) < 1e-4 * w && Math.abs(Number(me[3]) - bmax) < 1e-4 * w,
+            `dragging the edge keeps the range: ${edged.focus}`);
+  const dragged = Number(me[4]);
+  assert.ok(Math.abs(dragged - (lo + (f1 + 0.15) * w - bmax)) < 0.01 * w, `the edge follows the handle: ${dragged} of ${w}`);
+  assert.ok(Math.abs((await hook("focusBrush")).edge - dragged) < 1e-4 * w, "the brush draws the edge it sent");
+  await waitConverged(page, CONVERGE_MS);
 
   await page.click("#interest-clear");
   assert.equal((await hook("focusBrush")).hidden, true, "clearing the focus hides the brush");
