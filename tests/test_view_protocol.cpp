@@ -176,7 +176,9 @@ TEST(ViewProtocol, ServerMessages) {
   EXPECT_EQ(e["type"], "error");
   EXPECT_EQ(e["message"], "width: must be in [16, 4096]");
   // Invalid UTF-8 quoted back from a client is replaced, not thrown.
-  EXPECT_NO_THROW((void)nlohmann::json::parse(error_message("type: \xff\xfe")));
+  nlohmann::json quoted;
+  EXPECT_NO_THROW(quoted = nlohmann::json::parse(error_message("type: \xff\xfe")));
+  EXPECT_EQ(quoted["type"], "error");
   FrameStatus s;
   s.seq = 3, s.png = true, s.width = 64, s.height = 32, s.cut_nodes = 12, s.converged = true, s.texel_error = 0.5;
   const nlohmann::json j = nlohmann::json::parse(status_message(s));
