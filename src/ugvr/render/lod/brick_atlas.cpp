@@ -246,17 +246,17 @@ bool extend_into_samples_without_data(std::vector<double>& block, const std::vec
   const size_t px = nx + 2, py = ny + 2, plane = px * py;
   thread_local std::vector<int> layer;
   thread_local std::vector<double> value;
-  thread_local std::vector<size_t> frontier, next;
+  thread_local std::vector<size_t> frontier, next, without;
   layer.assign(plane * (nz + 2), kPad);
   value.assign(layer.size(), 0.0);
-  frontier.clear();
+  frontier.clear(), without.clear();
   for (size_t z = 0; z < nz; ++z)
     for (size_t y = 0; y < ny; ++y) {
       const size_t from = (z * ny + y) * nx, to = ((z + 1) * py + y + 1) * px + 1;
       for (size_t x = 0; x < nx; ++x) {
         value[to + x] = block[from + x];
         layer[to + x] = valid[from + x] ? 0 : kUnreached;
-        if (valid[from + x]) frontier.push_back(to + x);
+        (valid[from + x] ? frontier : without).push_back(to + x);
       }
     }
   if (frontier.empty()) return false;
@@ -268,11 +268,22 @@ bool extend_into_samples_without_data(std::vector<double>& block, const std::vec
         if (dx || dy || dz) around[count_around++] = (ptrdiff_t(dz) * ptrdiff_t(py) + dy) * ptrdiff_t(px) + dx;
   for (int l = 1; !frontier.empty(); ++l) {
     next.clear();
-    for (size_t i : frontier)
-      for (ptrdiff_t o : around) {
-        const size_t j = size_t(ptrdiff_t(i) + o);
-        if (layer[j] == kUnreached) layer[j] = l, next.push_back(j);
-      }
+    if (l == 1 && without.size() < frontier.size()) {
+      // The first layer from the side with fewer samples (the data's frontier is all of the data): a sample without
+      // data next to one with data. The same layer, so the same values.
+      for (size_t j : without)
+        for (ptrdiff_t o : around)
+          if (layer[size_t(ptrdiff_t(j) + o)] == 0) {
+            layer[j] = 1, next.push_back(j);
+            break;
+          }
+    } else {
+      for (size_t i : frontier)
+        for (ptrdiff_t o : around) {
+          const size_t j = size_t(ptrdiff_t(i) + o);
+          if (layer[j] == kUnreached) layer[j] = l, next.push_back(j);
+        }
+    }
     for (size_t j : next) {
       double sum = 0;
       int count = 0;
