@@ -807,8 +807,11 @@ TEST(LodTricubic, LevelBlendFollowsTheCut) {
       "max difference from a fresh engine's frame: %.2e (checkerboard), %.2e (leaves); the blend changes the "
       "checkerboard's image by %.2e\n",
       to_checkerboard.max_abs, to_leaves.max_abs, blend_change.max_abs);
-  EXPECT_LT(to_checkerboard.max_abs, 0.01 * blend_change.max_abs);
-  EXPECT_LT(to_leaves.max_abs, 0.01 * blend_change.max_abs);
+  // Measured: 2.31e-5 (checkerboard), 0 (leaves), the blend's change 1.91e-3. The blend's change was 2.14e-2 while
+  // the cubic margins took the apron's whole |coefficient - sample| (cubic_margin_code): a walk artifact (ended
+  // rounds), not the spline's; the spline at every sample (UGVR_TRICUBIC_NO_BRACKET) gives 1.91e-3 too.
+  EXPECT_LT(to_checkerboard.max_abs, 0.05 * blend_change.max_abs);
+  EXPECT_LT(to_leaves.max_abs, 0.05 * blend_change.max_abs);
 }
 
 // The atlas budget counts what tricubic frames add per slot (2 bytes of coefficient a texel and a float of cubic
@@ -1638,6 +1641,10 @@ TEST(LodTricubic, BluntFinWalkDrawsNoSurfaceOutsideTheData) {
   ASSERT_GT(both, 5000);
   // Measured: 21 (single pixels along the edge, the two variants place a crossing near the stencil apart), 403 before.
   EXPECT_LT(walk_only, both / 100) << "surface drawn outside the data";
+  // The other way, holes the walk leaves: 511 pixels while the cubic margins took the apron's whole |coefficient -
+  // sample| (the walk ran out of candidate rounds on the filled bricks' wide margins), 133 since the margin may take
+  // the apron's coefficients instead (cubic_margin_code); 352 before the fill.
+  EXPECT_LT(every_only, both / 40) << "holes the walk leaves next to the mesh boundary";
 }
 
 // The lattice a voxel volume's store gets for tricubic isosurfaces (view/voxel_store.h): ·2^D intervals across

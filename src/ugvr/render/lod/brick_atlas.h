@@ -54,9 +54,9 @@ void make_atlas_slot(uint32_t resolution, float* samples, const uint8_t* mask, d
 // fractional weights: at most 1/512 of a first difference per axis per fetch, in the spline's 8 convex-weighted
 // fetches and in trilinear's one, with a factor 2 of headroom), the last one the codes' rounding.
 // With `coefficients` (cubic_coefficients' of the same texels), the bound for their spline: the samples' apron taken
-// as their linear extrapolation (trilinear lookups inside the brick do not read it), plus the largest
-// |coefficient − sample| over the slot (the spline of c minus that of f is a convex combination of c − f), the
-// coefficients' first differences in the filtering term, and their rounding.
+// as their linear extrapolation or as the apron's coefficients, whichever bound is smaller (trilinear lookups inside
+// the brick do not read it), plus the largest |coefficient − sample| over the slot (the spline of c minus that of f is
+// a convex combination of c − f), the coefficients' first differences in the filtering term, and their rounding.
 uint16_t cubic_margin_code(uint32_t resolution, const uint16_t* texels,
                            const std::vector<double>* coefficients = nullptr);
 
