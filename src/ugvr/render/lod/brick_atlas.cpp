@@ -268,12 +268,16 @@ bool extend_into_samples_without_data(std::vector<double>& block, const std::vec
   layer.assign(plane * (nz + 2), kPad);
   value.assign(layer.size(), 0.0);
   frontier.clear(), without.clear();
+  // Plain pointers in the loops: through the thread_local vectors each access reloaded their storage (a third of the
+  // fill's time).
+  int* const lay = layer.data();
+  double* const val = value.data();
   for (size_t z = 0; z < nz; ++z)
     for (size_t y = 0; y < ny; ++y) {
       const size_t from = (z * ny + y) * nx, to = ((z + 1) * py + y + 1) * px + 1;
       for (size_t x = 0; x < nx; ++x) {
-        value[to + x] = block[from + x];
-        layer[to + x] = valid[from + x] ? 0 : kUnreached;
+        val[to + x] = block[from + x];
+        lay[to + x] = valid[from + x] ? 0 : kUnreached;
         (valid[from + x] ? frontier : without).push_back(to + x);
       }
     }
@@ -291,15 +295,15 @@ bool extend_into_samples_without_data(std::vector<double>& block, const std::vec
       // data next to one with data. The same layer, so the same values.
       for (size_t j : without)
         for (ptrdiff_t o : around)
-          if (layer[size_t(ptrdiff_t(j) + o)] == 0) {
-            layer[j] = 1, next.push_back(j);
+          if (lay[ptrdiff_t(j) + o] == 0) {
+            lay[j] = 1, next.push_back(j);
             break;
           }
     } else {
       for (size_t i : frontier)
         for (ptrdiff_t o : around) {
           const size_t j = size_t(ptrdiff_t(i) + o);
-          if (layer[j] == kUnreached) layer[j] = l, next.push_back(j);
+          if (lay[j] == kUnreached) lay[j] = l, next.push_back(j);
         }
     }
     for (size_t j : next) {
@@ -307,9 +311,9 @@ bool extend_into_samples_without_data(std::vector<double>& block, const std::vec
       int count = 0;
       for (ptrdiff_t o : around) {
         const size_t m = size_t(ptrdiff_t(j) + o);
-        if (layer[m] >= 0 && layer[m] < l) sum += value[m], ++count;
+        if (lay[m] >= 0 && lay[m] < l) sum += val[m], ++count;
       }
-      value[j] = sum / count;  // count >= 1: j was reached from the previous layer
+      val[j] = sum / count;  // count >= 1: j was reached from the previous layer
     }
     std::swap(frontier, next);
   }
