@@ -19,8 +19,10 @@
 # without data") after the default; it matters only on a store with samples outside the mesh: STORE=PATH ISO=V
 # renders that store (its first field; e.g. the blunt fin's Density) instead of the generated NRRD's, from the default
 # view framed on its data.
+# BASE=PATH adds, in each round, tricubic drawn by another ugvr binary (e.g. one built at the commit before a change:
+# variant tricubic-base) after the default, for before/after of a change that no environment variable turns off.
 # Usage: bench/run_tricubic.sh [OUT_DIR=/tmp/ugvr-tricubic]; UGVR (default build/ugvr), N, SIZE, FRAMES, ROUNDS,
-# FIELD (sphere), BRICKS (64), PER_BRICK, LEVELS, FILL, CUT (leaves), STORE, ISO, PYTHON. One JSON line per render is appended to bench/results/tricubic.jsonl.
+# FIELD (sphere), BRICKS (64), PER_BRICK, LEVELS, FILL, BASE, CUT (leaves), STORE, ISO, PYTHON. One JSON line per render is appended to bench/results/tricubic.jsonl.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-/tmp/ugvr-tricubic}
@@ -75,6 +77,7 @@ variants="trilinear tricubic"
 [ "${PER_BRICK:-0}" = 1 ] && variants="$variants tricubic-per-brick"
 [ "${LEVELS:-0}" = 1 ] && variants="$variants tricubic-no-level-blend"
 [ "${FILL:-0}" = 1 ] && variants="$variants tricubic-no-fill"
+[ -n "${BASE:-}" ] && variants="$variants tricubic-base"
 cut=${CUT:-leaves}
 upload_size=64
 [ "$cut" != leaves ] && upload_size=$size
@@ -87,12 +90,14 @@ for round in $(seq "$rounds"); do
     [ "$variant" = tricubic-no-level-blend ] && blend=0
     fill=""
     [ "$variant" = tricubic-no-fill ] && fill=0
-    UGVR_TRICUBIC_EXTENSION=$extension UGVR_TRICUBIC_LEVEL_BLEND=$blend UGVR_TRICUBIC_FILL=$fill "$ugvr" --quiet render "$store" --engine lod --cut "$cut" \
+    binary=$ugvr
+    [ "$variant" = tricubic-base ] && binary=$BASE
+    UGVR_TRICUBIC_EXTENSION=$extension UGVR_TRICUBIC_LEVEL_BLEND=$blend UGVR_TRICUBIC_FILL=$fill "$binary" --quiet render "$store" --engine lod --cut "$cut" \
       "${camera_args[@]}" --size "$size" --iso $iso --interpolation "$interp" -o "$out/$variant.png" \
       --stats "$out/$variant.json" --frames "$frames"
     # The upload: one frame at 64² (its stats are the frame that uploads every brick of the cut); at SIZE² with a
     # CUT other than leaves (a pixels cut depends on the image's size).
-    UGVR_TRICUBIC_EXTENSION=$extension UGVR_TRICUBIC_LEVEL_BLEND=$blend UGVR_TRICUBIC_FILL=$fill "$ugvr" --quiet render "$store" --engine lod --cut "$cut" \
+    UGVR_TRICUBIC_EXTENSION=$extension UGVR_TRICUBIC_LEVEL_BLEND=$blend UGVR_TRICUBIC_FILL=$fill "$binary" --quiet render "$store" --engine lod --cut "$cut" \
       "${camera_args[@]}" --size "$upload_size" --iso $iso --interpolation "$interp" -o "$out/$variant-64.png" \
       --stats "$out/$variant-upload.json" --frames 1
     "$py" -c "

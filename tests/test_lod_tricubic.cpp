@@ -807,8 +807,11 @@ TEST(LodTricubic, LevelBlendFollowsTheCut) {
       "max difference from a fresh engine's frame: %.2e (checkerboard), %.2e (leaves); the blend changes the "
       "checkerboard's image by %.2e\n",
       to_checkerboard.max_abs, to_leaves.max_abs, blend_change.max_abs);
-  EXPECT_LT(to_checkerboard.max_abs, 0.01 * blend_change.max_abs);
-  EXPECT_LT(to_leaves.max_abs, 0.01 * blend_change.max_abs);
+  // Measured: 2.31e-5 (checkerboard), 0 (leaves), the blend's change 1.91e-3. The blend's change was 2.14e-2 while
+  // the cubic margins took the apron's whole |coefficient - sample| (cubic_margin_code): a walk artifact (ended
+  // rounds), not the spline's; the spline at every sample (UGVR_TRICUBIC_NO_BRACKET) gives 1.91e-3 too.
+  EXPECT_LT(to_checkerboard.max_abs, 0.05 * blend_change.max_abs);
+  EXPECT_LT(to_leaves.max_abs, 0.05 * blend_change.max_abs);
 }
 
 // The atlas budget counts what tricubic frames add per slot (2 bytes of coefficient a texel and a float of cubic
@@ -1448,9 +1451,10 @@ TEST(LodTricubic, BluntFinFineAndCoarseAgreeAtLevelBorders) {
     same_by_fill[fill][0] = value_same, same_by_fill[fill][1] = gradient_same;
   }
   // The coarse level's own brick border, so the level border after the blend, with the fill of samples without data
-  // against without (the neighbourhoods next to the boundary dropped sides: a same-level seam).
+  // against without (the neighbourhoods next to the boundary dropped sides: a same-level seam). Measured: gradient
+  // 5.1e-4 of it (5.4e-3 before the shared border samples and the longer reach next to samples without data).
   EXPECT_LT(same_by_fill[1][0], 0.25 * same_by_fill[0][0]);
-  EXPECT_LT(same_by_fill[1][1], 0.25 * same_by_fill[0][1]);
+  EXPECT_LT(same_by_fill[1][1], 1e-3 * same_by_fill[0][1]);
 }
 
 // The same-level seam next to the mesh's boundary (docs/tricubic.md, "Samples without data"): every pair of
@@ -1459,7 +1463,12 @@ TEST(LodTricubic, BluntFinFineAndCoarseAgreeAtLevelBorders) {
 // their shared face, where the face's cell has data at its four corners (the surface is drawn there), the largest
 // difference of the two bricks' uploaded splines, value and gradient (per sample), without the fill (bricks with
 // samples without data keep their samples; their neighbours drop that side) and with it. Bricks whose neighbourhood has
-// data everywhere get the same coefficients, bit for bit.
+// data everywhere get the same coefficients, bit for bit. With the fill the seam next to the boundary was 2.84e-3 in
+// gradient (24x the floor of pairs with data everywhere around, 1.2e-4): a slot standing for a missing brick hid the
+// border samples of the brick across from it (cubic_coefficients' gather now takes a shared sample from any brick that
+// has data there), and the not-a-knot end of a block near the fill's kink (the prefilter now reaches 6 samples instead
+// of 4 next to samples without data). What is left (3.97e-4) is where one side's neighbourhood has data everywhere
+// (k = 4) in the steep data next to the fin's wall: that side's own truncation.
 TEST(LodTricubic, BluntFinSameLevelBricksAgreeNextToTheBoundary) {
   UGVR_REQUIRE_DATA("blunt-fin/bluntfinxyz.bin");
   BluntFinBricks fin;
@@ -1527,10 +1536,12 @@ TEST(LodTricubic, BluntFinSameLevelBricksAgreeNextToTheBoundary) {
   EXPECT_EQ(identical, complete) << "bricks whose neighbourhood has data everywhere keep their coefficients";
   EXPECT_EQ(worst[0][0][0], worst[1][0][0]);
   EXPECT_EQ(worst[0][0][1], worst[1][0][1]);
-  // The seam next to the boundary: it was far above the inner borders' floor, and the fill brings it down to it.
+  // The seam next to the boundary: it was far above the inner borders' floor, and the fill brings it down near it
+  // (measured 3.3x the floor in gradient, 7.0e-4 of the unfilled seam in value; before the shared samples and the
+  // longer reach 24x and 9.7e-3).
   EXPECT_GT(worst[0][1][1], 4 * worst[0][0][1]) << "the test sees the seam without the fill";
-  EXPECT_LT(worst[1][1][0], 0.05 * worst[0][1][0]);
-  EXPECT_LT(worst[1][1][1], 0.05 * worst[0][1][1]);
+  EXPECT_LT(worst[1][1][0], 2e-3 * worst[0][1][0]);
+  EXPECT_LT(worst[1][1][1], 4 * worst[0][0][1]) << "next to the boundary within 4x the floor of data everywhere";
 }
 
 // The cubic margin of bricks with samples without data (cubic_margin_code with the filled coefficients): wherever
@@ -1630,6 +1641,10 @@ TEST(LodTricubic, BluntFinWalkDrawsNoSurfaceOutsideTheData) {
   ASSERT_GT(both, 5000);
   // Measured: 21 (single pixels along the edge, the two variants place a crossing near the stencil apart), 403 before.
   EXPECT_LT(walk_only, both / 100) << "surface drawn outside the data";
+  // The other way, holes the walk leaves: 511 pixels while the cubic margins took the apron's whole |coefficient -
+  // sample| (the walk ran out of candidate rounds on the filled bricks' wide margins), 133 since the margin may take
+  // the apron's coefficients instead (cubic_margin_code); 352 before the fill.
+  EXPECT_LT(every_only, both / 40) << "holes the walk leaves next to the mesh boundary";
 }
 
 // The lattice a voxel volume's store gets for tricubic isosurfaces (view/voxel_store.h): ·2^D intervals across

@@ -54,9 +54,9 @@ void make_atlas_slot(uint32_t resolution, float* samples, const uint8_t* mask, d
 // fractional weights: at most 1/512 of a first difference per axis per fetch, in the spline's 8 convex-weighted
 // fetches and in trilinear's one, with a factor 2 of headroom), the last one the codes' rounding.
 // With `coefficients` (cubic_coefficients' of the same texels), the bound for their spline: the samples' apron taken
-// as their linear extrapolation (trilinear lookups inside the brick do not read it), plus the largest
-// |coefficient − sample| over the slot (the spline of c minus that of f is a convex combination of c − f), the
-// coefficients' first differences in the filtering term, and their rounding.
+// as their linear extrapolation or as the apron's coefficients, whichever bound is smaller (trilinear lookups inside
+// the brick do not read it), plus the largest |coefficient − sample| over the slot (the spline of c minus that of f is
+// a convex combination of c − f), the coefficients' first differences in the filtering term, and their rounding.
 uint16_t cubic_margin_code(uint32_t resolution, const uint16_t* texels,
                            const std::vector<double>* coefficients = nullptr);
 
@@ -67,7 +67,11 @@ uint16_t cubic_margin_code(uint32_t resolution, const uint16_t* texels,
 // samples: neighbour (-1, 0, 0)'s sample R - 1 - m along x is the brick's sample -m.
 using CubicNeighbourhood = std::array<const uint16_t*, 27>;
 // Samples the prefilter takes from each neighbour (k): 0.27^4 = 0.5 % of a border coefficient's error left
-// (LodTricubic.ExtendedPrefilterMatchesTheWholeLattice measures it).
+// (LodTricubic.ExtendedPrefilterMatchesTheWholeLattice measures it). Where a brick of the neighbourhood has samples
+// without data (or is missing inside the root cell), k + k / 2 (6): the fill is only C0 at the mesh's boundary, and a
+// block's not-a-knot end near that kink leaves a residual 0.27^k of a much larger third difference
+// (LodTricubic.BluntFinSameLevelBricksAgreeNextToTheBoundary: 4 -> 6 samples took the seam there from 2.8e-3 to
+// 4.0e-4 in gradient; 8 gave the same largest seam at 1.7x the block).
 constexpr int kCubicExtension = 4;
 
 // The coefficients of the interpolating cubic B-spline of one slot's samples (make_atlas_slot's layout; the values
@@ -81,10 +85,12 @@ constexpr int kCubicExtension = 4;
 // data, as store/brick_pad.h's one layer), whatever value its texel held. The fill is a function of the samples around
 // it, so two same-level bricks fill the samples both of their blocks hold alike, and partial neighbours take part in
 // the neighbourhood like any other: the seam next to the mesh boundary goes (docs/tricubic.md, "Samples without
-// data"). The filled values only shape the spline next to the data: the shader draws no surface where the stencil
-// says there is none. A block with data everywhere is prefiltered as it is, so its coefficients are the same, bit
-// for bit, with or without `fill`. False, and nothing written, where the block has no data at all, or (without
-// `fill`, as before it: the approximating spline, the samples kept) where the brick has samples without data.
+// data"). A sample on a brick border has data where any brick that holds it has (an all-zero slot for a missing
+// brick does not hide the border samples of the brick across from it). The filled values only shape the spline next to
+// the data: the shader draws no surface where the stencil says there is none. A block with data everywhere is
+// prefiltered as it is, so its coefficients are the same, bit for bit, with or without `fill`. False, and nothing
+// written, where the block has no data at all, or (without `fill`, as before it: the approximating spline, the samples
+// kept) where the brick has samples without data.
 //
 // With `neighbours`, the prefilter is solved over the brick extended by `extension` samples (default
 // kCubicExtension) into each same-level neighbour that has one (docs/tricubic.md, "Seams"): the recursive filter's
@@ -157,6 +163,17 @@ class BrickAtlas {
   // UGVR_TRICUBIC_LEVEL_BLEND=0 (each level's own spline, as before; for before/after measurements in one run).
   void upload(uint64_t slot, const uint16_t* texels, const CubicNeighbourhood* neighbours = nullptr,
               const CubicLevelBlend* levels = nullptr);
+  // The same in two steps, so that a batch's bricks are prefiltered in parallel (the prefilter is the upload's CPU
+  // cost): cubic_slot computes a slot's coefficient codes and cubic margin (thread-safe: it reads the atlas's
+  // settings only), upload puts them and the texels into the slot (GL: the context's thread); a null `cubic`
+  // uploads the texels alone, as the other modes do.
+  struct CubicSlot {
+    std::vector<uint16_t> codes;  // (R+2)³, x fastest: the coefficients mapped from [-1/2, 3/2] (above)
+    float margin = 1.0f;          // the slot's cubic margin, normalised units
+  };
+  CubicSlot cubic_slot(const uint16_t* texels, const CubicNeighbourhood* neighbours,
+                       const CubicLevelBlend* levels) const;
+  void upload(uint64_t slot, const uint16_t* texels, const CubicSlot* cubic);
   bool level_blend() const { return level_blend_; }
   bool fill() const { return fill_; }           // samples without data filled before the prefilter (cubic_coefficients)
   int extension() const { return extension_; }  // samples the prefilter takes from each neighbour
@@ -179,7 +196,6 @@ class BrickAtlas {
   GlTexture texture_;
   GlTexture coefficients_;
   GlBuffer margins_;
-  std::vector<double> scratch_;
 };
 
 }  // namespace ugvr

@@ -471,14 +471,17 @@ uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const Bric
       ancestor_ok[i] = cubic_coefficients(r, texels.at(ancestor_ids[i]), ancestor_coefficients[i], &hood,
                                           atlas.extension(), atlas.fill());
     });
-    for (size_t i = 0; i < count; ++i) {
+    // The batch's splines in parallel (the prefilter is the upload's CPU cost), then into their slots. Only reads
+    // here: neighbour_key_node's index was built by around_of above.
+    std::vector<BrickAtlas::CubicSlot> splines(count);
+    tbb::parallel_for(size_t(0), count, [&](size_t i) {
       const uint64_t n = plan.missing[b + i];
       const CubicNeighbourhood hood = hood_of(around[i]);
       CubicLevelBlend levels;
       const BrickNode& node = store.node(n);
       for (int level = int(node.level) - 1; level >= 0; --level) {  // the finest coarser level first
         CubicLevelTarget target;
-        for (size_t d = 0; d < 27; ++d) target.towards[d] = levels_of[n][d] == level;
+        for (size_t d = 0; d < 27; ++d) target.towards[d] = levels_of.at(n)[d] == level;
         if (std::none_of(target.towards.begin(), target.towards.end(), [](bool t) { return t; })) continue;
         const int up = int(node.level) - level;
         const uint64_t a = neighbour_key_node(uint64_t(level), node.i >> up, node.j >> up, node.k >> up);
@@ -487,7 +490,11 @@ uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const Bric
         target.coefficients = refined_onto(n, a, ancestor_coefficients[size_t(at - ancestor_ids.begin())]);
         levels.push_back(std::move(target));
       }
-      atlas.upload(plan.slots[b + i], texels[n], &hood, &levels);
+      splines[i] = atlas.cubic_slot(texels.at(n), &hood, &levels);
+    });
+    for (size_t i = 0; i < count; ++i) {
+      const uint64_t n = plan.missing[b + i];
+      atlas.upload(plan.slots[b + i], texels.at(n), &splines[i]);
       residency.place(n, plan.slots[b + i]);
       uploaded_levels[n] = levels_of[n];
     }
