@@ -8,9 +8,9 @@
 # and reports each step's wall time and peak RSS (/usr/bin/time -v), the store's size and cell blocks, the orbit's
 # frames (median seconds, nodes exact) and whether the rest converged (every candidate leaf exact: the last frame's
 # hybrid exact_nodes == candidates, and converged). One JSON line is appended to bench/results/hybrid_ooc.jsonl.
-# The issue's run is a store of >= 4 GiB: about 26-30 bytes of store per tetrahedron at these settings (10M: 257 MB,
-# 5M: 148 MB, most of it the cell blocks), so N of about 160M (bench/README.md, "Cells out of core"); on the 2-core
-# machine it was run at N = 5M to show the script works.
+# The issue's run is a store of >= 4 GiB: about 26-30 bytes of store per tetrahedron at 5M-10M (10M: 257 MB,
+# 5M: 148 MB, most of it the cell blocks) but 18 at 160M (2.9 GB: larger leaves replicate fewer cells), so N of about
+# 240M (bench/README.md, "Cells out of core" and "the out-of-core hybrid run at 160M tetrahedra").
 # Usage: bench/run_hybrid_ooc.sh [N=5000000] [SCRATCH=/tmp/ugvr-hybrid-ooc]
 #   UGVR (default build/ugvr), BUILD_MEMORY (1GiB), ORBIT (24), REST (8), FPS (4), SIZE (256), EXTRA (more render
 #   flags, e.g. "--gpu 0"). Scratch needs about 0.3 KB per tetrahedron (the .vtu, the soup and the pending nodes'
