@@ -72,7 +72,8 @@ window.ugvrViewer = {
   get fields() { return scene ? scene.fields.map((f) => ({ name: f.name, range: f.range.slice(), bins: f.histogram.length })) : []; },
   get field() { return view.field; },
   get focusBrush() {
-    return { hidden: $("focus-brush-row").hidden, range: focusBrush.range && focusBrush.range.slice(), edge: focusBrush.edge() };
+    return { hidden: $("focus-brush-row").hidden, range: focusBrush.range && focusBrush.range.slice(), edge: focusBrush.edge(),
+             second: { hidden: $("focus2-brush-row").hidden, range: focusBrush2.range && focusBrush2.range.slice() } };
   },
   get range() { return [tfEditor.lo, tfEditor.hi]; },
   get tf() {
@@ -208,15 +209,28 @@ function showEngine() {
 
 // ---- focus + context: the degree of interest (view_protocol.h "interest", docs/hybrid.md) ----
 
-// The focus text from the chosen field and its min / max (a missing bound: the field's).
+// The brushes' state beyond the inputs: the first brush's edge (null: typed, no edge) and the second brush's range.
+const brushes = { edge: null, second: null /* {lo, hi, edge} on the field chosen in #focus2-field */ };
+const edgeText = (edge) => (edge > 0 ? `~${+edge.toPrecision(6)}` : "");
+
+// The focus text from the chosen field and its min / max (a missing bound: the field's), with the first brush's edge,
+// then the second brush's range joined by its operator (+ and, "," or: the --focus syntax). A second range without a
+// first is sent alone.
 function focusFromRange() {
   const info = fieldInfo($("focus-field").value);
-  if (!info) {
-    $("focus-text").value = "";
-    return;
+  let text = "";
+  if (info) {
+    const lo = Number.parseFloat($("focus-min").value), hi = Number.parseFloat($("focus-max").value);
+    text = `${info.name}:${Number.isFinite(lo) ? lo : info.range[0]}:${Number.isFinite(hi) ? hi : info.range[1]}` +
+           edgeText(brushes.edge);
   }
-  const lo = Number.parseFloat($("focus-min").value), hi = Number.parseFloat($("focus-max").value);
-  $("focus-text").value = `${info.name}:${Number.isFinite(lo) ? lo : info.range[0]}:${Number.isFinite(hi) ? hi : info.range[1]}`;
+  const second = fieldInfo($("focus2-field").value);
+  if (second && brushes.second) {
+    const b = brushes.second;
+    const part = `${second.name}:${+b.lo.toPrecision(6)}:${+b.hi.toPrecision(6)}${edgeText(b.edge)}`;
+    text = text ? text + $("focus2-op").value + part : part;
+  }
+  $("focus-text").value = text;
 }
 function interestMessage() {
   const focus = $("focus-text").value.trim();
@@ -349,7 +363,10 @@ function onScene(m) {
   const focusField = $("focus-field").value;
   $("focus-field").replaceChildren(new Option("(none)", ""),
                                    ...m.fields.map((f) => new Option(f.name, f.name, f.name === focusField, f.name === focusField)));
-  showFocusBrush();  // the new scene's histogram of the focus field, or hidden when the field is gone
+  const focus2Field = $("focus2-field").value;
+  $("focus2-field").replaceChildren(new Option("(none)", ""),
+                                    ...m.fields.map((f) => new Option(f.name, f.name, f.name === focus2Field, f.name === focus2Field)));
+  showFocusBrush();  // the new scene's histograms of the focus fields, or hidden when a field is gone
   const keep = !first && fieldInfo(view.field);
   if (!keep) {
     view.field = m.field;
@@ -475,19 +492,43 @@ new ResizeObserver(() => send({ type: "resize", ...canvasSize() })).observe(canv
 const focusBrush = new FocusBrush($("focus-brush"), (lo, hi, edge) => {
   $("focus-min").value = String(+lo.toPrecision(6));
   $("focus-max").value = String(+hi.toPrecision(6));
+  brushes.edge = edge;
   focusFromRange();
-  if ($("focus-text").value && edge > 0) $("focus-text").value += `~${+edge.toPrecision(6)}`;
+  $("interest-apply").click();
+});
+// The second brush (SimVis's brushes combined): its range joins the first's with the chosen operator.
+const focusBrush2 = new FocusBrush($("focus2-brush"), (lo, hi, edge) => {
+  brushes.second = { lo, hi, edge };
+  focusFromRange();
   $("interest-apply").click();
 });
 function showFocusBrush() {
   const info = fieldInfo($("focus-field").value);
   $("focus-brush-row").hidden = !info;
-  if (!info) return;
-  focusBrush.setField(info.range[0], info.range[1], info.histogram);
-  focusBrush.setRange(Number.parseFloat($("focus-min").value), Number.parseFloat($("focus-max").value));
+  if (info) {
+    focusBrush.setField(info.range[0], info.range[1], info.histogram);
+    focusBrush.setRange(Number.parseFloat($("focus-min").value), Number.parseFloat($("focus-max").value));
+  }
+  const second = fieldInfo($("focus2-field").value);
+  $("focus2-brush-row").hidden = !second;
+  if (!second) brushes.second = null;
+  if (second) {
+    focusBrush2.setField(second.range[0], second.range[1], second.histogram);
+    focusBrush2.setRange(brushes.second ? brushes.second.lo : NaN, brushes.second ? brushes.second.hi : NaN);
+  }
 }
+$("focus2-field").addEventListener("change", () => {
+  brushes.second = null;  // a new field: nothing brushed on it yet
+  showFocusBrush();
+  focusFromRange();
+});
+$("focus2-op").addEventListener("change", () => {
+  focusFromRange();
+  if (brushes.second) $("interest-apply").click();
+});
 $("focus-field").addEventListener("change", () => {
   const info = fieldInfo($("focus-field").value);
+  brushes.edge = null;  // nothing brushed on the new field yet
   // A new field: the middle half of its range to start from.
   if (info) {
     const w = info.range[1] - info.range[0];
@@ -499,6 +540,7 @@ $("focus-field").addEventListener("change", () => {
 });
 for (const id of ["focus-min", "focus-max"])
   $(id).addEventListener("change", () => {
+    brushes.edge = null;  // a typed range has no edge (the text can say ~EDGE)
     focusFromRange();
     showFocusBrush();
   });
@@ -515,6 +557,8 @@ $("interest-apply").addEventListener("click", () => {
 });
 $("interest-clear").addEventListener("click", () => {
   $("focus-field").value = "";
+  $("focus2-field").value = "";
+  brushes.edge = null, brushes.second = null;
   $("focus-text").value = "";
   showFocusBrush();
   $("roi").checked = false;

@@ -138,7 +138,44 @@ test("a brush on the focus field's histogram sets the focus when the drag ends",
   console.log(`brushed ${field.name} ${bmin}..${bmax}: exact ${s.status.exact.nodes} of ${s.status.exact.candidates}, ` +
               `${s.status.exact.focus_excluded} context nodes`);
   assert.ok(s.status.exact.focus_excluded > 0, "nodes outside the brushed range are context");
-  assert.ok(s.status.exact.nodes > 0, "nodes inside the brushed range (it holds the fullest bin) are exact");
+  assert.ok(s.status.exact.nodes > 0, "nodes inside the brushed range are exact");
+
+  // A second brush on another field, ANDed (SimVis's combined brushes): its range joins the first's with "+".
+  const other = scene.fields.find((f) => f.name !== field.name && f.range[1] > f.range[0]);
+  assert.ok(other, "the store has a second field that varies");
+  assert.equal((await hook("focusBrush")).second.hidden, true, "no second brush before its field is chosen");
+  await page.selectOption("#focus2-op", "+");
+  await page.selectOption("#focus2-field", other.name);
+  assert.equal((await hook("focusBrush")).second.hidden, false, "the second brush shows its field's histogram");
+  const sentBeforeSecond = (await hook("log")).filter((m) => m.type === "interest").length;
+  await page.locator("#focus2-brush").scrollIntoViewIfNeeded();  // the panel is taller than the 640x480 view
+  const box2 = await page.locator("#focus2-brush").boundingBox();
+  const at2 = (f) => box2.x + 4 + f * (box2.width - 8);
+  const y2 = box2.y + box2.height / 2;
+  await page.mouse.move(at2(0.1), y2);
+  await page.mouse.down();
+  await page.mouse.move(at2(0.6), y2, { steps: 4 });
+  await page.mouse.up();
+  const both = await waitFor("the interest message with both brushes", async () => {
+    const all = (await hook("log")).filter((m) => m.type === "interest");
+    return all.length > sentBeforeSecond ? all.pop() : null;
+  }, CONVERGE_MS);
+  const parts = both.focus.split("+");
+  assert.equal(parts.length, 2, `two ranges ANDed: ${both.focus}`);
+  assert.equal(parts[0], sent.focus, "the first brush's range and edge are kept");
+  const m2 = parts[1].match(/^(.*):([^:]+):([^:~]+)~([^:~]+)$/);
+  const w2 = other.range[1] - other.range[0];
+  assert.ok(m2 && m2[1] === other.name, `the second range names its field, with an edge: ${parts[1]}`);
+  assert.ok(Math.abs(Number(m2[2]) - (other.range[0] + 0.1 * w2)) < 0.01 * w2 &&
+            Math.abs(Number(m2[3]) - (other.range[0] + 0.6 * w2)) < 0.01 * w2, `brushed ${parts[1]}`);
+  const s2 = await waitConverged(page, CONVERGE_MS);
+  console.log(`AND of two brushes: exact ${s2.status.exact.nodes} of ${s2.status.exact.candidates}, ` +
+              `${s2.status.exact.focus_excluded} context nodes`);
+  // (OR would make context of fewer nodes: the second range alone meets most of them.)
+  assert.ok(s2.status.exact.focus_excluded >= s.status.exact.focus_excluded, "AND leaves no fewer context nodes");
+  // The second brush off again (the text keeps the first range only; applied with the next change).
+  await page.selectOption("#focus2-field", "");
+  assert.equal(await page.locator("#focus-text").inputValue(), sent.focus);
 
   // The right band's outer end is a handle: dragging it from the range's end + a fiftieth to 15 % beyond the end sets
   // the edge to about 15 % of the range (its distance from the range's end) and applies it; the range stays.
@@ -163,6 +200,7 @@ test("a brush on the focus field's histogram sets the focus when the drag ends",
 
   await page.click("#interest-clear");
   assert.equal((await hook("focusBrush")).hidden, true, "clearing the focus hides the brush");
+  assert.equal((await hook("focusBrush")).second.hidden, true, "and the second brush");
   await waitConverged(page, CONVERGE_MS);
 });
 

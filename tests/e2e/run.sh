@@ -26,7 +26,7 @@ trap 'rm -rf "$tmp"' EXIT
 "$ugvr" --quiet generate --cells 20000 --kind mixed -o "$tmp/mixed.vtu" >/dev/null
 "$ugvr" --quiet generate --cells 20000 --time-steps 4 -o "$tmp/wake.pvd" >/dev/null
 "$ugvr" --quiet build "$tmp/mixed.vtu" -o "$tmp/mixed.ugvr" --fields pressure,velocity --brick 8 --max-depth 4 >/dev/null
-"$ugvr" --quiet build "$tmp/mixed.vtu" -o "$tmp/mixed-cells.ugvr" --fields pressure --brick 8 --max-depth 3 --cells >/dev/null
+"$ugvr" --quiet build "$tmp/mixed.vtu" -o "$tmp/mixed-cells.ugvr" --fields pressure,velocity --brick 8 --max-depth 3 --cells >/dev/null
 "$ugvr" --quiet build "$tmp/wake.pvd" -o "$tmp/wake.ugvr" --time all --fields pressure --brick 8 --max-depth 4 >/dev/null
 # Run in this process (not under `node --test`, which runs the file in a child) and stopped before ctest's TIMEOUT, so
 # that the signal reaches node, which then stops `ugvr view` and Chromium.
