@@ -8,6 +8,9 @@ bench/run_faces_ab.sh (same binary, same store). Most variants draw WRONG images
 Usage: bench/faces_variants.py SHADER_DIR OUT_ROOT VARIANT...   writes OUT_ROOT/VARIANT for each
   off        FACES forced to 0: the stencil alone (what main drew before the faces)
   plumb      the face pass never triggered (fpend false): the cost of its code being there
+  never      the trigger impossible at run time (the compiler cannot tell): the face code there, entered by no ray;
+             what its mere presence costs llvmpipe (masked code runs anyway, a loop's body at least once)
+  batch1     the face passes not batched (main's loop runs them at every node step, as before the batches)
   notrigger  the trigger removed from the sample loop
   nopass     the trigger and the second pass, but no face test (the state stays with the stencil)
   nfcheap    node_faces replaced by a stub that sets a state and at most one crossing (no walk, no triangle)
@@ -30,6 +33,9 @@ import sys
 VARIANTS = {
     'off': [('#ifndef FACES\n#define FACES 0', '#undef FACES\n#define FACES 0\n#if 0')],
     'plumb': [('bool fpend = face_node[node].y != 0u;', 'bool fpend = false;')],
+    'never': [('if (!crossings && fpend && ((vb.g > 0.001 && vb.g < 0.999) || (!first && (vb.g >= 0.5) != (va.g >= 0.5))))',
+               'if (!crossings && fpend && vb.g > 2.0 + u_nudge)')],
+    'batch1': [('#define LOD_FACE_BATCH_NODES 16 ', '#define LOD_FACE_BATCH_NODES 1 ')],
     'notrigger': [('if (!crossings && fpend && ((vb.g > 0.001', 'if (false && fpend && ((vb.g > 0.001')],
     'nopass': [('fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);', 'fstate = -1;')],
     'nfcheap': [('fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);',
@@ -69,15 +75,15 @@ int distinct_planes(uvec2 fe) {
         '  samples = g_c0;\n  bricks = g_c1;\n  atomicAdd(counters[COUNTER_SAMPLES], samples);')]
 CELL_FACES = 'bool cell_faces(uvec2 fe, vec3 o, vec3 d, float t0, float t1, float eps, inout int state) {\n'
 PLANE_FACES = 'bool plane_faces(uint at, vec3 o, vec3 d, float t0, float t1, inout int state) {\n'
-NODE_FACES = '    int fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);\n'
+NODE_FACES = '  int fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);\n'
 VARIANTS.update({
     'count-entries': COUNT_COMMON + [
         ('  bool fpend = face_node[node].y != 0u;\n',
-         '  bool fpend = face_node[node].y != 0u;\n  if (fpend) ++g_c0;\n'),
-        (NODE_FACES, '    ++g_c1;\n' + NODE_FACES)],
+         '  bool fpend = face_node[node].y != 0u;\n  if (fpend && !faces_pass) ++g_c0;\n'),
+        (NODE_FACES, '  ++g_c1;\n' + NODE_FACES)],
     'count-kinds': COUNT_COMMON + [
-        (NODE_FACES, '    if (face_node[node].y == FACE_PLANE) ++g_c0;\n'
-                     '    if (face_node[node].y == FACE_OVERFLOW) ++g_c1;\n' + NODE_FACES)],
+        (NODE_FACES, '  if (face_node[node].y == FACE_PLANE) ++g_c0;\n'
+                     '  if (face_node[node].y == FACE_OVERFLOW) ++g_c1;\n' + NODE_FACES)],
     'count-calls': COUNT_COMMON + [(CELL_FACES, CELL_FACES + '  ++g_c0;\n'),
                                    (PLANE_FACES, PLANE_FACES + '  ++g_c1;\n')],
     'count-planes12': COUNT_COMMON + [

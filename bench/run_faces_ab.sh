@@ -2,7 +2,7 @@
 # The exact boundary's frame cost (issue 25): LOD frame times of several (binary, store, shader directory) variants,
 # alternated in one session (V1 V2 ... V1 V2 ...), at the exact-render camera and transfer function of a scene, one
 # JSON line per render (median frame wall and CPU time of FRAMES frames, and the load) and the medians over the rounds
-# with each variant's ratio to the first at the end.
+# with each variant's ratio to the first at the end, then whether each variant's image is the next one's bit for bit.
 # Usage: bench/run_faces_ab.sh SCENE LABEL:UGVR:STORE:SHADER_DIR[:ENV] ... (SCENE: blunt-fin, lox-post, or any name
 #   with CAMERA and TF set to its files); ENV: VAR=VALUE assignments, comma-separated, for that variant's render
 #   (e.g. UGVR_NO_FACE_PLANES=1: the boundary faces without their planes, the shader main had before them).
@@ -57,4 +57,21 @@ for v in order:
     print(json.dumps({'bench': 'faces_ab_summary', 'scene': rows[0]['scene'], 'variant': v, 'wall': round(w, 4),
                       'cpu': round(c, 4), 'wall_ratio': round(w / w0, 3), 'cpu_ratio': round(c / c0, 3),
                       'load_min': min(loads), 'load_max': max(loads)}))
+PY
+# Whether two variants drew the same image (a speed-only change must keep the bits): the largest difference of the
+# last round's images, each variant against the next.
+python3 - "$scratch" "$@" <<'PY'
+import array, json, sys
+def pfm(path):
+    with open(path, 'rb') as f:
+        assert f.readline().strip() in (b'PF', b'Pf'), path + ': not a PFM'
+        f.readline()
+        f.readline()
+        return array.array('f', f.read())
+labels = [spec.split(':')[0] for spec in sys.argv[2:]]
+for a, b in zip(labels, labels[1:]):
+    ia, ib = pfm(f'{sys.argv[1]}/{a}.pfm'), pfm(f'{sys.argv[1]}/{b}.pfm')
+    diff = max((abs(x - y) for x, y in zip(ia, ib)), default=0.0) if len(ia) == len(ib) else None
+    print(json.dumps({'bench': 'faces_ab_images', 'a': a, 'b': b, 'same_bits': ia.tobytes() == ib.tobytes(),
+                      'max_abs_diff': diff}))
 PY

@@ -30,6 +30,9 @@
 #ifndef FACES
 #define FACES 0  // the store keeps the mesh's boundary faces per node: clip at them (below)
 #endif
+#ifndef LOD_FACE_BATCH_NODES
+#define LOD_FACE_BATCH_NODES 16  // FACES: node steps between two batches of face passes (main)
+#endif
 #ifndef SLICES
 #define SLICES 0  // cutting planes (u_slice_*; docs/slices.md)
 #endif
@@ -1178,13 +1181,14 @@ bool sample_run(const bool crossings, float t, float t_exit, vec3 c0, vec3 c1, f
 }
 
 // One cut node's brick (main's walk found it: tree index, state (slot and NODE_CONTEXT), box lo, size and level),
-// from the ray's entry t to its exit t_exit: sample_run, then where it stopped near the boundary the node's faces and
-// sample_run again with their crossings.
-void march_node(uint node, uint state, vec3 lo, float size, int level, float t, float t_exit, vec3 base, vec3 dir,
+// from the ray's entry t to its exit t_exit. `faces_pass` is a literal at each call (main's two loops): false, the
+// first pass, sample_run until the node's exit or until it stops near the boundary (returns true, tstart set where it
+// stopped); true, the node's faces and sample_run again from tstart with their crossings.
+bool march_node(const bool faces_pass, uint node, uint state, vec3 lo, float size, int level, float t, float t_exit, vec3 base, vec3 dir,
                 vec3 inv_dir, vec3 dir_world, float t_end, float t_base, float vol_lo, float vol_hi,
                 inout vec3 radiance, inout float transmittance, inout float mip_max, inout uint samples,
                 inout bool have_prev, inout float prev_value, inout float prev_t, inout bool prev_sure,
-                inout bool ov_inside, inout float ov_t, inout int sj) {
+                inout bool ov_inside, inout float ov_t, inout int sj, inout float tstart) {
   // Focus+context: a node of zero interest is drawn as context (context_sample); its state is its slot otherwise.
   bool context = (state & NODE_CONTEXT) != 0u;
   state &= ~NODE_CONTEXT;
@@ -1209,27 +1213,27 @@ void march_node(uint node, uint state, vec3 lo, float size, int level, float t, 
   // whether taken or not (8 rays a SIMD vector, masks, more live values), and most samples, in nodes without faces
   // and in those with faces before the trigger, need none of it.
   bool fpend = face_node[node].y != 0u;
-  g_nh = 0;
 #else
   const bool fpend = false;
 #endif
-  // Samples at the node's entry t, at the level's grid points k·step inside, and at its exit; sa, va: the previous
-  // sample of this node (none before the entry).
-  float tstart = t;
-  bool restart = sample_run(false, t, t_exit, c0, c1, step, voxel, margin, context, fpend, -1, tstart, dir_world,
-                            t_end, t_base, vol_lo, vol_hi, radiance, transmittance, mip_max, samples, have_prev,
-                            prev_value, prev_t, prev_sure, ov_inside, ov_t, sj);
-#if FACES
-  if (restart) {
-    int fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);
-#if OVERLAY
-    if (fstate >= 0) ov_inside = fstate == 1;  // the faces know better than the stencil
-#endif
-    sample_run(true, t, t_exit, c0, c1, step, voxel, margin, context, false, fstate, tstart, dir_world, t_end, t_base,
-               vol_lo, vol_hi, radiance, transmittance, mip_max, samples, have_prev, prev_value, prev_t, prev_sure,
-               ov_inside, ov_t, sj);
+  if (!faces_pass) {
+    // Samples at the node's entry t, at the level's grid points k·step inside, and at its exit; sa, va: the previous
+    // sample of this node (none before the entry).
+    tstart = t;
+    return sample_run(false, t, t_exit, c0, c1, step, voxel, margin, context, fpend, -1, tstart, dir_world, t_end,
+                      t_base, vol_lo, vol_hi, radiance, transmittance, mip_max, samples, have_prev, prev_value, prev_t,
+                      prev_sure, ov_inside, ov_t, sj);
   }
+#if FACES
+  int fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);
+#if OVERLAY
+  if (fstate >= 0) ov_inside = fstate == 1;  // the faces know better than the stencil
 #endif
+  sample_run(true, t, t_exit, c0, c1, step, voxel, margin, context, false, fstate, tstart, dir_world, t_end, t_base,
+             vol_lo, vol_hi, radiance, transmittance, mip_max, samples, have_prev, prev_value, prev_t, prev_sure,
+             ov_inside, ov_t, sj);
+#endif
+  return false;
 }
 
 void main() {
@@ -1326,7 +1330,24 @@ void main() {
   for (int round = 0; round < TRICUBIC_ROUNDS; ++round) {  // not indented: the walk inside is everyone's
   g_cand = false;
 #endif
-  for (int guard = 0; guard < 65536 && t < t_end && transmittance > u_min_transmittance; ++guard) {
+  int guard = 0;
+#if FACES
+  // The face passes are batched (docs/lod-engine.md, "Exact boundary", "Batched"): a ray whose first pass stops near
+  // the boundary leaves the node loop with the node it stopped in (f_*), the others go on for up to
+  // LOD_FACE_BATCH_NODES node steps, and then the stopped rays' faces and second passes run together, once. On
+  // llvmpipe (8 rays a SIMD vector, with masks) the face code runs whether any ray of the vector needs it or not, and
+  // a loop's body at least once: in every node step it cost about as much as the faces' actual work.
+  for (int fround = 0; fround < 65536; ++fround) {  // not indented: the node loop inside is everyone's
+  bool f_pending = false;
+  uint f_node = 0u, f_state = 0u;
+  vec3 f_lo = vec3(0.0);
+  float f_size = 0.0, f_t = 0.0, f_exit = 0.0, f_start = 0.0;
+  int f_level = 0;
+  for (int batch = 0; batch < LOD_FACE_BATCH_NODES && guard < 65536 && t < t_end &&
+                      transmittance > u_min_transmittance; ++batch, ++guard) {
+#else
+  for (; guard < 65536 && t < t_end && transmittance > u_min_transmittance; ++guard) {
+#endif
     // Point location: descend from the root to the cut node (or empty region) just past t.
     vec3 p = base + dir * (t + u_nudge);
     uint node = 0u;
@@ -1386,11 +1407,31 @@ void main() {
 #endif
 
     ++bricks;
-    march_node(node, state, lo, size, level, t, t_exit, base, dir, inv_dir, dir_world, t_end, t_base, vol_lo, vol_hi,
-               radiance, transmittance, mip_max, samples, have_prev, prev_value, prev_t, prev_sure, ov_inside, ov_t,
-               sj);
+    float tstart = t;
+    bool stopped = march_node(false, node, state, lo, size, level, t, t_exit, base, dir, inv_dir, dir_world, t_end,
+                              t_base, vol_lo, vol_hi, radiance, transmittance, mip_max, samples, have_prev, prev_value,
+                              prev_t, prev_sure, ov_inside, ov_t, sj, tstart);
+#if FACES
+    if (stopped) {  // near the boundary: this node's faces wait for the batch's end
+      f_pending = true;
+      f_node = node, f_state = state, f_lo = lo, f_size = size, f_level = level;
+      f_t = t, f_exit = t_exit, f_start = tstart;
+      break;
+    }
+#endif
     t = t_exit;
   }
+#if FACES
+  if (f_pending) {
+    march_node(true, f_node, f_state, f_lo, f_size, f_level, f_t, f_exit, base, dir, inv_dir, dir_world, t_end, t_base,
+               vol_lo, vol_hi, radiance, transmittance, mip_max, samples, have_prev, prev_value, prev_t, prev_sure,
+               ov_inside, ov_t, sj, f_start);
+    t = f_exit;
+  } else if (!(guard < 65536 && t < t_end && transmittance > u_min_transmittance)) {
+    break;
+  }
+  }
+#endif
 #if TRICUBIC_WALK
   if (!g_cand) break;
   // The candidate segment [ta, tb] of the node whose atlas line is c0 + c1 t: the spline's values at its ends, then
