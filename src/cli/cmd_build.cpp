@@ -197,13 +197,14 @@ void register_build(CLI::App& app) {
                 "Store samples losslessly as float32 (default: 16 bits, within 7.6e-6 of each field's range)");
   cmd->add_flag("--out-of-core", opts->out_of_core,
                 "Stream the cells through temporary files next to the output instead of loading the mesh (one .vtu "
-                "input, or with --time a series of .vtu steps at --error 0; chosen by itself when the (first "
-                "step's) .vtu is larger than 40% of --memory)");
+                "input, with --pieces too, or with --time a series of .vtu steps at --error 0; chosen by itself when "
+                "the (first step's) .vtu is larger than 40% of --memory)");
   cmd->add_flag("--json", opts->json, "Print the summary as one JSON object (for benchmarks)");
   cmd->add_option(
          "--pieces", opts->pieces,
          "Partition into N stores (a power of two up to 4096) by a kd-tree balanced by cells, each with a ghost "
-         "layer, named by the index -o OUT.json (docs/mpi.md); under mpirun rank r builds pieces r, r+R, ...")
+         "layer, named by the index -o OUT.json (docs/mpi.md); under mpirun rank r builds pieces r, r+R, ...; "
+         "with --out-of-core each piece streamed from the .vtu in bounded memory, one piece's scratch at a time")
       ->check(CLI::Range(1, kMaxPieces));
   cmd->add_option("--ghost-level", opts->ghost_level,
                   "With --pieces: the coarsest level whose samples inside each piece equal the whole store's; the "

@@ -1,6 +1,7 @@
 // `ugvr build INPUT -o OUT.json --pieces N` (docs/mpi.md, "Partitioned stores"): a kd-tree splits the mesh's cells
 // (by centroid, balanced by count: kd_partition.h) into N boxes, and each piece is an ordinary brick store of its box,
-// built by the in-core builder (octree/builder.h) from the cells that meet the box grown by the ghost margin.
+// built by the in-core builder (octree/builder.h) from the cells that meet the box grown by the ghost margin. The same
+// pieces out of core, the mesh never held: piece_build_ooc.h (plan_frame and piece_holds are the rules both share).
 //
 // What makes a piece's samples inside its box those of the whole-mesh store:
 //  - the same lattice: every piece's root cube and recorded bounds are the whole mesh's (OctreeInput::bounds);
