@@ -41,7 +41,7 @@ measure() {
     set +e +o pipefail  # a folder removed while du reads it is no failure here
     peak=0
     while true; do
-      s=$(find "$work" -maxdepth 3 -type d -name '*.cells' -exec du -sb {} + 2>/dev/null | awk '{t += $1} END {print t + 0}')
+      s=$(find "$work" -maxdepth 3 -type d -name '*.cells' -exec du -sb {} + 2>/dev/null | awk '{t += $1} END {printf "%.0f\n", t}')
       [ "$s" -gt "$peak" ] && peak=$s && echo "$peak" > "$peak_file"
       sleep "$sample"
     done
