@@ -14,10 +14,12 @@
 #include "ugvr/io/reader.h"
 #include "ugvr/io/time_series.h"
 #include "ugvr/mpi/piece_build.h"
+#include "ugvr/mpi/piece_build_ooc.h"
 #include "ugvr/octree/builder.h"
 #include "ugvr/octree/coarse_preview.h"
 #include "ugvr/octree/out_of_core.h"
 #ifdef UGVR_HAVE_MPI
+#include "ugvr/mpi/mpi_piece_build.h"
 #include "ugvr/mpi/mpi_session.h"
 #endif
 
@@ -25,23 +27,48 @@ namespace ugvr::cli {
 
 namespace {
 
-// `--pieces N`: the kd split, then this rank's pieces one after another (rank r of R builds r, r + R, ...), each in
-// core from the mesh read once; rank 0 writes the index when every rank is done.
+// One built piece, as `--json` lists it and as the text output prints it.
+nlohmann::json piece_summary(int k, const std::string& path, const PiecePlan& plan, const OctreeBuildStats& s,
+                             double seconds, bool json) {
+  if (!json)
+    std::printf("piece %d: %s, %llu cells + %llu ghost, %llu nodes, %s in %.2f s, peak RSS %s\n", k, path.c_str(),
+                (unsigned long long)plan.cells[size_t(k)], (unsigned long long)plan.ghost_cells[size_t(k)],
+                (unsigned long long)s.nodes, format_bytes(s.store_bytes).c_str(), seconds,
+                format_bytes(peak_rss_bytes()).c_str());
+  return {{"piece", k},
+          {"store", path},
+          {"cells", plan.cells[size_t(k)]},
+          {"ghost_cells", plan.ghost_cells[size_t(k)]},
+          {"nodes", s.nodes},
+          {"store_bytes", s.store_bytes},
+          {"leaves_in_pieces", s.leaves_in_pieces},
+          {"point_passes", s.point_passes},
+          {"seconds", seconds},
+          {"peak_rss_bytes", peak_rss_bytes()}};
+}
+
+// `--pieces N`: the kd split, then this rank's pieces one after another (rank r of R builds r, r + R, ...); rank 0
+// writes the index when every rank is done. In core: from the mesh read once. Out of core (a single .vtu, with
+// --out-of-core or when it is large for --memory, as for a whole store): the plan and every piece streamed from the
+// file (mpi/piece_build_ooc.h), each rank counting its pieces' cells, summed before the index is written.
 template <class Options>
 void build_pieces(Options& o) {
   check_piece_count(o.pieces);
   if (extension_lower(o.output) != ".json")
     throw Error(o.output + ": with --pieces the output is the index, a .json file (the stores go in NAME.d/)");
-  if (o.out_of_core)
-    throw Error(
-        "--pieces with --out-of-core is not supported: the out-of-core builder streams one whole .vtu and takes the "
-        "root cube and field ranges from it, and every piece needs the whole mesh's (docs/mpi.md); the pieces are "
-        "built in core from the mesh read once");
+  if (!o.preview.empty() || !o.sketch.empty())
+    throw Error("--preview and --sketch are not made with --pieces (a preview or sketch of each piece is not built)");
+  const bool vtu = o.input.files.size() == 1 && extension_lower(o.input.files[0]) == ".vtu";
+  if (o.out_of_core && !vtu)
+    throw Error(o.input.files[0] + ": --out-of-core reads a single .vtu file (with --pieces too)");
+  const bool out_of_core = o.out_of_core || (vtu && std::filesystem::file_size(o.input.files[0]) > o.memory / 5 * 2);
   int rank = 0, ranks = 1;
 #ifdef UGVR_HAVE_MPI
   rank = mpi::rank(), ranks = mpi::size();
   if (rank != 0) Progress::set_enabled(false);
 #endif
+  if (out_of_core && !o.out_of_core && rank == 0)
+    std::fprintf(stderr, "note: building the pieces out of core (the input is large for --memory)\n");
   if (o.float32) o.build.encoding.samples = SampleEncoding::Float32;
   o.build.tf_errors = !o.no_tf_errors;
   o.build.inputs = o.input.files;
@@ -50,38 +77,51 @@ void build_pieces(Options& o) {
   auto since = [](std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
   };
-  const Dataset ds = read_dataset_input(o.input);
-  const OctreeInput input = prepare_octree_input(ds, o.fields);
-  const double read_seconds = since(t0);
-  const auto t1 = std::chrono::steady_clock::now();
-  const PiecePlan plan = plan_pieces(input, o.pieces, o.build.resolution, o.ghost_level);
-  const double plan_seconds = since(t1);
+  // In core: the mesh and its plan. Out of core: the plan alone.
+  std::optional<Dataset> ds;
+  std::optional<OctreeInput> input;
+  std::optional<OutOfCorePiecePlan> streamed;
+  PiecePlan plan;
+  double read_seconds = 0, plan_seconds = 0;
+  uint64_t cells = 0;
+  if (out_of_core) {
+    streamed =
+        plan_pieces_out_of_core(o.input.files[0], o.fields, o.pieces, o.build.resolution, o.ghost_level, o.memory);
+    plan = streamed->plan;
+    plan_seconds = streamed->seconds;
+    cells = streamed->cells;
+  } else {
+    ds = read_dataset_input(o.input);
+    input = prepare_octree_input(*ds, o.fields);
+    read_seconds = since(t0);
+    const auto t1 = std::chrono::steady_clock::now();
+    plan = plan_pieces(*input, o.pieces, o.build.resolution, o.ghost_level);
+    plan_seconds = since(t1);
+    cells = input->mesh->cell_count();
+  }
   std::filesystem::create_directories(piece_folder(o.output));
   nlohmann::json built = nlohmann::json::array();
   for (int k = rank; k < o.pieces; k += ranks) {
     const auto tk = std::chrono::steady_clock::now();
     const std::string path = (std::filesystem::path(o.output).parent_path() / piece_store_name(o.output, k)).string();
-    const OctreeBuildStats s = build_piece(input, plan, k, o.build, path);
-    built.push_back({{"piece", k},
-                     {"store", path},
-                     {"cells", plan.cells[size_t(k)]},
-                     {"ghost_cells", plan.ghost_cells[size_t(k)]},
-                     {"nodes", s.nodes},
-                     {"store_bytes", s.store_bytes},
-                     {"seconds", since(tk)},
-                     {"peak_rss_bytes", peak_rss_bytes()}});
-    if (!o.json)
-      std::printf("piece %d: %s, %llu cells + %llu ghost, %llu nodes, %s in %.2f s, peak RSS %s\n", k, path.c_str(),
-                  (unsigned long long)plan.cells[size_t(k)], (unsigned long long)plan.ghost_cells[size_t(k)],
-                  (unsigned long long)s.nodes, format_bytes(s.store_bytes).c_str(), since(tk),
-                  format_bytes(peak_rss_bytes()).c_str());
+    OctreeBuildStats s;
+    if (streamed) {
+      s = build_piece_out_of_core(o.input.files[0], o.fields, *streamed, k, o.build, o.memory, path);
+      plan.cells[size_t(k)] = streamed->plan.cells[size_t(k)];
+      plan.ghost_cells[size_t(k)] = streamed->plan.ghost_cells[size_t(k)];
+    } else {
+      s = build_piece(*input, plan, k, o.build, path);
+    }
+    built.push_back(piece_summary(k, path, plan, s, since(tk), o.json));
   }
 #ifdef UGVR_HAVE_MPI
-  mpi::barrier();  // every piece written before the index names them
+  if (streamed) mpi::sum_piece_counts(plan);  // collective: also waits for every rank's pieces
+  mpi::barrier();                             // every piece written before the index names them
 #endif
   uint64_t total_bytes = 0;
   if (rank == 0) {
-    const PieceIndex index = make_piece_index(input, plan, o.output, o.build.resolution);
+    const PieceIndex index =
+        make_piece_index(streamed ? streamed->fields : input->fields, plan, o.output, o.build.resolution);
     write_piece_index(o.output, index);
     for (const PieceInfo& p : index.pieces) total_bytes += p.store_bytes;
   }
@@ -90,7 +130,9 @@ void build_pieces(Options& o) {
                               {"rank", rank},
                               {"ranks", ranks},
                               {"pieces", o.pieces},
-                              {"cells", input.mesh->cell_count()},
+                              {"out_of_core", out_of_core},
+                              {"cells", cells},
+                              {"split_samples", streamed ? streamed->split_samples : cells},
                               {"ghost_margin", plan.ghost_margin},
                               {"ghost_level", plan.ghost_level},
                               {"read_seconds", read_seconds},
@@ -101,9 +143,9 @@ void build_pieces(Options& o) {
                               {"peak_rss_bytes", peak_rss_bytes()}};
     std::printf("%s\n", j.dump().c_str());
   } else if (rank == 0) {
-    std::printf("wrote %s: %d pieces, %s in all, ghost margin %.4g, in %.2f s (read %.2f s, kd split %.2f s)\n",
-                o.output.c_str(), o.pieces, format_bytes(total_bytes).c_str(), plan.ghost_margin, since(t0),
-                read_seconds, plan_seconds);
+    std::printf("wrote %s: %d pieces%s, %s in all, ghost margin %.4g, in %.2f s (read %.2f s, kd split %.2f s)\n",
+                o.output.c_str(), o.pieces, out_of_core ? " out of core" : "", format_bytes(total_bytes).c_str(),
+                plan.ghost_margin, since(t0), read_seconds, plan_seconds);
   }
 }
 
@@ -155,13 +197,14 @@ void register_build(CLI::App& app) {
                 "Store samples losslessly as float32 (default: 16 bits, within 7.6e-6 of each field's range)");
   cmd->add_flag("--out-of-core", opts->out_of_core,
                 "Stream the cells through temporary files next to the output instead of loading the mesh (one .vtu "
-                "input, or with --time a series of .vtu steps at --error 0; chosen by itself when the (first "
-                "step's) .vtu is larger than 40% of --memory)");
+                "input, with --pieces too, or with --time a series of .vtu steps at --error 0; chosen by itself when "
+                "the (first step's) .vtu is larger than 40% of --memory)");
   cmd->add_flag("--json", opts->json, "Print the summary as one JSON object (for benchmarks)");
   cmd->add_option(
          "--pieces", opts->pieces,
          "Partition into N stores (a power of two up to 4096) by a kd-tree balanced by cells, each with a ghost "
-         "layer, named by the index -o OUT.json (docs/mpi.md); under mpirun rank r builds pieces r, r+R, ...")
+         "layer, named by the index -o OUT.json (docs/mpi.md); under mpirun rank r builds pieces r, r+R, ...; "
+         "with --out-of-core each piece streamed from the .vtu in bounded memory, one piece's scratch at a time")
       ->check(CLI::Range(1, kMaxPieces));
   cmd->add_option("--ghost-level", opts->ghost_level,
                   "With --pieces: the coarsest level whose samples inside each piece equal the whole store's; the "

@@ -102,6 +102,16 @@ int KdTree::part_of(const Vec3d& p) const {
   return nodes[size_t(node)].part;
 }
 
+Vec3d centroid_of(std::span<const Vec3f> corners) {
+  Vec3d sum{0, 0, 0};
+  for (const Vec3f& p : corners) sum = sum + to_double(p);
+  return sum * (1.0 / double(corners.size()));
+}
+
+uint64_t split_sample_stride(uint64_t cells) {
+  return std::max<uint64_t>(1, (cells + kMaxSplitSamples - 1) / kMaxSplitSamples);
+}
+
 std::vector<Vec3d> cell_centroids(const WalkMesh& mesh) {
   std::vector<Vec3d> out(mesh.cell_count());
   for (uint32_t c = 0; c < mesh.cell_count(); ++c) {

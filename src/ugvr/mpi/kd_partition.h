@@ -45,6 +45,17 @@ KdTree build_kd_tree(std::vector<Vec3d> points, int parts);
 // The centroid of every cell of the walk mesh (the mean of its vertices).
 std::vector<Vec3d> cell_centroids(const WalkMesh& mesh);
 
+// The mean of a cell's corners, summed in order in double then scaled by 1/n: the arithmetic of cell_centroids and of
+// cell_centroid (mesh_part.h), so a centroid taken from a streamed cell is the in-core mesh's bit for bit.
+Vec3d centroid_of(std::span<const Vec3f> corners);
+
+// The split sample, one rule for every tree built from part of the cells (a .pvtu part read, mpi_part_read.h; an
+// out-of-core partitioned build, piece_build_ooc.h): the centroids of cells 0, s, 2s, ... with s the smallest stride
+// that leaves at most kMaxSplitSamples of `cells` (6 MiB of centroids, gathered on every rank of a part read). The
+// boxes then balance the sample, not every cell: within sampling error of a tree over every centroid.
+inline constexpr uint64_t kMaxSplitSamples = uint64_t(1) << 18;
+uint64_t split_sample_stride(uint64_t cells);
+
 // A rendered image as premultiplied RGBA: an engine's straight-colour image drawn over a transparent background
 // (alpha = the volume's opacity) times its alpha.
 std::vector<float> premultiplied(const Image& image);

@@ -151,8 +151,7 @@ PartRead read_pvtu_part(const std::string& path, const std::string& selector, si
 
   // Each rank reads the pieces it owns, once, and keeps them until they are dealt out.
   const std::optional<GridCounts> headers = grid_counts_from_headers(std::vector<std::string>{path});
-  const uint64_t stride =
-      headers ? std::max<uint64_t>(1, (headers->cells + kMaxSplitSamples - 1) / kMaxSplitSamples) : 1;
+  const uint64_t stride = headers ? split_sample_stride(headers->cells) : 1;
   MinMax piece_bounds(3 * pieces);
   std::vector<uint64_t> piece_cells(pieces, 0);
   std::vector<Vec3d> samples;

@@ -3,8 +3,8 @@
 // formats are read whole on every rank (mpi_renderer.cpp), as before.
 //
 //  1. Piece k is read by rank k mod N (its owner) and kept: its points' bounds, its cell count, its field names and
-//     the centroids of a stride sample of its cells (at most kMaxSplitSamples over the whole mesh, the stride from the
-//     pieces' headers).
+//     the centroids of a stride sample of its cells (split_sample_stride of kd_partition.h over the whole mesh's count
+//     from the pieces' headers: at most kMaxSplitSamples).
 //  2. Bounds and counts are reduced, the samples gathered, and every rank builds the same kd-tree from them
 //     (kd_partition.h). Why centroids read by the owners and exchanged, not the pieces' bounds: a tree over pieces is
 //     no finer than the pieces, and a rank reading every piece its box meets decodes most of the mesh (compact pieces
@@ -28,8 +28,6 @@
 #include "ugvr/render/renderer.h"
 
 namespace ugvr::mpi {
-
-inline constexpr uint64_t kMaxSplitSamples = uint64_t(1) << 18;  // 6 MiB of centroids gathered on every rank
 
 struct PartRead {
   // The rank's part: one unstructured block per piece with cells meeting its box, in piece order (the exact engine

@@ -35,20 +35,39 @@ Bounds grown(Bounds b, double margin) {
 
 }  // namespace
 
-PiecePlan plan_pieces(const OctreeInput& input, int pieces, uint32_t resolution, int ghost_level) {
-  check_piece_count(pieces);
+PiecePlan plan_frame(const Bounds& bounds, uint32_t resolution, int ghost_level) {
   if (ghost_level < 0 || ghost_level > kMaxOctreeLevel)
     throw Error("--ghost-level must be between 0 and " + std::to_string(kMaxOctreeLevel) + " (got " +
                 std::to_string(ghost_level) + ")");
-  const UnstructuredMesh& mesh = *input.mesh;
   PiecePlan plan;
-  plan.bounds = input.bounds;
-  plan.root = octree_root(input.bounds);
+  plan.bounds = bounds;
+  plan.root = octree_root(bounds);
   plan.ghost_level = ghost_level;
   plan.ghost_margin = std::ldexp(2 * plan.root.size().x / double(resolution - 1), -ghost_level);
-  std::vector<Vec3d> centroids(mesh.cell_count());
-  tbb::parallel_for(uint64_t(0), mesh.cell_count(), [&](uint64_t c) { centroids[c] = cell_centroid(mesh, c); });
-  plan.tree = build_kd_tree(std::move(centroids), pieces);
+  return plan;
+}
+
+bool piece_holds(const PiecePlan& plan, int k, const Bounds& cell) {
+  const Bounds& box = plan.tree.boxes[size_t(k)];
+  const Bounds b = grown(cell, plan.ghost_margin);
+  return b.lo.x <= box.hi.x && b.hi.x >= box.lo.x && b.lo.y <= box.hi.y && b.hi.y >= box.lo.y && b.lo.z <= box.hi.z &&
+         b.hi.z >= box.lo.z;
+}
+
+PiecePlan plan_pieces(const OctreeInput& input, int pieces, uint32_t resolution, int ghost_level, const KdTree* tree) {
+  check_piece_count(pieces);
+  const UnstructuredMesh& mesh = *input.mesh;
+  PiecePlan plan = plan_frame(input.bounds, resolution, ghost_level);
+  if (tree) {
+    if (tree->parts() != pieces)
+      throw Error("internal: a given kd-tree of " + std::to_string(tree->parts()) + " boxes for " +
+                  std::to_string(pieces) + " pieces");
+    plan.tree = *tree;
+  } else {
+    std::vector<Vec3d> centroids(mesh.cell_count());
+    tbb::parallel_for(uint64_t(0), mesh.cell_count(), [&](uint64_t c) { centroids[c] = cell_centroid(mesh, c); });
+    plan.tree = build_kd_tree(std::move(centroids), pieces);
+  }
   std::vector<std::atomic<uint64_t>> owned(static_cast<size_t>(pieces)), held(static_cast<size_t>(pieces));
   tbb::parallel_for(uint64_t(0), mesh.cell_count(), [&](uint64_t c) {
     owned[size_t(plan.tree.part_of(cell_centroid(mesh, c)))].fetch_add(1, std::memory_order_relaxed);
@@ -64,14 +83,10 @@ PiecePlan plan_pieces(const OctreeInput& input, int pieces, uint32_t resolution,
 
 std::vector<uint64_t> piece_cells(const OctreeInput& input, const PiecePlan& plan, int k) {
   const UnstructuredMesh& mesh = *input.mesh;
-  const Bounds box = plan.tree.boxes.at(size_t(k));
+  if (k < 0 || k >= plan.tree.parts()) throw Error("internal: piece " + std::to_string(k) + " is not in the plan");
   std::vector<uint64_t> out;
-  for (uint64_t c = 0; c < mesh.cell_count(); ++c) {
-    const Bounds b = grown(cell_bounds(mesh, c), plan.ghost_margin);
-    if (b.lo.x <= box.hi.x && b.hi.x >= box.lo.x && b.lo.y <= box.hi.y && b.hi.y >= box.lo.y && b.lo.z <= box.hi.z &&
-        b.hi.z >= box.lo.z)
-      out.push_back(c);
-  }
+  for (uint64_t c = 0; c < mesh.cell_count(); ++c)
+    if (piece_holds(plan, k, cell_bounds(mesh, c))) out.push_back(c);
   return out;
 }
 
@@ -142,6 +157,11 @@ std::string piece_store_name(const std::string& index_path, int k) {
 
 PieceIndex make_piece_index(const OctreeInput& input, const PiecePlan& plan, const std::string& index_path,
                             uint32_t resolution) {
+  return make_piece_index(input.fields, plan, index_path, resolution);
+}
+
+PieceIndex make_piece_index(const std::vector<BrickStoreField>& fields, const PiecePlan& plan,
+                            const std::string& index_path, uint32_t resolution) {
   PieceIndex index;
   index.path = index_path;
   index.bounds = plan.bounds;
@@ -149,7 +169,7 @@ PieceIndex make_piece_index(const OctreeInput& input, const PiecePlan& plan, con
   index.brick = resolution;
   index.ghost_margin = plan.ghost_margin;
   index.ghost_level = plan.ghost_level;
-  index.fields = input.fields;
+  index.fields = fields;
   index.tree = plan.tree;
   for (int k = 0; k < plan.tree.parts(); ++k) {
     PieceInfo p;

@@ -1,6 +1,7 @@
 // `ugvr build INPUT -o OUT.json --pieces N` (docs/mpi.md, "Partitioned stores"): a kd-tree splits the mesh's cells
 // (by centroid, balanced by count: kd_partition.h) into N boxes, and each piece is an ordinary brick store of its box,
-// built by the in-core builder (octree/builder.h) from the cells that meet the box grown by the ghost margin.
+// built by the in-core builder (octree/builder.h) from the cells that meet the box grown by the ghost margin. The same
+// pieces out of core, the mesh never held: piece_build_ooc.h (plan_frame and piece_holds are the rules both share).
 //
 // What makes a piece's samples inside its box those of the whole-mesh store:
 //  - the same lattice: every piece's root cube and recorded bounds are the whole mesh's (OctreeInput::bounds);
@@ -45,7 +46,18 @@ struct PiecePlan {
 
 // The kd split of input's cells into `pieces` (a power of two, check_piece_count) and every piece's cell counts.
 // ghost_level in [0, kMaxOctreeLevel] (above). Throws ugvr::Error naming --pieces or --ghost-level.
-PiecePlan plan_pieces(const OctreeInput& input, int pieces, uint32_t resolution, int ghost_level = 0);
+// `tree` given (with `pieces` boxes): that split instead of one over every centroid; an out-of-core plan's, built
+// from a sample (piece_build_ooc.h), so that an in-core build of the same plan can be compared with it.
+PiecePlan plan_pieces(const OctreeInput& input, int pieces, uint32_t resolution, int ghost_level = 0,
+                      const KdTree* tree = nullptr);
+
+// A plan's frame without its split or counts: the whole mesh's bounds and root, and the ghost margin of
+// `ghost_level` (checked as plan_pieces checks it).
+PiecePlan plan_frame(const Bounds& bounds, uint32_t resolution, int ghost_level);
+
+// Whether piece k holds a cell with bounding box `cell` (of its float32 vertices, in double): the box grown by the
+// ghost margin meets piece k's closed box. The one rule of piece_cells and of the out-of-core pieces.
+bool piece_holds(const PiecePlan& plan, int k, const Bounds& cell);
 
 // Piece k's cells (in id order): those whose bounding box meets its box grown by the ghost margin.
 std::vector<uint64_t> piece_cells(const OctreeInput& input, const PiecePlan& plan, int k);
@@ -59,8 +71,11 @@ OctreeBuildStats build_piece(const OctreeInput& input, const PiecePlan& plan, in
 std::string piece_store_name(const std::string& index_path, int k);
 std::string piece_folder(const std::string& index_path);
 
-// The index of a plan whose stores have been written (their sizes are read from the files).
+// The index of a plan whose stores have been written (their sizes are read from the files); `fields` the whole
+// mesh's (names, associations, ranges).
 PieceIndex make_piece_index(const OctreeInput& input, const PiecePlan& plan, const std::string& index_path,
                             uint32_t resolution);
+PieceIndex make_piece_index(const std::vector<BrickStoreField>& fields, const PiecePlan& plan,
+                            const std::string& index_path, uint32_t resolution);
 
 }  // namespace ugvr

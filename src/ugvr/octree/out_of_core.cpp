@@ -658,12 +658,13 @@ class PreviewFile {
 // written: half of the budget beyond the program's own, at least 1 MiB (each slice costs a pass over the cells and an
 // open file).
 uint64_t write_root_soup(VtuCellSource& source, const std::string& root_file, uint64_t memory_budget,
-                         const std::string& temp, const std::string& label, const Progress::Observer& observer) {
+                         const std::string& temp, const std::string& label, const Progress::Observer& observer,
+                         const VtuCellSource::CellFilter& keep = {}) {
   const uint64_t base = uint64_t(48) << 20;
   const uint64_t point_budget = std::max((memory_budget > base ? memory_budget - base : 0) / 2, uint64_t(1) << 20);
   Progress progress(label, source.file_cell_count(), observer);
   SoupWriter soup(root_file, source.layout());
-  const uint64_t cells = source.write_soup(soup, point_budget, temp, &progress);
+  const uint64_t cells = source.write_soup(soup, point_budget, temp, &progress, keep);
   soup.close();
   return cells;
 }
@@ -748,11 +749,48 @@ void add_build_counts(const OutOfCoreBuild& build, const VtuCellSource& source, 
   stats.cell_seconds += build.cell_seconds();
 }
 
+// A subset's given bounds and ranges against the file's own (both the whole file's, unless it changed since the plan).
+void check_subset_matches(const std::string& vtu_path, const OutOfCoreSubset& subset, const VtuCellSource& source) {
+  const Bounds& b = source.bounds();
+  if (!(b.lo == subset.bounds.lo) || !(b.hi == subset.bounds.hi))
+    fail_in(vtu_path, subset.name + ": the file's bounds differ from the plan's (was it changed since?)");
+  const std::vector<BrickStoreField>& f = source.fields();
+  if (f.size() != subset.fields.size())
+    fail_in(vtu_path, subset.name + ": the plan selected " + std::to_string(subset.fields.size()) +
+                          " field(s), the file gives " + std::to_string(f.size()));
+  for (size_t i = 0; i < f.size(); ++i)
+    if (f[i].name != subset.fields[i].name || f[i].association != subset.fields[i].association ||
+        f[i].min != subset.fields[i].min || f[i].max != subset.fields[i].max)
+      fail_in(vtu_path, subset.name + ": field '" + f[i].name +
+                            "' differs from the plan's (name, association or "
+                            "range; was the file changed since?)");
+}
+
+OctreeBuildStats build_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors,
+                                   const OctreeBuildOptions& options, uint64_t memory_budget, const std::string& path,
+                                   const OutOfCoreSubset* subset);
+
 }  // namespace
 
 OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors,
                                           const OctreeBuildOptions& options, uint64_t memory_budget,
                                           const std::string& path) {
+  return build_out_of_core(vtu_path, selectors, options, memory_budget, path, nullptr);
+}
+
+OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors,
+                                          const OctreeBuildOptions& options, uint64_t memory_budget,
+                                          const std::string& path, const OutOfCoreSubset& subset) {
+  if (options.preview_depth > 0 || options.point_sketch)
+    throw Error(subset.name + ": a coarse preview or a point sketch is not made for part of a mesh; leave them out");
+  return build_out_of_core(vtu_path, selectors, options, memory_budget, path, &subset);
+}
+
+namespace {
+
+OctreeBuildStats build_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors,
+                                   const OctreeBuildOptions& options, uint64_t memory_budget, const std::string& path,
+                                   const OutOfCoreSubset* subset) {
   validate_build_options(options);
   if (options.preview_depth < 0 || options.preview_depth > kMaxPreviewDepth)
     throw Error("the coarse preview's depth " + std::to_string(options.preview_depth) + " is out of range 0.." +
@@ -790,8 +828,12 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
     }
   }
   const std::string root_file = (temp_path / "root").string();
-  const uint64_t cells =
-      write_root_soup(source, root_file, memory_budget, temp_path.string(), "cells to disk", options.progress);
+  const uint64_t cells = write_root_soup(source, root_file, memory_budget, temp_path.string(), "cells to disk",
+                                         options.progress, subset ? subset->keep : VtuCellSource::CellFilter{});
+  if (subset) {
+    check_subset_matches(vtu_path, *subset, source);
+    if (cells == 0) fail_in(path, subset->name + " holds no cells (more pieces than the mesh can fill)");
+  }
   const Bounds data_bounds = source.bounds();
   BrickLattice lattice;
   lattice.root = octree_root(data_bounds);
@@ -849,6 +891,8 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
   for (uint64_t id = 0; id < store.node_count(); ++id) stats.bricks += store.node(id).has_brick();
   return stats;
 }
+
+}  // namespace
 
 }  // namespace ugvr
 

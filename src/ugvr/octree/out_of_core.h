@@ -41,12 +41,31 @@
 
 #include "ugvr/io/time_series.h"
 #include "ugvr/octree/builder.h"
+#include "ugvr/octree/vtu_cells.h"
 
 namespace ugvr {
 
 OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors,
                                           const OctreeBuildOptions& options, uint64_t memory_budget,
                                           const std::string& path);
+
+// A store of some of a .vtu's cells on the whole file's lattice: a partitioned build's piece (mpi/piece_build_ooc.h).
+// The soup takes the cells `keep` accepts, with their file ids and vertex ids (a leaf welds them in id order, so the
+// sampler's lowest-id rule is the whole mesh's), and the root cube, the recorded bounds and the field ranges are
+// `bounds` and `fields`: the whole file's, from the plan, not the kept cells'. The source streams the whole file
+// either way, so its own bounds and ranges are the whole file's too; they are checked equal to the given ones (a file
+// changed since the plan is refused naming the field or the bounds).
+struct OutOfCoreSubset {
+  std::string name;  // "piece 3", for messages
+  VtuCellSource::CellFilter keep;
+  Bounds bounds;
+  std::vector<BrickStoreField> fields;
+};
+// As above for `subset`'s cells; no preview or sketch (theirs would be the whole file's). Throws ugvr::Error when
+// `keep` takes no cell, naming subset.name.
+OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors,
+                                          const OctreeBuildOptions& options, uint64_t memory_budget,
+                                          const std::string& path, const OutOfCoreSubset& subset);
 
 // A store with time (format version 6; docs/time-series.md, "Stores with time") of steps `steps` of a series whose
 // steps are one .vtu file each, out of core within `memory_budget`, one step at a time. The first step is built as

@@ -443,7 +443,7 @@ void VtuCellSource::for_each_point_slice(
 }
 
 uint64_t VtuCellSource::write_soup(SoupWriter& soup, uint64_t point_budget, const std::string& temp_dir,
-                                   Progress* progress) {
+                                   Progress* progress, const CellFilter& keep) {
   const Markup& m = *markup_;
   const uint32_t Fv = layout_.vertex_fields, Fc = layout_.cell_fields;
   const uint64_t per_point = 12 + 4 * uint64_t(Fv);
@@ -452,9 +452,12 @@ uint64_t VtuCellSource::write_soup(SoupWriter& soup, uint64_t point_budget, cons
   Vec3f positions[kMaxCellVertices];
   std::vector<float> vvalues(size_t(Fv) * kMaxCellVertices);
   EmittedCells emitted(path_, Fc);
+  uint64_t written = 0;
   auto emit = [&](uint64_t c, CellType t, int n, const uint32_t* corners, const float* cell) {
     emitted.add(c, t, n, corners, cell);
+    if (keep && !keep(StreamedCell{c, t, n, corners, positions, vvalues.data(), cell})) return;
     soup.add(c, t, n, corners, positions, vvalues.data(), cell);
+    ++written;
   };
   std::vector<Vec3f> pos;
   std::vector<float> val;
@@ -510,6 +513,42 @@ uint64_t VtuCellSource::write_soup(SoupWriter& soup, uint64_t point_budget, cons
   emitted.set_ranges(slots_, fields_);
   if (emitted.count() == 0) fail_in(path_, "the file has no volume cells");
   cells_hash_ = emitted.hash();
+  return written;
+}
+
+uint64_t VtuCellSource::for_each_sampled_cell(
+    uint64_t stride, uint64_t point_budget, Progress* progress,
+    const std::function<void(uint64_t, CellType, std::span<const Vec3f>)>& f) {
+  stride = std::max<uint64_t>(stride, 1);
+  EmittedCells emitted(path_, layout_.cell_fields);
+  // The sampled cells, flat: their type, first corner and index; the corners' point ids, then their positions.
+  struct Sampled {
+    uint64_t index;
+    CellType type;
+    size_t first;
+  };
+  std::vector<Sampled> sampled;
+  std::vector<uint32_t> ids;
+  uint64_t volume = 0;
+  stream_cells(*markup_, cells_, points_, true, progress,
+               [&](uint64_t c, CellType t, int n, const uint32_t* corners, const float* cell) {
+                 emitted.add(c, t, n, corners, cell);
+                 if (volume++ % stride != 0) return;
+                 sampled.push_back({volume - 1, t, ids.size()});
+                 ids.insert(ids.end(), corners, corners + n);
+               });
+  emitted.set_ranges(slots_, fields_);
+  if (emitted.count() == 0) fail_in(path_, "the file has no volume cells");
+  cells_hash_ = emitted.hash();
+  std::vector<Vec3f> positions(ids.size());
+  for_each_point_slice(point_budget, [&](uint64_t first, std::span<const Vec3f> pos, std::span<const float>) {
+    for (size_t i = 0; i < ids.size(); ++i)
+      if (ids[i] >= first && ids[i] - first < pos.size()) positions[i] = pos[ids[i] - first];
+  });
+  for (size_t s = 0; s < sampled.size(); ++s) {
+    const size_t end = s + 1 < sampled.size() ? sampled[s + 1].first : ids.size();
+    f(sampled[s].index, sampled[s].type, std::span(positions.data() + sampled[s].first, end - sampled[s].first));
+  }
   return emitted.count();
 }
 

@@ -52,10 +52,32 @@ class VtuCellSource {
   // The selected scalars; a cell scalar's range is known once write_soup has run.
   const std::vector<BrickStoreField>& fields() const { return fields_; }
 
+  // A volume cell as the stream assembles its record, before it is written: its index in the file (the record's id),
+  // type, corners' point ids, positions, vertex values (Fv x n, field-major) and cell values (Fc; null when Fc = 0).
+  struct StreamedCell {
+    uint64_t id = 0;
+    CellType type{};
+    int n = 0;
+    const uint32_t* vertices = nullptr;
+    const Vec3f* positions = nullptr;
+    const float* vertex_values = nullptr;
+    const float* cell_values = nullptr;
+  };
+  // Which cells a soup takes (a partitioned build's piece: mpi/piece_build_ooc.h); called in file order.
+  using CellFilter = std::function<bool(const StreamedCell&)>;
+
   // Streams every volume cell into `soup` and returns their count, holding at most `point_budget` bytes of points and
   // vertex scalars (at least one point); corner files go to `temp_dir`. Fails on NaN or infinite selected values.
+  // With `keep`, only the cells it accepts are written (and counted in the result); every cell is still checked, and
+  // the cell scalars' ranges and geometry_hash are the whole file's, whatever `keep` takes.
   uint64_t write_soup(SoupWriter& soup, uint64_t point_budget, const std::string& temp_dir,
-                      Progress* progress = nullptr);
+                      Progress* progress = nullptr, const CellFilter& keep = {});
+  // The volume cells whose index among them (the in-core mesh's numbering) is a multiple of `stride`: f(index, type,
+  // corner positions) for each, in order, after one pass over the cells without their points (for the corner ids,
+  // the cell scalars' ranges and the checks, as write_soup makes them) and one over the points in slices of at most
+  // `point_budget` bytes. Holds the sampled cells' corners only. Returns the volume cells' count.
+  uint64_t for_each_sampled_cell(uint64_t stride, uint64_t point_budget, Progress* progress,
+                                 const std::function<void(uint64_t, CellType, std::span<const Vec3f>)>& f);
   // A later time step's values for the first step's records (octree/step_values.h: the files "<prefix>v<k>" and
   // "<prefix>c<k>"), in place of a soup: each vertex scalar streamed to its file, then the cells once, for their
   // scalars and for geometry_hash and the cell scalars' ranges (as write_soup finds them). Holds a chunk of values, not

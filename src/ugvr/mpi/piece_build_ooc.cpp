@@ -1,0 +1,65 @@
+#include "ugvr/mpi/piece_build_ooc.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "ugvr/core/error.h"
+#include "ugvr/mpi/kd_partition.h"
+#include "ugvr/octree/out_of_core.h"
+#include "ugvr/octree/vtu_cells.h"
+
+namespace ugvr {
+
+OutOfCorePiecePlan plan_pieces_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors,
+                                           int pieces, uint32_t resolution, int ghost_level, uint64_t memory_budget,
+                                           const Progress::Observer& observer) {
+  const auto t0 = std::chrono::steady_clock::now();
+  check_piece_count(pieces);
+  VtuCellSource source(vtu_path, selectors);
+  OutOfCorePiecePlan out;
+  out.plan = plan_frame(source.bounds(), resolution, ghost_level);
+  // The points of the sampled cells' corners are found a slice at a time, within the share the soup's points get.
+  const uint64_t base = uint64_t(48) << 20;
+  const uint64_t point_budget = std::max((memory_budget > base ? memory_budget - base : 0) / 2, uint64_t(1) << 20);
+  std::vector<Vec3d> samples;
+  {
+    Progress progress("kd split sample", source.file_cell_count(), observer);
+    out.cells = source.for_each_sampled_cell(
+        split_sample_stride(source.file_cell_count()), point_budget, &progress,
+        [&](uint64_t, CellType, std::span<const Vec3f> corners) { samples.push_back(centroid_of(corners)); });
+  }
+  out.split_samples = samples.size();
+  out.plan.tree = build_kd_tree(std::move(samples), pieces);
+  out.plan.cells.assign(size_t(pieces), 0);
+  out.plan.ghost_cells.assign(size_t(pieces), 0);
+  out.fields = source.fields();  // the cell fields' ranges are known after the pass over the cells
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+OctreeBuildStats build_piece_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors,
+                                         OutOfCorePiecePlan& plan, int k, const OctreeBuildOptions& options,
+                                         uint64_t memory_budget, const std::string& path) {
+  if (k < 0 || k >= plan.plan.tree.parts()) throw Error("internal: piece " + std::to_string(k) + " is not in the plan");
+  OutOfCoreSubset subset;
+  subset.name = "piece " + std::to_string(k);
+  subset.bounds = plan.plan.bounds;
+  subset.fields = plan.fields;
+  uint64_t held = 0, owned = 0;
+  subset.keep = [&](const VtuCellSource::StreamedCell& c) {
+    const std::span<const Vec3f> corners(c.positions, size_t(c.n));
+    Bounds b;
+    for (const Vec3f& p : corners) b.add(to_double(p));
+    if (!piece_holds(plan.plan, k, b)) return false;
+    ++held;
+    // A cell whose centroid lies in the box meets it: the owned cells are among the held ones.
+    owned += plan.plan.tree.part_of(centroid_of(corners)) == k;
+    return true;
+  };
+  const OctreeBuildStats stats = build_octree_out_of_core(vtu_path, selectors, options, memory_budget, path, subset);
+  plan.plan.cells[size_t(k)] = owned;
+  plan.plan.ghost_cells[size_t(k)] = held - owned;
+  return stats;
+}
+
+}  // namespace ugvr
