@@ -12,9 +12,6 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-double coord(const Vec3d& p, int axis) { return axis == 0 ? p.x : axis == 1 ? p.y : p.z; }
-void set_coord(Vec3d& p, int axis, double v) { (axis == 0 ? p.x : axis == 1 ? p.y : p.z) = v; }
-
 // Splits points[begin, end) among parts [first_part, first_part + parts) inside `box`; returns the node index.
 int build(KdTree& tree, std::vector<Vec3d>& points, size_t begin, size_t end, int first_part, int parts,
           const Bounds& box) {
@@ -40,18 +37,18 @@ int build(KdTree& tree, std::vector<Vec3d>& points, size_t begin, size_t end, in
     axis = size.x >= size.y && size.x >= size.z ? 0 : size.y >= size.z ? 1 : 2;
     // The left side takes cells in proportion to its parts; the plane at the first right point's coordinate.
     const size_t k = begin + (end - begin) * size_t(left_parts) / size_t(parts);
-    auto by_axis = [axis](const Vec3d& a, const Vec3d& b) { return coord(a, axis) < coord(b, axis); };
+    auto by_axis = [axis](const Vec3d& a, const Vec3d& b) { return a[axis] < b[axis]; };
     std::nth_element(points.begin() + std::ptrdiff_t(begin), points.begin() + std::ptrdiff_t(k),
                      points.begin() + std::ptrdiff_t(end), by_axis);
-    split = k < end ? coord(points[k], axis) : coord(extent.hi, axis);
+    split = k < end ? points[k][axis] : extent.hi[axis];
   }
   // Points on the plane go right (the boxes are half-open, [lo, split) and [split, hi)).
   const auto mid_it = std::partition(points.begin() + std::ptrdiff_t(begin), points.begin() + std::ptrdiff_t(end),
-                                     [&](const Vec3d& p) { return coord(p, axis) < split; });
+                                     [&](const Vec3d& p) { return p[axis] < split; });
   const size_t mid = size_t(mid_it - points.begin());
   Bounds left = box, right = box;
-  set_coord(left.hi, axis, split);
-  set_coord(right.lo, axis, split);
+  left.hi[axis] = split;
+  right.lo[axis] = split;
   const int c0 = build(tree, points, begin, mid, first_part, left_parts, left);
   const int c1 = build(tree, points, mid, end, first_part + left_parts, parts - left_parts, right);
   KdNode& node = tree.nodes[size_t(index)];
@@ -69,8 +66,7 @@ void order(const KdTree& tree, int node, const Camera& camera, const Vec3d& dir,
   }
   // Perspective rays start at the eye: its side is met first. Parallel rays come from infinitely far: the side the
   // direction leaves first.
-  const bool low_first =
-      camera.parallel_projection ? coord(dir, n.axis) >= 0 : coord(camera.position, n.axis) < n.split;
+  const bool low_first = camera.parallel_projection ? dir[n.axis] >= 0 : camera.position[n.axis] < n.split;
   order(tree, n.child[low_first ? 0 : 1], camera, dir, out);
   order(tree, n.child[low_first ? 1 : 0], camera, dir, out);
 }
@@ -97,7 +93,7 @@ int KdTree::part_of(const Vec3d& p) const {
   int node = 0;
   while (nodes[size_t(node)].axis >= 0) {
     const KdNode& n = nodes[size_t(node)];
-    node = n.child[coord(p, n.axis) < n.split ? 0 : 1];
+    node = n.child[p[n.axis] < n.split ? 0 : 1];
   }
   return nodes[size_t(node)].part;
 }

@@ -25,8 +25,6 @@ bool closed_overlap(const Bounds& a, const Bounds& box) {
          a.hi.z >= box.lo.z;
 }
 
-double coord(const Vec3d& p, int axis) { return axis == 0 ? p.x : axis == 1 ? p.y : p.z; }
-
 std::string pvtu_type_attributes(ScalarType type, int components) {
   return " type=\"" + std::string(scalar_type_name(type)) + "\" NumberOfComponents=\"" + std::to_string(components) +
          "\"";
@@ -193,7 +191,7 @@ Block read_block_bytes(std::span<const std::byte>& bytes, std::string_view sourc
 std::vector<uint32_t> slab_pieces(const Block& block, uint32_t pieces, int axis) {
   const UnstructuredMesh& mesh = unstructured(block, "slab_pieces");
   std::vector<double> key(mesh.cell_count());
-  for (uint64_t c = 0; c < key.size(); ++c) key[c] = coord(cell_centroid(mesh, c), axis);
+  for (uint64_t c = 0; c < key.size(); ++c) key[c] = cell_centroid(mesh, c)[axis];
   std::vector<uint64_t> order(key.size());
   std::iota(order.begin(), order.end(), uint64_t(0));
   std::stable_sort(order.begin(), order.end(), [&](uint64_t a, uint64_t b) { return key[a] < key[b]; });

@@ -13,8 +13,6 @@
 namespace ugvr {
 namespace {
 
-double coord(const Vec3d& p, int axis) { return axis == 0 ? p.x : axis == 1 ? p.y : p.z; }
-
 // Calls f(piece) for every piece whose closed box meets `b` (a cell's bounding box already grown by the margin).
 template <class F>
 void for_each_piece_meeting(const KdTree& tree, int node, const Bounds& b, F&& f) {
@@ -23,8 +21,8 @@ void for_each_piece_meeting(const KdTree& tree, int node, const Bounds& b, F&& f
     f(n.part);
     return;
   }
-  if (coord(b.lo, n.axis) <= n.split) for_each_piece_meeting(tree, n.child[0], b, f);
-  if (coord(b.hi, n.axis) >= n.split) for_each_piece_meeting(tree, n.child[1], b, f);
+  if (b.lo[n.axis] <= n.split) for_each_piece_meeting(tree, n.child[0], b, f);
+  if (b.hi[n.axis] >= n.split) for_each_piece_meeting(tree, n.child[1], b, f);
 }
 
 Bounds grown(Bounds b, double margin) {
