@@ -99,9 +99,7 @@ int KdTree::part_of(const Vec3d& p) const {
 }
 
 Vec3d centroid_of(std::span<const Vec3f> corners) {
-  Vec3d sum{0, 0, 0};
-  for (const Vec3f& p : corners) sum = sum + to_double(p);
-  return sum * (1.0 / double(corners.size()));
+  return mean_of_corners(int(corners.size()), [&](int i) { return corners[size_t(i)]; });
 }
 
 uint64_t split_sample_stride(uint64_t cells) {
@@ -114,9 +112,7 @@ std::vector<Vec3d> cell_centroids(const WalkMesh& mesh) {
     const int k = mesh.type_index(c);
     const int n = cell_vertex_count(kAllCellTypes[k]);
     const uint32_t* v = mesh.cell_vertices(c, k);
-    Vec3d sum{0, 0, 0};
-    for (int i = 0; i < n; ++i) sum = sum + to_double(mesh.points[v[i]]);
-    out[c] = sum * (1.0 / n);
+    out[c] = mean_of_corners(n, [&](int i) { return mesh.points[v[i]]; });
   }
   return out;
 }

@@ -45,8 +45,15 @@ KdTree build_kd_tree(std::vector<Vec3d> points, int parts);
 // The centroid of every cell of the walk mesh (the mean of its vertices).
 std::vector<Vec3d> cell_centroids(const WalkMesh& mesh);
 
-// The mean of a cell's corners, summed in order in double then scaled by 1/n: the arithmetic of cell_centroids and of
-// cell_centroid (mesh_part.h), so a centroid taken from a streamed cell is the in-core mesh's bit for bit.
+// The mean of a cell's n corners (corner(i): a Vec3f), summed in order in double then scaled by 1/n. Every centroid
+// of a cell is taken with it (centroid_of, cell_centroids, mesh_part.h's cell_centroid), so a centroid taken from a
+// streamed cell is the in-core mesh's bit for bit.
+template <class Corner>
+Vec3d mean_of_corners(int n, Corner&& corner) {
+  Vec3d sum{0, 0, 0};
+  for (int i = 0; i < n; ++i) sum = sum + to_double(corner(i));
+  return sum * (1.0 / double(n));
+}
 Vec3d centroid_of(std::span<const Vec3f> corners);
 
 // The split sample, one rule for every tree built from part of the cells (a .pvtu part read, mpi_part_read.h; an

@@ -40,9 +40,7 @@ Bounds cell_bounds(const UnstructuredMesh& mesh, uint64_t c) {
 
 Vec3d cell_centroid(const UnstructuredMesh& mesh, uint64_t c) {
   const auto v = mesh.cell(c);
-  Vec3d sum{0, 0, 0};
-  for (uint32_t i : v) sum = sum + to_double(mesh.points[i]);
-  return sum * (1.0 / double(v.size()));
+  return mean_of_corners(int(v.size()), [&](int i) { return mesh.points[v[size_t(i)]]; });
 }
 
 Block block_subset(const Block& block, std::span<const uint8_t> keep) {
