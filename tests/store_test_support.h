@@ -2,8 +2,11 @@
 // its final store), and the generated mesh those tests share.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <array>
 #include <cstdint>
+#include <cstring>
 #include <map>
 #include <utility>
 #include <variant>
@@ -23,6 +26,41 @@ inline std::map<std::array<uint32_t, 4>, uint64_t> nodes_by_place(const BrickSto
     m[{uint32_t(n.level), n.i, n.j, n.k}] = id;
   }
   return m;
+}
+
+// Two builds of one mesh, node by node (matched by place): the same child masks, each field's node min/max equal,
+// every brick (mask and float32 samples) bit for bit; at a leaf the same error_max and `leaf(ia, ib, f)` for what a
+// caller also compares there; at an interior node an error no higher in `other` (out of core an interior node's
+// error is measured at its children's samples alone). A store with time compares its current step (set_step).
+template <class LeafCheck>
+void expect_same_nodes_and_bricks(const BrickStoreReader& reference, const BrickStoreReader& other, LeafCheck&& leaf) {
+  const auto a = nodes_by_place(reference), b = nodes_by_place(other);
+  const size_t n = size_t(reference.resolution()) * reference.resolution() * reference.resolution();
+  std::vector<float> va(n), vb(n);
+  std::vector<uint8_t> ma(n), mb(n);
+  for (const auto& [place, ia] : a) {
+    const auto it = b.find(place);
+    ASSERT_NE(it, b.end()) << "level " << place[0] << " node " << place[1] << " " << place[2] << " " << place[3];
+    const uint64_t ib = it->second;
+    EXPECT_EQ(reference.node(ia).child_mask, other.node(ib).child_mask);
+    ASSERT_EQ(reference.node(ia).has_brick(), other.node(ib).has_brick());
+    for (uint32_t f = 0; f < reference.field_count(); ++f) {
+      const FieldStats &sa = reference.stats(ia, f), &sb = other.stats(ib, f);
+      EXPECT_EQ(sa.min, sb.min);
+      EXPECT_EQ(sa.max, sb.max);
+      if (reference.node(ia).is_leaf()) {
+        EXPECT_EQ(sa.error_max, sb.error_max) << "node " << ia;
+        leaf(ia, ib, f);
+      } else {
+        EXPECT_LE(sb.error_max, sa.error_max);
+      }
+      if (!reference.node(ia).has_brick()) continue;
+      reference.read_brick(ia, f, va.data(), ma.data());
+      other.read_brick(ib, f, vb.data(), mb.data());
+      ASSERT_EQ(ma, mb) << "node " << ia << " field " << f;
+      ASSERT_EQ(std::memcmp(va.data(), vb.data(), 4 * n), 0) << "node " << ia << " field " << f;
+    }
+  }
 }
 
 // `ugvr generate`'s mesh of `kind` in memory, with a cell field of its own ("cell97": the cell id modulo 97) beside

@@ -51,31 +51,7 @@ void expect_same_piece(const BrickStoreReader& in_core, const BrickStoreReader& 
     EXPECT_EQ(in_core.layout().fields[f].min, ooc.layout().fields[f].min);
     EXPECT_EQ(in_core.layout().fields[f].max, ooc.layout().fields[f].max);
   }
-  const auto a = test::nodes_by_place(in_core), b = test::nodes_by_place(ooc);
-  const size_t n = size_t(in_core.resolution()) * in_core.resolution() * in_core.resolution();
-  std::vector<float> va(n), vb(n);
-  std::vector<uint8_t> ma(n), mb(n);
-  for (const auto& [place, ia] : a) {
-    const auto it = b.find(place);
-    ASSERT_NE(it, b.end()) << "level " << place[0] << " node " << place[1] << " " << place[2] << " " << place[3];
-    const uint64_t ib = it->second;
-    EXPECT_EQ(in_core.node(ia).child_mask, ooc.node(ib).child_mask);
-    ASSERT_EQ(in_core.node(ia).has_brick(), ooc.node(ib).has_brick());
-    for (uint32_t f = 0; f < in_core.field_count(); ++f) {
-      const FieldStats &sa = in_core.stats(ia, f), &sb = ooc.stats(ib, f);
-      EXPECT_EQ(sa.min, sb.min);
-      EXPECT_EQ(sa.max, sb.max);
-      if (in_core.node(ia).is_leaf())
-        EXPECT_EQ(sa.error_max, sb.error_max);
-      else
-        EXPECT_LE(sb.error_max, sa.error_max);
-      if (!in_core.node(ia).has_brick()) continue;
-      in_core.read_brick(ia, f, va.data(), ma.data());
-      ooc.read_brick(ib, f, vb.data(), mb.data());
-      EXPECT_EQ(ma, mb) << "node " << ia << " field " << f;
-      EXPECT_EQ(std::memcmp(va.data(), vb.data(), 4 * n), 0) << "node " << ia << " field " << f;
-    }
-  }
+  test::expect_same_nodes_and_bricks(in_core, ooc, [](uint64_t, uint64_t, uint32_t) {});
 }
 
 TEST(PiecesOutOfCore, SampleStrideIsOneRule) {

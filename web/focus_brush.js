@@ -44,18 +44,21 @@ class FocusBrush {
 
   // The brush's edge in data values.
   edge() { return this.edgeFraction * (this.hi - this.lo); }
+  // The edge's width in canvas pixels.
+  edgePx() { return this.toPx(this.lo + this.edge()) - this.toPx(this.lo); }
   // Whether canvas x is on the outer end of either edge band (the handles that set the edge).
   onEdgeHandle(x) {
     if (!this.range) return false;
-    const e = this.toPx(this.lo + this.edge()) - this.toPx(this.lo);
+    const e = this.edgePx();
     return Math.abs(x - (this.toPx(this.range[0]) - e)) <= FocusBrush.HANDLE_PX ||
            Math.abs(x - (this.toPx(this.range[1]) + e)) <= FocusBrush.HANDLE_PX;
   }
-  // The edge that puts a band's outer end at canvas x: its distance from the nearer end of the range (0 inside it).
+  // The edge fraction that puts a band's outer end at canvas x: its distance from the nearer end of the range (0
+  // inside it), x clamped to the plot.
   edgeAt(x) {
-    const v = this.lo + ((x - this.pad) / (this.canvas.width - 2 * this.pad)) * (this.hi - this.lo);
+    const v = this.fromPx(x);
     const d = v < this.range[0] ? this.range[0] - v : v > this.range[1] ? v - this.range[1] : 0;
-    return Math.min(1, d / (this.hi - this.lo));
+    return d / (this.hi - this.lo);
   }
 
   // Data value <-> canvas x (the plot spans the canvas less its padding).
@@ -106,7 +109,7 @@ class FocusBrush {
     drawLogHistogram(ctx, this.histogram, p, w - p, p, h - p, (b) => (inRange(b) ? "#d9a441" : "#4a4f5c"));
     if (this.range) {
       const x0 = this.toPx(this.range[0]), x1 = this.toPx(this.range[1]);
-      const e = this.toPx(this.range[0] + this.edge()) - x0;
+      const e = this.edgePx();
       ctx.fillStyle = "rgba(217, 164, 65, 0.08)";  // the edges, where the interest falls off
       ctx.fillRect(x0 - e, 0, e, h);
       ctx.fillRect(x1, 0, e, h);

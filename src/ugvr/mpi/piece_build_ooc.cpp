@@ -1,6 +1,5 @@
 #include "ugvr/mpi/piece_build_ooc.h"
 
-#include <algorithm>
 #include <chrono>
 
 #include "ugvr/core/error.h"
@@ -19,8 +18,7 @@ OutOfCorePiecePlan plan_pieces_out_of_core(const std::string& vtu_path, std::spa
   OutOfCorePiecePlan out;
   out.plan = plan_frame(source.bounds(), resolution, ghost_level);
   // The points of the sampled cells' corners are found a slice at a time, within the share the soup's points get.
-  const uint64_t base = uint64_t(48) << 20;
-  const uint64_t point_budget = std::max((memory_budget > base ? memory_budget - base : 0) / 2, uint64_t(1) << 20);
+  const uint64_t point_budget = soup_point_budget(memory_budget);
   std::vector<Vec3d> samples;
   {
     Progress progress("kd split sample", source.file_cell_count(), observer);

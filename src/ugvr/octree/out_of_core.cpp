@@ -655,16 +655,13 @@ class PreviewFile {
 };
 
 // The cells of `source` into the root's soup file. The points and vertex scalars are held while the records are
-// written: half of the budget beyond the program's own, at least 1 MiB (each slice costs a pass over the cells and an
-// open file).
+// written, within soup_point_budget (out_of_core.h).
 uint64_t write_root_soup(VtuCellSource& source, const std::string& root_file, uint64_t memory_budget,
                          const std::string& temp, const std::string& label, const Progress::Observer& observer,
                          const VtuCellSource::CellFilter& keep = {}) {
-  const uint64_t base = uint64_t(48) << 20;
-  const uint64_t point_budget = std::max((memory_budget > base ? memory_budget - base : 0) / 2, uint64_t(1) << 20);
   Progress progress(label, source.file_cell_count(), observer);
   SoupWriter soup(root_file, source.layout());
-  const uint64_t cells = source.write_soup(soup, point_budget, temp, &progress, keep);
+  const uint64_t cells = source.write_soup(soup, soup_point_budget(memory_budget), temp, &progress, keep);
   soup.close();
   return cells;
 }
@@ -771,6 +768,11 @@ OctreeBuildStats build_out_of_core(const std::string& vtu_path, std::span<const 
                                    const OutOfCoreSubset* subset);
 
 }  // namespace
+
+uint64_t soup_point_budget(uint64_t memory_budget) {
+  const uint64_t base = uint64_t(48) << 20;
+  return std::max((memory_budget > base ? memory_budget - base : 0) / 2, uint64_t(1) << 20);
+}
 
 OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors,
                                           const OctreeBuildOptions& options, uint64_t memory_budget,

@@ -49,6 +49,11 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
                                           const OctreeBuildOptions& options, uint64_t memory_budget,
                                           const std::string& path);
 
+// The bytes of points and vertex scalars a pass over a .vtu's cells may hold (a slice at a time) within
+// `memory_budget`: half of what is left beyond the program's own 48 MiB, at least 1 MiB (each slice costs one more
+// pass over the cells). The soup's writing and the partitioned build's sample pass (mpi/piece_build_ooc.h) use it.
+uint64_t soup_point_budget(uint64_t memory_budget);
+
 // A store of some of a .vtu's cells on the whole file's lattice: a partitioned build's piece (mpi/piece_build_ooc.h).
 // The soup takes the cells `keep` accepts, with their file ids and vertex ids (a leaf welds them in id order, so the
 // sampler's lowest-id rule is the whole mesh's), and the root cube, the recorded bounds and the field ranges are

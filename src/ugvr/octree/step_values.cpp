@@ -73,6 +73,32 @@ void check_below(const std::string& path, const std::vector<T>& ids, uint64_t co
                       std::to_string(count) + ": the records are not of this step's mesh");
 }
 
+// Reads the values of `files` (one per field) at the distinct ids of `refs` (one per record, or per corner) and
+// writes them into the records through `put(record, cell, ref index within the record, field, value)`.
+template <class T, class Visit, class Put>
+void fill(const SoupLayout& layout, std::span<std::byte> records, std::span<const size_t> offsets,
+          const std::vector<InputFile>& files, uint64_t count, const char* what, Visit&& ids_of, Put&& put) {
+  std::vector<T> refs;
+  for (size_t at : offsets) ids_of(SoupCell(records.data() + at, layout), refs);
+  const DistinctIds<T> distinct(std::move(refs));
+  const std::vector<T>& ids = distinct.ids();
+  check_below(files[0].path(), ids, count, what);
+  const size_t F = files.size();
+  std::vector<float> values(F * ids.size());
+  for (size_t f = 0; f < F; ++f) gather<T>(files[f], ids, values.data() + f * ids.size());
+  std::vector<T> mine;
+  for (size_t at : offsets) {
+    std::byte* record = records.data() + at;
+    const SoupCell cell(record, layout);
+    mine.clear();
+    ids_of(cell, mine);
+    for (size_t i = 0; i < mine.size(); ++i) {
+      const size_t local = distinct.index(mine[i]);
+      for (size_t f = 0; f < F; ++f) put(record, cell, i, uint32_t(f), values[f * ids.size() + local]);
+    }
+  }
+}
+
 }  // namespace
 
 std::string step_vertex_values_path(const std::string& prefix, uint32_t field) {
@@ -150,39 +176,12 @@ StepValues::StepValues(const std::string& prefix, const SoupLayout& layout, uint
 
 StepValues::~StepValues() = default;
 
-// Reads the values of `files` (one per field) at the distinct ids of `refs` (one per record, or per corner) and
-// writes them into the records through `put(record, cell, ref index within the record, field, value)`.
-template <class T, class Visit, class Put>
-void StepValues::fill(std::span<std::byte> records, std::span<const size_t> offsets,
-                      const std::vector<InputFile>& files, uint64_t count, const char* what, Visit&& ids_of,
-                      Put&& put) const {
-  std::vector<T> refs;
-  for (size_t at : offsets) ids_of(SoupCell(records.data() + at, layout_), refs);
-  const DistinctIds<T> distinct(std::move(refs));
-  const std::vector<T>& ids = distinct.ids();
-  check_below(files[0].path(), ids, count, what);
-  const size_t F = files.size();
-  std::vector<float> values(F * ids.size());
-  for (size_t f = 0; f < F; ++f) gather<T>(files[f], ids, values.data() + f * ids.size());
-  std::vector<T> mine;
-  for (size_t at : offsets) {
-    std::byte* record = records.data() + at;
-    const SoupCell cell(record, layout_);
-    mine.clear();
-    ids_of(cell, mine);
-    for (size_t i = 0; i < mine.size(); ++i) {
-      const size_t local = distinct.index(mine[i]);
-      for (size_t f = 0; f < F; ++f) put(record, cell, i, uint32_t(f), values[f * ids.size() + local]);
-    }
-  }
-}
-
 void StepValues::put_into(std::span<std::byte> records) const {
   std::vector<size_t> offsets;
   for (size_t at = 0; at < records.size(); at += SoupCell(records.data() + at, layout_).bytes()) offsets.push_back(at);
   if (!vertex_files_.empty())
     fill<uint32_t>(
-        records, offsets, vertex_files_, points_, "point",
+        layout_, records, offsets, vertex_files_, points_, "point",
         [](const SoupCell& cell, std::vector<uint32_t>& out) {
           for (int i = 0; i < cell.vertex_count(); ++i) out.push_back(cell.vertex(i));
         },
@@ -191,7 +190,7 @@ void StepValues::put_into(std::span<std::byte> records) const {
         });
   if (!cell_files_.empty())
     fill<uint64_t>(
-        records, offsets, cell_files_, cells_, "cell",
+        layout_, records, offsets, cell_files_, cells_, "cell",
         [](const SoupCell& cell, std::vector<uint64_t>& out) { out.push_back(cell.id()); },
         [&](std::byte* record, const SoupCell& cell, size_t, uint32_t f, float v) {
           std::memcpy(record + layout_.cell_value_offset(cell.vertex_count(), f), &v, sizeof(float));

@@ -67,9 +67,6 @@ class StepValues {
 
  private:
   static InputFile open_values(const std::string& path, uint64_t count);
-  template <class T, class Visit, class Put>
-  void fill(std::span<std::byte> records, std::span<const size_t> offsets, const std::vector<InputFile>& files,
-            uint64_t count, const char* what, Visit&& ids_of, Put&& put) const;
 
   SoupLayout layout_;
   uint64_t points_ = 0, cells_ = 0;
