@@ -21,8 +21,11 @@
 #include "ugvr/gen/generator.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/time_series.h"
+#include "ugvr/mpi/piece_index.h"
+#include "ugvr/mpi/piece_renderer.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/render_settings.h"
+#include "ugvr/render/renderer_factory.h"
 #include "ugvr/render/transfer_function.h"
 #include "ugvr/store/brick_store.h"
 #include "ugvr/view/memory_budget.h"
@@ -35,8 +38,6 @@
 #include "ugvr/core/progress.h"
 #include "ugvr/mpi/mpi_session.h"
 #include "ugvr/mpi/mpi_view.h"
-#include "ugvr/mpi/piece_index.h"
-#include "ugvr/render/renderer_factory.h"
 #endif
 
 namespace ugvr::cli {
@@ -75,8 +76,8 @@ bool store_opens(const std::string& path) {
   return false;
 }
 
-// Serves `vo` until SIGINT or SIGTERM (or the grid fails to load). `mpi_note`: said once serving (the MPI ranks).
-void serve(view::ViewServerOptions vo, const std::string& mpi_note = "") {
+// Serves `vo` until SIGINT or SIGTERM (or the grid fails to load). `note`: said once serving (what draws the frames).
+void serve(view::ViewServerOptions vo, const std::string& note = "") {
   // Blocked before any thread starts, so that every thread inherits the mask and only sigwait below sees them.
   // SIGUSR1 is the viewer's own: the grid could not be loaded (on_failure below).
   sigset_t signals;
@@ -102,7 +103,7 @@ void serve(view::ViewServerOptions vo, const std::string& mpi_note = "") {
   // Printed even with --quiet: it is the command's output (scripts read the URL from it).
   std::printf("ugvr view: serving %s (%s)\n", server.url().c_str(), server.renderer().c_str());
   std::fflush(stdout);
-  if (!mpi_note.empty()) std::fprintf(stderr, "ugvr view: %s\n", mpi_note.c_str());
+  if (!note.empty()) std::fprintf(stderr, "ugvr view: %s\n", note.c_str());
   int sig = 0;
   sigwait(&signals, &sig);
   if (sig == SIGUSR1) {
@@ -165,6 +166,28 @@ void run_view_mpi(const Options& o, view::ViewServerOptions vo) {
 }
 #endif
 
+// `ugvr view INDEX.json` in one process (docs/mpi.md, "The viewer on a cluster"): every piece of a partitioned store
+// drawn here, as `ugvr render INDEX` draws them (piece_renderer.h), through the same collective path as under MPI
+// (the tabs' one renderer, one cut per frame, the image scaled down while the view moves). Nothing is built: a store
+// of a billion cells is opened where its pieces were written.
+void run_view_pieces(const Options& o, view::ViewServerOptions vo) {
+  if (!o.store_path.empty() || o.free_grid)
+    fail_in(o.free_grid ? "--free-grid" : "--store", "a partitioned store's index is shown as built: nothing to build");
+  const PieceIndex index = read_piece_index(o.inputs[0]);  // a bad index fails here, before serving
+  RendererOptions ro;
+  ro.gpu = o.gpu;
+  ro.lod.atlas_budget_bytes = o.gpu_memory;
+  vo.collective = [index, ro] {
+    view::CollectiveRenderer c;
+    for (const BrickStoreField& f : index.fields) c.fields.push_back(f.name);
+    for (int k = 0; k < index.count(); ++k) c.histogram_stores.push_back(index.store_path(k));
+    c.renderer = open_piece_renderer(index, {}, ro);
+    return c;
+  };
+  serve(std::move(vo), "a partitioned store: its " + std::to_string(index.count()) +
+                           " pieces drawn in this process, one after another (mpirun -np N shares them out)");
+}
+
 void run_view(const Options& o) {
   if (o.port < 0 || o.port > 65535) fail_in("--port", "must be in [0, 65535] (0: a free port)");
   if (o.demo == !o.inputs.empty()) fail_in("INPUT", "give a grid file, a .ugvr store or --demo (one of them)");
@@ -222,6 +245,7 @@ void run_view(const Options& o) {
   if (mpi::active()) return run_view_mpi(o, std::move(vo));
 #endif
   if (o.threads != 0) fail_in("--threads", "is for `mpirun ... ugvr view` (each rank's threads)");
+  if (o.inputs.size() == 1 && is_piece_index(o.inputs[0])) return run_view_pieces(o, std::move(vo));
 
   // A time series of several steps (a .pvd, .series, numbered files, or a multi-step file such as Exodus): the exact
   // engine alone, with a time slider (no store: a store holds one step).

@@ -19,6 +19,7 @@
 #include <optional>
 
 #include "ugvr/core/error.h"
+#include "ugvr/core/memory.h"
 #include "ugvr/core/progress.h"
 #include "ugvr/core/temp_files.h"
 #include "ugvr/grid/cell_interpolation.h"
@@ -774,6 +775,24 @@ uint64_t soup_point_budget(uint64_t memory_budget) {
   return std::max((memory_budget > base ? memory_budget - base : 0) / 2, uint64_t(1) << 20);
 }
 
+uint64_t out_of_core_scratch_floor(uint64_t cells, const SoupLayout& layout) {
+  return 2 * cells * uint64_t(layout.record_bytes(4));
+}
+
+void check_out_of_core_scratch(const std::string& input, uint64_t cells, uint64_t needed, uint64_t available,
+                               const std::string& scratch_folder) {
+  if (available >= needed) return;
+  const std::filesystem::path in(input);
+  const std::string index = (in.parent_path() / in.stem()).string() + ".json";
+  throw Error(input + ": an out-of-core build of its " + std::to_string(cells) + " cells needs at least " +
+              format_bytes(needed) + " of scratch space in " + scratch_folder +
+              " (its cell soup and the files of its " + "first split), and " + format_bytes(available) +
+              " is free there: free space, write the store to a " +
+              "larger disk (the scratch folder is made next to the output), or build it in pieces, one piece's " +
+              "scratch at a time (`ugvr build " + input + " --pieces 16 --out-of-core -o " + index +
+              "`, then view or render the index)");
+}
+
 OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors,
                                           const OctreeBuildOptions& options, uint64_t memory_budget,
                                           const std::string& path) {
@@ -806,6 +825,12 @@ OctreeBuildStats build_out_of_core(const std::string& vtu_path, std::span<const 
   const std::filesystem::path temp_path(scratch.path());
 
   VtuCellSource source(vtu_path, selectors);
+  // A piece (subset) holds an unknown part of the cells until its soup is written: the whole file's floor would
+  // refuse pieces that fit, so only a whole build is checked here.
+  if (!subset)
+    check_out_of_core_scratch(vtu_path, source.file_cell_count(),
+                              out_of_core_scratch_floor(source.file_cell_count(), source.layout()),
+                              std::filesystem::space(temp_path).available, temp_path.string());
   OctreeBuildStats stats;
   // The point sketch (octree/point_sketch.h) before the cells: from the points alone, what a viewer shows within
   // seconds. Its lattice and layout are the store's (vertex fields only: their ranges are known already).

@@ -54,6 +54,17 @@ OctreeBuildStats build_octree_out_of_core(const std::string& vtu_path, std::span
 // pass over the cells). The soup's writing and the partitioned build's sample pass (mpi/piece_build_ooc.h) use it.
 uint64_t soup_point_budget(uint64_t memory_budget);
 
+// The scratch space an out-of-core build of `cells` cells cannot do without: its soup and, at the root's first split,
+// the children's files beside it (each cell is routed to at least one child before the root's file is deleted), so
+// twice the soup, counted with the smallest record a cell can have (a tetrahedron's). A floor, not an estimate: the
+// measured peak is about that at 100M tetrahedra (docs/octree-build.md), more where cells are larger.
+uint64_t out_of_core_scratch_floor(uint64_t cells, const SoupLayout& layout);
+// Throws ugvr::Error naming `input`, the scratch folder, what is needed and what is free, with advice (free space,
+// another disk for the output, or a partitioned build's one piece at a time), when `available` < `needed`: refused
+// before anything is written, not half an hour later on a full disk.
+void check_out_of_core_scratch(const std::string& input, uint64_t cells, uint64_t needed, uint64_t available,
+                               const std::string& scratch_folder);
+
 // A store of some of a .vtu's cells on the whole file's lattice: a partitioned build's piece (mpi/piece_build_ooc.h).
 // The soup takes the cells `keep` accepts, with their file ids and vertex ids (a leaf welds them in id order, so the
 // sampler's lowest-id rule is the whole mesh's), and the root cube, the recorded bounds and the field ranges are
