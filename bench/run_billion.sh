@@ -15,7 +15,9 @@
 # corner files). Expect about 3.5 h of CPU for the build at 1B on 2 cores.
 # One JSON line per step is appended to bench/results/billion.jsonl after a `session` line.
 # Usage: bench/run_billion.sh [N=1000000000] [WORK=/work/ugvr-billion]; env: UGVR (build/ugvr), PIECES (16), GHOST (6),
-#   MEMORY (6GiB), RANKS ("1 2 4"), FRAMES (3), WIDTH (1280), HEIGHT (720), SAMPLE (10), SKIP_BUILD (1: reuse the index).
+#   MEMORY (6GiB), RANKS ("1 2 4"), FRAMES (3), WIDTH (1280), HEIGHT (720), SAMPLE (10), SKIP_BUILD (1: reuse the index),
+#   RESUME (1: `--resume`, keep the pieces an interrupted run finished: the build then spans sessions; its wall and
+#   CPU are this run's, each piece's own seconds are in piece_seconds).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 n=${1:-1000000000}
@@ -63,7 +65,7 @@ if [ "${SKIP_BUILD:-0}" != 1 ]; then
   sampler=$!
   trap 'kill $sampler 2>/dev/null || true' EXIT
   /usr/bin/time -v "$ugvr" --quiet build "$mesh" -o "$index" --fields pressure --error 0.01 --max-depth 8 \
-    --pieces "$pieces" --ghost-level "$ghost" --out-of-core --memory "$memory" --json >"$work/build.json" \
+    --pieces "$pieces" --ghost-level "$ghost" --out-of-core --memory "$memory" ${RESUME:+--resume} --json >"$work/build.json" \
     2>"$work/build.time"
   kill "$sampler" 2>/dev/null || true
   python3 - "$work/build.json" "$(load)" "$(wall "$work/build.time")" "$(cpu "$work/build.time")" \
@@ -77,7 +79,8 @@ print(json.dumps({"step": "build", "load": float(sys.argv[2]), "wall_s": float(s
                   "cells_held": sum(held), "largest_piece_cells": max(held),
                   "store_bytes": s["store_bytes_total"], "nodes": sum(p["nodes"] for p in b),
                   "plan_seconds": round(s["plan_seconds"], 2),
-                  "piece_seconds": [round(p["seconds"], 1) for p in b]}))
+                  "piece_seconds": [round(p["seconds"], 1) for p in b],
+                  "pieces_kept_from_earlier_runs": sum(1 for p in b if p.get("resumed"))}))
 PY
 fi
 

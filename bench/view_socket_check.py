@@ -129,6 +129,17 @@ def orbit(camera, degrees):
     return out
 
 
+def peak_rss(pid):
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("ugvr")
@@ -141,6 +152,7 @@ def main():
     w, h = (int(v) for v in args.size.split("x"))
     os.makedirs(args.out, exist_ok=True)
 
+    started = time.perf_counter()
     server = subprocess.Popen([args.ugvr, "view", args.input, "--port", "0", "--fps", str(args.fps)],
                               stdout=subprocess.PIPE, stderr=open(os.path.join(args.out, "view.log"), "w"), text=True)
     try:
@@ -148,6 +160,7 @@ def main():
         m = re.search(r"http://([^/:]+):(\d+)/", line)
         if not m:
             raise RuntimeError("ugvr view printed no URL: " + line.strip())
+        url_seconds = time.perf_counter() - started
         ws = WebSocket(m.group(1), int(m.group(2)), "/ws")
         t0 = time.perf_counter()
         ws.send_json({"type": "hello", "width": w, "height": h})
@@ -200,6 +213,10 @@ def main():
             "frame_seconds_median": statistics.median(frame_seconds), "mean_scale_moving": statistics.fmean(scales),
             "full_quality_seconds": full_quality, "full_quality_frame_seconds": status["frame_seconds"],
             "atlas_budget": status.get("atlas_budget"), "png": os.path.basename(png),
+            # Since the command started (the first frame above counts from the page's hello), and the server's peak
+            # resident set so far (Linux: VmHWM of its /proc status).
+            "url_seconds": url_seconds, "first_frame_since_start_seconds": url_seconds + first_frame,
+            "server_peak_rss_bytes": peak_rss(server.pid),
         }
         line = json.dumps(result, separators=(",", ":"))
         print(line)

@@ -15,6 +15,8 @@
 #include "ugvr/io/time_series.h"
 #include "ugvr/mpi/piece_build.h"
 #include "ugvr/mpi/piece_build_ooc.h"
+#include "ugvr/mpi/piece_record.h"
+#include "ugvr/octree/build_parts.h"
 #include "ugvr/octree/builder.h"
 #include "ugvr/octree/coarse_preview.h"
 #include "ugvr/octree/out_of_core.h"
@@ -101,9 +103,34 @@ void build_pieces(Options& o) {
   }
   std::filesystem::create_directories(piece_folder(o.output));
   nlohmann::json built = nlohmann::json::array();
+  // How each piece is made, recorded beside its store (mpi/piece_record.h): what --resume compares.
+  const std::string provenance = store_layout(o.build, {}, plan.root, plan.bounds, out_of_core).provenance;
+  const std::string input_path = std::filesystem::weakly_canonical(o.input.files[0]).string();
   for (int k = rank; k < o.pieces; k += ranks) {
     const auto tk = std::chrono::steady_clock::now();
     const std::string path = (std::filesystem::path(o.output).parent_path() / piece_store_name(o.output, k)).string();
+    PieceRecord record = planned_piece_record(plan, k, input_path, provenance, o.fields);
+    if (o.resume) {
+      std::string why;
+      if (const std::optional<PieceRecord> kept = kept_piece(path, record, &why)) {
+        plan.cells[size_t(k)] = kept->cells;
+        plan.ghost_cells[size_t(k)] = kept->ghost_cells;
+        if (!o.json)
+          std::printf("piece %d: %s, kept from an earlier run (%llu cells + %llu ghost, %s)\n", k, path.c_str(),
+                      (unsigned long long)kept->cells, (unsigned long long)kept->ghost_cells,
+                      format_bytes(kept->store_bytes).c_str());
+        built.push_back({{"piece", k},
+                         {"store", path},
+                         {"cells", kept->cells},
+                         {"ghost_cells", kept->ghost_cells},
+                         {"nodes", kept->nodes},
+                         {"store_bytes", kept->store_bytes},
+                         {"seconds", kept->seconds},
+                         {"resumed", true}});
+        continue;
+      }
+      if (!why.empty()) std::fprintf(stderr, "note: building piece %d again: %s\n", k, why.c_str());
+    }
     OctreeBuildStats s;
     if (streamed) {
       s = build_piece_out_of_core(o.input.files[0], o.fields, *streamed, k, o.build, o.memory, path);
@@ -112,7 +139,14 @@ void build_pieces(Options& o) {
     } else {
       s = build_piece(*input, plan, k, o.build, path);
     }
-    built.push_back(piece_summary(k, path, plan, s, since(tk), o.json));
+    const double seconds = since(tk);
+    record.cells = plan.cells[size_t(k)];
+    record.ghost_cells = plan.ghost_cells[size_t(k)];
+    record.nodes = s.nodes;
+    record.store_bytes = std::filesystem::file_size(path);
+    record.seconds = seconds;
+    write_piece_record(path, record);
+    built.push_back(piece_summary(k, path, plan, s, seconds, o.json));
   }
 #ifdef UGVR_HAVE_MPI
   if (streamed) mpi::sum_piece_counts(plan);  // collective: also waits for every rank's pieces
@@ -158,7 +192,7 @@ void register_build(CLI::App& app) {
     std::string output;
     OctreeBuildOptions build;
     uint64_t memory = uint64_t(1) << 30;
-    bool float32 = false, json = false, out_of_core = false, no_tf_errors = false;
+    bool float32 = false, json = false, out_of_core = false, no_tf_errors = false, resume = false;
     int pieces = 0, ghost_level = 0;
     std::string time;     // --time: the steps of a store with time
     std::string preview;  // --preview: the coarse preview's store, out of core
@@ -206,6 +240,10 @@ void register_build(CLI::App& app) {
          "layer, named by the index -o OUT.json (docs/mpi.md); under mpirun rank r builds pieces r, r+R, ...; "
          "with --out-of-core each piece streamed from the .vtu in bounded memory, one piece's scratch at a time")
       ->check(CLI::Range(1, kMaxPieces));
+  cmd->add_flag("--resume", opts->resume,
+                "With --pieces: keep the pieces an earlier, interrupted run of the same command finished (each "
+                "store's record NAME.d/piece-K.ugvr.built.json names the split, ghost layer, input file and options "
+                "it was made with; any difference builds the piece again) and build the rest");
   cmd->add_option("--ghost-level", opts->ghost_level,
                   "With --pieces: the coarsest level whose samples inside each piece equal the whole store's; the "
                   "ghost layer is two voxels of that level (0: every level, the widest layer)")
@@ -229,6 +267,8 @@ void register_build(CLI::App& app) {
                 "by texel size alone)");
   cmd->callback([opts] {
     if (opts->ghost_level != 0 && opts->pieces == 0) throw Error("--ghost-level applies with --pieces only");
+    if (opts->resume && opts->pieces == 0)
+      throw Error("--resume applies with --pieces only (a whole store is one file)");
     if (opts->pieces > 0 && !opts->time.empty())
       throw Error("--pieces and --time: partitioned stores hold one step; build one index per step");
     if (opts->pieces > 0) {

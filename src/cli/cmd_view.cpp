@@ -26,6 +26,7 @@
 #include "ugvr/render/camera.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/renderer_factory.h"
+#include "ugvr/render/scaled_while_moving.h"
 #include "ugvr/render/transfer_function.h"
 #include "ugvr/store/brick_store.h"
 #include "ugvr/view/memory_budget.h"
@@ -168,8 +169,8 @@ void run_view_mpi(const Options& o, view::ViewServerOptions vo) {
 
 // `ugvr view INDEX.json` in one process (docs/mpi.md, "The viewer on a cluster"): every piece of a partitioned store
 // drawn here, as `ugvr render INDEX` draws them (piece_renderer.h), through the same collective path as under MPI
-// (the tabs' one renderer, one cut per frame, the image scaled down while the view moves). Nothing is built: a store
-// of a billion cells is opened where its pieces were written.
+// (the tabs' one renderer, one cut per frame, the image scaled down while the view moves:
+// render/scaled_while_moving.h). Nothing is built: a store of a billion cells is opened where its pieces were written.
 void run_view_pieces(const Options& o, view::ViewServerOptions vo) {
   if (!o.store_path.empty() || o.free_grid)
     fail_in(o.free_grid ? "--free-grid" : "--store", "a partitioned store's index is shown as built: nothing to build");
@@ -181,7 +182,7 @@ void run_view_pieces(const Options& o, view::ViewServerOptions vo) {
     view::CollectiveRenderer c;
     for (const BrickStoreField& f : index.fields) c.fields.push_back(f.name);
     for (int k = 0; k < index.count(); ++k) c.histogram_stores.push_back(index.store_path(k));
-    c.renderer = open_piece_renderer(index, {}, ro);
+    c.renderer = std::make_shared<ScaledWhileMovingRenderer>(open_piece_renderer(index, {}, ro));
     return c;
   };
   serve(std::move(vo), "a partitioned store: its " + std::to_string(index.count()) +

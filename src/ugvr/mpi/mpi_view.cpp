@@ -2,9 +2,7 @@
 
 #include <mpi.h>
 
-#include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <cstdint>
 #include <exception>
 #include <nlohmann/json.hpp>
@@ -13,15 +11,12 @@
 #include "ugvr/core/error.h"
 #include "ugvr/mpi/mpi_renderer.h"
 #include "ugvr/mpi/mpi_session.h"
+#include "ugvr/render/scaled_while_moving.h"
 
 namespace ugvr::mpi {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-// The smallest image scale while the view moves: below a quarter of each side the picture no longer tells the user
-// where the camera is going.
-constexpr double kMinMovingScale = 0.25;
 
 // Step 1 and 2 of the protocol (mpi_view.h), rank 0's side: an empty text is the quit.
 void broadcast_text(const std::string& text) {
@@ -76,13 +71,9 @@ class ViewLeader final : public Renderer {
   Frame render(const FrameRequest& request) override {
     refuse_unsupported(request);
     const Clock::time_point start = Clock::now();
-    // The viewer asks for full quality when the tab's view rests (engine_host.cpp): then a full-scale frame.
-    const bool moving = request.target_fps > 0 && !request.full_quality;
-    const double scale = moving ? moving_scale_ : 1.0;
-    FrameRequest drawn = request;
-    drawn.settings.width = std::max(1, int(std::lround(scale * request.settings.width)));
-    drawn.settings.height = std::max(1, int(std::lround(scale * request.settings.height)));
-    drawn.target_fps = 0;  // the compositing renderer draws every frame whole
+    // Moving: a reduced scale, adapted to the slowest rank's time (render/scaled_while_moving.h).
+    const MovingScale::Plan plan = scale_.plan(request);
+    FrameRequest drawn = plan.drawn;
     // Every rank binds the field rank 0 has bound (the followers never saw rank 0's set_field).
     if (drawn.settings.field.empty()) drawn.settings.field = collective_->field_name();
     drawn.prefetch_time_step.reset();
@@ -99,14 +90,8 @@ class ViewLeader final : public Renderer {
       // The other ranks are inside this frame's collectives: only ending the job frees them.
       abort_job(std::string("error: ") + e.what(), 1);
     }
-    if (moving) adapt_scale(scale, d.slowest_seconds, request.target_fps);
-
     Frame frame = std::move(d.frame);
-    if (frame.image.width != request.settings.width || frame.image.height != request.settings.height)
-      frame.image = resize_bilinear(frame.image, request.settings.width, request.settings.height);
-    frame.stats.scale = scale;
-    frame.stats.converged = scale >= 1;
-    frame.stats.resting = !moving;
+    scale_.finish(plan, request, d.slowest_seconds, frame);
     frame.stats.seconds = std::chrono::duration<double>(Clock::now() - start).count();
     return frame;
   }
@@ -121,16 +106,8 @@ class ViewLeader final : public Renderer {
     if (request.time_step) fail_in("time", "time steps are not shown under MPI yet (docs/mpi.md)");
   }
 
-  // The frame-rate controller of a moving view: the slowest rank's time at `scale` decides the next scale. The cost
-  // of a frame is about proportional to its pixels, so the side scales by the square root of the time ratio.
-  void adapt_scale(double scale, double slowest_seconds, double target_fps) {
-    if (!(slowest_seconds > 0)) return;
-    const double wanted = scale * std::sqrt((1.0 / target_fps) / slowest_seconds);
-    moving_scale_ = std::clamp(wanted, kMinMovingScale, 1.0);
-  }
-
   std::unique_ptr<Renderer> collective_;
-  double moving_scale_ = 1;  // the image scale of the next moving frame
+  MovingScale scale_;
 };
 
 }  // namespace
