@@ -102,3 +102,21 @@ if m:
 print(json.dumps(r))
 PY
 done
+
+# 4. The viewer ([first-image] issue 24: "opens in the viewer ... first image time"; [mpi]: "explored in the viewer"):
+#    `ugvr view INDEX` in one process (bench/view_socket_check.py: the URL, the first frame, MOVES moving frames at a
+#    VIEW_FPS target, a full-quality frame at VIEW_SIZE, the server's peak RSS), then a screenshot of the page at rest
+#    (tests/e2e/screenshot.mjs, WORK/billion-view.png) when node, playwright-core and Chromium are there.
+view_size=${VIEW_SIZE:-1280x720}
+python3 bench/view_socket_check.py "$ugvr" "$index" "$work/view" --size "$view_size" --moves "${MOVES:-10}" \
+  --fps "${VIEW_FPS:-2}" >/dev/null
+python3 - "$work/view/view_check.json" "$(load)" <<'PY' | tee -a "$out"
+import json, sys
+v = json.load(open(sys.argv[1]))
+keep = ["size", "url_seconds", "first_frame_since_start_seconds", "first_converged_seconds", "latency_median_seconds",
+        "frame_seconds_median", "mean_scale_moving", "full_quality_frame_seconds", "server_peak_rss_bytes"]
+print(json.dumps(dict({"step": "view", "load": float(sys.argv[2])}, **{k: v[k] for k in keep})))
+PY
+if command -v node >/dev/null && [ -d tests/e2e/node_modules/playwright-core ] && [ -x "${UGVR_CHROMIUM:-/usr/bin/chromium}" ]; then
+  node tests/e2e/screenshot.mjs "$ugvr" "$index" "$work/billion-view.png" >/dev/null
+fi
