@@ -30,10 +30,13 @@ struct Outcome {
 };
 Outcome outcome(const test::CommandResult& r) {
   EXPECT_EQ(r.status, 0) << r.out;
-  // The JSON summary is the last line (notes about pieces built again come before it, on stderr).
-  const std::string line = r.out.substr(r.out.rfind('{', r.out.find("\"built\"")));
+  // The JSON summary is the one line that starts with '{' (notes about pieces built again are lines of their own).
+  std::istringstream lines(r.out);
+  nlohmann::json summary;
+  for (std::string line; std::getline(lines, line);)
+    if (!line.empty() && line[0] == '{') summary = nlohmann::json::parse(line);
   Outcome o;
-  for (const auto& p : nlohmann::json::parse(line.substr(0, line.find('\n')))["built"])
+  for (const auto& p : summary["built"])
     (p.value("resumed", false) ? o.kept : o.built).push_back(p["piece"].get<int>());
   return o;
 }
@@ -85,6 +88,7 @@ TEST(CliBuildResume, KeepsFinishedPiecesAndBuildsTheRest) {
 
 TEST(CliBuildResume, OnlyWithPieces) {
   test::ScratchDir dir;
+  ASSERT_EQ(run_ugvr("generate --cells 100 --kind tet -o " + dir.file("x.vtu")).status, 0);
   const test::CommandResult r = run_ugvr("build " + dir.file("x.vtu") + " -o " + dir.file("x.ugvr") + " --resume");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.out.find("--resume applies with --pieces only"), std::string::npos) << r.out;
