@@ -88,7 +88,7 @@ TEST(CliBuildResume, KeepsFinishedPiecesAndBuildsTheRest) {
 
 TEST(CliBuildResume, OnlyWithPieces) {
   test::ScratchDir dir;
-  ASSERT_EQ(run_ugvr("generate --cells 100 --kind tet -o " + dir.file("x.vtu")).status, 0);
+  ASSERT_EQ(run_ugvr("generate --cells 2000 --kind tet -o " + dir.file("x.vtu")).status, 0);
   const test::CommandResult r = run_ugvr("build " + dir.file("x.vtu") + " -o " + dir.file("x.ugvr") + " --resume");
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.out.find("--resume applies with --pieces only"), std::string::npos) << r.out;
