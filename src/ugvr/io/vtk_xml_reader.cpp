@@ -31,6 +31,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <numeric>
 #include <optional>
 #include <pugixml.hpp>
 #include <set>
@@ -585,7 +586,7 @@ Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<X
 std::optional<std::vector<uint64_t>> kept_file_cells(const InputFile& file, const XmlDoc& d,
                                                      const std::vector<UgPiece>& pieces) {
   std::vector<uint64_t> kept;
-  bool dropped = false;
+  bool dropped = false, keep = true;
   uint64_t base = 0;
   std::vector<int64_t> buf;
   for (const UgPiece& p : pieces) {
@@ -598,10 +599,17 @@ std::optional<std::vector<uint64_t>> kept_file_cells(const InputFile& file, cons
         const size_t n = size_t(std::min<uint64_t>(kChunkValues, p.cells - c));
         types.read(std::span(buf.data(), n));
         for (size_t i = 0; i < n; ++i) {
-          if (map_vtk_cell_type(clamp_cell_type(buf[i])).kind == VtkCellMapping::Kind::Keep)
+          // Runs of one type are the rule (a hexahedral mesh has one): the mapping is looked up once a run.
+          if (i == 0 || buf[i] != buf[i - 1])
+            keep = map_vtk_cell_type(clamp_cell_type(buf[i])).kind == VtkCellMapping::Kind::Keep;
+          if (keep && dropped) {
             kept.push_back(base + c + i);
-          else
+          } else if (!keep && !dropped) {
+            // From here on kept cells are listed; those before were all kept.
             dropped = true;
+            kept.resize(size_t(base + c + i));
+            std::iota(kept.begin(), kept.end(), uint64_t(0));
+          }
         }
         c += n;
       }
