@@ -171,7 +171,10 @@ TEST(StepFields, ExodusStepsReadTheirVariablesFromTheFileKeptOpen) {
   EXPECT_EQ(scene.fields_only, 1u);
   EXPECT_EQ(scene.engine.bound_values(), fresh_values(*series, 20, "convected"));
   EXPECT_NE(scene.engine.bound_values(), fresh_values(*series, 0, "convected"));
-  EXPECT_NE(test::error_of([&] { reader.read(21); }).find("does not exist"), std::string::npos);
+  EXPECT_NE(test::error_of([&] { reader.read(21); }).find("does not exist: the series has 21 steps (0..20)"),
+            std::string::npos);
+  EXPECT_NE(test::error_of([&] { scene.set_step(21); }).find("the series has 21 steps"), std::string::npos);
+  EXPECT_EQ(scene.step, 20u) << "a failed switch leaves the scene on its step";
 }
 
 // Bytes read(2) / pread(2) returned to this process so far (Linux task I/O accounting).

@@ -49,7 +49,10 @@ std::optional<std::vector<uint64_t>> StepFieldReader::geometry_keys(size_t step)
 
 StepFields StepFieldReader::read(size_t step) {
   const size_t n = series_->size();
-  if (step >= n) fail_in(series_->source, "time step " + std::to_string(step) + " does not exist");
+  if (step >= n)
+    fail_in(series_->source, "time step " + std::to_string(step) + " does not exist: the series has " +
+                                 std::to_string(n) + " step" + (n == 1 ? "" : "s") + " (0.." + std::to_string(n - 1) +
+                                 ")");
   const TimeStep& st = series_->steps[step];
   StepFields out;
   if (static_by_format()) {
