@@ -17,6 +17,7 @@
 #include "ugvr/io/base64.h"
 #include "ugvr/io/codec.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/step_fields.h"
 
 namespace ugvr {
 namespace {
@@ -290,6 +291,36 @@ TEST_P(VtkXmlEncodingTest, ReadsTheTestMesh) {
       expect_exact_capacity(std::get<UnstructuredMesh>(ds.blocks[0].grid));
     }
   }
+}
+
+// A time step's fields read without its mesh (io/step_fields.h) are the full read's, bit for bit, in every encoding;
+// the read never decodes the points or the connectivity (a file whose connectivity is corrupt still gives them),
+// while the stored geometry key sees the corruption.
+TEST_P(VtkXmlEncodingTest, FieldsOnlyReadIsTheFullReadsFields) {
+  ScratchDir dir;
+  const std::string good = dir.file("good.vtu"), corrupt = dir.file("corrupt.vtu");
+  write_file(good, test_vtu(GetParam()));
+  PieceOptions bad;
+  bad.connectivity[2] = 99;  // a point id beyond the 9 points
+  write_file(corrupt, test_vtu(GetParam(), bad));
+  const Dataset full = read_vtk_xml(good);
+  std::vector<std::string> warnings;
+  const FieldSet fields = read_vtu_fields(good, warnings);
+  EXPECT_TRUE(fields == full.blocks[0].fields);
+  ASSERT_EQ(fields.size(), 4u);  // the triangle's cell values dropped as the full read drops them
+  EXPECT_EQ(fields.find("id", Association::Cell)->tuples(), 3u);
+  EXPECT_NE(test::error_of([&] { read_vtk_xml(corrupt); }).find("point id 99"), std::string::npos);
+  EXPECT_TRUE(read_vtu_fields(corrupt, warnings) == full.blocks[0].fields);
+  const std::optional<uint64_t> key = vtu_geometry_key(good);
+  if (GetParam().appended_base64) {
+    EXPECT_FALSE(key.has_value()) << "appended base64 has no stored length: read whole";
+    return;
+  }
+  ASSERT_TRUE(key.has_value());
+  const std::string again = dir.file("again.vtu");
+  write_file(again, test_vtu(GetParam()));
+  EXPECT_EQ(vtu_geometry_key(again), key);
+  EXPECT_NE(vtu_geometry_key(corrupt), key);
 }
 
 INSTANTIATE_TEST_SUITE_P(

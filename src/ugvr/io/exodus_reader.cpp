@@ -52,6 +52,7 @@
 #include "ugvr/core/file.h"
 #include "ugvr/io/header_counts.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/step_fields.h"
 #include "ugvr/io/step_lists.h"
 
 namespace ugvr {
@@ -544,11 +545,33 @@ class ExodusReader {
  public:
   ExodusReader(const std::string& path, int64_t time_step) : nc_(path), requested_step_(time_step) {}
 
+  // For fields_at: the dimensions, the element blocks' layout (which are kept, where their cells start) and the times,
+  // without the coordinates or the connectivity.
+  void read_layout() {
+    check_dimensions();
+    read_node_count();
+    layout_only_ = true;
+    read_blocks();
+    requested_step_ = -1;
+    choose_time_step();
+  }
+
+  // The fields of time index `step` (after read_layout), as read() gives them; `format` as read() sets it.
+  FieldSet fields_at(uint64_t step, std::string& format, std::vector<std::string>& warnings) {
+    requested_step_ = int64_t(step);
+    choose_time_step();
+    FieldSet fields;
+    add_block_ids(fields);
+    warnings_.clear();
+    add_nodal_variables(fields);
+    add_element_variables(fields);
+    format = format_text();
+    warnings = std::move(warnings_);
+    return fields;
+  }
+
   Dataset read() {
-    if (const auto dims = nc_.dim("num_dim"); !dims || *dims != 3) {
-      nc_.fail(dims ? "num_dim is " + std::to_string(*dims) + ": only 3-D Exodus meshes have volume cells"
-                    : "missing dimension num_dim: not an Exodus II file");
-    }
+    check_dimensions();
     read_points();
     read_blocks();
     choose_time_step();
@@ -562,7 +585,7 @@ class ExodusReader {
     block.grid = std::move(mesh_);
     block.validate_fields(nc_.path());
     Dataset ds;
-    ds.format = "Exodus II (" + nc_.format_name() + ")" + time_text();
+    ds.format = format_text();
     ds.sources.push_back(nc_.path());
     ds.blocks.push_back(std::move(block));
     ds.warnings = std::move(warnings_);
@@ -570,11 +593,24 @@ class ExodusReader {
   }
 
  private:
-  void read_points() {
+  void check_dimensions() const {
+    if (const auto dims = nc_.dim("num_dim"); !dims || *dims != 3) {
+      nc_.fail(dims ? "num_dim is " + std::to_string(*dims) + ": only 3-D Exodus meshes have volume cells"
+                    : "missing dimension num_dim: not an Exodus II file");
+    }
+  }
+
+  std::string format_text() const { return "Exodus II (" + nc_.format_name() + ")" + time_text(); }
+
+  void read_node_count() {
     const auto nodes = nc_.dim("num_nodes");
     if (!nodes || *nodes == 0) nc_.fail("the file has no nodes (dimension num_nodes missing or 0)");
     if (*nodes > kMaxVertices) nc_.fail("num_nodes = " + std::to_string(*nodes) + " is over the limit of 2^32-1");
     nodes_ = *nodes;
+  }
+
+  void read_points() {
+    read_node_count();
     std::array<std::vector<double>, 3> xyz;
     if (const auto v = nc_.var("coord")) {
       nc_.expect_shape(*v, "coord", {3, nodes_}, "(num_dim, num_nodes)");
@@ -620,7 +656,7 @@ class ExodusReader {
       }
       blocks_.push_back(info);
     }
-    if (mesh_.cell_count() == 0) {
+    if (cells_ == 0) {
       nc_.fail(dropped ? "no volume elements: all " + std::to_string(dropped) + " elements are lower-dimensional (" +
                              dropped_types + ")"
                        : "no elements in any block");
@@ -657,7 +693,9 @@ class ExodusReader {
                std::to_string(kind.corners) + " nodes per element, the block has " + std::to_string(*per));
     }
     info.kept = true;
-    info.first_cell = mesh_.cell_count();
+    info.first_cell = cells_;
+    cells_ += info.elements;
+    if (layout_only_) return;
     const std::vector<long long> ids = nc_.read_all<long long>(*v, connect);
     mesh_.reserve(mesh_.cell_count() + info.elements, mesh_.connectivity.size() + info.elements * kind.corners);
     std::array<uint32_t, 8> corners{};
@@ -684,7 +722,7 @@ class ExodusReader {
 
   void choose_time_step() {
     const uint64_t steps = nc_.dim_or("time_step", 0);
-    if (steps > 0) {
+    if (steps > 0 && times_.size() != steps) {  // read once for a reader kept open over steps
       const int v = nc_.require_var("time_whole", "the time values");
       nc_.expect_shape(v, "time_whole", {steps}, "(time_step)");
       times_ = nc_.read_all<double>(v, "time_whole");
@@ -717,7 +755,7 @@ class ExodusReader {
 
   void add_block_ids(FieldSet& fields) const {
     std::vector<int32_t> ids;
-    ids.reserve(size_t(mesh_.cell_count()));
+    ids.reserve(size_t(cells_));
     for (const BlockInfo& b : blocks_)
       if (b.kept) ids.insert(ids.end(), size_t(b.elements), b.id);
     fields.add(Field("block_id", Association::Cell, DataArray::from(std::move(ids), 1)));
@@ -782,7 +820,7 @@ class ExodusReader {
     for (size_t i = 0; i < names.size(); ++i) {
       Values val;
       val.name = names[i].empty() ? "element_" + std::to_string(i + 1) : names[i];
-      std::vector<double> merged(size_t(mesh_.cell_count()), 0.0);
+      std::vector<double> merged(size_t(cells_), 0.0);
       bool any_float = false, any_double = false;
       std::string missing;
       for (size_t b = 0; b < blocks_.size(); ++b) {
@@ -868,6 +906,8 @@ class ExodusReader {
   NcFile nc_;
   int64_t requested_step_;
   uint64_t nodes_ = 0;
+  uint64_t cells_ = 0;  // the kept blocks' elements: the mesh's cells
+  bool layout_only_ = false;
   UnstructuredMesh mesh_;
   std::vector<BlockInfo> blocks_;
   std::vector<double> times_;
@@ -878,6 +918,18 @@ class ExodusReader {
 }  // namespace
 
 Dataset read_exodus(const std::string& path, int64_t time_step) { return ExodusReader(path, time_step).read(); }
+
+struct ExodusFieldReader::Impl {
+  explicit Impl(const std::string& path) : reader(path, -1) { reader.read_layout(); }
+  ExodusReader reader;
+};
+
+ExodusFieldReader::ExodusFieldReader(const std::string& path) : impl_(std::make_unique<Impl>(path)) {}
+ExodusFieldReader::~ExodusFieldReader() = default;
+
+FieldSet ExodusFieldReader::read(uint64_t step, std::string& format, std::vector<std::string>& warnings) {
+  return impl_->reader.fields_at(step, format, warnings);
+}
 
 std::vector<double> list_exodus_times(const std::string& path) {
   const NcFile nc(path);

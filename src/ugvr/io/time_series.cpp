@@ -1,8 +1,6 @@
 #include "ugvr/io/time_series.h"
 
 #include <fnmatch.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <charconv>
@@ -19,6 +17,8 @@
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
 #include "ugvr/core/json_file.h"
+#include "ugvr/io/byte_hash.h"
+#include "ugvr/io/step_fields.h"
 #include "ugvr/io/step_lists.h"
 
 namespace fs = std::filesystem;
@@ -271,45 +271,13 @@ TimeSeries list_multi_step(SeriesKind kind, const std::string& path, const std::
   return s;
 }
 
-// FNV-1a over 64-bit words, then a final mix: fast enough to run per step switch (GB/s), and parallel over chunks.
-constexpr uint64_t kFnvOffset = 0xcbf29ce484222325ull, kFnvPrime = 0x100000001b3ull;
-
-uint64_t mix(uint64_t h, uint64_t v) {
-  h ^= v;
-  h *= kFnvPrime;
-  return h ^ (h >> 29);
-}
-
-uint64_t hash_bytes(const void* data, size_t n) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  constexpr size_t kChunk = size_t(1) << 20;
-  const size_t chunks = (n + kChunk - 1) / kChunk;
-  // Chunk hashes are combined in chunk order, so the result does not depend on the thread count.
-  std::vector<uint64_t> parts(chunks);
-  tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
-    const size_t b = c * kChunk, e = std::min(n, b + kChunk);
-    uint64_t h = kFnvOffset;
-    size_t i = b;
-    for (; i + 8 <= e; i += 8) {
-      uint64_t w;
-      std::memcpy(&w, p + i, 8);
-      h = mix(h, w);
-    }
-    for (; i < e; ++i) h = mix(h, p[i]);
-    parts[c] = h;
-  });
-  uint64_t h = mix(kFnvOffset, n);
-  for (uint64_t part : parts) h = mix(h, part);
-  return h;
-}
-
 template <class T>
 uint64_t hash_vector(const std::vector<T>& v) {
   return hash_bytes(v.data(), v.size() * sizeof(T));
 }
 
 uint64_t hash_dims(uint64_t h, const GridDims& d) {
-  for (uint32_t n : d.points) h = mix(h, n);
+  for (uint32_t n : d.points) h = hash_mix(h, n);
   return h;
 }
 
@@ -405,34 +373,38 @@ Dataset read_time_step(const TimeSeries& series, size_t step) {
       break;
     default: return read_dataset(st.files, read);  // a multi-step file reads its own step and names it
   }
-  ds.format += ", time step " + std::to_string(step) + " of " + std::to_string(n) + " (t = " + fmt_time(st.time) +
-               ") of " + base_name(series.source);
+  ds.format += series_step_label(series, step);
   return ds;
 }
 
+std::string series_step_label(const TimeSeries& series, size_t step) {
+  return ", time step " + std::to_string(step) + " of " + std::to_string(series.size()) +
+         " (t = " + fmt_time(series.steps[step].time) + ") of " + base_name(series.source);
+}
+
 uint64_t geometry_fingerprint(const Dataset& dataset) {
-  uint64_t h = mix(kFnvOffset, dataset.blocks.size());
+  uint64_t h = hash_mix(kFnvOffset, dataset.blocks.size());
   for (const Block& b : dataset.blocks) {
-    h = mix(h, b.grid.index());
+    h = hash_mix(h, b.grid.index());
     std::visit(
         [&](const auto& g) {
           using G = std::decay_t<decltype(g)>;
           if constexpr (std::is_same_v<G, UnstructuredMesh>) {
-            h = mix(h, hash_vector(g.points));
-            h = mix(h, hash_vector(g.cell_types));
-            h = mix(h, hash_vector(g.cell_offsets));
-            h = mix(h, hash_vector(g.connectivity));
+            h = hash_mix(h, hash_vector(g.points));
+            h = hash_mix(h, hash_vector(g.cell_types));
+            h = hash_mix(h, hash_vector(g.cell_offsets));
+            h = hash_mix(h, hash_vector(g.connectivity));
           } else if constexpr (std::is_same_v<G, StructuredGrid>) {
             h = hash_dims(h, g.dims);
-            h = mix(h, hash_vector(g.points));
-            h = mix(h, hash_vector(g.iblank));
+            h = hash_mix(h, hash_vector(g.points));
+            h = hash_mix(h, hash_vector(g.iblank));
           } else if constexpr (std::is_same_v<G, ImageGrid>) {
             h = hash_dims(h, g.dims);
             for (double v : {g.origin.x, g.origin.y, g.origin.z, g.spacing.x, g.spacing.y, g.spacing.z})
-              h = mix(h, hash_bytes(&v, sizeof v));
+              h = hash_mix(h, hash_bytes(&v, sizeof v));
           } else {
             h = hash_dims(h, g.dims);
-            for (const auto& c : g.coords) h = mix(h, hash_vector(c));
+            for (const auto& c : g.coords) h = hash_mix(h, hash_vector(c));
           }
         },
         b.grid);

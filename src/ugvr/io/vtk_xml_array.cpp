@@ -188,6 +188,14 @@ class XmlBinaryStream {
 
   uint64_t size() const { return size_; }
   uint64_t consumed() const { return consumed_; }
+  // The encoded bytes the header and the values take (raw sources: file bytes), from the header alone.
+  uint64_t stored_bytes() const {
+    const uint64_t word = encoding_.header_uint64 ? 8 : 4;
+    if (encoding_.codec == Codec::None) return word + size_;
+    uint64_t packed = 0;
+    for (uint64_t p : packed_sizes_) packed += p;  // checked against the bytes available by read_block_header
+    return (3 + uint64_t(packed_sizes_.size())) * word + packed;
+  }
 
   void read(std::byte* dst, uint64_t n) {
     if (n > size_ - consumed_) {
@@ -403,6 +411,12 @@ void XmlArrayReader::fail(const std::string& message) const {
 std::optional<uint64_t> XmlArrayReader::value_count() const {
   if (binary_) return binary_->size() / value_size_;
   return std::nullopt;
+}
+
+std::optional<std::pair<uint64_t, uint64_t>> XmlArrayReader::stored_extent() const {
+  if (array_.format != XmlArrayFormat::Appended) return std::pair{array_.begin, array_.end};
+  if (encoding_.appended_base64) return std::nullopt;
+  return std::pair{array_.begin, array_.begin + binary_->stored_bytes()};
 }
 
 void XmlArrayReader::expect_count(uint64_t count, const std::string& what) {

@@ -26,6 +26,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ugvr/core/file.h"
@@ -73,6 +74,10 @@ class XmlArrayReader {
   const XmlArray& array() const { return array_; }
   // Values the array holds, from its header; nullopt for ascii arrays (known only once read).
   std::optional<uint64_t> value_count() const;
+  // The file bytes [first, second) that hold the array as stored (encoded: its text, or its header and raw appended
+  // bytes, compressed or not), found from the header without decoding the values; nullopt for appended base64, whose
+  // text length the header does not give. Equal stored bytes under equal XmlEncoding decode to equal values.
+  std::optional<std::pair<uint64_t, uint64_t>> stored_extent() const;
   // Checks that the array holds `count` values before the caller allocates for them: exactly, from the header, for
   // binary and appended arrays; for ascii arrays that the text is long enough (the exact count is checked by
   // finish()). `what` says where the count comes from, e.g. "NumberOfPoints=12 x 3 components".

@@ -31,6 +31,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <numeric>
 #include <optional>
 #include <pugixml.hpp>
 #include <set>
@@ -42,8 +43,10 @@
 #include "ugvr/core/file.h"
 #include "ugvr/core/memory.h"
 #include "ugvr/core/progress.h"
+#include "ugvr/io/byte_hash.h"
 #include "ugvr/io/pvtu_pieces.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/step_fields.h"
 #include "ugvr/io/vtk_cell_import.h"
 #include "ugvr/io/vtk_xml_array.h"
 #include "ugvr/io/vtk_xml_document.h"
@@ -414,16 +417,10 @@ void warn_ghost_cells(const Block& block, const std::string& source, std::vector
   }
 }
 
-Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<XmlDoc>> docs, std::string format,
-                          const std::vector<FieldSpec>& declared, pugi::xml_node declared_at, const XmlDoc* pdoc) {
-  Dataset ds;
-  ds.format = std::move(format);
-  ds.sources.push_back(path);
-  for (const auto& d : docs) {
-    if (d->path != path) ds.sources.push_back(d->path);
-  }
-
-  // Describe every piece of every file.
+// Every <Piece> of UnstructuredGrid files, described; arrays skipped (unsupported types, repeated names) are warned
+// about in `warnings`.
+std::vector<UgPiece> describe_ug_pieces(const std::vector<std::unique_ptr<XmlDoc>>& docs,
+                                        std::vector<std::string>& warnings) {
   std::vector<UgPiece> pieces;
   for (size_t di = 0; di < docs.size(); ++di) {
     const XmlDoc& d = *docs[di];
@@ -436,13 +433,16 @@ Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<X
     size_t k = 0;
     for (pugi::xml_node piece : grid.children("Piece")) {
       const std::string label = count > 1 ? "Piece " + std::to_string(k) + " " : "";
-      pieces.push_back(describe_ug_piece(d, di, piece, label, ds.warnings));
+      pieces.push_back(describe_ug_piece(d, di, piece, label, warnings));
       ++k;
     }
   }
-  refuse_duplicate_pieces(docs, pieces);
+  return pieces;
+}
 
-  // Fields: those of the first piece with data; every other non-empty piece must agree.
+// The fields: those of the first piece with data; every other non-empty piece must agree.
+std::vector<FieldSpec> agreed_field_specs(const std::vector<std::unique_ptr<XmlDoc>>& docs,
+                                          const std::vector<UgPiece>& pieces) {
   std::vector<FieldSpec> specs;
   const auto first = std::find_if(pieces.begin(), pieces.end(), [](const UgPiece& p) { return !p.empty(); });
   if (first != pieces.end()) specs = field_specs(*first);
@@ -451,11 +451,56 @@ Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<X
     check_same_fields(*docs[p.doc], p.node, specs, p.point_data, Association::Vertex, p.label);
     check_same_fields(*docs[p.doc], p.node, specs, p.cell_data, Association::Cell, p.label);
   }
+  return specs;
+}
+
+// Checks that every field array of a piece holds one tuple per point or cell, before anything is allocated for it.
+void expect_field_counts(const InputFile& file, const XmlDoc& d, const UgPiece& p) {
+  for (const XmlArray& a : p.point_data) {
+    XmlArrayReader(file, d.encoding, a)
+        .expect_count(checked_product(p.points, uint64_t(a.components), d, p.node),
+                      tuples_text(p.points, a.components, "NumberOfPoints"));
+  }
+  for (const XmlArray& a : p.cell_data) {
+    XmlArrayReader(file, d.encoding, a)
+        .expect_count(checked_product(p.cells, uint64_t(a.components), d, p.node),
+                      tuples_text(p.cells, a.components, "NumberOfCells"));
+  }
+}
+
+// Reads a piece's fields into `field_data` (one array per spec, sized for every piece) at the piece's first point and
+// cell.
+void read_piece_fields(const InputFile& file, const XmlDoc& d, const UgPiece& p, const std::vector<FieldSpec>& specs,
+                       std::vector<DataArray>& field_data, uint64_t point_base, uint64_t cell_base) {
+  for (size_t f = 0; f < specs.size(); ++f) {
+    const bool vertex = specs[f].association == Association::Vertex;
+    XmlArrayReader r(file, d.encoding, find_field(p.point_data, p.cell_data, specs[f]));
+    const uint64_t tuples = vertex ? p.points : p.cells;
+    r.expect_count(tuples * uint64_t(specs[f].components),
+                   tuples_text(tuples, specs[f].components, vertex ? "NumberOfPoints" : "NumberOfCells"));
+    read_field_slice(r, field_data[f], vertex ? point_base : cell_base, tuples);
+    r.finish();
+  }
+}
+
+Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<XmlDoc>> docs, std::string format,
+                          const std::vector<FieldSpec>& declared, pugi::xml_node declared_at, const XmlDoc* pdoc) {
+  Dataset ds;
+  ds.format = std::move(format);
+  ds.sources.push_back(path);
+  for (const auto& d : docs) {
+    if (d->path != path) ds.sources.push_back(d->path);
+  }
+
+  const std::vector<UgPiece> pieces = describe_ug_pieces(docs, ds.warnings);
+  refuse_duplicate_pieces(docs, pieces);
+  const std::vector<FieldSpec> specs = agreed_field_specs(docs, pieces);
+  const bool any_data = std::any_of(pieces.begin(), pieces.end(), [](const UgPiece& p) { return !p.empty(); });
   for (const FieldSpec& s : declared) {
     const auto it = std::find_if(specs.begin(), specs.end(), [&](const FieldSpec& f) {
       return f.name == s.name && f.association == s.association;
     });
-    if (first != pieces.end() && (it == specs.end() || it->type != s.type || it->components != s.components)) {
+    if (any_data && (it == specs.end() || it->type != s.type || it->components != s.components)) {
       pdoc->fail(declared_at, std::string(s.association == Association::Vertex ? "point" : "cell") + " array '" +
                                   s.name + "' declared as " + std::string(scalar_type_name(s.type)) + " x " +
                                   std::to_string(s.components) + " is not in the pieces as declared");
@@ -474,16 +519,7 @@ Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<X
         XmlArrayReader(file, d.encoding, *p.points_array)
             .expect_count(checked_product(p.points, 3, d, p.node), tuples_text(p.points, 3, "NumberOfPoints"));
       }
-      for (const XmlArray& a : p.point_data) {
-        XmlArrayReader(file, d.encoding, a)
-            .expect_count(checked_product(p.points, uint64_t(a.components), d, p.node),
-                          tuples_text(p.points, a.components, "NumberOfPoints"));
-      }
-      for (const XmlArray& a : p.cell_data) {
-        XmlArrayReader(file, d.encoding, a)
-            .expect_count(checked_product(p.cells, uint64_t(a.components), d, p.node),
-                          tuples_text(p.cells, a.components, "NumberOfCells"));
-      }
+      expect_field_counts(file, d, p);
       if (p.cells > 0) {
         XmlArrayReader types(file, d.encoding, *p.types);
         types.expect_count(p.cells, "NumberOfCells=" + std::to_string(p.cells));
@@ -523,15 +559,7 @@ Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<X
         progress.add(p.points);
       }
       if (p.cells > 0) read_ug_cells(file, d, p, importer, point_base, cell_base, several, progress);
-      for (size_t f = 0; f < specs.size(); ++f) {
-        const bool vertex = specs[f].association == Association::Vertex;
-        XmlArrayReader r(file, d.encoding, find_field(p.point_data, p.cell_data, specs[f]));
-        const uint64_t tuples = vertex ? p.points : p.cells;
-        r.expect_count(tuples * uint64_t(specs[f].components),
-                       tuples_text(tuples, specs[f].components, vertex ? "NumberOfPoints" : "NumberOfCells"));
-        read_field_slice(r, field_data[f], vertex ? point_base : cell_base, tuples);
-        r.finish();
-      }
+      read_piece_fields(file, d, p, specs, field_data, point_base, cell_base);
       point_base += p.points;
       cell_base += p.cells;
     }
@@ -551,6 +579,45 @@ Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<X
   warn_ghost_cells(block, base_name(path), ds.warnings);
   ds.blocks.push_back(std::move(block));
   return ds;
+}
+
+// The file cells the mesh keeps (the importer's policy: volume cells), in file order; nullopt when it keeps them all,
+// so that cell data read without the mesh lines up with the mesh's cells. Reads the types arrays only.
+std::optional<std::vector<uint64_t>> kept_file_cells(const InputFile& file, const XmlDoc& d,
+                                                     const std::vector<UgPiece>& pieces) {
+  std::vector<uint64_t> kept;
+  bool dropped = false, keep = true;
+  uint64_t base = 0;
+  std::vector<int64_t> buf;
+  for (const UgPiece& p : pieces) {
+    if (p.empty()) continue;
+    if (p.cells > 0) {
+      XmlArrayReader types(file, d.encoding, *p.types);
+      types.expect_count(p.cells, "NumberOfCells=" + std::to_string(p.cells));
+      buf.resize(size_t(std::min<uint64_t>(p.cells, kChunkValues)));
+      for (uint64_t c = 0; c < p.cells;) {
+        const size_t n = size_t(std::min<uint64_t>(kChunkValues, p.cells - c));
+        types.read(std::span(buf.data(), n));
+        for (size_t i = 0; i < n; ++i) {
+          // Runs of one type are the rule (a hexahedral mesh has one): the mapping is looked up once a run.
+          if (i == 0 || buf[i] != buf[i - 1])
+            keep = map_vtk_cell_type(clamp_cell_type(buf[i])).kind == VtkCellMapping::Kind::Keep;
+          if (keep && dropped) {
+            kept.push_back(base + c + i);
+          } else if (!keep && !dropped) {
+            // From here on kept cells are listed; those before were all kept.
+            dropped = true;
+            kept.resize(size_t(base + c + i));
+            std::iota(kept.begin(), kept.end(), uint64_t(0));
+          }
+        }
+        c += n;
+      }
+    }
+    base += p.cells;
+  }
+  if (!dropped) return std::nullopt;
+  return kept;
 }
 
 // The arrays a .pvtu declares in <PPointData> / <PCellData>.
@@ -1125,4 +1192,94 @@ Dataset read_pstructured(std::unique_ptr<XmlDoc> pdoc, StructuredKind kind) {
 }
 
 }  // namespace
+}  // namespace ugvr
+
+// ---------------------------------------------------------------------------------------------------------------
+// Fields-only reads of a .vtu time step (io/step_fields.h)
+
+namespace ugvr {
+namespace {
+
+std::unique_ptr<XmlDoc> load_vtu_doc(const std::string& path) {
+  std::unique_ptr<XmlDoc> doc = load_doc(path);
+  if (doc->type != "UnstructuredGrid")
+    fail_in(path, "VTKFile type \"" + doc->type.substr(0, 40) + "\", expected UnstructuredGrid");
+  return doc;
+}
+
+// What decides how an array's stored bytes decode, beside the bytes themselves.
+uint64_t hash_array_layout(uint64_t h, const XmlArray& a) {
+  h = hash_mix(h, uint64_t(a.type));
+  h = hash_mix(h, uint64_t(a.components));
+  return hash_mix(h, uint64_t(a.format));
+}
+
+}  // namespace
+
+std::optional<uint64_t> vtu_geometry_key(const std::string& path) {
+  if (extension_lower(path) != ".vtu") return std::nullopt;
+  std::vector<std::unique_ptr<XmlDoc>> docs;
+  docs.push_back(load_doc(path));
+  const XmlDoc& d = *docs[0];
+  if (d.type != "UnstructuredGrid") return std::nullopt;
+  std::vector<std::string> ignored;  // the field arrays' warnings: not geometry
+  const std::vector<UgPiece> pieces = describe_ug_pieces(docs, ignored);
+  const InputFile file(path);
+  uint64_t h = hash_mix(kFnvOffset, pieces.size());
+  h = hash_mix(h, uint64_t(d.encoding.big_endian) | uint64_t(d.encoding.header_uint64) << 1);
+  h = hash_mix(h, uint64_t(d.encoding.codec));
+  for (const UgPiece& p : pieces) {
+    h = hash_mix(hash_mix(h, p.points), p.cells);
+    for (const std::optional<XmlArray>* a : {&p.points_array, &p.connectivity, &p.offsets, &p.types}) {
+      if (!*a) {
+        h = hash_mix(h, 0);
+        continue;
+      }
+      const XmlArrayReader reader(file, d.encoding, **a);  // reads and checks the header
+      const std::optional<std::pair<uint64_t, uint64_t>> extent = reader.stored_extent();
+      if (!extent) return std::nullopt;
+      h = hash_array_layout(h, **a);
+      h = hash_mix(h, hash_file_range(file, extent->first, extent->second));
+    }
+  }
+  return h;
+}
+
+FieldSet read_vtu_fields(const std::string& path, std::vector<std::string>& warnings) {
+  std::vector<std::unique_ptr<XmlDoc>> docs;
+  docs.push_back(load_vtu_doc(path));
+  const XmlDoc& d = *docs[0];
+  const std::vector<UgPiece> pieces = describe_ug_pieces(docs, warnings);
+  const std::vector<FieldSpec> specs = agreed_field_specs(docs, pieces);
+  const InputFile file(path);
+  uint64_t total_points = 0, total_cells = 0;
+  for (const UgPiece& p : pieces) {
+    if (p.empty()) continue;
+    expect_field_counts(file, d, p);
+    total_points += p.points;
+    total_cells += p.cells;
+  }
+  std::vector<DataArray> field_data;
+  for (const FieldSpec& s : specs)
+    field_data.push_back(make_field_data(s, s.association == Association::Vertex ? total_points : total_cells));
+  uint64_t point_base = 0, cell_base = 0;
+  for (const UgPiece& p : pieces) {
+    if (p.empty()) continue;
+    read_piece_fields(file, d, p, specs, field_data, point_base, cell_base);
+    point_base += p.points;
+    cell_base += p.cells;
+  }
+  const bool cell_fields =
+      std::any_of(specs.begin(), specs.end(), [](const FieldSpec& s) { return s.association == Association::Cell; });
+  const std::optional<std::vector<uint64_t>> kept =
+      cell_fields ? kept_file_cells(file, d, pieces) : std::optional<std::vector<uint64_t>>();
+  FieldSet fields;
+  for (size_t f = 0; f < specs.size(); ++f) {
+    DataArray data = std::move(field_data[f]);
+    if (specs[f].association == Association::Cell && kept) data = data.gather(*kept);
+    fields.add(Field(specs[f].name, specs[f].association, std::move(data)));
+  }
+  return fields;
+}
+
 }  // namespace ugvr

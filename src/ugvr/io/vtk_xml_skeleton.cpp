@@ -10,16 +10,21 @@ namespace ugvr {
 namespace {
 
 constexpr size_t kChunk = size_t(1) << 20;
+// The first read: the whole markup of an appended file (its header before <AppendedData>) in most files, without
+// reading into the data after it, which a time step's fields-only read (io/step_fields.h) mostly skips.
+constexpr size_t kFirstChunk = size_t(64) << 10;
 constexpr size_t kMaxMarkup = size_t(64) << 20;
 constexpr size_t kMaxTag = size_t(1) << 20;
 constexpr size_t kMaxDepth = 256;
 
 bool is_space(char c) { return c == ' ' || c == '\n' || c == '\r' || c == '\t'; }
 
-// Sequential reader over the file with a chunk buffer; get() returns -1 at the end of the file.
+// Sequential reader over the file with a chunk buffer, growing from kFirstChunk to kChunk; get() returns -1 at the end
+// of the file.
 class Cursor {
  public:
-  explicit Cursor(const InputFile& file) : file_(file), buf_(size_t(std::clamp<uint64_t>(file.size(), 1, kChunk))) {}
+  explicit Cursor(const InputFile& file)
+      : file_(file), buf_(size_t(std::clamp<uint64_t>(file.size(), 1, kFirstChunk))) {}
 
   uint64_t offset() const { return start_ + pos_; }
   int get() {
@@ -49,6 +54,7 @@ class Cursor {
   bool refill() {
     start_ += len_;
     pos_ = 0;
+    if (len_ == buf_.size() && buf_.size() < kChunk) buf_.resize(std::min(buf_.size() * 2, kChunk));
     len_ = file_.read_some_at(start_, buf_.data(), buf_.size());
     return len_ > 0;
   }

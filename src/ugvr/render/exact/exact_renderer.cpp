@@ -30,56 +30,83 @@ ExactScene::ExactScene(std::shared_ptr<const Dataset> data, const ProgressCallba
     : dataset(std::move(data)), engine(build_engine(*dataset, progress)) {}
 
 ExactScene::ExactScene(std::shared_ptr<const TimeSeries> s, uint32_t i, const ProgressCallback& progress)
-    : dataset(std::make_shared<const Dataset>(read_time_step(*s, i))),
+    : dataset(std::make_shared<Dataset>(read_time_step(*s, i))),
       engine(build_engine(*dataset, progress)),
       series(std::move(s)),
-      step(i) {
+      step(i),
+      dataset_spare_(true) {
   if (series->geometry == SeriesGeometry::Detect) geometry = geometry_fingerprint(*dataset);
+}
+
+namespace {
+
+bool holds(const std::vector<std::vector<uint64_t>>& known, const std::optional<std::vector<uint64_t>>& keys) {
+  return keys && std::find(known.begin(), known.end(), *keys) != known.end();
+}
+
+// Step `i` read as set_step takes it: fields only where the mesh is known to be the one held (`mesh_keys`: the stored
+// geometry keys known to hold it), else whole (made non-const, so that its grids may later move to another step's
+// fields) and fingerprinted where the series detects its geometry.
+ExactScene::Prefetched read_step(const TimeSeries& series, StepFieldReader& reader, uint32_t i,
+                                 const std::vector<std::vector<uint64_t>>& mesh_keys) {
+  ExactScene::Prefetched p;
+  if (reader.static_by_format()) {
+    p.fields = reader.read(i);
+    return p;
+  }
+  const bool detect = series.geometry == SeriesGeometry::Detect;
+  if (detect && !mesh_keys.empty()) {
+    p.keys = reader.geometry_keys(i);
+    if (holds(mesh_keys, p.keys)) {
+      p.fields = reader.read(i);
+      return p;
+    }
+  }
+  p.dataset = std::make_shared<Dataset>(read_time_step(series, i));
+  if (detect) p.fingerprint = geometry_fingerprint(*p.dataset);
+  return p;
+}
+
+}  // namespace
+
+StepFieldReader& ExactScene::step_reader() {
+  if (!step_reader_) step_reader_ = std::make_shared<StepFieldReader>(series);
+  return *step_reader_;
+}
+
+const std::vector<std::vector<uint64_t>>& ExactScene::mesh_keys() {
+  if (!mesh_keys_) {
+    mesh_keys_.emplace();
+    if (series->geometry == SeriesGeometry::Detect)
+      if (auto keys = step_reader().geometry_keys(step)) mesh_keys_->push_back(std::move(*keys));
+  }
+  return *mesh_keys_;
 }
 
 void ExactScene::prefetch(uint32_t i) {
   if (!series || i >= series->size() || (ahead && ahead->first == i)) return;
   if (ahead) ahead->second.wait();  // one read at a time
   const std::shared_ptr<const TimeSeries> s = series;
-  ahead.emplace(i, std::async(std::launch::async, [s, i] {
-                  Prefetched p;
-                  p.dataset = std::make_shared<const Dataset>(read_time_step(*s, i));
-                  if (s->geometry == SeriesGeometry::Detect) p.fingerprint = geometry_fingerprint(*p.dataset);
-                  return p;
-                }));
+  step_reader();
+  std::shared_ptr<StepFieldReader> reader = step_reader_;
+  ahead.emplace(i, std::async(std::launch::async,
+                              [s, reader, i, known = mesh_keys()] { return read_step(*s, *reader, i, known); }));
 }
 
 void ExactScene::set_step(uint32_t i, const ProgressCallback& progress) {
   if (!series) fail_in("exact engine", "a time step needs a time series (the input has one step)");
   if (i == step) return;
   const auto t0 = std::chrono::steady_clock::now();
-  const bool detect = series->geometry == SeriesGeometry::Detect;
   Prefetched read;
   if (ahead && ahead->first == i) {
     auto f = std::move(ahead->second);
     ahead.reset();
     read = f.get();  // rethrows the read's error
-  } else {
-    read.dataset = std::make_shared<const Dataset>(read_time_step(*series, i));
-    if (detect) read.fingerprint = geometry_fingerprint(*read.dataset);
+    // Read for the mesh held then: another step shown since (and rebuilt) makes it a step to read again.
+    if (read.fields && !step_reader().static_by_format() && !holds(mesh_keys(), read.keys)) read = Prefetched{};
   }
-  auto next = std::move(read.dataset);
-  const uint64_t fingerprint = read.fingerprint;
-  const bool same = !detect || fingerprint == geometry;
-  if (!same) {
-    // Another mesh, built before anything is replaced (a failure leaves the scene on its step). The GPU engine holds a
-    // reference to the old walk mesh, so it goes before the swap and is remade on the new one.
-    ExactEngine built = build_engine(*next, progress);
-    const bool had_gpu = gpu_engine != nullptr;
-    gpu_engine.reset();
-    engine = std::move(built);
-    if (had_gpu) gpu_engine = std::make_unique<ExactGpuEngine>(engine.walk_mesh(), gpu_gl, gpu_options);
-    geometry = fingerprint;
-    ++rebuilds;
-  } else {
-    ++swaps;
-  }
-  dataset = std::move(next);
+  if (!read.fields && !read.dataset) read = read_step(*series, step_reader(), i, mesh_keys());
+  const bool same = take_step(std::move(read), progress);
   step = i;
   // The values come from the new step's dataset: rebind whatever was bound.
   const std::optional<std::string> selector = bound;
@@ -88,6 +115,44 @@ void ExactScene::set_step(uint32_t i, const ProgressCallback& progress) {
   if (selector) bind(*selector);
   last_switch_rebuilt = !same;
   last_switch_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+bool ExactScene::take_step(Prefetched read, const ProgressCallback& progress) {
+  if (read.fields) {
+    // The mesh held is the step's: its grids go to the step's fields, moved when nobody else holds this dataset (the
+    // object was made non-const here, so moving out of it through the const pointer is sound), else copied.
+    Dataset next = dataset_spare_ && dataset.use_count() == 1
+                       ? with_grids_of(std::move(const_cast<Dataset&>(*dataset)), std::move(*read.fields))
+                       : with_grids_of(*dataset, std::move(*read.fields));
+    dataset = std::make_shared<Dataset>(std::move(next));
+    dataset_spare_ = true;
+    ++swaps;
+    ++fields_only;
+    return true;
+  }
+  const bool same = series->geometry != SeriesGeometry::Detect || read.fingerprint == geometry;
+  if (!same) {
+    // Another mesh, built before anything is replaced (a failure leaves the scene on its step). The GPU engine holds a
+    // reference to the old walk mesh, so it goes before the swap and is remade on the new one.
+    ExactEngine built = build_engine(*read.dataset, progress);
+    const bool had_gpu = gpu_engine != nullptr;
+    gpu_engine.reset();
+    engine = std::move(built);
+    if (had_gpu) gpu_engine = std::make_unique<ExactGpuEngine>(engine.walk_mesh(), gpu_gl, gpu_options);
+    geometry = read.fingerprint;
+    mesh_keys_.reset();  // the new step's, when next needed (unless read below)
+    ++rebuilds;
+  } else {
+    ++swaps;
+  }
+  // Keys of files now known to hold the mesh: later steps stored as they are read without it.
+  if (read.keys && !holds(mesh_keys_.value_or(std::vector<std::vector<uint64_t>>{}), read.keys)) {
+    if (!mesh_keys_) mesh_keys_.emplace();
+    mesh_keys_->push_back(std::move(*read.keys));
+  }
+  dataset = std::move(read.dataset);
+  dataset_spare_ = true;
+  return same;
 }
 
 void ExactScene::bind(const std::string& selector) {
@@ -222,6 +287,7 @@ void ExactRenderer::describe(nlohmann::json& j) const {
     j["time_step"] = scene_->step;
     j["time_step_swaps"] = scene_->swaps;
     j["time_step_rebuilds"] = scene_->rebuilds;
+    j["time_step_fields_only"] = scene_->fields_only;
   }
   if (!on_gpu_ && !scene_->gpu_unavailable.empty()) j["gpu_unavailable"] = scene_->gpu_unavailable;
   if (on_gpu_) {

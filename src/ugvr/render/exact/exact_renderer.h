@@ -18,9 +18,11 @@
 #include <optional>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "ugvr/gpu/gl_context.h"
 #include "ugvr/grid/dataset.h"
+#include "ugvr/io/step_fields.h"
 #include "ugvr/io/time_series.h"
 #include "ugvr/render/exact/exact_engine.h"
 #include "ugvr/render/exact/exact_gpu_engine.h"
@@ -42,19 +44,24 @@ struct ExactScene {
   std::shared_ptr<const TimeSeries> series;
   uint32_t step = 0;
   uint64_t geometry = 0;  // geometry_fingerprint of the dataset (computed only where the series must detect it)
-  // What the step switches did: field swaps on the same walk mesh, walk-mesh rebuilds, and the last switch's seconds
-  // (reading the step included) and whether it rebuilt.
-  uint64_t swaps = 0, rebuilds = 0;
+  // What the step switches did: field swaps on the same walk mesh (`fields_only` of them read without the mesh:
+  // io/step_fields.h), walk-mesh rebuilds, and the last switch's seconds (reading the step included) and whether it
+  // rebuilt.
+  uint64_t swaps = 0, rebuilds = 0, fields_only = 0;
   double last_switch_seconds = 0;
   bool last_switch_rebuilt = false;
-  // Shows step `i` (no-op when shown); throws ugvr::Error without a series or for a step out of range.
+  // Shows step `i` (no-op when shown); throws ugvr::Error without a series or for a step out of range. A step whose
+  // mesh is known to be the one shown (static by format, or stored geometry keys equal to the mesh's) is read fields
+  // only and put on the mesh held; any other is read whole and compared by geometry fingerprint.
   void set_step(uint32_t i, const ProgressCallback& progress = {});
-  // Reads step `i` (and its geometry fingerprint) on another thread, so that set_step(i) finds it read: playback reads
-  // the next step while this one renders. One step ahead; another prefetch waits for this one first. A read error
-  // surfaces in set_step(i).
+  // Reads step `i` (fields only, or whole and fingerprinted, as set_step would) on another thread, so that set_step(i)
+  // finds it read: playback reads the next step while this one renders. One step ahead; another prefetch waits for
+  // this one first. A read error surfaces in set_step(i).
   void prefetch(uint32_t i);
   struct Prefetched {
-    std::shared_ptr<const Dataset> dataset;
+    std::optional<std::vector<uint64_t>> keys;  // the step's stored geometry keys, where its files have them
+    std::optional<StepFields> fields;           // read without the mesh (static by format, or `keys` matched)
+    std::shared_ptr<const Dataset> dataset;     // read whole otherwise
     uint64_t fingerprint = 0;
   };
   std::optional<std::pair<uint32_t, std::future<Prefetched>>> ahead;
@@ -72,6 +79,19 @@ struct ExactScene {
   // returns false: the CPU engine serves. Never throws.
   bool use_gpu_if_it_pays(std::shared_ptr<const GlContext> gl, const ExactGpuOptions& options);
   void bind_gpu(const std::string& selector);
+
+ private:
+  // The series' fields-only reads (made on first use: the viewer sets `series` after constructing the scene).
+  StepFieldReader& step_reader();
+  // Stored geometry key lists known to hold the mesh shown (those of a step read whole with the mesh's fingerprint
+  // join them); nullopt until first needed, then those of the step shown.
+  const std::vector<std::vector<uint64_t>>& mesh_keys();
+  // Takes a read step: on the mesh held (returns true) or, with other geometry, a rebuilt walk mesh (false).
+  bool take_step(Prefetched read, const ProgressCallback& progress);
+
+  std::shared_ptr<StepFieldReader> step_reader_;
+  std::optional<std::vector<std::vector<uint64_t>>> mesh_keys_;
+  bool dataset_spare_ = false;  // `dataset` was made here, non-const: its grids may move to the next step's
 };
 
 // The exact engine's own figures for --stats.

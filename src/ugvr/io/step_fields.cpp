@@ -1,0 +1,96 @@
+#include "ugvr/io/step_fields.h"
+
+#include <utility>
+
+#include "ugvr/core/error.h"
+
+namespace ugvr {
+
+namespace {
+
+// Series whose steps are one dataset file each (a .pvd step may have several: its parts, one block each).
+bool steps_are_files(SeriesKind kind) {
+  return kind == SeriesKind::Pvd || kind == SeriesKind::SeriesJson || kind == SeriesKind::Numbered;
+}
+
+void check_blocks(const Dataset& mesh, const StepFields& fields) {
+  if (mesh.blocks.size() != fields.blocks.size())
+    fail_in(fields.sources.empty() ? std::string("time step") : fields.sources[0],
+            "the step has " + std::to_string(fields.blocks.size()) + " blocks, the mesh it was read for " +
+                std::to_string(mesh.blocks.size()));
+}
+
+Dataset without_grids(StepFields fields) {
+  Dataset ds;
+  ds.format = std::move(fields.format);
+  ds.sources = std::move(fields.sources);
+  ds.warnings = std::move(fields.warnings);
+  for (FieldSet& f : fields.blocks) ds.blocks.push_back(Block{{}, {}, std::move(f)});
+  return ds;
+}
+
+}  // namespace
+
+StepFieldReader::StepFieldReader(std::shared_ptr<const TimeSeries> series) : series_(std::move(series)) {}
+StepFieldReader::~StepFieldReader() = default;
+
+bool StepFieldReader::static_by_format() const { return series_->kind == SeriesKind::Exodus; }
+
+std::optional<std::vector<uint64_t>> StepFieldReader::geometry_keys(size_t step) const {
+  if (!steps_are_files(series_->kind) || step >= series_->size()) return std::nullopt;
+  std::vector<uint64_t> keys;
+  for (const std::string& file : series_->steps[step].files) {
+    const std::optional<uint64_t> key = vtu_geometry_key(file);
+    if (!key) return std::nullopt;
+    keys.push_back(*key);
+  }
+  return keys;
+}
+
+StepFields StepFieldReader::read(size_t step) {
+  const size_t n = series_->size();
+  if (step >= n)
+    fail_in(series_->source, "time step " + std::to_string(step) + " does not exist: the series has " +
+                                 std::to_string(n) + " step" + (n == 1 ? "" : "s") + " (0.." + std::to_string(n - 1) +
+                                 ")");
+  const TimeStep& st = series_->steps[step];
+  StepFields out;
+  if (static_by_format()) {
+    // netCDF is not thread-safe, and the file stays open across steps.
+    std::lock_guard lock(exodus_mutex_);
+    if (!exodus_) exodus_ = std::make_unique<ExodusFieldReader>(st.files[0]);
+    out.blocks.push_back(exodus_->read(uint64_t(st.reader_step), out.format, out.warnings));
+    out.sources.push_back(st.files[0]);
+    return out;
+  }
+  if (!steps_are_files(series_->kind))
+    fail_in(series_->source, "time step " + std::to_string(step) + " has no fields-only read (read it whole)");
+  for (const std::string& file : st.files) {
+    out.blocks.push_back(read_vtu_fields(file, out.warnings));
+    out.sources.push_back(file);
+  }
+  out.format = "VTK XML UnstructuredGrid (.vtu)" + series_step_label(*series_, step);
+  return out;
+}
+
+Dataset with_grids_of(const Dataset& mesh, StepFields fields) {
+  check_blocks(mesh, fields);
+  Dataset ds = without_grids(std::move(fields));
+  for (size_t b = 0; b < ds.blocks.size(); ++b) {
+    ds.blocks[b].name = mesh.blocks[b].name;
+    ds.blocks[b].grid = mesh.blocks[b].grid;
+  }
+  return ds;
+}
+
+Dataset with_grids_of(Dataset&& mesh, StepFields fields) {
+  check_blocks(mesh, fields);
+  Dataset ds = without_grids(std::move(fields));
+  for (size_t b = 0; b < ds.blocks.size(); ++b) {
+    ds.blocks[b].name = std::move(mesh.blocks[b].name);
+    ds.blocks[b].grid = std::move(mesh.blocks[b].grid);
+  }
+  return ds;
+}
+
+}  // namespace ugvr

@@ -1,0 +1,99 @@
+// A time step's fields read without its mesh: what the exact engine's step switch reads when the step's mesh is the
+// one it already holds (docs/time-series.md, "Fields-only step reads").
+//
+// Which steps qualify:
+//   Exodus II     every step: the format has no time axis on coordinates or connectivity (static by format). The
+//                 file is opened once (ExodusFieldReader keeps it open, with its block layout) and a step reads its
+//                 variables' records at that time index only (nc_get_vara), nothing of the mesh.
+//   .vtu files    (the steps of a .pvd, a .series, a numbered series) a step whose files' stored geometry keys equal
+//                 those of the files the mesh was read from. The key (vtu_geometry_key) is a hash of what decides
+//                 the mesh as stored: the file's encoding (byte order, header word, compressor), each <Piece>'s
+//                 NumberOfPoints / NumberOfCells, and for the Points and the connectivity, offsets and types arrays
+//                 their type, components, format and stored bytes (the element text, or the appended header and raw
+//                 bytes, compressed or not) hashed as they lie in the file, never decoded. Equal keys decode to the
+//                 same mesh (up to a 64-bit hash collision, as for geometry_fingerprint); a moved point, another
+//                 connectivity, other counts or another encoding give another key, and the step is then read whole
+//                 and compared by geometry_fingerprint as before (a moving mesh rebuilds the walk mesh). Files with
+//                 appended base64 data (whose stored length the header does not give), .pvtu and other formats
+//                 have no key: their steps are read whole.
+// A fields-only read decodes every PointData / CellData array (or Exodus variable) of the step and nothing else, so
+// the dataset it completes is the full read's, field for field and bit for bit.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ugvr/grid/dataset.h"
+#include "ugvr/io/time_series.h"
+
+namespace ugvr {
+
+// The stored geometry key of a .vtu (UnstructuredGrid) file, as above; nullopt for other files and for appended base64
+// data. Reads the markup and the geometry arrays' stored bytes. Throws ugvr::Error naming the file for bad markup.
+std::optional<uint64_t> vtu_geometry_key(const std::string& path);
+
+// Every field of a .vtu file as read_dataset gives them (cell data restricted to the volume cells the mesh keeps),
+// without reading its points or connectivity (the types array is read when cells are dropped). Skipped arrays are
+// warned about in `warnings`, as the full read does.
+FieldSet read_vtu_fields(const std::string& path, std::vector<std::string>& warnings);
+
+// An Exodus II file opened once for its steps' fields: its dimensions and element-block layout are read here (not the
+// coordinates or the connectivity), then each read() reads one time index's variables. Not thread-safe (netCDF is
+// not): StepFieldReader serialises it.
+class ExodusFieldReader {
+ public:
+  explicit ExodusFieldReader(const std::string& path);
+  ~ExodusFieldReader();
+  ExodusFieldReader(const ExodusFieldReader&) = delete;
+  ExodusFieldReader& operator=(const ExodusFieldReader&) = delete;
+
+  // The fields of time index `step` (block_id, nodal and element variables, as read_exodus gives them); `format` is
+  // set as read_exodus sets Dataset::format. Throws ugvr::Error naming the file for a step out of range.
+  FieldSet read(uint64_t step, std::string& format, std::vector<std::string>& warnings);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// What a fields-only read of a step gives: the dataset read_time_step would, less its grids.
+struct StepFields {
+  std::vector<FieldSet> blocks;  // in read_time_step's block order
+  std::string format;
+  std::vector<std::string> sources;
+  std::vector<std::string> warnings;
+};
+
+// The fields-only reads of one series. Thread-safe: a scene's prefetch thread and its own share one.
+class StepFieldReader {
+ public:
+  explicit StepFieldReader(std::shared_ptr<const TimeSeries> series);
+  ~StepFieldReader();
+
+  // Whether every step has the first step's mesh by the format and a fields-only read (Exodus).
+  bool static_by_format() const;
+  // One stored geometry key per file of step `step` when every file has one (.vtu); nullopt otherwise (read the step
+  // whole). Equal key lists: the same mesh.
+  std::optional<std::vector<uint64_t>> geometry_keys(size_t step) const;
+  // Step `step`'s fields; valid where static_by_format() or geometry_keys() says the step has a fields-only read.
+  StepFields read(size_t step);
+
+ private:
+  std::shared_ptr<const TimeSeries> series_;
+  std::mutex exodus_mutex_;
+  std::unique_ptr<ExodusFieldReader> exodus_;  // opened on the first read
+};
+
+// What read_time_step appends to a file's format for a series' step: ", time step 3 of 24 (t = 0.125) of wake.pvd".
+std::string series_step_label(const TimeSeries& series, size_t step);
+
+// The dataset of a fields-only step: `fields` on the grids (and block names) of `mesh`, a dataset of the same mesh:
+// copied, or moved out of a dataset nobody needs any more. Throws ugvr::Error when the block counts differ.
+Dataset with_grids_of(const Dataset& mesh, StepFields fields);
+Dataset with_grids_of(Dataset&& mesh, StepFields fields);
+
+}  // namespace ugvr

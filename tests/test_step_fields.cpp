@@ -1,0 +1,215 @@
+// Fields-only step reads (io/step_fields.h) and the exact scene's step switch through them: a later step of a .vtu
+// series read without its mesh equals the full read; a step whose mesh moved (one point) or was reconnected is still
+// caught (the walk mesh rebuilt); Exodus steps read from the file kept open; the read touches the field bytes only.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "test_data.h"
+#include "ugvr/core/file.h"
+#include "ugvr/io/reader.h"
+#include "ugvr/io/step_fields.h"
+#include "ugvr/io/time_series.h"
+#include "ugvr/io/vtu_writer.h"
+#include "ugvr/render/exact/exact_renderer.h"
+
+namespace ugvr {
+namespace {
+
+using test::ScratchDir;
+
+// An n x n x n block of unit hexahedra with vertex fields f (x + y + z + offset) and g (3 components), and cell field
+// c (cell index + offset). `moved` shifts point 0 by 0.25 in x; `flipped` lists the first cell's corners in another
+// order (the same points, other connectivity).
+Dataset cube(int n, double offset, bool moved = false, bool flipped = false) {
+  UnstructuredMesh m;
+  const int p = n + 1;
+  for (int k = 0; k < p; ++k)
+    for (int j = 0; j < p; ++j)
+      for (int i = 0; i < p; ++i) m.points.push_back({float(i), float(j), float(k)});
+  if (moved) m.points[0].x += 0.25f;
+  auto id = [&](int i, int j, int k) { return uint32_t(i + p * (j + p * k)); };
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        uint32_t v[8] = {id(i, j, k),     id(i + 1, j, k),     id(i + 1, j + 1, k),     id(i, j + 1, k),
+                         id(i, j, k + 1), id(i + 1, j, k + 1), id(i + 1, j + 1, k + 1), id(i, j + 1, k + 1)};
+        if (flipped && m.cell_count() == 0) {
+          // The same hexahedron seen from its other end: a valid cell, other connectivity.
+          const uint32_t w[8] = {v[4], v[7], v[6], v[5], v[0], v[3], v[2], v[1]};
+          std::copy(w, w + 8, v);
+        }
+        m.add_cell(CellType::Hexahedron, v);
+      }
+  std::vector<float> f, g, c;
+  for (const Vec3f& q : m.points) {
+    f.push_back(float(q.x + q.y + q.z + offset));
+    for (float x : {q.x, q.y, float(offset)}) g.push_back(x);
+  }
+  for (uint64_t i = 0; i < m.cell_count(); ++i) c.push_back(float(double(i) * 0.5 + offset));
+  Block b;
+  b.grid = std::move(m);
+  b.fields.add(Field("f", Association::Vertex, DataArray::from(std::move(f), 1)));
+  b.fields.add(Field("g", Association::Vertex, DataArray::from(std::move(g), 3)));
+  b.fields.add(Field("c", Association::Cell, DataArray::from(std::move(c), 1)));
+  Dataset ds;
+  ds.blocks.push_back(std::move(b));
+  return ds;
+}
+
+std::shared_ptr<const TimeSeries> series_of(const std::string& path) {
+  return std::make_shared<const TimeSeries>(list_time_steps(std::span<const std::string>(&path, 1)));
+}
+
+// Steps 0..count-1 of cube(n, 10 k), as step_k.vtu and a .pvd; `change(k)` may replace a step's dataset.
+std::string write_series(const ScratchDir& dir, int n, int count, const VtuWriteOptions& options,
+                         const std::function<Dataset(int)>& step = {}) {
+  std::vector<std::pair<double, std::string>> steps;
+  for (int k = 0; k < count; ++k) {
+    const std::string name = "step_" + std::to_string(k) + ".vtu";
+    write_vtu(step ? step(k) : cube(n, 10.0 * k), dir.file(name), options);
+    steps.emplace_back(double(k), name);
+  }
+  write_pvd(dir.file("flow.pvd"), steps);
+  return dir.file("flow.pvd");
+}
+
+// The values the engine holds for `field` on a scene built from step `k` alone.
+std::vector<float> fresh_values(const TimeSeries& series, uint32_t k, const std::string& field) {
+  ExactScene fresh(std::make_shared<const Dataset>(read_time_step(series, k)));
+  fresh.bind(field);
+  return fresh.engine.bound_values();
+}
+
+TEST(StepFields, LaterVtuStepsReadFieldsOnlyEqualTheFullRead) {
+  for (const Codec codec : {Codec::None, Codec::Zlib}) {
+    SCOPED_TRACE(codec == Codec::None ? "raw" : "zlib");
+    ScratchDir dir;
+    const auto series = series_of(write_series(dir, 4, 3, VtuWriteOptions{codec, 0}));
+    StepFieldReader reader(series);
+    EXPECT_FALSE(reader.static_by_format());
+    const auto k0 = reader.geometry_keys(0), k1 = reader.geometry_keys(1);
+    ASSERT_TRUE(k0.has_value());
+    EXPECT_EQ(k0, k1) << "one mesh, other values: the same stored geometry";
+    const StepFields fields = reader.read(1);
+    const Dataset full = read_time_step(*series, 1);
+    ASSERT_EQ(fields.blocks.size(), 1u);
+    EXPECT_TRUE(fields.blocks[0] == full.blocks[0].fields);
+    EXPECT_EQ(fields.format, full.format);
+    EXPECT_EQ(fields.sources, full.sources);
+
+    // Through the scene: vertex and cell fields swapped on the mesh held, none rebuilt.
+    ExactScene scene(series, 0);
+    for (const char* field : {"f", "c", "g:1"}) {
+      SCOPED_TRACE(field);
+      scene.bind(field);
+      scene.set_step(scene.step == 1 ? 2 : 1);
+      EXPECT_EQ(scene.engine.bound_values(), fresh_values(*series, scene.step, field));
+      EXPECT_TRUE(scene.dataset->blocks[0].fields == read_time_step(*series, scene.step).blocks[0].fields);
+    }
+    scene.prefetch(0);
+    scene.set_step(0);
+    EXPECT_EQ(scene.engine.bound_values(), fresh_values(*series, 0, "g:1"));
+    EXPECT_EQ(scene.fields_only, 4u);
+    EXPECT_EQ(scene.swaps, 4u);
+    EXPECT_EQ(scene.rebuilds, 0u);
+    EXPECT_EQ(std::get<UnstructuredMesh>(scene.dataset->blocks[0].grid).connectivity,
+              std::get<UnstructuredMesh>(read_time_step(*series, 0).blocks[0].grid).connectivity);
+  }
+}
+
+TEST(StepFields, AMovedPointOrOtherConnectivityIsCaughtAndRebuilds) {
+  ScratchDir dir;
+  // Step 2 moves one point; step 3 has step 0's points, counts and sizes but one cell's corners in another order.
+  const auto series = series_of(write_series(dir, 3, 4, {}, [](int k) { return cube(3, 10.0 * k, k == 2, k == 3); }));
+  StepFieldReader reader(series);
+  const auto k0 = reader.geometry_keys(0);
+  EXPECT_EQ(reader.geometry_keys(1), k0);
+  EXPECT_NE(reader.geometry_keys(2), k0);
+  EXPECT_NE(reader.geometry_keys(3), k0);
+
+  ExactScene scene(series, 0);
+  scene.bind("f");
+  // A step read ahead for step 0's mesh, taken after the mesh changed, is read again for the mesh then held.
+  scene.prefetch(1);
+  scene.set_step(2);
+  EXPECT_EQ(scene.rebuilds, 1u);
+  EXPECT_EQ(scene.engine.bounds().lo.x, 0.0f);
+  EXPECT_EQ(std::get<UnstructuredMesh>(scene.dataset->blocks[0].grid).points[0].x, 0.25f);
+  EXPECT_EQ(scene.engine.bound_values(), fresh_values(*series, 2, "f"));
+  scene.set_step(1);
+  EXPECT_EQ(scene.rebuilds, 2u) << "step 1 has step 0's mesh, not step 2's";
+  EXPECT_EQ(scene.fields_only, 0u);
+  EXPECT_EQ(std::get<UnstructuredMesh>(scene.dataset->blocks[0].grid).points[0].x, 0.0f);
+  scene.set_step(0);
+  EXPECT_EQ(scene.fields_only, 1u);
+  scene.set_step(3);
+  EXPECT_EQ(scene.rebuilds, 3u) << "the same points, other connectivity";
+  EXPECT_EQ(std::get<UnstructuredMesh>(scene.dataset->blocks[0].grid).connectivity,
+            std::get<UnstructuredMesh>(read_time_step(*series, 3).blocks[0].grid).connectivity);
+  EXPECT_EQ(scene.engine.bound_values(), fresh_values(*series, 3, "f"));
+}
+
+TEST(StepFields, ExodusStepsReadTheirVariablesFromTheFileKeptOpen) {
+  UGVR_REQUIRE_DATA("exodus-misc/mug.e");
+  const auto series = series_of(relative_data_path);
+  StepFieldReader reader(series);
+  ASSERT_TRUE(reader.static_by_format());
+  for (uint32_t k : {20u, 3u, 20u}) {
+    const StepFields fields = reader.read(k);
+    const Dataset full = read_time_step(*series, k);
+    ASSERT_EQ(fields.blocks.size(), 1u);
+    EXPECT_TRUE(fields.blocks[0] == full.blocks[0].fields) << k;
+    EXPECT_EQ(fields.format, full.format);
+  }
+  ExactScene scene(series, 0);
+  scene.bind("convected");
+  scene.set_step(20);
+  EXPECT_EQ(scene.fields_only, 1u);
+  EXPECT_EQ(scene.engine.bound_values(), fresh_values(*series, 20, "convected"));
+  EXPECT_NE(scene.engine.bound_values(), fresh_values(*series, 0, "convected"));
+  EXPECT_NE(test::error_of([&] { reader.read(21); }).find("does not exist: the series has 21 steps (0..20)"),
+            std::string::npos);
+  EXPECT_NE(test::error_of([&] { scene.set_step(21); }).find("the series has 21 steps"), std::string::npos);
+  EXPECT_EQ(scene.step, 20u) << "a failed switch leaves the scene on its step";
+}
+
+// Bytes read(2) / pread(2) returned to this process so far (Linux task I/O accounting).
+uint64_t bytes_read_so_far() {
+  std::ifstream io("/proc/self/io");
+  std::string key;
+  uint64_t value = 0;
+  while (io >> key >> value)
+    if (key == "rchar:") return value;
+  return 0;
+}
+
+TEST(StepFields, AFieldsOnlyReadReadsTheFieldBytesOnly) {
+  if (bytes_read_so_far() == 0) GTEST_SKIP() << "no /proc/self/io";
+  ScratchDir dir;
+  const auto series = series_of(write_series(dir, 24, 2, {}));
+  const uint64_t file = InputFile(series->steps[1].files[0]).size();
+  // The fields: f and c (4 bytes a point or cell), g (12 bytes a point); the rest is points and cells (the
+  // connectivity alone 32 bytes a cell).
+  const uint64_t points = 25 * 25 * 25, cells = 24 * 24 * 24, field_bytes = 16 * points + 4 * cells;
+  StepFieldReader reader(series);
+  uint64_t before = bytes_read_so_far();
+  const StepFields fields = reader.read(1);
+  const uint64_t fields_only = bytes_read_so_far() - before;
+  before = bytes_read_so_far();
+  const Dataset full = read_time_step(*series, 1);
+  const uint64_t whole = bytes_read_so_far() - before;
+  EXPECT_GE(whole, file) << "the counter sees the full read";
+  EXPECT_GE(fields_only, field_bytes);
+  // Beside them: the types array (1 byte a cell: which cells' values the mesh keeps), the first 64 KiB the markup's
+  // scan reads, the arrays' headers.
+  EXPECT_LT(fields_only, field_bytes + cells + 68 * 1024) << "the field arrays and the markup, nothing of the mesh";
+  EXPECT_LT(fields_only * 2, file);
+  EXPECT_TRUE(fields.blocks[0] == full.blocks[0].fields);
+}
+
+}  // namespace
+}  // namespace ugvr
