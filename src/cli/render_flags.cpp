@@ -283,7 +283,8 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
       ->type_name("MIN,MAX|per-step");
   cmd->add_option("--unit-distance", opts->unit_distance,
                   "Scalar opacity unit distance (default: the --tf file's ScalarOpacityUnitDistance, else the "
-                  "bounds diagonal / 10, so that the inside shows; ParaView uses the mean cell size)")
+                  "bounds diagonal / 10, so that the inside shows, or / 100 where auto makes the most common values "
+                  "transparent; ParaView uses the mean cell size)")
       ->type_name("D");
   cmd->add_option(
          "--field", opts->field,
