@@ -2,6 +2,7 @@
 // pressure is mostly the free stream, the free stream is transparent where `--tf viridis` draws it as a haze.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 

@@ -2,8 +2,10 @@
 // transparent, the ramp kept where there is none.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <vector>
 
 #include "ugvr/render/default_transfer_function.h"
