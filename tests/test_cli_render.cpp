@@ -122,7 +122,8 @@ TEST_F(CliRender, HelpListsTheFlags) {
 // ---- Engine-dependent: these render.
 
 TEST_F(CliRender, EngineWritesPngOfRequestedSize) {
-  render_ok("-o " + file("a.png") + " --size 64x48");
+  // --tf viridis: the ramp's haze covers the slab (auto leaves the wing alone, a few pixels at this size).
+  render_ok("-o " + file("a.png") + " --size 64x48 --tf viridis");
   const Image im = read_png(file("a.png"));
   ASSERT_EQ(im.width, 64);
   ASSERT_EQ(im.height, 48);
@@ -449,8 +450,9 @@ TEST_F(CliRender, ExactPathHoldsATargetAndConvergesAtRest) {
 // distance is a tenth of the bounds' diagonal: the inside shows. Measured by the light the data lets through, T =
 // image over white - image over black: with the old unit distance (diagonal / 100) the slab was nearly opaque.
 TEST_F(CliRender, EngineDefaultViewIsObliqueAndShowsTheInside) {
-  render_ok("-o " + file("a.pfm") + " --size 48 --save-camera " + file("cam.json") + " --save-tf " + file("tf.json") +
-            " --stats " + file("s.json"));
+  // The ramp (--tf viridis) and its unit distance: "auto", the default, is tested in test_cli_default_tf.cpp.
+  render_ok("-o " + file("a.pfm") + " --size 48 --tf viridis --save-camera " + file("cam.json") + " --save-tf " +
+            file("tf.json") + " --stats " + file("s.json"));
   const Camera cam = read_camera(file("cam.json"));
   EXPECT_NEAR(dot(cam.direction(), normalized({0.6, 0.8, -0.55})), 1.0, 1e-9);
   EXPECT_GT(cam.view_up.z, 0.8);
@@ -465,8 +467,8 @@ TEST_F(CliRender, EngineDefaultViewIsObliqueAndShowsTheInside) {
 
   // Mean transmittance over the pixels the data covers.
   const auto see_through = [&](const std::string& flags) {
-    render_ok("-o " + file("w.pfm") + " --size 48 --background 1,1,1" + flags);
-    render_ok("-o " + file("b.pfm") + " --size 48 --background 0,0,0" + flags);
+    render_ok("-o " + file("w.pfm") + " --size 48 --tf viridis --background 1,1,1" + flags);
+    render_ok("-o " + file("b.pfm") + " --size 48 --tf viridis --background 0,0,0" + flags);
     const Image w = read_pfm(file("w.pfm")), b = read_pfm(file("b.pfm"));
     double sum = 0;
     int covered = 0;

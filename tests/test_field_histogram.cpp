@@ -1,4 +1,4 @@
-// The viewer's value histograms (src/ugvr/view/field_histogram.h): exact counts for known values, and over a store
+// The viewer's value histograms (src/ugvr/render/field_histogram.h): exact counts for known values, and over a store
 // exactly the valid samples of the nodes asked for.
 #include <gtest/gtest.h>
 
@@ -14,8 +14,8 @@
 #include "ugvr/gen/generator.h"
 #include "ugvr/octree/builder.h"
 #include "ugvr/octree/input.h"
+#include "ugvr/render/field_histogram.h"
 #include "ugvr/store/brick_store.h"
-#include "ugvr/view/field_histogram.h"
 
 namespace ugvr::view {
 namespace {

@@ -91,9 +91,10 @@ std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, 
 std::unique_ptr<Renderer> make_renderer(std::shared_ptr<const Dataset> dataset, const RendererConfig& config);
 
 // The request `ugvr render` makes without flags: a three-quarter oblique view framed on the data, +z up
-// (default_camera in render/camera.h; or a preset: +x -x +y -y +z -z iso), viridis with its linear opacity ramp over
-// the bound field's range, opacity unit distance = bounds diagonal / 10 (default_transfer_function), so that the
-// first image shows the inside of the data rather than an opaque slab.
+// (default_camera in render/camera.h; or a preset: +x -x +y -y +z -z iso), the "auto" transfer function over the
+// bound field's range (viridis; the histogram's dominant mode, if any, transparent, else the linear opacity ramp:
+// src/ugvr/render/default_transfer_function.h), opacity unit distance = bounds diagonal / 10, so that the first image
+// shows the inside of the data rather than an opaque slab or a haze of its most common value.
 FrameRequest default_request(const Renderer& renderer, int width, int height, std::string_view view = "");
 
 }  // namespace ugvr

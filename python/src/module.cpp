@@ -39,6 +39,7 @@
 #include "ugvr/octree/input.h"
 #include "ugvr/octree/out_of_core.h"
 #include "ugvr/render/camera.h"
+#include "ugvr/render/default_transfer_function.h"
 #include "ugvr/render/image.h"
 #include "ugvr/render/lod/lod_cut.h"
 #include "ugvr/render/render_settings.h"
@@ -710,6 +711,9 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
   TransferFunction tf;
   std::optional<double> unit_distance;
   const std::string tf_name = o.str("tf_name");
+  // "auto" (tf left out): made from the field's histogram once the data is open, as `ugvr render` does
+  // (render/default_transfer_function.h).
+  bool auto_tf = false;
   if (o.has("tf") && py::isinstance<PyTransferFunction>(o.get("tf"))) {
     const PyTransferFunction& t = o.get("tf").cast<const PyTransferFunction&>();
     tf = t;
@@ -721,13 +725,14 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
     const bool from_file =
         !name.empty() && (extension_lower(name) == ".json" || std::filesystem::is_regular_file(name, ec));
     if (!tf_name.empty() && !from_file) fail_in("tf_name", "needs tf=FILE.json");
+    auto_tf = !from_file && (name.empty() || name == "auto");
     try {
       if (from_file) {
         const PyTransferFunction t = tf_from_file(name, tf_name);
         tf = t;
         if (t.unit_set) unit_distance = t.opacity_unit_distance;
-      } else {
-        tf = builtin_preset(name.empty() ? "viridis" : name);
+      } else if (!auto_tf) {
+        tf = builtin_preset(name);
       }
     } catch (const Error& e) {
       fail_in("tf", e.what());
@@ -800,6 +805,7 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
   const ReadOptions read = read_options(o);
   // Read with the GIL held: the render below runs without it, and the options are a Python dict.
   const bool keep_range = o.flag("keep_range");
+  if (keep_range && auto_tf) fail_in("keep_range", "keeps a tf's own range: name one (tf=\"viridis\")");
 
   struct Result {
     Frame frame;
@@ -882,12 +888,17 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
       out.camera = default_camera(bounds, view_angle.value_or(30));
     }
     out.tf = tf;
-    if (range) {
+    if (auto_tf) {
+      const double lo = range ? range->first : out.range.min, hi = range ? range->second : out.range.max;
+      out.tf = auto_transfer_function(*renderer, lo, hi, bounds);
+    } else if (range) {
       out.tf.rescale(range->first, range->second);
     } else if (!keep_range) {
       if (std::isfinite(out.range.min) && std::isfinite(out.range.max)) out.tf.rescale(out.range.min, out.range.max);
     }
-    out.tf.opacity_unit_distance = unit_distance.value_or(default_unit_distance(bounds));
+    // auto's own unit distance depends on its histogram (default_transfer_function.h).
+    out.tf.opacity_unit_distance =
+        unit_distance.value_or(auto_tf ? out.tf.opacity_unit_distance : default_unit_distance(bounds));
     FrameRequest request;
     request.camera = out.camera;
     request.tf = out.tf;

@@ -33,6 +33,7 @@
 #include "ugvr/octree/input.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/camera_path.h"
+#include "ugvr/render/default_transfer_function.h"
 #include "ugvr/render/image.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/renderer_factory.h"
@@ -354,6 +355,14 @@ void render_store_time_steps(const Options& o, Renderer& renderer, const BrickSt
 
 using Clock = std::chrono::steady_clock;
 
+// --stats' "tf": which transfer function drew (a preset's name, the file's preset name, "auto") and its opacity
+// points, [[x, opacity], ...], so that an automatic one can be read back.
+nlohmann::json tf_to_json(const TransferFunction& tf) {
+  nlohmann::json points = nlohmann::json::array();
+  for (const OpacityPoint& p : tf.opacity_points) points.push_back({p.x, p.opacity});
+  return {{"name", tf.name}, {"opacity_points", points}, {"opacity_unit_distance", tf.opacity_unit_distance}};
+}
+
 void run_render(const Options& o, std::optional<double> time_budget) {
   const Clock::time_point start = Clock::now();
   if (time_budget && !(*time_budget > 0)) fail_flag("--time-budget", "must be > 0 seconds");
@@ -401,14 +410,17 @@ void run_render(const Options& o, std::optional<double> time_budget) {
   std::optional<Camera> file_camera;
   if (!o.camera.empty()) file_camera = with_flag("--camera", [&] { return read_camera(o.camera); });
   const bool tf_from_file = !o.tf.empty() && is_tf_file(o.tf);
+  // "auto" (the default): made from the field's histogram once the data is open (default_transfer_function.h).
+  const bool auto_tf = !tf_from_file && (o.tf.empty() || o.tf == "auto");
+  if (auto_tf && o.keep_range) fail_flag("--keep-range", "keeps a --tf preset's own range: name one (--tf viridis)");
   if (!o.tf_name.empty() && !tf_from_file) fail_flag("--tf-name", "needs --tf FILE.json");
   TransferFunction tf;
   std::optional<double> unit_distance;
   if (tf_from_file) {
     tf = with_flag("--tf", [&] { return read_paraview_preset(o.tf, o.tf_name); });
     unit_distance = with_flag("--tf", [&] { return read_preset_unit_distance(o.tf, o.tf_name); });
-  } else {
-    tf = with_flag("--tf", [&] { return builtin_preset(o.tf.empty() ? "viridis" : o.tf); });
+  } else if (!auto_tf) {
+    tf = with_flag("--tf", [&] { return builtin_preset(o.tf); });
   }
   std::optional<std::pair<double, double>> range;
   if (!o.range.empty() && !per_step) {
@@ -543,14 +555,19 @@ void run_render(const Options& o, std::optional<double> time_budget) {
     camera = default_camera(bounds, view_angle.value_or(30));  // three-quarter oblique, +z up
   }
 
-  if (range) {
+  if (auto_tf) {
+    // Every rank asks (a collective call under MPI); the histogram covers the range the map is drawn over.
+    const double lo = range ? range->first : field_range.min, hi = range ? range->second : field_range.max;
+    tf = auto_transfer_function(*renderer, lo, hi, bounds);
+  } else if (range) {
     tf.rescale(range->first, range->second);
   } else if (!o.keep_range) {
     const double lo = field_range.min, hi = field_range.max;
     // An all-NaN field has no range; the map then stays where it was rather than becoming NaN itself.
     if (std::isfinite(lo) && std::isfinite(hi)) tf.rescale(lo, hi);
   }
-  if (!unit_distance) unit_distance = default_unit_distance(bounds);
+  // auto's own unit distance depends on its histogram (default_transfer_function.h).
+  if (!unit_distance) unit_distance = auto_tf ? tf.opacity_unit_distance : default_unit_distance(bounds);
   tf.opacity_unit_distance = *unit_distance;
 
   if (writer && !o.save_camera.empty()) write_camera(o.save_camera, camera);
@@ -639,6 +656,7 @@ void run_render(const Options& o, std::optional<double> time_budget) {
     renderer->describe(j);
     if (last.detail) last.detail->to_json(j);
     if (time_budget) j["time_budget"] = budget_report;
+    j["tf"] = tf_to_json(tf);
     // Where a voxel volume's tricubic isosurface was drawn from, and whether this render built it (false: cached).
     if (voxel) j["voxel_store"] = {{"path", voxel->path}, {"built", voxel->built}};
     write_json_file(o.stats, j);

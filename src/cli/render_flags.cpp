@@ -267,8 +267,11 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
       ->type_name("NAME");
   cmd->add_option("--view-angle", opts->view_angle, "Vertical view angle in degrees (default 30)")->type_name("DEG");
   cmd->add_option("--tf", opts->tf,
-                  "Transfer function: a ParaView preset .json file, or a built-in preset: " +
-                      join(builtin_preset_names()) + " (default viridis)")
+                  "Transfer function: a ParaView preset .json file, a built-in preset (" +
+                      join(builtin_preset_names()) +
+                      ": colours with a linear opacity ramp), or auto (default): viridis with the field's most "
+                      "common values transparent when one narrow bump of the histogram holds much of the data (the "
+                      "free stream), else viridis's ramp (docs/first-look.md)")
       ->type_name("FILE|NAME");
   cmd->add_option("--tf-name", opts->tf_name, "Preset to take from the --tf file (default: its first)")
       ->type_name("NAME");
@@ -280,7 +283,8 @@ void add_render_flags(CLI::App& cmd_ref, RenderOptions& o) {
       ->type_name("MIN,MAX|per-step");
   cmd->add_option("--unit-distance", opts->unit_distance,
                   "Scalar opacity unit distance (default: the --tf file's ScalarOpacityUnitDistance, else the "
-                  "bounds diagonal / 10, so that the inside shows; ParaView uses the mean cell size)")
+                  "bounds diagonal / 10, so that the inside shows, or / 100 where auto makes the most common values "
+                  "transparent; ParaView uses the mean cell size)")
       ->type_name("D");
   cmd->add_option(
          "--field", opts->field,

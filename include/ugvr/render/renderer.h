@@ -12,6 +12,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "ugvr/core/vec.h"
 #include "ugvr/render/camera.h"
@@ -94,6 +95,14 @@ class Renderer {
   virtual const std::string& field_name() const = 0;
   virtual FieldRange field_range() const = 0;
   virtual Bounds bounds() const = 0;
+  // Counts of the bound field's values in `bins` equal bins over [lo, hi] (values outside count in the end bins, NaN
+  // is skipped), from what this renderer draws: a mesh's values, a store's coarse levels. The default transfer
+  // function is built from it (default_transfer_function.h). Empty when the renderer cannot say. Under MPI a
+  // collective call that gives every rank the same counts.
+  virtual std::vector<uint64_t> value_histogram(double lo, double hi, int bins) const {
+    (void)lo, (void)hi, (void)bins;
+    return {};
+  }
   // Renders request.settings.width x height, binding request.settings.field first when it differs. Throws
   // ugvr::Error for a request the engine cannot draw (a time step without a series, a cut over the GPU budget...).
   virtual Frame render(const FrameRequest& request) = 0;

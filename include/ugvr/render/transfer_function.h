@@ -101,9 +101,10 @@ std::vector<std::string> builtin_preset_names();
 // every value above the middle of the range opaque within a few cells and the data an opaque slab; at a tenth of the
 // diagonal a ray crossing the data sees the opaque upper values and through the rest.
 double default_unit_distance(const Bounds& bounds);
-// The first transfer function of a field with range [lo, hi] (`ugvr render` without --tf, default_request, the
-// viewer): "viridis" with its linear opacity ramp rescaled to [lo, hi] (kept on [0, 1] when lo or hi is not finite:
-// an all-NaN field), opacity unit distance default_unit_distance(bounds).
+// "viridis" with its linear opacity ramp rescaled to [lo, hi] (kept on [0, 1] when lo or hi is not finite: an
+// all-NaN field), opacity unit distance default_unit_distance(bounds): the viewer's first transfer function, and what
+// the default ("auto", src/ugvr/render/default_transfer_function.h) keeps when the field's histogram has no dominant
+// mode.
 TransferFunction default_transfer_function(double lo, double hi, const Bounds& bounds);
 
 }  // namespace ugvr

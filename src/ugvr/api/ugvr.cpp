@@ -8,6 +8,7 @@
 #include "ugvr/octree/builder.h"
 #include "ugvr/octree/input.h"
 #include "ugvr/octree/out_of_core.h"
+#include "ugvr/render/default_transfer_function.h"
 #include "ugvr/render/renderer_factory.h"
 #include "ugvr/store/brick_store.h"
 
@@ -145,7 +146,7 @@ FrameRequest default_request(const Renderer& renderer, int width, int height, st
   const Bounds bounds = renderer.bounds();
   r.camera = view.empty() ? default_camera(bounds) : camera_preset(view, bounds);
   const FieldRange range = renderer.field_range();
-  r.tf = default_transfer_function(range.min, range.max, bounds);
+  r.tf = auto_transfer_function(renderer, range.min, range.max, bounds);
   r.settings.width = width, r.settings.height = height;
   r.settings.field = renderer.field_name();
   r.settings.validate("default_request");

@@ -90,8 +90,15 @@ struct MpiFrameStats : EngineFrameStats {
 
 class MpiRenderer final : public Renderer {
  public:
-  MpiRenderer(std::unique_ptr<Renderer> local, KdTree tree, ReadFigures read = {}, WholeMesh whole = {})
-      : local_(std::move(local)), tree_(std::move(tree)), read_(std::move(read)), whole_(std::move(whole)) {
+  // `parts`: each rank holds only its part of the data (a .pvtu read by parts, a partitioned store's pieces); else
+  // every rank holds the whole (a mesh read whole and restricted to the rank's box afterwards, a store).
+  MpiRenderer(std::unique_ptr<Renderer> local, KdTree tree, ReadFigures read = {}, WholeMesh whole = {},
+              bool parts = false)
+      : local_(std::move(local)),
+        tree_(std::move(tree)),
+        read_(std::move(read)),
+        whole_(std::move(whole)),
+        parts_(parts) {
     nlohmann::json j;
     local_->describe(j);
     if (j.contains("engine_bytes") && j["engine_bytes"].is_number()) engine_bytes_ = j["engine_bytes"].get<double>();
@@ -105,6 +112,24 @@ class MpiRenderer final : public Renderer {
     return it != whole_.ranges.end() ? it->second : local_->field_range();
   }
   Bounds bounds() const override { return whole_.bounds ? *whole_.bounds : local_->bounds(); }
+  // The ranks MUST draw with one transfer function, and the default one is made from these counts: parts' counts are
+  // summed over the ranks; where every rank holds the whole data, rank 0's are every rank's (the same numbers, but
+  // broadcast so that nothing rank-local, a rank's restricted mesh say, can make them differ).
+  std::vector<uint64_t> value_histogram(double lo, double hi, int bins) const override {
+    std::vector<uint64_t> counts = local_->value_histogram(lo, hi, bins);
+    // A rank without counts (a field its store does not hold) takes part with zeros, so the collective sizes agree.
+    unsigned long long n = counts.size(), most = 0;
+    MPI_Allreduce(&n, &most, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, MPI_COMM_WORLD);
+    if (most == 0) return {};
+    counts.resize(size_t(most), 0);
+    std::vector<unsigned long long> buffer(counts.begin(), counts.end());
+    if (parts_) {
+      MPI_Allreduce(MPI_IN_PLACE, buffer.data(), int(most), MPI_UNSIGNED_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+    } else {
+      MPI_Bcast(buffer.data(), int(most), MPI_UNSIGNED_LONG_LONG, 0, MPI_COMM_WORLD);
+    }
+    return std::vector<uint64_t>(buffer.begin(), buffer.end());
+  }
   void describe(nlohmann::json& j) const override {
     local_->describe(j);
     j["mpi_ranks"] = size();
@@ -192,6 +217,7 @@ class MpiRenderer final : public Renderer {
   KdTree tree_;
   ReadFigures read_;
   WholeMesh whole_;
+  bool parts_ = false;
   double engine_bytes_ = 0;
 };
 
@@ -210,7 +236,8 @@ std::unique_ptr<Renderer> open_pvtu_part(const std::string& path, RendererOption
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   ReadFigures figures{"pvtu-part", part.cells_total, part.cells_read, part.cells_kept, seconds};
   WholeMesh whole{part.bounds, std::move(part.ranges)};
-  return std::make_unique<MpiRenderer>(make_renderer(scene, options), std::move(part.tree), figures, std::move(whole));
+  return std::make_unique<MpiRenderer>(make_renderer(scene, options), std::move(part.tree), figures, std::move(whole),
+                                       true);
 }
 
 }  // namespace
@@ -233,7 +260,8 @@ std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, 
     KdTree ranks_tree = group_tree(index.tree, ranks);
     std::vector<int> mine;
     for (int k = rank() * (n / ranks); k < (rank() + 1) * (n / ranks); ++k) mine.push_back(k);
-    return std::make_unique<MpiRenderer>(open_piece_renderer(index, std::move(mine), options), std::move(ranks_tree));
+    return std::make_unique<MpiRenderer>(open_piece_renderer(index, std::move(mine), options), std::move(ranks_tree),
+                                         ReadFigures{}, WholeMesh{}, true);
   }
   const bool store = inputs.size() == 1 && is_brick_store(inputs[0]);
   const bool lod = options.engine == "lod" || (options.engine == "auto" && store);

@@ -40,6 +40,16 @@ class PieceRenderer final : public Renderer {
   // Every piece records the whole dataset's ranges and bounds.
   FieldRange field_range() const override { return renderers_[0]->field_range(); }
   Bounds bounds() const override { return renderers_[0]->bounds(); }
+  // The pieces' counts summed (their cells are disjoint; a piece's ghost layers count twice, a small error in a shape).
+  std::vector<uint64_t> value_histogram(double lo, double hi, int bins) const override {
+    std::vector<uint64_t> sum;
+    for (const auto& r : renderers_) {
+      const std::vector<uint64_t> h = r->value_histogram(lo, hi, bins);
+      if (sum.empty()) sum.assign(h.size(), 0);
+      for (size_t i = 0; i < h.size() && i < sum.size(); ++i) sum[i] += h[i];
+    }
+    return sum;
+  }
   void describe(nlohmann::json& j) const override {
     renderers_[0]->describe(j);
     j["pieces"] = total_;

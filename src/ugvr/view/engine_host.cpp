@@ -12,10 +12,10 @@
 #include "ugvr/gpu/gl_context.h"
 #include "ugvr/octree/coarse_preview.h"
 #include "ugvr/octree/input.h"
+#include "ugvr/render/field_histogram.h"
 #include "ugvr/render/lod/lod_renderer.h"
 #include "ugvr/render/renderer_factory.h"
 #include "ugvr/store/brick_store.h"
-#include "ugvr/view/field_histogram.h"
 #include "ugvr/view/jpeg.h"
 
 namespace ugvr::view {

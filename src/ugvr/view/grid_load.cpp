@@ -7,7 +7,7 @@
 #include "ugvr/core/progress.h"
 #include "ugvr/octree/input.h"
 #include "ugvr/render/exact/exact_renderer.h"
-#include "ugvr/view/field_histogram.h"
+#include "ugvr/render/field_histogram.h"
 #include "ugvr/view/view_store.h"
 
 namespace ugvr::view {

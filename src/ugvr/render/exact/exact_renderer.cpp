@@ -11,6 +11,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/core/memory.h"
 #include "ugvr/core/threads.h"
+#include "ugvr/render/field_histogram.h"
 
 namespace ugvr {
 
@@ -230,6 +231,17 @@ FieldRange ExactRenderer::field_range() const {
 }
 
 Bounds ExactRenderer::bounds() const { return scene_->engine.bounds(); }
+
+std::vector<uint64_t> ExactRenderer::value_histogram(double lo, double hi, int bins) const {
+  const std::string& selector = field_name();
+  std::vector<uint64_t> counts(size_t(std::max(bins, 0)), 0);
+  for (const Block& b : scene_->dataset->blocks) {
+    const ScalarRef ref = b.fields.scalar(selector);
+    const std::vector<uint64_t> block = field_histogram(*ref.field, ref.component, lo, hi, bins);
+    for (size_t i = 0; i < counts.size(); ++i) counts[i] += block[i];
+  }
+  return counts;
+}
 
 Frame ExactRenderer::render(const FrameRequest& request) {
   if (request.time_step) scene_->set_step(*request.time_step);

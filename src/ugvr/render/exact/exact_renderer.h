@@ -110,6 +110,8 @@ class ExactRenderer final : public Renderer {
   const std::string& field_name() const override;
   FieldRange field_range() const override;
   Bounds bounds() const override;
+  // Over the scene's dataset (the shown step of a series; the whole mesh read, not the part a rank keeps).
+  std::vector<uint64_t> value_histogram(double lo, double hi, int bins) const override;
   Frame render(const FrameRequest& request) override;
   void describe(nlohmann::json& j) const override;
   std::string summary(const FrameStats& last) const override;

@@ -7,6 +7,8 @@
 #include <nlohmann/json.hpp>
 
 #include "ugvr/core/memory.h"
+#include "ugvr/render/field_histogram.h"
+#include "ugvr/store/brick_store.h"
 
 namespace ugvr {
 
@@ -144,6 +146,13 @@ const std::string& LodRendererBase::field_name() const {
 FieldRange LodRendererBase::field_range() const {
   bind_field(scene_->engine, field_);
   return {scene_->engine.field_min(), scene_->engine.field_max()};
+}
+
+std::vector<uint64_t> LodRendererBase::value_histogram(double lo, double hi, int bins) const {
+  const BrickStoreReader& store = scene_->engine.store();
+  const int field = store.field_index(field_name());
+  if (field < 0) return {};
+  return store_histogram(store, uint32_t(field), lo, hi, bins, kCoarseHistogramLevel);
 }
 
 void LodRendererBase::describe(nlohmann::json& j) const {

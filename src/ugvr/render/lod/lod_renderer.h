@@ -50,6 +50,9 @@ class LodRendererBase : public Renderer {
   const std::string& field_name() const override;
   FieldRange field_range() const override;
   Bounds bounds() const override { return scene_->engine.bounds(); }
+  // From the store's coarse levels (kCoarseHistogramLevel), as the viewer's editor; empty for a field the store does
+  // not hold by that name.
+  std::vector<uint64_t> value_histogram(double lo, double hi, int bins) const override;
   void describe(nlohmann::json& j) const override;
 
  protected:

@@ -1,4 +1,4 @@
-#include "ugvr/view/field_histogram.h"
+#include "ugvr/render/field_histogram.h"
 
 #include <cmath>
 #include <string>
@@ -6,7 +6,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/store/brick_store.h"
 
-namespace ugvr::view {
+namespace ugvr {
 namespace {
 
 // Bins values into counts over [lo, hi] (see the header for the edge cases).
@@ -57,17 +57,27 @@ std::vector<uint64_t> value_histogram(std::span<const double> values, double lo,
 
 std::vector<uint64_t> field_histogram(const Field& field, int component, int bins) {
   const Range r = field.range(component);
-  Binner b(r.min, r.max, bins);
+  return field_histogram(field, component, r.min, r.max, bins);
+}
+
+std::vector<uint64_t> field_histogram(const Field& field, int component, double lo, double hi, int bins) {
+  Binner b(lo, hi, bins);
   for (uint64_t t = 0; t < field.tuples(); ++t) b.add(field.scalar(t, component));
   return b.take();
 }
 
 std::vector<uint64_t> store_histogram(const BrickStoreReader& store, uint32_t field, int bins, int max_level) {
+  if (field >= store.field_count()) return store_histogram(store, field, 0, 1, bins, max_level);  // its error
+  const BrickStoreField& f = store.layout().fields[field];
+  return store_histogram(store, field, f.min, f.max, bins, max_level);
+}
+
+std::vector<uint64_t> store_histogram(const BrickStoreReader& store, uint32_t field, double lo, double hi, int bins,
+                                      int max_level) {
   if (field >= store.field_count())
     fail_in("histogram", "field index " + std::to_string(field) + " out of range (the store has " +
                              std::to_string(store.field_count()) + " fields)");
-  const BrickStoreField& f = store.layout().fields[field];
-  Binner b(f.min, f.max, bins);
+  Binner b(lo, hi, bins);
   const size_t r = store.resolution();
   std::vector<float> samples(r * r * r);
   std::vector<uint8_t> mask(r * r * r);
@@ -81,4 +91,4 @@ std::vector<uint64_t> store_histogram(const BrickStoreReader& store, uint32_t fi
   return b.take();
 }
 
-}  // namespace ugvr::view
+}  // namespace ugvr
