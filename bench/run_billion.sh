@@ -86,7 +86,7 @@ fi
 
 for np in $ranks; do
   /usr/bin/time -v mpirun --oversubscribe -np "$np" -x LP_NUM_THREADS "$ugvr" --quiet render "$index" \
-    --size "${width}x${height}" --frames "$frames" --stats "$work/render-$np.json" -o "$work/billion-$np.png" \
+    --size "${width}x${height}" --tf viridis --frames "$frames" --stats "$work/render-$np.json" -o "$work/billion-$np.png" \
     >/dev/null 2>"$work/render-$np.time"
   python3 - "$work/render-$np.json" "$np" "$(load)" "$(wall "$work/render-$np.time")" <<'PY' | tee -a "$out"
 import json, sys

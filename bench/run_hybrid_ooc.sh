@@ -44,7 +44,7 @@ if [ "${SUMMARY_ONLY:-0}" != 1 ]; then
   /usr/bin/time -v "$ugvr" --quiet build "$vtu" -o "$store" --out-of-core --cells --memory "$build_memory" \
     --fields pressure --error 0.01 --max-depth 8 --json >"$scratch/build.json" 2>"$scratch/build.time"
   rm -f "$scratch/frames.jsonl"
-  /usr/bin/time -v "$ugvr" --quiet render "$store" --engine hybrid --path "orbit:$orbit,rest:$rest" --fps "$fps" \
+  /usr/bin/time -v "$ugvr" --quiet render "$store" --tf viridis --engine hybrid --path "orbit:$orbit,rest:$rest" --fps "$fps" \
     --size "$size" --ram-memory 256MiB --gpu-memory 256MiB --gpu-cell-memory 256MiB "${extra[@]}" \
     --stats "$scratch/frames.jsonl" -o "$scratch/last.png" >/dev/null 2>"$scratch/render.time"
 fi

@@ -30,7 +30,7 @@ for n in $ranks; do
     bin=$ugvr whole=0
     case $run in part) ;; whole) whole=1 ;; *) bin=$run ;; esac
     # shellcheck disable=SC2086
-    UGVR_MPI_WHOLE_MESH=$whole mpirun --oversubscribe -np "$n" -x UGVR_MPI_WHOLE_MESH "$bin" render $post \
+    UGVR_MPI_WHOLE_MESH=$whole mpirun --oversubscribe -np "$n" -x UGVR_MPI_WHOLE_MESH "$bin" render $post --tf viridis \
       --engine exact --threads 1 --size "$size" \
       --frames "$frames" --stats "$tmp/s.json" -o "$tmp/img.png" 2> "$tmp/err" || { cat "$tmp/err"; exit 1; }
     python3 - "$tmp/s.json" "$bin" "$n" "$whole" "$(cut -d' ' -f1 /proc/loadavg)" <<'PY' | tee -a "$out"

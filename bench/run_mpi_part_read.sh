@@ -39,7 +39,7 @@ for repeat in $(seq "$repeats"); do
     for which in before after; do
       bin=$([ "$which" = before ] && echo "$before" || echo "$after")
       start=$(date +%s.%N)
-      mpirun --oversubscribe -np "$n" "$bin" --quiet render "$pvtu" --engine exact --threads 1 --size "$size" \
+      mpirun --oversubscribe -np "$n" "$bin" --quiet render "$pvtu" --tf viridis --engine exact --threads 1 --size "$size" \
         --stats "$work/s.json" -o "$work/img-$which-$n.png" 2> "$work/err" || { cat "$work/err"; exit 1; }
       wall=$(echo "$(date +%s.%N) - $start" | bc)
       python3 - "$work/s.json" "$which" "$n" "$repeat" "$wall" "$(cut -d' ' -f1 /proc/loadavg)" <<'PY' | tee -a "$out" >> "$runs"

@@ -60,7 +60,7 @@ PY
 done
 
 # Renders: the whole store on 1 rank, the index on RANKS ranks and in one process without MPI.
-render="--size ${width}x${height} --frames $frames"
+render="--size ${width}x${height} --tf viridis --frames $frames"
 run_render() {  # label ranks input
   local label=$1 np=$2 input=$3
   if [ "$np" = 0 ]; then

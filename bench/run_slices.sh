@@ -50,7 +50,7 @@ for name in blunt-fin lox-post; do
   fi
   store="$out/$name.ugvr"
   [ -f "$store" ] || "$ugvr" --quiet build "${inputs[@]}" --fields "$field" -o "$store"
-  view=(--camera "bench/results/exact-render/$name-camera.json" --size "$size" --field "$field")
+  view=(--tf viridis --camera "bench/results/exact-render/$name-camera.json" --size "$size" --field "$field")
   for part in alone coarse volume; do
     hide=() cut=pixels:1
     [ $part != volume ] && hide=(--hide-volume all)

@@ -92,12 +92,12 @@ for round in $(seq "$rounds"); do
     [ "$variant" = tricubic-no-fill ] && fill=0
     binary=$ugvr
     [ "$variant" = tricubic-base ] && binary=$BASE
-    UGVR_TRICUBIC_EXTENSION=$extension UGVR_TRICUBIC_LEVEL_BLEND=$blend UGVR_TRICUBIC_FILL=$fill "$binary" --quiet render "$store" --engine lod --cut "$cut" \
+    UGVR_TRICUBIC_EXTENSION=$extension UGVR_TRICUBIC_LEVEL_BLEND=$blend UGVR_TRICUBIC_FILL=$fill "$binary" --quiet render "$store" --tf viridis --engine lod --cut "$cut" \
       "${camera_args[@]}" --size "$size" --iso $iso --interpolation "$interp" -o "$out/$variant.png" \
       --stats "$out/$variant.json" --frames "$frames"
     # The upload: one frame at 64² (its stats are the frame that uploads every brick of the cut); at SIZE² with a
     # CUT other than leaves (a pixels cut depends on the image's size).
-    UGVR_TRICUBIC_EXTENSION=$extension UGVR_TRICUBIC_LEVEL_BLEND=$blend UGVR_TRICUBIC_FILL=$fill "$binary" --quiet render "$store" --engine lod --cut "$cut" \
+    UGVR_TRICUBIC_EXTENSION=$extension UGVR_TRICUBIC_LEVEL_BLEND=$blend UGVR_TRICUBIC_FILL=$fill "$binary" --quiet render "$store" --tf viridis --engine lod --cut "$cut" \
       "${camera_args[@]}" --size "$upload_size" --iso $iso --interpolation "$interp" -o "$out/$variant-64.png" \
       --stats "$out/$variant-upload.json" --frames 1
     "$py" -c "

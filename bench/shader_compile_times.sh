@@ -22,7 +22,7 @@ mkdir -p "$scratch"
 bf=("$data/blunt-fin/bluntfinxyz.bin" "$data/blunt-fin/bluntfinq.bin")
 store=$scratch/bf-cells.ugvr
 [ -f "$store" ] || "$ugvr" --quiet build "${bf[@]}" --fields Density --cells -o "$store" >/dev/null 2>&1
-view=(--field Density --camera bench/results/exact-render/blunt-fin-camera.json --size 256 --frames 2)
+view=(--tf viridis --field Density --camera bench/results/exact-render/blunt-fin-camera.json --size 256 --frames 2)
 
 one() {  # LABEL CACHE DIR ENGINE_ARGS...
   local label=$1 cache=$2 dir=$3

@@ -62,7 +62,9 @@ class Pieces : public ::testing::Test {
   // The lower PSNR of: 4 ranks on the 4-piece index, 4 ranks on the 8-piece index, and one plain process on the
   // 8-piece index, each against one rank on the whole store.
   double psnr_pieces_vs_whole(const std::string& flags) {
-    const std::string common = " --threads 1 " + flags;
+    // One transfer function for both: the whole store's and the pieces' default (auto, from their coarse levels'
+    // histograms) may differ, and these compare the compositing.
+    const std::string common = " --threads 1 --tf viridis " + flags;
     CommandResult r =
         mpirun(1, "render " + file("W.ugvr") + common + " -o " + file("w.png") + " --float " + file("w.pfm"));
     EXPECT_EQ(r.status, 0) << r.out;
