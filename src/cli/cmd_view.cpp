@@ -238,7 +238,8 @@ void run_view(const Options& o) {
       } catch (const Error& e) {
         fail_in("--tf", std::string("neither a file nor a preset: ") + e.what());
       }
-      vo.preset = o.tf;  // rescaled to the field's range by the viewer
+      vo.preset = o.tf;         // rescaled to the field's range by the viewer
+      vo.auto_opacity = false;  // a named preset is its ramp, as in `ugvr render --tf NAME`
     }
   }
 
