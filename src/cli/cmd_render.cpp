@@ -27,6 +27,7 @@
 #include "ugvr/core/memory.h"
 #include "ugvr/core/progress.h"
 #include "ugvr/core/threads.h"
+#include "ugvr/io/step_fields.h"
 #include "ugvr/io/time_series.h"
 #include "ugvr/mpi/piece_index.h"
 #include "ugvr/mpi/piece_renderer.h"
@@ -213,7 +214,8 @@ std::string shell_quote(const std::string& s) {
 
 // --time: one image per selected step into --out (time_NNNNN.png, numbered by frame so that ffmpeg reads them in
 // order), DIR/steps.json (step, time, range, switch and frame seconds), and DIR/movie.mp4 when ffmpeg is there. The
-// colour range is global over the rendered steps (a first pass reading one step at a time) unless `per_step`.
+// colour range is global over the rendered steps (a first pass reading one step's values at a time, fields only
+// where the mesh is the shown step's) unless `per_step`.
 void render_time_steps(const Options& o, Renderer& renderer, ExactScene& scene, const std::vector<uint32_t>& steps,
                        FrameRequest request, bool global_range, bool per_step) {
   const TimeSeries& series = *scene.series;
@@ -221,14 +223,19 @@ void render_time_steps(const Options& o, Renderer& renderer, ExactScene& scene, 
   const std::string selector = request.settings.field;
   if (global_range) {
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    const auto unite = [&](const FieldSet& fields) {
+      const ScalarRef r = fields.scalar(selector);
+      const Range range = r.field->range(r.component);
+      lo = std::min(lo, range.min), hi = std::max(hi, range.max);
+    };
+    // The values alone: a step with the shown step's mesh (static geometry) is read without its mesh.
+    StepFieldReader values(scene.series);
     Progress progress("range over steps", steps.size());
     for (size_t k = 0; k < steps.size(); ++k) {
-      Dataset other;
-      if (steps[k] != scene.step) other = read_time_step(series, steps[k]);
-      for (const Block& b : (steps[k] == scene.step ? *scene.dataset : other).blocks) {
-        const ScalarRef r = b.fields.scalar(selector);
-        const Range range = r.field->range(r.component);
-        lo = std::min(lo, range.min), hi = std::max(hi, range.max);
+      if (steps[k] == scene.step) {
+        for (const Block& b : scene.dataset->blocks) unite(b.fields);
+      } else {
+        for (const FieldSet& f : values.read_values(steps[k], scene.step).blocks) unite(f);
       }
       progress.set(k + 1);
     }

@@ -36,11 +36,29 @@ StepFieldReader::~StepFieldReader() = default;
 
 bool StepFieldReader::static_by_format() const { return series_->kind == SeriesKind::Exodus; }
 
+std::optional<uint64_t> StepFieldReader::cached_geometry_key(const std::string& path) const {
+  std::error_code size_error, time_error;
+  const uintmax_t size = std::filesystem::file_size(path, size_error);
+  const std::filesystem::file_time_type mtime = std::filesystem::last_write_time(path, time_error);
+  // A file that cannot be stat'ed is not cached: vtu_geometry_key names it in its error.
+  if (size_error || time_error) return vtu_geometry_key(path);
+  {
+    std::lock_guard lock(keys_mutex_);
+    const auto it = keys_.find(path);
+    if (it != keys_.end() && it->second.size == size && it->second.mtime == mtime) return it->second.key;
+  }
+  // Computed unlocked (it reads the geometry's stored bytes): two threads may both compute one file's key, the same.
+  const std::optional<uint64_t> key = vtu_geometry_key(path);
+  std::lock_guard lock(keys_mutex_);
+  keys_[path] = CachedKey{size, mtime, key};
+  return key;
+}
+
 std::optional<std::vector<uint64_t>> StepFieldReader::geometry_keys(size_t step) const {
   if (!steps_are_files(series_->kind) || step >= series_->size()) return std::nullopt;
   std::vector<uint64_t> keys;
   for (const std::string& file : series_->steps[step].files) {
-    const std::optional<uint64_t> key = vtu_geometry_key(file);
+    const std::optional<uint64_t> key = cached_geometry_key(file);
     if (!key) return std::nullopt;
     keys.push_back(*key);
   }
@@ -70,6 +88,23 @@ StepFields StepFieldReader::read(size_t step) {
     out.sources.push_back(file);
   }
   out.format = "VTK XML UnstructuredGrid (.vtu)" + series_step_label(*series_, step);
+  return out;
+}
+
+bool StepFieldReader::has_mesh_of(size_t step, size_t mesh_step) const {
+  if (static_by_format()) return true;
+  const std::optional<std::vector<uint64_t>> keys = geometry_keys(step);
+  return keys && keys == geometry_keys(mesh_step);
+}
+
+StepFields StepFieldReader::read_values(size_t step, size_t mesh_step) {
+  if (has_mesh_of(step, mesh_step)) return read(step);
+  Dataset whole = read_time_step(*series_, step);
+  StepFields out;
+  for (Block& b : whole.blocks) out.blocks.push_back(std::move(b.fields));
+  out.format = std::move(whole.format);
+  out.sources = std::move(whole.sources);
+  out.warnings = std::move(whole.warnings);
   return out;
 }
 

@@ -21,6 +21,8 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -77,15 +79,33 @@ class StepFieldReader {
   // Whether every step has the first step's mesh by the format and a fields-only read (Exodus).
   bool static_by_format() const;
   // One stored geometry key per file of step `step` when every file has one (.vtu); nullopt otherwise (read the step
-  // whole). Equal key lists: the same mesh.
+  // whole). Equal key lists: the same mesh. A file's key is computed once while its size and modification time stay
+  // those seen then (a range pass, then the step switches, visit every file again); a file rewritten to the same size
+  // within the file system's time stamp granularity (a few milliseconds) would keep its old key.
   std::optional<std::vector<uint64_t>> geometry_keys(size_t step) const;
+  // Whether step `step` has step `mesh_step`'s mesh as stored: by the format (Exodus) or by equal geometry keys (.vtu).
+  // Then read(step) completes a dataset of mesh_step's grids. False where only a whole read could tell.
+  bool has_mesh_of(size_t step, size_t mesh_step) const;
   // Step `step`'s fields; valid where static_by_format() or geometry_keys() says the step has a fields-only read.
   StepFields read(size_t step);
+  // Step `step`'s fields for a pass over its values alone (the global colour range of `ugvr render --time all`),
+  // `mesh_step` being a step whose mesh is held: read fields-only where has_mesh_of(step, mesh_step), nothing of the
+  // step's mesh read; else (a changing mesh, a format without a fields-only read) read whole and its grids dropped.
+  StepFields read_values(size_t step, size_t mesh_step);
 
  private:
+  struct CachedKey {
+    uintmax_t size = 0;
+    std::filesystem::file_time_type mtime;
+    std::optional<uint64_t> key;
+  };
+  std::optional<uint64_t> cached_geometry_key(const std::string& path) const;
+
   std::shared_ptr<const TimeSeries> series_;
   std::mutex exodus_mutex_;
   std::unique_ptr<ExodusFieldReader> exodus_;  // opened on the first read
+  mutable std::mutex keys_mutex_;
+  mutable std::map<std::string, CachedKey> keys_;  // by file path, see geometry_keys
 };
 
 // What read_time_step appends to a file's format for a series' step: ", time step 3 of 24 (t = 0.125) of wake.pvd".

@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <exception>
+#include <optional>
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/progress.h"
+#include "ugvr/io/step_fields.h"
 #include "ugvr/octree/input.h"
 #include "ugvr/render/exact/exact_renderer.h"
 #include "ugvr/render/field_histogram.h"
@@ -86,17 +88,29 @@ void GridLoad::run(const std::function<std::shared_ptr<const Dataset>()>& load, 
     }
     if (series_) {
       // The global colour range: every other step read in turn (one in memory at a time, as `ugvr render --time`
-      // does), its ranges united into the shown step's. Progress says which step.
+      // does), its ranges united into the shown step's. Progress says which step. A step with the shown step's mesh
+      // as stored has its fields read alone, put on a copy of the shown step's grids (`carrier`: copied once, then
+      // moved from step to step) for prepare_octree_input; another mesh is read whole.
+      StepFieldReader values(series_);
+      std::optional<Dataset> carrier;
       for (uint32_t i = 0; i < series_->size() && !cancel_; ++i) {
         if (i == step_) continue;
         set(Stage::Reading, "time range: step " + std::to_string(i + 1) + " of " + std::to_string(series_->size()),
             double(i) / double(series_->size()));
-        const Dataset other = read_time_step(*series_, i);
+        Dataset other;
+        const bool fields_only = values.has_mesh_of(i, step_);
+        if (fields_only) {
+          other =
+              carrier ? with_grids_of(std::move(*carrier), values.read(i)) : with_grids_of(*dataset, values.read(i));
+        } else {
+          other = read_time_step(*series_, i);
+        }
         const OctreeInput input = prepare_octree_input(other, grid.names);
         for (size_t f = 0; f < input.fields.size(); ++f) {
           grid.fields[f].min = std::min(grid.fields[f].min, input.fields[f].min);
           grid.fields[f].max = std::max(grid.fields[f].max, input.fields[f].max);
         }
+        if (fields_only) carrier = std::move(other);
       }
       if (cancel_) return;
     }

@@ -49,8 +49,10 @@ class GridLoad {
   // (empty: default_view_fields). `histogram_bins`: of each field's histogram.
   GridLoad(std::function<std::shared_ptr<const Dataset>()> load, std::vector<std::string> fields, int histogram_bins);
   // A time series shown from step `step`: that step is read (stage Reading), then every other step in turn, one in
-  // memory at a time (stage Fields is published after: the fields' ranges are the union over the steps, so that the
-  // colours mean the same at every step; the histograms are step `step`'s), then the walk mesh is built.
+  // memory at a time, its fields alone where it has step `step`'s mesh as stored (StepFieldReader::has_mesh_of; they
+  // go on one copy of that mesh), else whole (stage Fields is published after: the fields' ranges are the union over
+  // the steps, so that the colours mean the same at every step; the histograms are step `step`'s), then the walk mesh
+  // is built.
   GridLoad(std::shared_ptr<const TimeSeries> series, uint32_t step, std::vector<std::string> fields,
            int histogram_bins);
   // Waits for the thread: a read under way is not interrupted (the walk mesh is: it stops at its next step).
