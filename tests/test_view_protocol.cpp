@@ -7,7 +7,6 @@
 #include <utility>
 
 #include "ugvr/core/error.h"
-#include "ugvr/render/default_transfer_function.h"
 #include "ugvr/view/jpeg.h"
 #include "ugvr/view/view_protocol.h"
 #include "ugvr/view/view_request.h"
@@ -525,48 +524,3 @@ TEST(ViewJpeg, EncodesAnyImageSize) {
 
 }  // namespace
 }  // namespace ugvr::view
-
-// The viewer's default opacity is `ugvr render`'s "auto" rule on the field's histogram (FieldInfo::auto_opacity): the
-// server draws with it and the scene message sends it, so that the page's editor shows what is drawn.
-TEST(ViewRequest, DefaultOpacityHidesTheDominantModeAsUgvrRenderDoes) {
-  SceneInfo scene;
-  std::vector<uint64_t> counts(64, 10);
-  for (int b = 40; b < 44; ++b) counts[size_t(b)] = 5000;  // a free stream at 0.625-0.6875 of the range
-  scene.fields = {{"pressure", 0, 64, counts}, {"flat", 0, 1, std::vector<uint64_t>(64, 7)}, {"constant", 3, 3, {}}};
-  scene.field = "pressure";
-  scene.bounds = {{0, 0, 0}, {1, 1, 1}};
-
-  const std::vector<OpacityPoint> expected = auto_opacity_points(counts, 0, 64);
-  ASSERT_EQ(expected.size(), 4u);
-  EXPECT_EQ(expected[1].opacity, 0.0);
-  EXPECT_EQ(expected[2].opacity, 0.0);
-  ViewState s = initial_view(scene);
-  ASSERT_EQ(s.request.tf.opacity_points.size(), expected.size());
-  for (size_t i = 0; i < expected.size(); ++i) {
-    EXPECT_EQ(s.request.tf.opacity_points[i].x, expected[i].x) << i;
-    EXPECT_EQ(s.request.tf.opacity_points[i].opacity, expected[i].opacity) << i;
-  }
-  EXPECT_EQ(s.request.tf.opacity(42), 0.0) << "the mode is transparent";
-  EXPECT_GT(s.request.tf.opacity(2), 0.5) << "values far from it are not";
-
-  // The scene message carries the same points for the page.
-  const nlohmann::json j = nlohmann::json::parse(scene_message(scene));
-  ASSERT_TRUE(j["fields"][0].contains("auto_points"));
-  EXPECT_EQ(j["fields"][0]["auto_points"].size(), 2 * expected.size());
-  EXPECT_EQ(j["fields"][0]["auto_points"][2], expected[1].x);
-  // A flat histogram: the ramp over the range; a constant field: no points (the preset's ramp, rescaled as before).
-  EXPECT_EQ(j["fields"][1]["auto_points"], nlohmann::json({0.0, 0.0, 1.0, 1.0}));
-  EXPECT_FALSE(j["fields"][2].contains("auto_points"));
-
-  // `ugvr view --tf PRESET`: the preset's ramp, and no points for the page.
-  SceneInfo ramp = scene;
-  ramp.auto_opacity = false;
-  EXPECT_NEAR(initial_view(ramp).request.tf.opacity(42), 42.0 / 64, 1e-12) << "the ramp";
-  EXPECT_FALSE(nlohmann::json::parse(scene_message(ramp))["fields"][0].contains("auto_points"));
-
-  // The tab's own points win; picking a preset drops them and the default comes back.
-  apply_message(s, parse_client_message(R"({"type":"tf","opacity_points":[0,1,64,1]})"), scene);
-  EXPECT_EQ(s.request.tf.opacity_points.size(), 2u);
-  apply_message(s, parse_client_message(R"({"type":"tf","preset":"inferno"})"), scene);
-  EXPECT_EQ(s.request.tf.opacity_points.size(), expected.size());
-}

@@ -69,10 +69,7 @@ window.ugvrViewer = {
   get error() { return lastError; },
   get scenes() { return scenes; },
   get views() { return viewsReceived; },
-  get fields() {
-    return scene ? scene.fields.map((f) => ({ name: f.name, range: f.range.slice(), bins: f.histogram.length,
-                                              auto_points: f.auto_points ? f.auto_points.slice() : null })) : [];
-  },
+  get fields() { return scene ? scene.fields.map((f) => ({ name: f.name, range: f.range.slice(), bins: f.histogram.length })) : []; },
   get field() { return view.field; },
   get focusBrush() {
     return { hidden: $("focus-brush-row").hidden, range: focusBrush.range && focusBrush.range.slice(), edge: focusBrush.edge(),
@@ -146,13 +143,7 @@ function resetTfPoints() {
   const [lo, hi] = fieldRange();
   view.colors = null;
   view.pointsEdited = false;
-  // The field's default opacity as the server computes it (the rule of `ugvr render`'s "auto": the histogram's
-  // dominant mode transparent), else the presets' linear ramp over the range.
-  const f = fieldInfo(view.field);
-  const a = f && f.auto_points;
-  const pts = [];
-  if (a) for (let i = 0; i + 1 < a.length; i += 2) pts.push([a[i], a[i + 1]]);
-  tfEditor.setPoints(pts.length >= 2 ? pts : [[lo, 0], [hi, 1]]);
+  tfEditor.setPoints([[lo, 0], [hi, 1]]);  // the presets' linear ramp over the range
 }
 function showField() {
   const f = fieldInfo(view.field);

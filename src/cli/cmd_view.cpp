@@ -238,8 +238,7 @@ void run_view(const Options& o) {
       } catch (const Error& e) {
         fail_in("--tf", std::string("neither a file nor a preset: ") + e.what());
       }
-      vo.preset = o.tf;         // rescaled to the field's range by the viewer
-      vo.auto_opacity = false;  // a named preset is its ramp, as in `ugvr render --tf NAME`
+      vo.preset = o.tf;  // rescaled to the field's range by the viewer
     }
   }
 

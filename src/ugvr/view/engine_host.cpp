@@ -230,7 +230,6 @@ SceneInfo EngineHost::base_scene(std::vector<FieldInfo> fields, const Bounds& bo
   sc.camera = options_.camera.value_or(default_camera(sc.bounds, 30));
   sc.tf = options_.tf;
   sc.preset = options_.preset;
-  sc.auto_opacity = options_.auto_opacity;
   sc.background = options_.background;
   sc.fps = options_.fps;
   sc.width = options_.width, sc.height = options_.height;

@@ -5,7 +5,6 @@
 #include <limits>
 
 #include "ugvr/core/error.h"
-#include "ugvr/render/default_transfer_function.h"
 #include "ugvr/render/settings_table.h"
 
 namespace ugvr::view {
@@ -359,23 +358,10 @@ json tf_points_json(const TransferFunction& tf) {
 
 }  // namespace
 
-std::vector<OpacityPoint> FieldInfo::auto_opacity() const {
-  if (!(std::isfinite(min) && std::isfinite(max) && min < max)) return {};
-  return auto_opacity_points(histogram, min, max);
-}
-
 std::string scene_message(const SceneInfo& scene) {
   json fields = json::array();
-  for (const FieldInfo& f : scene.fields) {
-    json field = {{"name", f.name}, {"range", {f.min, f.max}}, {"histogram", f.histogram}};
-    if (const std::vector<OpacityPoint> a = scene.auto_opacity ? f.auto_opacity() : std::vector<OpacityPoint>{};
-        !a.empty()) {
-      json flat = json::array();
-      for (const OpacityPoint& p : a) flat.insert(flat.end(), {p.x, p.opacity});
-      field["auto_points"] = flat;
-    }
-    fields.push_back(std::move(field));
-  }
+  for (const FieldInfo& f : scene.fields)
+    fields.push_back({{"name", f.name}, {"range", {f.min, f.max}}, {"histogram", f.histogram}});
   const FieldInfo* current = scene.find_field("");
   // The presets' colours over [0, 1], so that a page can draw the colour map it asks for.
   json preset_points = json::object();

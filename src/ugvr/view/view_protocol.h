@@ -168,12 +168,6 @@ struct FieldInfo {
   std::string name;
   double min = 0, max = 1;          // range over the data (NaN excluded)
   std::vector<uint64_t> histogram;  // counts over [min, max] in equal bins; empty when unknown
-
-  // The opacity a tab starts from on this field, the rule of `ugvr render`'s default transfer function "auto"
-  // (render/default_transfer_function.h) on this histogram: the dominant mode transparent, else the ramp over
-  // [min, max]. Empty for a range the rule cannot use (constant or not finite): the preset's ramp then, rescaled as
-  // before. The scene message sends it ("auto_points") so that the page's editor shows what the server draws.
-  std::vector<OpacityPoint> auto_opacity() const;
 };
 
 struct SceneInfo {
@@ -182,9 +176,6 @@ struct SceneInfo {
   Bounds bounds;
   Camera camera;  // the reset view
   std::string preset = "viridis";
-  // Without points of their own, tabs draw each field with FieldInfo::auto_opacity (sent as "auto_points"); false:
-  // with the preset's ramp over the field's range.
-  bool auto_opacity = true;
   double fps = 10;
   int width = 512, height = 512;
   std::string renderer;  // the label of `engine`'s renderer (renderers[engine])

@@ -32,12 +32,7 @@ TransferFunction compose_tf(const ViewState& s, const SceneInfo& scene) {
   const FieldInfo* f = scene.find_field(s.request.settings.field);
   if (f && std::isfinite(f->min) && std::isfinite(f->max)) tf.rescale(f->min, f->max);
   if (!s.tf_colors.empty()) tf.color_points = s.tf_colors;
-  if (!s.tf_opacities.empty()) {
-    tf.opacity_points = s.tf_opacities;
-  } else if (f && scene.auto_opacity) {
-    // No points of the tab's own: the field's default, as `ugvr render`'s "auto" (FieldInfo::auto_opacity).
-    if (std::vector<OpacityPoint> a = f->auto_opacity(); !a.empty()) tf.opacity_points = std::move(a);
-  }
+  if (!s.tf_opacities.empty()) tf.opacity_points = s.tf_opacities;
   for (OpacityPoint& p : tf.opacity_points) p.opacity *= s.tf_opacity;
   tf.opacity_unit_distance = s.unit_distance > 0 ? s.unit_distance : default_unit_distance(scene.bounds);
   return tf;

@@ -88,9 +88,6 @@ struct ViewServerOptions {
   std::optional<Camera> camera;        // the initial (and reset) view; none: default_camera (render/camera.h)
   std::optional<TransferFunction> tf;  // the initial transfer function (SceneInfo::tf)
   std::string preset = "viridis";      // the initial colour map when there is no `tf`
-  // The opacity new tabs start from on each field (SceneInfo::auto_opacity): the rule of `ugvr render`'s default
-  // "auto"; false (`ugvr view --tf PRESET`, as `ugvr render --tf PRESET`): the preset's ramp.
-  bool auto_opacity = true;
   std::optional<std::array<double, 4>> background;  // the initial background (SceneInfo::background)
   std::function<void()> before_build;               // tests: runs on the build's thread before the build starts
   std::function<void()> opening_store;  // tests: runs on the render thread, unlocked, before it opens the built store
