@@ -2,6 +2,11 @@
 // moves, following the frame-rate target; full at rest and on a full-quality request.
 #include <gtest/gtest.h>
 
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
 #include "ugvr/render/scaled_while_moving.h"
 
 namespace ugvr {
@@ -69,6 +74,31 @@ TEST(MovingScale, RestAndFullQualityAreDrawnAtFullScale) {
     EXPECT_TRUE(f.stats.resting);
   }
   EXPECT_LT(ms.plan(request(4)).scale, 1.0) << "a frame at rest leaves the moving scale alone";
+}
+
+// The wrapper answers for the renderer it wraps: the default transfer function asks it for the histogram.
+class CountingRenderer final : public Renderer {
+ public:
+  std::string_view engine() const override { return "lod"; }
+  std::string device() const override { return "test"; }
+  void set_field(std::string_view) override {}
+  const std::string& field_name() const override { return name_; }
+  FieldRange field_range() const override { return {0, 1}; }
+  Bounds bounds() const override { return {}; }
+  std::vector<uint64_t> value_histogram(double, double, int bins) const override {
+    return std::vector<uint64_t>(size_t(bins), 3);
+  }
+  Frame render(const FrameRequest&) override { return {}; }
+  void describe(nlohmann::json&) const override {}
+  std::string summary(const FrameStats&) const override { return {}; }
+
+ private:
+  std::string name_ = "f";
+};
+
+TEST(MovingScale, TheWrapperForwardsTheHistogram) {
+  const ScaledWhileMovingRenderer r(std::make_unique<CountingRenderer>());
+  EXPECT_EQ(r.value_histogram(0, 1, 4), (std::vector<uint64_t>{3, 3, 3, 3}));
 }
 
 }  // namespace

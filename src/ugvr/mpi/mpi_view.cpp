@@ -65,6 +65,8 @@ class ViewLeader final : public Renderer {
   const std::string& field_name() const override { return collective_->field_name(); }
   FieldRange field_range() const override { return collective_->field_range(); }
   Bounds bounds() const override { return collective_->bounds(); }
+  // value_histogram is left at the default (none): the collective renderer's is a collective call, which rank 0
+  // alone would make here while the other ranks wait for a frame.
   void describe(nlohmann::json& j) const override { collective_->describe(j); }
   std::string summary(const FrameStats& last) const override { return collective_->summary(last); }
 

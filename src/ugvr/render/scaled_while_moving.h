@@ -10,6 +10,7 @@
 #pragma once
 
 #include <memory>
+#include <vector>
 
 #include "ugvr/render/renderer.h"
 
@@ -45,6 +46,9 @@ class ScaledWhileMovingRenderer final : public Renderer {
   const std::string& field_name() const override { return inner_->field_name(); }
   FieldRange field_range() const override { return inner_->field_range(); }
   Bounds bounds() const override { return inner_->bounds(); }
+  std::vector<uint64_t> value_histogram(double lo, double hi, int bins) const override {
+    return inner_->value_histogram(lo, hi, bins);
+  }
   void describe(nlohmann::json& j) const override { inner_->describe(j); }
   std::string summary(const FrameStats& last) const override { return inner_->summary(last); }
   Frame render(const FrameRequest& request) override;
