@@ -161,13 +161,14 @@ TEST(TimeStore, MugAllStepsInOneStore) {
   const test::CommandResult text = run_ugvr("info " + dir.file("all.ugvr"));
   EXPECT_NE(text.out.find("time:     21 steps"), std::string::npos) << text.out;
 
-  // A fixed range for the comparisons: the same colour map for every image.
+  // A fixed range and transfer function for the comparisons: the same colour map for every image (the default, auto,
+  // is made from each store's own histogram, which a store of all steps and one of a step do not share).
   const json range = info["time"]["steps"][20]["ranges"]["diffused"];
   const std::string fixed =
       " --range " + std::to_string(range[0].get<double>()) + "," + std::to_string(range[1].get<double>()) + " ";
   auto render_fixed = [&](const std::string& store, const std::string& step, const std::string& out) {
-    const test::CommandResult r =
-        run_ugvr("render " + store + " --size 64 --view iso --cut leaves" + fixed + step + " -o " + dir.file(out));
+    const test::CommandResult r = run_ugvr("render " + store + " --size 64 --view iso --cut leaves --tf viridis" +
+                                           fixed + step + " -o " + dir.file(out));
     EXPECT_EQ(r.status, 0) << r.out;
     return read_png(dir.file(out));
   };
