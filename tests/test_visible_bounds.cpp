@@ -127,6 +127,11 @@ TEST(VisibleBounds, DefaultCameraFramesTheVisibleBoxAlongTheSameDirection) {
   EXPECT_EQ(framed_default_camera(whole(), Bounds{}), today);
   EXPECT_EQ(framed_default_camera(whole(), std::nullopt), today);
   EXPECT_EQ(framed_default_camera(whole(), whole()), today);
+  Bounds nearly = whole();
+  nearly.lo = {0.5, 0.5, 0.5};  // 94 % of each axis
+  EXPECT_EQ(framed_default_camera(whole(), nearly), today);
+  nearly.lo.z = 1;  // 87.5 % of z: framed
+  EXPECT_NE(framed_default_camera(whole(), nearly), today);
   // A node sticking out of the data is clipped to it first.
   Bounds beyond = whole();
   beyond.lo = {-4, -4, -4};

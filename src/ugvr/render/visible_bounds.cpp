@@ -22,9 +22,13 @@ Bounds clipped(const Bounds& box, const Bounds& bounds) {
   return c;
 }
 
-bool covers(const Bounds& box, const Bounds& bounds) {
-  return box.lo.x <= bounds.lo.x && box.lo.y <= bounds.lo.y && box.lo.z <= bounds.lo.z && box.hi.x >= bounds.hi.x &&
-         box.hi.y >= bounds.hi.y && box.hi.z >= bounds.hi.z;
+// Nearly the whole domain: framing it would move the camera by a few percent for nothing (a transfer function that
+// draws almost every cell, as auto's ramp on a field without a dominant mode, keeps today's view bit for bit).
+bool nearly_covers(const Bounds& box, const Bounds& bounds) {
+  const Vec3d b = box.size(), d = bounds.size();
+  for (int a = 0; a < 3; ++a)
+    if (b[a] < kNearlyAllVisible * d[a]) return false;
+  return true;
 }
 
 // Widened about its centre so that its diagonal is at least `min_diagonal` (each axis grows by the same factor; a
@@ -103,7 +107,7 @@ Bounds visible_node_bounds(const BrickStoreReader& store, uint32_t field, const 
 Camera framed_default_camera(const Bounds& bounds, const std::optional<Bounds>& visible, double view_angle) {
   if (!visible || visible->empty()) return default_camera(bounds, view_angle);
   const Bounds box = clipped(*visible, bounds);
-  if (box.empty() || covers(box, bounds)) return default_camera(bounds, view_angle);
+  if (box.empty() || nearly_covers(box, bounds)) return default_camera(bounds, view_angle);
   return default_camera(widened(box, kMinVisibleFraction * length(bounds.size())), view_angle);
 }
 

@@ -9,10 +9,11 @@
 // own value for a cell field) or an octree node of a store, down to kVisibleLevel (its subtree's [min, max] from the
 // node table: no brick is read). The box is the union of the visible pieces' boxes, clipped to the data's bounds.
 //
-// The rule (framed_default_camera): nothing visible, no answer from the renderer, or a box that is the whole domain
-// -> default_camera(bounds), today's view. Otherwise default_camera(box), with the box widened about its centre to at
-// least kMinVisibleFraction of the bounds' diagonal, so that one visible cell does not fill the screen.
-// Only the default camera with the auto transfer function is framed this way (the front ends decide: an explicit
+// The rule (framed_default_camera): nothing visible, no answer from the renderer, or a box that spans at least
+// kNearlyAllVisible of the domain on every axis -> default_camera(bounds), today's view. Otherwise default_camera(box),
+// with the box widened about its centre to at least kMinVisibleFraction of the bounds' diagonal, so that one visible
+// cell does not fill the screen. Only the default camera with the auto transfer function is framed this way (the front
+// ends decide: an explicit
 // --tf, --camera or --view keeps today's view, bit for bit).
 #pragma once
 
@@ -33,6 +34,7 @@ struct WalkMesh;
 inline constexpr double kVisibleOpacity = 0.05;
 inline constexpr int kVisibleLevel = 6;
 inline constexpr double kMinVisibleFraction = 0.05;
+inline constexpr double kNearlyAllVisible = 0.9;
 
 // The largest opacity `tf` gives a value in [lo, hi] (its opacity points are piecewise linear, clamped at both ends).
 // NaN bounds give 0.
