@@ -309,10 +309,11 @@ SceneInfo EngineHost::collective_scene(const CollectiveRenderer& opened) {
   }
   if (infos.empty()) infos.push_back({collective_->field_name(), 0, 1, {}});
   SceneInfo sc = base_scene(std::move(infos), collective_->bounds());
-  // Under MPI the leader alone makes the scene: a box from the ranks would be a collective call, so the reset view
-  // stays on the whole domain there.
-  start_from_auto(sc, options_, {});
   collective_->set_field(sc.field);
+  // A partitioned store in one process: its pieces' boxes united (PieceRenderer). Under mpirun the leader alone makes
+  // the scene and its renderer cannot say (a box from the ranks would be a collective call): the whole domain.
+  start_from_auto(sc, options_,
+                  [&](const TransferFunction& tf) { return collective_->visible_bounds(tf, kVisibleOpacity); });
   sc.renderer = renderer_;
   sc.engine = collective_->engine() == kExactEngine ? kExactEngine : kLodEngine;
   sc.engines = {{sc.engine, renderer_}};
