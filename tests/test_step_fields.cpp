@@ -3,7 +3,6 @@
 // caught (the walk mesh rebuilt); Exodus steps read from the file kept open; the read touches the field bytes only.
 #include <gtest/gtest.h>
 
-#include <fstream>
 #include <functional>
 #include <string>
 #include <vector>
@@ -19,6 +18,7 @@
 namespace ugvr {
 namespace {
 
+using test::bytes_read_so_far;
 using test::ScratchDir;
 
 // An n x n x n block of unit hexahedra with vertex fields f (x + y + z + offset) and g (3 components), and cell field
@@ -175,16 +175,6 @@ TEST(StepFields, ExodusStepsReadTheirVariablesFromTheFileKeptOpen) {
             std::string::npos);
   EXPECT_NE(test::error_of([&] { scene.set_step(21); }).find("the series has 21 steps"), std::string::npos);
   EXPECT_EQ(scene.step, 20u) << "a failed switch leaves the scene on its step";
-}
-
-// Bytes read(2) / pread(2) returned to this process so far (Linux task I/O accounting).
-uint64_t bytes_read_so_far() {
-  std::ifstream io("/proc/self/io");
-  std::string key;
-  uint64_t value = 0;
-  while (io >> key >> value)
-    if (key == "rchar:") return value;
-  return 0;
 }
 
 TEST(StepFields, AFieldsOnlyReadReadsTheFieldBytesOnly) {

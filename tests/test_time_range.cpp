@@ -26,6 +26,7 @@
 namespace ugvr {
 namespace {
 
+using test::bytes_read_so_far;
 using test::ScratchDir;
 
 // An n x n x n block of unit hexahedra, vertex field f = x + y + z + offset, cell field c = cell index + offset.
@@ -176,16 +177,6 @@ TEST(TimeRange, AChangingMeshFallsBackToTheWholeRead) {
       EXPECT_EQ(load.grid().fields[i].max, expected.hi) << shown << " " << load.grid().names[i];
     }
   }
-}
-
-// Bytes read(2) / pread(2) returned to this process so far (Linux task I/O accounting).
-uint64_t bytes_read_so_far() {
-  std::ifstream io("/proc/self/io");
-  std::string key;
-  uint64_t value = 0;
-  while (io >> key >> value)
-    if (key == "rchar:") return value;
-  return 0;
 }
 
 TEST(TimeRange, TheViewersLoadReadsLaterStaticStepsWithoutTheirMesh) {
