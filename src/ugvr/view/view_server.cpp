@@ -285,6 +285,7 @@ void ViewServer::Impl::broadcast_progress(const ProgressInfo& p, bool at_once) {
 std::function<void()> ViewServer::Impl::perform(const FinishLoad&) {
   engine->finish_load();
   return [this] {
+    if (!engine->has_scene()) return;  // the collective renderer failed to open: the next poll_load says why
     // What the page says now: the store's build, if it still runs (without the walk mesh, which is done).
     progress_text.clear();
     if (const std::optional<EngineHost::BuildReport> b = engine->build_report();
