@@ -79,11 +79,14 @@ uint64_t hash_file_range(const InputFile& file, uint64_t begin, uint64_t end) {
   const uint64_t n = end - begin;
   const size_t parts = size_t((n + kPart - 1) / kPart);
   std::vector<uint64_t> part_hash(parts);
-  tbb::enumerable_thread_specific<std::vector<std::byte>> buffers([] { return std::vector<std::byte>(kPart); });
+  // Sized on first use to the largest part a thread reads: a key's small arrays (the offsets of a small piece) do
+  // not allocate and clear a MiB per thread.
+  tbb::enumerable_thread_specific<std::vector<std::byte>> buffers;
   tbb::parallel_for(size_t(0), parts, [&](size_t i) {
     std::vector<std::byte>& buffer = buffers.local();
     const uint64_t at = begin + uint64_t(i) * kPart;
     const size_t len = size_t(std::min<uint64_t>(kPart, end - at));
+    if (buffer.size() < len) buffer.resize(len);
     read_part(file, at, buffer.data(), len);
     part_hash[i] = hash_four_lanes(reinterpret_cast<const unsigned char*>(buffer.data()), len);
   });
