@@ -286,12 +286,14 @@ std::function<void()> ViewServer::Impl::perform(const FinishLoad&) {
   engine->finish_load();
   return [this] {
     if (!engine->has_scene()) return;  // the collective renderer failed to open: the next poll_load says why
-    // What the page says now: the store's build, if it still runs (without the walk mesh, which is done).
-    progress_text.clear();
-    if (const std::optional<EngineHost::BuildReport> b = engine->build_report();
-        b && b->stage == BackgroundBuild::Stage::Running)
-      progress_text = progress_message(b->progress);
+    // What the page says now: the store's build, if it still runs (without the walk mesh, which is done); else
+    // that nothing is under way any more, so that the page hides its progress line ("opening the data" of a
+    // collective renderer would stay there).
+    const std::optional<EngineHost::BuildReport> b = engine->build_report();
+    const bool building = b && b->stage == BackgroundBuild::Stage::Running;
+    progress_text = progress_message(building ? b->progress : ProgressInfo{"ready", "", 1, "ready"});
     publish_scene(true);
+    if (!building) progress_text.clear();  // said once, to the tabs there now, as switch_to_store's
   };
 }
 
