@@ -1,6 +1,9 @@
 #include "ugvr/store/boundary_planes.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <initializer_list>
 #include <iterator>
@@ -168,7 +171,11 @@ std::vector<std::optional<BoundaryPlane>> boundary_face_planes(const StoreBounda
   if (boundary.empty() || nodes.empty()) return out;
   // Bottom-up over the entries (depth first from the root, with each entry's cell): an entry's reach is its own run,
   // or the union of its children's (tree children for a node over the cap, else its 8 virtual nodes).
-  auto visit = [&](auto& self, uint64_t entry, const Bounds& cell) -> Reach {
+  // The top levels' children are visited in parallel (each writes only its own entries of `out`), their reaches
+  // merged in child order as before, so the planes do not depend on the threads: opening a store with millions of
+  // boundary triangles spends seconds here.
+  constexpr int kParallelDepth = 3;
+  auto visit = [&](auto& self, uint64_t entry, const Bounds& cell, int depth) -> Reach {
     Reach r;
     if (entry >= boundary.nodes.size()) return r;
     const BoundaryNodeEntry e = boundary.nodes[entry];
@@ -185,19 +192,27 @@ std::vector<std::optional<BoundaryPlane>> boundary_face_planes(const StoreBounda
     } else {
       r.planar = true;
       const Vec3d half = (cell.hi - cell.lo) * 0.5;
-      bool first = true;
-      for (int o = 0; o < 8; ++o) {
+      std::array<Reach, 8> reach;
+      auto visit_child = [&](int o) {
         uint64_t child = kNoNode;
         if (e.first != 0) {
           child = uint64_t(e.first) + uint64_t(o);
         } else if (entry < nodes.size()) {
           child = nodes[entry].child(o);
         }
-        if (child == kNoNode) continue;
+        if (child == kNoNode) return;
         Bounds c;
         c.lo = cell.lo + Vec3d{(o & 1) * half.x, (o >> 1 & 1) * half.y, (o >> 2 & 1) * half.z};
         c.hi = c.lo + half;
-        Reach k = self(self, child, c);
+        reach[size_t(o)] = self(self, child, c, depth + 1);
+      };
+      if (depth < kParallelDepth) {
+        tbb::parallel_for(0, 8, visit_child);
+      } else {
+        for (int o = 0; o < 8; ++o) visit_child(o);
+      }
+      bool first = true;
+      for (Reach& k : reach) {
         if (!k.any) continue;
         if (!k.planar || (!first && !same_plane(k.plane, r.plane))) {
           r.planar = false;
@@ -230,7 +245,7 @@ std::vector<std::optional<BoundaryPlane>> boundary_face_planes(const StoreBounda
   Bounds root;
   root.lo = Vec3d{0, 0, 0};
   root.hi = Vec3d{1, 1, 1};
-  visit(visit, 0, root);
+  visit(visit, 0, root, 0);
   return out;
 }
 
