@@ -8,7 +8,8 @@
 //   bind     the field swap alone (the step already in memory): ExactEngine::set_field
 //   playback set_step after ExactScene::prefetch of that step and a --size frame of the current one (what `ugvr render
 //            --time` does): the read overlaps the frame, the switch waits only for what is left of it
-// Prints one JSON line; `speedup` = reload / switch, `speedup_playback` = reload / playback, `speedup_bind` = reload /
+// Prints one JSON line (`rebuilds`, `fields_only`: the switches that rebuilt the walk mesh, that read the step without
+// its mesh); `speedup` = reload / switch, `speedup_playback` = reload / playback, `speedup_bind` = reload /
 // bind.
 #include <algorithm>
 #include <chrono>
@@ -98,11 +99,12 @@ int main(int argc, char** argv) {
         "{\"bench\":\"time_switch\",\"input\":\"%s\",\"kind\":\"%s\",\"steps\":%zu,\"cells\":%llu,\"field\":\"%s\","
         "\"geometry\":\"%s\",\"rounds\":%d,\"reload_seconds\":%.6f,\"switch_seconds\":%.6f,\"bind_seconds\":%.6f,"
         "\"playback_seconds\":%.6f,\"frame_seconds\":%.4f,\"frame_size\":%d,\"speedup\":%.1f,\"speedup_playback\":%.1f,"
-        "\"speedup_bind\":%.1f,\"rebuilds\":%llu,\"peak_rss_bytes\":%llu}\n",
+        "\"speedup_bind\":%.1f,\"rebuilds\":%llu,\"fields_only\":%llu,\"peak_rss_bytes\":%llu}\n",
         inputs[0].c_str(), std::string(series_kind_name(series->kind)).c_str(), n, (unsigned long long)cells,
         scene.engine.field_name().c_str(), series->geometry == SeriesGeometry::Static ? "static" : "detected", rounds,
         m_reload, m_switch, m_bind, m_playback, median(frame), size, m_reload / m_switch, m_reload / m_playback,
-        m_reload / m_bind, (unsigned long long)scene.rebuilds, (unsigned long long)peak_rss_bytes());
+        m_reload / m_bind, (unsigned long long)scene.rebuilds, (unsigned long long)scene.fields_only,
+        (unsigned long long)peak_rss_bytes());
   } catch (const Error& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 1;

@@ -42,7 +42,7 @@ printf '{"session": "%s", "commit": "%s", "nproc": %s, "load": "%s", "cells": %s
   "$(date -u +%FT%TZ)" "$(git rev-parse --short HEAD)" "$(nproc)" "$(cut -d' ' -f1-3 /proc/loadavg)" "$n" "$pieces" \
   "$ghost" "$memory" "$(df -B1 --output=avail "$work" | tail -1 | tr -d ' ')" >> "$out"
 
-peak_rss() { awk -F': ' '/Maximum resident set size/ {print $2 * 1024}' "$1"; }
+peak_rss() { awk -F': ' '/Maximum resident set size/ {printf "%.0f\n", $2 * 1024}' "$1"; }
 wall() { awk -F': ' '/Elapsed \(wall clock\)/ {n = split($2, t, ":"); s = 0; for (i = 1; i <= n; ++i) s = s * 60 + t[i]; print s}' "$1"; }
 cpu() { awk -F': ' '/User time|System time/ {s += $2} END {print s}' "$1"; }
 

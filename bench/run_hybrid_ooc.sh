@@ -33,7 +33,7 @@ commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
 vtu="$scratch/tet-$n.vtu"
 store="$scratch/tet-$n-cells.ugvr"
 
-peak_rss() { awk -F': ' '/Maximum resident set size/ {print $2 * 1024}' "$1"; }
+peak_rss() { awk -F': ' '/Maximum resident set size/ {printf "%.0f\n", $2 * 1024}' "$1"; }
 wall() { awk -F': ' '/Elapsed \(wall clock\)/ {n = split($2, t, ":"); s = 0; for (i = 1; i <= n; ++i) s = s * 60 + t[i]; print s}' "$1"; }
 
 # SUMMARY_ONLY=1: no runs; the summary of SCRATCH's last run is printed again (not appended), from its files.

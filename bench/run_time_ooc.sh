@@ -32,7 +32,7 @@ mkdir -p "$scratch" bench/results
 commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
 series="$scratch/w.pvd"
 
-peak_rss() { awk -F': ' '/Maximum resident set size/ {print $2 * 1024}' "$1"; }
+peak_rss() { awk -F': ' '/Maximum resident set size/ {printf "%.0f\n", $2 * 1024}' "$1"; }
 wall() { awk -F': ' '/Elapsed \(wall clock\)/ {n = split($2, t, ":"); s = 0; for (i = 1; i <= n; ++i) s = s * 60 + t[i]; print s}' "$1"; }
 cpu() { awk -F': ' '/User time/ {u = $2} /System time/ {s = $2} END {print u + s}' "$1"; }
 

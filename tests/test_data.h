@@ -6,9 +6,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <string>
 
@@ -71,6 +73,17 @@ class ScratchDir {
  private:
   std::filesystem::path path_;
 };
+
+// Bytes read(2) / pread(2) returned to this process so far (Linux task I/O accounting); 0 where /proc/self/io is
+// missing (tests then skip).
+inline uint64_t bytes_read_so_far() {
+  std::ifstream io("/proc/self/io");
+  std::string key;
+  uint64_t value = 0;
+  while (io >> key >> value)
+    if (key == "rchar:") return value;
+  return 0;
+}
 
 }  // namespace ugvr::test
 

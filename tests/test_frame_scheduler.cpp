@@ -3,6 +3,7 @@
 // tabs streaming that shares the frame budget. Pure logic: no sockets, GL or threads.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <map>
 #include <optional>
 #include <vector>
@@ -300,6 +301,62 @@ TEST(ViewFrameScheduler, AMessageThatChangesNothingIsAcknowledgedNotDrawn) {
   repeat_view(s, 1);
   EXPECT_FALSE(s.take_ack(1));
   EXPECT_TRUE(s.next());
+}
+
+// A collective renderer's full-quality frame cannot be cut short: with a rest delay, the resting frame after a moving
+// one waits, and a move arriving meanwhile is drawn first; a full-quality request does not wait.
+TEST(ViewFrameScheduler, ARestDelayHoldsTheRestingFrameBackForTheNextMove) {
+  using Clock = std::chrono::steady_clock;
+  FrameScheduler s;
+  s.set_rest_delay(0.5);
+  s.add(ready_tab(1));
+  const Clock::time_point t0 = Clock::now();
+  std::optional<FrameJob> job = s.next(t0);
+  ASSERT_TRUE(job);
+  EXPECT_FALSE(job->resting);
+  s.rendered(*job, false, false, t0);  // a moving frame: not converged
+  s.delivered(1);
+
+  EXPECT_FALSE(s.next(t0 + std::chrono::milliseconds(100))) << "the resting frame waits";
+  ASSERT_TRUE(s.next_due());
+  EXPECT_EQ(*s.next_due(), t0 + std::chrono::milliseconds(500));
+
+  change_view(s, 1);  // the drag's next step, within the delay: drawn at once
+  job = s.next(t0 + std::chrono::milliseconds(200));
+  ASSERT_TRUE(job);
+  EXPECT_FALSE(job->resting);
+  s.rendered(*job, false, false, t0 + std::chrono::milliseconds(300));
+  s.delivered(1);
+  EXPECT_FALSE(s.next(t0 + std::chrono::milliseconds(700))) << "half a second after the last moving frame";
+  job = s.next(t0 + std::chrono::milliseconds(800));
+  ASSERT_TRUE(job);
+  EXPECT_TRUE(job->resting);
+  EXPECT_FALSE(s.next_due());
+  s.rendered(*job, true, false, t0 + std::chrono::milliseconds(900));
+  s.delivered(1);
+  EXPECT_FALSE(s.next(t0 + std::chrono::seconds(5))) << "converged: nothing more";
+
+  // A full-quality request (the page's "save PNG") is not held back.
+  change_view(s, 1);
+  job = s.next(t0 + std::chrono::seconds(6));
+  ASSERT_TRUE(job);
+  s.rendered(*job, false, false, t0 + std::chrono::seconds(6));
+  s.delivered(1);
+  s.find(1)->view.full_quality = true;
+  job = s.next(t0 + std::chrono::seconds(6));
+  ASSERT_TRUE(job);
+  EXPECT_TRUE(job->full_quality);
+
+  // Without a delay (every other renderer) the resting frame follows at once.
+  FrameScheduler plain;
+  plain.add(ready_tab(2));
+  job = plain.next(t0);
+  ASSERT_TRUE(job);
+  plain.rendered(*job, false, false, t0);
+  plain.delivered(2);
+  job = plain.next(t0);
+  ASSERT_TRUE(job);
+  EXPECT_TRUE(job->resting);
 }
 
 }  // namespace

@@ -32,11 +32,12 @@ TEST(MovingScale, ScalesTheSideByTheSquareRootOfTheTimeOverTheTarget) {
   const FrameRequest moving = request(4);  // a 0.25 s period
   MovingScale::Plan p = ms.plan(moving);
   EXPECT_TRUE(p.moving);
-  EXPECT_EQ(p.scale, 1.0);
+  EXPECT_DOUBLE_EQ(p.scale, kMinMovingScale) << "the first frame's cost is unknown: it starts at the smallest scale";
+  EXPECT_EQ(p.drawn.settings.width, 100);
   EXPECT_EQ(p.drawn.target_fps, 0.0) << "the inner renderer draws the frame whole";
   Frame f = drawn(p);
-  ms.finish(p, moving, 1.0, f);  // 4 times the period: half the side next
-  EXPECT_TRUE(f.stats.converged) << "drawn at full scale: full quality for its request";
+  ms.finish(p, moving, 0.25 / 4, f);  // a quarter of the period at a quarter of the side: half the side next
+  EXPECT_FALSE(f.stats.converged);
   EXPECT_FALSE(f.stats.resting);
 
   p = ms.plan(moving);
@@ -54,6 +55,7 @@ TEST(MovingScale, ScalesTheSideByTheSquareRootOfTheTimeOverTheTarget) {
   p = ms.plan(moving);
   f = drawn(p);
   ms.finish(p, moving, 100.0, f);  // far too slow: not below a quarter of the side
+  EXPECT_TRUE(f.stats.converged) << "drawn at full scale: full quality for its request";
   EXPECT_DOUBLE_EQ(ms.plan(moving).scale, kMinMovingScale);
 }
 

@@ -3,6 +3,7 @@
 // caught (the walk mesh rebuilt); Exodus steps read from the file kept open; the read touches the field bytes only.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <string>
@@ -10,6 +11,7 @@
 
 #include "test_data.h"
 #include "ugvr/core/file.h"
+#include "ugvr/io/byte_hash.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/step_fields.h"
 #include "ugvr/io/time_series.h"
@@ -19,6 +21,7 @@
 namespace ugvr {
 namespace {
 
+using test::bytes_read_so_far;
 using test::ScratchDir;
 
 // An n x n x n block of unit hexahedra with vertex fields f (x + y + z + offset) and g (3 components), and cell field
@@ -177,16 +180,6 @@ TEST(StepFields, ExodusStepsReadTheirVariablesFromTheFileKeptOpen) {
   EXPECT_EQ(scene.step, 20u) << "a failed switch leaves the scene on its step";
 }
 
-// Bytes read(2) / pread(2) returned to this process so far (Linux task I/O accounting).
-uint64_t bytes_read_so_far() {
-  std::ifstream io("/proc/self/io");
-  std::string key;
-  uint64_t value = 0;
-  while (io >> key >> value)
-    if (key == "rchar:") return value;
-  return 0;
-}
-
 TEST(StepFields, AFieldsOnlyReadReadsTheFieldBytesOnly) {
   if (bytes_read_so_far() == 0) GTEST_SKIP() << "no /proc/self/io";
   ScratchDir dir;
@@ -209,6 +202,54 @@ TEST(StepFields, AFieldsOnlyReadReadsTheFieldBytesOnly) {
   EXPECT_LT(fields_only, field_bytes + cells + 68 * 1024) << "the field arrays and the markup, nothing of the mesh";
   EXPECT_LT(fields_only * 2, file);
   EXPECT_TRUE(fields.blocks[0] == full.blocks[0].fields);
+}
+
+// A file that shrinks after it was opened, while its bytes are hashed for a geometry key, is an error naming the file
+// and the offset where the bytes ran short. (Hashed from a mapping, as before, touching the pages past the new end
+// raised SIGBUS and ended the process: this test crashed.)
+TEST(StepFields, AFileTruncatedWhileItsKeyIsHashedIsAnErrorNotSigbus) {
+  ScratchDir dir;
+  const std::string path = dir.file("shrinks.bin");
+  constexpr size_t kSize = size_t(3) << 20;
+  std::ofstream(path, std::ios::binary) << std::string(kSize, 'x');
+  const InputFile file(path);
+  const uint64_t whole = hash_file_range(file, 0, kSize);
+  std::filesystem::resize_file(path, kSize / 2);
+  const std::string e = test::error_of([&] { hash_file_range(file, 0, kSize); });
+  EXPECT_NE(e.find(path + ": was truncated while reading: expected 1048576 bytes at offset "), std::string::npos) << e;
+  // A range past the end of the file as opened (a header promising more bytes than the file holds).
+  const InputFile shorter(path);
+  const std::string past = test::error_of([&] { hash_file_range(shorter, 0, kSize); });
+  EXPECT_NE(past.find("unexpected end of file"), std::string::npos) << past;
+  // The same bytes again, the same hash (parts read by any thread, combined in order).
+  std::ofstream(path, std::ios::binary) << std::string(kSize, 'x');
+  EXPECT_EQ(hash_file_range(InputFile(path), 0, kSize), whole);
+}
+
+// A step file truncated after its key was cached: the size changed, so the key is computed again, which fails naming
+// the file; the switch fails as a whole read of that file would, the scene stays on its step, and the file written
+// again switches fields-only.
+TEST(StepFields, AStepFileTruncatedAfterItsKeyWasCachedFailsCleanly) {
+  ScratchDir dir;
+  const auto series = series_of(write_series(dir, 6, 3, {}));
+  const std::string step2 = series->steps[2].files[0];
+  const uintmax_t size = std::filesystem::file_size(step2);
+  ExactScene scene(series, 0);
+  scene.bind("f");
+  scene.set_step(2);  // its key cached in the scene's reader
+  scene.set_step(1);
+  StepFieldReader reader(series);
+  ASSERT_TRUE(reader.geometry_keys(2).has_value());
+  std::filesystem::resize_file(step2, size / 2);
+  EXPECT_NE(test::error_of([&] { reader.geometry_keys(2); }).find("step_2.vtu"), std::string::npos);
+  const std::string e = test::error_of([&] { scene.set_step(2); });
+  EXPECT_NE(e.find("step_2.vtu"), std::string::npos) << e;
+  EXPECT_NE(test::error_of([&] { read_time_step(*series, 2); }), "(no error)") << "the whole read fails too";
+  EXPECT_EQ(scene.step, 1u) << "a failed switch leaves the scene on its step";
+  write_vtu(cube(6, 20.0), step2, {});
+  scene.set_step(2);
+  EXPECT_EQ(scene.fields_only, 3u);
+  EXPECT_EQ(scene.engine.bound_values(), fresh_values(*series, 2, "f"));
 }
 
 }  // namespace

@@ -1118,6 +1118,57 @@ TEST(ViewServer, AGridThatCannotBeReadIsReportedToThePageAndTheCaller) {
   EXPECT_FALSE(std::filesystem::exists(shared().dir / "never-built.ugvr"));
 }
 
+// A collective renderer (a partitioned store's pieces, or the ranks under MPI) is opened on the render loop's first
+// turn, after the server listens: a billion-cell store's 16 pieces take seconds to open, and the URL must not wait
+// for them. While it opens, a tab is told so; when it cannot be opened, the page and the caller are told why.
+TEST(ViewServer, ListensBeforeTheCollectiveRendererIsOpenedAndReportsItsFailure) {
+  std::promise<std::string> failed;
+  std::future<std::string> said = failed.get_future();
+  std::unique_ptr<ViewServer> server;
+  std::promise<void> gate;
+  std::shared_future<void> gate_opened = gate.get_future().share();
+  struct OpenOnExit {
+    std::promise<void>& gate;
+    bool opened = false;
+    void open() {
+      if (!opened) gate.set_value();
+      opened = true;
+    }
+    ~OpenOnExit() { open(); }
+  } opening{gate};
+  const auto start = std::chrono::steady_clock::now();
+  {
+    ViewServerOptions o;
+    // Held until the test opens it, or 20 s: a server that opened it before listening would wait that long.
+    o.collective = [gate_opened]() -> CollectiveRenderer {
+      gate_opened.wait_for(std::chrono::seconds(20));
+      throw Error("p.json: piece 3: no such file");
+    };
+    o.on_failure = [&failed](const std::string& m) { failed.set_value(m); };
+    START_VIEW_SERVER(server, o);
+  }
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 10)
+      << "the server listened only once the collective renderer was opened";
+  EXPECT_GT(server->port(), 0);
+  Client c(server->port());
+  c.send(R"({"type":"hello","width":32,"height":32})");
+  const std::optional<json> waiting = read_text_until(c, [](const json& m) {
+    EXPECT_NE(m["type"], "scene");
+    return m["type"] == "progress";
+  });
+  ASSERT_TRUE(waiting);
+  EXPECT_NE((*waiting)["message"].get<std::string>().find("opening the data"), std::string::npos) << waiting->dump();
+  opening.open();
+  const std::optional<json> j = read_text_until(c, [](const json& m) {
+    EXPECT_NE(m["type"], "scene");
+    return m["type"] == "progress" && m["stage"] == "failed";
+  });
+  ASSERT_TRUE(j);
+  EXPECT_NE((*j)["message"].get<std::string>().find("piece 3: no such file"), std::string::npos) << j->dump();
+  ASSERT_EQ(said.wait_for(std::chrono::seconds(30)), std::future_status::ready);
+  EXPECT_NE(said.get().find("opening the data failed: p.json: piece 3"), std::string::npos);
+}
+
 // Over the memory budget the grid is never read: its store is built out of core from the .vtu, the page says why
 // from the first progress on, and the store's scene is the first one.
 TEST(ViewServer, AGridOverTheBudgetIsShownFromItsStoreBuiltOutOfCore) {

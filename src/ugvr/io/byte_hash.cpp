@@ -1,13 +1,14 @@
 #include "ugvr/io/byte_hash.h"
 
-#include <fcntl.h>
-#include <sys/mman.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cstring>
+#include <string>
 #include <vector>
+
+#include "ugvr/core/error.h"
 
 namespace ugvr {
 
@@ -51,49 +52,51 @@ uint64_t hash_four_lanes(const unsigned char* p, size_t n) {
   return out;
 }
 
-uint64_t hash_wide(const std::byte* data, size_t n) {
-  constexpr size_t kChunk = size_t(1) << 20;
-  const size_t chunks = (n + kChunk - 1) / kChunk;
-  std::vector<uint64_t> parts(chunks);
-  tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
-    const size_t b = c * kChunk;
-    parts[c] = hash_four_lanes(reinterpret_cast<const unsigned char*>(data) + b, std::min(n, b + kChunk) - b);
-  });
-  uint64_t h = hash_mix(kFnvOffset, n);
-  for (uint64_t part : parts) h = hash_mix(h, part);
-  return h;
+// The file's bytes [at, at + n) into `out`, or an error naming the file and the offset where they ran short: the
+// file was opened with more bytes than it has now (truncated or rewritten meanwhile), or `n` runs past its end.
+void read_part(const InputFile& file, uint64_t at, std::byte* out, size_t n) {
+  const size_t got = file.read_some_at(at, out, n);
+  if (got == n) return;
+  if (at + n > file.size())
+    fail_at_offset(file.path(), at,
+                   "unexpected end of file: needed " + std::to_string(n) + " bytes, the file has " +
+                       std::to_string(at > file.size() ? 0 : file.size() - at) + " left");
+  fail_in(file.path(), "was truncated while reading: expected " + std::to_string(n) + " bytes at offset " +
+                           std::to_string(at) + ", found " + std::to_string(got) + " (it was " +
+                           std::to_string(file.size()) + " bytes when opened)");
 }
 
 }  // namespace
 
 uint64_t hash_file_range(const InputFile& file, uint64_t begin, uint64_t end) {
-  // Large enough that the parallel hash of a chunk has work for every thread, small enough to stay in cache.
-  constexpr uint64_t kChunk = uint64_t(8) << 20;
   uint64_t h = hash_mix(kFnvOffset, end - begin);
   if (end <= begin) return h;
-  // Mapped, the bytes are hashed where the page cache holds them instead of being copied out first (a third of the
-  // time for a cached file); read in chunks where mapping fails.
-  const int fd = ::open(file.path().c_str(), O_RDONLY | O_CLOEXEC);
-  const uint64_t page = uint64_t(::sysconf(_SC_PAGESIZE));
-  const uint64_t map_begin = begin / page * page;
-  void* map = fd < 0 || end > file.size()
-                  ? MAP_FAILED
-                  : ::mmap(nullptr, size_t(end - map_begin), PROT_READ, MAP_SHARED, fd, off_t(map_begin));
-  if (fd >= 0) ::close(fd);
-  if (map != MAP_FAILED) {
-    ::madvise(map, size_t(end - map_begin), MADV_SEQUENTIAL);
-    const auto* bytes = static_cast<const std::byte*>(map) + (begin - map_begin);
-    for (uint64_t at = 0; at < end - begin; at += kChunk)
-      h = hash_mix(h, hash_wide(bytes + at, size_t(std::min(kChunk, end - begin - at))));
-    ::munmap(map, size_t(end - map_begin));
-    return h;
-  }
-  std::vector<std::byte> buffer(size_t(std::min(kChunk, end - begin)));
-  for (uint64_t at = begin; at < end;) {
-    const size_t n = size_t(std::min(kChunk, end - at));
-    file.read_at(at, buffer.data(), n);
-    h = hash_mix(h, hash_wide(buffer.data(), n));
-    at += n;
+  // Read (pread), not mapped: a mapped file that shrinks underneath raises SIGBUS, which ends the process, where a
+  // short read is an error naming the file. Each part is read by the thread that hashes it, into that thread's
+  // buffer, so the copy out of the page cache runs in parallel and the hash reads the part from cache.
+  constexpr size_t kPart = size_t(1) << 20;
+  constexpr uint64_t kPartsPerWindow = 8;
+  const uint64_t n = end - begin;
+  const size_t parts = size_t((n + kPart - 1) / kPart);
+  std::vector<uint64_t> part_hash(parts);
+  // Sized on first use to the largest part a thread reads: a key's small arrays (the offsets of a small piece) do
+  // not allocate and clear a MiB per thread.
+  tbb::enumerable_thread_specific<std::vector<std::byte>> buffers;
+  tbb::parallel_for(size_t(0), parts, [&](size_t i) {
+    std::vector<std::byte>& buffer = buffers.local();
+    const uint64_t at = begin + uint64_t(i) * kPart;
+    const size_t len = size_t(std::min<uint64_t>(kPart, end - at));
+    if (buffer.size() < len) buffer.resize(len);
+    read_part(file, at, buffer.data(), len);
+    part_hash[i] = hash_four_lanes(reinterpret_cast<const unsigned char*>(buffer.data()), len);
+  });
+  // Combined as windows of 8 parts (8 MiB), each its length and its parts in order: the value the mapped version of
+  // this function gave, so keys do not change with how the bytes are fetched.
+  for (size_t w = 0; w < parts; w += kPartsPerWindow) {
+    const uint64_t window_begin = uint64_t(w) * kPart;
+    uint64_t wh = hash_mix(kFnvOffset, std::min<uint64_t>(kPartsPerWindow * kPart, n - window_begin));
+    for (size_t i = w; i < std::min<size_t>(parts, w + kPartsPerWindow); ++i) wh = hash_mix(wh, part_hash[i]);
+    h = hash_mix(h, wh);
   }
   return h;
 }

@@ -19,8 +19,11 @@ inline uint64_t hash_mix(uint64_t h, uint64_t v) {
 }
 
 uint64_t hash_bytes(const void* data, size_t n);
-// The bytes [begin, end) of a file, read in chunks of a few MiB (never the whole range at once), hashed four words
-// abreast (another value than hash_bytes of the same bytes; the same for any thread count).
+// The bytes [begin, end) of a file, read (pread) in parts of 1 MiB by the threads that hash them (never the whole range
+// at once), hashed four words abreast (another value than hash_bytes of the same bytes; the same for any thread
+// count). Throws ugvr::Error naming the file and the offset where the bytes run short: "was truncated while reading"
+// when the file shrank after `file` was opened (never SIGBUS: nothing is mapped), "unexpected end of file" when the
+// range runs past the size it was opened with.
 uint64_t hash_file_range(const InputFile& file, uint64_t begin, uint64_t end);
 
 }  // namespace ugvr

@@ -1,8 +1,11 @@
 #include "ugvr/io/step_fields.h"
 
+#include <functional>
 #include <utility>
 
 #include "ugvr/core/error.h"
+#include "ugvr/io/byte_hash.h"
+#include "ugvr/io/pvtu_pieces.h"
 
 namespace ugvr {
 
@@ -20,6 +23,22 @@ void check_blocks(const Dataset& mesh, const StepFields& fields) {
                 std::to_string(mesh.blocks.size()));
 }
 
+// A .pvtu's key from its pieces' (`piece_key`: vtu_geometry_key, or the reader's cached one). Seeded apart from the
+// .vtu keys, so that a .pvtu of one piece and that piece alone (the same mesh) are told apart only by the fingerprint
+// of a whole read, never mistaken for each other's files.
+std::optional<uint64_t> combined_pvtu_key(const std::string& path,
+                                          const std::function<std::optional<uint64_t>(const std::string&)>& piece_key) {
+  if (!is_pvtu_path(path)) return std::nullopt;
+  const std::vector<std::string> pieces = pvtu_piece_files(path);
+  uint64_t h = hash_mix(hash_mix(kFnvOffset, 0x70767475), pieces.size());  // "pvtu"
+  for (const std::string& piece : pieces) {
+    const std::optional<uint64_t> key = piece_key(piece);
+    if (!key) return std::nullopt;
+    h = hash_mix(h, *key);
+  }
+  return h;
+}
+
 Dataset without_grids(StepFields fields) {
   Dataset ds;
   ds.format = std::move(fields.format);
@@ -31,12 +50,16 @@ Dataset without_grids(StepFields fields) {
 
 }  // namespace
 
+std::optional<uint64_t> pvtu_geometry_key(const std::string& path) {
+  return combined_pvtu_key(path, [](const std::string& piece) { return vtu_geometry_key(piece); });
+}
+
 StepFieldReader::StepFieldReader(std::shared_ptr<const TimeSeries> series) : series_(std::move(series)) {}
 StepFieldReader::~StepFieldReader() = default;
 
 bool StepFieldReader::static_by_format() const { return series_->kind == SeriesKind::Exodus; }
 
-std::optional<uint64_t> StepFieldReader::cached_geometry_key(const std::string& path) const {
+std::optional<uint64_t> StepFieldReader::cached_vtu_key(const std::string& path) const {
   std::error_code size_error, time_error;
   const uintmax_t size = std::filesystem::file_size(path, size_error);
   const std::filesystem::file_time_type mtime = std::filesystem::last_write_time(path, time_error);
@@ -52,6 +75,12 @@ std::optional<uint64_t> StepFieldReader::cached_geometry_key(const std::string& 
   std::lock_guard lock(keys_mutex_);
   keys_[path] = CachedKey{size, mtime, key};
   return key;
+}
+
+std::optional<uint64_t> StepFieldReader::cached_geometry_key(const std::string& path) const {
+  if (is_pvtu_path(path))
+    return combined_pvtu_key(path, [this](const std::string& piece) { return cached_vtu_key(piece); });
+  return cached_vtu_key(path);
 }
 
 std::optional<std::vector<uint64_t>> StepFieldReader::geometry_keys(size_t step) const {
@@ -84,10 +113,17 @@ StepFields StepFieldReader::read(size_t step) {
   if (!steps_are_files(series_->kind))
     fail_in(series_->source, "time step " + std::to_string(step) + " has no fields-only read (read it whole)");
   for (const std::string& file : st.files) {
-    out.blocks.push_back(read_vtu_fields(file, out.warnings));
-    out.sources.push_back(file);
+    if (is_pvtu_path(file)) {
+      out.blocks.push_back(read_pvtu_fields(file, out.sources, out.warnings));
+    } else {
+      out.blocks.push_back(read_vtu_fields(file, out.warnings));
+      out.sources.push_back(file);
+    }
   }
-  out.format = "VTK XML UnstructuredGrid (.vtu)" + series_step_label(*series_, step);
+  // The whole read's: the first file's format (the parts of a .pvd step are read as one dataset each).
+  out.format =
+      std::string(is_pvtu_path(st.files[0]) ? "VTK XML PUnstructuredGrid (.pvtu)" : "VTK XML UnstructuredGrid (.vtu)") +
+      series_step_label(*series_, step);
   return out;
 }
 

@@ -13,9 +13,14 @@
 //                 bytes, compressed or not) hashed as they lie in the file, never decoded. Equal keys decode to the
 //                 same mesh (up to a 64-bit hash collision, as for geometry_fingerprint); a moved point, another
 //                 connectivity, other counts or another encoding give another key, and the step is then read whole
-//                 and compared by geometry_fingerprint as before (a moving mesh rebuilds the walk mesh). Files with
-//                 appended base64 data (whose stored length the header does not give), .pvtu and other formats
-//                 have no key: their steps are read whole.
+//                 and compared by geometry_fingerprint as before (a moving mesh rebuilds the walk mesh).
+//   .pvtu files   the same, by a key combining the piece count and each piece file's key in piece order (the whole
+//                 read concatenates the pieces in that order); the fields are read piece by piece and concatenated as
+//                 the whole read does. One piece without a key makes the .pvtu's step one without.
+//   Files with appended base64 data (whose stored length the header does not give) and other formats have no key:
+//   their steps are read whole.
+// A file that shrinks while its key is hashed is an error naming it and the offset (io/byte_hash.h), which ends the
+// switch as a whole read of the damaged file would; nothing is cached for it.
 // A fields-only read decodes every PointData / CellData array (or Exodus variable) of the step and nothing else, so
 // the dataset it completes is the full read's, field for field and bit for bit.
 #pragma once
@@ -38,10 +43,20 @@ namespace ugvr {
 // data. Reads the markup and the geometry arrays' stored bytes. Throws ugvr::Error naming the file for bad markup.
 std::optional<uint64_t> vtu_geometry_key(const std::string& path);
 
+// The stored geometry key of a .pvtu (PUnstructuredGrid) file: its piece count and its piece files' vtu_geometry_key,
+// in piece order; nullopt for other files and when a piece has no key. Reads the .pvtu's markup and each piece's as
+// vtu_geometry_key does. Throws ugvr::Error naming the file (bad markup, a missing or repeated piece).
+std::optional<uint64_t> pvtu_geometry_key(const std::string& path);
+
 // Every field of a .vtu file as read_dataset gives them (cell data restricted to the volume cells the mesh keeps),
 // without reading its points or connectivity (the types array is read when cells are dropped). Skipped arrays are
 // warned about in `warnings`, as the full read does.
 FieldSet read_vtu_fields(const std::string& path, std::vector<std::string>& warnings);
+// The same for a .pvtu: its pieces' fields concatenated in piece order, bit for bit those of read_dataset (its checks
+// of the fields the pieces share and the .pvtu declares included); `sources` gets the .pvtu and its pieces, as the
+// whole read names them.
+FieldSet read_pvtu_fields(const std::string& path, std::vector<std::string>& sources,
+                          std::vector<std::string>& warnings);
 
 // An Exodus II file opened once for its steps' fields: its dimensions and element-block layout are read here (not the
 // coordinates or the connectivity), then each read() reads one time index's variables. Not thread-safe (netCDF is
@@ -78,12 +93,15 @@ class StepFieldReader {
 
   // Whether every step has the first step's mesh by the format and a fields-only read (Exodus).
   bool static_by_format() const;
-  // One stored geometry key per file of step `step` when every file has one (.vtu); nullopt otherwise (read the step
-  // whole). Equal key lists: the same mesh. A file's key is computed once while its size and modification time stay
-  // those seen then (a range pass, then the step switches, visit every file again); a file rewritten to the same size
-  // within the file system's time stamp granularity (a few milliseconds) would keep its old key.
+  // One stored geometry key per file of step `step` when every file has one (.vtu, .pvtu); nullopt otherwise (read the
+  // step whole). Equal key lists: the same mesh. A .vtu's key (a .pvtu's pieces' keys) is computed once while its size
+  // and modification time stay those seen then (a range pass, then the step switches, visit every file again); a file
+  // rewritten to the same size within the file system's time stamp granularity (a few milliseconds) would keep its old
+  // key. A .pvtu's piece list is read again each time (its markup only). Throws ugvr::Error naming the file when a
+  // file cannot be read (bad markup, truncated while hashed).
   std::optional<std::vector<uint64_t>> geometry_keys(size_t step) const;
-  // Whether step `step` has step `mesh_step`'s mesh as stored: by the format (Exodus) or by equal geometry keys (.vtu).
+  // Whether step `step` has step `mesh_step`'s mesh as stored: by the format (Exodus) or by equal geometry keys (.vtu,
+  // .pvtu).
   // Then read(step) completes a dataset of mesh_step's grids. False where only a whole read could tell.
   bool has_mesh_of(size_t step, size_t mesh_step) const;
   // Step `step`'s fields; valid where static_by_format() or geometry_keys() says the step has a fields-only read.
@@ -100,6 +118,7 @@ class StepFieldReader {
     std::optional<uint64_t> key;
   };
   std::optional<uint64_t> cached_geometry_key(const std::string& path) const;
+  std::optional<uint64_t> cached_vtu_key(const std::string& path) const;
 
   std::shared_ptr<const TimeSeries> series_;
   std::mutex exodus_mutex_;

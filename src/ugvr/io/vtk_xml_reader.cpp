@@ -483,6 +483,23 @@ void read_piece_fields(const InputFile& file, const XmlDoc& d, const UgPiece& p,
   }
 }
 
+// The arrays a .pvtu declares (<PPointData>, <PCellData>) must be in its pieces with the declared type and components
+// (pieces without points or cells aside); nothing is checked for a .vtu (`declared` empty).
+void check_declared_fields(const std::vector<UgPiece>& pieces, const std::vector<FieldSpec>& specs,
+                           const std::vector<FieldSpec>& declared, pugi::xml_node declared_at, const XmlDoc* pdoc) {
+  const bool any_data = std::any_of(pieces.begin(), pieces.end(), [](const UgPiece& p) { return !p.empty(); });
+  for (const FieldSpec& s : declared) {
+    const auto it = std::find_if(specs.begin(), specs.end(), [&](const FieldSpec& f) {
+      return f.name == s.name && f.association == s.association;
+    });
+    if (any_data && (it == specs.end() || it->type != s.type || it->components != s.components)) {
+      pdoc->fail(declared_at, std::string(s.association == Association::Vertex ? "point" : "cell") + " array '" +
+                                  s.name + "' declared as " + std::string(scalar_type_name(s.type)) + " x " +
+                                  std::to_string(s.components) + " is not in the pieces as declared");
+    }
+  }
+}
+
 Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<XmlDoc>> docs, std::string format,
                           const std::vector<FieldSpec>& declared, pugi::xml_node declared_at, const XmlDoc* pdoc) {
   Dataset ds;
@@ -495,17 +512,7 @@ Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<X
   const std::vector<UgPiece> pieces = describe_ug_pieces(docs, ds.warnings);
   refuse_duplicate_pieces(docs, pieces);
   const std::vector<FieldSpec> specs = agreed_field_specs(docs, pieces);
-  const bool any_data = std::any_of(pieces.begin(), pieces.end(), [](const UgPiece& p) { return !p.empty(); });
-  for (const FieldSpec& s : declared) {
-    const auto it = std::find_if(specs.begin(), specs.end(), [&](const FieldSpec& f) {
-      return f.name == s.name && f.association == s.association;
-    });
-    if (any_data && (it == specs.end() || it->type != s.type || it->components != s.components)) {
-      pdoc->fail(declared_at, std::string(s.association == Association::Vertex ? "point" : "cell") + " array '" +
-                                  s.name + "' declared as " + std::string(scalar_type_name(s.type)) + " x " +
-                                  std::to_string(s.components) + " is not in the pieces as declared");
-    }
-  }
+  check_declared_fields(pieces, specs, declared, declared_at, pdoc);
 
   // Probe every array's size and count the kept cells before allocating anything.
   uint64_t total_points = 0, total_cells = 0;
@@ -581,18 +588,26 @@ Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<X
   return ds;
 }
 
-// The file cells the mesh keeps (the importer's policy: volume cells), in file order; nullopt when it keeps them all,
-// so that cell data read without the mesh lines up with the mesh's cells. Reads the types arrays only.
-std::optional<std::vector<uint64_t>> kept_file_cells(const InputFile& file, const XmlDoc& d,
+// The file cells the mesh keeps (the importer's policy: volume cells), in file order (the pieces of every document one
+// after the other, as read_unstructured numbers them); nullopt when it keeps them all, so that cell data read without
+// the mesh lines up with the mesh's cells. Reads the types arrays only.
+std::optional<std::vector<uint64_t>> kept_file_cells(const std::vector<std::unique_ptr<XmlDoc>>& docs,
                                                      const std::vector<UgPiece>& pieces) {
   std::vector<uint64_t> kept;
   bool dropped = false, keep = true;
   uint64_t base = 0;
   std::vector<int64_t> buf;
+  std::unique_ptr<InputFile> file;
+  size_t file_doc = SIZE_MAX;
   for (const UgPiece& p : pieces) {
     if (p.empty()) continue;
     if (p.cells > 0) {
-      XmlArrayReader types(file, d.encoding, *p.types);
+      const XmlDoc& d = *docs[p.doc];
+      if (file_doc != p.doc) {
+        file = std::make_unique<InputFile>(d.path);
+        file_doc = p.doc;
+      }
+      XmlArrayReader types(*file, d.encoding, *p.types);
       types.expect_count(p.cells, "NumberOfCells=" + std::to_string(p.cells));
       buf.resize(size_t(std::min<uint64_t>(p.cells, kChunkValues)));
       for (uint64_t c = 0; c < p.cells;) {
@@ -1214,6 +1229,50 @@ uint64_t hash_array_layout(uint64_t h, const XmlArray& a) {
   return hash_mix(h, uint64_t(a.format));
 }
 
+// The fields of UnstructuredGrid documents read as one mesh (a .vtu, or the pieces a .pvtu lists, in its order), as
+// read_unstructured gives them: the same field specs agreed over every piece, each piece's values at its first point
+// and cell, cell data restricted to the cells the mesh keeps; nothing of the points or connectivity read.
+FieldSet read_ug_fields(const std::vector<std::unique_ptr<XmlDoc>>& docs, const std::vector<FieldSpec>& declared,
+                        pugi::xml_node declared_at, const XmlDoc* pdoc, std::vector<std::string>& warnings) {
+  const std::vector<UgPiece> pieces = describe_ug_pieces(docs, warnings);
+  const std::vector<FieldSpec> specs = agreed_field_specs(docs, pieces);
+  check_declared_fields(pieces, specs, declared, declared_at, pdoc);
+  uint64_t total_points = 0, total_cells = 0;
+  for (size_t di = 0; di < docs.size(); ++di) {
+    const InputFile file(docs[di]->path);
+    for (const UgPiece& p : pieces) {
+      if (p.doc != di || p.empty()) continue;
+      expect_field_counts(file, *docs[di], p);
+      total_points += p.points;
+      total_cells += p.cells;
+    }
+  }
+  std::vector<DataArray> field_data;
+  for (const FieldSpec& s : specs)
+    field_data.push_back(make_field_data(s, s.association == Association::Vertex ? total_points : total_cells));
+  uint64_t point_base = 0, cell_base = 0;
+  for (size_t di = 0; di < docs.size(); ++di) {
+    const InputFile file(docs[di]->path);
+    for (const UgPiece& p : pieces) {
+      if (p.doc != di || p.empty()) continue;
+      read_piece_fields(file, *docs[di], p, specs, field_data, point_base, cell_base);
+      point_base += p.points;
+      cell_base += p.cells;
+    }
+  }
+  const bool cell_fields =
+      std::any_of(specs.begin(), specs.end(), [](const FieldSpec& s) { return s.association == Association::Cell; });
+  const std::optional<std::vector<uint64_t>> kept =
+      cell_fields ? kept_file_cells(docs, pieces) : std::optional<std::vector<uint64_t>>();
+  FieldSet fields;
+  for (size_t f = 0; f < specs.size(); ++f) {
+    DataArray data = std::move(field_data[f]);
+    if (specs[f].association == Association::Cell && kept) data = data.gather(*kept);
+    fields.add(Field(specs[f].name, specs[f].association, std::move(data)));
+  }
+  return fields;
+}
+
 }  // namespace
 
 std::optional<uint64_t> vtu_geometry_key(const std::string& path) {
@@ -1248,37 +1307,24 @@ std::optional<uint64_t> vtu_geometry_key(const std::string& path) {
 FieldSet read_vtu_fields(const std::string& path, std::vector<std::string>& warnings) {
   std::vector<std::unique_ptr<XmlDoc>> docs;
   docs.push_back(load_vtu_doc(path));
-  const XmlDoc& d = *docs[0];
-  const std::vector<UgPiece> pieces = describe_ug_pieces(docs, warnings);
-  const std::vector<FieldSpec> specs = agreed_field_specs(docs, pieces);
-  const InputFile file(path);
-  uint64_t total_points = 0, total_cells = 0;
-  for (const UgPiece& p : pieces) {
-    if (p.empty()) continue;
-    expect_field_counts(file, d, p);
-    total_points += p.points;
-    total_cells += p.cells;
-  }
-  std::vector<DataArray> field_data;
-  for (const FieldSpec& s : specs)
-    field_data.push_back(make_field_data(s, s.association == Association::Vertex ? total_points : total_cells));
-  uint64_t point_base = 0, cell_base = 0;
-  for (const UgPiece& p : pieces) {
-    if (p.empty()) continue;
-    read_piece_fields(file, d, p, specs, field_data, point_base, cell_base);
-    point_base += p.points;
-    cell_base += p.cells;
-  }
-  const bool cell_fields =
-      std::any_of(specs.begin(), specs.end(), [](const FieldSpec& s) { return s.association == Association::Cell; });
-  const std::optional<std::vector<uint64_t>> kept =
-      cell_fields ? kept_file_cells(file, d, pieces) : std::optional<std::vector<uint64_t>>();
-  FieldSet fields;
-  for (size_t f = 0; f < specs.size(); ++f) {
-    DataArray data = std::move(field_data[f]);
-    if (specs[f].association == Association::Cell && kept) data = data.gather(*kept);
-    fields.add(Field(specs[f].name, specs[f].association, std::move(data)));
-  }
+  return read_ug_fields(docs, {}, {}, nullptr, warnings);
+}
+
+FieldSet read_pvtu_fields(const std::string& path, std::vector<std::string>& sources,
+                          std::vector<std::string>& warnings) {
+  const std::unique_ptr<XmlDoc> pdoc = load_doc(path);
+  if (pdoc->type != "PUnstructuredGrid")
+    fail_in(path, "VTKFile type \"" + pdoc->type.substr(0, 40) + "\", expected PUnstructuredGrid");
+  const pugi::xml_node grid = single_child(*pdoc, pdoc->root, "PUnstructuredGrid");
+  if (!grid) pdoc->fail(pdoc->root, "no <PUnstructuredGrid> element");
+  std::vector<std::unique_ptr<XmlDoc>> docs;
+  for (const std::string& piece_path : pvtu_piece_paths(*pdoc, grid)) docs.push_back(load_doc(piece_path));
+  if (docs.empty()) pdoc->fail(grid, "<PUnstructuredGrid> lists no <Piece Source=...>");
+  FieldSet fields = read_ug_fields(docs, declared_fields(*pdoc, grid), grid, pdoc.get(), warnings);
+  // As read_unstructured names them: the .pvtu, then its pieces.
+  sources.push_back(path);
+  for (const auto& d : docs)
+    if (d->path != path) sources.push_back(d->path);
   return fields;
 }
 

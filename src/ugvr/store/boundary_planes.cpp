@@ -1,7 +1,11 @@
 #include "ugvr/store/boundary_planes.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <initializer_list>
 #include <iterator>
 
 namespace ugvr {
@@ -25,34 +29,84 @@ Vec3d triangle_corner(const BoundaryTriangleRecord& t, int i) {
   return Vec3d{t.p[3 * i], t.p[3 * i + 1], t.p[3 * i + 2]};
 }
 
-// The convex polygon `poly` clipped to the closed box (Sutherland-Hodgman, one face at a time).
-std::vector<Vec3d> clip_to_box(std::vector<Vec3d> poly, const Bounds& box) {
-  for (int axis = 0; axis < 3 && !poly.empty(); ++axis) {
-    for (int upper = 0; upper < 2 && !poly.empty(); ++upper) {
-      const double bound = upper ? box.hi[axis] : box.lo[axis];
-      auto inside = [&](const Vec3d& p) { return upper ? p[axis] <= bound : p[axis] >= bound; };
-      std::vector<Vec3d> kept;
-      for (size_t i = 0; i < poly.size(); ++i) {
-        const Vec3d& a = poly[i];
-        const Vec3d& b = poly[(i + 1) % poly.size()];
-        if (inside(a)) kept.push_back(a);
-        if (inside(a) != inside(b)) {
-          const double f = (bound - a[axis]) / (b[axis] - a[axis]);
-          Vec3d x = a + (b - a) * f;
-          x[axis] = bound;
-          kept.push_back(x);
-        }
-      }
-      poly = std::move(kept);
-    }
+// A convex polygon of at most kMaxCorners corners, on the stack: the planes are computed for every node of a store
+// when it is opened, over millions of triangles for a large mesh, and a heap vector per clip step made the allocator
+// most of that time (a billion-cell store's 16 pieces took ~28 s to open, 40 % of it clipping, 28 % malloc/free).
+// A triangle or a square clipped by the six faces of a box keeps at most 3 + 6 (4 + 6) corners; the room beyond is
+// for corners that rounding makes nearly collinear at a face, and a corner past it is dropped rather than written.
+constexpr int kMaxCorners = 16;
+// Plain doubles, not Vec3d: the clip makes two of these per call, and Vec3d's zero initialisation of every corner was
+// a third of the clip's time.
+struct Polygon {
+  double corner[kMaxCorners][3];
+  int size = 0;
+  void add(const double* p) {
+    if (size == kMaxCorners) return;
+    std::copy(p, p + 3, corner[size++]);
   }
-  return poly;
+  Vec3d at(int i) const { return Vec3d{corner[i][0], corner[i][1], corner[i][2]}; }
+};
+
+Polygon polygon(std::initializer_list<Vec3d> corners) {
+  Polygon p;
+  for (const Vec3d& c : corners) {
+    const double xyz[3] = {c.x, c.y, c.z};
+    p.add(xyz);
+  }
+  return p;
 }
 
-double polygon_area(const std::vector<Vec3d>& poly, const Vec3d& normal) {
+// The convex polygon `poly` clipped to the closed box (Sutherland-Hodgman, one face at a time; a face that every
+// corner is inside of leaves the polygon as it is and is skipped).
+Polygon clip_to_box(const Polygon& poly, const Bounds& box) {
+  Polygon buffer[2];
+  buffer[0] = poly;
+  int now = 0;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int upper = 0; upper < 2; ++upper) {
+      const Polygon& in = buffer[now];
+      if (in.size == 0) return in;
+      const double bound = upper ? box.hi[axis] : box.lo[axis];
+      auto inside = [&](const double* p) { return upper ? p[axis] <= bound : p[axis] >= bound; };
+      bool all_inside = true;
+      for (int i = 0; i < in.size && all_inside; ++i) all_inside = inside(in.corner[i]);
+      if (all_inside) continue;
+      Polygon& kept = buffer[1 - now];
+      kept.size = 0;
+      for (int i = 0; i < in.size; ++i) {
+        const double* a = in.corner[i];
+        const double* b = in.corner[(i + 1) % in.size];
+        if (inside(a)) kept.add(a);
+        if (inside(a) != inside(b)) {
+          const double f = (bound - a[axis]) / (b[axis] - a[axis]);
+          double x[3];
+          for (int k = 0; k < 3; ++k) x[k] = a[k] + (b[k] - a[k]) * f;
+          x[axis] = bound;
+          kept.add(x);
+        }
+      }
+      now = 1 - now;
+    }
+  }
+  return buffer[now];
+}
+
+double polygon_area(const Polygon& poly, const Vec3d& normal) {
   Vec3d sum{};
-  for (size_t i = 0; i < poly.size(); ++i) sum = sum + cross(poly[i], poly[(i + 1) % poly.size()]);
+  for (int i = 0; i < poly.size; ++i) sum = sum + cross(poly.at(i), poly.at((i + 1) % poly.size));
   return 0.5 * std::abs(dot(sum, normal));
+}
+
+bool inside_closed(const Vec3d& p, const Bounds& box) {
+  return p.x >= box.lo.x && p.x <= box.hi.x && p.y >= box.lo.y && p.y <= box.hi.y && p.z >= box.lo.z && p.z <= box.hi.z;
+}
+
+// The area of the triangle's part inside the closed box. Most of a node's triangles lie wholly inside its cell; the
+// clip would return their corners unchanged and in order, so they skip it (the same area, bit for bit).
+double area_in_box(const Polygon& triangle, const Bounds& box, const Vec3d& normal) {
+  const bool whole =
+      inside_closed(triangle.at(0), box) && inside_closed(triangle.at(1), box) && inside_closed(triangle.at(2), box);
+  return polygon_area(whole ? triangle : clip_to_box(triangle, box), normal);
 }
 
 // The plane's section of the box: a square in the plane larger than the box, clipped to it.
@@ -66,8 +120,8 @@ double section_area(const BoundaryPlane& plane, const Bounds& box) {
   const Vec3d c = centre - n * (dot(n, centre) - plane.offset);
   const Vec3d diag = box.hi - box.lo;
   const double r = std::sqrt(dot(diag, diag));
-  return polygon_area(clip_to_box({c - u * r - v * r, c + u * r - v * r, c + u * r + v * r, c - u * r + v * r}, box),
-                      n);
+  return polygon_area(
+      clip_to_box(polygon({c - u * r - v * r, c + u * r - v * r, c + u * r + v * r, c - u * r + v * r}), box), n);
 }
 
 // What an entry reaches: whether any triangle, whether they all lie on one plane facing one way, and if so which
@@ -117,7 +171,11 @@ std::vector<std::optional<BoundaryPlane>> boundary_face_planes(const StoreBounda
   if (boundary.empty() || nodes.empty()) return out;
   // Bottom-up over the entries (depth first from the root, with each entry's cell): an entry's reach is its own run,
   // or the union of its children's (tree children for a node over the cap, else its 8 virtual nodes).
-  auto visit = [&](auto& self, uint64_t entry, const Bounds& cell) -> Reach {
+  // The top levels' children are visited in parallel (each writes only its own entries of `out`), their reaches
+  // merged in child order as before, so the planes do not depend on the threads: opening a store with millions of
+  // boundary triangles spends seconds here.
+  constexpr int kParallelDepth = 3;
+  auto visit = [&](auto& self, uint64_t entry, const Bounds& cell, int depth) -> Reach {
     Reach r;
     if (entry >= boundary.nodes.size()) return r;
     const BoundaryNodeEntry e = boundary.nodes[entry];
@@ -134,19 +192,27 @@ std::vector<std::optional<BoundaryPlane>> boundary_face_planes(const StoreBounda
     } else {
       r.planar = true;
       const Vec3d half = (cell.hi - cell.lo) * 0.5;
-      bool first = true;
-      for (int o = 0; o < 8; ++o) {
+      std::array<Reach, 8> reach;
+      auto visit_child = [&](int o) {
         uint64_t child = kNoNode;
         if (e.first != 0) {
           child = uint64_t(e.first) + uint64_t(o);
         } else if (entry < nodes.size()) {
           child = nodes[entry].child(o);
         }
-        if (child == kNoNode) continue;
+        if (child == kNoNode) return;
         Bounds c;
         c.lo = cell.lo + Vec3d{(o & 1) * half.x, (o >> 1 & 1) * half.y, (o >> 2 & 1) * half.z};
         c.hi = c.lo + half;
-        Reach k = self(self, child, c);
+        reach[size_t(o)] = self(self, child, c, depth + 1);
+      };
+      if (depth < kParallelDepth) {
+        tbb::parallel_for(0, 8, visit_child);
+      } else {
+        for (int o = 0; o < 8; ++o) visit_child(o);
+      }
+      bool first = true;
+      for (Reach& k : reach) {
         if (!k.any) continue;
         if (!k.planar || (!first && !same_plane(k.plane, r.plane))) {
           r.planar = false;
@@ -169,9 +235,8 @@ std::vector<std::optional<BoundaryPlane>> boundary_face_planes(const StoreBounda
     double covered = 0;
     for (uint32_t t : r.triangles) {
       const BoundaryTriangleRecord& tri = boundary.triangles[t];
-      covered +=
-          polygon_area(clip_to_box({triangle_corner(tri, 0), triangle_corner(tri, 1), triangle_corner(tri, 2)}, cell),
-                       r.plane.normal);
+      covered += area_in_box(polygon({triangle_corner(tri, 0), triangle_corner(tri, 1), triangle_corner(tri, 2)}), cell,
+                             r.plane.normal);
     }
     const double cell_area = (cell.hi.x - cell.lo.x) * (cell.hi.x - cell.lo.x);
     if (section > 1e-9 * cell_area && std::abs(covered - section) <= kCoverTolerance * section) out[entry] = r.plane;
@@ -180,7 +245,7 @@ std::vector<std::optional<BoundaryPlane>> boundary_face_planes(const StoreBounda
   Bounds root;
   root.lo = Vec3d{0, 0, 0};
   root.hi = Vec3d{1, 1, 1};
-  visit(visit, 0, root);
+  visit(visit, 0, root, 0);
   return out;
 }
 

@@ -124,12 +124,10 @@ struct EngineHost::Tab {
 
 EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options)) {
   if (options_.collective) {
-    // Before any GL context of ours: the collective renderer made its own on this thread (the LOD engine), current
-    // here from now on.
-    CollectiveRenderer opened = options_.collective();
-    collective_ = std::move(opened.renderer);
-    renderer_ = collective_->device();
-    scene_ = collective_scene(opened);
+    // Opened by finish_load on the render thread (the first turn): no GL context of ours is ever made, the collective
+    // renderer makes its own there (the LOD engine), current on that thread from then on.
+    pending_collective_ = std::move(options_.collective);
+    renderer_ = "opening the data";
     return;
   }
   gl_ = std::make_shared<GlContext>(options_.gpu);
@@ -173,6 +171,18 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
 }
 
 std::optional<EngineHost::LoadReport> EngineHost::poll_load() {
+  if (opening_collective()) {
+    LoadReport r;
+    if (!collective_error_.empty()) {
+      r.failed = true;
+      r.progress = {"failed", "", 0, "opening the data failed: " + collective_error_};
+      collective_error_.clear();
+      return r;
+    }
+    r.ready = true;  // finish_load opens it
+    r.progress = {"read", "", 0, "opening the data"};
+    return r;
+  }
   if (!load_) return std::nullopt;
   const GridLoad::State st = load_->state();
   LoadReport r;
@@ -206,6 +216,21 @@ std::optional<EngineHost::LoadReport> EngineHost::poll_load() {
 }
 
 void EngineHost::finish_load() {
+  if (pending_collective_) {
+    const std::function<CollectiveRenderer()> open = std::move(pending_collective_);
+    pending_collective_ = nullptr;
+    try {
+      CollectiveRenderer opened = open();
+      collective_ = std::move(opened.renderer);
+      renderer_ = collective_->device();
+      scene_ = collective_scene(opened);
+    } catch (const std::exception& e) {
+      collective_.reset();
+      scene_ = {};
+      collective_error_ = e.what();  // poll_load reports it
+    }
+    return;
+  }
   const GridLoad::Grid grid = load_->grid();
   std::shared_ptr<ExactScene> exact = load_->exact();
   load_.reset();
@@ -354,6 +379,7 @@ std::optional<EngineHost::BuildReport> EngineHost::build_report() const {
 }
 
 std::optional<ProgressInfo> EngineHost::initial_progress() const {
+  if (pending_collective_) return ProgressInfo{"read", "", 0, "opening the data"};
   const std::string note = notice_.empty() ? "" : notice_ + "; ";
   if (load_) return ProgressInfo{"read", "", 0, note + "reading the grid"};
   if (!build_) return std::nullopt;

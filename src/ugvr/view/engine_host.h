@@ -62,7 +62,8 @@ class EngineHost {
 
   // The background build: while one runs its progress is polled.
   bool building() const { return build_ != nullptr; }
-  bool loading() const { return load_ != nullptr; }
+  // Loading: the grid (GridLoad), or the collective renderer not opened yet (see poll_load).
+  bool loading() const { return load_ != nullptr || opening_collective(); }
   struct BuildReport {
     BackgroundBuild::Stage stage = BackgroundBuild::Stage::Running;
     ProgressInfo progress;  // for the page: "build" while running, "failed"; nothing to say when done
@@ -126,6 +127,12 @@ class EngineHost {
   std::unique_ptr<GridLoad> load_;  // the grid being read and prepared; null once done (or never)
   // MPI (ViewServerOptions::collective): draws every tab; then there is no GL context, store or grid here.
   std::shared_ptr<Renderer> collective_;
+  // The collective renderer is opened on the render loop's first turn (poll_load, finish_load), not in the
+  // constructor, so that the URL is printed at once: opening a billion-cell store's 16 pieces takes seconds (their
+  // boundary planes, docs/mpi.md). Empty once opened or failed; the failure's message until poll_load reports it.
+  std::function<CollectiveRenderer()> pending_collective_;
+  std::string collective_error_;
+  bool opening_collective() const { return bool(pending_collective_) || !collective_error_.empty(); }
   std::string notice_;          // options.notice: said with every progress of the load
   bool build_started_ = false;  // the store's build was started from the loaded grid
   // The build's previews (the point sketch, then the coarse preview): the last one tried (shown, or failed to open),

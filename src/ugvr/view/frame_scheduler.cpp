@@ -43,13 +43,21 @@ std::vector<uint64_t> FrameScheduler::remove_closed() {
   return gone;
 }
 
-std::optional<FrameJob> FrameScheduler::next() {
+std::optional<FrameJob> FrameScheduler::next(std::chrono::steady_clock::time_point now) {
+  due_.reset();
   size_t streaming = 0;
   for (const TabState& t : tabs_) streaming += is_streaming(t) ? 1 : 0;
   for (size_t k = 0; k < tabs_.size(); ++k) {
     const size_t i = (next_ + k) % tabs_.size();
     TabState& t = tabs_[i];
     if (!wants_frame(t)) continue;
+    if (rest_delay_.count() > 0 && drawn(t) && !t.converged && !t.view.full_quality) {
+      const auto due = t.rendered_at + std::chrono::duration_cast<std::chrono::steady_clock::duration>(rest_delay_);
+      if (now < due) {
+        if (!due_ || due < *due_) due_ = due;
+        continue;
+      }
+    }
     next_ = i + 1;  // round-robin: the next turn starts after this tab
     FrameJob job;
     job.tab = t.id;
@@ -69,10 +77,12 @@ std::optional<FrameJob> FrameScheduler::next() {
   return std::nullopt;
 }
 
-void FrameScheduler::rendered(const FrameJob& job, bool converged, bool failed) {
+void FrameScheduler::rendered(const FrameJob& job, bool converged, bool failed,
+                              std::chrono::steady_clock::time_point now) {
   TabState* t = find(job.tab);
   if (!t) return;
   t->rendered_generation = job.generation;
+  t->rendered_at = now;
   // A failed view is not retried until the client changes it.
   t->converged = converged || failed;
   if (failed) t->in_flight = false;

@@ -8,6 +8,7 @@
 // frames, never a queue, and cannot hold up the others.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -29,6 +30,7 @@ struct TabState {
   uint64_t rendered_generation = 0;  // view.generation its last frame (or ack) showed; kNotDrawn: draw again
   bool closed = false;               // its socket has gone; remove_closed() drops it
   uint64_t ram_budget = 0;           // its RAM brick cache's budget (tab_memory.h); 0: the engine host's default
+  std::chrono::steady_clock::time_point rendered_at;  // when its last frame was drawn (FrameScheduler::rest_delay)
 };
 
 // A tab wants a frame: it said hello, has none on the wire, and its view changed (view.changed, not a message that
@@ -69,10 +71,20 @@ class FrameScheduler {
 
   // The next frame: for the first tab after the previous turn's that wants one. Marks the tab in flight and takes its
   // full-quality request. nullopt: no tab wants a frame.
-  std::optional<FrameJob> next();
+  // With a rest delay, a resting frame after one that did not converge waits (see set_rest_delay).
+  std::optional<FrameJob> next(std::chrono::steady_clock::time_point now = std::chrono::steady_clock::now());
   // `job`'s frame was drawn: `converged`, or `failed` (then nothing goes on the wire, and the view is not drawn again
   // until the client changes it).
-  void rendered(const FrameJob& job, bool converged, bool failed);
+  void rendered(const FrameJob& job, bool converged, bool failed,
+                std::chrono::steady_clock::time_point now = std::chrono::steady_clock::now());
+  // For a renderer whose resting frame cannot be cut short (a collective one: a partitioned store's pieces, MPI
+  // ranks; 5.5 s at full quality for a billion cells): a tab's resting frame after one that did not converge is
+  // drawn only `seconds` after that frame, so that a move arriving meanwhile (the next step of a drag, sent once the
+  // moving frame was shown) is drawn first instead of waiting for the whole full-quality frame. A full-quality
+  // request goes at once. 0 (the default): no wait.
+  void set_rest_delay(double seconds) { rest_delay_ = std::chrono::duration<double>(seconds); }
+  // When the earliest resting frame held back by the last next() becomes due; nullopt: none is held back.
+  std::optional<std::chrono::steady_clock::time_point> next_due() const { return due_; }
   // The tab's messages since its last frame changed nothing drawn and no frame is coming (converged, or playing):
   // the request count to acknowledge (view_protocol.h "ack"), and from now on it counts as shown. nullopt: no ack
   // is owed (a frame that will carry the count is wanted, or nothing is new).
@@ -85,6 +97,8 @@ class FrameScheduler {
  private:
   std::vector<TabState> tabs_;
   size_t next_ = 0;  // where the next turn starts looking
+  std::chrono::duration<double> rest_delay_{0};
+  std::optional<std::chrono::steady_clock::time_point> due_;
 };
 
 }  // namespace ugvr::view

@@ -203,6 +203,10 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
     options.dataset.reset();  // the engine host holds the grid, until its store is shown
     engine = std::make_unique<EngineHost>(std::move(engine_options));
     std::lock_guard lock(mutex);
+    // A collective frame cannot be cut short: a tab's full-quality frame waits a moment after its last moving frame,
+    // so that the next move of a drag is not held up by it (frame_scheduler.h, set_rest_delay). Half a second: the
+    // page sends a drag's next view as soon as the moving frame is shown, well within it.
+    if (options.collective) scheduler.set_rest_delay(0.5);
     gl_renderer = engine->gl_renderer();
     if (const std::optional<ProgressInfo> p = engine->initial_progress()) progress_text = progress_message(*p);
     if (engine->has_scene()) publish_scene(false);
@@ -219,6 +223,8 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
       // Every path here holds the lock since `stopping` was last read, so stop()'s notification cannot be lost.
       if (engine->building() || engine->loading())
         wake.wait_for(lock, std::chrono::milliseconds(250));  // the load's and the build's progress are polled
+      else if (const auto due = scheduler.next_due())
+        wake.wait_until(lock, *due);  // a resting frame held back (set_rest_delay)
       else
         wake.wait(lock);
       continue;
@@ -285,12 +291,15 @@ void ViewServer::Impl::broadcast_progress(const ProgressInfo& p, bool at_once) {
 std::function<void()> ViewServer::Impl::perform(const FinishLoad&) {
   engine->finish_load();
   return [this] {
-    // What the page says now: the store's build, if it still runs (without the walk mesh, which is done).
-    progress_text.clear();
-    if (const std::optional<EngineHost::BuildReport> b = engine->build_report();
-        b && b->stage == BackgroundBuild::Stage::Running)
-      progress_text = progress_message(b->progress);
+    if (!engine->has_scene()) return;  // the collective renderer failed to open: the next poll_load says why
+    // What the page says now: the store's build, if it still runs (without the walk mesh, which is done); else
+    // that nothing is under way any more, so that the page hides its progress line ("opening the data" of a
+    // collective renderer would stay there).
+    const std::optional<EngineHost::BuildReport> b = engine->build_report();
+    const bool building = b && b->stage == BackgroundBuild::Stage::Running;
+    progress_text = progress_message(building ? b->progress : ProgressInfo{"ready", "", 1, "ready"});
     publish_scene(true);
+    if (!building) progress_text.clear();  // said once, to the tabs there now, as switch_to_store's
   };
 }
 

@@ -121,7 +121,8 @@ struct ViewServerOptions {
 class ViewServer {
  public:
   // Opens the store (or starts loading the grid) on the render thread, then listens. Throws ugvr::Error (store, GPU,
-  // address in use); an error in loading the grid comes later (on_failure, and a "failed" progress message).
+  // address in use); an error in loading the grid, or in opening the collective renderer (which happens on the
+  // render loop's first turn, after listening starts), comes later (on_failure, and a "failed" progress message).
   explicit ViewServer(ViewServerOptions options);
   ~ViewServer();  // stop()
   ViewServer(const ViewServer&) = delete;
