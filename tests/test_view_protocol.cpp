@@ -230,6 +230,37 @@ SceneInfo two_field_scene() {
   return scene;
 }
 
+// `ugvr view` without --tf (ViewServerOptions::auto_tf): tabs start from each field's auto points and unit distance,
+// also after a field switch or a preset pick, and the scene message gives the page the same points.
+TEST(ViewRequest, TabsStartFromEachFieldsAutoPoints) {
+  SceneInfo scene = two_field_scene();
+  const std::vector<OpacityPoint> p{{0, 1}, {4, 0}, {6, 0}, {10, 1}}, v{{100, 0}, {200, 1}};
+  scene.auto_opacity["pressure"] = {p, 0.01};
+  scene.auto_opacity["velocity"] = {v, 0.1};
+  ViewState s = initial_view(scene);
+  EXPECT_EQ(s.request.tf.opacity_points, p);
+  EXPECT_EQ(s.request.tf.opacity_unit_distance, 0.01);
+  apply_message(s, parse_client_message(R"({"type":"settings","field":"velocity"})"), scene);
+  EXPECT_EQ(s.request.tf.opacity_points, v);
+  EXPECT_EQ(s.request.tf.opacity_unit_distance, 0.1);
+  apply_message(s, parse_client_message(R"({"type":"settings","field":"pressure"})"), scene);
+  apply_message(s, parse_client_message(R"({"type":"tf","preset":"inferno"})"), scene);
+  EXPECT_EQ(s.request.tf.opacity_points, p) << "a preset recolours; the opacity stays auto's";
+  EXPECT_EQ(s.request.tf.opacity_unit_distance, 0.01);
+  EXPECT_EQ(s.request.tf.color_points, [] {
+    TransferFunction t = builtin_preset("inferno");
+    t.rescale(0, 10);
+    return t.color_points;
+  }());
+
+  const nlohmann::json j = nlohmann::json::parse(scene_message(scene));
+  EXPECT_EQ(j["fields"][0]["auto_opacity"], nlohmann::json::parse("[0, 1, 4, 0, 6, 0, 10, 1]"));
+  EXPECT_EQ(j["fields"][1]["auto_opacity"], nlohmann::json::parse("[100, 0, 200, 1]"));
+  // Without them (a named --tf): the preset's ramp, no auto_opacity in the message.
+  const nlohmann::json k = nlohmann::json::parse(scene_message(two_field_scene()));
+  EXPECT_FALSE(k["fields"][0].contains("auto_opacity"));
+}
+
 TEST(ViewRequest, FieldSwitchResetsTfPointsAndIsoValue) {
   const SceneInfo scene = two_field_scene();
   ViewState s = initial_view(scene);

@@ -36,7 +36,7 @@ const view = {
   preset: "viridis",
   opacity: 1,
   colors: null,        // explicit colour points (a loaded TF file), flat [x, r, g, b, ...]; null: the preset's
-  pointsEdited: false, // the opacity points were edited (sent); false: the preset's ramp
+  pointsEdited: false, // the opacity points were edited (sent); false: the start points (startPoints)
   mode: "ea",
   isoOpacity: 1,
   interpolation: "trilinear",  // the isosurfaces' reconstruction (lod engine): "trilinear" | "tricubic"
@@ -139,11 +139,23 @@ function presetColors(name) {
   return p.map((v, i) => (i % 4 === 0 ? lo + v * (hi - lo) : v));
 }
 const currentColors = () => (view.colors ? view.colors.slice() : presetColors(view.preset));
-function resetTfPoints() {
+// The opacity points a field starts from: the server's "auto" transfer function where the scene has it (`ugvr view`
+// without --tf: the free stream transparent, as `ugvr render` draws with no flags), else the presets' linear ramp.
+// The server starts the tab from the same points, so they need not be sent.
+function startPoints() {
+  const f = fieldInfo(view.field);
+  if (f && f.auto_opacity && f.auto_opacity.length >= 4) {
+    const pts = [];
+    for (let i = 0; i + 1 < f.auto_opacity.length; i += 2) pts.push([f.auto_opacity[i], f.auto_opacity[i + 1]]);
+    return pts;
+  }
   const [lo, hi] = fieldRange();
+  return [[lo, 0], [hi, 1]];
+}
+function resetTfPoints() {
   view.colors = null;
   view.pointsEdited = false;
-  tfEditor.setPoints([[lo, 0], [hi, 1]]);  // the presets' linear ramp over the range
+  tfEditor.setPoints(startPoints());
 }
 function showField() {
   const f = fieldInfo(view.field);
@@ -583,7 +595,7 @@ $("field").addEventListener("change", (e) => {
 });
 $("preset").addEventListener("change", (e) => {
   view.preset = e.target.value;
-  resetTfPoints();  // the server drops explicit points when a preset is picked
+  resetTfPoints();  // the server goes back to the start points when a preset is picked
   tfEditor.setColors(currentColors());
   queue({ type: "tf", preset: view.preset });
 });

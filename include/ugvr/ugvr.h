@@ -90,11 +90,12 @@ std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, 
 // The exact engine over a dataset in memory (shared: the renderer keeps it alive).
 std::unique_ptr<Renderer> make_renderer(std::shared_ptr<const Dataset> dataset, const RendererConfig& config);
 
-// The request `ugvr render` makes without flags: a three-quarter oblique view framed on the data, +z up
-// (default_camera in render/camera.h; or a preset: +x -x +y -y +z -z iso), the "auto" transfer function over the
-// bound field's range (viridis; the histogram's dominant mode, if any, transparent, else the linear opacity ramp:
-// src/ugvr/render/default_transfer_function.h), opacity unit distance = bounds diagonal / 10, so that the first image
-// shows the inside of the data rather than an opaque slab or a haze of its most common value.
+// The request `ugvr render` makes without flags: a three-quarter oblique view, +z up, framed on what the transfer
+// function leaves visible (default_camera in render/camera.h on the box of render/visible_bounds.h: the whole data
+// when nothing or nearly everything is; or a preset, +x -x +y -y +z -z iso, on the data), the "auto" transfer function
+// over the bound field's range (viridis; the histogram's dominant mode, if any, transparent, else the linear opacity
+// ramp: src/ugvr/render/default_transfer_function.h), opacity unit distance = bounds diagonal / 10, so that the first
+// image shows the inside of the data rather than an opaque slab or a haze of its most common value.
 FrameRequest default_request(const Renderer& renderer, int width, int height, std::string_view view = "");
 
 }  // namespace ugvr

@@ -46,6 +46,7 @@
 #include "ugvr/render/renderer_factory.h"
 #include "ugvr/render/time_budget.h"
 #include "ugvr/render/transfer_function.h"
+#include "ugvr/render/visible_bounds.h"
 #include "ugvr/store/brick_store.h"
 #include "ugvr/ugvr.h"
 #include "ugvr/view/over_budget_store.h"
@@ -884,8 +885,6 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
       if (view_angle) out.camera.view_angle = *view_angle;
     } else if (!view.empty()) {
       out.camera = camera_preset(view, bounds, view_angle.value_or(30));
-    } else {
-      out.camera = default_camera(bounds, view_angle.value_or(30));
     }
     out.tf = tf;
     if (auto_tf) {
@@ -899,6 +898,11 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
     // auto's own unit distance depends on its histogram (default_transfer_function.h).
     out.tf.opacity_unit_distance =
         unit_distance.value_or(auto_tf ? out.tf.opacity_unit_distance : default_unit_distance(bounds));
+    // No camera or view: default_camera, framed on what auto leaves visible (render/visible_bounds.h); a named tf
+    // keeps the whole domain in view.
+    if (!file_camera && view.empty())
+      out.camera = auto_tf ? framed_default_camera(*renderer, out.tf, view_angle.value_or(30))
+                           : default_camera(bounds, view_angle.value_or(30));
     FrameRequest request;
     request.camera = out.camera;
     request.tf = out.tf;

@@ -40,6 +40,7 @@
 #include "ugvr/render/renderer_factory.h"
 #include "ugvr/render/time_budget.h"
 #include "ugvr/render/transfer_function.h"
+#include "ugvr/render/visible_bounds.h"
 #include "ugvr/store/brick_store.h"
 #include "ugvr/view/over_budget_store.h"
 #include "ugvr/view/voxel_store.h"
@@ -552,16 +553,6 @@ void run_render(const Options& o, std::optional<double> time_budget) {
   }
 
   const Bounds bounds = renderer->bounds();
-  Camera camera;
-  if (file_camera) {
-    camera = *file_camera;
-    if (view_angle) camera.view_angle = *view_angle;
-  } else if (!o.view.empty()) {
-    camera = camera_preset(o.view, bounds, view_angle.value_or(30));
-  } else {
-    camera = default_camera(bounds, view_angle.value_or(30));  // three-quarter oblique, +z up
-  }
-
   if (auto_tf) {
     // Every rank asks (a collective call under MPI); the histogram covers the range the map is drawn over.
     const double lo = range ? range->first : field_range.min, hi = range ? range->second : field_range.max;
@@ -576,6 +567,19 @@ void run_render(const Options& o, std::optional<double> time_budget) {
   // auto's own unit distance depends on its histogram (default_transfer_function.h).
   if (!unit_distance) unit_distance = auto_tf ? tf.opacity_unit_distance : default_unit_distance(bounds);
   tf.opacity_unit_distance = *unit_distance;
+
+  Camera camera;
+  if (file_camera) {
+    camera = *file_camera;
+    if (view_angle) camera.view_angle = *view_angle;
+  } else if (!o.view.empty()) {
+    camera = camera_preset(o.view, bounds, view_angle.value_or(30));
+  } else if (auto_tf) {
+    // Three-quarter oblique, +z up, framed on what auto leaves visible (a collective call under MPI).
+    camera = framed_default_camera(*renderer, tf, view_angle.value_or(30));
+  } else {
+    camera = default_camera(bounds, view_angle.value_or(30));  // a named --tf: the whole domain, as before
+  }
 
   if (writer && !o.save_camera.empty()) write_camera(o.save_camera, camera);
   if (writer && !o.save_tf.empty()) write_paraview_preset(o.save_tf, tf);

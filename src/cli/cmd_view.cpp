@@ -228,7 +228,9 @@ void run_view(const Options& o) {
     vo.background = kDemoBackground;
     if (o.tf.empty()) vo.tf = parse_paraview_presets(kDemoTfJson, "demo transfer function").at(0);
   }
-  if (!o.tf.empty()) {
+  // No --tf (or --tf auto): the page starts from the auto transfer function, framed on what it leaves visible.
+  vo.auto_tf = !vo.tf && (o.tf.empty() || o.tf == "auto");
+  if (!o.tf.empty() && o.tf != "auto") {
     if (std::filesystem::is_regular_file(o.tf)) {
       vo.tf = read_paraview_preset(o.tf);
       vo.tf->opacity_unit_distance = read_preset_unit_distance(o.tf).value_or(0);  // 0: the viewer's default

@@ -31,7 +31,9 @@ const sameCamera = (a, b) =>
   ["position", "focal_point", "view_up"].every((k) => a[k].every((v, i) => Math.abs(v - b[k][i]) <= 1e-9 * (1 + Math.abs(v))));
 
 before(async () => {
-  viewer = await startViewer(UGVR, STORE);
+  // `--tf viridis`: the preset's ramp (two points) over the whole domain, which these tests edit and look at. Without
+  // --tf the page starts from the auto transfer function, framed on what it leaves visible (viewer.test.mjs tests it).
+  viewer = await startViewer(UGVR, STORE, ["--tf", "viridis"]);
   browser = await launchBrowser();
   ({ context, page } = await openPage(browser, viewer.url, { viewport: VIEWPORT, acceptDownloads: true }));
   await waitConverged(page, CONVERGE_MS);

@@ -21,7 +21,9 @@ const setRange = (locator, value) =>
   }, value);
 
 before(async () => {
-  viewer = await startViewer(UGVR, STORE);
+  // --tf viridis: the preset's ramp fills the volume, so that hiding it behind a plane shows. With the default (auto:
+  // the free stream transparent) what is left covers too few pixels for "hiding the volume changed the image".
+  viewer = await startViewer(UGVR, STORE, ["--tf", "viridis"]);
   browser = await launchBrowser();
   ({ page } = await openPage(browser, viewer.url, { viewport: { width: 720, height: 520 } }));
   await waitConverged(page, CONVERGE_MS);

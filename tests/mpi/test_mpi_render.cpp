@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include "mpi_fixtures.h"
@@ -19,6 +20,11 @@ namespace {
 
 using test::CommandResult;
 using test::mpirun;
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
 
 class MpiRender : public ::testing::Test {
  protected:
@@ -54,6 +60,27 @@ TEST_F(MpiRender, ExactMixedCellsFourRanksEqualOne) {
   setenv("UGVR_COMPOSITOR", "direct-send", 1);
   EXPECT_GE(psnr_4_vs_1(file("mixed.vtu"), "--size 96 --engine exact"), 60);
   unsetenv("UGVR_COMPOSITOR");
+}
+
+// No flags: every rank frames one camera on what auto leaves visible (render/visible_bounds.h). Each rank holds its
+// restricted part, whose visible box is its own: without the ranks' boxes united the cameras differ.
+TEST_F(MpiRender, DefaultViewIsOneCameraForAllRanks) {
+  ASSERT_EQ(test::run_ugvr("generate --cells 3000 --kind tet -o " + file("t.vtu")).status, 0);
+  const std::string common = "render " + file("t.vtu") + " --threads 1 --size 64 --engine exact";
+  const CommandResult one = mpirun(
+      1, common + " -o " + file("one.png") + " --float " + file("one.pfm") + " --save-camera " + file("one.cam"));
+  ASSERT_EQ(one.status, 0) << one.out;
+  const CommandResult two = mpirun(
+      2, common + " -o " + file("two.png") + " --float " + file("two.pfm") + " --save-camera " + file("two.cam"));
+  ASSERT_EQ(two.status, 0) << two.out;
+  const CommandResult whole =
+      mpirun(2, common + " --tf viridis -o " + file("v.png") + " --save-camera " + file("v.cam"));
+  ASSERT_EQ(whole.status, 0) << whole.out;
+  EXPECT_EQ(slurp(file("one.cam")), slurp(file("two.cam")));
+  EXPECT_NE(slurp(file("one.cam")), slurp(file("v.cam"))) << "the default view should be framed, not the whole domain";
+  const ImageDifference d = compare_images(read_pfm(file("two.pfm")), read_pfm(file("one.pfm")));
+  std::printf("2 ranks vs 1, no flags: psnr %.2f dB, max %.3g\n", d.psnr_db, d.max_abs);
+  EXPECT_GE(d.psnr_db, 60);
 }
 
 // A U-shaped block of hexahedra (a slot cut out of a cube): rays leave the data and enter it again, and the kd-tree's

@@ -103,6 +103,13 @@ class Renderer {
     (void)lo, (void)hi, (void)bins;
     return {};
   }
+  // The box of the bound field's data that `tf` makes more than `threshold` opaque (render/visible_bounds.h: a mesh's
+  // cells, a store's coarse nodes): empty Bounds when none is; nullopt when the renderer cannot say. The default
+  // camera with the auto transfer function frames it. Under MPI a collective call that gives every rank the same box.
+  virtual std::optional<Bounds> visible_bounds(const TransferFunction& tf, double threshold) const {
+    (void)tf, (void)threshold;
+    return std::nullopt;
+  }
   // Renders request.settings.width x height, binding request.settings.field first when it differs. Throws
   // ugvr::Error for a request the engine cannot draw (a time step without a series, a cut over the GPU budget...).
   virtual Frame render(const FrameRequest& request) = 0;

@@ -10,6 +10,7 @@
 #include "ugvr/octree/out_of_core.h"
 #include "ugvr/render/default_transfer_function.h"
 #include "ugvr/render/renderer_factory.h"
+#include "ugvr/render/visible_bounds.h"
 #include "ugvr/store/brick_store.h"
 
 namespace ugvr {
@@ -144,9 +145,10 @@ std::unique_ptr<Renderer> make_renderer(std::shared_ptr<const Dataset> dataset, 
 FrameRequest default_request(const Renderer& renderer, int width, int height, std::string_view view) {
   FrameRequest r;
   const Bounds bounds = renderer.bounds();
-  r.camera = view.empty() ? default_camera(bounds) : camera_preset(view, bounds);
   const FieldRange range = renderer.field_range();
   r.tf = auto_transfer_function(renderer, range.min, range.max, bounds);
+  // The default view frames what auto leaves visible, as `ugvr render` (render/visible_bounds.h).
+  r.camera = view.empty() ? framed_default_camera(renderer, r.tf) : camera_preset(view, bounds);
   r.settings.width = width, r.settings.height = height;
   r.settings.field = renderer.field_name();
   r.settings.validate("default_request");

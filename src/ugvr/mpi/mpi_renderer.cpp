@@ -130,6 +130,21 @@ class MpiRenderer final : public Renderer {
     }
     return std::vector<uint64_t>(buffer.begin(), buffer.end());
   }
+  // The ranks MUST frame one camera: the boxes of the ranks' parts are united (min/max over the ranks); a rank that
+  // cannot say takes part with an empty box, and when none can the answer is nullopt on every rank. Where every rank
+  // holds the whole data the union is each rank's box (restricted meshes cover their boxes, and their union the mesh).
+  std::optional<Bounds> visible_bounds(const TransferFunction& tf, double threshold) const override {
+    const std::optional<Bounds> mine = local_->visible_bounds(tf, threshold);
+    const Bounds b = mine.value_or(Bounds{});
+    // lo and -hi reduced with MIN in one call: an empty box (+inf, -inf) leaves the others' as they are.
+    double box[7] = {b.lo.x, b.lo.y, b.lo.z, -b.hi.x, -b.hi.y, -b.hi.z, mine ? 0.0 : 1.0};
+    MPI_Allreduce(MPI_IN_PLACE, box, 7, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+    if (box[6] != 0) return std::nullopt;  // no rank could say
+    Bounds all;
+    all.lo = {box[0], box[1], box[2]};
+    all.hi = {-box[3], -box[4], -box[5]};
+    return all;
+  }
   void describe(nlohmann::json& j) const override {
     local_->describe(j);
     j["mpi_ranks"] = size();

@@ -50,6 +50,16 @@ class PieceRenderer final : public Renderer {
     }
     return sum;
   }
+  // The pieces' boxes united; nullopt when no piece can say.
+  std::optional<Bounds> visible_bounds(const TransferFunction& tf, double threshold) const override {
+    std::optional<Bounds> all;
+    for (const auto& r : renderers_)
+      if (const std::optional<Bounds> b = r->visible_bounds(tf, threshold)) {
+        if (!all) all = Bounds{};
+        all->add(*b);
+      }
+    return all;
+  }
   void describe(nlohmann::json& j) const override {
     renderers_[0]->describe(j);
     j["pieces"] = total_;

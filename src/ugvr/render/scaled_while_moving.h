@@ -52,6 +52,9 @@ class ScaledWhileMovingRenderer final : public Renderer {
   std::vector<uint64_t> value_histogram(double lo, double hi, int bins) const override {
     return inner_->value_histogram(lo, hi, bins);
   }
+  std::optional<Bounds> visible_bounds(const TransferFunction& tf, double threshold) const override {
+    return inner_->visible_bounds(tf, threshold);
+  }
   void describe(nlohmann::json& j) const override { inner_->describe(j); }
   std::string summary(const FrameStats& last) const override { return inner_->summary(last); }
   Frame render(const FrameRequest& request) override;

@@ -12,9 +12,12 @@
 #include "ugvr/gpu/gl_context.h"
 #include "ugvr/octree/coarse_preview.h"
 #include "ugvr/octree/input.h"
+#include "ugvr/render/default_transfer_function.h"
+#include "ugvr/render/exact/walk_mesh.h"
 #include "ugvr/render/field_histogram.h"
 #include "ugvr/render/lod/lod_renderer.h"
 #include "ugvr/render/renderer_factory.h"
+#include "ugvr/render/visible_bounds.h"
 #include "ugvr/store/brick_store.h"
 #include "ugvr/view/jpeg.h"
 
@@ -36,6 +39,22 @@ std::vector<FieldInfo> store_fields(const LodEngine& engine) {
     out.push_back({f.name, f.min, f.max, store_histogram(store, i, kHistogramBins, kHistogramMaxLevel)});
   }
   return out;
+}
+
+// ViewServerOptions::auto_tf: every field's auto transfer function (from its histogram, as `ugvr render` makes it:
+// SceneInfo::auto_opacity, which tabs and the page's editor start from) and, without a camera given, the reset view
+// framed on the box `visible` gives for the auto transfer function of the field new tabs show (nullopt: the whole
+// domain).
+void start_from_auto(SceneInfo& sc, const ViewServerOptions& options,
+                     const std::function<std::optional<Bounds>(const TransferFunction&)>& visible) {
+  if (!options.auto_tf || options.tf) return;
+  for (const FieldInfo& f : sc.fields) {
+    if (f.histogram.empty()) continue;
+    const TransferFunction tf = auto_transfer_function(f.histogram, f.min, f.max, sc.bounds);
+    sc.auto_opacity[f.name] = {tf.opacity_points, tf.opacity_unit_distance};
+    if (f.name == sc.field && !options.camera)
+      sc.camera = framed_default_camera(sc.bounds, visible ? visible(tf) : std::nullopt, 30);
+  }
 }
 
 // The field new tabs show: the first whose range is not constant (a constant field draws a blank-looking image), else
@@ -228,6 +247,11 @@ void EngineHost::finish_load() {
     return;
   }
   SceneInfo sc = base_scene(grid.fields, grid.bounds);
+  start_from_auto(sc, options_, [&](const TransferFunction& tf) -> std::optional<Bounds> {
+    exact_->bind(sc.field);
+    return visible_cell_bounds(exact_->engine.walk_mesh(), exact_->engine.bound_values(), exact_->engine.per_cell(),
+                               tf);
+  });
   sc.renderer = exact_renderer_;
   sc.engine = kExactEngine;
   sc.engines = engines();
@@ -263,6 +287,12 @@ SceneInfo EngineHost::base_scene(std::vector<FieldInfo> fields, const Bounds& bo
 
 SceneInfo EngineHost::lod_scene() const {
   SceneInfo sc = base_scene(store_fields(lod_->engine), lod_->engine.bounds());
+  start_from_auto(sc, options_, [&](const TransferFunction& tf) -> std::optional<Bounds> {
+    const BrickStoreReader& store = lod_->engine.store();
+    const int field = store.field_index(sc.field);
+    if (field < 0) return std::nullopt;
+    return visible_node_bounds(store, uint32_t(field), tf);
+  });
   sc.renderer = renderer_;
   // A store with cells is drawn hybrid by default (docs/hybrid.md): voxels while moving, exact cells at rest; `ugvr
   // view --engine lod` makes lod the default (a tab may still pick hybrid).
@@ -305,6 +335,10 @@ SceneInfo EngineHost::collective_scene(const CollectiveRenderer& opened) {
   if (infos.empty()) infos.push_back({collective_->field_name(), 0, 1, {}});
   SceneInfo sc = base_scene(std::move(infos), collective_->bounds());
   collective_->set_field(sc.field);
+  // A partitioned store in one process: its pieces' boxes united (PieceRenderer). Under mpirun the leader alone makes
+  // the scene and its renderer cannot say (a box from the ranks would be a collective call): the whole domain.
+  start_from_auto(sc, options_,
+                  [&](const TransferFunction& tf) { return collective_->visible_bounds(tf, kVisibleOpacity); });
   sc.renderer = renderer_;
   sc.engine = collective_->engine() == kExactEngine ? kExactEngine : kLodEngine;
   sc.engines = {{sc.engine, renderer_}};

@@ -360,8 +360,14 @@ json tf_points_json(const TransferFunction& tf) {
 
 std::string scene_message(const SceneInfo& scene) {
   json fields = json::array();
-  for (const FieldInfo& f : scene.fields)
+  for (const FieldInfo& f : scene.fields) {
     fields.push_back({{"name", f.name}, {"range", {f.min, f.max}}, {"histogram", f.histogram}});
+    if (const auto it = scene.auto_opacity.find(f.name); it != scene.auto_opacity.end()) {
+      json flat = json::array();
+      for (const OpacityPoint& p : it->second.points) flat.insert(flat.end(), {p.x, p.opacity});
+      fields.back()["auto_opacity"] = flat;
+    }
+  }
   const FieldInfo* current = scene.find_field("");
   // The presets' colours over [0, 1], so that a page can draw the colour map it asks for.
   json preset_points = json::object();

@@ -77,6 +77,7 @@
 
 #include <array>
 #include <cstddef>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -189,6 +190,14 @@ struct SceneInfo {
   // The transfer function new tabs start from (`ugvr view --tf FILE`: points in data values; an
   // opacity_unit_distance <= 0 means the viewer's default); none: `preset` over the field's range.
   std::optional<TransferFunction> tf;
+  // ViewServerOptions::auto_tf (`ugvr view` without --tf): per field name, the "auto" transfer function's opacity
+  // points over the field's range and its opacity unit distance (default_transfer_function.h, from the field's
+  // histogram), which a tab on that field starts from instead of the preset's ramp (picking a preset keeps them).
+  struct AutoOpacity {
+    std::vector<OpacityPoint> points;
+    double unit_distance = 0;
+  };
+  std::map<std::string, AutoOpacity> auto_opacity;
   // The background new tabs start from (the demo's is dark); none: RenderSettings' default. A page that picks one
   // sends it in a settings message.
   std::optional<std::array<double, 4>> background;
@@ -206,7 +215,8 @@ struct SceneInfo {
 // {"type":"scene", "field", "range", "fields":[{"name","range","histogram"}...], "bounds", "camera", "presets",
 //  "preset_points":{NAME:[x,r,g,b,...] over [0, 1]}, "preset", "fps", "width", "height", "renderer", "engine",
 //  "engines":[NAME...], "renderers":{NAME:LABEL...}, "limits", "tf":{"rgb_points":[x,r,g,b,...],
-//  "opacity_points":[x,a,...]} (only with SceneInfo::tf)}
+//  "opacity_points":[x,a,...]} (only with SceneInfo::tf)}; a field in SceneInfo::auto_opacity has "auto_opacity":
+//  [x,a,...] too (its opacity points, which the page's editor starts from)
 std::string scene_message(const SceneInfo& scene);
 
 // Parses and validates one client message. Throws ugvr::Error "FIELD: what is wrong" (FIELD is "message" for the

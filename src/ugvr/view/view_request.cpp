@@ -6,6 +6,20 @@
 #include "ugvr/core/error.h"
 
 namespace ugvr::view {
+namespace {
+
+// SceneInfo::auto_opacity: a tab on a field that has them starts from the auto transfer function's points and unit
+// distance (`ugvr view` without --tf), where it would start from the preset's ramp.
+void start_from_auto(ViewState& s, const SceneInfo& scene) {
+  const FieldInfo* f = scene.find_field(s.request.settings.field);
+  if (!f) return;
+  const auto it = scene.auto_opacity.find(f->name);
+  if (it == scene.auto_opacity.end()) return;
+  s.tf_opacities = it->second.points;
+  s.unit_distance = it->second.unit_distance;
+}
+
+}  // namespace
 
 ViewState initial_view(const SceneInfo& scene) {
   ViewState s;
@@ -22,6 +36,8 @@ ViewState initial_view(const SceneInfo& scene) {
     s.tf_colors = scene.tf->color_points;
     s.tf_opacities = scene.tf->opacity_points;
     s.unit_distance = scene.tf->opacity_unit_distance;
+  } else {
+    start_from_auto(s, scene);
   }
   s.request.tf = compose_tf(s, scene);
   return s;
@@ -51,6 +67,7 @@ void apply_message(ViewState& state, const ClientMessage& m, const SceneInfo& sc
       // A preset replaces any explicit points: picking one starts from it.
       s.tf_preset = *tf->preset;
       s.tf_colors.clear(), s.tf_opacities.clear();
+      start_from_auto(s, scene);
     }
     if (tf->opacity) s.tf_opacity = *tf->opacity;
     if (!tf->color_points.empty()) s.tf_colors = tf->color_points;
@@ -70,6 +87,7 @@ void apply_message(ViewState& state, const ClientMessage& m, const SceneInfo& sc
         rs.field = f->name;
         // Explicit points were in the old field's values: start again from the preset over the new range.
         s.tf_colors.clear(), s.tf_opacities.clear();
+        start_from_auto(s, scene);
         r.tf = compose_tf(s, scene);
         for (double& v : rs.iso_values)
           if (!(v >= f->min && v <= f->max)) v = 0.5 * (f->min + f->max);

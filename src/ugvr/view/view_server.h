@@ -88,6 +88,10 @@ struct ViewServerOptions {
   std::optional<Camera> camera;        // the initial (and reset) view; none: default_camera (render/camera.h)
   std::optional<TransferFunction> tf;  // the initial transfer function (SceneInfo::tf)
   std::string preset = "viridis";      // the initial colour map when there is no `tf`
+  // Without `tf`: start from the "auto" transfer function of the first field shown (default_transfer_function.h, from
+  // its histogram) and, without `camera`, frame the reset view on what it leaves visible (render/visible_bounds.h),
+  // as `ugvr render` with no flags. `ugvr view` without --tf sets it; off: `preset`'s linear ramp, the whole domain.
+  bool auto_tf = false;
   std::optional<std::array<double, 4>> background;  // the initial background (SceneInfo::background)
   std::function<void()> before_build;               // tests: runs on the build's thread before the build starts
   std::function<void()> opening_store;  // tests: runs on the render thread, unlocked, before it opens the built store

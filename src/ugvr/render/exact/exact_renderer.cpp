@@ -12,6 +12,7 @@
 #include "ugvr/core/memory.h"
 #include "ugvr/core/threads.h"
 #include "ugvr/render/field_histogram.h"
+#include "ugvr/render/visible_bounds.h"
 
 namespace ugvr {
 
@@ -241,6 +242,12 @@ std::vector<uint64_t> ExactRenderer::value_histogram(double lo, double hi, int b
     for (size_t i = 0; i < counts.size(); ++i) counts[i] += block[i];
   }
   return counts;
+}
+
+std::optional<Bounds> ExactRenderer::visible_bounds(const TransferFunction& tf, double threshold) const {
+  scene_->bind(field_);
+  const ExactEngine& e = scene_->engine;
+  return visible_cell_bounds(e.walk_mesh(), e.bound_values(), e.per_cell(), tf, threshold);
 }
 
 Frame ExactRenderer::render(const FrameRequest& request) {

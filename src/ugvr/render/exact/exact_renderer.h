@@ -112,6 +112,8 @@ class ExactRenderer final : public Renderer {
   Bounds bounds() const override;
   // Over the scene's dataset (the shown step of a series; the whole mesh read, not the part a rank keeps).
   std::vector<uint64_t> value_histogram(double lo, double hi, int bins) const override;
+  // Over the cells the engine holds (a rank's part under MPI, which MpiRenderer unites).
+  std::optional<Bounds> visible_bounds(const TransferFunction& tf, double threshold) const override;
   Frame render(const FrameRequest& request) override;
   void describe(nlohmann::json& j) const override;
   std::string summary(const FrameStats& last) const override;

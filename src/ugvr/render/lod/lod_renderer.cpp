@@ -8,6 +8,7 @@
 
 #include "ugvr/core/memory.h"
 #include "ugvr/render/field_histogram.h"
+#include "ugvr/render/visible_bounds.h"
 #include "ugvr/store/brick_store.h"
 
 namespace ugvr {
@@ -153,6 +154,13 @@ std::vector<uint64_t> LodRendererBase::value_histogram(double lo, double hi, int
   const int field = store.field_index(field_name());
   if (field < 0) return {};
   return store_histogram(store, uint32_t(field), lo, hi, bins, kCoarseHistogramLevel);
+}
+
+std::optional<Bounds> LodRendererBase::visible_bounds(const TransferFunction& tf, double threshold) const {
+  const BrickStoreReader& store = scene_->engine.store();
+  const int field = store.field_index(field_name());
+  if (field < 0) return std::nullopt;
+  return visible_node_bounds(store, uint32_t(field), tf, threshold);
 }
 
 void LodRendererBase::describe(nlohmann::json& j) const {

@@ -53,6 +53,8 @@ class LodRendererBase : public Renderer {
   // From the store's coarse levels (kCoarseHistogramLevel), as the viewer's editor; empty for a field the store does
   // not hold by that name.
   std::vector<uint64_t> value_histogram(double lo, double hi, int bins) const override;
+  // From the node table's ranges down to kVisibleLevel (no brick read); nullopt for a field the store does not hold.
+  std::optional<Bounds> visible_bounds(const TransferFunction& tf, double threshold) const override;
   void describe(nlohmann::json& j) const override;
 
  protected:

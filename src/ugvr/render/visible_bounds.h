@@ -1,0 +1,58 @@
+// The default view frames what the transfer function leaves visible (docs/first-look.md, issue 25 part 5).
+//
+// Why: the "auto" transfer function (default_transfer_function.h) makes the free stream transparent, and what is left
+// is often small (a wing among a 30 x 30 x 2 slab): framed on the whole domain it is a speck in an empty frame. The
+// first view keeps default_camera's direction but fits its distance and focal point to the box of the visible part.
+//
+// "Visible": the largest opacity the transfer function reaches over a piece of the data's value range is above
+// kVisibleOpacity. A piece is a cell of a mesh (its vertices' [min, max], which bounds the cell's interpolant, or its
+// own value for a cell field) or an octree node of a store, down to kVisibleLevel (its subtree's [min, max] from the
+// node table: no brick is read). The box is the union of the visible pieces' boxes, clipped to the data's bounds.
+//
+// The rule (framed_default_camera): nothing visible, no answer from the renderer, or a box that spans at least
+// kNearlyAllVisible of the domain on every axis -> default_camera(bounds), today's view. Otherwise default_camera(box),
+// with the box widened about its centre to at least kMinVisibleFraction of the bounds' diagonal, so that one visible
+// cell does not fill the screen. Only the default camera with the auto transfer function is framed this way (the front
+// ends decide: an explicit
+// --tf, --camera or --view keeps today's view, bit for bit).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+
+#include "ugvr/core/vec.h"
+#include "ugvr/render/camera.h"
+#include "ugvr/render/transfer_function.h"
+
+namespace ugvr {
+
+class BrickStoreReader;
+class Renderer;
+struct WalkMesh;
+
+inline constexpr double kVisibleOpacity = 0.05;
+inline constexpr int kVisibleLevel = 6;
+inline constexpr double kMinVisibleFraction = 0.05;
+inline constexpr double kNearlyAllVisible = 0.9;
+
+// The largest opacity `tf` gives a value in [lo, hi] (its opacity points are piecewise linear, clamped at both ends).
+// NaN bounds give 0.
+double max_opacity(const TransferFunction& tf, double lo, double hi);
+
+// The box of the cells of `mesh` whose values reach more than `threshold` opacity. `values` are per vertex (indexed
+// as mesh.points) or, with `per_cell`, per cell in the mesh's order. Empty Bounds when none does.
+Bounds visible_cell_bounds(const WalkMesh& mesh, std::span<const float> values, bool per_cell,
+                           const TransferFunction& tf, double threshold = kVisibleOpacity);
+
+// The box of the store's nodes at level `max_level` (and leaves above it) whose subtree range of field `field`
+// reaches more than `threshold` opacity, at the store's current step. Empty Bounds when none does.
+Bounds visible_node_bounds(const BrickStoreReader& store, uint32_t field, const TransferFunction& tf,
+                           double threshold = kVisibleOpacity, int max_level = kVisibleLevel);
+
+// The rule above, given the data's bounds and the visible box (nullopt: the renderer cannot say).
+Camera framed_default_camera(const Bounds& bounds, const std::optional<Bounds>& visible, double view_angle = 30);
+// The same with Renderer::visible_bounds (under MPI a collective call: every rank gets the same camera).
+Camera framed_default_camera(const Renderer& renderer, const TransferFunction& tf, double view_angle = 30);
+
+}  // namespace ugvr

@@ -1,0 +1,158 @@
+// The default view frames what the transfer function leaves visible (render/visible_bounds.h): the box of a mesh's
+// cells and of a store's coarse nodes that reach opacity, and the rule that frames default_camera's direction on it.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+
+#include "test_data.h"
+#include "ugvr/io/vtu_writer.h"
+#include "ugvr/render/exact/exact_renderer.h"
+#include "ugvr/render/visible_bounds.h"
+#include "ugvr/store/brick_store.h"
+
+namespace ugvr {
+namespace {
+
+constexpr int kCells = 8;  // per axis; points 0..8
+
+// A cube of kCells^3 unit hexahedra whose vertex field "blob" is 1 at the points with i, j, k <= 1 (a corner) and 0
+// elsewhere, and whose cell field "cblob" is 1 in the cell at (6, 6, 6) (the opposite corner) only.
+Dataset corner_blob() {
+  UnstructuredMesh m;
+  const int p = kCells + 1;
+  std::vector<float> blob;
+  for (int k = 0; k < p; ++k)
+    for (int j = 0; j < p; ++j)
+      for (int i = 0; i < p; ++i) {
+        m.points.push_back({float(i), float(j), float(k)});
+        blob.push_back(i <= 1 && j <= 1 && k <= 1 ? 1.f : 0.f);
+      }
+  auto id = [&](int i, int j, int k) { return uint32_t(i + p * (j + p * k)); };
+  std::vector<float> cblob;
+  for (int k = 0; k < kCells; ++k)
+    for (int j = 0; j < kCells; ++j)
+      for (int i = 0; i < kCells; ++i) {
+        const uint32_t v[8] = {id(i, j, k),     id(i + 1, j, k),     id(i + 1, j + 1, k),     id(i, j + 1, k),
+                               id(i, j, k + 1), id(i + 1, j, k + 1), id(i + 1, j + 1, k + 1), id(i, j + 1, k + 1)};
+        m.add_cell(CellType::Hexahedron, v);
+        cblob.push_back(i == 6 && j == 6 && k == 6 ? 1.f : 0.f);
+      }
+  Block b;
+  b.grid = std::move(m);
+  b.fields.add(Field("blob", Association::Vertex, DataArray::from(std::move(blob), 1)));
+  b.fields.add(Field("cblob", Association::Cell, DataArray::from(std::move(cblob), 1)));
+  Dataset ds;
+  ds.blocks.push_back(std::move(b));
+  return ds;
+}
+
+TransferFunction ramp(double a0, double a1) {
+  TransferFunction tf = builtin_preset("viridis");
+  tf.opacity_points = {{0, a0}, {1, a1}};
+  return tf;
+}
+
+void expect_box(const Bounds& b, Vec3d lo, Vec3d hi) {
+  ASSERT_FALSE(b.empty());
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_DOUBLE_EQ(b.lo[a], lo[a]) << "axis " << a;
+    EXPECT_DOUBLE_EQ(b.hi[a], hi[a]) << "axis " << a;
+  }
+}
+
+Bounds whole() {
+  Bounds b;
+  b.lo = {0, 0, 0};
+  b.hi = {kCells, kCells, kCells};
+  return b;
+}
+
+TEST(VisibleBounds, MaxOpacityFindsAPeakInsideTheRange) {
+  TransferFunction tf = builtin_preset("viridis");
+  tf.opacity_points = {{0, 0}, {0.5, 0.8}, {0.6, 0}, {1, 0}};
+  EXPECT_DOUBLE_EQ(max_opacity(tf, 0, 1), 0.8);        // neither end reaches it: the point inside does
+  EXPECT_DOUBLE_EQ(max_opacity(tf, 0.7, 1), 0.0);      // past the peak
+  EXPECT_DOUBLE_EQ(max_opacity(tf, 0.25, 0.25), 0.4);  // one value
+  EXPECT_DOUBLE_EQ(max_opacity(tf, NAN, 1), 0.0);
+}
+
+TEST(VisibleBounds, MeshBoxIsTheCornerThatReachesOpacity) {
+  auto scene = std::make_shared<ExactScene>(std::make_shared<const Dataset>(corner_blob()));
+  ExactRenderer r(scene);
+  r.set_field("blob");
+  // The cells touching a point of value 1: cells 0 and 1 on each axis.
+  const std::optional<Bounds> box = r.visible_bounds(ramp(0, 1), kVisibleOpacity);
+  ASSERT_TRUE(box);
+  expect_box(*box, {0, 0, 0}, {2, 2, 2});
+  // A cell field: the one cell of value 1.
+  r.set_field("cblob");
+  const std::optional<Bounds> cell = r.visible_bounds(ramp(0, 1), kVisibleOpacity);
+  ASSERT_TRUE(cell);
+  expect_box(*cell, {6, 6, 6}, {7, 7, 7});
+  // Nothing reaches the threshold: an empty box.
+  r.set_field("blob");
+  const std::optional<Bounds> none = r.visible_bounds(ramp(0, 0.01), kVisibleOpacity);
+  ASSERT_TRUE(none);
+  EXPECT_TRUE(none->empty());
+}
+
+TEST(VisibleBounds, StoreBoxIsTheCornerThatReachesOpacity) {
+  test::ScratchDir dir;
+  write_vtu(corner_blob(), dir.file("blob.vtu"));
+  ASSERT_EQ(test::run_ugvr("build " + dir.file("blob.vtu") + " --fields blob -o " + dir.file("blob.ugvr")).status, 0);
+  const BrickStoreReader store(dir.file("blob.ugvr"));
+  const Bounds box = visible_node_bounds(store, 0, ramp(0, 1));
+  ASSERT_FALSE(box.empty());
+  // Nodes are conservative (a node's range covers its subtree, and its cell may be larger than the cells it holds):
+  // the box holds the corner and stays inside the lower half of every axis.
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_LE(box.lo[a], 0.0) << "axis " << a;
+    EXPECT_GE(box.hi[a], 2.0) << "axis " << a;
+    EXPECT_LE(box.hi[a], 0.5 * kCells) << "axis " << a;
+  }
+  EXPECT_TRUE(visible_node_bounds(store, 0, ramp(0, 0.01)).empty());
+}
+
+TEST(VisibleBounds, DefaultCameraFramesTheVisibleBoxAlongTheSameDirection) {
+  const Camera today = default_camera(whole());
+  Bounds corner;
+  corner.lo = {0, 0, 0};
+  corner.hi = {2, 2, 2};
+  const Camera framed = framed_default_camera(whole(), corner);
+  EXPECT_EQ(framed, default_camera(corner));
+  EXPECT_NEAR(dot(framed.direction(), today.direction()), 1.0, 1e-12);
+  EXPECT_LT(framed.distance(), 0.5 * today.distance());
+  // Nothing visible, no answer, or everything visible: today's view.
+  EXPECT_EQ(framed_default_camera(whole(), Bounds{}), today);
+  EXPECT_EQ(framed_default_camera(whole(), std::nullopt), today);
+  EXPECT_EQ(framed_default_camera(whole(), whole()), today);
+  Bounds nearly = whole();
+  nearly.lo = {0.5, 0.5, 0.5};  // 94 % of each axis
+  EXPECT_EQ(framed_default_camera(whole(), nearly), today);
+  nearly.lo.z = 1;  // 87.5 % of z: framed
+  EXPECT_NE(framed_default_camera(whole(), nearly), today);
+  // A node sticking out of the data is clipped to it first.
+  Bounds beyond = whole();
+  beyond.lo = {-4, -4, -4};
+  EXPECT_EQ(framed_default_camera(whole(), beyond), today);
+  // One point visible: widened to kMinVisibleFraction of the diagonal, not a camera at the point.
+  Bounds point;
+  point.add(Vec3d{4, 4, 4});
+  const Camera tiny = framed_default_camera(whole(), point);
+  EXPECT_NEAR(2 * tiny.parallel_scale, kMinVisibleFraction * length(whole().size()), 1e-9);
+}
+
+TEST(VisibleBounds, RendererDefaultCameraUsesTheBox) {
+  auto scene = std::make_shared<ExactScene>(std::make_shared<const Dataset>(corner_blob()));
+  ExactRenderer r(scene);
+  r.set_field("blob");
+  Bounds corner;
+  corner.lo = {0, 0, 0};
+  corner.hi = {2, 2, 2};
+  EXPECT_EQ(framed_default_camera(r, ramp(0, 1)), default_camera(corner));
+  EXPECT_EQ(framed_default_camera(r, ramp(0, 0.01)), default_camera(whole()));
+}
+
+}  // namespace
+}  // namespace ugvr
