@@ -11,6 +11,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "hex_fixtures.h"
 #include "test_data.h"
 #include "ugvr/io/base64.h"
 #include "ugvr/io/reader.h"
@@ -27,37 +28,7 @@ namespace ugvr {
 namespace {
 
 using test::ScratchDir;
-
-// An n x n x n block of unit hexahedra with vertex fields f (x + y + z + offset) and g (3 components) and cell field c
-// (cell index / 2 + offset); `moved` shifts point 0 by 0.25 in x.
-Block cube_block(int n, double offset, bool moved = false) {
-  UnstructuredMesh m;
-  const int p = n + 1;
-  for (int k = 0; k < p; ++k)
-    for (int j = 0; j < p; ++j)
-      for (int i = 0; i < p; ++i) m.points.push_back({float(i), float(j), float(k)});
-  if (moved) m.points[0].x += 0.25f;
-  auto id = [&](int i, int j, int k) { return uint32_t(i + p * (j + p * k)); };
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        const uint32_t v[8] = {id(i, j, k),     id(i + 1, j, k),     id(i + 1, j + 1, k),     id(i, j + 1, k),
-                               id(i, j, k + 1), id(i + 1, j, k + 1), id(i + 1, j + 1, k + 1), id(i, j + 1, k + 1)};
-        m.add_cell(CellType::Hexahedron, v);
-      }
-  std::vector<float> f, g, c;
-  for (const Vec3f& q : m.points) {
-    f.push_back(float(q.x + q.y + q.z + offset));
-    for (float x : {q.x, q.y, float(offset)}) g.push_back(x);
-  }
-  for (uint64_t i = 0; i < m.cell_count(); ++i) c.push_back(float(double(i) * 0.5 + offset));
-  Block b;
-  b.grid = std::move(m);
-  b.fields.add(Field("f", Association::Vertex, DataArray::from(std::move(f), 1)));
-  b.fields.add(Field("g", Association::Vertex, DataArray::from(std::move(g), 3)));
-  b.fields.add(Field("c", Association::Cell, DataArray::from(std::move(c), 1)));
-  return b;
-}
+using test::step_cube_block;
 
 std::shared_ptr<const TimeSeries> series_of(const std::string& path) {
   return std::make_shared<const TimeSeries>(list_time_steps(std::span<const std::string>(&path, 1)));
@@ -92,7 +63,7 @@ Image render_step(const std::shared_ptr<ExactScene>& scene, const std::string& f
 
 TEST(PvtuSteps, StepsWithTheSamePiecesReadFieldsOnlyEqualTheWholeRead) {
   ScratchDir dir;
-  const auto series = series_of(write_pvtu_series(dir, 3, [](int k) { return cube_block(4, 10.0 * k); }));
+  const auto series = series_of(write_pvtu_series(dir, 3, [](int k) { return step_cube_block(4, 10.0 * k); }));
   StepFieldReader reader(series);
   const auto k0 = reader.geometry_keys(0);
   ASSERT_TRUE(k0.has_value()) << "every piece has a key, so the .pvtu has one";
@@ -130,7 +101,7 @@ TEST(PvtuSteps, StepsWithTheSamePiecesReadFieldsOnlyEqualTheWholeRead) {
 TEST(PvtuSteps, APieceWithAMovedPointIsReadWholeAndRebuilds) {
   ScratchDir dir;
   // Step 2 moves point 0 (in one piece; the other pieces' files are those of every other step).
-  const auto series = series_of(write_pvtu_series(dir, 3, [](int k) { return cube_block(3, 10.0 * k, k == 2); }));
+  const auto series = series_of(write_pvtu_series(dir, 3, [](int k) { return step_cube_block(3, 10.0 * k, k == 2); }));
   StepFieldReader reader(series);
   const auto k0 = reader.geometry_keys(0);
   ASSERT_TRUE(k0.has_value());

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "hex_fixtures.h"
 #include "test_data.h"
 #include "ugvr/core/file.h"
 #include "ugvr/io/byte_hash.h"
@@ -24,40 +25,16 @@ namespace {
 using test::bytes_read_so_far;
 using test::ScratchDir;
 
-// An n x n x n block of unit hexahedra with vertex fields f (x + y + z + offset) and g (3 components), and cell field
-// c (cell index + offset). `moved` shifts point 0 by 0.25 in x; `flipped` lists the first cell's corners in another
-// order (the same points, other connectivity).
+// test::step_cube_block as a dataset; `flipped` lists the first cell's corners in another order (the same points,
+// other connectivity).
 Dataset cube(int n, double offset, bool moved = false, bool flipped = false) {
-  UnstructuredMesh m;
-  const int p = n + 1;
-  for (int k = 0; k < p; ++k)
-    for (int j = 0; j < p; ++j)
-      for (int i = 0; i < p; ++i) m.points.push_back({float(i), float(j), float(k)});
-  if (moved) m.points[0].x += 0.25f;
-  auto id = [&](int i, int j, int k) { return uint32_t(i + p * (j + p * k)); };
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        uint32_t v[8] = {id(i, j, k),     id(i + 1, j, k),     id(i + 1, j + 1, k),     id(i, j + 1, k),
-                         id(i, j, k + 1), id(i + 1, j, k + 1), id(i + 1, j + 1, k + 1), id(i, j + 1, k + 1)};
-        if (flipped && m.cell_count() == 0) {
-          // The same hexahedron seen from its other end: a valid cell, other connectivity.
-          const uint32_t w[8] = {v[4], v[7], v[6], v[5], v[0], v[3], v[2], v[1]};
-          std::copy(w, w + 8, v);
-        }
-        m.add_cell(CellType::Hexahedron, v);
-      }
-  std::vector<float> f, g, c;
-  for (const Vec3f& q : m.points) {
-    f.push_back(float(q.x + q.y + q.z + offset));
-    for (float x : {q.x, q.y, float(offset)}) g.push_back(x);
+  Block b = test::step_cube_block(n, offset, moved);
+  if (flipped) {
+    // The same hexahedron seen from its other end: a valid cell, other connectivity.
+    uint32_t* v = std::get<UnstructuredMesh>(b.grid).connectivity.data();
+    const uint32_t w[8] = {v[4], v[7], v[6], v[5], v[0], v[3], v[2], v[1]};
+    std::copy(w, w + 8, v);
   }
-  for (uint64_t i = 0; i < m.cell_count(); ++i) c.push_back(float(double(i) * 0.5 + offset));
-  Block b;
-  b.grid = std::move(m);
-  b.fields.add(Field("f", Association::Vertex, DataArray::from(std::move(f), 1)));
-  b.fields.add(Field("g", Association::Vertex, DataArray::from(std::move(g), 3)));
-  b.fields.add(Field("c", Association::Cell, DataArray::from(std::move(c), 1)));
   Dataset ds;
   ds.blocks.push_back(std::move(b));
   return ds;

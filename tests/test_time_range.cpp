@@ -16,6 +16,7 @@
 #include <thread>
 #include <vector>
 
+#include "hex_fixtures.h"
 #include "test_data.h"
 #include "ugvr/core/file.h"
 #include "ugvr/io/step_fields.h"
@@ -31,19 +32,7 @@ using test::ScratchDir;
 
 // An n x n x n block of unit hexahedra, vertex field f = x + y + z + offset, cell field c = cell index + offset.
 Dataset cube(int n, double offset) {
-  UnstructuredMesh m;
-  const int p = n + 1;
-  for (int k = 0; k < p; ++k)
-    for (int j = 0; j < p; ++j)
-      for (int i = 0; i < p; ++i) m.points.push_back({float(i), float(j), float(k)});
-  auto id = [&](int i, int j, int k) { return uint32_t(i + p * (j + p * k)); };
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        const uint32_t v[8] = {id(i, j, k),     id(i + 1, j, k),     id(i + 1, j + 1, k),     id(i, j + 1, k),
-                               id(i, j, k + 1), id(i + 1, j, k + 1), id(i + 1, j + 1, k + 1), id(i, j + 1, k + 1)};
-        m.add_cell(CellType::Hexahedron, v);
-      }
+  UnstructuredMesh m = test::unit_hex_mesh(n);
   std::vector<float> f, c;
   for (const Vec3f& q : m.points) f.push_back(float(q.x + q.y + q.z + offset));
   for (uint64_t i = 0; i < m.cell_count(); ++i) c.push_back(float(double(i) + offset));

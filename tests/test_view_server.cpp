@@ -122,6 +122,11 @@ class BuildGate {
   std::function<void()> hold() const {
     return [f = future_] { f.wait(); };
   }
+  // Held until open(), or `limit` at most: for a hold the test expects not to be waited for, so that a server that
+  // does wait fails the test instead of hanging it.
+  std::function<void()> hold_at_most(std::chrono::seconds limit) const {
+    return [f = future_, limit] { f.wait_for(limit); };
+  }
   void open() {
     if (!opened_) promise_.set_value();
     opened_ = true;
@@ -1125,27 +1130,17 @@ TEST(ViewServer, ListensBeforeTheCollectiveRendererIsOpenedAndReportsItsFailure)
   std::promise<std::string> failed;
   std::future<std::string> said = failed.get_future();
   std::unique_ptr<ViewServer> server;
-  std::promise<void> gate;
-  std::shared_future<void> gate_opened = gate.get_future().share();
-  struct OpenOnExit {
-    std::promise<void>& gate;
-    bool opened = false;
-    void open() {
-      if (!opened) gate.set_value();
-      opened = true;
-    }
-    ~OpenOnExit() { open(); }
-  } opening{gate};
+  BuildGate opening;
   const auto start = std::chrono::steady_clock::now();
   {
     ViewServerOptions o;
     // Held until the test opens it, or 20 s: a server that opened it before listening would wait that long.
-    o.collective = [gate_opened]() -> CollectiveRenderer {
-      gate_opened.wait_for(std::chrono::seconds(20));
+    o.collective = [held = opening.hold_at_most(std::chrono::seconds(20))]() -> CollectiveRenderer {
+      held();
       throw Error("p.json: piece 3: no such file");
     };
     o.on_failure = [&failed](const std::string& m) { failed.set_value(m); };
-    START_VIEW_SERVER(server, o);
+    START_VIEW_SERVER(server, o, &opening);
   }
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 10)
       << "the server listened only once the collective renderer was opened";

@@ -4,7 +4,9 @@
 
 #include <cmath>
 #include <memory>
+#include <vector>
 
+#include "hex_fixtures.h"
 #include "test_data.h"
 #include "ugvr/io/vtu_writer.h"
 #include "ugvr/render/exact/exact_renderer.h"
@@ -19,25 +21,11 @@ constexpr int kCells = 8;  // per axis; points 0..8
 // A cube of kCells^3 unit hexahedra whose vertex field "blob" is 1 at the points with i, j, k <= 1 (a corner) and 0
 // elsewhere, and whose cell field "cblob" is 1 in the cell at (6, 6, 6) (the opposite corner) only.
 Dataset corner_blob() {
-  UnstructuredMesh m;
-  const int p = kCells + 1;
-  std::vector<float> blob;
-  for (int k = 0; k < p; ++k)
-    for (int j = 0; j < p; ++j)
-      for (int i = 0; i < p; ++i) {
-        m.points.push_back({float(i), float(j), float(k)});
-        blob.push_back(i <= 1 && j <= 1 && k <= 1 ? 1.f : 0.f);
-      }
-  auto id = [&](int i, int j, int k) { return uint32_t(i + p * (j + p * k)); };
-  std::vector<float> cblob;
-  for (int k = 0; k < kCells; ++k)
-    for (int j = 0; j < kCells; ++j)
-      for (int i = 0; i < kCells; ++i) {
-        const uint32_t v[8] = {id(i, j, k),     id(i + 1, j, k),     id(i + 1, j + 1, k),     id(i, j + 1, k),
-                               id(i, j, k + 1), id(i + 1, j, k + 1), id(i + 1, j + 1, k + 1), id(i, j + 1, k + 1)};
-        m.add_cell(CellType::Hexahedron, v);
-        cblob.push_back(i == 6 && j == 6 && k == 6 ? 1.f : 0.f);
-      }
+  UnstructuredMesh m = test::unit_hex_mesh(kCells);
+  std::vector<float> blob, cblob;
+  for (const Vec3f& q : m.points) blob.push_back(q.x <= 1 && q.y <= 1 && q.z <= 1 ? 1.f : 0.f);
+  const uint64_t corner = 6 + kCells * (6 + kCells * 6);  // cell (6, 6, 6): hex_fixtures.h's layout
+  for (uint64_t c = 0; c < m.cell_count(); ++c) cblob.push_back(c == corner ? 1.f : 0.f);
   Block b;
   b.grid = std::move(m);
   b.fields.add(Field("blob", Association::Vertex, DataArray::from(std::move(blob), 1)));

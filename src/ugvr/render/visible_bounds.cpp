@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "ugvr/render/exact/exact_engine.h"
 #include "ugvr/render/exact/walk_mesh.h"
 #include "ugvr/render/renderer.h"
 #include "ugvr/store/brick_store.h"
@@ -87,6 +88,17 @@ Bounds visible_cell_bounds(const WalkMesh& mesh, std::span<const float> values, 
     }
   }
   return box;
+}
+
+Bounds visible_cell_bounds(const ExactEngine& engine, const TransferFunction& tf, double threshold) {
+  return visible_cell_bounds(engine.walk_mesh(), engine.bound_values(), engine.per_cell(), tf, threshold);
+}
+
+std::optional<Bounds> visible_node_bounds(const BrickStoreReader& store, const std::string& field,
+                                          const TransferFunction& tf, double threshold) {
+  const int index = store.field_index(field);
+  if (index < 0) return std::nullopt;
+  return visible_node_bounds(store, uint32_t(index), tf, threshold);
 }
 
 Bounds visible_node_bounds(const BrickStoreReader& store, uint32_t field, const TransferFunction& tf, double threshold,

@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <string>
 
 #include "ugvr/core/vec.h"
 #include "ugvr/render/camera.h"
@@ -28,6 +29,7 @@
 namespace ugvr {
 
 class BrickStoreReader;
+class ExactEngine;
 class Renderer;
 struct WalkMesh;
 
@@ -45,10 +47,17 @@ double max_opacity(const TransferFunction& tf, double lo, double hi);
 Bounds visible_cell_bounds(const WalkMesh& mesh, std::span<const float> values, bool per_cell,
                            const TransferFunction& tf, double threshold = kVisibleOpacity);
 
+// The same over the exact engine's walk mesh and the values of its bound field.
+Bounds visible_cell_bounds(const ExactEngine& engine, const TransferFunction& tf, double threshold = kVisibleOpacity);
+
 // The box of the store's nodes at level `max_level` (and leaves above it) whose subtree range of field `field`
 // reaches more than `threshold` opacity, at the store's current step. Empty Bounds when none does.
 Bounds visible_node_bounds(const BrickStoreReader& store, uint32_t field, const TransferFunction& tf,
                            double threshold = kVisibleOpacity, int max_level = kVisibleLevel);
+
+// The same for the field named `field`; nullopt when the store does not hold it.
+std::optional<Bounds> visible_node_bounds(const BrickStoreReader& store, const std::string& field,
+                                          const TransferFunction& tf, double threshold = kVisibleOpacity);
 
 // The rule above, given the data's bounds and the visible box (nullopt: the renderer cannot say).
 Camera framed_default_camera(const Bounds& bounds, const std::optional<Bounds>& visible, double view_angle = 30);

@@ -41,6 +41,10 @@ std::vector<FieldInfo> store_fields(const LodEngine& engine) {
   return out;
 }
 
+// What the page is told while a collective renderer opens (the renderer's name until then, poll_load, initial_progress)
+// and when it failed.
+constexpr const char* kOpeningTheData = "opening the data";
+
 // ViewServerOptions::auto_tf: every field's auto transfer function (from its histogram, as `ugvr render` makes it:
 // SceneInfo::auto_opacity, which tabs and the page's editor start from) and, without a camera given, the reset view
 // framed on the box `visible` gives for the auto transfer function of the field new tabs show (nullopt: the whole
@@ -127,7 +131,7 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
     // Opened by finish_load on the render thread (the first turn): no GL context of ours is ever made, the collective
     // renderer makes its own there (the LOD engine), current on that thread from then on.
     pending_collective_ = std::move(options_.collective);
-    renderer_ = "opening the data";
+    renderer_ = kOpeningTheData;
     return;
   }
   gl_ = std::make_shared<GlContext>(options_.gpu);
@@ -175,12 +179,12 @@ std::optional<EngineHost::LoadReport> EngineHost::poll_load() {
     LoadReport r;
     if (!collective_error_.empty()) {
       r.failed = true;
-      r.progress = {"failed", "", 0, "opening the data failed: " + collective_error_};
+      r.progress = {"failed", "", 0, std::string(kOpeningTheData) + " failed: " + collective_error_};
       collective_error_.clear();
       return r;
     }
     r.ready = true;  // finish_load opens it
-    r.progress = {"read", "", 0, "opening the data"};
+    r.progress = {"read", "", 0, kOpeningTheData};
     return r;
   }
   if (!load_) return std::nullopt;
@@ -249,8 +253,7 @@ void EngineHost::finish_load() {
   SceneInfo sc = base_scene(grid.fields, grid.bounds);
   start_from_auto(sc, options_, [&](const TransferFunction& tf) -> std::optional<Bounds> {
     exact_->bind(sc.field);
-    return visible_cell_bounds(exact_->engine.walk_mesh(), exact_->engine.bound_values(), exact_->engine.per_cell(),
-                               tf);
+    return visible_cell_bounds(exact_->engine, tf);
   });
   sc.renderer = exact_renderer_;
   sc.engine = kExactEngine;
@@ -287,12 +290,8 @@ SceneInfo EngineHost::base_scene(std::vector<FieldInfo> fields, const Bounds& bo
 
 SceneInfo EngineHost::lod_scene() const {
   SceneInfo sc = base_scene(store_fields(lod_->engine), lod_->engine.bounds());
-  start_from_auto(sc, options_, [&](const TransferFunction& tf) -> std::optional<Bounds> {
-    const BrickStoreReader& store = lod_->engine.store();
-    const int field = store.field_index(sc.field);
-    if (field < 0) return std::nullopt;
-    return visible_node_bounds(store, uint32_t(field), tf);
-  });
+  start_from_auto(sc, options_,
+                  [&](const TransferFunction& tf) { return visible_node_bounds(lod_->engine.store(), sc.field, tf); });
   sc.renderer = renderer_;
   // A store with cells is drawn hybrid by default (docs/hybrid.md): voxels while moving, exact cells at rest; `ugvr
   // view --engine lod` makes lod the default (a tab may still pick hybrid).
@@ -379,7 +378,7 @@ std::optional<EngineHost::BuildReport> EngineHost::build_report() const {
 }
 
 std::optional<ProgressInfo> EngineHost::initial_progress() const {
-  if (pending_collective_) return ProgressInfo{"read", "", 0, "opening the data"};
+  if (pending_collective_) return ProgressInfo{"read", "", 0, kOpeningTheData};
   const std::string note = notice_.empty() ? "" : notice_ + "; ";
   if (load_) return ProgressInfo{"read", "", 0, note + "reading the grid"};
   if (!build_) return std::nullopt;

@@ -246,8 +246,7 @@ std::vector<uint64_t> ExactRenderer::value_histogram(double lo, double hi, int b
 
 std::optional<Bounds> ExactRenderer::visible_bounds(const TransferFunction& tf, double threshold) const {
   scene_->bind(field_);
-  const ExactEngine& e = scene_->engine;
-  return visible_cell_bounds(e.walk_mesh(), e.bound_values(), e.per_cell(), tf, threshold);
+  return visible_cell_bounds(scene_->engine, tf, threshold);
 }
 
 Frame ExactRenderer::render(const FrameRequest& request) {

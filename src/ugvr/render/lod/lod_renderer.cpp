@@ -157,10 +157,7 @@ std::vector<uint64_t> LodRendererBase::value_histogram(double lo, double hi, int
 }
 
 std::optional<Bounds> LodRendererBase::visible_bounds(const TransferFunction& tf, double threshold) const {
-  const BrickStoreReader& store = scene_->engine.store();
-  const int field = store.field_index(field_name());
-  if (field < 0) return std::nullopt;
-  return visible_node_bounds(store, uint32_t(field), tf, threshold);
+  return visible_node_bounds(scene_->engine.store(), field_name(), tf, threshold);
 }
 
 void LodRendererBase::describe(nlohmann::json& j) const {
