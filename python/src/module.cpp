@@ -1149,7 +1149,10 @@ std::unique_ptr<PyViewer> start_view(py::object source, const std::string& store
     const std::vector<double> b = to_doubles(o.get("background"), "background", 3, 4);
     vo.background = std::array<double, 4>{b[0], b[1], b[2], b.size() == 4 ? b[3] : 1.0};
   }
-  if (o.has("tf")) {
+  // No tf (or "auto"): the auto transfer function, the reset view framed on what it leaves visible unless a camera is
+  // given, as `ugvr view` and ugvr.render() (ViewServerOptions::auto_tf).
+  vo.auto_tf = !o.has("tf") || (!py::isinstance<PyTransferFunction>(o.get("tf")) && o.str("tf") == "auto");
+  if (o.has("tf") && !vo.auto_tf) {
     if (py::isinstance<PyTransferFunction>(o.get("tf"))) {
       const PyTransferFunction& t = o.get("tf").cast<const PyTransferFunction&>();
       t.validate("tf");
