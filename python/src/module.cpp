@@ -39,14 +39,13 @@
 #include "ugvr/octree/input.h"
 #include "ugvr/octree/out_of_core.h"
 #include "ugvr/render/camera.h"
-#include "ugvr/render/default_transfer_function.h"
 #include "ugvr/render/image.h"
 #include "ugvr/render/lod/lod_cut.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/renderer_factory.h"
+#include "ugvr/render/resolve_view.h"
 #include "ugvr/render/time_budget.h"
 #include "ugvr/render/transfer_function.h"
-#include "ugvr/render/visible_bounds.h"
 #include "ugvr/store/brick_store.h"
 #include "ugvr/ugvr.h"
 #include "ugvr/view/over_budget_store.h"
@@ -706,11 +705,14 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
     view_angle = o.number("view_angle");
     if (!(*view_angle > 0 && *view_angle < 180)) fail_in("view_angle", "must be in (0, 180) degrees");
   }
-  std::optional<Camera> file_camera;
+  // The transfer function and camera are resolved once the data is open, as `ugvr render` (render/resolve_view.h).
+  ViewChoices choices;
+  choices.view = view;
+  choices.view_angle = view_angle;
   // Validated as a --camera file is (position != focal point, view up not along the view, finite numbers).
-  if (o.has("camera")) file_camera = camera_from_json(camera_to_json(o.get("camera").cast<Camera>()), "camera");
-  TransferFunction tf;
-  std::optional<double> unit_distance;
+  if (o.has("camera")) choices.camera = camera_from_json(camera_to_json(o.get("camera").cast<Camera>()), "camera");
+  TransferFunction& tf = choices.tf;
+  std::optional<double>& unit_distance = choices.unit_distance;
   const std::string tf_name = o.str("tf_name");
   // "auto" (tf left out): made from the field's histogram once the data is open, as `ugvr render` does
   // (render/default_transfer_function.h).
@@ -739,7 +741,7 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
       fail_in("tf", e.what());
     }
   }
-  std::optional<std::pair<double, double>> range;
+  std::optional<std::pair<double, double>>& range = choices.range;
   if (o.has("range")) {
     const std::vector<double> r = to_doubles(o.get("range"), "range", 2, 2);
     if (!(r[0] < r[1])) fail_in("range", "MIN must be less than MAX");
@@ -805,8 +807,9 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
   }
   const ReadOptions read = read_options(o);
   // Read with the GIL held: the render below runs without it, and the options are a Python dict.
-  const bool keep_range = o.flag("keep_range");
-  if (keep_range && auto_tf) fail_in("keep_range", "keeps a tf's own range: name one (tf=\"viridis\")");
+  choices.keep_range = o.flag("keep_range");
+  if (choices.keep_range && auto_tf) fail_in("keep_range", "keeps a tf's own range: name one (tf=\"viridis\")");
+  choices.auto_tf = auto_tf;
 
   struct Result {
     Frame frame;
@@ -879,30 +882,9 @@ py::tuple render(py::object source, const py::dict& kwargs, py::object progress_
     }
     if (settings.field.empty()) settings.field = renderer->field_name();
     out.range = renderer->field_range();
-    const Bounds bounds = renderer->bounds();
-    if (file_camera) {
-      out.camera = *file_camera;
-      if (view_angle) out.camera.view_angle = *view_angle;
-    } else if (!view.empty()) {
-      out.camera = camera_preset(view, bounds, view_angle.value_or(30));
-    }
-    out.tf = tf;
-    if (auto_tf) {
-      const double lo = range ? range->first : out.range.min, hi = range ? range->second : out.range.max;
-      out.tf = auto_transfer_function(*renderer, lo, hi, bounds);
-    } else if (range) {
-      out.tf.rescale(range->first, range->second);
-    } else if (!keep_range) {
-      if (std::isfinite(out.range.min) && std::isfinite(out.range.max)) out.tf.rescale(out.range.min, out.range.max);
-    }
-    // auto's own unit distance depends on its histogram (default_transfer_function.h).
-    out.tf.opacity_unit_distance =
-        unit_distance.value_or(auto_tf ? out.tf.opacity_unit_distance : default_unit_distance(bounds));
-    // No camera or view: default_camera, framed on what auto leaves visible (render/visible_bounds.h); a named tf
-    // keeps the whole domain in view.
-    if (!file_camera && view.empty())
-      out.camera = auto_tf ? framed_default_camera(*renderer, out.tf, view_angle.value_or(30))
-                           : default_camera(bounds, view_angle.value_or(30));
+    ResolvedView resolved = resolve_view(*renderer, choices, out.range);
+    out.tf = std::move(resolved.tf);
+    out.camera = resolved.camera;
     FrameRequest request;
     request.camera = out.camera;
     request.tf = out.tf;
@@ -1165,7 +1147,10 @@ std::unique_ptr<PyViewer> start_view(py::object source, const std::string& store
     const std::vector<double> b = to_doubles(o.get("background"), "background", 3, 4);
     vo.background = std::array<double, 4>{b[0], b[1], b[2], b.size() == 4 ? b[3] : 1.0};
   }
-  if (o.has("tf")) {
+  // No tf (or "auto"): the auto transfer function, the reset view framed on what it leaves visible unless a camera is
+  // given, as `ugvr view` and ugvr.render() (ViewServerOptions::auto_tf).
+  vo.auto_tf = !o.has("tf") || (!py::isinstance<PyTransferFunction>(o.get("tf")) && o.str("tf") == "auto");
+  if (o.has("tf") && !vo.auto_tf) {
     if (py::isinstance<PyTransferFunction>(o.get("tf"))) {
       const PyTransferFunction& t = o.get("tf").cast<const PyTransferFunction&>();
       t.validate("tf");

@@ -1,5 +1,6 @@
 """ugvr.build + open_store (every `ugvr build` option reaches the store), rendering a store with the lod engine as the
 CLI does, and the viewer: started, serving its page, camera and transfer function get + set, closed."""
+import time
 import urllib.request
 
 import numpy as np
@@ -47,7 +48,8 @@ def fetch(url):
 
 
 def test_view_dataset(mesh):
-    with ugvr.view(mesh, fields=["pressure"], max_depth=2) as viewer:
+    # A named tf: the whole domain's default view (auto's framed one is test_view_frames_what_auto_leaves_visible's).
+    with ugvr.view(mesh, fields=["pressure"], max_depth=2, tf="viridis") as viewer:
         assert viewer.running and viewer.url.startswith("http://127.0.0.1:")
         status, page = fetch(viewer.url)
         assert status == 200 and "<html" in page.lower()
@@ -65,6 +67,34 @@ def test_view_dataset(mesh):
     assert not viewer.running
     with pytest.raises(OSError):
         fetch(viewer.url)
+
+
+def settled_camera(viewer, expected, seconds=30):
+    """The viewer's camera once it is `expected`, or after `seconds`: until the grid is loaded (a fraction of a second
+    here) the viewer reports the whole domain's default view."""
+    deadline = time.monotonic() + seconds
+    camera = viewer.camera
+    while camera != expected and time.monotonic() < deadline:
+        time.sleep(0.05)
+        camera = viewer.camera
+    return camera
+
+
+def test_view_frames_what_auto_leaves_visible(mesh):
+    """No tf: the auto transfer function, and the view framed on what it leaves visible, as ugvr.render() and
+    `ugvr view` start (render/visible_bounds.h); a camera given is kept."""
+    framed = ugvr.render(mesh, field="pressure", size=(16, 16)).camera
+    whole = ugvr.Camera.default(mesh)
+    def distance(c):
+        return np.linalg.norm(np.subtract(c.position, c.focal_point))
+
+    assert distance(framed) < 0.5 * distance(whole), "the generated wing should be framed closer than the whole domain"
+    with ugvr.view(mesh, fields=["pressure"], max_depth=2) as viewer:
+        assert settled_camera(viewer, framed) == framed
+        assert viewer.tf.opacity_points[1][1] == 0, "auto's transparent free stream"
+    given = ugvr.Camera.preset("+y", mesh)
+    with ugvr.view(mesh, fields=["pressure"], max_depth=2, camera=given) as viewer:
+        assert settled_camera(viewer, framed, seconds=1) == given
 
 
 def test_view_store(mesh, tmp_path):

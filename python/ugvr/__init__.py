@@ -510,7 +510,8 @@ def view(source, port=0, host="127.0.0.1", camera=None, tf=None, fields=None, st
 
     A Dataset or a grid file gets its brick store built in the background (a file's in the cache directory, as
     `ugvr view FILE`; a Dataset's in a temporary directory removed by close(), or at `store=`), shown meanwhile by
-    the exact engine. Keywords are `ugvr view`'s flags."""
+    the exact engine. Keywords are `ugvr view`'s flags: without `tf` (or "auto") the auto transfer function and,
+    without `camera`, the view framed on what it leaves visible, as ugvr.render() starts."""
     import tempfile
     temp_dir = None
     src = source if isinstance(source, Dataset) else _source(source)

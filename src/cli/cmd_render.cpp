@@ -34,13 +34,12 @@
 #include "ugvr/octree/input.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/camera_path.h"
-#include "ugvr/render/default_transfer_function.h"
 #include "ugvr/render/image.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/renderer_factory.h"
+#include "ugvr/render/resolve_view.h"
 #include "ugvr/render/time_budget.h"
 #include "ugvr/render/transfer_function.h"
-#include "ugvr/render/visible_bounds.h"
 #include "ugvr/store/brick_store.h"
 #include "ugvr/view/over_budget_store.h"
 #include "ugvr/view/voxel_store.h"
@@ -415,30 +414,33 @@ void run_render(const Options& o, std::optional<double> time_budget) {
     view_angle = parse_number(o.view_angle, "--view-angle");
     if (*view_angle <= 0 || *view_angle >= 180) fail_flag("--view-angle", "must be in (0, 180) degrees");
   }
-  std::optional<Camera> file_camera;
-  if (!o.camera.empty()) file_camera = with_flag("--camera", [&] { return read_camera(o.camera); });
+  // The transfer function and camera are resolved once the data is open (render/resolve_view.h).
+  ViewChoices choices;
+  choices.view = o.view;
+  choices.view_angle = view_angle;
+  if (!o.camera.empty()) choices.camera = with_flag("--camera", [&] { return read_camera(o.camera); });
   const bool tf_from_file = !o.tf.empty() && is_tf_file(o.tf);
   // "auto" (the default): made from the field's histogram once the data is open (default_transfer_function.h).
   const bool auto_tf = !tf_from_file && (o.tf.empty() || o.tf == "auto");
+  choices.auto_tf = auto_tf;
+  choices.keep_range = o.keep_range;
   if (auto_tf && o.keep_range) fail_flag("--keep-range", "keeps a --tf preset's own range: name one (--tf viridis)");
   if (!o.tf_name.empty() && !tf_from_file) fail_flag("--tf-name", "needs --tf FILE.json");
-  TransferFunction tf;
-  std::optional<double> unit_distance;
   if (tf_from_file) {
-    tf = with_flag("--tf", [&] { return read_paraview_preset(o.tf, o.tf_name); });
-    unit_distance = with_flag("--tf", [&] { return read_preset_unit_distance(o.tf, o.tf_name); });
+    choices.tf = with_flag("--tf", [&] { return read_paraview_preset(o.tf, o.tf_name); });
+    choices.unit_distance = with_flag("--tf", [&] { return read_preset_unit_distance(o.tf, o.tf_name); });
   } else if (!auto_tf) {
-    tf = with_flag("--tf", [&] { return builtin_preset(o.tf); });
+    choices.tf = with_flag("--tf", [&] { return builtin_preset(o.tf); });
   }
-  std::optional<std::pair<double, double>> range;
+  std::optional<std::pair<double, double>>& range = choices.range;
   if (!o.range.empty() && !per_step) {
     const std::vector<double> r = parse_list(o.range, "--range", 2, 2, "MIN,MAX");
     if (!(r[0] < r[1])) fail_flag("--range", "MIN must be less than MAX");
     range = {r[0], r[1]};
   }
   if (!o.unit_distance.empty()) {
-    unit_distance = parse_number(o.unit_distance, "--unit-distance");
-    if (*unit_distance <= 0) fail_flag("--unit-distance", "must be > 0");
+    choices.unit_distance = parse_number(o.unit_distance, "--unit-distance");
+    if (*choices.unit_distance <= 0) fail_flag("--unit-distance", "must be > 0");
   }
   const int threads = o.threads.empty() ? 0 : parse_positive_int(o.threads, "--threads");
   const int frames = o.frames.empty() ? 1 : parse_positive_int(o.frames, "--frames");
@@ -552,34 +554,10 @@ void run_render(const Options& o, std::optional<double> time_budget) {
     }
   }
 
-  const Bounds bounds = renderer->bounds();
-  if (auto_tf) {
-    // Every rank asks (a collective call under MPI); the histogram covers the range the map is drawn over.
-    const double lo = range ? range->first : field_range.min, hi = range ? range->second : field_range.max;
-    tf = auto_transfer_function(*renderer, lo, hi, bounds);
-  } else if (range) {
-    tf.rescale(range->first, range->second);
-  } else if (!o.keep_range) {
-    const double lo = field_range.min, hi = field_range.max;
-    // An all-NaN field has no range; the map then stays where it was rather than becoming NaN itself.
-    if (std::isfinite(lo) && std::isfinite(hi)) tf.rescale(lo, hi);
-  }
-  // auto's own unit distance depends on its histogram (default_transfer_function.h).
-  if (!unit_distance) unit_distance = auto_tf ? tf.opacity_unit_distance : default_unit_distance(bounds);
-  tf.opacity_unit_distance = *unit_distance;
-
-  Camera camera;
-  if (file_camera) {
-    camera = *file_camera;
-    if (view_angle) camera.view_angle = *view_angle;
-  } else if (!o.view.empty()) {
-    camera = camera_preset(o.view, bounds, view_angle.value_or(30));
-  } else if (auto_tf) {
-    // Three-quarter oblique, +z up, framed on what auto leaves visible (a collective call under MPI).
-    camera = framed_default_camera(*renderer, tf, view_angle.value_or(30));
-  } else {
-    camera = default_camera(bounds, view_angle.value_or(30));  // a named --tf: the whole domain, as before
-  }
+  // Every rank gets here: auto's histogram and the framed camera are collective calls under MPI.
+  const ResolvedView resolved = resolve_view(*renderer, choices, field_range);
+  const TransferFunction& tf = resolved.tf;
+  const Camera& camera = resolved.camera;
 
   if (writer && !o.save_camera.empty()) write_camera(o.save_camera, camera);
   if (writer && !o.save_tf.empty()) write_paraview_preset(o.save_tf, tf);

@@ -118,6 +118,22 @@ void serve(view::ViewServerOptions vo, const std::string& note = "") {
   server.stop();
 }
 
+// The collective paths' renderer (under MPI, or a partitioned store in one process): the GPU and its budget given.
+RendererOptions collective_renderer_options(const Options& o) {
+  RendererOptions ro;
+  ro.gpu = o.gpu;
+  ro.lod.atlas_budget_bytes = o.gpu_memory;
+  return ro;
+}
+
+// A partitioned store's part of the page's scene (engine_host.cpp, collective_scene): the fields its index lists,
+// and its pieces, whose coarse levels the histograms are read from.
+void describe_pieces(const PieceIndex& index, view::CollectiveRenderer& c) {
+  c.fields.clear();
+  for (const BrickStoreField& f : index.fields) c.fields.push_back(f.name);
+  for (int k = 0; k < index.count(); ++k) c.histogram_stores.push_back(index.store_path(k));
+}
+
 #ifdef UGVR_HAVE_MPI
 // `mpirun -np N ugvr view INPUT` (docs/mpi.md, "The viewer on a cluster"): rank 0 serves `vo` with every frame drawn
 // by all ranks (mpi/mpi_view.h); the other ranks draw what it broadcasts until it says quit. What the collective
@@ -132,9 +148,7 @@ void run_view_mpi(const Options& o, view::ViewServerOptions vo) {
   // Each rank's threads for the whole job (ranks sharing a node's cores should not each take all of them).
   std::optional<tbb::global_control> thread_limit;
   if (o.threads > 0) thread_limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
-  RendererOptions ro;
-  ro.gpu = o.gpu;
-  ro.lod.atlas_budget_bytes = o.gpu_memory;
+  const RendererOptions ro = collective_renderer_options(o);
   if (mpi::rank() > 0) {
     // Signals end the job through rank 0, which tells every rank to quit: a follower killed by mpirun's forwarded
     // SIGTERM while rank 0 still broadcasts would make the stop an abort.
@@ -153,8 +167,7 @@ void run_view_mpi(const Options& o, view::ViewServerOptions vo) {
     c.renderer = mpi::open_view_leader(inputs, read, ro, &c.fields, &opened);
     c.histogram_dataset = opened.dataset;
     if (inputs.size() == 1 && is_piece_index(inputs[0])) {
-      const PieceIndex index = read_piece_index(inputs[0]);
-      for (int k = 0; k < index.count(); ++k) c.histogram_stores.push_back(index.store_path(k));
+      describe_pieces(read_piece_index(inputs[0]), c);
     } else if (inputs.size() == 1 && is_brick_store(inputs[0])) {
       c.histogram_stores = inputs;
     }
@@ -175,13 +188,9 @@ void run_view_pieces(const Options& o, view::ViewServerOptions vo) {
   if (!o.store_path.empty() || o.free_grid)
     fail_in(o.free_grid ? "--free-grid" : "--store", "a partitioned store's index is shown as built: nothing to build");
   const PieceIndex index = read_piece_index(o.inputs[0]);  // a bad index fails here, before serving
-  RendererOptions ro;
-  ro.gpu = o.gpu;
-  ro.lod.atlas_budget_bytes = o.gpu_memory;
-  vo.collective = [index, ro] {
+  vo.collective = [index, ro = collective_renderer_options(o)] {
     view::CollectiveRenderer c;
-    for (const BrickStoreField& f : index.fields) c.fields.push_back(f.name);
-    for (int k = 0; k < index.count(); ++k) c.histogram_stores.push_back(index.store_path(k));
+    describe_pieces(index, c);
     c.renderer = std::make_shared<ScaledWhileMovingRenderer>(open_piece_renderer(index, {}, ro));
     return c;
   };

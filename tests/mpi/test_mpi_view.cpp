@@ -26,6 +26,7 @@
 
 #include "mpi_fixtures.h"
 #include "test_data.h"
+#include "ugvr/render/camera.h"
 #include "ugvr/render/image.h"
 
 namespace ugvr {
@@ -284,6 +285,42 @@ TEST_F(MpiView, APartitionedStoreOnTwoRanksEqualsItsOneProcessRender) {
     std::printf("partitioned store, viewer on 2 ranks vs one-process render: psnr %.2f dB, max %.3g\n", d.psnr_db,
                 d.max_abs);
     EXPECT_GE(d.psnr_db, 50) << "max " << d.max_abs;
+  }
+  ASSERT_EQ(kill(job.rank0_pid, SIGTERM), 0);
+  const std::optional<int> status = job.exited(std::chrono::seconds(60));
+  ASSERT_TRUE(status.has_value()) << job.log();
+  EXPECT_EQ(*status, 0) << job.log();
+}
+
+// No --tf, no --camera: the page starts from auto, framed on what it leaves visible. Under mpirun rank 0 alone makes
+// the scene while each rank holds its part: the ranks' visible boxes are reduced (mpi_view.h), so the scene's camera
+// is the one-process framing (`ugvr render`'s default camera, which the one-process viewer shares:
+// python/tests/test_store_viewer.py), not the whole domain's.
+TEST_F(MpiView, TheDefaultViewIsFramedOnWhatAutoLeavesVisibleAsInOneProcess) {
+  ASSERT_EQ(test::run_ugvr("generate --cells 3000 --kind tet -o " + file("t.vtu")).status, 0);
+  const std::string render = "render " + file("t.vtu") + " --engine exact --size 16 -o " + file("r.png");
+  const test::CommandResult framed = test::run_ugvr(render + " --save-camera " + file("framed.cam"));
+  ASSERT_EQ(framed.status, 0) << framed.out;
+  const test::CommandResult whole = test::run_ugvr(render + " --tf viridis --save-camera " + file("whole.cam"));
+  ASSERT_EQ(whole.status, 0) << whole.out;
+  const Camera expected = read_camera(file("framed.cam"));
+  ASSERT_NE(expected, read_camera(file("whole.cam"))) << "the generated mesh should frame closer than the domain";
+
+  ViewJob job(dir_, 2, file("t.vtu") + " --port 0 --size 32");
+  ASSERT_TRUE(job.wait_serving()) << job.log();
+  {
+    Tab tab(job.port);
+    tab.send({{"type", "hello"}, {"width", 32}, {"height", 32}});
+    const json scene = tab.scene();
+    ASSERT_EQ(scene["type"], "scene") << scene.dump();
+    const Camera shown = camera_from_json(scene["camera"], "the scene's camera");
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_NEAR(shown.position[a], expected.position[a], 1e-9) << "axis " << a;
+      EXPECT_NEAR(shown.focal_point[a], expected.focal_point[a], 1e-9) << "axis " << a;
+      EXPECT_NEAR(shown.view_up[a], expected.view_up[a], 1e-9) << "axis " << a;
+    }
+    // The ranks draw together after the question: the session goes on.
+    EXPECT_EQ(tab.converged_frame(1)["type"], "status");
   }
   ASSERT_EQ(kill(job.rank0_pid, SIGTERM), 0);
   const std::optional<int> status = job.exited(std::chrono::seconds(60));

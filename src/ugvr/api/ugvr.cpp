@@ -8,9 +8,8 @@
 #include "ugvr/octree/builder.h"
 #include "ugvr/octree/input.h"
 #include "ugvr/octree/out_of_core.h"
-#include "ugvr/render/default_transfer_function.h"
 #include "ugvr/render/renderer_factory.h"
-#include "ugvr/render/visible_bounds.h"
+#include "ugvr/render/resolve_view.h"
 #include "ugvr/store/brick_store.h"
 
 namespace ugvr {
@@ -144,11 +143,12 @@ std::unique_ptr<Renderer> make_renderer(std::shared_ptr<const Dataset> dataset, 
 
 FrameRequest default_request(const Renderer& renderer, int width, int height, std::string_view view) {
   FrameRequest r;
-  const Bounds bounds = renderer.bounds();
-  const FieldRange range = renderer.field_range();
-  r.tf = auto_transfer_function(renderer, range.min, range.max, bounds);
-  // The default view frames what auto leaves visible, as `ugvr render` (render/visible_bounds.h).
-  r.camera = view.empty() ? framed_default_camera(renderer, r.tf) : camera_preset(view, bounds);
+  // `ugvr render`'s defaults: auto, its default view framed on what auto leaves visible (render/resolve_view.h).
+  ViewChoices choices;
+  choices.view = std::string(view);
+  ResolvedView resolved = resolve_view(renderer, choices, renderer.field_range());
+  r.tf = std::move(resolved.tf);
+  r.camera = resolved.camera;
   r.settings.width = width, r.settings.height = height;
   r.settings.field = renderer.field_name();
   r.settings.validate("default_request");

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <exception>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string_view>
 
 #include "ugvr/core/error.h"
@@ -48,6 +49,42 @@ DrawnFrame draw_collectively(Renderer& renderer, const FrameRequest& request) {
   return out;
 }
 
+// A question between frames (the text of step 2 is then this JSON instead of a frame request): the box of what `tf`
+// makes more than `threshold` opaque in field `field`, which every rank answers together with the compositing
+// renderer's reduction (mpi_renderer.cpp visible_bounds), so that the viewer's framed view is one camera. The
+// transfer function travels as the frame's does and rank 0 asks with the decoded one, as it draws the decoded frame.
+struct VisibleBoundsQuestion {
+  std::string field;
+  TransferFunction tf;
+  double threshold = 0;
+};
+constexpr const char* kVisibleBoundsKey = "visible_bounds";
+
+std::string encode_visible_bounds_question(const VisibleBoundsQuestion& q) {
+  nlohmann::json j;
+  j[kVisibleBoundsKey] = {{"field", q.field}, {"tf", paraview_preset_json(q.tf)}, {"threshold", q.threshold}};
+  return j.dump();
+}
+
+// nullopt: the text is a frame request.
+std::optional<VisibleBoundsQuestion> decode_visible_bounds_question(const std::string& text) {
+  constexpr std::string_view source = "the visible-bounds question between MPI ranks";
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.is_object() || !j.contains(kVisibleBoundsKey)) return std::nullopt;
+  const nlohmann::json& q = j[kVisibleBoundsKey];
+  for (const char* key : {"field", "tf", "threshold"})
+    if (!q.contains(key)) fail_in(source, std::string("missing \"") + key + "\"");
+  const std::vector<TransferFunction> tf = parse_paraview_presets(q["tf"].get<std::string>(), source);
+  if (tf.size() != 1) fail_in(source, "expected one transfer function");
+  return VisibleBoundsQuestion{q["field"].get<std::string>(), tf[0], q["threshold"].get<double>()};
+}
+
+// Every rank binds the field asked about, then takes part in the renderer's reduction.
+std::optional<Bounds> answer_collectively(Renderer& renderer, const VisibleBoundsQuestion& q) {
+  renderer.set_field(q.field);
+  return renderer.visible_bounds(q.tf, q.threshold);
+}
+
 class ViewLeader final : public Renderer {
  public:
   explicit ViewLeader(std::unique_ptr<Renderer> collective) : collective_(std::move(collective)) {}
@@ -67,6 +104,18 @@ class ViewLeader final : public Renderer {
   Bounds bounds() const override { return collective_->bounds(); }
   // value_histogram is left at the default (none): the collective renderer's is a collective call, which rank 0
   // alone would make here while the other ranks wait for a frame.
+  // The followers are asked first (step 1 and 2 with a VisibleBoundsQuestion), then every rank reduces: the box of
+  // the whole data's visible part, the same on every rank.
+  std::optional<Bounds> visible_bounds(const TransferFunction& tf, double threshold) const override {
+    const std::string text = encode_visible_bounds_question({collective_->field_name(), tf, threshold});
+    const VisibleBoundsQuestion asked = *decode_visible_bounds_question(text);
+    broadcast_text(text);
+    try {
+      return answer_collectively(*collective_, asked);
+    } catch (const std::exception& e) {
+      abort_job(std::string("error: ") + e.what(), 1);  // the other ranks are inside the reduction
+    }
+  }
   void describe(nlohmann::json& j) const override { collective_->describe(j); }
   std::string summary(const FrameStats& last) const override { return collective_->summary(last); }
 
@@ -159,8 +208,12 @@ std::unique_ptr<Renderer> open_view_leader(const std::vector<std::string>& input
 
 void follow_view(const std::vector<std::string>& inputs, const ReadOptions& read, const RendererOptions& options) {
   std::unique_ptr<Renderer> collective = mpi::open_renderer(inputs, read, options, nullptr, nullptr, MeshRead::Whole);
-  for (std::string text = receive_text(); !text.empty(); text = receive_text())
-    draw_collectively(*collective, decode_frame_request(text));
+  for (std::string text = receive_text(); !text.empty(); text = receive_text()) {
+    if (const std::optional<VisibleBoundsQuestion> q = decode_visible_bounds_question(text))
+      answer_collectively(*collective, *q);
+    else
+      draw_collectively(*collective, decode_frame_request(text));
+  }
 }
 
 }  // namespace ugvr::mpi

@@ -8,6 +8,9 @@
 //      included (it draws the decoded bytes, not its own struct, so that every rank sees the same numbers).
 //   3. The compositing renderer's collectives (mpi_renderer.cpp: its figures, then the compositor).
 //   4. MPI_Allreduce(MAX) of each rank's wall time for the frame: what the leader's frame-rate controller sees.
+// Between frames rank 0 may instead ask for the visible box (Renderer::visible_bounds, for the framed first view of
+// the auto transfer function): step 2's text is then {"visible_bounds": {field, tf, threshold}}, and step 3 is the
+// compositing renderer's reduction of the ranks' boxes (mpi_renderer.cpp), whose answer every rank shares.
 // A request rank 0 can tell is unsupported (MIP, a time step) is refused before step 1: the page gets the error and
 // the ranks never hear of it. A failure after step 1, on any rank, ends the job (abort_job): the others are waiting
 // in a collective that will not complete.

@@ -335,8 +335,8 @@ SceneInfo EngineHost::collective_scene(const CollectiveRenderer& opened) {
   if (infos.empty()) infos.push_back({collective_->field_name(), 0, 1, {}});
   SceneInfo sc = base_scene(std::move(infos), collective_->bounds());
   collective_->set_field(sc.field);
-  // A partitioned store in one process: its pieces' boxes united (PieceRenderer). Under mpirun the leader alone makes
-  // the scene and its renderer cannot say (a box from the ranks would be a collective call): the whole domain.
+  // A partitioned store in one process: its pieces' boxes united (PieceRenderer). Under mpirun the leader asks every
+  // rank and the ranks' boxes are reduced (mpi_view.h): one camera, the one the single-process viewer frames.
   start_from_auto(sc, options_,
                   [&](const TransferFunction& tf) { return collective_->visible_bounds(tf, kVisibleOpacity); });
   sc.renderer = renderer_;
