@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "ugvr/grid/cell_volume.h"
 #include "ugvr/render/exact/exact_engine.h"
 #include "ugvr/render/exact/walk_mesh.h"
 #include "ugvr/render/renderer.h"
@@ -10,10 +11,6 @@
 
 namespace ugvr {
 namespace {
-
-bool reaches(const TransferFunction& tf, double lo, double hi, double threshold) {
-  return max_opacity(tf, lo, hi) > threshold;
-}
 
 // `box` meets the data's bounds: the store's octree root is a cube around them, a node may stick out.
 Bounds clipped(const Bounds& box, const Bounds& bounds) {
@@ -63,11 +60,51 @@ double max_opacity(const TransferFunction& tf, double lo, double hi) {
   return most;
 }
 
+VisibleWeights::VisibleWeights(const Bounds& over_) : over(over_) {
+  for (int a = 0; a < 3; ++a) lo[size_t(a)].fill(INFINITY), hi[size_t(a)].fill(-INFINITY);
+}
+
+void VisibleWeights::add(const Bounds& piece, double w) {
+  if (piece.empty()) return;
+  all.add(piece);
+  const Vec3d c = piece.center(), extent = over.size();
+  for (int a = 0; a < 3; ++a) {
+    const double t = extent[a] > 0 ? std::floor((c[a] - over.lo[a]) / extent[a] * kFramingBins) : 0;
+    const size_t i = t < 0 ? 0 : t >= kFramingBins ? kFramingBins - 1 : size_t(t);
+    weight[size_t(a)][i] += w;
+    lo[size_t(a)][i] = std::min(lo[size_t(a)][i], piece.lo[a]);
+    hi[size_t(a)][i] = std::max(hi[size_t(a)][i], piece.hi[a]);
+  }
+}
+
+Bounds VisibleWeights::box() const {
+  if (all.empty()) return all;
+  Bounds b;
+  for (int a = 0; a < 3; ++a) {
+    const auto& w = weight[size_t(a)];
+    double total = 0;
+    for (const double x : w) total += x;
+    if (!(total > 0)) return all;
+    // The first and last bins past the tails' weight: the pieces in between are kept.
+    const double tail = 0.5 * (1 - kFramedShare) * total;
+    size_t first = 0, last = kFramingBins - 1;
+    for (double below = 0; first < last && below + w[first] <= tail; ++first) below += w[first];
+    for (double above = 0; last > first && above + w[last] <= tail; --last) above += w[last];
+    double from = INFINITY, to = -INFINITY;
+    for (size_t i = first; i <= last; ++i)
+      if (w[i] > 0) from = std::min(from, lo[size_t(a)][i]), to = std::max(to, hi[size_t(a)][i]);
+    b.lo[a] = from, b.hi[a] = to;
+  }
+  return b;
+}
+
 Bounds visible_cell_bounds(const WalkMesh& mesh, std::span<const float> values, bool per_cell,
                            const TransferFunction& tf, double threshold) {
-  Bounds box;
+  VisibleWeights weights(mesh.bounds);
+  std::array<Vec3d, 8> corners;
   for (int k = 0; k < 4; ++k) {
-    const int n = cell_vertex_count(kAllCellTypes[size_t(k)]);
+    const CellType type = kAllCellTypes[size_t(k)];
+    const int n = cell_vertex_count(type);
     for (uint32_t c = mesh.type_begin[size_t(k)]; c < mesh.type_begin[size_t(k) + 1]; ++c) {
       const uint32_t* v = mesh.cell_vertices(c, k);
       double lo = INFINITY, hi = -INFINITY;
@@ -80,14 +117,19 @@ Bounds visible_cell_bounds(const WalkMesh& mesh, std::span<const float> values, 
           lo = std::min(lo, s), hi = std::max(hi, s);
         }
       }
-      if (!(lo <= hi) || !reaches(tf, lo, hi, threshold)) continue;
+      if (!(lo <= hi)) continue;
+      const double opacity = max_opacity(tf, lo, hi);
+      if (!(opacity > threshold)) continue;
+      Bounds box;
       for (int i = 0; i < n; ++i) {
-        const Vec3f p = mesh.points[v[i]];
-        box.add(Vec3d{p.x, p.y, p.z});
+        corners[size_t(i)] = to_double(mesh.points[v[i]]);
+        box.add(corners[size_t(i)]);
       }
+      const double volume = std::abs(cell_volume(type, std::span<const Vec3d>(corners.data(), size_t(n))));
+      weights.add(box, opacity * volume);
     }
   }
-  return box;
+  return weights.box();
 }
 
 Bounds visible_cell_bounds(const ExactEngine& engine, const TransferFunction& tf, double threshold) {
@@ -103,17 +145,23 @@ std::optional<Bounds> visible_node_bounds(const BrickStoreReader& store, const s
 
 Bounds visible_node_bounds(const BrickStoreReader& store, uint32_t field, const TransferFunction& tf, double threshold,
                            int max_level) {
-  Bounds box;
+  const Bounds& data = store.layout().data;
+  VisibleWeights weights(data);
   const std::span<const BrickNode> nodes = store.nodes();
   for (uint64_t id = 0; id < nodes.size(); ++id) {
     const BrickNode& node = nodes[id];
     // The cut at max_level: its nodes, and the leaves above it. A node's min/max covers its subtree.
     if (node.level > max_level || (node.level < max_level && !node.is_leaf())) continue;
     const FieldStats& s = store.stats(id, field);
-    if (!(s.min <= s.max) || !reaches(tf, s.min, s.max, threshold)) continue;
-    box.add(store.bounds(id));
+    if (!(s.min <= s.max)) continue;
+    const double opacity = max_opacity(tf, s.min, s.max);
+    if (!(opacity > threshold)) continue;
+    // A node's cell may stick out of the data (the root is a cube around it): its weight is the part inside.
+    const Bounds box = store.bounds(id), inside = clipped(box, data);
+    const Vec3d size = inside.size();
+    weights.add(box, opacity * size.x * size.y * size.z);
   }
-  return box;
+  return weights.box();
 }
 
 Camera framed_default_camera(const Bounds& bounds, const std::optional<Bounds>& visible, double view_angle) {
