@@ -1,6 +1,7 @@
 #include "ugvr/render/field_histogram.h"
 
 #include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
 #include <array>
@@ -71,7 +72,14 @@ struct MeshCells {
     const auto v = mesh.cell(c);
     out.count = int(v.size());
     for (int i = 0; i < out.count; ++i) out.points[size_t(i)] = v[size_t(i)];
-    out.volume = std::abs(cell_volume(mesh, c));
+    if (mesh.cell_types[c] == CellType::Tetra) {  // most cells of most meshes: a determinant, not 4 faces
+      const Vec3d o = to_double(mesh.points[v[0]]);
+      const Vec3d a = to_double(mesh.points[v[1]]) - o, b = to_double(mesh.points[v[2]]) - o,
+                  d = to_double(mesh.points[v[3]]) - o;
+      out.volume = std::abs(dot(a, cross(b, d))) / 6.0;
+    } else {
+      out.volume = std::abs(cell_volume(mesh, c));
+    }
     return true;
   }
 };
@@ -112,6 +120,16 @@ std::vector<double> weights_of(const Cells& cells, const Field& field, int compo
   if (field.tuples() != needed)
     fail_in("histogram", "field '" + field.name() + "' has " + std::to_string(field.tuples()) + " values, the grid " +
                              std::to_string(needed) + (per_cell ? " cells" : " points"));
+  // A vertex field's bins once per point (a point is a corner of several cells).
+  std::vector<int32_t> point_bin;
+  if (!per_cell) {
+    point_bin.resize(size_t(needed));
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, needed, uint64_t(1) << 16),
+                      [&](const tbb::blocked_range<uint64_t>& r) {
+                        for (uint64_t p = r.begin(); p != r.end(); ++p)
+                          point_bin[size_t(p)] = binner.index(field.scalar(p, component));
+                      });
+  }
   using Weights = std::vector<double>;
   // Chunks of a fixed size reduced in a fixed order: the sums (hence the rounded counts) do not depend on threads.
   constexpr uint64_t kChunk = uint64_t(1) << 15;
@@ -128,7 +146,7 @@ std::vector<double> weights_of(const Cells& cells, const Field& field, int compo
           }
           const double share = cell.volume / cell.count;
           for (int v = 0; v < cell.count; ++v) {
-            const int b = binner.index(field.scalar(cell.points[size_t(v)], component));
+            const int b = point_bin[size_t(cell.points[size_t(v)])];
             if (b >= 0) w[size_t(b)] += share;
           }
         }
