@@ -2,6 +2,7 @@
 // cells and of a store's coarse nodes that reach opacity, and the rule that frames default_camera's direction on it.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <vector>
@@ -205,6 +206,34 @@ TEST(VisibleBounds, WeightsKeepTheCentralShareOnEachAxis) {
   expect_box(w.box(), {2, 2, 2}, {3, 3, 3});
   w.add(cube(7.5, 8), 1);
   expect_box(w.box(), {2, 2, 2}, {8, 8, 8});
+}
+
+// MPI ranks add up their parts' weights (MpiRenderer::visible_bounds): two halves, each the cells whose centroid its
+// box owns, add up to the whole's weights exactly, and so to its box.
+TEST(VisibleBounds, WeightsOfOwnedPartsAddUpToTheWhole) {
+  auto scene = std::make_shared<ExactScene>(std::make_shared<const Dataset>(blob_and_faint_tube()));
+  ExactRenderer r(scene);
+  r.set_field("seen");
+  const Bounds over = r.bounds();
+  Bounds left = all_space(), right = all_space();
+  left.hi.x = 1;  // through the blob: each half holds part of it
+  right.lo.x = 1;
+  const std::vector<double> whole = r.visible_weights(ramp(0, 1), kVisibleOpacity, over, all_space());
+  const auto a = VisibleWeights::from_flat(over, r.visible_weights(ramp(0, 1), kVisibleOpacity, over, left));
+  const auto b = VisibleWeights::from_flat(over, r.visible_weights(ramp(0, 1), kVisibleOpacity, over, right));
+  ASSERT_TRUE(a && b);
+  EXPECT_NE(a->flat(), whole) << "a half is not the whole";
+  VisibleWeights sum = *a;
+  sum.merge(*b);
+  const std::vector<double> added = sum.flat();
+  ASSERT_EQ(added.size(), whole.size());
+  for (size_t i = 0; i < added.size(); ++i)  // the same terms, summed in another order
+    if (std::isinf(whole[i]))
+      EXPECT_EQ(added[i], whole[i]) << "entry " << i;  // an empty bin's extent
+    else
+      EXPECT_NEAR(added[i], whole[i], 1e-12 * std::max(1.0, std::abs(whole[i]))) << "entry " << i;
+  expect_box(sum.box(), {0, 0, 0}, {2, 2, 2});
+  EXPECT_FALSE(VisibleWeights::from_flat(over, std::vector<double>(3, 0.0))) << "not a flattened VisibleWeights";
 }
 
 }  // namespace

@@ -77,6 +77,55 @@ void VisibleWeights::add(const Bounds& piece, double w) {
   }
 }
 
+void VisibleWeights::merge(const VisibleWeights& other) {
+  all.add(other.all);
+  for (size_t a = 0; a < 3; ++a)
+    for (size_t i = 0; i < size_t(kFramingBins); ++i) {
+      weight[a][i] += other.weight[a][i];
+      lo[a][i] = std::min(lo[a][i], other.lo[a][i]);
+      hi[a][i] = std::max(hi[a][i], other.hi[a][i]);
+    }
+}
+
+std::vector<double> VisibleWeights::flat() const {
+  std::vector<double> out;
+  out.reserve(kFlatSize);
+  for (const auto& w : weight) out.insert(out.end(), w.begin(), w.end());
+  for (const auto& l : lo) out.insert(out.end(), l.begin(), l.end());
+  for (int a = 0; a < 3; ++a) out.push_back(all.lo[a]);
+  for (const auto& h : hi) out.insert(out.end(), h.begin(), h.end());
+  for (int a = 0; a < 3; ++a) out.push_back(all.hi[a]);
+  return out;
+}
+
+std::optional<VisibleWeights> VisibleWeights::from_flat(const Bounds& over, std::span<const double> values) {
+  if (values.size() != kFlatSize) return std::nullopt;
+  VisibleWeights w(over);
+  const double* p = values.data();
+  const auto take = [&p](std::array<double, kFramingBins>& to) {
+    std::copy_n(p, kFramingBins, to.begin());
+    p += kFramingBins;
+  };
+  for (auto& x : w.weight) take(x);
+  for (auto& x : w.lo) take(x);
+  for (int a = 0; a < 3; ++a) w.all.lo[a] = *p++;
+  for (auto& x : w.hi) take(x);
+  for (int a = 0; a < 3; ++a) w.all.hi[a] = *p++;
+  return w;
+}
+
+Bounds all_space() {
+  Bounds b;
+  std::swap(b.lo, b.hi);  // (-inf, +inf) on every axis
+  return b;
+}
+
+bool owns(const Bounds& own, Vec3d c) {
+  for (int a = 0; a < 3; ++a)
+    if (!(own.lo[a] <= c[a] && c[a] < own.hi[a])) return false;
+  return true;
+}
+
 Bounds VisibleWeights::box() const {
   if (all.empty()) return all;
   Bounds b;
@@ -98,9 +147,10 @@ Bounds VisibleWeights::box() const {
   return b;
 }
 
-Bounds visible_cell_bounds(const WalkMesh& mesh, std::span<const float> values, bool per_cell,
-                           const TransferFunction& tf, double threshold) {
-  VisibleWeights weights(mesh.bounds);
+VisibleWeights visible_cell_weights(const WalkMesh& mesh, std::span<const float> values, bool per_cell,
+                                    const TransferFunction& tf, double threshold, const Bounds& over,
+                                    const Bounds& own) {
+  VisibleWeights weights(over);
   std::array<Vec3d, 8> corners;
   for (int k = 0; k < 4; ++k) {
     const CellType type = kAllCellTypes[size_t(k)];
@@ -121,15 +171,28 @@ Bounds visible_cell_bounds(const WalkMesh& mesh, std::span<const float> values, 
       const double opacity = max_opacity(tf, lo, hi);
       if (!(opacity > threshold)) continue;
       Bounds box;
+      Vec3d sum{0, 0, 0};  // the centroid as kd_partition.h's cell_centroids sums it, to own what the kd-tree does
       for (int i = 0; i < n; ++i) {
         corners[size_t(i)] = to_double(mesh.points[v[i]]);
         box.add(corners[size_t(i)]);
+        sum = sum + corners[size_t(i)];
       }
+      if (!owns(own, sum * (1.0 / double(n)))) continue;
       const double volume = std::abs(cell_volume(type, std::span<const Vec3d>(corners.data(), size_t(n))));
       weights.add(box, opacity * volume);
     }
   }
-  return weights.box();
+  return weights;
+}
+
+Bounds visible_cell_bounds(const WalkMesh& mesh, std::span<const float> values, bool per_cell,
+                           const TransferFunction& tf, double threshold) {
+  return visible_cell_weights(mesh, values, per_cell, tf, threshold, mesh.bounds, all_space()).box();
+}
+
+VisibleWeights visible_cell_weights(const ExactEngine& engine, const TransferFunction& tf, double threshold,
+                                    const Bounds& over, const Bounds& own) {
+  return visible_cell_weights(engine.walk_mesh(), engine.bound_values(), engine.per_cell(), tf, threshold, over, own);
 }
 
 Bounds visible_cell_bounds(const ExactEngine& engine, const TransferFunction& tf, double threshold) {
@@ -143,10 +206,10 @@ std::optional<Bounds> visible_node_bounds(const BrickStoreReader& store, const s
   return visible_node_bounds(store, uint32_t(index), tf, threshold);
 }
 
-Bounds visible_node_bounds(const BrickStoreReader& store, uint32_t field, const TransferFunction& tf, double threshold,
-                           int max_level) {
+VisibleWeights visible_node_weights(const BrickStoreReader& store, uint32_t field, const TransferFunction& tf,
+                                    double threshold, int max_level, const Bounds& over, const Bounds& own) {
   const Bounds& data = store.layout().data;
-  VisibleWeights weights(data);
+  VisibleWeights weights(over);
   const std::span<const BrickNode> nodes = store.nodes();
   for (uint64_t id = 0; id < nodes.size(); ++id) {
     const BrickNode& node = nodes[id];
@@ -156,12 +219,19 @@ Bounds visible_node_bounds(const BrickStoreReader& store, uint32_t field, const 
     if (!(s.min <= s.max)) continue;
     const double opacity = max_opacity(tf, s.min, s.max);
     if (!(opacity > threshold)) continue;
+    const Bounds box = store.bounds(id);
+    if (!owns(own, box.center())) continue;
     // A node's cell may stick out of the data (the root is a cube around it): its weight is the part inside.
-    const Bounds box = store.bounds(id), inside = clipped(box, data);
-    const Vec3d size = inside.size();
+    const Vec3d size = clipped(box, data).size();
     weights.add(box, opacity * size.x * size.y * size.z);
   }
-  return weights.box();
+  return weights;
+}
+
+Bounds visible_node_bounds(const BrickStoreReader& store, uint32_t field, const TransferFunction& tf, double threshold,
+                           int max_level) {
+  const Bounds& data = store.layout().data;
+  return visible_node_weights(store, field, tf, threshold, max_level, data, all_space()).box();
 }
 
 Camera framed_default_camera(const Bounds& bounds, const std::optional<Bounds>& visible, double view_angle) {

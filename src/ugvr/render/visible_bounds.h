@@ -30,6 +30,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "ugvr/core/vec.h"
 #include "ugvr/render/camera.h"
@@ -60,9 +61,25 @@ struct VisibleWeights {
 
   explicit VisibleWeights(const Bounds& over);
   void add(const Bounds& piece, double weight);
+  // Another's pieces, over the same `over` (a partitioned store's pieces, MPI ranks' parts).
+  void merge(const VisibleWeights& other);
   // The box of the rule above; empty Bounds when nothing was added.
   Bounds box() const;
+
+  // Flattened for Renderer::visible_weights and MPI reductions: [weight (axis-major) | lo, all.lo | hi, all.hi], so
+  // that ranks reduce it with one sum and one min and one max over contiguous ranges.
+  static constexpr size_t kAxisBins = 3 * size_t(kFramingBins);
+  static constexpr size_t kFlatSize = 3 * kAxisBins + 6;
+  std::vector<double> flat() const;
+  // nullopt when `values` is not kFlatSize long.
+  static std::optional<VisibleWeights> from_flat(const Bounds& over, std::span<const double> values);
 };
+
+// The `own` box that keeps every piece (below).
+Bounds all_space();
+// Whether a piece centred at `c` is one's own: lo <= c < hi on every axis (neighbouring boxes that share a face own
+// disjoint sets: each piece is counted once over MPI ranks whose kd-tree boxes are `own`).
+bool owns(const Bounds& own, Vec3d c);
 
 // The largest opacity `tf` gives a value in [lo, hi] (its opacity points are piecewise linear, clamped at both ends).
 // NaN bounds give 0.
@@ -77,11 +94,23 @@ Bounds visible_cell_bounds(const WalkMesh& mesh, std::span<const float> values, 
 // The same over the exact engine's walk mesh and the values of its bound field.
 Bounds visible_cell_bounds(const ExactEngine& engine, const TransferFunction& tf, double threshold = kVisibleOpacity);
 
+// The weights behind visible_cell_bounds, binned over `over`, of the cells whose centroid (the mean of their
+// vertices, as the MPI kd-tree's) `own` owns.
+VisibleWeights visible_cell_weights(const WalkMesh& mesh, std::span<const float> values, bool per_cell,
+                                    const TransferFunction& tf, double threshold, const Bounds& over,
+                                    const Bounds& own);
+VisibleWeights visible_cell_weights(const ExactEngine& engine, const TransferFunction& tf, double threshold,
+                                    const Bounds& over, const Bounds& own);
+
 // The box (weighted, the rule above) of the store's nodes at level `max_level` (and leaves above it) whose subtree
 // range of field `field` reaches more than `threshold` opacity, at the store's current step. Empty Bounds when none
 // does.
 Bounds visible_node_bounds(const BrickStoreReader& store, uint32_t field, const TransferFunction& tf,
                            double threshold = kVisibleOpacity, int max_level = kVisibleLevel);
+
+// The weights behind visible_node_bounds, binned over `over`, of the nodes whose box centre `own` owns.
+VisibleWeights visible_node_weights(const BrickStoreReader& store, uint32_t field, const TransferFunction& tf,
+                                    double threshold, int max_level, const Bounds& over, const Bounds& own);
 
 // The same for the field named `field`; nullopt when the store does not hold it.
 std::optional<Bounds> visible_node_bounds(const BrickStoreReader& store, const std::string& field,

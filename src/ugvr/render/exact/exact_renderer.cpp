@@ -253,6 +253,12 @@ std::optional<Bounds> ExactRenderer::visible_bounds(const TransferFunction& tf, 
   return visible_cell_bounds(scene_->engine, tf, threshold);
 }
 
+std::vector<double> ExactRenderer::visible_weights(const TransferFunction& tf, double threshold, const Bounds& over,
+                                                   const Bounds& own) const {
+  scene_->bind(field_);
+  return visible_cell_weights(scene_->engine, tf, threshold, over, own).flat();
+}
+
 Frame ExactRenderer::render(const FrameRequest& request) {
   if (request.time_step) scene_->set_step(*request.time_step);
   if (request.settings.field != field_) set_field(request.settings.field);
