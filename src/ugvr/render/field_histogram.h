@@ -39,17 +39,18 @@ std::vector<uint64_t> field_histogram(const Field& field, int component, double 
 // The weights: a cell field counts each cell with its volume; a vertex field counts each of a cell's corners with the
 // cell's volume / its corner count (a point's weight is its share of its cells' volumes). Volumes are absolute
 // (cell_volume: a left-handed curvilinear grid's cells count as much as right-handed ones). A structured grid's cells
-// are its hexahedra (IBLANKed ones dropped: they do not exist; their points still count nothing), a 2-D grid has none.
+// are its hexahedra (a cell with an IBLANKed corner does not exist and counts nothing), a 2-D grid has none.
 //
 // The counts stay integers (std::vector<uint64_t>, so that nothing downstream changes): the weights in each bin are
 // scaled so that all bins together hold the number of values the unweighted histogram counts (each bin rounded to
 // the nearest integer, so the total is that number within bins / 2). The histogram of a mesh of equal cells is thus
 // about its unweighted one. No volume at all (a 2-D grid, flat cells): the unweighted counts.
-// Every cell is visited once, in parallel, with a deterministic sum (the same counts on every run and every rank).
+// Every cell is visited once (a vertex field's bins found once per point first), in parallel, with a deterministic
+// sum (the same counts on every run and every rank).
 //
 // The weights in `bins` equal bins over [lo, hi] (binned as value_histogram); for several blocks add them, and the
 // unweighted counts, before scaling once (weighted_counts). Throws ugvr::Error naming the field when its tuple count
-// is neither the grid's point count nor its cell count.
+// is not the grid's point count (a vertex field) or cell count (a cell field).
 std::vector<double> volume_weights(const Grid& grid, const Field& field, int component, double lo, double hi, int bins);
 std::vector<double> volume_weights(const UnstructuredMesh& mesh, const Field& field, int component, double lo,
                                    double hi, int bins);
