@@ -43,6 +43,8 @@ struct uvec4 {
 #define EXACT_MODE_ISO 2
 
 const int EXACT_WORKGROUP_SIZE = 8;
+// The explicit location of `uniform ivec2 u_band_origin` (as lod_shared.h's BAND_ORIGIN_LOCATION).
+const int EXACT_BAND_ORIGIN_LOCATION = 0;
 const int EXACT_CHUNKS = 4;  // buffers the connectivity and the neighbours may each be split over
 
 const int EXACT_OUT_IMAGE_BINDING = 0;  // image2D rgba32f: premultiplied radiance, transmittance per pixel

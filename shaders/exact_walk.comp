@@ -46,6 +46,7 @@
 layout(local_size_x = EXACT_WORKGROUP_SIZE, local_size_y = EXACT_WORKGROUP_SIZE) in;
 
 layout(rgba32f, binding = EXACT_OUT_IMAGE_BINDING) uniform writeonly image2D u_out;
+layout(location = EXACT_BAND_ORIGIN_LOCATION) uniform ivec2 u_band_origin;  // (0, 0) but in a band (lod_shared.h)
 layout(binding = EXACT_TF_TEXTURE_BINDING) uniform sampler1D u_tf;
 layout(std430, binding = EXACT_POINTS_BINDING) readonly buffer Points { float points[]; };
 layout(std430, binding = EXACT_CONN_BINDING + 0) readonly buffer Conn0 { uint conn0[]; };
@@ -329,7 +330,7 @@ uint next_entry(ivec2 pixel, uint tile, real after_t, uint after_tri, real min_t
 }
 
 void main() {
-  ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+  ivec2 pixel = ivec2(gl_GlobalInvocationID.xy) + u_band_origin;
   int width = u_size.x, height = u_size.y;
   if (pixel.x >= width || pixel.y >= height) return;
 

@@ -55,6 +55,7 @@
 layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE) in;
 
 layout(rgba32f, binding = OUT_IMAGE_BINDING) uniform writeonly image2D u_out;
+layout(location = BAND_ORIGIN_LOCATION) uniform ivec2 u_band_origin;  // (0, 0) but in a band of an interruptible frame
 layout(binding = ATLAS_TEXTURE_BINDING) uniform sampler3D u_atlas;
 layout(binding = TF_TEXTURE_BINDING) uniform sampler1D u_tf;
 layout(binding = PREINT_TEXTURE_BINDING) uniform sampler1D u_preint;
@@ -1237,7 +1238,7 @@ bool march_node(const bool faces_pass, uint node, uint state, vec3 lo, float siz
 }
 
 void main() {
-  ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
+  ivec2 pix = ivec2(gl_GlobalInvocationID.xy) + u_band_origin;
   if (pix.x >= u_size.x || pix.y >= u_size.y) return;
   vec2 s = vec2(2.0 * (float(pix.x) + 0.5) / float(u_size.x) - 1.0, 1.0 - 2.0 * (float(pix.y) + 0.5) / float(u_size.y));
   vec3 offset = u_right * (s.x * u_half.x) + u_up * (s.y * u_half.y);

@@ -49,6 +49,9 @@ struct ivec3 {
 
 // Invocations per work group along x and y: one per pixel, WORKGROUP_SIZE² pixels per group.
 const int WORKGROUP_SIZE = 8;
+// The explicit location of `uniform ivec2 u_band_origin`: the pixel the dispatch's first invocation draws. (0, 0)
+// for a whole image in one dispatch; an interruptible frame is drawn in bands of rows (render/banded_dispatch.h).
+const int BAND_ORIGIN_LOCATION = 0;
 
 // Binding points. GL numbers images, textures, storage and uniform buffers separately; these are numbered apart all
 // the same, so that a number names one thing.

@@ -173,6 +173,25 @@ TEST(ViewFrameScheduler, AFailedFrameIsNotRetriedUntilTheViewChanges) {
   EXPECT_TRUE(s.next());
 }
 
+// A resting frame abandoned for a move (FrameRequest::keep_going): the tab is free for the next frame at once, which
+// draws its new view (no ack, no retry of the abandoned one).
+TEST(ViewFrameScheduler, AnInterruptedFrameFreesTheTabForItsNewView) {
+  FrameScheduler s;
+  s.add(ready_tab(1));
+  ASSERT_TRUE(turn(s));  // the first view, drawn (not converged: resting frames follow)
+  const std::optional<FrameJob> resting = s.next();
+  ASSERT_TRUE(resting);
+  EXPECT_TRUE(resting->resting);
+  change_view(s, 1);  // the move arrives while it is drawn
+  EXPECT_FALSE(s.next()) << "a tab with a frame under way gets no other";
+  s.interrupted(*resting);
+  EXPECT_FALSE(s.take_ack(1)) << "the new view is owed a frame, not an ack";
+  const std::optional<FrameJob> moved = s.next();
+  ASSERT_TRUE(moved) << "the tab stays in flight after an interrupted frame";
+  EXPECT_EQ(moved->generation, 2u);
+  EXPECT_FALSE(moved->resting);
+}
+
 TEST(ViewFrameScheduler, AClosedTabGetsNoFramesAndIsRemoved) {
   FrameScheduler s;
   for (uint64_t id = 1; id <= 3; ++id) s.add(ready_tab(id));

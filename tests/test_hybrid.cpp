@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -32,6 +33,7 @@
 #include "ugvr/render/lod/hybrid_select.h"
 #include "ugvr/render/lod/lod_engine.h"
 #include "ugvr/render/lod/time_critical.h"
+#include "ugvr/render/renderer.h"
 #include "ugvr/store/brick_store.h"
 
 namespace ugvr {
@@ -294,6 +296,58 @@ TEST(Hybrid, ConvergesToTheExactEngine) {
   std::printf("half the nodes exact: %.2f dB\n", p_half);
   EXPECT_GT(p_half, p_voxels);
   EXPECT_LT(p_half, p_hybrid);
+}
+
+// The viewer's resting frames can be cut short (FrameRequest::keep_going): the engines ask between bands of rows (GPU)
+// or tiles (CPU). Drawn in bands the image is the one-dispatch image bit for bit; a frame stopped part-way throws
+// FrameInterrupted, and the engine's next frame is as if it had never begun.
+TEST(Hybrid, AFrameIsInterruptedBetweenBandsAndTheNextIsUnchanged) {
+  REQUIRE_GL();
+  const Fixture& f = fixture();
+  const TransferFunction tf = test_tf(f);
+  const RenderSettings rs = test_settings();  // 96 x 96: 12 rows of 8 x 8 work groups, a band each
+  const BrickStoreReader probe(f.store);
+  const Camera cam = camera_preset("iso", probe.layout().data);
+  const CutSpec leaves{CutSpec::Kind::Leaves, 0};
+  LodOptions ho;
+  ho.hybrid = true;
+  LodEngine hybrid(f.store, *f.gl, ho);
+  hybrid.set_field("pressure");
+  LodRenderStats whole_st;
+  const Image whole = hybrid.render(cam, tf, rs, leaves, &whole_st);
+  ASSERT_GT(whole_st.exact_nodes, 0u);
+
+  int asked = 0;
+  hybrid.set_keep_going([&] { return ++asked > 0; });
+  LodRenderStats banded_st;
+  const Image banded = hybrid.render(cam, tf, rs, leaves, &banded_st);
+  EXPECT_EQ(asked, 12) << "one question a band";
+  EXPECT_EQ(compare_images(banded, whole).max_abs, 0.0);
+  EXPECT_EQ(banded_st.exact_nodes, whole_st.exact_nodes);
+  EXPECT_EQ(banded_st.cell_steps, whole_st.cell_steps);
+
+  asked = 0;
+  hybrid.set_keep_going([&] { return ++asked < 4; });  // stops before the fourth band
+  EXPECT_THROW(hybrid.render(cam, tf, rs, leaves), FrameInterrupted);
+  EXPECT_EQ(asked, 4);
+  hybrid.set_keep_going({});
+  LodRenderStats after_st;
+  const Image after = hybrid.render(cam, tf, rs, leaves, &after_st);
+  EXPECT_EQ(compare_images(after, whole).max_abs, 0.0);
+  EXPECT_EQ(after_st.exact_nodes, whole_st.exact_nodes);
+
+  // The exact engine (CPU) asks per tile, and likewise.
+  ExactEngine exact(f.dataset);
+  exact.set_field(f.dataset, "pressure");
+  const Image reference = exact.render(cam, tf, rs);
+  std::atomic<int> tiles{0};
+  exact.set_keep_going([&] { return ++tiles > 0; });
+  EXPECT_EQ(compare_images(exact.render(cam, tf, rs), reference).max_abs, 0.0);
+  EXPECT_GT(tiles.load(), 1);
+  exact.set_keep_going([] { return false; });
+  EXPECT_THROW(exact.render(cam, tf, rs), FrameInterrupted);
+  exact.set_keep_going({});
+  EXPECT_EQ(compare_images(exact.render(cam, tf, rs), reference).max_abs, 0.0);
 }
 
 // Nodes meet without a seam (Muigg's F18): from views along the axes, where rays run along and across node faces, the

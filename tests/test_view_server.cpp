@@ -12,6 +12,8 @@
 #include <boost/beast/websocket.hpp>
 // clang-format on
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -32,6 +34,7 @@
 #include "ugvr/grid/structured_cells.h"
 #include "ugvr/grid/structured_grid.h"
 #include "ugvr/octree/builder.h"
+#include "ugvr/view/frame_scheduler.h"
 #include "ugvr/view/tab_memory.h"
 #include "ugvr/view/view_server.h"
 
@@ -975,6 +978,56 @@ TEST(ViewServer, AStoreWithCellsRefinesToExactCellsAtRest) {
     EXPECT_EQ((*lod.status)["engine"], "lod");
     EXPECT_FALSE(lod.status->contains("exact"));
   }
+}
+
+// A resting frame (here the hybrid engine's exact batches) is cut short when the tab's view moves on meanwhile: the
+// move is drawn next, not after the whole resting frame. The render thread is held at the start of the first resting
+// frame of the first move (ViewServerOptions::on_frame_start) until the second move has been applied, so the
+// interruption is certain, not raced: without it, that frame would be drawn and sent for request 2.
+TEST(ViewServer, AMoveCutsTheRestingFrameUnderWayShort) {
+  std::promise<void> resting_started;
+  std::atomic<bool> held{false};
+  std::atomic<bool> saw_stop{false};
+  START_SERVER(
+      server, o_.store = shared().cells_store; o_.fps = 30; o_.hybrid = true; o_.exact_batch = 16;
+      o_.on_frame_start = [&](const FrameJob& job, const std::function<bool()>& keep_going) {
+        if (!keep_going || job.generation < 2 || held.exchange(true)) return;
+        resting_started.set_value();
+        // Until the next move is applied (bounded: a server that never applies it fails below).
+        const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+        while (keep_going() && std::chrono::steady_clock::now() < until)
+          std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        saw_stop = !keep_going();
+      });
+  Client c(server->port());
+  c.send(R"({"type":"hello","width":48,"height":40})");
+  const Frame first = read_frame(c);
+  ASSERT_TRUE(first.scene && first.status);
+  c.send(camera_message(*first.scene, 0.3).dump());  // request 2
+  ASSERT_EQ(resting_started.get_future().wait_for(std::chrono::seconds(60)), std::future_status::ready)
+      << "no resting frame after the move";
+  c.send(camera_message(*first.scene, 0.6).dump());  // request 3, while request 2's resting frame is held
+  // Request 2's frames: its moving one only. Then request 3's, which count the interruption.
+  std::vector<json> of_2;
+  Frame next;
+  for (int i = 0; i < 50; ++i) {
+    next = read_frame(c);
+    ASSERT_TRUE(next.status);
+    const uint64_t r = (*next.status)["request"];
+    if (r >= 3) break;
+    if (r == 2) of_2.push_back(*next.status);
+  }
+  ASSERT_EQ((*next.status)["request"], 3) << next.status->dump();
+  EXPECT_TRUE(saw_stop) << "the held frame's renderer was never told to stop";
+  ASSERT_EQ(of_2.size(), 1u) << "request 2's resting frame was drawn and sent: " << of_2.back().dump();
+  EXPECT_EQ(of_2[0]["converged"], false);
+  EXPECT_EQ((*next.status)["interrupted"].get<uint64_t>(), of_2[0]["interrupted"].get<uint64_t>() + 1)
+      << next.status->dump();
+  // The tab goes on as usual: request 3 refines to its converged, exact image.
+  const Frame still = read_until_converged(c, 3);
+  EXPECT_TRUE(is_png(still.bytes));
+  ASSERT_TRUE(still.status->contains("exact"));
+  EXPECT_GT((*still.status)["exact"]["nodes"].get<uint64_t>(), 0u);
 }
 
 // stop() while the render thread moves to a store that has just been built (it opens the store with the lock

@@ -185,6 +185,8 @@ void run_view_pieces(const Options& o, view::ViewServerOptions vo) {
     c.renderer = std::make_shared<ScaledWhileMovingRenderer>(open_piece_renderer(index, {}, ro));
     return c;
   };
+  // In one process a resting frame stops between (and inside) pieces when the view moves on: no rest delay needed.
+  vo.collective_interruptible = true;
   serve(std::move(vo), "a partitioned store: its " + std::to_string(index.count()) +
                            " pieces drawn in this process, one after another (mpirun -np N shares them out)");
 }

@@ -14,6 +14,7 @@
 #include <string_view>
 #include <vector>
 
+#include "ugvr/core/error.h"
 #include "ugvr/core/vec.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/image.h"
@@ -43,6 +44,18 @@ struct FrameRequest {
   // Playing a time series: the step likely drawn next. An interactive renderer of a time store starts reading its
   // bricks for the nodes this frame drew, in the background, so that the switch costs no disk read; others ignore it.
   std::optional<uint32_t> prefetch_time_step;
+  // Interactive front ends (the viewer): a long frame (a resting one: full quality, exact cells) is abandoned as soon
+  // as this returns false, because the view it shows has changed meanwhile; the renderer then throws FrameInterrupted
+  // and leaves its session ready for the next request. It is asked between parts of the image (bands of rows on the
+  // GPU, tiles on the CPU, pieces of a partitioned store), from any thread: it must be cheap and thread-safe (an
+  // atomic load). Empty (the default): the frame is drawn whole, in one dispatch, exactly as before.
+  std::function<bool()> keep_going;
+};
+
+// A frame abandoned because FrameRequest::keep_going returned false. Not a failure: nothing is drawn or reported.
+class FrameInterrupted : public Error {
+ public:
+  FrameInterrupted() : Error("the frame was interrupted: its view changed while it was drawn") {}
 };
 
 // What an engine reports beyond the common figures (its counters and timings), written into --stats JSON.

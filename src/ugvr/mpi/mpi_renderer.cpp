@@ -188,6 +188,8 @@ class MpiRenderer final : public Renderer {
     mine.settings.background = {0, 0, 0, 0};
     mine.settings.early_termination_opacity = 1;  // opacity in front of this box is unknown here
     mine.target_fps = 0;
+    // Every rank must finish a collective frame (the compositing waits for all): none may stop its part alone.
+    mine.keep_going = nullptr;
     const double cpu0 = process_cpu_seconds();
     Frame local = local_->render(mine);
     const double cpu_seconds = process_cpu_seconds() - cpu0;

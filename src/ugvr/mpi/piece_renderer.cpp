@@ -116,6 +116,8 @@ class PieceRenderer final : public Renderer {
       const auto it = std::find(pieces_.begin(), pieces_.end(), piece);
       if (it == pieces_.end()) continue;
       const size_t i = size_t(it - pieces_.begin());
+      // In one process a frame of many pieces (seconds at full quality) stops between them too, not only inside one.
+      if (request.keep_going && !request.keep_going()) throw FrameInterrupted();
       Frame f = renderers_[i]->render(mine);
       if (f.image.width != width || f.image.height != height)
         fail_in("pieces", "piece " + std::to_string(piece) + " drew the wrong image size");

@@ -124,6 +124,7 @@ struct EngineHost::Tab {
   // previous step's render started.
   double render_budget = 0;
   std::optional<Clock::time_point> step_started;
+  uint64_t interrupted = 0;  // FrameStatus::interrupted
 };
 
 EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options)) {
@@ -448,7 +449,7 @@ EngineHost::Switch EngineHost::switch_to_preview() {
 
 void EngineHost::forget(uint64_t tab) { tabs_.erase(tab); }
 
-EngineHost::Frame EngineHost::render(const FrameJob& job) {
+EngineHost::Frame EngineHost::render(const FrameJob& job, const std::function<bool()>& keep_going) {
   const ViewRequest& request = job.request;
   std::unique_ptr<Tab>& slot = tabs_[job.tab];
   if (!slot) slot = std::make_unique<Tab>();
@@ -531,7 +532,18 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   // Playing: the next step is read while this frame is encoded and sent (the switch then costs the field swap). The
   // store's renderer starts the read after this frame's draw, for the nodes it drew.
   if (timed_store && request.playing) fr.prefetch_time_step = (*fr.time_step + 1) % lod_->engine.store().step_count();
-  ugvr::Frame f = (collective_ ? *collective_ : *tab.renderer).render(fr);
+  fr.keep_going = keep_going;
+  ugvr::Frame f;
+  try {
+    f = (collective_ ? *collective_ : *tab.renderer).render(fr);
+  } catch (const FrameInterrupted&) {
+    // The tab's next frame is a move from the view it was last shown; this one counts in nothing.
+    ++tab.interrupted;
+    tab.step_started.reset();
+    Frame none;
+    none.interrupted = true;
+    return none;
+  }
   if (playing)
     tab.step_started = render_start;
   else
@@ -548,6 +560,7 @@ EngineHost::Frame EngineHost::render(const FrameJob& job) {
   st.ram_bytes = f.stats.ram_bytes, st.ram_budget = f.stats.ram_budget;
   st.atlas_bytes = f.stats.gpu_bytes, st.atlas_budget = f.stats.gpu_budget;
   st.pending_bricks = f.stats.pending;
+  st.interrupted = tab.interrupted;
   if (timed) st.time_step = exact_->step, st.time = exact_->series->steps[exact_->step].time;
   if (timed_store) st.time_step = *fr.time_step, st.time = lod_->engine.store().step_time(*fr.time_step);
   // How much is exact (hybrid): the session's figures of the frame's draw.

@@ -95,10 +95,13 @@ class EngineHost {
   struct Frame {
     FrameStatus status;
     std::shared_ptr<const std::string> image;
+    bool interrupted = false;  // keep_going said stop: nothing was drawn, nothing is to be sent
   };
   // Draws `job`'s frame with its tab's renderer, made on the tab's first frame and again whenever the tab picks
-  // another engine (job.request.engine; empty: the scene's). Throws (ugvr::Error and others).
-  Frame render(const FrameJob& job);
+  // another engine (job.request.engine; empty: the scene's). `keep_going` (FrameRequest::keep_going): asked between
+  // parts of the frame; when it says stop, the frame is abandoned (Frame::interrupted). Throws (ugvr::Error and
+  // others).
+  Frame render(const FrameJob& job, const std::function<bool()>& keep_going = {});
   // A tab has closed: its renderer goes (it joins its brick cache's threads).
   void forget(uint64_t tab);
 

@@ -97,6 +97,10 @@ std::optional<uint64_t> FrameScheduler::take_ack(uint64_t id) {
   return t->view.generation;
 }
 
+void FrameScheduler::interrupted(const FrameJob& job) {
+  if (TabState* t = find(job.tab)) t->in_flight = false;
+}
+
 void FrameScheduler::delivered(uint64_t id) {
   if (TabState* t = find(id)) t->in_flight = false;
 }

@@ -89,6 +89,9 @@ class FrameScheduler {
   // the request count to acknowledge (view_protocol.h "ack"), and from now on it counts as shown. nullopt: no ack
   // is owed (a frame that will carry the count is wanted, or nothing is new).
   std::optional<uint64_t> take_ack(uint64_t id);
+  // `job`'s frame was abandoned because the tab's view changed while it was drawn (FrameRequest::keep_going): nothing
+  // goes on the wire, and the tab, no longer in flight, wants its new view drawn.
+  void interrupted(const FrameJob& job);
   // The last message of the tab's frame has been written: it may get the next one.
   void delivered(uint64_t id);
   // Every tab draws again, as if its view had changed (the engine has changed).

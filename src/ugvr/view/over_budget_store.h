@@ -25,10 +25,11 @@ struct OverBudgetStore {
   std::unique_ptr<BackgroundBuild> build;
 };
 
-// nullopt: the inputs fit (or are a store; a partitioned store's index is the caller's to leave out). `field`: the field to build (empty: the builder's default).
-// `engine` "exact" over the budget throws OptionError("engine", ...); an input that is not one .vtu throws
-// ugvr::Error naming it, with advice; a failed build throws its error; with `time_budget` (seconds since `start`)
-// and nothing built by then, OptionError("time-budget", ...). `say`: what it does goes to stderr.
+// nullopt: the inputs fit (or are a store; a partitioned store's index is the caller's to leave out). `field`: the
+// field to build (empty: the builder's default). `engine` "exact" over the budget throws OptionError("engine", ...); an
+// input that is not one .vtu throws ugvr::Error naming it, with advice; a failed build throws its error; with
+// `time_budget` (seconds since `start`) and nothing built by then, OptionError("time-budget", ...). `say`: what it does
+// goes to stderr.
 std::optional<OverBudgetStore> store_for_a_mesh_over_budget(const std::vector<std::string>& inputs,
                                                             const std::string& field, const std::string& engine,
                                                             std::optional<double> time_budget,

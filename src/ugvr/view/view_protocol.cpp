@@ -306,7 +306,8 @@ std::string status_message(const FrameStatus& s) {
          {"ram_budget", s.ram_budget},
          {"atlas_bytes", s.atlas_bytes},
          {"atlas_budget", s.atlas_budget},
-         {"pending_bricks", s.pending_bricks}};
+         {"pending_bricks", s.pending_bricks},
+         {"interrupted", s.interrupted}};
   if (s.time_step >= 0) j["time_step"] = s.time_step, j["time"] = s.time;
   if (s.hybrid)
     j["exact"] = {{"nodes", s.exact_nodes},

@@ -244,8 +244,9 @@ struct FrameStatus {
   uint64_t ram_bytes = 0, ram_budget = 0;      // this tab's RAM brick cache: resident decoded bricks, and its budget
   uint64_t atlas_bytes = 0, atlas_budget = 0;  // the GPU atlas (shared by all tabs)
   uint64_t pending_bricks = 0;                 // bricks the refinement waits for (queued or loading from disk)
-  int64_t time_step = -1;                      // the series' step shown (-1: no time axis)
-  double time = 0;                             // its time
+  uint64_t interrupted = 0;  // this tab's frames cut short so far: resting ones abandoned because the view moved on
+  int64_t time_step = -1;    // the series' step shown (-1: no time axis)
+  double time = 0;           // its time
   // A hybrid frame (engine "hybrid"; LodRenderStats' figures): how much of the cut is drawn by exact cells.
   bool hybrid = false;
   uint64_t exact_nodes = 0, exact_candidates = 0, exact_cells = 0, focus_excluded = 0;

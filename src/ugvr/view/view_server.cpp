@@ -10,6 +10,7 @@
 // clang-format on
 #include <malloc.h>
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <functional>
@@ -94,6 +95,11 @@ struct ViewServer::Impl final : HttpHost {
   std::thread io_thread, render_thread;
   bool stopped = false;
   std::unique_ptr<EngineHost> engine;  // the render thread's
+  // The frame being drawn: its tab and request (0: none), set under the lock when it is taken; and whether that tab's
+  // view has changed since (a message that changed what is drawn, or the tab closed), which its renderer asks
+  // without the lock (FrameRequest::keep_going) to abandon a resting frame nobody will look at.
+  uint64_t drawing_tab = 0, drawing_generation = 0;
+  std::atomic<bool> drawing_superseded{false};
 
   void accept();
   void render_loop(std::promise<void>& started);
@@ -159,6 +165,7 @@ struct ViewServer::Impl final : HttpHost {
       apply_message(tab->view, ClientMessage(*admitted), scene);
     else
       apply_message(tab->view, message, scene);
+    if (id == drawing_tab && tab->view.changed > drawing_generation) drawing_superseded = true;
     if (std::holds_alternative<CameraMessage>(message) || std::holds_alternative<TfMessage>(message)) last_active = id;
     // A message that changed nothing drawn gets no frame (a settled view would draw a full-quality one again): the
     // client learns it was taken from an ack.
@@ -180,6 +187,7 @@ struct ViewServer::Impl final : HttpHost {
     std::lock_guard lock(mutex);
     opening.erase(id);
     scheduler.close(id);
+    if (id == drawing_tab) drawing_superseded = true;
     tab_memory->release(id);
     wake.notify_all();
   }
@@ -206,7 +214,7 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
     // A collective frame cannot be cut short: a tab's full-quality frame waits a moment after its last moving frame,
     // so that the next move of a drag is not held up by it (frame_scheduler.h, set_rest_delay). Half a second: the
     // page sends a drag's next view as soon as the moving frame is shown, well within it.
-    if (options.collective) scheduler.set_rest_delay(0.5);
+    if (options.collective && !options.collective_interruptible) scheduler.set_rest_delay(0.5);
     gl_renderer = engine->gl_renderer();
     if (const std::optional<ProgressInfo> p = engine->initial_progress()) progress_text = progress_message(*p);
     if (engine->has_scene()) publish_scene(false);
@@ -273,7 +281,11 @@ Turn ViewServer::Impl::next_turn() {
     }
   }
   if (!engine->has_scene()) return Idle{};  // nothing draws yet: tabs that said hello wait for the scene
-  if (std::optional<FrameJob> job = scheduler.next()) return std::move(*job);
+  if (std::optional<FrameJob> job = scheduler.next()) {
+    drawing_tab = job->tab, drawing_generation = job->generation;
+    drawing_superseded = false;
+    return std::move(*job);
+  }
   return Idle{};
 }
 
@@ -341,8 +353,21 @@ std::function<void()> ViewServer::Impl::perform(const FrameJob& job) {
   std::string status, error;
   std::shared_ptr<const std::string> image;
   bool converged = false;
+  // A resting frame (refining, full quality, exact cells: seconds on llvmpipe) is cut short when its tab moves on: the
+  // move is drawn next instead of waiting for it. A moving frame is short and is drawn whole: cutting each one for
+  // the drag's next step would show nothing while the drag lasts. Under MPI every rank must finish a frame.
+  const bool interruptible =
+      (job.resting || job.full_quality) && (!options.collective || options.collective_interruptible);
+  std::function<bool()> keep_going;
+  if (interruptible) keep_going = [this] { return !drawing_superseded.load(std::memory_order_relaxed); };
   try {
-    EngineHost::Frame frame = engine->render(job);
+    if (options.on_frame_start) options.on_frame_start(job, keep_going);
+    EngineHost::Frame frame = engine->render(job, keep_going);
+    if (frame.interrupted)
+      return [this, job] {
+        drawing_tab = 0;
+        scheduler.interrupted(job);
+      };
     converged = frame.status.converged;
     status = status_message(frame.status);
     image = std::move(frame.image);
@@ -350,6 +375,7 @@ std::function<void()> ViewServer::Impl::perform(const FrameJob& job) {
     error = std::string("render: ") + e.what();
   }
   return [this, job, converged, status = std::move(status), image = std::move(image), error = std::move(error)] {
+    drawing_tab = 0;
     scheduler.rendered(job, converged, !error.empty());
     const std::weak_ptr<WsSession> socket = socket_of(job.tab);
     if (!error.empty())

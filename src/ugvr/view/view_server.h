@@ -40,6 +40,8 @@ class Renderer;
 
 namespace ugvr::view {
 
+struct FrameJob;  // frame_scheduler.h
+
 // `mpirun -np N ugvr view` (docs/mpi.md, "The viewer on a cluster"): the renderer every tab draws with, one that
 // draws each frame on all ranks together (mpi/mpi_view.h), and the fields the page may pick.
 struct CollectiveRenderer {
@@ -116,6 +118,13 @@ struct ViewServerOptions {
   // MPI: called on the render thread instead of opening `store` or loading a grid; its renderer draws every tab, as
   // the only engine (no build, no histograms, no degree of interest). Empty: the single-process viewer.
   std::function<CollectiveRenderer()> collective;
+  // Whether the collective renderer's resting frames may be cut short by a move (FrameRequest::keep_going): the pieces
+  // of an index drawn in this process, yes; MPI ranks, no (every rank must finish a collective frame), and then a
+  // resting frame waits a moment after a moving one instead (FrameScheduler::set_rest_delay).
+  bool collective_interruptible = false;
+  // Tests: called on the render thread when a frame's work begins, with the question the renderer will ask between
+  // parts of it (empty for a frame that is not cut short: a moving one).
+  std::function<void(const FrameJob&, const std::function<bool()>&)> on_frame_start;
 };
 
 class ViewServer {

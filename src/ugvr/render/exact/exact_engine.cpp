@@ -5,8 +5,10 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 
 #include "ugvr/core/error.h"
@@ -16,6 +18,7 @@
 #include "ugvr/render/exact/ray_frame.h"
 #include "ugvr/render/exact/walk_mesh.h"
 #include "ugvr/render/optical_table.h"
+#include "ugvr/render/renderer.h"
 
 namespace ugvr {
 namespace {
@@ -76,7 +79,8 @@ inline std::array<uint8_t, 3> triangle_corners(int face_size, bool split_13, int
 
 struct ExactEngine::Impl {
   WalkMesh mesh;
-  std::vector<float> values;  // per vertex or per cell (engine order)
+  std::vector<float> values;         // per vertex or per cell (engine order)
+  std::function<bool()> keep_going;  // set_keep_going
   bool per_cell = false;
   bool bound = false;
   std::string field_name;
@@ -812,6 +816,7 @@ void ExactEngine::set_nonlinear_tolerance(double relative) {
   impl_->nonlinear_tolerance = relative;
 }
 void ExactEngine::set_clip_box(std::optional<Bounds> box) { impl_->clip_box = box; }
+void ExactEngine::set_keep_going(std::function<bool()> keep_going) { impl_->keep_going = std::move(keep_going); }
 const std::optional<Bounds>& ExactEngine::clip_box() const { return impl_->clip_box; }
 void ExactEngine::restrict_to_box(const Bounds& box) {
   Impl& I = *impl_;
@@ -884,12 +889,17 @@ Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, cons
   const auto& bg = settings.background;
   tbb::combinable<Counters> counters;
   const int tiles = bins.tiles_x() * bins.tiles_y();
+  std::atomic<bool> stopped{false};  // keep_going said no: the tiles not begun are skipped
   tbb::parallel_for(tbb::blocked_range<int>(0, tiles, 1), [&](const tbb::blocked_range<int>& r) {
     thread_local std::vector<RayFrame> frames;
     thread_local std::vector<EntryHit> hits;
     thread_local std::vector<uint32_t> pixel_begin;
     Counters& local = counters.local();
     for (int tile = r.begin(); tile != r.end(); ++tile) {
+      if (I.keep_going && (stopped.load(std::memory_order_relaxed) || !I.keep_going())) {
+        stopped.store(true, std::memory_order_relaxed);
+        return;
+      }
       const int x0 = (tile % bins.tiles_x()) * kTileSize, y0 = (tile / bins.tiles_x()) * kTileSize;
       const int tw = std::min(kTileSize, width - x0), th = std::min(kTileSize, height - y0);
       frames.clear();
@@ -905,6 +915,7 @@ Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, cons
       }
     }
   });
+  if (stopped.load()) throw FrameInterrupted();
   if (stats) {
     const Counters total = counters.combine([](Counters a, const Counters& b) {
       a.rays_hit += b.rays_hit, a.cell_steps += b.cell_steps, a.reentries += b.reentries;

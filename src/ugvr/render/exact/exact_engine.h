@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -68,6 +69,10 @@ class ExactEngine {
   // default): whole rays.
   void set_clip_box(std::optional<Bounds> box);
   const std::optional<Bounds>& clip_box() const;
+  // Interactive front ends (FrameRequest::keep_going, renderer.h): from the next frame on, each tile of the image asks
+  // `keep_going` before it is traced, and a frame it stops throws FrameInterrupted once the tiles under way are done.
+  // Empty: every tile is traced.
+  void set_keep_going(std::function<bool()> keep_going);
   // Data-parallel rendering with a part of the mesh: keeps only the cells whose bounding boxes meet `box`
   // (restrict_walk_mesh in walk_mesh.h; the faces where the mesh was cut become faces rays enter through) and sets
   // the clip box to `box`, so the image is the whole mesh's clipped to the box while the rays walk only this part.

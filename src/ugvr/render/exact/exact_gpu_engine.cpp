@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <map>
 #include <optional>
 #include <tuple>
@@ -15,10 +16,12 @@
 #include "ugvr/core/error.h"
 #include "ugvr/core/memory.h"
 #include "ugvr/gpu/gl_program.h"
+#include "ugvr/render/banded_dispatch.h"
 #include "ugvr/render/exact/boundary_bins.h"
 #include "ugvr/render/exact/walk_mesh.h"
 #include "ugvr/render/gpu_readback.h"
 #include "ugvr/render/optical_table.h"
+#include "ugvr/render/renderer.h"
 
 namespace ugvr {
 namespace {
@@ -64,6 +67,7 @@ struct ExactGpuEngine::Impl {
   const WalkMesh& mesh;
   std::shared_ptr<const GlContext> gl;
   ExactGpuOptions options;
+  std::function<bool()> keep_going;  // set_keep_going
   int chunk_shift = 30;
   std::vector<GlBuffer> conn, nbr;
   GlBuffer points, quad_split, values, boundary, boxes, tiles, counters, optical, frame_block, readback;
@@ -175,6 +179,7 @@ void ExactGpuEngine::set_values(const std::vector<float>& values, bool per_cell)
 }
 
 const GlContext& ExactGpuEngine::gl() const { return *impl_->gl; }
+void ExactGpuEngine::set_keep_going(std::function<bool()> keep_going) { impl_->keep_going = std::move(keep_going); }
 uint64_t ExactGpuEngine::mesh_device_bytes() const { return impl_->mesh_bytes + impl_->values_bytes; }
 uint64_t ExactGpuEngine::device_bytes() const { return mesh_device_bytes() + impl_->frame_bytes; }
 double ExactGpuEngine::last_bin_seconds() const { return impl_->bin_seconds; }
@@ -354,8 +359,12 @@ Image ExactGpuEngine::render(const Camera& camera, const TransferFunction& tf, c
   glFinish();  // the uploads above are not the walk's time
   const auto tw = std::chrono::steady_clock::now();
   I.timer->begin();
-  const int group = exact_gpu::EXACT_WORKGROUP_SIZE;
-  glDispatchCompute(GLuint((w + group - 1) / group), GLuint((h + group - 1) / group), 1);
+  try {
+    dispatch_image(w, h, exact_gpu::EXACT_WORKGROUP_SIZE, exact_gpu::EXACT_BAND_ORIGIN_LOCATION, I.keep_going);
+  } catch (const FrameInterrupted&) {
+    I.timer->end();
+    throw;
+  }
   I.timer->end();
   glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
   glFinish();

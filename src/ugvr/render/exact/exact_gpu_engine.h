@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -60,6 +61,9 @@ class ExactGpuEngine {
   // Seconds of the last frame spent binning the boundary on the CPU and on the GPU's own clock.
   double last_bin_seconds() const;
   double last_gpu_seconds() const;
+  // As LodEngine::set_keep_going: from the next frame on, the walk is dispatched in bands of rows that `keep_going`
+  // may stop (FrameInterrupted). Empty: one dispatch.
+  void set_keep_going(std::function<bool()> keep_going);
 
  private:
   struct Impl;

@@ -11,6 +11,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/core/memory.h"
 #include "ugvr/core/threads.h"
+#include "ugvr/render/banded_dispatch.h"
 #include "ugvr/render/field_histogram.h"
 #include "ugvr/render/visible_bounds.h"
 
@@ -277,12 +278,19 @@ Frame ExactRenderer::render(const FrameRequest& request) {
   rs.width = std::max(1, int(std::lround(w * f.stats.scale)));
   rs.height = std::max(1, int(std::lround(h * f.stats.scale)));
   Image image;
-  if (on_gpu_) {
-    scene_->bind_gpu(field_);
-    image = scene_->gpu_engine->render(request.camera, request.tf, rs, scene_->engine.tolerance_abs(request.tf),
-                                       &detail->render);
-  } else {
-    image = scene_->engine.render(request.camera, request.tf, rs, &detail->render);
+  try {
+    if (on_gpu_) {
+      scene_->bind_gpu(field_);
+      const ScopedKeepGoing keep(*scene_->gpu_engine, request.keep_going);
+      image = scene_->gpu_engine->render(request.camera, request.tf, rs, scene_->engine.tolerance_abs(request.tf),
+                                         &detail->render);
+    } else {
+      const ScopedKeepGoing keep(scene_->engine, request.keep_going);
+      image = scene_->engine.render(request.camera, request.tf, rs, &detail->render);
+    }
+  } catch (const FrameInterrupted&) {
+    last_.reset();  // not shown: the next request is not "resting" on it
+    throw;
   }
   f.stats.seconds = detail->render.render_seconds;
   if (full) {

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -21,6 +22,7 @@
 #include "lod_shared.h"  // shaders/lod_shared.h: what the engine and shaders/lod_raycast.comp agree on
 #include "ugvr/core/error.h"
 #include "ugvr/gpu/gl_program.h"
+#include "ugvr/render/banded_dispatch.h"
 #include "ugvr/render/gpu_readback.h"
 #include "ugvr/render/lod/brick_atlas.h"
 #include "ugvr/render/lod/brick_cache.h"
@@ -29,6 +31,7 @@
 #include "ugvr/render/lod/hybrid_select.h"
 #include "ugvr/render/lod/tf_error.h"
 #include "ugvr/render/optical_table.h"
+#include "ugvr/render/renderer.h"
 #include "ugvr/store/boundary_planes.h"
 #include "ugvr/store/brick_store.h"
 
@@ -134,7 +137,8 @@ struct LodEngine::Impl {
   // render_nodes call it makes (node, cache entry); empty otherwise.
   std::unique_ptr<CellCache> cells;
   std::vector<std::pair<uint64_t, uint32_t>> exact_now;
-  GlBuffer optical;                            // the exact engine's optical table, for the cells (optical.glsl)
+  std::function<bool()> keep_going;  // set_keep_going: the frames' dispatch is banded and interruptible when set
+  GlBuffer optical;                  // the exact engine's optical table, for the cells (optical.glsl)
   std::optional<TransferFunction> optical_tf;  // what it holds
   void choose_exact(std::span<const uint64_t> cut, const Camera& camera, const RenderSettings& settings,
                     LodRenderStats& st, uint64_t max_nodes = UINT64_MAX);
@@ -818,6 +822,7 @@ const std::string& LodEngine::field_name() const { return impl_->store.layout().
 double LodEngine::field_min() const { return impl_->store.layout().fields[impl_->field].min; }
 double LodEngine::field_max() const { return impl_->store.layout().fields[impl_->field].max; }
 void LodEngine::set_clip_box(std::optional<Bounds> box) { impl_->clip_box = box; }
+void LodEngine::set_keep_going(std::function<bool()> keep_going) { impl_->keep_going = std::move(keep_going); }
 Bounds LodEngine::bounds() const { return impl_->store.layout().data; }
 uint64_t LodEngine::node_count() const { return impl_->store.node_count(); }
 uint32_t LodEngine::resolution() const { return impl_->store.resolution(); }
@@ -1055,8 +1060,13 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   const auto t2 = std::chrono::steady_clock::now();
   if (!I.timer) I.timer = std::make_unique<GlTimerQuery>();
   I.timer->begin();
-  const int group = lod_gpu::WORKGROUP_SIZE;
-  glDispatchCompute(GLuint((w + group - 1) / group), GLuint((h + group - 1) / group), 1);
+  try {
+    dispatch_image(w, h, lod_gpu::WORKGROUP_SIZE, lod_gpu::BAND_ORIGIN_LOCATION, I.keep_going);
+  } catch (const FrameInterrupted&) {
+    I.timer->end();
+    I.exact_now.clear();  // a grant holds for one frame, drawn or not
+    throw;
+  }
   I.timer->end();
   glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
   glFinish();

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -188,6 +189,11 @@ class LodEngine {
   // the whole image (up to where samples fall); render() draws only the cut's nodes that meet the box. Not a user
   // setting. nullopt (the default): whole rays.
   void set_clip_box(std::optional<Bounds> box);
+  // Interactive front ends (FrameRequest::keep_going, renderer.h): from the next frame on, the ray casting is
+  // dispatched in bands of rows (render/banded_dispatch.h), asking `keep_going` before each, and a frame it stops
+  // throws FrameInterrupted (the atlas keeps what was uploaded; an exact grant ends as after a frame). Empty: one
+  // dispatch a frame. The renderers set it around a request's frame and clear it after.
+  void set_keep_going(std::function<bool()> keep_going);
   Bounds bounds() const;  // the dataset's bounds
   uint64_t node_count() const;
   uint32_t resolution() const;

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "ugvr/core/memory.h"
+#include "ugvr/render/banded_dispatch.h"
 #include "ugvr/render/field_histogram.h"
 #include "ugvr/render/visible_bounds.h"
 #include "ugvr/store/brick_store.h"
@@ -197,6 +198,7 @@ Frame LodRenderer::render(const FrameRequest& request) {
   auto detail = std::make_shared<LodFrameStats>();
   detail->cut = cut_;
   Frame f;
+  const ScopedKeepGoing keep(engine, request.keep_going);
   f.image = engine.render(request.camera, request.tf, request.settings, cut_, &detail->render);
   const LodRenderStats& st = detail->render;
   f.stats.engine = std::string(this->engine());
@@ -274,6 +276,9 @@ Frame InteractiveLodRenderer::render(const FrameRequest& request) {
   detail->brick_resolution = engine.resolution();
   TimeCriticalFrame& tf = detail->frame;
   Frame f;
+  // Interrupted (FrameInterrupted from the engine's dispatch), the session keeps its cut and its last shown view: the
+  // next request is a move from that view.
+  const ScopedKeepGoing keep(engine, request.keep_going);
   f.image = request.full_quality ? session_->full_quality(request.camera, request.tf, request.settings, &tf)
                                  : session_->frame(request.camera, request.tf, request.settings, &tf);
   FrameStats& s = f.stats;

@@ -1,0 +1,88 @@
+// A move that arrives while the viewer draws a resting frame (full quality, the hybrid engine's exact batches): how
+// long until the page shows it. Usage: node --experimental-websocket bench/view_rest_move.mjs WS_URL [WIDTH=512]
+// [HEIGHT=512] [MOVES=10] [DELAY_MS=400] (bench/run_view_rest_move.sh starts the server and runs this).
+//
+// After hello and a first converged frame, each round sends a camera move (5 degrees), waits for the first frame
+// that reflects it (a moving frame: resting ones follow at once), waits DELAY_MS more so that a resting frame is under
+// way, and sends a second move; the latency is from sending that second move to receiving the first frame that
+// reflects it. Then it waits for the view to converge before the next round. Prints one JSON line: the latencies'
+// median, p95 and max, and how many frames the server cut short (the status's "interrupted", absent before it
+// existed).
+import { rotate } from "./view_camera.mjs";
+const [url, width = "512", height = "512", moves = "10", delay = "400"] = process.argv.slice(2);
+const W = Number(width), H = Number(height), MOVES = Number(moves), DELAY = Number(delay);
+
+const ws = new WebSocket(url);
+ws.binaryType = "arraybuffer";
+const sentAt = [];
+let accepted = 0;
+let camera = null;
+let status = null;
+let onFrame = null;
+
+function send(msg) {
+  ws.send(JSON.stringify(msg));
+  accepted += 1;
+  sentAt[accepted] = performance.now();
+}
+const waitFor = (pred) =>
+  new Promise((resolve) => {
+    onFrame = (st, now) => {
+      if (pred(st, now)) {
+        onFrame = null;
+        resolve({ st, now });
+      }
+    };
+  });
+ws.onmessage = (ev) => {
+  const now = performance.now();
+  if (typeof ev.data === "string") {
+    const m = JSON.parse(ev.data);
+    if (m.type === "scene") camera = m.camera;
+    else if (m.type === "status") status = m;
+    else if (m.type === "error") console.error("server error:", m.message);
+    return;
+  }
+  if (status && onFrame) onFrame(status, now);
+};
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+const percentile = (xs, q) => {
+  const s = [...xs].sort((a, b) => a - b);
+  return s.length ? s[Math.min(s.length - 1, Math.floor(q * (s.length - 1) + 0.5))] : null;
+};
+
+ws.onopen = async () => {
+  send({ type: "hello", width: W, height: H });
+  const first = await waitFor((st) => st.converged);
+  const restSeconds = [first.st.frame_seconds];
+  const latency = [];
+  let last = first.st;
+  for (let i = 0; i < MOVES; ++i) {
+    camera = rotate(camera, 5);
+    send({ type: "camera", ...camera });
+    const a = accepted;
+    await waitFor((st) => st.request >= a);
+    await sleep(DELAY);
+    camera = rotate(camera, 5);
+    send({ type: "camera", ...camera });
+    const b = accepted;
+    const { now } = await waitFor((st) => st.request >= b);
+    latency.push(now - sentAt[b]);
+    const done = await waitFor((st) => st.converged && st.request === accepted);
+    restSeconds.push(done.st.frame_seconds);
+    last = done.st;
+  }
+  const r = (x) => (x === null ? null : Math.round(x * 10) / 10);
+  console.log(JSON.stringify({
+    bench: "view_rest_move", width: W, height: H, moves: MOVES, delay_ms: DELAY,
+    latency_ms_p50: r(percentile(latency, 0.5)), latency_ms_p95: r(percentile(latency, 0.95)),
+    latency_ms_max: r(Math.max(...latency)), converged_frame_s_p50: r(percentile(restSeconds, 0.5)),
+    interrupted: last.interrupted ?? null, engine: last.engine,
+  }));
+  ws.close();
+  process.exit(0);
+};
+ws.onerror = (e) => {
+  console.error("websocket error", e.message || e);
+  process.exit(1);
+};
