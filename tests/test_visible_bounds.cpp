@@ -2,6 +2,7 @@
 // cells and of a store's coarse nodes that reach opacity, and the rule that frames default_camera's direction on it.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <vector>
@@ -140,6 +141,99 @@ TEST(VisibleBounds, RendererDefaultCameraUsesTheBox) {
   corner.hi = {2, 2, 2};
   EXPECT_EQ(framed_default_camera(r, ramp(0, 1)), default_camera(corner));
   EXPECT_EQ(framed_default_camera(r, ramp(0, 0.01)), default_camera(whole()));
+}
+
+// A bright blob (cells of x, y, z in [0, 2], value 1) and, across the domain, a faint thin tube (the cells of y and z
+// in [9.9, 10] along all of x, value 0.1: opacity 0.1 under ramp(0, 1), above kVisibleOpacity), as a wing and a
+// faint wake. The tube holds 0.1 % of opacity x volume.
+Dataset blob_and_faint_tube() {
+  RectilinearGrid g;
+  std::vector<double> x, yz;
+  for (int i = 0; i <= 10; ++i) x.push_back(i);
+  for (int i = 0; i <= 9; ++i) yz.push_back(i);
+  yz.push_back(9.9);
+  yz.push_back(10);
+  g.dims.points = {uint32_t(x.size()), uint32_t(yz.size()), uint32_t(yz.size())};
+  g.coords = {x, yz, yz};
+  std::vector<float> value;
+  for (size_t k = 0; k + 1 < yz.size(); ++k)
+    for (size_t j = 0; j + 1 < yz.size(); ++j)
+      for (size_t i = 0; i + 1 < x.size(); ++i) {
+        const bool blob = x[i] < 2 && yz[j] < 2 && yz[k] < 2, tube = yz[j] >= 9.9 && yz[k] >= 9.9;
+        value.push_back(blob ? 1.f : tube ? 0.1f : 0.f);
+      }
+  Block b;
+  b.grid = std::move(g);
+  b.fields.add(Field("seen", Association::Cell, DataArray::from(std::move(value), 1)));
+  Dataset ds;
+  ds.blocks.push_back(std::move(b));
+  return ds;
+}
+
+TEST(VisibleBounds, FaintThinTubeDoesNotStretchTheBox) {
+  auto scene = std::make_shared<ExactScene>(std::make_shared<const Dataset>(blob_and_faint_tube()));
+  ExactRenderer r(scene);
+  r.set_field("seen");
+  const std::optional<Bounds> box = r.visible_bounds(ramp(0, 1), kVisibleOpacity);
+  ASSERT_TRUE(box);
+  expect_box(*box, {0, 0, 0}, {2, 2, 2});  // a plain union was the whole domain, [0, 10] on every axis
+  EXPECT_EQ(framed_default_camera(r, ramp(0, 1)), default_camera(*box));
+  // The tube alone (the blob made transparent) is what is visible: its box.
+  TransferFunction tube_only = ramp(0, 1);
+  tube_only.opacity_points = {{0, 0}, {0.1, 1}, {0.5, 0}, {1, 0}};
+  const std::optional<Bounds> tube = r.visible_bounds(tube_only, kVisibleOpacity);
+  ASSERT_TRUE(tube);
+  expect_box(*tube, {0, double(9.9f), double(9.9f)}, {10, 10, 10});  // float positions
+}
+
+TEST(VisibleBounds, WeightsKeepTheCentralShareOnEachAxis) {
+  VisibleWeights w(whole());
+  EXPECT_TRUE(w.box().empty()) << "nothing added";
+  const auto cube = [](double lo, double hi) {
+    Bounds b;
+    b.lo = {lo, lo, lo};
+    b.hi = {hi, hi, hi};
+    return b;
+  };
+  // Flat pieces only (no weight): their union.
+  w.add(cube(1, 1), 0);
+  w.add(cube(3, 3), 0);
+  expect_box(w.box(), {1, 1, 1}, {3, 3, 3});
+  // 97 parts at [2, 3], a part at each end: within the tails, dropped; two parts at an end are not.
+  w.add(cube(2, 3), 97);
+  w.add(cube(0, 0.5), 1);
+  w.add(cube(7.5, 8), 1);
+  expect_box(w.box(), {2, 2, 2}, {3, 3, 3});
+  w.add(cube(7.5, 8), 1);
+  expect_box(w.box(), {2, 2, 2}, {8, 8, 8});
+}
+
+// MPI ranks add up their parts' weights (MpiRenderer::visible_bounds): two halves, each the cells whose centroid its
+// box owns, add up to the whole's weights exactly, and so to its box.
+TEST(VisibleBounds, WeightsOfOwnedPartsAddUpToTheWhole) {
+  auto scene = std::make_shared<ExactScene>(std::make_shared<const Dataset>(blob_and_faint_tube()));
+  ExactRenderer r(scene);
+  r.set_field("seen");
+  const Bounds over = r.bounds();
+  Bounds left = all_space(), right = all_space();
+  left.hi.x = 1;  // through the blob: each half holds part of it
+  right.lo.x = 1;
+  const std::vector<double> whole = r.visible_weights(ramp(0, 1), kVisibleOpacity, over, all_space());
+  const auto a = VisibleWeights::from_flat(over, r.visible_weights(ramp(0, 1), kVisibleOpacity, over, left));
+  const auto b = VisibleWeights::from_flat(over, r.visible_weights(ramp(0, 1), kVisibleOpacity, over, right));
+  ASSERT_TRUE(a && b);
+  EXPECT_NE(a->flat(), whole) << "a half is not the whole";
+  VisibleWeights sum = *a;
+  sum.merge(*b);
+  const std::vector<double> added = sum.flat();
+  ASSERT_EQ(added.size(), whole.size());
+  for (size_t i = 0; i < added.size(); ++i)  // the same terms, summed in another order
+    if (std::isinf(whole[i]))
+      EXPECT_EQ(added[i], whole[i]) << "entry " << i;  // an empty bin's extent
+    else
+      EXPECT_NEAR(added[i], whole[i], 1e-12 * std::max(1.0, std::abs(whole[i]))) << "entry " << i;
+  expect_box(sum.box(), {0, 0, 0}, {2, 2, 2});
+  EXPECT_FALSE(VisibleWeights::from_flat(over, std::vector<double>(3, 0.0))) << "not a flattened VisibleWeights";
 }
 
 }  // namespace

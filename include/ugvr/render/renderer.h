@@ -123,6 +123,14 @@ class Renderer {
     (void)tf, (void)threshold;
     return std::nullopt;
   }
+  // The weights visible_bounds is made from, flattened (render/visible_bounds.h, VisibleWeights::flat): binned over
+  // `over`, of the pieces whose centre lies in `own` (an MPI rank's kd-tree box), so that ranks add theirs up into
+  // one process's. Empty when the renderer cannot say. Not a collective call.
+  virtual std::vector<double> visible_weights(const TransferFunction& tf, double threshold, const Bounds& over,
+                                              const Bounds& own) const {
+    (void)tf, (void)threshold, (void)over, (void)own;
+    return {};
+  }
   // Renders request.settings.width x height, binding request.settings.field first when it differs. Throws
   // ugvr::Error for a request the engine cannot draw (a time step without a series, a cut over the GPU budget...).
   virtual Frame render(const FrameRequest& request) = 0;

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "ugvr/core/error.h"
+#include "ugvr/grid/cell_volume.h"
 
 namespace ugvr {
 
@@ -57,24 +58,30 @@ uint64_t UnstructuredMesh::memory_bytes() const {
          cell_offsets.capacity() * sizeof(uint64_t) + connectivity.capacity() * sizeof(uint32_t);
 }
 
-double cell_volume(const UnstructuredMesh& mesh, uint64_t cell) {
-  const CellInfo info = cell_info(mesh.cell_types[cell]);
-  const auto v = mesh.cell(cell);
+double cell_volume(CellType type, std::span<const Vec3d> corners) {
+  const CellInfo info = cell_info(type);
   // Relative to the first vertex to keep the rounding small for cells far from the origin.
-  const Vec3d o = to_double(mesh.points[v[0]]);
+  const Vec3d o = corners[0];
   double six_volume = 0;
   for (uint32_t f = 0; f < info.face_count; ++f) {
     const CellFace& face = info.faces[f];
     Vec3d area2{}, centroid{};
     for (uint32_t i = 0; i < face.size; ++i) {
-      const Vec3d a = to_double(mesh.points[v[face.v[i]]]) - o;
-      const Vec3d b = to_double(mesh.points[v[face.v[(i + 1) % face.size]]]) - o;
+      const Vec3d a = corners[face.v[i]] - o;
+      const Vec3d b = corners[face.v[(i + 1) % face.size]] - o;
       area2 = area2 + cross(a, b);
       centroid = centroid + a * (1.0 / face.size);
     }
     six_volume += dot(centroid, area2);
   }
   return six_volume / 6.0;
+}
+
+double cell_volume(const UnstructuredMesh& mesh, uint64_t cell) {
+  const auto v = mesh.cell(cell);
+  std::array<Vec3d, 8> corners;
+  for (size_t i = 0; i < v.size() && i < corners.size(); ++i) corners[i] = to_double(mesh.points[v[i]]);
+  return cell_volume(mesh.cell_types[cell], std::span<const Vec3d>(corners.data(), v.size()));
 }
 
 uint64_t count_inverted_cells(const UnstructuredMesh& mesh) {

@@ -22,6 +22,7 @@
 #include "ugvr/mpi/piece_renderer.h"
 #include "ugvr/octree/input.h"
 #include "ugvr/render/exact/walk_mesh.h"
+#include "ugvr/render/visible_bounds.h"
 
 namespace ugvr::mpi {
 namespace {
@@ -133,7 +134,22 @@ class MpiRenderer final : public Renderer {
   // The ranks MUST frame one camera: the boxes of the ranks' parts are united (min/max over the ranks); a rank that
   // cannot say takes part with an empty box, and when none can the answer is nullopt on every rank. Where every rank
   // holds the whole data the union is each rank's box (restricted meshes cover their boxes, and their union the mesh).
+  //
+  // The box is weighted (render/visible_bounds.h): the ranks' weights, each of the pieces its kd-tree box owns, binned
+  // over the whole data's bounds, are added up (sum, min, max over contiguous ranges of VisibleWeights::flat), so
+  // every rank gets one process's box. A renderer without weights on some rank: the ranks' boxes united, as before.
   std::optional<Bounds> visible_bounds(const TransferFunction& tf, double threshold) const override {
+    const Bounds over = bounds();
+    std::vector<double> w = local_->visible_weights(tf, threshold, over, tree_.boxes[size_t(rank())]);
+    int all_weigh = w.size() == VisibleWeights::kFlatSize ? 1 : 0;
+    MPI_Allreduce(MPI_IN_PLACE, &all_weigh, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (all_weigh) {
+      const int bins = int(VisibleWeights::kAxisBins), extent = bins + 3;
+      MPI_Allreduce(MPI_IN_PLACE, w.data(), bins, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+      MPI_Allreduce(MPI_IN_PLACE, w.data() + bins, extent, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+      MPI_Allreduce(MPI_IN_PLACE, w.data() + bins + extent, extent, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+      return VisibleWeights::from_flat(over, w)->box();
+    }
     const std::optional<Bounds> mine = local_->visible_bounds(tf, threshold);
     const Bounds b = mine.value_or(Bounds{});
     // lo and -hi reduced with MIN in one call: an empty box (+inf, -inf) leaves the others' as they are.

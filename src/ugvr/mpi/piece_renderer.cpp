@@ -7,6 +7,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/mpi/kd_partition.h"
 #include "ugvr/render/lod/lod_renderer.h"
+#include "ugvr/render/visible_bounds.h"
 
 namespace ugvr {
 namespace {
@@ -50,8 +51,26 @@ class PieceRenderer final : public Renderer {
     }
     return sum;
   }
-  // The pieces' boxes united; nullopt when no piece can say.
+  // The pieces' weights added up (each piece's nodes are its own), as one store's would be.
+  std::vector<double> visible_weights(const TransferFunction& tf, double threshold, const Bounds& over,
+                                      const Bounds& own) const override {
+    std::optional<VisibleWeights> sum;
+    for (const auto& r : renderers_) {
+      const std::optional<VisibleWeights> w =
+          VisibleWeights::from_flat(over, r->visible_weights(tf, threshold, over, own));
+      if (!w) return {};  // a piece cannot say: nor can the whole
+      if (sum)
+        sum->merge(*w);
+      else
+        sum = *w;
+    }
+    return sum ? sum->flat() : std::vector<double>{};
+  }
+  // The box of the pieces' weights; else their boxes united; nullopt when no piece can say.
   std::optional<Bounds> visible_bounds(const TransferFunction& tf, double threshold) const override {
+    if (const std::optional<VisibleWeights> w =
+            VisibleWeights::from_flat(bounds(), visible_weights(tf, threshold, bounds(), all_space())))
+      return w->box();
     std::optional<Bounds> all;
     for (const auto& r : renderers_)
       if (const std::optional<Bounds> b = r->visible_bounds(tf, threshold)) {

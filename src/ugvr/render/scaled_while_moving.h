@@ -55,6 +55,10 @@ class ScaledWhileMovingRenderer final : public Renderer {
   std::optional<Bounds> visible_bounds(const TransferFunction& tf, double threshold) const override {
     return inner_->visible_bounds(tf, threshold);
   }
+  std::vector<double> visible_weights(const TransferFunction& tf, double threshold, const Bounds& over,
+                                      const Bounds& own) const override {
+    return inner_->visible_weights(tf, threshold, over, own);
+  }
   void describe(nlohmann::json& j) const override { inner_->describe(j); }
   std::string summary(const FrameStats& last) const override { return inner_->summary(last); }
   Frame render(const FrameRequest& request) override;

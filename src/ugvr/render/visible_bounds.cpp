@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "ugvr/grid/cell_volume.h"
 #include "ugvr/render/exact/exact_engine.h"
 #include "ugvr/render/exact/walk_mesh.h"
 #include "ugvr/render/renderer.h"
@@ -10,10 +11,6 @@
 
 namespace ugvr {
 namespace {
-
-bool reaches(const TransferFunction& tf, double lo, double hi, double threshold) {
-  return max_opacity(tf, lo, hi) > threshold;
-}
 
 // `box` meets the data's bounds: the store's octree root is a cube around them, a node may stick out.
 Bounds clipped(const Bounds& box, const Bounds& bounds) {
@@ -63,11 +60,101 @@ double max_opacity(const TransferFunction& tf, double lo, double hi) {
   return most;
 }
 
-Bounds visible_cell_bounds(const WalkMesh& mesh, std::span<const float> values, bool per_cell,
-                           const TransferFunction& tf, double threshold) {
-  Bounds box;
+VisibleWeights::VisibleWeights(const Bounds& over_) : over(over_) {
+  for (int a = 0; a < 3; ++a) lo[size_t(a)].fill(INFINITY), hi[size_t(a)].fill(-INFINITY);
+}
+
+void VisibleWeights::add(const Bounds& piece, double w) {
+  if (piece.empty()) return;
+  all.add(piece);
+  const Vec3d c = piece.center(), extent = over.size();
+  for (int a = 0; a < 3; ++a) {
+    const double t = extent[a] > 0 ? std::floor((c[a] - over.lo[a]) / extent[a] * kFramingBins) : 0;
+    const size_t i = t < 0 ? 0 : t >= kFramingBins ? kFramingBins - 1 : size_t(t);
+    weight[size_t(a)][i] += w;
+    lo[size_t(a)][i] = std::min(lo[size_t(a)][i], piece.lo[a]);
+    hi[size_t(a)][i] = std::max(hi[size_t(a)][i], piece.hi[a]);
+  }
+}
+
+void VisibleWeights::merge(const VisibleWeights& other) {
+  all.add(other.all);
+  for (size_t a = 0; a < 3; ++a)
+    for (size_t i = 0; i < size_t(kFramingBins); ++i) {
+      weight[a][i] += other.weight[a][i];
+      lo[a][i] = std::min(lo[a][i], other.lo[a][i]);
+      hi[a][i] = std::max(hi[a][i], other.hi[a][i]);
+    }
+}
+
+std::vector<double> VisibleWeights::flat() const {
+  std::vector<double> out;
+  out.reserve(kFlatSize);
+  for (const auto& w : weight) out.insert(out.end(), w.begin(), w.end());
+  for (const auto& l : lo) out.insert(out.end(), l.begin(), l.end());
+  for (int a = 0; a < 3; ++a) out.push_back(all.lo[a]);
+  for (const auto& h : hi) out.insert(out.end(), h.begin(), h.end());
+  for (int a = 0; a < 3; ++a) out.push_back(all.hi[a]);
+  return out;
+}
+
+std::optional<VisibleWeights> VisibleWeights::from_flat(const Bounds& over, std::span<const double> values) {
+  if (values.size() != kFlatSize) return std::nullopt;
+  VisibleWeights w(over);
+  const double* p = values.data();
+  const auto take = [&p](std::array<double, kFramingBins>& to) {
+    std::copy_n(p, kFramingBins, to.begin());
+    p += kFramingBins;
+  };
+  for (auto& x : w.weight) take(x);
+  for (auto& x : w.lo) take(x);
+  for (int a = 0; a < 3; ++a) w.all.lo[a] = *p++;
+  for (auto& x : w.hi) take(x);
+  for (int a = 0; a < 3; ++a) w.all.hi[a] = *p++;
+  return w;
+}
+
+Bounds all_space() {
+  Bounds b;
+  std::swap(b.lo, b.hi);  // (-inf, +inf) on every axis
+  return b;
+}
+
+bool owns(const Bounds& own, Vec3d c) {
+  for (int a = 0; a < 3; ++a)
+    if (!(own.lo[a] <= c[a] && c[a] < own.hi[a])) return false;
+  return true;
+}
+
+Bounds VisibleWeights::box() const {
+  if (all.empty()) return all;
+  Bounds b;
+  for (int a = 0; a < 3; ++a) {
+    const auto& w = weight[size_t(a)];
+    double total = 0;
+    for (const double x : w) total += x;
+    if (!(total > 0)) return all;
+    // The first and last bins past the tails' weight: the pieces in between are kept.
+    const double tail = 0.5 * (1 - kFramedShare) * total;
+    size_t first = 0, last = kFramingBins - 1;
+    for (double below = 0; first < last && below + w[first] <= tail; ++first) below += w[first];
+    for (double above = 0; last > first && above + w[last] <= tail; --last) above += w[last];
+    double from = INFINITY, to = -INFINITY;
+    for (size_t i = first; i <= last; ++i)
+      if (w[i] > 0) from = std::min(from, lo[size_t(a)][i]), to = std::max(to, hi[size_t(a)][i]);
+    b.lo[a] = from, b.hi[a] = to;
+  }
+  return b;
+}
+
+VisibleWeights visible_cell_weights(const WalkMesh& mesh, std::span<const float> values, bool per_cell,
+                                    const TransferFunction& tf, double threshold, const Bounds& over,
+                                    const Bounds& own) {
+  VisibleWeights weights(over);
+  std::array<Vec3d, 8> corners;
   for (int k = 0; k < 4; ++k) {
-    const int n = cell_vertex_count(kAllCellTypes[size_t(k)]);
+    const CellType type = kAllCellTypes[size_t(k)];
+    const int n = cell_vertex_count(type);
     for (uint32_t c = mesh.type_begin[size_t(k)]; c < mesh.type_begin[size_t(k) + 1]; ++c) {
       const uint32_t* v = mesh.cell_vertices(c, k);
       double lo = INFINITY, hi = -INFINITY;
@@ -80,14 +167,32 @@ Bounds visible_cell_bounds(const WalkMesh& mesh, std::span<const float> values, 
           lo = std::min(lo, s), hi = std::max(hi, s);
         }
       }
-      if (!(lo <= hi) || !reaches(tf, lo, hi, threshold)) continue;
+      if (!(lo <= hi)) continue;
+      const double opacity = max_opacity(tf, lo, hi);
+      if (!(opacity > threshold)) continue;
+      Bounds box;
+      Vec3d sum{0, 0, 0};  // the centroid as kd_partition.h's cell_centroids sums it, to own what the kd-tree does
       for (int i = 0; i < n; ++i) {
-        const Vec3f p = mesh.points[v[i]];
-        box.add(Vec3d{p.x, p.y, p.z});
+        corners[size_t(i)] = to_double(mesh.points[v[i]]);
+        box.add(corners[size_t(i)]);
+        sum = sum + corners[size_t(i)];
       }
+      if (!owns(own, sum * (1.0 / double(n)))) continue;
+      const double volume = std::abs(cell_volume(type, std::span<const Vec3d>(corners.data(), size_t(n))));
+      weights.add(box, opacity * volume);
     }
   }
-  return box;
+  return weights;
+}
+
+Bounds visible_cell_bounds(const WalkMesh& mesh, std::span<const float> values, bool per_cell,
+                           const TransferFunction& tf, double threshold) {
+  return visible_cell_weights(mesh, values, per_cell, tf, threshold, mesh.bounds, all_space()).box();
+}
+
+VisibleWeights visible_cell_weights(const ExactEngine& engine, const TransferFunction& tf, double threshold,
+                                    const Bounds& over, const Bounds& own) {
+  return visible_cell_weights(engine.walk_mesh(), engine.bound_values(), engine.per_cell(), tf, threshold, over, own);
 }
 
 Bounds visible_cell_bounds(const ExactEngine& engine, const TransferFunction& tf, double threshold) {
@@ -101,19 +206,32 @@ std::optional<Bounds> visible_node_bounds(const BrickStoreReader& store, const s
   return visible_node_bounds(store, uint32_t(index), tf, threshold);
 }
 
-Bounds visible_node_bounds(const BrickStoreReader& store, uint32_t field, const TransferFunction& tf, double threshold,
-                           int max_level) {
-  Bounds box;
+VisibleWeights visible_node_weights(const BrickStoreReader& store, uint32_t field, const TransferFunction& tf,
+                                    double threshold, int max_level, const Bounds& over, const Bounds& own) {
+  const Bounds& data = store.layout().data;
+  VisibleWeights weights(over);
   const std::span<const BrickNode> nodes = store.nodes();
   for (uint64_t id = 0; id < nodes.size(); ++id) {
     const BrickNode& node = nodes[id];
     // The cut at max_level: its nodes, and the leaves above it. A node's min/max covers its subtree.
     if (node.level > max_level || (node.level < max_level && !node.is_leaf())) continue;
     const FieldStats& s = store.stats(id, field);
-    if (!(s.min <= s.max) || !reaches(tf, s.min, s.max, threshold)) continue;
-    box.add(store.bounds(id));
+    if (!(s.min <= s.max)) continue;
+    const double opacity = max_opacity(tf, s.min, s.max);
+    if (!(opacity > threshold)) continue;
+    const Bounds box = store.bounds(id);
+    if (!owns(own, box.center())) continue;
+    // A node's cell may stick out of the data (the root is a cube around it): its weight is the part inside.
+    const Vec3d size = clipped(box, data).size();
+    weights.add(box, opacity * size.x * size.y * size.z);
   }
-  return box;
+  return weights;
+}
+
+Bounds visible_node_bounds(const BrickStoreReader& store, uint32_t field, const TransferFunction& tf, double threshold,
+                           int max_level) {
+  const Bounds& data = store.layout().data;
+  return visible_node_weights(store, field, tf, threshold, max_level, data, all_space()).box();
 }
 
 Camera framed_default_camera(const Bounds& bounds, const std::optional<Bounds>& visible, double view_angle) {

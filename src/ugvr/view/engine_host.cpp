@@ -322,7 +322,7 @@ SceneInfo EngineHost::collective_scene(const CollectiveRenderer& opened) {
     const FieldRange range = collective_->field_range();
     std::vector<uint64_t> histogram;
     if (mesh && k < mesh->scalars.size())
-      histogram = field_histogram(*mesh->scalars[k].field, mesh->scalars[k].component, kHistogramBins);
+      histogram = volume_histogram(*mesh->mesh, *mesh->scalars[k].field, mesh->scalars[k].component, kHistogramBins);
     for (const BrickStoreReader& store : stores)
       for (uint32_t i = 0; i < store.field_count(); ++i) {
         if (store.layout().fields[i].name != name) continue;

@@ -81,7 +81,7 @@ void GridLoad::run(const std::function<std::shared_ptr<const Dataset>()>& load, 
       for (size_t i = 0; i < input.fields.size(); ++i) {
         const BrickStoreField& f = input.fields[i];
         const ScalarRef& ref = input.scalars[i];
-        grid.fields.push_back({f.name, f.min, f.max, field_histogram(*ref.field, ref.component, bins)});
+        grid.fields.push_back({f.name, f.min, f.max, volume_histogram(*input.mesh, *ref.field, ref.component, bins)});
         grid.names.push_back(f.name);
       }
       grid.bounds = input.bounds;

@@ -235,19 +235,29 @@ FieldRange ExactRenderer::field_range() const {
 Bounds ExactRenderer::bounds() const { return scene_->engine.bounds(); }
 
 std::vector<uint64_t> ExactRenderer::value_histogram(double lo, double hi, int bins) const {
+  // Volume-weighted (field_histogram.h): the blocks' weights and counts summed, then scaled once, so that a block
+  // counts by its volume, not by its number of points.
   const std::string& selector = field_name();
   std::vector<uint64_t> counts(size_t(std::max(bins, 0)), 0);
+  std::vector<double> weights(counts.size(), 0.0);
   for (const Block& b : scene_->dataset->blocks) {
     const ScalarRef ref = b.fields.scalar(selector);
     const std::vector<uint64_t> block = field_histogram(*ref.field, ref.component, lo, hi, bins);
-    for (size_t i = 0; i < counts.size(); ++i) counts[i] += block[i];
+    const std::vector<double> w = volume_weights(b.grid, *ref.field, ref.component, lo, hi, bins);
+    for (size_t i = 0; i < counts.size(); ++i) counts[i] += block[i], weights[i] += w[i];
   }
-  return counts;
+  return weighted_counts(weights, counts);
 }
 
 std::optional<Bounds> ExactRenderer::visible_bounds(const TransferFunction& tf, double threshold) const {
   scene_->bind(field_);
   return visible_cell_bounds(scene_->engine, tf, threshold);
+}
+
+std::vector<double> ExactRenderer::visible_weights(const TransferFunction& tf, double threshold, const Bounds& over,
+                                                   const Bounds& own) const {
+  scene_->bind(field_);
+  return visible_cell_weights(scene_->engine, tf, threshold, over, own).flat();
 }
 
 Frame ExactRenderer::render(const FrameRequest& request) {

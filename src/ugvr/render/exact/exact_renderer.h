@@ -114,6 +114,8 @@ class ExactRenderer final : public Renderer {
   std::vector<uint64_t> value_histogram(double lo, double hi, int bins) const override;
   // Over the cells the engine holds (a rank's part under MPI, which MpiRenderer unites).
   std::optional<Bounds> visible_bounds(const TransferFunction& tf, double threshold) const override;
+  std::vector<double> visible_weights(const TransferFunction& tf, double threshold, const Bounds& over,
+                                      const Bounds& own) const override;
   Frame render(const FrameRequest& request) override;
   void describe(nlohmann::json& j) const override;
   std::string summary(const FrameStats& last) const override;

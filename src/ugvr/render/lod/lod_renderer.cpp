@@ -161,6 +161,14 @@ std::optional<Bounds> LodRendererBase::visible_bounds(const TransferFunction& tf
   return visible_node_bounds(scene_->engine.store(), field_name(), tf, threshold);
 }
 
+std::vector<double> LodRendererBase::visible_weights(const TransferFunction& tf, double threshold, const Bounds& over,
+                                                     const Bounds& own) const {
+  const BrickStoreReader& store = scene_->engine.store();
+  const int field = store.field_index(field_name());
+  if (field < 0) return {};
+  return visible_node_weights(store, uint32_t(field), tf, threshold, kVisibleLevel, over, own).flat();
+}
+
 void LodRendererBase::describe(nlohmann::json& j) const {
   j["renderer"] = scene_->gl->renderer();
   j["gl_version"] = scene_->gl->version();

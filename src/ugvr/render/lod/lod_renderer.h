@@ -55,6 +55,8 @@ class LodRendererBase : public Renderer {
   std::vector<uint64_t> value_histogram(double lo, double hi, int bins) const override;
   // From the node table's ranges down to kVisibleLevel (no brick read); nullopt for a field the store does not hold.
   std::optional<Bounds> visible_bounds(const TransferFunction& tf, double threshold) const override;
+  std::vector<double> visible_weights(const TransferFunction& tf, double threshold, const Bounds& over,
+                                      const Bounds& own) const override;
   void describe(nlohmann::json& j) const override;
 
  protected:
