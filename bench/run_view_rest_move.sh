@@ -3,7 +3,7 @@
 # exact batches at rest: seconds a frame on llvmpipe), binaries A and B alternated ROUNDS times in one run; one JSON
 # line per run appended to bench/results/view_rest_move.jsonl after a `session` line.
 # Usage: bench/run_view_rest_move.sh A_UGVR B_UGVR [SCRATCH=/tmp/ugvr-rest-move]
-#   UGVR_DATA (../shared/data), DATASET (blunt-fin | lox-post), SIZE (512x512), MOVES (8), DELAY_MS (400),
+#   UGVR_DATA (../shared/data), DATASET (blunt-fin | lox-post), SIZE (512x512), MOVES (8), DELAY_MS (100),
 #   ROUNDS (2). Needs node >= 20. The store is built once, with A, `--cells` (kept in SCRATCH).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -13,7 +13,7 @@ data=${UGVR_DATA:-../shared/data}
 dataset=${DATASET:-blunt-fin}
 size=${SIZE:-512x512}
 moves=${MOVES:-8}
-delay=${DELAY_MS:-400}
+delay=${DELAY_MS:-100}
 rounds=${ROUNDS:-2}
 jsonl=bench/results/view_rest_move.jsonl
 mkdir -p "$scratch" bench/results
