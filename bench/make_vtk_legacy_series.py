@@ -2,13 +2,14 @@
 """Writes a time series of BINARY legacy VTK files on one static hexahedral mesh, for the fields-only step switch
 benchmark (bench/run_vtk_legacy_switch.sh, issue 18 [time]).
 
-usage: make_vtk_legacy_series.py OUT_DIR [--n N (100: N^3 cells)] [--steps S (3)]
+usage: make_vtk_legacy_series.py OUT_DIR [--n N (100: N^3 cells)] [--steps S (3)] [--ascii]
 
 Writes OUT_DIR/flow_000k.vtk (k = 0..S-1) and OUT_DIR/flow.pvd. Each file is a VTK 5.1 UNSTRUCTURED_GRID as
 vtkUnstructuredGridWriter writes it: a title and a dataset-level FIELD with the step's TIME (both differ per step),
 POINTS float, CELLS with vtktypeint64 OFFSETS and CONNECTIVITY, CELL_TYPES, then POINT_DATA pressure (float) and
 velocity (float, 3 components) and CELL_DATA vorticity (float): a vortex that moves downstream with the step. The
-mesh bytes are the same in every file, only the fields change.
+mesh bytes are the same in every file, only the fields change. --ascii writes the same as ASCII text (floats with 9
+significant digits, which read back to the same float32 values).
 """
 import argparse
 import os
@@ -33,9 +34,17 @@ def mesh(n):
     return points, connectivity, n ** 3
 
 
+ASCII = False
+
+
 def block(f, header, array, dtype):
     f.write((header + "\n").encode())
-    f.write(np.ascontiguousarray(array, dtype=dtype).tobytes())
+    values = np.ascontiguousarray(array, dtype=dtype)
+    if ASCII:
+        np.savetxt(f, values.reshape(-1, 1) if values.ndim == 1 else values,
+                   fmt="%d" if dtype.startswith(">i") else "%.9g")
+        return
+    f.write(values.tobytes())
     f.write(b"\n")
 
 
@@ -49,7 +58,7 @@ def write_step(path, points, connectivity, cells, t):
     vorticity = np.exp(-((centres[:, 0] - cx) ** 2 + (centres[:, 1] - 0.5) ** 2) * 40.0)
     with open(path, "wb") as f:
         f.write(b"# vtk DataFile Version 5.1\n")
-        f.write(("flow at t = %g\nBINARY\nDATASET UNSTRUCTURED_GRID\n" % t).encode())
+        f.write(("flow at t = %g\n%s\nDATASET UNSTRUCTURED_GRID\n" % (t, "ASCII" if ASCII else "BINARY")).encode())
         block(f, "FIELD FieldData 1\nTIME 1 1 double", [t], ">f8")
         block(f, "POINTS %d float" % len(points), points, ">f4")
         f.write(("CELLS %d %d\n" % (cells + 1, len(connectivity))).encode())
@@ -68,7 +77,10 @@ def main():
     ap.add_argument("out_dir")
     ap.add_argument("--n", type=int, default=100)
     ap.add_argument("--steps", type=int, default=3)
+    ap.add_argument("--ascii", action="store_true")
     a = ap.parse_args()
+    global ASCII
+    ASCII = a.ascii
     os.makedirs(a.out_dir, exist_ok=True)
     points, connectivity, cells = mesh(a.n)
     entries = []
