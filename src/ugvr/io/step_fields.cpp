@@ -39,6 +39,14 @@ std::optional<uint64_t> combined_pvtu_key(const std::string& path,
   return h;
 }
 
+bool is_legacy_vtk_path(const std::string& path) { return extension_lower(path) == ".vtk"; }
+
+// The key of one dataset file (not a .pvtu): .vtk files by the legacy reader, the others as .vtu files (nullopt for
+// other formats).
+std::optional<uint64_t> file_geometry_key(const std::string& path) {
+  return is_legacy_vtk_path(path) ? vtk_legacy_geometry_key(path) : vtu_geometry_key(path);
+}
+
 Dataset without_grids(StepFields fields) {
   Dataset ds;
   ds.format = std::move(fields.format);
@@ -59,19 +67,19 @@ StepFieldReader::~StepFieldReader() = default;
 
 bool StepFieldReader::static_by_format() const { return series_->kind == SeriesKind::Exodus; }
 
-std::optional<uint64_t> StepFieldReader::cached_vtu_key(const std::string& path) const {
+std::optional<uint64_t> StepFieldReader::cached_file_key(const std::string& path) const {
   std::error_code size_error, time_error;
   const uintmax_t size = std::filesystem::file_size(path, size_error);
   const std::filesystem::file_time_type mtime = std::filesystem::last_write_time(path, time_error);
-  // A file that cannot be stat'ed is not cached: vtu_geometry_key names it in its error.
-  if (size_error || time_error) return vtu_geometry_key(path);
+  // A file that cannot be stat'ed is not cached: the key's read names it in its error.
+  if (size_error || time_error) return file_geometry_key(path);
   {
     std::lock_guard lock(keys_mutex_);
     const auto it = keys_.find(path);
     if (it != keys_.end() && it->second.size == size && it->second.mtime == mtime) return it->second.key;
   }
   // Computed unlocked (it reads the geometry's stored bytes): two threads may both compute one file's key, the same.
-  const std::optional<uint64_t> key = vtu_geometry_key(path);
+  const std::optional<uint64_t> key = file_geometry_key(path);
   std::lock_guard lock(keys_mutex_);
   keys_[path] = CachedKey{size, mtime, key};
   return key;
@@ -79,8 +87,8 @@ std::optional<uint64_t> StepFieldReader::cached_vtu_key(const std::string& path)
 
 std::optional<uint64_t> StepFieldReader::cached_geometry_key(const std::string& path) const {
   if (is_pvtu_path(path))
-    return combined_pvtu_key(path, [this](const std::string& piece) { return cached_vtu_key(piece); });
-  return cached_vtu_key(path);
+    return combined_pvtu_key(path, [this](const std::string& piece) { return cached_file_key(piece); });
+  return cached_file_key(path);
 }
 
 std::optional<std::vector<uint64_t>> StepFieldReader::geometry_keys(size_t step) const {
@@ -112,18 +120,26 @@ StepFields StepFieldReader::read(size_t step) {
   }
   if (!steps_are_files(series_->kind))
     fail_in(series_->source, "time step " + std::to_string(step) + " has no fields-only read (read it whole)");
+  std::string legacy_format;  // a .vtk's, as its whole read gives it
   for (const std::string& file : st.files) {
     if (is_pvtu_path(file)) {
       out.blocks.push_back(read_pvtu_fields(file, out.sources, out.warnings));
+    } else if (is_legacy_vtk_path(file)) {
+      std::string format;
+      out.blocks.push_back(read_vtk_legacy_fields(file, format, out.warnings));
+      out.sources.push_back(file);
+      if (legacy_format.empty()) legacy_format = std::move(format);
     } else {
       out.blocks.push_back(read_vtu_fields(file, out.warnings));
       out.sources.push_back(file);
     }
   }
   // The whole read's: the first file's format (the parts of a .pvd step are read as one dataset each).
-  out.format =
-      std::string(is_pvtu_path(st.files[0]) ? "VTK XML PUnstructuredGrid (.pvtu)" : "VTK XML UnstructuredGrid (.vtu)") +
-      series_step_label(*series_, step);
+  const std::string& first = st.files[0];
+  out.format = (is_legacy_vtk_path(first) ? legacy_format
+                : is_pvtu_path(first)     ? std::string("VTK XML PUnstructuredGrid (.pvtu)")
+                                          : std::string("VTK XML UnstructuredGrid (.vtu)")) +
+               series_step_label(*series_, step);
   return out;
 }
 

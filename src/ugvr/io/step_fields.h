@@ -17,6 +17,13 @@
 //   .pvtu files   the same, by a key combining the piece count and each piece file's key in piece order (the whole
 //                 read concatenates the pieces in that order); the fields are read piece by piece and concatenated as
 //                 the whole read does. One piece without a key makes the .pvtu's step one without.
+//   .vtk files    (legacy VTK, the steps of a .pvd, a .series, a numbered series) the same, by vtk_legacy_geometry_key:
+//                 a hash of the version line and of everything from the ASCII/BINARY word to the first POINT_DATA /
+//                 CELL_DATA as stored (the DATASET line, POINTS, CELLS / OFFSETS / CONNECTIVITY, CELL_TYPES; for
+//                 structured types DIMENSIONS, POINTS, ORIGIN, SPACING, the coordinates), less the title line and
+//                 dataset-level FIELD and METADATA blocks (a writer's TIME). Every dataset type the reader reads is
+//                 keyed. The fields-only read passes over POINTS and the cell lists (a seek in BINARY files, the words
+//                 counted unparsed in ASCII ones) and reads CELL_TYPES for the cells whose values the mesh keeps.
 //   Files with appended base64 data (whose stored length the header does not give) and other formats have no key:
 //   their steps are read whole.
 // A file that shrinks while its key is hashed is an error naming it and the offset (io/byte_hash.h), which ends the
@@ -58,6 +65,17 @@ FieldSet read_vtu_fields(const std::string& path, std::vector<std::string>& warn
 FieldSet read_pvtu_fields(const std::string& path, std::vector<std::string>& sources,
                           std::vector<std::string>& warnings);
 
+// The stored geometry key of a legacy VTK (.vtk) file, as above; nullopt for other extensions. Reads the header and
+// hashes the geometry sections' stored bytes (ASCII ones are scanned word by word, not parsed). Throws ugvr::Error
+// naming the file for a bad header or a section that runs past the end, and naming the file and offset for a file
+// that shrinks while hashed.
+std::optional<uint64_t> vtk_legacy_geometry_key(const std::string& path);
+// Every POINT_DATA / CELL_DATA field of a legacy VTK file as read_dataset gives them (the same checks; cell data
+// restricted to the volume cells the mesh keeps), without reading its points or cell lists (its CELL_TYPES are read).
+// `format` is set as the whole read sets Dataset::format; the reader's warnings about fields (skipped string arrays,
+// a repeated name, dataset-level FIELD data) go to `warnings`, those about the mesh's cells do not.
+FieldSet read_vtk_legacy_fields(const std::string& path, std::string& format, std::vector<std::string>& warnings);
+
 // An Exodus II file opened once for its steps' fields: its dimensions and element-block layout are read here (not the
 // coordinates or the connectivity), then each read() reads one time index's variables. Not thread-safe (netCDF is
 // not): StepFieldReader serialises it.
@@ -93,15 +111,15 @@ class StepFieldReader {
 
   // Whether every step has the first step's mesh by the format and a fields-only read (Exodus).
   bool static_by_format() const;
-  // One stored geometry key per file of step `step` when every file has one (.vtu, .pvtu); nullopt otherwise (read the
-  // step whole). Equal key lists: the same mesh. A .vtu's key (a .pvtu's pieces' keys) is computed once while its size
-  // and modification time stay those seen then (a range pass, then the step switches, visit every file again); a file
-  // rewritten to the same size within the file system's time stamp granularity (a few milliseconds) would keep its old
-  // key. A .pvtu's piece list is read again each time (its markup only). Throws ugvr::Error naming the file when a
-  // file cannot be read (bad markup, truncated while hashed).
+  // One stored geometry key per file of step `step` when every file has one (.vtu, .pvtu, .vtk); nullopt otherwise
+  // (read the step whole). Equal key lists: the same mesh. A .vtu's key (a .pvtu's pieces' keys) is computed once while
+  // its size and modification time stay those seen then (a range pass, then the step switches, visit every file again);
+  // a file rewritten to the same size within the file system's time stamp granularity (a few milliseconds) would keep
+  // its old key. A .pvtu's piece list is read again each time (its markup only). Throws ugvr::Error naming the file
+  // when a file cannot be read (bad markup, truncated while hashed).
   std::optional<std::vector<uint64_t>> geometry_keys(size_t step) const;
   // Whether step `step` has step `mesh_step`'s mesh as stored: by the format (Exodus) or by equal geometry keys (.vtu,
-  // .pvtu).
+  // .pvtu, .vtk).
   // Then read(step) completes a dataset of mesh_step's grids. False where only a whole read could tell.
   bool has_mesh_of(size_t step, size_t mesh_step) const;
   // Step `step`'s fields; valid where static_by_format() or geometry_keys() says the step has a fields-only read.
@@ -118,7 +136,8 @@ class StepFieldReader {
     std::optional<uint64_t> key;
   };
   std::optional<uint64_t> cached_geometry_key(const std::string& path) const;
-  std::optional<uint64_t> cached_vtu_key(const std::string& path) const;
+  // A .vtu's or .vtk's key (vtu_geometry_key, vtk_legacy_geometry_key), cached by size and modification time.
+  std::optional<uint64_t> cached_file_key(const std::string& path) const;
 
   std::shared_ptr<const TimeSeries> series_;
   std::mutex exodus_mutex_;

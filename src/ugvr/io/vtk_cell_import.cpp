@@ -20,6 +20,31 @@ void VtkCellImporter::note_kept(uint64_t file_cell) {
   if (dropped_ > 0) kept_.push_back(file_cell);
 }
 
+bool VtkCellImporter::keeps(const VtkCellMapping& m, int vtk_type, uint64_t file_cell) {
+  switch (m.kind) {
+    case VtkCellMapping::Kind::Unsupported:
+      fail_cell(file_cell, std::string(m.vtk_name) + " (type " + std::to_string(vtk_type) +
+                               ") is not supported: ugvr renders tetrahedra, pyramids, wedges and hexahedra "
+                               "(quadratic ones linearised); convert polyhedra and higher-order cells first");
+    case VtkCellMapping::Kind::DropLowerDimension:
+      if (dropped_ == 0) {
+        // From now on kept cells are listed explicitly; the cells before this one were all kept.
+        kept_.resize(file_cell);
+        std::iota(kept_.begin(), kept_.end(), uint64_t(0));
+      }
+      ++dropped_;
+      ++dropped_by_type_[size_t(vtk_type) & 127];
+      return false;
+    case VtkCellMapping::Kind::Keep: break;
+  }
+  return true;
+}
+
+void VtkCellImporter::add_type_only(int vtk_type, uint64_t file_cell) {
+  ++file_cells_;
+  if (keeps(map_vtk_cell_type(vtk_type), vtk_type, file_cell)) note_kept(file_cell);
+}
+
 template <class Id>
 void VtkCellImporter::add(int vtk_type, std::span<const Id> ids, uint64_t file_cell) {
   ++file_cells_;
@@ -50,22 +75,7 @@ void VtkCellImporter::add(int vtk_type, std::span<const Id> ids, uint64_t file_c
       }
     }
   }
-  switch (m.kind) {
-    case VtkCellMapping::Kind::Unsupported:
-      fail_cell(file_cell, std::string(m.vtk_name) + " (type " + std::to_string(vtk_type) +
-                               ") is not supported: ugvr renders tetrahedra, pyramids, wedges and hexahedra "
-                               "(quadratic ones linearised); convert polyhedra and higher-order cells first");
-    case VtkCellMapping::Kind::DropLowerDimension:
-      if (dropped_ == 0) {
-        // From now on kept cells are listed explicitly; the cells before this one were all kept.
-        kept_.resize(file_cell);
-        std::iota(kept_.begin(), kept_.end(), uint64_t(0));
-      }
-      ++dropped_;
-      ++dropped_by_type_[size_t(vtk_type) & 127];
-      return;
-    case VtkCellMapping::Kind::Keep: break;
-  }
+  if (!keeps(m, vtk_type, file_cell)) return;
   std::array<uint32_t, 8> v{};
   for (size_t i = 0; i < m.corner_count; ++i) v[i] = uint32_t(ids[i]);  // range-checked above
   if (m.voxel_order) {

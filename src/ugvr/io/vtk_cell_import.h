@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "ugvr/grid/cell_type.h"
 #include "ugvr/grid/data_array.h"
 #include "ugvr/grid/unstructured_mesh.h"
 
@@ -29,6 +30,10 @@ class VtkCellImporter {
   // that linearisation drops, extra points, and the ids of dropped lower-dimensional cells).
   template <class Id>
   void add(int vtk_type, std::span<const Id> ids, uint64_t file_cell);
+  // Counts the file's cell number `file_cell` as kept or dropped by its type alone, for cell data read without the
+  // mesh (a fields-only step read, io/step_fields.h): filter_cell_data then keeps what a full read's would. Throws for
+  // unsupported types as add() does; nothing is added to the mesh (call finish() only after add()).
+  void add_type_only(int vtk_type, uint64_t file_cell);
 
   // Hands the cells to `mesh` (whose points the caller sets) and appends a warning for dropped cells.
   // Throws if the file had cells but none of them is a volume cell.
@@ -42,6 +47,8 @@ class VtkCellImporter {
  private:
   [[noreturn]] void fail_cell(uint64_t file_cell, const std::string& message) const;
   void note_kept(uint64_t file_cell);
+  // Whether the importer's policy keeps a cell of this type; counts a dropped one, fails for an unsupported one.
+  bool keeps(const VtkCellMapping& m, int vtk_type, uint64_t file_cell);
 
   std::string source_;
   uint64_t point_count_;

@@ -337,6 +337,21 @@ DeferredArray LegacyInput::skip_array(const ValueType& type, uint64_t tuples, in
   return deferred;
 }
 
+DeferredArray LegacyInput::pass_over_array(const ValueType& type, uint64_t tuples, int components,
+                                           std::string_view what) {
+  if (!binary_ && !type.is_string) {
+    const uint64_t n = value_count(what, tuples, components);
+    begin_block();
+    check_fits(what, n, type.file_bytes);
+    const DeferredArray deferred{tokens_.mark(), type, n};
+    for (uint64_t i = 0; i < n; ++i)
+      if (tokens_.next_token().empty()) fail_value(what, i, {}, type.is_integer());
+    skip_metadata(components);
+    return deferred;
+  }
+  return skip_array(type, tuples, components, what);  // BINARY: a seek; string arrays have their own layout
+}
+
 void LegacyInput::skip_string_array(uint64_t values, std::string_view what) {
   // Both layouts spend at least one byte per string (its newline, or its length byte).
   tokens_.skip_line();  // the rest of the header line

@@ -102,6 +102,10 @@ class LegacyInput {
   // Skips an array (checking that it is there and, in ASCII, that its values are numbers); returns where its data
   // starts, to be read later with a ValueCursor.
   DeferredArray skip_array(const ValueType& type, uint64_t tuples, int components, std::string_view what);
+  // Passes over an array without looking at its values (a fields-only step read's points and cells, whose stored
+  // bytes a geometry key has shown to be those of a mesh read whole): BINARY seeks past its bytes, ASCII counts its
+  // words without parsing them. Returns where its data starts, as skip_array does.
+  DeferredArray pass_over_array(const ValueType& type, uint64_t tuples, int components, std::string_view what);
   // Skips a string array (VTK: one line per value in ASCII, length-prefixed in BINARY).
   void skip_string_array(uint64_t values, std::string_view what);
   // Skips "LOOKUP_TABLE name size" data: size RGBA entries (bytes in BINARY, numbers in ASCII).

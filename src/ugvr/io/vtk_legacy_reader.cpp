@@ -46,6 +46,16 @@
 // them, remembering where they start; once CELL_TYPES has been seen, cursors on the types and the lists (and, in 5.x,
 // the offsets) read them together in chunks and feed VtkCellImporter, so nothing but the final mesh is held in memory.
 //
+// Time steps (io/step_fields.h): a series of legacy files with one mesh is read whole once, then each step's fields
+// alone. The geometry key (vtk_legacy_geometry_key) hashes, as they lie in the file, the version line and everything
+// from the encoding word to the first POINT_DATA / CELL_DATA (or the end): the encoding, the DATASET line, every
+// geometry keyword with its header words and stored values (BINARY bytes or ASCII text, never decoded), less the
+// title line and dataset-level FIELD and METADATA blocks, which hold no geometry (writers put the step's TIME in a
+// FIELD). The cut-out blocks' places and lengths are hashed with the bytes between them. Every dataset type the reader
+// reads as a mesh is keyed the same way. A fields-only read (read_vtk_legacy_fields) passes over POINTS and CELLS
+// (BINARY: a seek by their counts; ASCII: their words counted, not parsed), reads CELL_TYPES to know which cells'
+// values the mesh keeps, and reads the attributes exactly as the whole read does.
+//
 // Hostile input: every count is checked against the bytes left before anything is allocated (ASCII values take at
 // least 2 bytes, BINARY ones their size), ids and offsets are range-checked, and tokens and header lines are bounded.
 #include <array>
@@ -58,8 +68,10 @@
 #include "ugvr/core/file.h"
 #include "ugvr/core/progress.h"
 #include "ugvr/grid/cell_type.h"
+#include "ugvr/io/byte_hash.h"
 #include "ugvr/io/file_dataset.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/step_fields.h"
 #include "ugvr/io/text_tokenizer.h"
 #include "ugvr/io/vtk_cell_import.h"
 #include "ugvr/io/vtk_legacy_input.h"
@@ -110,10 +122,14 @@ struct CellLists {
   DeferredArray connectivity;  // 5.0 and later
 };
 
+// What a reader makes of a file: the dataset, the geometry key alone, or the fields alone (see the top).
+enum class Pass { Whole, GeometryKey, FieldsOnly };
+
 class LegacyReader {
  public:
-  explicit LegacyReader(const std::string& path) : file_(path), in_(file_, false) {
-    start_reading_progress(progress_, file_);
+  explicit LegacyReader(const std::string& path, Pass pass = Pass::Whole)
+      : file_(path), in_(file_, false), pass_(pass) {
+    if (pass_ != Pass::GeometryKey) start_reading_progress(progress_, file_);
   }
 
   Dataset read() {
@@ -121,14 +137,41 @@ class LegacyReader {
     read_geometry();
     Block block{title_, std::move(grid_), FieldSet{}};
     for (Field& f : fields_) block.fields.add(std::move(f));
-    Dataset dataset =
-        single_block_dataset("legacy VTK " + version_ + (in_.binary() ? " BINARY " : " ASCII ") + kind_name_, path(),
-                             std::move(block), std::move(warnings_));
+    Dataset dataset = single_block_dataset(format_name(), path(), std::move(block), std::move(warnings_));
     if (progress_) progress_->finish();
     return dataset;
   }
 
+  uint64_t geometry_key() {
+    read_header();
+    key_ = hash_mix(hash_mix(kFnvOffset, 0x6c766b), hash_file_range(file_, 0, version_line_end_));  // "lvk"
+    read_geometry();
+    return key_;
+  }
+
+  FieldSet read_fields(std::string& format, std::vector<std::string>& warnings) {
+    read_header();
+    read_geometry();
+    FieldSet fields;
+    for (Field& f : fields_) fields.add(std::move(f));
+    format = format_name();
+    warnings.insert(warnings.end(), warnings_.begin(), warnings_.end());
+    if (progress_) progress_->finish();
+    return fields;
+  }
+
  private:
+  std::string format_name() const {
+    return "legacy VTK " + version_ + (in_.binary() ? " BINARY " : " ASCII ") + kind_name_;
+  }
+  bool passes_over_mesh() const { return pass_ != Pass::Whole; }
+
+  // The geometry key takes in the bytes from the end of the last cut-out block (or the title line) to `end`.
+  void hash_segment(uint64_t end) {
+    if (pass_ != Pass::GeometryKey) return;
+    key_ = hash_mix(hash_mix(key_, end - segment_begin_), hash_file_range(file_, segment_begin_, end));
+  }
+
   const std::string& path() const { return file_.path(); }
   Mark keyword_mark() { return {in_.tokens().token_offset(), in_.tokens().token_line()}; }
 
@@ -141,9 +184,11 @@ class LegacyReader {
       fail_at_line(path(), 1, "not a legacy VTK file: the first line must start with '# vtk DataFile Version'");
     }
     parse_version(first->substr(kVersionPrefix.size()));
+    version_line_end_ = t.offset();
     const std::optional<std::string_view> title = t.read_line();
     if (!title) fail_at_line(path(), 2, "unexpected end of file: expected the title line");
     title_ = trim(*title);
+    segment_begin_ = t.offset();
 
     const std::string encoding(in_.word("ASCII or BINARY"));
     // VTK compares the first 5 / 6 letters only.
@@ -195,19 +240,26 @@ class LegacyReader {
       if (progress_) progress_->set(in_.tokens().offset());
       if (keyword.empty()) break;
       if (is(keyword, "POINT_DATA") || is(keyword, "CELL_DATA")) {
+        if (pass_ == Pass::GeometryKey) return hash_segment(in_.tokens().token_offset());
         finish_geometry();
         read_attributes(keyword);
         return;
       }
-      if (is(keyword, "FIELD")) {
-        read_field(nullptr);
-      } else if (is(keyword, "METADATA")) {
-        skip_metadata_keyword();
+      if (is(keyword, "FIELD") || is(keyword, "METADATA")) {
+        // Not geometry: cut out of the key (a step's TIME is often a dataset-level FIELD).
+        hash_segment(in_.tokens().token_offset());
+        if (is(keyword, "FIELD")) {
+          read_field(nullptr);
+        } else {
+          skip_metadata_keyword();
+        }
+        segment_begin_ = in_.tokens().offset();
       } else if (!read_geometry_keyword(keyword)) {
         in_.fail("unexpected keyword '" + keyword.substr(0, 40) + "' in " + kind_name_ + " (expected " +
                  expected_geometry_keywords() + ", POINT_DATA or CELL_DATA)");
       }
     }
+    if (pass_ == Pass::GeometryKey) return hash_segment(file_.size());
     finish_geometry();
   }
 
@@ -273,7 +325,7 @@ class LegacyReader {
   }
 
   void read_points() {
-    if (points_) in_.fail("POINTS given twice");
+    if (points_ || passed_points_) in_.fail("POINTS given twice");
     points_at_ = keyword_mark();
     const uint64_t n = in_.count("the number of points");
     if (n > std::numeric_limits<uint32_t>::max()) {
@@ -281,6 +333,11 @@ class LegacyReader {
     }
     const ValueType type = in_.value_type("the POINTS data type");
     if (type.is_bit() || type.is_string) in_.fail("POINTS cannot be of type " + type.name);
+    if (passes_over_mesh()) {
+      in_.pass_over_array(type, n, 3, "POINTS");
+      passed_points_ = n;
+      return;
+    }
     const uint64_t values = in_.value_count("POINTS", n, 3);
     in_.begin_array(type, values, "POINTS");
     std::vector<Vec3f> points(n);
@@ -317,16 +374,16 @@ class LegacyReader {
         in_.fail("CELLS: " + std::to_string(c.cells) + " cells cannot fit in " + std::to_string(size) +
                  " values (each cell lists its point count first)");
       }
-      c.lists = in_.skip_array(value_type_named("int"), size, 1, "CELLS");
+      c.lists = skip_mesh_array(value_type_named("int"), size, "CELLS");
     } else {
       const uint64_t offsets = in_.count("the number of cell offsets");
       const uint64_t connectivity = in_.count("the number of connectivity entries");
       if (offsets > 0) {  // VTK writes "CELLS 0 0" and nothing else for no cells
         c.cells = offsets - 1;
         in_.expect_keyword("OFFSETS");
-        c.offsets = in_.skip_array(integer_type("the OFFSETS data type"), offsets, 1, "OFFSETS");
+        c.offsets = skip_mesh_array(integer_type("the OFFSETS data type"), offsets, "OFFSETS");
         in_.expect_keyword("CONNECTIVITY");
-        c.connectivity = in_.skip_array(integer_type("the CONNECTIVITY data type"), connectivity, 1, "CONNECTIVITY");
+        c.connectivity = skip_mesh_array(integer_type("the CONNECTIVITY data type"), connectivity, "CONNECTIVITY");
       }
     }
     cells_ = c;
@@ -336,7 +393,13 @@ class LegacyReader {
     if (cell_types_) in_.fail("CELL_TYPES given twice");
     cell_types_at_ = keyword_mark();
     const uint64_t n = in_.count("the number of cell types");
-    cell_types_ = in_.skip_array(value_type_named("int"), n, 1, "CELL_TYPES");
+    cell_types_ = skip_mesh_array(value_type_named("int"), n, "CELL_TYPES");
+  }
+
+  // A cell array's place, for ValueCursors to read later; ASCII values are checked here in a whole read only (the
+  // other passes read the types alone, with the same checks, or nothing).
+  DeferredArray skip_mesh_array(const ValueType& type, uint64_t values, std::string_view what) {
+    return passes_over_mesh() ? in_.pass_over_array(type, values, 1, what) : in_.skip_array(type, values, 1, what);
   }
 
   void read_dimensions() {
@@ -400,6 +463,8 @@ class LegacyReader {
 
   // Called when the attributes start (or the file ends): checks the geometry is complete and builds the grid.
   void finish_geometry() {
+    if (passes_over_mesh() && (kind_ == Kind::Unstructured || kind_ == Kind::StructuredGrid))
+      return count_mesh_passed_over();
     switch (kind_) {
       case Kind::Unstructured: grid_ = build_unstructured(); break;
       case Kind::StructuredGrid: {
@@ -438,6 +503,38 @@ class LegacyReader {
     if (kind_ != Kind::Unstructured) cell_count_ = grid_cell_count(grid_);
   }
 
+  // A fields-only read's point and cell counts, with the cells the mesh keeps (from their types), for the attributes'
+  // checks and the cell data's filter; the points and cell lists themselves were passed over.
+  void count_mesh_passed_over() {
+    if (kind_ == Kind::StructuredGrid) {
+      const GridDims d = require_volume_dims();
+      if (!passed_points_) in_.fail("STRUCTURED_GRID has no POINTS");
+      point_count_ = d.point_count();
+      cell_count_ = d.cell_count();
+      return;
+    }
+    if (!passed_points_) in_.fail("UNSTRUCTURED_GRID has no POINTS");
+    check_cells_and_types();
+    importer_.emplace(path(), *passed_points_);
+    ValueCursor types(file_, in_.binary(), *cell_types_, "CELL_TYPES");
+    for (uint64_t c = 0; c < cell_types_->count; ++c) {
+      const int type = cell_type_of(types.next());
+      at_cell(types, [&] { importer_->add_type_only(type, c); });
+    }
+    point_count_ = *passed_points_;
+    cell_count_ = importer_->file_cell_count();
+  }
+
+  void check_cells_and_types() {
+    if (!cells_ && !cell_types_) in_.fail("UNSTRUCTURED_GRID has no CELLS: points alone are not a volume");
+    if (!cell_types_) in_.fail_at(cells_->at, "CELLS without CELL_TYPES: the file never gives the cell types");
+    if (!cells_) in_.fail_at(cell_types_at_, "CELL_TYPES without CELLS: the file never gives the cells' points");
+    if (cell_types_->count != cells_->cells) {
+      in_.fail_at(cell_types_at_, "CELL_TYPES lists " + std::to_string(cell_types_->count) + " cells but CELLS has " +
+                                      std::to_string(cells_->cells));
+    }
+  }
+
   GridDims require_volume_dims() {
     if (!dims_) in_.fail(kind_name_ + " has no DIMENSIONS");
     const GridDims d = *dims_;
@@ -450,13 +547,7 @@ class LegacyReader {
 
   UnstructuredMesh build_unstructured() {
     if (!points_) in_.fail("UNSTRUCTURED_GRID has no POINTS");
-    if (!cells_ && !cell_types_) in_.fail("UNSTRUCTURED_GRID has no CELLS: points alone are not a volume");
-    if (!cell_types_) in_.fail_at(cells_->at, "CELLS without CELL_TYPES: the file never gives the cell types");
-    if (!cells_) in_.fail_at(cell_types_at_, "CELL_TYPES without CELLS: the file never gives the cells' points");
-    if (cell_types_->count != cells_->cells) {
-      in_.fail_at(cell_types_at_, "CELL_TYPES lists " + std::to_string(cell_types_->count) + " cells but CELLS has " +
-                                      std::to_string(cells_->cells));
-    }
+    check_cells_and_types();
     importer_.emplace(path(), points_->size());
     if (cells_->count_prefixed) {
       read_count_prefixed_cells();
@@ -519,11 +610,21 @@ class LegacyReader {
     }
   }
 
+  static int cell_type_of(int64_t vtk_type) {
+    return (vtk_type >= 0 && vtk_type <= 255) ? int(vtk_type) : -1;  // -1 maps to "unknown cell type"
+  }
+
   void add_cell(const ValueCursor& where, int64_t vtk_type, uint64_t cell) {
-    const int type = (vtk_type >= 0 && vtk_type <= 255) ? int(vtk_type) : -1;  // -1 maps to "unknown cell type"
+    const int type = cell_type_of(vtk_type);
     std::span<const int64_t> ids(ids_);
+    at_cell(where, [&] { importer_->add(type, ids, cell); });
+  }
+
+  // Runs the importer's `f` on a cell, its error told at `where` in the file.
+  template <class F>
+  void at_cell(const ValueCursor& where, F&& f) {
     try {
-      importer_->add(type, ids, cell);
+      f();
     } catch (const Error& e) {
       // The importer names the file and cell; add where in the file the cell is.
       std::string_view message = e.what();
@@ -696,6 +797,11 @@ class LegacyReader {
 
   InputFile file_;
   LegacyInput in_;
+  Pass pass_;
+  uint64_t version_line_end_ = 0;  // the geometry key's first bytes
+  uint64_t segment_begin_ = 0;     // where the geometry key's next bytes start
+  uint64_t key_ = 0;
+  std::optional<uint64_t> passed_points_;  // POINTS' count where its values were passed over
   std::optional<Progress> progress_;
   std::vector<std::string> warnings_;
   std::string title_, version_, kind_name_;
@@ -726,5 +832,14 @@ class LegacyReader {
 }  // namespace
 
 Dataset read_vtk_legacy(const std::string& path) { return LegacyReader(path).read(); }
+
+std::optional<uint64_t> vtk_legacy_geometry_key(const std::string& path) {
+  if (extension_lower(path) != ".vtk") return std::nullopt;
+  return LegacyReader(path, Pass::GeometryKey).geometry_key();
+}
+
+FieldSet read_vtk_legacy_fields(const std::string& path, std::string& format, std::vector<std::string>& warnings) {
+  return LegacyReader(path, Pass::FieldsOnly).read_fields(format, warnings);
+}
 
 }  // namespace ugvr
