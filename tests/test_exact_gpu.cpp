@@ -21,6 +21,7 @@
 #include "ugvr/render/exact/exact_engine.h"
 #include "ugvr/render/exact/exact_gpu_engine.h"
 #include "ugvr/render/exact/walk_mesh.h"
+#include "ugvr/render/renderer.h"
 
 namespace ugvr {
 namespace {
@@ -113,6 +114,31 @@ TEST(ExactGpu, MixedMeshVertexData) {
   const Compared c = compare_engines(engine, gl, s);
   expect_match(c, "mixed, vertex data");
   EXPECT_GT(c.gpu.nonlinear_samples, 0u);
+}
+
+// The viewer's resting frames are drawn in bands of rows that a move may stop (FrameRequest::keep_going,
+// render/banded_dispatch.h): the same image bit for bit, one question a band, and a stopped frame leaves the engine
+// drawing the next one as before.
+TEST(ExactGpu, BandsDrawTheSameImageAndStopWhenAsked) {
+  REQUIRE_GL(gl);
+  const Dataset& ds = mixed_mesh();
+  ExactEngine engine(ds);
+  engine.set_field(ds, ds.blocks[0].fields[0].name());
+  const Scene s = default_scene(engine);  // 96 x 96: 12 rows of 8 x 8 work groups, a band each
+  ExactGpuEngine gpu(engine.walk_mesh(), gl);
+  gpu.set_values(engine.bound_values(), engine.per_cell());
+  const double tol = engine.tolerance_abs(s.tf);
+  const Image whole = gpu.render(s.camera, s.tf, s.settings, tol);
+  int asked = 0;
+  gpu.set_keep_going([&] { return ++asked > 0; });
+  EXPECT_EQ(compare_images(gpu.render(s.camera, s.tf, s.settings, tol), whole).max_abs, 0.0);
+  EXPECT_EQ(asked, 12);
+  asked = 0;
+  gpu.set_keep_going([&] { return ++asked < 2; });
+  EXPECT_THROW(gpu.render(s.camera, s.tf, s.settings, tol), FrameInterrupted);
+  EXPECT_EQ(asked, 2);
+  gpu.set_keep_going({});
+  EXPECT_EQ(compare_images(gpu.render(s.camera, s.tf, s.settings, tol), whole).max_abs, 0.0);
 }
 
 TEST(ExactGpu, MixedMeshCellDataAndReentries) {
