@@ -350,6 +350,42 @@ TEST(Hybrid, AFrameIsInterruptedBetweenBandsAndTheNextIsUnchanged) {
   EXPECT_EQ(compare_images(exact.render(cam, tf, rs), reference).max_abs, 0.0);
 }
 
+// A node whose cells cannot fit what is left of the cell budget is sized from its block's header and never read or
+// prepared (a 250M-cell store's largest leaves took minutes and gigabytes to prepare before the budget refused them).
+// The bound from the header is below the prepared size, so what fits is still granted.
+TEST(Hybrid, ANodeTooLargeForTheCellBudgetIsNeverPrepared) {
+  REQUIRE_GL();
+  const Fixture& f = fixture();
+  const TransferFunction tf = test_tf(f);
+  const RenderSettings rs = test_settings();
+  const BrickStoreReader store(f.store);
+  const Camera cam = camera_preset("iso", store.layout().data);
+  const CutSpec leaves{CutSpec::Kind::Leaves, 0};
+  uint64_t smallest = UINT64_MAX, with_cells = 0;
+  for (uint64_t n = 0; n < store.node_count(); ++n) {
+    if (store.cell_block(n).offset == 0) continue;
+    ++with_cells;
+    const uint64_t bound = prepared_bytes_at_least(store.cell_block_header(n));
+    const uint64_t prepared = prepare_node_cells(store, n, 0).bytes();
+    EXPECT_LE(bound, prepared) << "node " << n;
+    EXPECT_GT(bound, prepared / 4) << "node " << n << ": a bound that says little";
+    smallest = std::min(smallest, bound);
+  }
+  ASSERT_GT(with_cells, 4u);
+
+  LodOptions ho;
+  ho.hybrid = true;
+  ho.cell_budget_bytes = smallest - 1;  // no node fits
+  LodEngine tight(f.store, *f.gl, ho);
+  tight.set_field("pressure");
+  LodRenderStats st;
+  tight.render(cam, tf, rs, leaves, &st);
+  EXPECT_GT(st.exact_candidates, 0u);
+  EXPECT_EQ(st.exact_nodes, 0u);
+  EXPECT_TRUE(st.cell_budget_full);
+  EXPECT_EQ(st.cells_prepared, 0u) << "nodes that could not fit were read and prepared";
+}
+
 // Nodes meet without a seam (Muigg's F18): from views along the axes, where rays run along and across node faces, the
 // converged image stays at the exact engine's; a stretch of a ray counted in two nodes, or in none, would show as a
 // line of pixels far off.

@@ -8,7 +8,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <optional>
+#include <vector>
 
 #include "ugvr/core/error.h"
 #include "ugvr/store/brick_store_format.h"
@@ -1004,6 +1006,40 @@ void BrickStoreReader::read_cells_index() {
 CellBlockRecord BrickStoreReader::cell_block(uint64_t node) const {
   if (node >= node_count()) fail_in(file_.path(), "node " + std::to_string(node) + " out of range");
   return cell_blocks_.empty() ? CellBlockRecord{} : cell_blocks_[node];
+}
+
+store_format::CellBlockHeader BrickStoreReader::cell_block_header(uint64_t node) const {
+  const std::string& name = file_.path();
+  const CellBlockRecord r = cell_block(node);
+  if (r.offset == 0) fail_in(name, "node " + std::to_string(node) + " keeps no cells");
+  auto fail = [&](const std::string& what) {
+    fail_at_offset(name, r.offset, "cell block of node " + std::to_string(node) + ": " + what);
+  };
+  std::unique_ptr<ZSTD_DCtx, decltype(&ZSTD_freeDCtx)> dctx(ZSTD_createDCtx(), &ZSTD_freeDCtx);
+  if (!dctx) fail("no zstd context");
+  // A zstd block is at most 128 KiB: the header's bytes come out of the first one, read in chunks of that size.
+  constexpr uint64_t kChunk = uint64_t(128) << 10;
+  std::vector<std::byte> chunk;
+  std::byte out_bytes[sizeof(CellBlockHeader)];
+  ZSTD_outBuffer out{out_bytes, sizeof out_bytes, 0};
+  for (uint64_t at = 0; at < r.size && out.pos < out.size;) {
+    const uint64_t n = std::min<uint64_t>(kChunk, r.size - at);
+    chunk.resize(size_t(n));
+    file_.read_at(r.offset + at, chunk.data(), chunk.size());
+    ZSTD_inBuffer in{chunk.data(), chunk.size(), 0};
+    while (in.pos < in.size && out.pos < out.size) {
+      const size_t rc = ZSTD_decompressStream(dctx.get(), &out, &in);
+      if (ZSTD_isError(rc)) fail(std::string("the zstd frame does not decode: ") + ZSTD_getErrorName(rc));
+      if (rc == 0) break;  // the frame ended
+    }
+    at += n;
+  }
+  if (out.pos < out.size) fail("the block is shorter than its header");
+  const CellBlockHeader h = read_record<CellBlockHeader>(out_bytes);
+  if (h.cell_count == 0 || h.point_count == 0 || h.field_count != field_count())
+    fail(std::to_string(h.cell_count) + " cells, " + std::to_string(h.point_count) + " points, " +
+         std::to_string(h.field_count) + " fields (the store has " + std::to_string(field_count()) + ")");
+  return h;
 }
 
 NodeCells BrickStoreReader::read_cells(uint64_t node) const {

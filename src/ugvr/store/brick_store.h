@@ -296,6 +296,11 @@ class BrickStoreReader {
   // Reads and checks node `node`'s cells: checksum, sizes, every index in range, positions and values finite. Throws
   // ugvr::Error naming the file, node and offset. Thread-safe.
   NodeCells read_cells(uint64_t node) const;
+  // The counts of node `node`'s cells (its block's header), decoded from the first bytes of the block alone: what a
+  // cell budget needs to know before it decides to read a block of millions of cells. As stored: the checksum and
+  // the arrays are checked when read_cells reads the block. Throws ugvr::Error naming the file, node and offset for a
+  // node without cells or a header that does not decode.
+  store_format::CellBlockHeader cell_block_header(uint64_t node) const;
 
   // Time steps (format version 6; docs/time-series.md, "Stores with time"). A store of one step: step_count() 1,
   // has_steps() false, its time 0 and its fields' ranges those of the layout.

@@ -188,6 +188,14 @@ PreparedNodeCells prepare_node_cells(const BrickStoreReader& store, uint64_t nod
   return p;
 }
 
+uint64_t prepared_bytes_at_least(const store_format::CellBlockHeader& h) {
+  // Every one of these is in PreparedNodeCells: in `ints` the connectivity (a word a vertex reference), a neighbour
+  // word a face slot, and per cell its id (two words) and its place in the id order (one word); in `floats` the points'
+  // three coordinates. (The values, entry triangles and grid come on top.)
+  return 4 * (uint64_t(h.vertex_references) + h.face_slots + 3 * uint64_t(h.cell_count)) +
+         12 * uint64_t(h.point_count) + uint64_t(lod_gpu::CELL_NODE_UVEC4S) * 16;
+}
+
 CellCache::CellCache(const BrickStoreReader& store, uint64_t budget_bytes) : store_(store), budget_(budget_bytes) {
   const char* grid = std::getenv("UGVR_HYBRID_ENTRY_GRID");
   entry_grid_ = !(grid && std::string_view(grid) == "0");
@@ -220,7 +228,13 @@ CellCache::Grant CellCache::grant(std::span<const uint64_t> candidates, uint32_t
   for (uint64_t n : candidates) {
     if (g.nodes.size() >= max_nodes) break;
     if (store_.cell_block(n).offset == 0) continue;
-    // A node's size is known once it is prepared (the block's header counts would do, but reading it is the cost).
+    // A node not in RAM is first sized from its block's header (its first bytes): one that cannot fit what is left of
+    // the budget is never read or prepared. A leaf of millions of cells (the wing's, in a 250M-cell store) took
+    // minutes and gigabytes to prepare before the budget refused it.
+    if (!ram_.count(n) && g.bytes + prepared_bytes_at_least(store_.cell_block_header(n)) > budget_) {
+      g.budget_full = true;
+      continue;
+    }
     bool fresh = false;
     const PreparedNodeCells& p = get(n, field, fresh);
     if (fresh) ++g.prepared;

@@ -77,6 +77,9 @@ inline constexpr uint32_t kEntryGridMaxTriangles = 65536;
 // as the linear scan did (the environment's UGVR_HYBRID_ENTRY_GRID=0 makes the cell cache do that, for A/B checks).
 PreparedNodeCells prepare_node_cells(const BrickStoreReader& store, uint64_t node, uint32_t field,
                                      bool entry_grid = true);
+// A lower bound of the bytes() of the node whose block has header `h`, from its counts alone (CellCache::grant sizes
+// a node by it before reading the block).
+uint64_t prepared_bytes_at_least(const store_format::CellBlockHeader& h);
 
 class CellCache {
  public:
