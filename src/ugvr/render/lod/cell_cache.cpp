@@ -215,6 +215,13 @@ const PreparedNodeCells& CellCache::get(uint64_t node, uint32_t field, bool& fre
   return it->second.cells;
 }
 
+uint64_t CellCache::least_bytes(uint64_t node) {
+  auto it = least_bytes_.find(node);
+  if (it == least_bytes_.end())
+    it = least_bytes_.emplace(node, prepared_bytes_at_least(store_.cell_block_header(node))).first;
+  return it->second;
+}
+
 CellCache::Grant CellCache::grant(std::span<const uint64_t> candidates, uint32_t field, uint64_t max_nodes) {
   if (field != field_) {
     ram_.clear();
@@ -231,7 +238,7 @@ CellCache::Grant CellCache::grant(std::span<const uint64_t> candidates, uint32_t
     // A node not in RAM is first sized from its block's header (its first bytes): one that cannot fit what is left of
     // the budget is never read or prepared. A leaf of millions of cells (the wing's, in a 250M-cell store) took
     // minutes and gigabytes to prepare before the budget refused it.
-    if (!ram_.count(n) && g.bytes + prepared_bytes_at_least(store_.cell_block_header(n)) > budget_) {
+    if (!ram_.count(n) && g.bytes + least_bytes(n) > budget_) {
       g.budget_full = true;
       continue;
     }

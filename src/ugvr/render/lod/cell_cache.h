@@ -106,6 +106,9 @@ class CellCache {
 
  private:
   const PreparedNodeCells& get(uint64_t node, uint32_t field, bool& fresh);
+  // prepared_bytes_at_least of the node's block, its header read once: a node over the budget is a candidate again
+  // every frame, and its counts do not change (nor depend on the field).
+  uint64_t least_bytes(uint64_t node);
   const BrickStoreReader& store_;
   uint64_t budget_ = 0, max_block_ = 0;
   uint32_t field_ = UINT32_MAX;
@@ -115,6 +118,7 @@ class CellCache {
     uint64_t last_used = 0;
   };
   std::unordered_map<uint64_t, Entry> ram_;
+  std::unordered_map<uint64_t, uint64_t> least_bytes_;  // least_bytes, by node
   uint64_t ram_bytes_ = 0, tick_ = 0;
   std::vector<uint64_t> uploaded_;  // the granted set the buffers hold
   GlBuffer nodes_buf_, ints_buf_, floats_buf_;
