@@ -9,66 +9,28 @@
 // answering. Also measured: single inputs after rest (one camera message once the view has converged, to the first
 // frame reflecting it). Prints one JSON line.
 import { rotate } from "./view_camera.mjs";
+import { ViewSession, percentile } from "./view_session.mjs";
 const [url, width = "800", height = "600", seconds = "15"] = process.argv.slice(2);
 const W = Number(width), H = Number(height), DURATION = Number(seconds) * 1000;
 
-const ws = new WebSocket(url);
-ws.binaryType = "arraybuffer";
-const sentAt = [];  // sentAt[k]: time our k-th accepted message was sent (hello is 1)
-let accepted = 0;
-let camera = null;
-let status = null;
-let onFrame = null;  // (status, now) => void
+const view = new ViewSession(url);
 
-function send(msg) {
-  ws.send(JSON.stringify(msg));
-  accepted += 1;
-  sentAt[accepted] = performance.now();
-}
-
-const waitFor = (pred) =>
-  new Promise((resolve) => {
-    onFrame = (st, now) => {
-      if (pred(st, now)) {
-        onFrame = null;
-        resolve({ st, now });
-      }
-    };
-  });
-
-ws.onmessage = (ev) => {
-  const now = performance.now();
-  if (typeof ev.data === "string") {
-    const m = JSON.parse(ev.data);
-    if (m.type === "scene") camera = m.camera;
-    else if (m.type === "status") status = m;
-    else if (m.type === "error") console.error("server error:", m.message);
-    return;
-  }
-  if (status && onFrame) onFrame(status, now);
-};
-
-const percentile = (xs, q) => {
-  const s = [...xs].sort((a, b) => a - b);
-  return s.length ? s[Math.min(s.length - 1, Math.floor(q * (s.length - 1) + 0.5))] : null;
-};
-
-ws.onopen = async () => {
-  send({ type: "hello", width: W, height: H });
-  await waitFor((st) => st.converged);
+view.run(async () => {
+  view.send({ type: "hello", width: W, height: H });
+  await view.waitFor((st) => st.converged);
 
   // Dragging.
   const drag = [];
   let frames = 0;
   const t0 = performance.now();
   const timer = setInterval(() => {
-    camera = rotate(camera, 0.5);
-    send({ type: "camera", ...camera });
+    view.camera = rotate(view.camera, 0.5);
+    view.send({ type: "camera", ...view.camera });
   }, 16);
   await new Promise((resolve) => {
-    onFrame = (st, now) => {
+    view.onFrame = (st, now) => {
       frames += 1;
-      if (st.request >= 2) drag.push(now - sentAt[st.request]);
+      if (st.request >= 2) drag.push(now - view.sentAt[st.request]);
       if (now - t0 > DURATION) resolve();
     };
   });
@@ -78,12 +40,12 @@ ws.onopen = async () => {
   // Single inputs after rest.
   const single = [];
   for (let i = 0; i < 10; ++i) {
-    await waitFor((st) => st.converged && st.request === accepted);
-    camera = rotate(camera, 5);
-    send({ type: "camera", ...camera });
-    const target = accepted;
-    const { now } = await waitFor((st) => st.request >= target);
-    single.push(now - sentAt[target]);
+    await view.waitFor((st) => st.converged && st.request === view.accepted);
+    view.camera = rotate(view.camera, 5);
+    view.send({ type: "camera", ...view.camera });
+    const target = view.accepted;
+    const { now } = await view.waitFor((st) => st.request >= target);
+    single.push(now - view.sentAt[target]);
   }
   const r = (x) => (x === null ? null : Math.round(x * 10) / 10);
   console.log(JSON.stringify({
@@ -92,10 +54,6 @@ ws.onopen = async () => {
     drag_latency_ms_p95: r(percentile(drag, 0.95)), single_latency_ms_p50: r(percentile(single, 0.5)),
     single_latency_ms_p95: r(percentile(single, 0.95)), single_samples: single.length,
   }));
-  ws.close();
+  view.close();
   process.exit(0);
-};
-ws.onerror = (e) => {
-  console.error("websocket error", e.message || e);
-  process.exit(1);
-};
+});

@@ -9,70 +9,35 @@
 // median, p95 and max, and how many frames the server cut short (the status's "interrupted", absent before it
 // existed).
 import { rotate } from "./view_camera.mjs";
+import { ViewSession, percentile } from "./view_session.mjs";
 const [url, width = "512", height = "512", moves = "10", delay = "100"] = process.argv.slice(2);
 const W = Number(width), H = Number(height), MOVES = Number(moves), DELAY = Number(delay);
 
-const ws = new WebSocket(url);
-ws.binaryType = "arraybuffer";
-const sentAt = [];
-let accepted = 0;
-let camera = null;
-let status = null;
-let onFrame = null;
-
-function send(msg) {
-  ws.send(JSON.stringify(msg));
-  accepted += 1;
-  sentAt[accepted] = performance.now();
-}
-const waitFor = (pred) =>
-  new Promise((resolve) => {
-    onFrame = (st, now) => {
-      if (pred(st, now)) {
-        onFrame = null;
-        resolve({ st, now });
-      }
-    };
-  });
-ws.onmessage = (ev) => {
-  const now = performance.now();
-  if (typeof ev.data === "string") {
-    const m = JSON.parse(ev.data);
-    if (m.type === "scene") camera = m.camera;
-    else if (m.type === "status") status = m;
-    else if (m.type === "error") console.error("server error:", m.message);
-    return;
-  }
-  if (status && onFrame) onFrame(status, now);
-};
+const view = new ViewSession(url);
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-const percentile = (xs, q) => {
-  const s = [...xs].sort((a, b) => a - b);
-  return s.length ? s[Math.min(s.length - 1, Math.floor(q * (s.length - 1) + 0.5))] : null;
-};
 
-ws.onopen = async () => {
-  send({ type: "hello", width: W, height: H });
-  const first = await waitFor((st) => st.converged);
+view.run(async () => {
+  view.send({ type: "hello", width: W, height: H });
+  const first = await view.waitFor((st) => st.converged);
   const restSeconds = [first.st.frame_seconds];
   const latency = [];
   const hits = { converged_first: 0 };  // rounds whose view converged before a batch was shown: no long frame hit
   let last = first.st;
   for (let i = 0; i < MOVES; ++i) {
-    camera = rotate(camera, 5);
-    send({ type: "camera", ...camera });
-    const a = accepted;
+    view.camera = rotate(view.camera, 5);
+    view.send({ type: "camera", ...view.camera });
+    const a = view.accepted;
     // The resting frames that take long are the exact batches (hybrid): the move goes out once the first of them is
     // shown, DELAY_MS into the next one. A store without cells (no exact batches): DELAY_MS after the moving frame.
-    const shown = await waitFor((st) => st.request >= a && (st.converged || (st.exact && st.exact.nodes > 0)));
+    const shown = await view.waitFor((st) => st.request >= a && (st.converged || (st.exact && st.exact.nodes > 0)));
     if (shown.st.converged) hits.converged_first += 1;
     await sleep(DELAY);
-    camera = rotate(camera, 5);
-    send({ type: "camera", ...camera });
-    const b = accepted;
-    const { now } = await waitFor((st) => st.request >= b);
-    latency.push(now - sentAt[b]);
-    const done = await waitFor((st) => st.converged && st.request === accepted);
+    view.camera = rotate(view.camera, 5);
+    view.send({ type: "camera", ...view.camera });
+    const b = view.accepted;
+    const { now } = await view.waitFor((st) => st.request >= b);
+    latency.push(now - view.sentAt[b]);
+    const done = await view.waitFor((st) => st.converged && st.request === view.accepted);
     restSeconds.push(done.st.frame_seconds);
     last = done.st;
   }
@@ -83,10 +48,6 @@ ws.onopen = async () => {
     latency_ms_max: r(Math.max(...latency)), converged_frame_s_p50: r(percentile(restSeconds, 0.5)),
     interrupted: last.interrupted ?? null, engine: last.engine, converged_before_move: hits.converged_first,
   }));
-  ws.close();
+  view.close();
   process.exit(0);
-};
-ws.onerror = (e) => {
-  console.error("websocket error", e.message || e);
-  process.exit(1);
-};
+});
