@@ -386,6 +386,44 @@ TEST(Hybrid, ANodeTooLargeForTheCellBudgetIsNeverPrepared) {
   EXPECT_EQ(st.cells_prepared, 0u) << "nodes that could not fit were read and prepared";
 }
 
+// The GPU buffers have a cap of their own (the driver's largest storage block: 128 MiB on llvmpipe, below the default
+// cell budget). Once they are full, the remaining candidates are sized from their headers and not prepared: a 1024²
+// view of the 250M-cell store prepared all 1,533 candidates in one frame to refuse 1,492 of them (5 GB of RAM).
+TEST(Hybrid, FullCellBuffersPrepareNoMoreNodes) {
+  REQUIRE_GL();
+  const Fixture& f = fixture();
+  const TransferFunction tf = test_tf(f);
+  const RenderSettings rs = test_settings();
+  const BrickStoreReader store(f.store);
+  const Camera cam = camera_preset("iso", store.layout().data);
+  const CutSpec leaves{CutSpec::Kind::Leaves, 0};
+  uint64_t largest_ints = 0;
+  for (uint64_t n = 0; n < store.node_count(); ++n)
+    if (store.cell_block(n).offset != 0)
+      largest_ints = std::max<uint64_t>(largest_ints, prepare_node_cells(store, n, 0).ints.size());
+  // Room for the largest node and a little more: some nodes are granted, most are not.
+  ::setenv("UGVR_CELL_BUFFER_MAX_BYTES", std::to_string(largest_ints * 4 * 3 / 2).c_str(), 1);
+  LodOptions ho;
+  ho.hybrid = true;
+  ho.cell_budget_bytes = uint64_t(1) << 30;  // the budget never binds: the buffers' cap does
+  LodEngine capped(f.store, *f.gl, ho);
+  capped.set_field("pressure");
+  LodRenderStats st;
+  capped.render(cam, tf, rs, leaves, &st);  // the cell cache is made (and reads the cap) at the first hybrid frame
+  ::unsetenv("UGVR_CELL_BUFFER_MAX_BYTES");
+  ASSERT_GT(st.exact_candidates, 4u);
+  EXPECT_GE(st.exact_nodes, 1u);
+  EXPECT_LT(st.exact_nodes + 2, st.exact_candidates);
+  EXPECT_TRUE(st.cell_budget_full);
+  EXPECT_LT(st.cells_prepared + 2, st.exact_candidates) << "candidates that could not fit the buffers were prepared";
+  // The next frame knows every size it learnt: nothing is prepared again, the same nodes are granted.
+  LodRenderStats again;
+  capped.render(cam, tf, rs, leaves, &again);
+  EXPECT_EQ(again.cells_prepared, 0u);
+  EXPECT_EQ(again.exact_nodes, st.exact_nodes);
+  EXPECT_EQ(again.exact_cells, st.exact_cells);
+}
+
 // Nodes meet without a seam (Muigg's F18): from views along the axes, where rays run along and across node faces, the
 // converged image stays at the exact engine's; a stretch of a ray counted in two nodes, or in none, would show as a
 // line of pixels far off.

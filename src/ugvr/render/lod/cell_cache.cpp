@@ -188,12 +188,13 @@ PreparedNodeCells prepare_node_cells(const BrickStoreReader& store, uint64_t nod
   return p;
 }
 
-uint64_t prepared_bytes_at_least(const store_format::CellBlockHeader& h) {
+uint64_t PreparedSize::bytes() const { return 4 * (ints + floats) + uint64_t(lod_gpu::CELL_NODE_UVEC4S) * 16; }
+
+PreparedSize prepared_size_at_least(const store_format::CellBlockHeader& h) {
   // Every one of these is in PreparedNodeCells: in `ints` the connectivity (a word a vertex reference), a neighbour
   // word a face slot, and per cell its id (two words) and its place in the id order (one word); in `floats` the points'
   // three coordinates. (The values, entry triangles and grid come on top.)
-  return 4 * (uint64_t(h.vertex_references) + h.face_slots + 3 * uint64_t(h.cell_count)) +
-         12 * uint64_t(h.point_count) + uint64_t(lod_gpu::CELL_NODE_UVEC4S) * 16;
+  return {uint64_t(h.vertex_references) + h.face_slots + 3 * uint64_t(h.cell_count), 3 * uint64_t(h.point_count)};
 }
 
 CellCache::CellCache(const BrickStoreReader& store, uint64_t budget_bytes) : store_(store), budget_(budget_bytes) {
@@ -202,24 +203,42 @@ CellCache::CellCache(const BrickStoreReader& store, uint64_t budget_bytes) : sto
   GLint64 block = 0;
   glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &block);
   max_block_ = block > 0 ? uint64_t(block) : uint64_t(128) << 20;
+  if (const char* cap = std::getenv("UGVR_CELL_BUFFER_MAX_BYTES"); cap && std::strtoull(cap, nullptr, 10) > 0)
+    max_block_ = std::min<uint64_t>(max_block_, std::strtoull(cap, nullptr, 10));
 }
 
 const PreparedNodeCells& CellCache::get(uint64_t node, uint32_t field, bool& fresh) {
   auto it = ram_.find(node);
   fresh = it == ram_.end();
   if (fresh) {
+    const uint64_t bytes = known_size(node).bytes();
+    if (ram_bytes_ + bytes > 2 * budget_) drop_from_ram(2 * budget_ > bytes ? 2 * budget_ - bytes : 0);
     it = ram_.emplace(node, Entry{prepare_node_cells(store_, node, field, entry_grid_), 0}).first;
-    ram_bytes_ += it->second.cells.bytes();
+    const PreparedNodeCells& p = it->second.cells;
+    ram_bytes_ += p.bytes();
+    sizes_[node] = {{p.ints.size(), p.floats.size()}, true};
   }
-  it->second.last_used = tick_;
   return it->second.cells;
 }
 
-uint64_t CellCache::least_bytes(uint64_t node) {
-  auto it = least_bytes_.find(node);
-  if (it == least_bytes_.end())
-    it = least_bytes_.emplace(node, prepared_bytes_at_least(store_.cell_block_header(node))).first;
-  return it->second;
+PreparedSize CellCache::known_size(uint64_t node) {
+  auto it = sizes_.find(node);
+  if (it == sizes_.end())
+    it = sizes_.emplace(node, KnownSize{prepared_size_at_least(store_.cell_block_header(node))}).first;
+  return it->second.size;
+}
+
+void CellCache::drop_from_ram(uint64_t limit) {
+  if (ram_bytes_ <= limit) return;
+  std::vector<std::pair<uint64_t, uint64_t>> by_age;
+  for (const auto& [n, e] : ram_)
+    if (e.last_used != tick_) by_age.emplace_back(e.last_used, n);
+  std::sort(by_age.begin(), by_age.end());
+  for (const auto& [age, n] : by_age) {
+    if (ram_bytes_ <= limit) break;
+    ram_bytes_ -= ram_.at(n).cells.bytes();
+    ram_.erase(n);
+  }
 }
 
 CellCache::Grant CellCache::grant(std::span<const uint64_t> candidates, uint32_t field, uint64_t max_nodes) {
@@ -228,29 +247,38 @@ CellCache::Grant CellCache::grant(std::span<const uint64_t> candidates, uint32_t
     ram_bytes_ = 0;
     uploaded_.clear();
     field_ = field;
+    // The values' count may differ between fields (per point or per cell): back to the headers' bounds.
+    std::erase_if(sizes_, [](const auto& kv) { return kv.second.prepared; });
   }
   ++tick_;
   Grant g;
   uint64_t ints = 0, floats = 0, records = 0;
+  const uint64_t rec = uint64_t(lod_gpu::CELL_NODE_UVEC4S) * 16;
+  // Whether a node of size `s` fits what is left of the budget and of each buffer (the driver's cap on one storage
+  // block: llvmpipe's is 128 MiB, below the default budget, so on it the buffers fill before the budget does).
+  const auto fits = [&](const PreparedSize& s) {
+    return g.bytes + s.bytes() <= budget_ && (ints + s.ints) * 4 <= max_block_ &&
+           (floats + s.floats) * 4 <= max_block_ && records + rec <= max_block_;
+  };
   for (uint64_t n : candidates) {
     if (g.nodes.size() >= max_nodes) break;
     if (store_.cell_block(n).offset == 0) continue;
-    // A node not in RAM is first sized from its block's header (its first bytes): one that cannot fit what is left of
-    // the budget is never read or prepared. A leaf of millions of cells (the wing's, in a 250M-cell store) took
-    // minutes and gigabytes to prepare before the budget refused it.
-    if (!ram_.count(n) && g.bytes + least_bytes(n) > budget_) {
+    // A node not in RAM is first sized without reading its cells (known_size): one that cannot fit what is left is
+    // never read or prepared. A leaf of millions of cells (the wing's, in a 250M-cell store) took minutes and gigabytes
+    // to prepare before the budget refused it; and once the buffers were full, every remaining candidate of a 1024²
+    // cut (1,533 of them) was prepared and refused in one frame, 5 GB of RAM.
+    if (!ram_.count(n) && !fits(known_size(n))) {
       g.budget_full = true;
       continue;
     }
     bool fresh = false;
     const PreparedNodeCells& p = get(n, field, fresh);
     if (fresh) ++g.prepared;
-    const uint64_t rec = uint64_t(lod_gpu::CELL_NODE_UVEC4S) * 16;
-    if (g.bytes + p.bytes() > budget_ || (ints + p.ints.size()) * 4 > max_block_ ||
-        (floats + p.floats.size()) * 4 > max_block_ || records + rec > max_block_) {
+    if (!fits({p.ints.size(), p.floats.size()})) {
       g.budget_full = true;
       continue;
     }
+    ram_.at(n).last_used = tick_;
     g.nodes.push_back(n);
     g.entries.push_back(uint32_t(g.entries.size()));
     g.bytes += p.bytes();
@@ -286,17 +314,7 @@ CellCache::Grant CellCache::grant(std::span<const uint64_t> candidates, uint32_t
     g.uploaded = true;
   }
   // RAM: drop the least recently granted beyond twice the budget.
-  if (ram_bytes_ > 2 * budget_) {
-    std::vector<std::pair<uint64_t, uint64_t>> by_age;
-    for (const auto& [n, e] : ram_)
-      if (e.last_used != tick_) by_age.emplace_back(e.last_used, n);
-    std::sort(by_age.begin(), by_age.end());
-    for (const auto& [age, n] : by_age) {
-      if (ram_bytes_ <= 2 * budget_) break;
-      ram_bytes_ -= ram_.at(n).cells.bytes();
-      ram_.erase(n);
-    }
-  }
+  drop_from_ram(2 * budget_);
   return g;
 }
 

@@ -77,14 +77,23 @@ inline constexpr uint32_t kEntryGridMaxTriangles = 65536;
 // as the linear scan did (the environment's UGVR_HYBRID_ENTRY_GRID=0 makes the cell cache do that, for A/B checks).
 PreparedNodeCells prepare_node_cells(const BrickStoreReader& store, uint64_t node, uint32_t field,
                                      bool entry_grid = true);
-// A lower bound of the bytes() of the node whose block has header `h`, from its counts alone (CellCache::grant sizes
-// a node by it before reading the block).
-uint64_t prepared_bytes_at_least(const store_format::CellBlockHeader& h);
+// How much of each GPU buffer a node's prepared cells take (PreparedNodeCells: ints, floats, one node record).
+struct PreparedSize {
+  uint64_t ints = 0, floats = 0;  // words
+  uint64_t bytes() const;         // as PreparedNodeCells::bytes()
+};
+// A lower bound of the PreparedSize of the node whose block has header `h`, from its counts alone (CellCache::grant
+// sizes a node by it before reading the block).
+PreparedSize prepared_size_at_least(const store_format::CellBlockHeader& h);
+inline uint64_t prepared_bytes_at_least(const store_format::CellBlockHeader& h) {
+  return prepared_size_at_least(h).bytes();
+}
 
 class CellCache {
  public:
   // The store must outlive the cache; `budget_bytes` bounds the GPU buffers (further capped by the driver's largest
-  // storage block). GL calls need the engine's context current.
+  // storage block, GL_MAX_SHADER_STORAGE_BLOCK_SIZE, per buffer; the environment's UGVR_CELL_BUFFER_MAX_BYTES lowers
+  // that cap, for tests of a driver with a small one). GL calls need the engine's context current.
   CellCache(const BrickStoreReader& store, uint64_t budget_bytes);
 
   struct Grant {
@@ -96,8 +105,10 @@ class CellCache {
     bool uploaded = false;          // the GPU buffers were rewritten
   };
   // Grants exact cells to `candidates` (nodes with cells, highest priority first), at most `max_nodes`, each while the
-  // budget allows (a node that does not fit is skipped; smaller ones after it may still fit), and uploads the granted
-  // set if it changed.
+  // budget and the buffers' cap allow (a node that does not fit is skipped; smaller ones after it may still fit), and
+  // uploads the granted set if it changed. A node is read and prepared only when its size (the bound from its block's
+  // header, or its prepared size once known) fits what is left, so a full budget costs no reads; the nodes prepared
+  // and kept in RAM never exceed twice the budget, even within one grant.
   Grant grant(std::span<const uint64_t> candidates, uint32_t field, uint64_t max_nodes);
   void bind() const;  // the three buffers at their bindings (lod_shared.h)
   uint64_t budget_bytes() const { return budget_; }
@@ -105,10 +116,15 @@ class CellCache {
   std::vector<uint64_t> nodes_in_ram() const;  // ascending
 
  private:
+  // The node's prepared cells, read and prepared if not in RAM (after dropping the least recently granted to keep
+  // RAM within twice the budget).
   const PreparedNodeCells& get(uint64_t node, uint32_t field, bool& fresh);
-  // prepared_bytes_at_least of the node's block, its header read once: a node over the budget is a candidate again
-  // every frame, and its counts do not change (nor depend on the field).
-  uint64_t least_bytes(uint64_t node);
+  // The node's size as far as it is known without preparing it: its prepared size once it has been prepared for the
+  // current field, else prepared_size_at_least of its block's header, read once. A node that does not fit is a
+  // candidate again every frame: neither its header nor its cells are read again.
+  PreparedSize known_size(uint64_t node);
+  // Drops the least recently granted nodes not granted in this grant until RAM holds at most `limit` bytes.
+  void drop_from_ram(uint64_t limit);
   const BrickStoreReader& store_;
   uint64_t budget_ = 0, max_block_ = 0;
   uint32_t field_ = UINT32_MAX;
@@ -118,7 +134,11 @@ class CellCache {
     uint64_t last_used = 0;
   };
   std::unordered_map<uint64_t, Entry> ram_;
-  std::unordered_map<uint64_t, uint64_t> least_bytes_;  // least_bytes, by node
+  struct KnownSize {
+    PreparedSize size;
+    bool prepared = false;  // the prepared size (for field_), not the header's bound
+  };
+  std::unordered_map<uint64_t, KnownSize> sizes_;  // known_size, by node
   uint64_t ram_bytes_ = 0, tick_ = 0;
   std::vector<uint64_t> uploaded_;  // the granted set the buffers hold
   GlBuffer nodes_buf_, ints_buf_, floats_buf_;
