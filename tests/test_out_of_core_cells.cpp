@@ -113,6 +113,7 @@ struct Case {
   std::vector<std::string> fields;
   int depth;
   double error;
+  uint64_t max_leaf_cells = kDefaultMaxLeafCells;
 };
 
 TEST(OutOfCoreCells, SameBlocksAsInCore) {
@@ -125,6 +126,13 @@ TEST(OutOfCoreCells, SameBlocksAsInCore) {
   cases.push_back(
       {"mixed, root only", test::generated_with_cell_field(GenCellKind::Mixed, 3000), {"pressure"}, 0, 0.02});
   cases.push_back({"duplicated hexahedra", duplicated_hexahedra(), {"f"}, 1, 0.0});
+  // Leaves capped at 150 cells: split past --max-depth 1 where the split test alone would keep them whole.
+  cases.push_back({"tetrahedra, leaves capped",
+                   test::generated_with_cell_field(GenCellKind::Tet, 3000),
+                   {"pressure"},
+                   1,
+                   0.01,
+                   150});
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
     const std::string vtu = dir.file("m.vtu");
@@ -132,9 +140,19 @@ TEST(OutOfCoreCells, SameBlocksAsInCore) {
     // In core from the file as read back, so that both builds see the same floats.
     const Dataset back = read_dataset(std::vector<std::string>{vtu});
     const OctreeInput in = prepare_octree_input(back, c.fields);
-    const OctreeBuildOptions o = cell_options(c.depth, c.error);
+    OctreeBuildOptions o = cell_options(c.depth, c.error);
+    o.max_leaf_cells = c.max_leaf_cells;
     const OctreeBuildStats a = build_octree(in, o, dir.file("in.ugvr"));
     const BrickStoreReader in_core(dir.file("in.ugvr"));
+    if (c.max_leaf_cells < 3000) {
+      EXPECT_GT(a.max_level, c.depth) << "no leaf split past --max-depth";
+      EXPECT_LE(a.max_level, c.depth + kLeafCellsExtraDepth);
+      for (uint64_t n = 0; n < in_core.node_count(); ++n) {
+        const OctreeNode& node = in_core.nodes()[n];
+        if (!node.is_leaf() || in_core.cell_block(n).offset == 0 || node.level >= deepest_level(o)) continue;
+        EXPECT_LE(in_core.cell_block_header(n).cell_count, c.max_leaf_cells) << "leaf " << n;
+      }
+    }
     // A budget of 1 byte (64 KiB of records per worker: leaves sampled in pieces), and one with room.
     for (const uint64_t budget : {uint64_t(1), uint64_t(256) << 20}) {
       SCOPED_TRACE("budget " + std::to_string(budget));
@@ -157,9 +175,11 @@ TEST(OutOfCoreCells, SameBlocksAsInCore) {
           c.name, (unsigned long long)budget, (unsigned long long)b.cell_blocks, (unsigned long long)b.leaf_cells,
           (unsigned long long)b.cell_bytes, (unsigned long long)b.leaves_in_pieces, (unsigned long long)k.inside,
           (unsigned long long)k.outside, (unsigned long long)k.boundary);
-      if (budget == 1 && std::string(c.name) != "duplicated hexahedra") {
+      if (budget == 1 && std::string(c.name) != "duplicated hexahedra" && c.max_leaf_cells >= 3000) {
         EXPECT_GT(b.leaves_in_pieces, 0u) << "no leaf in pieces";
       }
+      // 150 cells of records fit the 64 KiB a worker has at the least: no leaf is sampled (and welded) in pieces.
+      if (c.max_leaf_cells < 3000) EXPECT_EQ(b.leaves_in_pieces, 0u);
     }
   }
 }

@@ -251,6 +251,11 @@ void register_build(CLI::App& app) {
   cmd->add_flag("--cells", opts->build.leaf_cells,
                 "Also keep each leaf's cells (the mesh's own cells overlapping it, for exact rendering per node; "
                 "in core and --out-of-core)");
+  cmd->add_option("--max-leaf-cells", opts->build.max_leaf_cells,
+                  "With --cells: a node overlapping more cells splits, up to 3 levels past --max-depth, so that each "
+                  "leaf's cell block stays small (out of core: within the worker's share of --memory; hybrid: within "
+                  "the GPU cell budget); 0: no cap")
+      ->default_val(opts->build.max_leaf_cells);
   cmd->add_option("--time", opts->time,
                   "A time series: one store holding steps all|N|A:B[:S] (inclusive, stride S), sharing the octree "
                   "(static geometry only; docs/time-series.md)");
@@ -345,6 +350,7 @@ void register_build(CLI::App& app) {
                                 {"fields", names},
                                 {"brick", opts->build.resolution},
                                 {"max_depth", opts->build.max_depth},
+                                {"max_leaf_cells", opts->build.leaf_cells ? opts->build.max_leaf_cells : 0},
                                 {"error", opts->build.error},
                                 {"encoding", opts->float32 ? "float32" : "quant16"},
                                 {"cells", s.cells},

@@ -42,6 +42,8 @@ BrickStoreLayout store_layout(const OctreeBuildOptions& options, std::vector<Bri
                       {"error", options.error},
                       {"samples", options.encoding.samples == SampleEncoding::Float32 ? "float32" : "quant16"},
                       {"out_of_core", out_of_core}};
+  // Only with cells, so that stores without them stay byte for byte those of before.
+  if (options.leaf_cells) p["max_leaf_cells"] = options.max_leaf_cells;
   layout.provenance = p.dump();
   return layout;
 }

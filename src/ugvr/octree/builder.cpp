@@ -178,6 +178,11 @@ Bounds octree_root(const Bounds& data) {
   return root;
 }
 
+int deepest_level(const OctreeBuildOptions& options) {
+  if (!options.leaf_cells || options.max_leaf_cells == 0) return options.max_depth;
+  return std::min(options.max_depth + kLeafCellsExtraDepth, kMaxOctreeLevel);
+}
+
 void validate_build_options(const OctreeBuildOptions& o) {
   if (o.resolution < kMinBrickResolution || o.resolution > kMaxBrickResolution) {
     throw Error("--brick must be between " + std::to_string(kMinBrickResolution) + " and " +
@@ -213,8 +218,9 @@ OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions
   if (options.error > 0) interpolant.emplace(data, sampler, lattice, split.thresholds());
   OctreeShape shape;
   {
-    Progress progress("subdivide", uint64_t(options.max_depth) + 1, options.progress);
-    shape = subdivide_octree(mesh, lattice, split, options.max_depth, &progress, interpolant ? &*interpolant : nullptr);
+    Progress progress("subdivide", uint64_t(deepest_level(options)) + 1, options.progress);
+    shape = subdivide_octree(mesh, lattice, split, options.max_depth, &progress, interpolant ? &*interpolant : nullptr,
+                             options.leaf_cells ? options.max_leaf_cells : 0, deepest_level(options));
   }
   stats.subdivide_seconds = seconds_since(start);
   count_tree_shape(shape.nodes, stats);
@@ -326,9 +332,10 @@ OctreeBuildStats build_octree_steps(const TimeSeries& series, std::span<const ui
     const BrickSampler sampler(*cur.input.mesh, cur.input.scalars, options.sampler);
     std::optional<InterpolantCheck> interpolant;
     if (options.error > 0) interpolant.emplace(data, sampler, lattice, split.thresholds());
-    Progress progress(step_name(k) + ": subdivide", uint64_t(options.max_depth) + 1, options.progress);
+    Progress progress(step_name(k) + ": subdivide", uint64_t(deepest_level(options)) + 1, options.progress);
     OctreeShape own = subdivide_octree(*cur.input.mesh, lattice, split, options.max_depth, &progress,
-                                       interpolant ? &*interpolant : nullptr);
+                                       interpolant ? &*interpolant : nullptr,
+                                       options.leaf_cells ? options.max_leaf_cells : 0, deepest_level(options));
     if (k == 0) stats.first_step_nodes = own.nodes.size();
     if (shape_steps == 1) {
       shape = std::move(own);
@@ -338,9 +345,9 @@ OctreeBuildStats build_octree_steps(const TimeSeries& series, std::span<const ui
     }
   }
   if (shape_steps > 1) {
-    Progress progress("union of the steps' trees", uint64_t(options.max_depth) + 1, options.progress);
+    Progress progress("union of the steps' trees", uint64_t(deepest_level(options)) + 1, options.progress);
     shape = subdivide_octree_where(
-        *cur.input.mesh, lattice, options.max_depth,
+        *cur.input.mesh, lattice, deepest_level(options),
         [&](const OctreeNode& n) { return interior.count(key_of(n)) != 0; }, &progress);
     std::unordered_set<NodeKey, NodeKeyHash>().swap(interior);
   }

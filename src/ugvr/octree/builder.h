@@ -36,6 +36,13 @@
 
 namespace ugvr {
 
+// OctreeBuildOptions::max_leaf_cells' default: 262,144 cells, about 21 MB of out-of-core records (tetrahedra with one
+// vertex field) and 14 MB of the hybrid renderer's prepared cells.
+inline constexpr uint64_t kDefaultMaxLeafCells = uint64_t(1) << 18;
+// How far past max_depth a leaf over max_leaf_cells is split: a cell larger than the node overlaps every child, so
+// splitting further would not shrink the leaf's list.
+inline constexpr int kLeafCellsExtraDepth = 3;
+
 struct OctreeBuildOptions {
   uint32_t resolution = 32;  // samples per brick axis (the paper's 32)
   int max_depth = 8;         // deepest level (root = 0), at most kMaxOctreeLevel
@@ -59,6 +66,12 @@ struct OctreeBuildOptions {
   // Keep each leaf's cells in the store (octree/node_cells.h, format version 5), for exact rendering per node (the
   // [hybrid] issue). Both builders (out of core: each leaf from its welded records, the same blocks).
   bool leaf_cells = false;
+  // With leaf_cells: a node overlapping more cells than this splits whatever the split test says, past max_depth by up
+  // to kLeafCellsExtraDepth levels (deepest_level), so that a leaf's cell block stays small: the out-of-core builder
+  // welds a leaf's cells in memory to write its block (a leaf over the worker's share of --memory exceeded the budget
+  // by its size), and the hybrid renderer grants a node exact only whole, within its cell budget. Both builders apply
+  // it to the same counts (the cells overlapping the node), so their stores stay the same. 0: no cap.
+  uint64_t max_leaf_cells = kDefaultMaxLeafCells;
   // Out of core only: a coarse preview of levels 0 .. preview_depth (octree/coarse_preview.h: the final store's
   // samples at those levels, in one pass over the cells) written as a store of its own as soon as the cells are on
   // disk, for a viewer to show while the bricks are built; 0: none.
@@ -76,6 +89,9 @@ struct OctreeBuildOptions {
   std::string sketch_path;
   std::function<void(const std::string& path, int depth)> on_sketch;
 };
+
+// The deepest level a build may make: max_depth, or past it by kLeafCellsExtraDepth where leaf cells are capped.
+int deepest_level(const OctreeBuildOptions& options);
 
 struct OctreeBuildStats {
   uint64_t cells = 0;  // of the mesh voxelized

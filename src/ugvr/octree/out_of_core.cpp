@@ -128,9 +128,14 @@ class OutOfCoreBuild {
       scratch.table.begin(box, o_.resolution, thresholds_, o_.error == 0);
       SoupReader reader(file, layout_);
       const std::byte* rec = nullptr;
+      // The leaves' cells capped (OctreeBuildOptions::max_leaf_cells): the in-core builder counts the same records
+      // (the cells overlapping the node), so both split the same nodes.
+      const uint64_t cap = !fixed_tree_ && o_.leaf_cells && node.level < deepest_level(o_) ? o_.max_leaf_cells : 0;
+      uint64_t records = 0;
       while (reader.next(rec)) {
         const SoupCell cell(rec, layout_);
         if (!fixed_tree_ && node.level < o_.max_depth && !is_flat(cell, scratch)) split = feed(cell, scratch);
+        if (cap != 0 && ++records > cap) split = true;
         if (split) break;
         if (complete && kept.size() + cell.bytes() <= preload_bytes_) {
           kept.insert(kept.end(), rec, rec + cell.bytes());
@@ -713,7 +718,7 @@ size_t records_per_worker(const OctreeBuildOptions& options, size_t field_count,
   const uint64_t brick_bytes =
       uint64_t(options.resolution) * options.resolution * options.resolution * (4 * uint64_t(field_count) + 1);
   const uint64_t reserve =
-      (uint64_t(48) << 20) + workers * ((uint64_t(18) << 20) + 8 * uint64_t(options.max_depth + 1) * brick_bytes);
+      (uint64_t(48) << 20) + workers * ((uint64_t(18) << 20) + 8 * uint64_t(deepest_level(options) + 1) * brick_bytes);
   const uint64_t held = reserve + held_bytes;
   const uint64_t available = memory_budget > held ? memory_budget - held : 0;
   return size_t(std::max<uint64_t>(available / (12 * workers), uint64_t(64) << 10));

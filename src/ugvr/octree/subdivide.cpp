@@ -3,6 +3,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <array>
 #include <numeric>
 
@@ -12,10 +13,12 @@ namespace ugvr {
 
 namespace {
 
-// `splits(node, box, cells)`: whether the node splits (below max_depth). Called on several threads at once.
+// `splits(node, box, cells)`: whether the node splits (below max_depth). Called on several threads at once. A node
+// over `max_leaf_cells` (0: none) splits without asking, down to `deepest`.
 template <class Splits>
 OctreeShape subdivide(const UnstructuredMesh& mesh, const BrickLattice& lattice, int max_depth, Progress* progress,
-                      const Splits& splits) {
+                      const Splits& splits, uint64_t max_leaf_cells = 0, int deepest = 0) {
+  deepest = std::max(deepest, max_depth);
   OctreeShape shape;
   shape.nodes.push_back(OctreeNode{});
   shape.leaf_cells.emplace_back(mesh.cell_count());
@@ -28,9 +31,10 @@ OctreeShape subdivide(const UnstructuredMesh& mesh, const BrickLattice& lattice,
     tbb::parallel_for(size_t(0), level_ids.size(), [&](size_t i) {
       const OctreeNode& node = shape.nodes[level_ids[i]];
       const std::vector<uint64_t>& cells = shape.leaf_cells[level_ids[i]];
-      if (level >= max_depth) return;
+      if (level >= deepest) return;
       const Bounds box = lattice.node_box(level, {node.i, node.j, node.k});
-      if (!splits(node, box, cells)) return;
+      const bool crowded = max_leaf_cells != 0 && cells.size() > max_leaf_cells;
+      if (!crowded && (level >= max_depth || !splits(node, box, cells))) return;
       const BoxCellLists lists = cells_overlapping_boxes(mesh, box, {2, 2, 2}, cells);
       for (int o = 0; o < 8; ++o) {
         const auto b = lists.box(uint64_t(o));
@@ -71,17 +75,20 @@ OctreeShape subdivide(const UnstructuredMesh& mesh, const BrickLattice& lattice,
 }  // namespace
 
 OctreeShape subdivide_octree(const UnstructuredMesh& mesh, const BrickLattice& lattice, const SplitTest& split,
-                             int max_depth, Progress* progress, const InterpolantCheck* interpolant) {
+                             int max_depth, Progress* progress, const InterpolantCheck* interpolant,
+                             uint64_t max_leaf_cells, int deepest) {
   tbb::enumerable_thread_specific<VoxelSpread> scratch;
   tbb::enumerable_thread_specific<BrickScratch> sampler_scratch;
-  return subdivide(mesh, lattice, max_depth, progress,
-                   [&](const OctreeNode& node, const Bounds& box, const std::vector<uint64_t>& cells) {
-                     // The scratch is released before the nested parallel loop that follows, in which this thread
-                     // may run other nodes.
-                     return split.needs_split(box, cells, scratch.local()) ||
-                            (interpolant && interpolant->exceeds(node.level, {node.i, node.j, node.k}, cells,
-                                                                 sampler_scratch.local()));
-                   });
+  return subdivide(
+      mesh, lattice, max_depth, progress,
+      [&](const OctreeNode& node, const Bounds& box, const std::vector<uint64_t>& cells) {
+        // The scratch is released before the nested parallel loop that follows, in which this thread may run other
+        // nodes.
+        return split.needs_split(box, cells, scratch.local()) ||
+               (interpolant &&
+                interpolant->exceeds(node.level, {node.i, node.j, node.k}, cells, sampler_scratch.local()));
+      },
+      max_leaf_cells, deepest);
 }
 
 OctreeShape subdivide_octree_where(const UnstructuredMesh& mesh, const BrickLattice& lattice, int max_depth,

@@ -30,9 +30,11 @@ struct OctreeShape {
 
 // `progress` (optional) advances by one per level.
 // `interpolant` (optional): a node the split test keeps whole still splits where it says so.
+// `max_leaf_cells` (0: none): a node overlapping more cells splits whatever the tests say, down to level `deepest`
+// (>= max_depth; OctreeBuildOptions::max_leaf_cells).
 OctreeShape subdivide_octree(const UnstructuredMesh& mesh, const BrickLattice& lattice, const SplitTest& split,
-                             int max_depth, Progress* progress = nullptr,
-                             const InterpolantCheck* interpolant = nullptr);
+                             int max_depth, Progress* progress = nullptr, const InterpolantCheck* interpolant = nullptr,
+                             uint64_t max_leaf_cells = 0, int deepest = 0);
 
 // The same, a node splitting where `splits` says (called from several threads at once), instead of the split test:
 // the time store's union of the steps' trees (octree/builder.h), whose interior nodes are those of any step's tree.

@@ -27,11 +27,11 @@ json build_json(const BrickStoreLayout& l, const std::vector<std::string>& names
             {"tolerance", l.tolerance}, {"fields", names},
             {"input", nullptr},         {"error", nullptr},
             {"max_depth", nullptr},     {"ugvr", nullptr},
-            {"out_of_core", nullptr}};
+            {"out_of_core", nullptr},   {"max_leaf_cells", nullptr}};
   const json p = json::parse(l.provenance.empty() ? "{}" : l.provenance, nullptr, false);
   if (p.is_object()) {
     if (p.contains("inputs")) b["input"] = p["inputs"];
-    for (const char* key : {"error", "max_depth", "ugvr", "out_of_core"})
+    for (const char* key : {"error", "max_depth", "ugvr", "out_of_core", "max_leaf_cells"})
       if (p.contains(key)) b[key] = p[key];
   }
   return b;
@@ -223,7 +223,10 @@ std::string format_store_report_text(const nlohmann::json& r) {
     o << " --error " << fmt_num(bd["error"]) << " --max-depth " << bd["max_depth"]
       << (bd["out_of_core"] == true ? " --out-of-core" : "")
       // Not in the provenance record: a store with cell blocks was built with --cells.
-      << (r["bytes"]["cells"].get<uint64_t>() > 0 ? " --cells" : "") << "\n          from";
+      << (r["bytes"]["cells"].get<uint64_t>() > 0 ? " --cells" : "");
+    // Recorded since the cap on a leaf's cells (stores with cells); absent in older ones.
+    if (bd["max_leaf_cells"].is_number()) o << " --max-leaf-cells " << bd["max_leaf_cells"];
+    o << "\n          from";
     for (const json& in : bd["input"]) o << " " << in.get<std::string>();
     o << " (ugvr " << bd["ugvr"].get<std::string>() << ")\n";
   }

@@ -77,6 +77,7 @@ std::string cached_store_path(const std::string& stem, const std::string& key, s
   k["store_version"] = kBrickStoreVersion;
   // Only when set, so that the names of the stores built without cells stay those of before.
   if (build.leaf_cells) k["cells"] = true;
+  if (build.leaf_cells) k["max_leaf_cells"] = build.max_leaf_cells;
   char hash[17];
   std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(fnv1a(k.dump())));
   return view_cache_dir() + "/" + stem + "-" + hash + ".ugvr";
