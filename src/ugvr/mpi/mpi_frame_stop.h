@@ -25,6 +25,7 @@
 #include <mpi.h>
 
 #include <atomic>
+#include <chrono>
 #include <functional>
 #include <thread>
 
@@ -57,6 +58,7 @@ class FrameStop {
   int word_ = kUndecided;  // ranks > 0: the receive's buffer
   MPI_Request word_request_ = MPI_REQUEST_NULL;
   bool heard_ = false;
+  std::chrono::steady_clock::time_point last_test_;  // hear_word's latest MPI_Test
 };
 
 }  // namespace ugvr::mpi
