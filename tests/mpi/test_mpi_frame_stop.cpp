@@ -52,8 +52,10 @@ TEST(MpiFrameStop, RankZeroStopsEveryRankAndTheNextFrameIsUnchanged) {
     EXPECT_TRUE(zero[drawn]["same_as_whole"].get<bool>()) << drawn << ": not the uninterrupted image bit for bit";
     EXPECT_GT(zero[drawn]["questions"].get<int>(), 0) << drawn << ": rank 0's question was never asked";
   }
-  // Rank 0 drew its part long before rank 1 began its own: it waited for rank 1's part, asking meanwhile.
-  EXPECT_GE(zero["slow_done"]["seconds"].get<double>(), 1.0);
+  // Rank 0 drew its part (milliseconds) long before rank 1 began its own, and waited for it, asking meanwhile. Rank 1
+  // may have started the frame a little before rank 0 (rank 0 ends the previous one last, with the composited image),
+  // so rank 0's time is only bounded well below rank 1's hold.
+  EXPECT_GE(zero["slow_done"]["seconds"].get<double>(), 0.5);
   EXPECT_GE(ranks[1]["slow_done"]["seconds"].get<double>(), 1.0);
   EXPECT_GE(zero["slow_stop"]["seconds"].get<double>(), 0.5);
 }
