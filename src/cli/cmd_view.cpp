@@ -173,6 +173,8 @@ void run_view_mpi(const Options& o, view::ViewServerOptions vo) {
     }
     return c;
   };
+  // A move stops a resting frame on every rank (mpi/mpi_frame_stop.h): no rest delay needed.
+  vo.collective_interruptible = true;
   serve(std::move(vo), "MPI: " + std::to_string(mpi::size()) +
                            " ranks draw every frame (one engine; no MIP or time steps under MPI: docs/mpi.md); "
                            "rank 0 is pid " +

@@ -17,12 +17,14 @@
 // clang-format on
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <regex>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "mpi_fixtures.h"
 #include "test_data.h"
@@ -321,6 +323,51 @@ TEST_F(MpiView, TheDefaultViewIsFramedOnWhatAutoLeavesVisibleAsInOneProcess) {
     }
     // The ranks draw together after the question: the session goes on.
     EXPECT_EQ(tab.converged_frame(1)["type"], "status");
+  }
+  ASSERT_EQ(kill(job.rank0_pid, SIGTERM), 0);
+  const std::optional<int> status = job.exited(std::chrono::seconds(60));
+  ASSERT_TRUE(status.has_value()) << job.log();
+  EXPECT_EQ(*status, 0) << job.log();
+}
+
+// A move during a resting frame is answered without waiting for it: rank 0 tells every rank to drop the frame
+// (mpi_frame_stop.h). Rank 1 holds its part of the resting frame that starts while the file "hold" exists
+// (UGVR_MPI_SLOW_RANK, mpi_renderer.h) for 30 s unless told to stop, and removes the file when it starts: the next
+// move is sent only then, so the frame is certainly under way when it comes, not raced.
+TEST_F(MpiView, AMoveCutsTheRestingFrameUnderWayShortOnEveryRank) {
+  ViewJob job(dir_, 2, view_args(file("u.vtk")), "UGVR_MPI_SLOW_RANK=1:30:" + file("hold"));
+  ASSERT_TRUE(job.wait_serving()) << job.log();
+  {
+    Tab tab(job.port);
+    tab.send({{"type", "hello"}, {"width", kSide}, {"height", kSide}});
+    ASSERT_EQ(tab.scene()["type"], "scene");
+    ASSERT_EQ(tab.converged_frame(1)["type"], "status");
+    // Moving at a rate no rank holds: a move's first frame is drawn small, not converged, and a resting frame follows.
+    tab.send({{"type", "settings"}, {"fps", 240}});  // request 2
+    std::ofstream(file("hold")) << "hold the next resting frame\n";
+    json step = camera({40, 12, 30});
+    step["type"] = "camera";
+    tab.send(step);  // request 3
+    for (const auto end = Clock::now() + std::chrono::seconds(60); std::filesystem::exists(file("hold"));) {
+      ASSERT_LT(Clock::now(), end) << "no resting frame was held\n" << job.log();
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    const Clock::time_point moved = Clock::now();
+    step = camera({36, 16, 36});
+    step["type"] = "camera";
+    tab.send(step);  // request 4, while rank 1 holds request 3's resting frame
+    std::vector<json> of_3;
+    json next = tab.next_text();
+    for (; next["type"] != "status" || next["request"].get<uint64_t>() < 4; next = tab.next_text())
+      if (next["type"] == "status" && next["request"] == 3) of_3.push_back(next);
+    const double answered = std::chrono::duration<double>(Clock::now() - moved).count();
+    std::printf("a move during a held resting frame answered after %.3f s\n", answered);
+    EXPECT_LT(answered, 15) << "the move waited for the held frame";
+    for (const json& s : of_3) EXPECT_FALSE(s["converged"].get<bool>()) << "request 3's resting frame was sent";
+    EXPECT_GE(next["interrupted"].get<uint64_t>(), 1u) << next.dump();
+    // The ranks go on together: request 4 converges to the image of its view.
+    const json rested = tab.converged_frame(4);
+    ASSERT_EQ(rested["type"], "status") << rested.dump();
   }
   ASSERT_EQ(kill(job.rank0_pid, SIGTERM), 0);
   const std::optional<int> status = job.exited(std::chrono::seconds(60));

@@ -5,17 +5,22 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <string>
 #include <string_view>
+#include <thread>
 
 #include "ugvr/core/error.h"
 #include "ugvr/io/pvtu_pieces.h"
 #include "ugvr/mpi/kd_partition.h"
 #include "ugvr/mpi/mpi_compositor.h"
+#include "ugvr/mpi/mpi_frame_stop.h"
 #include "ugvr/mpi/mpi_part_read.h"
 #include "ugvr/mpi/mpi_session.h"
 #include "ugvr/mpi/piece_index.h"
@@ -89,6 +94,28 @@ struct MpiFrameStats : EngineFrameStats {
   }
 };
 
+// UGVR_MPI_SLOW_RANK=R:SECONDS[:FILE] (the tests' slow rank): rank R starts drawing its part of a full-quality frame
+// SECONDS late, asking `keep_going` (when the frame has one) every few milliseconds meanwhile, as an engine asks
+// between the parts of a long frame. With FILE, only a frame that starts while FILE exists, which it removes first: a
+// test creates FILE, and its disappearance tells the test that the held frame is under way.
+void hold_if_slow_rank(const FrameRequest& request, const std::function<bool()>& keep_going) {
+  const char* spec = std::getenv("UGVR_MPI_SLOW_RANK");
+  if (!spec || !request.full_quality) return;
+  const std::string text = spec;
+  const size_t colon = text.find(':');
+  if (colon == std::string::npos)
+    fail_in("UGVR_MPI_SLOW_RANK", "\"" + text + "\" is not RANK:SECONDS or RANK:SECONDS:FILE");
+  if (std::atoi(text.c_str()) != rank()) return;
+  const size_t file_colon = text.find(':', colon + 1);
+  const double seconds = std::atof(text.substr(colon + 1, file_colon - colon - 1).c_str());
+  if (file_colon != std::string::npos && std::remove(text.substr(file_colon + 1).c_str()) != 0) return;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (std::chrono::steady_clock::now() < until) {
+    if (keep_going && !keep_going()) throw FrameInterrupted();
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+}
+
 class MpiRenderer final : public Renderer {
  public:
   // `parts`: each rank holds only its part of the data (a .pvtu read by parts, a partitioned store's pieces); else
@@ -104,6 +131,11 @@ class MpiRenderer final : public Renderer {
     local_->describe(j);
     if (j.contains("engine_bytes") && j["engine_bytes"].is_number()) engine_bytes_ = j["engine_bytes"].get<double>();
   }
+  ~MpiRenderer() override {
+    if (stop_comm_ != MPI_COMM_NULL && active()) MPI_Comm_free(&stop_comm_);
+  }
+  MpiRenderer(const MpiRenderer&) = delete;
+  MpiRenderer& operator=(const MpiRenderer&) = delete;
   std::string_view engine() const override { return local_->engine(); }
   std::string device() const override { return local_->device() + ", " + std::to_string(size()) + " MPI ranks"; }
   void set_field(std::string_view name) override { local_->set_field(name); }
@@ -188,10 +220,23 @@ class MpiRenderer final : public Renderer {
     mine.settings.background = {0, 0, 0, 0};
     mine.settings.early_termination_opacity = 1;  // opacity in front of this box is unknown here
     mine.target_fps = 0;
-    // Every rank must finish a collective frame (the compositing waits for all): none may stop its part alone.
+    // The compositing needs every rank's part, so no rank stops its part alone: with keep_going the ranks agree
+    // (mpi_frame_stop.h) and either all composite or all throw FrameInterrupted. Without it (`ugvr render`) nothing
+    // of the agreement runs: the frame is exactly as before.
+    std::optional<FrameStop> stop;
+    if (request.keep_going) stop.emplace(stop_comm(), request.keep_going);
     mine.keep_going = nullptr;
+    if (stop) mine.keep_going = [&stop] { return stop->keep_going(); };
     const double cpu0 = process_cpu_seconds();
-    Frame local = local_->render(mine);
+    Frame local;
+    try {
+      hold_if_slow_rank(request, mine.keep_going);
+      local = local_->render(mine);
+    } catch (const FrameInterrupted&) {
+      // Only rank 0's Stop (or the question that makes rank 0 say it) stops a part: the agreement below says Stop.
+      if (!stop) throw;
+    }
+    if (stop && stop->agree_to_stop()) throw FrameInterrupted();
     const double cpu_seconds = process_cpu_seconds() - cpu0;
     const int width = request.settings.width, height = request.settings.height;
     if (local.image.width != width || local.image.height != height)
@@ -252,6 +297,13 @@ class MpiRenderer final : public Renderer {
   WholeMesh whole_;
   bool parts_ = false;
   double engine_bytes_ = 0;
+  // The frames' stop agreement talks on a communicator of its own (MPI_Comm_dup of the world, on the first frame that
+  // has keep_going: every rank gets that frame), so that no other message or collective can match its own.
+  MPI_Comm stop_comm_ = MPI_COMM_NULL;
+  MPI_Comm stop_comm() {
+    if (stop_comm_ == MPI_COMM_NULL) MPI_Comm_dup(MPI_COMM_WORLD, &stop_comm_);
+    return stop_comm_;
+  }
 };
 
 // A .pvtu on several ranks: each reads only the pieces its box needs (mpi_part_read.h) and draws its part, clipped to

@@ -26,7 +26,11 @@ enum class MeshRead { PartWherePossible, Whole };
 // compositing renderer. Exact engine on the CPU only (options.device "gpu" is an OptionError("device")); the LOD
 // engine for a store, one cut per frame. Interactive sessions (OptionError("fps")) and MIP (OptionError("mode"), thrown
 // by render) are not supported yet.
-// UGVR_MPI_FAIL_RANK=k makes rank k throw in its first render (the tests' failing rank).
+// A request with keep_going (the viewer's resting frames) may be cut short: every rank must then pass one, for the same
+// frames (mpi_view.cpp sends the flag with the request); rank 0's is the question, the others' only the flag. The
+// ranks agree (mpi_frame_stop.h) and either all composite or all throw FrameInterrupted.
+// UGVR_MPI_FAIL_RANK=k makes rank k throw in its first render (the tests' failing rank); UGVR_MPI_SLOW_RANK=k:S[:FILE]
+// makes rank k start its part of a full-quality frame S seconds late (the tests' slow rank, mpi_renderer.cpp).
 // `fields` (when given) receives the fields a frame may bind (settings.field): a partitioned store's or a brick
 // store's, or a mesh's default ones (default_field_names, at most 4; the first is bound when options.field is empty).
 std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, const ReadOptions& read,

@@ -128,15 +128,19 @@ class ViewLeader final : public Renderer {
     // Every rank binds the field rank 0 has bound (the followers never saw rank 0's set_field).
     if (drawn.settings.field.empty()) drawn.settings.field = collective_->field_name();
     drawn.prefetch_time_step.reset();
+    drawn.keep_going = request.keep_going;  // sent as the flag "interruptible"
     // What every rank draws is the decoded text, so that rank 0 draws the same numbers as the others; a request that
     // does not survive the trip fails here, before any rank hears of it.
     const std::string text = encode_frame_request(drawn);
     drawn = decode_frame_request(text);
+    drawn.keep_going = request.keep_going;  // rank 0 asks the viewer's question; the others follow its answer
 
     broadcast_text(text);
     DrawnFrame d;
     try {
       d = draw_collectively(*collective_, drawn);
+    } catch (const FrameInterrupted&) {
+      throw;  // every rank agreed to drop the frame (mpi_frame_stop.h): none is left inside a collective
     } catch (const std::exception& e) {
       // The other ranks are inside this frame's collectives: only ending the job frees them.
       abort_job(std::string("error: ") + e.what(), 1);
@@ -172,6 +176,7 @@ std::string encode_frame_request(const FrameRequest& request) {
   j["full_quality"] = request.full_quality;
   j["target_fps"] = request.target_fps;
   if (request.time_step) j["time_step"] = *request.time_step;
+  if (request.keep_going) j["interruptible"] = true;
   return j.dump();
 }
 
@@ -195,6 +200,8 @@ FrameRequest decode_frame_request(const std::string& bytes) {
   r.full_quality = j["full_quality"].get<bool>();
   r.target_fps = j["target_fps"].get<double>();
   if (j.contains("time_step")) r.time_step = j["time_step"].get<uint32_t>();
+  // Only the flag crosses: the ranks > 0 follow rank 0's answer (mpi_frame_stop.h), never this function's.
+  if (j.value("interruptible", false)) r.keep_going = [] { return true; };
   return r;
 }
 
@@ -212,7 +219,11 @@ void follow_view(const std::vector<std::string>& inputs, const ReadOptions& read
     if (const std::optional<VisibleBoundsQuestion> q = decode_visible_bounds_question(text))
       answer_collectively(*collective, *q);
     else
-      draw_collectively(*collective, decode_frame_request(text));
+      try {
+        draw_collectively(*collective, decode_frame_request(text));
+      } catch (const FrameInterrupted&) {
+        // Rank 0 cut the frame short and every rank dropped it together: the next request follows.
+      }
   }
 }
 

@@ -6,7 +6,9 @@
 //   1. MPI_Bcast of one uint64: the length L of the frame's request; 0 means quit (every follower returns).
 //   2. MPI_Bcast of L bytes: the FrameRequest as JSON (encode_frame_request), the one every rank draws, rank 0
 //      included (it draws the decoded bytes, not its own struct, so that every rank sees the same numbers).
-//   3. The compositing renderer's collectives (mpi_renderer.cpp: its figures, then the compositor).
+//   3. The compositing renderer's collectives (mpi_renderer.cpp: its figures, then the compositor). A resting frame
+//      (the viewer's keep_going, sent as "interruptible": true) is first agreed on (mpi_frame_stop.h): when rank 0's
+//      tab moves on meanwhile, every rank drops the frame (FrameInterrupted) and steps 3 and 4 are skipped by all.
 //   4. MPI_Allreduce(MAX) of each rank's wall time for the frame: what the leader's frame-rate controller sees.
 // Between frames rank 0 may instead ask for the visible box (Renderer::visible_bounds, for the framed first view of
 // the auto transfer function): step 2's text is then {"visible_bounds": {field, tf, threshold}}, and step 3 is the
@@ -26,7 +28,9 @@
 namespace ugvr::mpi {
 
 // The request's JSON form between the ranks: camera, transfer function (ParaView preset form with its unit
-// distance), settings (size, field, mode ...), step_voxels and full_quality. Doubles round-trip exactly.
+// distance), settings (size, field, mode ...), step_voxels, full_quality, and whether the frame may be cut short
+// (keep_going: decoded as a function that always says go on, the flag the ranks > 0 draw with). Doubles round-trip
+// exactly.
 std::string encode_frame_request(const FrameRequest& request);
 FrameRequest decode_frame_request(const std::string& bytes);  // throws ugvr::Error naming what is wrong
 

@@ -77,11 +77,11 @@ class FrameScheduler {
   // until the client changes it).
   void rendered(const FrameJob& job, bool converged, bool failed,
                 std::chrono::steady_clock::time_point now = std::chrono::steady_clock::now());
-  // For a renderer whose resting frame cannot be cut short (a collective one: a partitioned store's pieces, MPI
-  // ranks; 5.5 s at full quality for a billion cells): a tab's resting frame after one that did not converge is
-  // drawn only `seconds` after that frame, so that a move arriving meanwhile (the next step of a drag, sent once the
-  // moving frame was shown) is drawn first instead of waiting for the whole full-quality frame. A full-quality
-  // request goes at once. 0 (the default): no wait.
+  // For a renderer whose resting frame cannot be cut short (a collective one that does not take keep_going: both of
+  // ugvr's, a partitioned store's pieces and MPI ranks, now do; 5.5 s at full quality for a billion cells): a tab's
+  // resting frame after one that did not converge is drawn only `seconds` after that frame, so that a move arriving
+  // meanwhile (the next step of a drag, sent once the moving frame was shown) is drawn first instead of waiting for the
+  // whole full-quality frame. A full-quality request goes at once. 0 (the default): no wait.
   void set_rest_delay(double seconds) { rest_delay_ = std::chrono::duration<double>(seconds); }
   // When the earliest resting frame held back by the last next() becomes due; nullopt: none is held back.
   std::optional<std::chrono::steady_clock::time_point> next_due() const { return due_; }

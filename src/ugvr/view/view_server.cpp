@@ -211,9 +211,9 @@ void ViewServer::Impl::render_loop(std::promise<void>& started) {
     options.dataset.reset();  // the engine host holds the grid, until its store is shown
     engine = std::make_unique<EngineHost>(std::move(engine_options));
     std::lock_guard lock(mutex);
-    // A collective frame cannot be cut short: a tab's full-quality frame waits a moment after its last moving frame,
-    // so that the next move of a drag is not held up by it (frame_scheduler.h, set_rest_delay). Half a second: the
-    // page sends a drag's next view as soon as the moving frame is shown, well within it.
+    // A collective frame that cannot be cut short: a tab's full-quality frame waits a moment after its last moving
+    // frame, so that the next move of a drag is not held up by it (frame_scheduler.h, set_rest_delay). Half a second:
+    // the page sends a drag's next view as soon as the moving frame is shown, well within it.
     if (options.collective && !options.collective_interruptible) scheduler.set_rest_delay(0.5);
     gl_renderer = engine->gl_renderer();
     if (const std::optional<ProgressInfo> p = engine->initial_progress()) progress_text = progress_message(*p);
@@ -355,7 +355,8 @@ std::function<void()> ViewServer::Impl::perform(const FrameJob& job) {
   bool converged = false;
   // A resting frame (refining, full quality, exact cells: seconds on llvmpipe) is cut short when its tab moves on: the
   // move is drawn next instead of waiting for it. A moving frame is short and is drawn whole: cutting each one for
-  // the drag's next step would show nothing while the drag lasts. Under MPI every rank must finish a frame.
+  // the drag's next step would show nothing while the drag lasts. A collective renderer that cannot be cut short
+  // finishes its frames (ViewServerOptions::collective_interruptible).
   const bool interruptible =
       (job.resting || job.full_quality) && (!options.collective || options.collective_interruptible);
   std::function<bool()> keep_going;

@@ -119,8 +119,9 @@ struct ViewServerOptions {
   // the only engine (no build, no histograms, no degree of interest). Empty: the single-process viewer.
   std::function<CollectiveRenderer()> collective;
   // Whether the collective renderer's resting frames may be cut short by a move (FrameRequest::keep_going): the pieces
-  // of an index drawn in this process, yes; MPI ranks, no (every rank must finish a collective frame), and then a
-  // resting frame waits a moment after a moving one instead (FrameScheduler::set_rest_delay).
+  // of an index drawn in this process and the ranks of an MPI job (they agree to stop together: mpi/mpi_frame_stop.h)
+  // say yes. A collective renderer that cannot be cut short leaves it false: then a resting frame waits a moment
+  // after a moving one instead (FrameScheduler::set_rest_delay).
   bool collective_interruptible = false;
   // Tests: called on the render thread when a frame's work begins, with the question the renderer will ask between
   // parts of it (empty for a frame that is not cut short: a moving one).
