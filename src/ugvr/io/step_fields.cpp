@@ -5,6 +5,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/io/byte_hash.h"
+#include "ugvr/io/ensight_fields.h"
 #include "ugvr/io/openfoam_reader.h"
 #include "ugvr/io/pvtu_pieces.h"
 
@@ -102,21 +103,33 @@ std::optional<uint64_t> StepFieldReader::cached_geometry_key(const std::string& 
 }
 
 Dataset StepFieldReader::read_whole(size_t step) {
+  if (step < series_->size() && series_->kind == SeriesKind::EnSight) {
+    const TimeStep& st = series_->steps[step];
+    std::shared_ptr<const EnsightLayout> layout;
+    Dataset ds = read_ensight(st.files[0], st.reader_step, &layout);
+    if (layout && ensight_layout_mesh_key(*layout)) {
+      std::lock_guard lock(layout_mutex_);
+      ensight_layout_ = std::move(layout);
+    }
+    return ds;
+  }
   if (series_->kind != SeriesKind::OpenFoam || step >= series_->size()) return read_time_step(*series_, step);
   const TimeStep& st = series_->steps[step];
   std::shared_ptr<const OpenFoamLayout> layout;
   Dataset ds = read_openfoam(st.files[0], st.reader_step, &layout);
   if (openfoam_layout_mesh_key(*layout)) {
-    std::lock_guard lock(foam_mutex_);
+    std::lock_guard lock(layout_mutex_);
     foam_layout_ = std::move(layout);
   }
   return ds;
 }
 
 std::optional<std::vector<uint64_t>> StepFieldReader::geometry_keys(size_t step) const {
-  if (series_->kind == SeriesKind::OpenFoam && step < series_->size()) {
+  if ((series_->kind == SeriesKind::OpenFoam || series_->kind == SeriesKind::EnSight) && step < series_->size()) {
     const TimeStep& st = series_->steps[step];
-    const std::optional<uint64_t> key = openfoam_mesh_key(st.files[0], st.reader_step);
+    const std::optional<uint64_t> key = series_->kind == SeriesKind::OpenFoam
+                                            ? openfoam_mesh_key(st.files[0], st.reader_step)
+                                            : ensight_mesh_key(st.files[0]);
     if (!key) return std::nullopt;
     return std::vector<uint64_t>{*key};
   }
@@ -147,6 +160,7 @@ StepFields StepFieldReader::read(size_t step) {
     return out;
   }
   if (series_->kind == SeriesKind::OpenFoam) return read_openfoam_step(step);
+  if (series_->kind == SeriesKind::EnSight) return read_ensight_step(step);
   if (!steps_are_files(series_->kind))
     fail_in(series_->source, "time step " + std::to_string(step) + " has no fields-only read (read it whole)");
   std::string legacy_format;  // a .vtk's, as its whole read gives it
@@ -180,7 +194,7 @@ StepFields StepFieldReader::read_openfoam_step(size_t step) {
                                  " moves the mesh (its time directory has a polyMesh): no fields-only read");
   std::shared_ptr<const OpenFoamLayout> layout;
   {
-    std::lock_guard lock(foam_mutex_);
+    std::lock_guard lock(layout_mutex_);
     layout = foam_layout_;
   }
   // No layout of this mesh kept yet (its step was not read through read_whole, or the mesh files changed since): this
@@ -189,6 +203,25 @@ StepFields StepFieldReader::read_openfoam_step(size_t step) {
   StepFields out;
   out.blocks.push_back(
       read_openfoam_fields(*layout, st.files[0], st.reader_step, out.format, out.sources, out.warnings));
+  return out;
+}
+
+StepFields StepFieldReader::read_ensight_step(size_t step) {
+  const TimeStep& st = series_->steps[step];
+  const std::optional<uint64_t> key = ensight_mesh_key(st.files[0]);
+  if (!key)
+    fail_in(series_->source,
+            "time step " + std::to_string(step) +
+                ": the geometry changes per step (a file per step or a file set): no fields-only read");
+  std::shared_ptr<const EnsightLayout> layout;
+  {
+    std::lock_guard lock(layout_mutex_);
+    layout = ensight_layout_;
+  }
+  // No layout of this geometry kept yet, or the geometry file changed since: this step read whole keeps one.
+  if (!layout || ensight_layout_mesh_key(*layout) != key) return fields_of(read_whole(step));
+  StepFields out;
+  out.blocks = read_ensight_fields(*layout, st.files[0], st.reader_step, out.format, out.sources, out.warnings);
   return out;
 }
 
