@@ -103,9 +103,20 @@ std::optional<uint64_t> StepFieldReader::cached_geometry_key(const std::string& 
 }
 
 Dataset StepFieldReader::read_whole(size_t step) {
-  if (step < series_->size() && series_->kind == SeriesKind::EnSight) {
-    const TimeStep& st = series_->steps[step];
-    std::shared_ptr<const EnsightLayout> layout;
+  if (step >= series_->size()) return read_time_step(*series_, step);  // its error names the step count
+  // As read_time_step reads a multi-step file's step (read_dataset: the reader, its step), the layout kept besides.
+  const TimeStep& st = series_->steps[step];
+  if (series_->kind == SeriesKind::OpenFoam) {
+    std::shared_ptr<const OpenFoamLayout> layout;
+    Dataset ds = read_openfoam(st.files[0], st.reader_step, &layout);
+    if (openfoam_layout_mesh_key(*layout)) {
+      std::lock_guard lock(layout_mutex_);
+      foam_layout_ = std::move(layout);
+    }
+    return ds;
+  }
+  if (series_->kind == SeriesKind::EnSight) {
+    std::shared_ptr<const EnsightLayout> layout;  // none for a .sos
     Dataset ds = read_ensight(st.files[0], st.reader_step, &layout);
     if (layout && ensight_layout_mesh_key(*layout)) {
       std::lock_guard lock(layout_mutex_);
@@ -113,15 +124,7 @@ Dataset StepFieldReader::read_whole(size_t step) {
     }
     return ds;
   }
-  if (series_->kind != SeriesKind::OpenFoam || step >= series_->size()) return read_time_step(*series_, step);
-  const TimeStep& st = series_->steps[step];
-  std::shared_ptr<const OpenFoamLayout> layout;
-  Dataset ds = read_openfoam(st.files[0], st.reader_step, &layout);
-  if (openfoam_layout_mesh_key(*layout)) {
-    std::lock_guard lock(layout_mutex_);
-    foam_layout_ = std::move(layout);
-  }
-  return ds;
+  return read_time_step(*series_, step);
 }
 
 std::optional<std::vector<uint64_t>> StepFieldReader::geometry_keys(size_t step) const {
