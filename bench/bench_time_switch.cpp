@@ -1,5 +1,5 @@
 // The exact engine's time-step switch against loading the mesh again (issue 18).
-//   bench_time_switch INPUT... [--field NAME] [--rounds N] [--size PIXELS (256)]
+//   bench_time_switch INPUT... [--field NAME] [--rounds N] [--size PIXELS (256)] [--read-pairs]
 // INPUT is any time series (an Exodus file, a .pvd, a .series, a numbered pattern, PLOT3D grid + solutions). Times,
 // each the median over N rounds that walk the steps 0, 1, ..., n-1, 0, ...:
 //   reload   read the step, build the walk mesh, bind the field (what a viewer without series support does)
@@ -8,6 +8,10 @@
 //   bind     the field swap alone (the step already in memory): ExactEngine::set_field
 //   playback set_step after ExactScene::prefetch of that step and a --size frame of the current one (what `ugvr render
 //            --time` does): the read overlaps the frame, the switch waits only for what is left of it
+//   --read-pairs  the step's read alone, alternated round by round on the same step: whole (read_time_step and the
+//            geometry fingerprint, what a switch read before fields-only reads) then fields only (StepFieldReader::read
+//            with the mesh's layout kept by read_whole of step 0); `whole_read_seconds`, `fields_read_seconds` and
+//            `speedup_fields_read` (their medians' ratio) are added, and `read_pairs`: each pair's two seconds
 // Prints one JSON line (`rebuilds`, `fields_only`: the switches that rebuilt the walk mesh, that read the step without
 // its mesh); `speedup` = reload / switch, `speedup_playback` = reload / playback, `speedup_bind` = reload /
 // bind.
@@ -20,6 +24,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/memory.h"
+#include "ugvr/io/step_fields.h"
 #include "ugvr/io/time_series.h"
 #include "ugvr/render/exact/exact_renderer.h"
 
@@ -39,8 +44,11 @@ int main(int argc, char** argv) {
   std::vector<std::string> inputs;
   std::string field;
   int rounds = 5, size = 256;
+  bool read_pairs = false;
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--field") && i + 1 < argc) {
+    if (!std::strcmp(argv[i], "--read-pairs")) {
+      read_pairs = true;
+    } else if (!std::strcmp(argv[i], "--field") && i + 1 < argc) {
       field = argv[++i];
     } else if (!std::strcmp(argv[i], "--size") && i + 1 < argc) {
       size = std::max(1, std::atoi(argv[++i]));
@@ -94,17 +102,46 @@ int main(int argc, char** argv) {
       scene.set_step(next);
       playback.push_back(seconds_since(t1));
     }
+    std::vector<double> whole_read, fields_read;
+    if (read_pairs) {
+      StepFieldReader reader(series);
+      (void)reader.read_whole(0);
+      for (int r = 0; r < rounds; ++r) {
+        const uint32_t k = uint32_t((r + 1) % n);
+        if (!reader.has_mesh_of(k, 0)) throw Error(inputs[0] + ": step " + std::to_string(k) + " has another mesh");
+        const auto t0 = std::chrono::steady_clock::now();
+        {
+          const Dataset whole = read_time_step(*series, k);
+          volatile uint64_t fingerprint = geometry_fingerprint(whole);
+          (void)fingerprint;
+        }
+        whole_read.push_back(seconds_since(t0));
+        const auto t1 = std::chrono::steady_clock::now();
+        { const StepFields fields = reader.read(k); }
+        fields_read.push_back(seconds_since(t1));
+      }
+    }
     const double m_reload = median(reload), m_switch = median(sw), m_bind = median(bind), m_playback = median(playback);
     std::printf(
         "{\"bench\":\"time_switch\",\"input\":\"%s\",\"kind\":\"%s\",\"steps\":%zu,\"cells\":%llu,\"field\":\"%s\","
         "\"geometry\":\"%s\",\"rounds\":%d,\"reload_seconds\":%.6f,\"switch_seconds\":%.6f,\"bind_seconds\":%.6f,"
         "\"playback_seconds\":%.6f,\"frame_seconds\":%.4f,\"frame_size\":%d,\"speedup\":%.1f,\"speedup_playback\":%.1f,"
-        "\"speedup_bind\":%.1f,\"rebuilds\":%llu,\"fields_only\":%llu,\"peak_rss_bytes\":%llu}\n",
+        "\"speedup_bind\":%.1f,\"rebuilds\":%llu,\"fields_only\":%llu,\"peak_rss_bytes\":%llu",
         inputs[0].c_str(), std::string(series_kind_name(series->kind)).c_str(), n, (unsigned long long)cells,
         scene.engine.field_name().c_str(), series->geometry == SeriesGeometry::Static ? "static" : "detected", rounds,
         m_reload, m_switch, m_bind, m_playback, median(frame), size, m_reload / m_switch, m_reload / m_playback,
         m_reload / m_bind, (unsigned long long)scene.rebuilds, (unsigned long long)scene.fields_only,
         (unsigned long long)peak_rss_bytes());
+    if (read_pairs) {
+      std::printf(",\"whole_read_seconds\":%.6f,\"fields_read_seconds\":%.6f,\"speedup_fields_read\":%.1f",
+                  median(whole_read), median(fields_read), median(whole_read) / median(fields_read));
+      // Each pair (whole, fields), in the order run: the median of their ratios is the steadier figure under load.
+      std::printf(",\"read_pairs\":[");
+      for (size_t r = 0; r < whole_read.size(); ++r)
+        std::printf("%s[%.4f,%.4f]", r ? "," : "", whole_read[r], fields_read[r]);
+      std::printf("]");
+    }
+    std::printf("}\n");
   } catch (const Error& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 1;

@@ -2,7 +2,7 @@
 """Writes a structured N^3 hexahedral block as an OpenFOAM case (polyMesh + one volScalarField), for timing and memory
 figures of the OpenFOAM reader (bench/run_openfoam_read.sh; bench/README.md "OpenFOAM reading").
 
-  /usr/bin/python3 bench/make_openfoam_case.py OUT_DIR --n 100 [--binary] [--gzip] [--tensor]
+  /usr/bin/python3 bench/make_openfoam_case.py OUT_DIR --n 100 [--binary] [--gzip] [--tensor] [--steps S]
 
 The case: points on the unit cube's (N+1)^3 lattice; internal faces in OpenFOAM's upper-triangular order (by owner,
 then neighbour; each normal points from owner to neighbour), then one "walls" patch of the 6 N^2 boundary faces
@@ -10,6 +10,9 @@ then neighbour; each normal points from owner to neighbour), then one "walls" pa
 faceCompactList (as OpenFOAM does), labels 32-bit, scalars 64-bit, little-endian. --gzip writes every file as NAME.gz.
 --tensor adds 0/T, a volTensorField (9 values a cell: a field file larger than the mesh's own files, where holding a
 file's text whole shows in the peak memory).
+--steps S writes S time directories 0, 1, ..., S-1 on the one constant mesh (no time-directory polyMesh), each with
+its p = (1 + k / 10) (x + 2y + 3z) and U = (x, y, z) (1 + k / 10) at the cell centres: a series whose steps have one
+mesh, for the step-switch figures (bench/run_openfoam_switch.sh).
 Pure python3 + numpy (Debian python3-numpy: run it with /usr/bin/python3).
 """
 import argparse
@@ -113,7 +116,7 @@ def mesh(n):
     a, b, c = [x.ravel(order='F') for x in np.meshgrid(np.arange(n), np.arange(n), np.arange(n), indexing='ij')]
     centres = (np.stack([a, b, c], 1) + 0.5) / n
     field = centres[:, 0] + 2 * centres[:, 1] + 3 * centres[:, 2]
-    return points, faces, owner, neighbour, n_internal, field
+    return points, faces, owner, neighbour, n_internal, field, centres
 
 
 def main():
@@ -123,9 +126,10 @@ def main():
     ap.add_argument('--binary', action='store_true')
     ap.add_argument('--gzip', action='store_true')
     ap.add_argument('--tensor', action='store_true', help='also write 0/T, a volTensorField')
+    ap.add_argument('--steps', type=int, default=1, help='time directories 0..S-1 on the one mesh')
     args = ap.parse_args()
     n = args.n
-    points, faces, owner, neighbour, n_internal, field = mesh(n)
+    points, faces, owner, neighbour, n_internal, field, centres = mesh(n)
     w = Writer(args.out, args.binary, args.gzip)
     pm = 'constant/polyMesh'
     w.write(pm + '/points', header(w.fmt, 'vectorField', pm, 'points').encode() + w.scalar_list(points, 3))
@@ -141,10 +145,16 @@ def main():
     boundary = ('1\n(\n    walls\n    {\n        type            wall;\n        nFaces          %d;\n'
                 '        startFace       %d;\n    }\n)\n' % (6 * n * n, n_internal))
     w.write(pm + '/boundary', header('ascii', 'polyBoundaryMesh', pm, 'boundary') + boundary)
-    p = (header(w.fmt, 'volScalarField', '0', 'p') + 'dimensions      [0 2 -2 0 0 0 0];\n\ninternalField   nonuniform '
-         'List<scalar> ').encode() + w.scalar_list(field[:, None], 1) + \
-        b';\n\nboundaryField\n{\n    walls\n    {\n        type            zeroGradient;\n    }\n}\n'
-    w.write('0/p', p)
+    walls = b';\n\nboundaryField\n{\n    walls\n    {\n        type            zeroGradient;\n    }\n}\n'
+    for k in range(args.steps):
+        t, scale = str(k), 1.0 + k / 10.0
+        p = (header(w.fmt, 'volScalarField', t, 'p') + 'dimensions      [0 2 -2 0 0 0 0];\n\ninternalField   '
+             'nonuniform List<scalar> ').encode() + w.scalar_list(scale * field[:, None], 1) + walls
+        w.write(t + '/p', p)
+        if args.steps > 1:
+            u = (header(w.fmt, 'volVectorField', t, 'U') + 'dimensions      [0 1 -1 0 0 0 0];\n\ninternalField   '
+                 'nonuniform List<vector> ').encode() + w.scalar_list(scale * centres, 3) + walls
+            w.write(t + '/U', u)
     if args.tensor:
         t = field[:, None] * (1.0 + np.arange(9)[None, :] / 7.0)
         tt = (header(w.fmt, 'volTensorField', '0', 'T') + 'dimensions      [0 0 0 0 0 0 0];\n\ninternalField   '

@@ -16,9 +16,9 @@ pieces=${PIECES:-4}
 rounds=${ROUNDS:-5}
 before=${BEFORE:-}
 alternations=${ALTERNATIONS:-2}
-out=bench/results/time_switch.jsonl
-mkdir -p "$scratch" bench/results
-echo "{\"bench\":\"session\",\"script\":\"run_pvtu_switch\",\"date\":\"$(date -u +%FT%TZ)\",\"commit\":\"$(git rev-parse --short HEAD)\",\"machine\":\"$(nproc) cores, load $(cut -d' ' -f1 /proc/loadavg)\"}" | tee -a "$out"
+mkdir -p "$scratch"
+. bench/time_switch_common.sh
+time_switch_session run_pvtu_switch
 
 # The series: 3 .vtu steps generated on one mesh, each rewritten as a .pvtu of pieces, the .vtu removed.
 pvd=$scratch/wake-$cells-p$pieces.pvd
@@ -36,17 +36,4 @@ if [ ! -f "$pvd" ]; then
     "$entries" >"$pvd"
 fi
 
-run() {
-  "$1/bench/bench_time_switch" "$pvd" --field pressure --rounds "$rounds"
-}
-if [ -z "$before" ]; then
-  run "$build" | tee -a "$out"
-else
-  for _ in $(seq "$alternations"); do
-    for which in before after; do
-      dir=$build
-      [ "$which" = before ] && dir=$before
-      run "$dir" | sed "s/^{/{\"build\":\"$which\",\"load\":$(cut -d' ' -f1 /proc/loadavg),/" | tee -a "$out"
-    done
-  done
-fi
+time_switch_runs "$pvd" --field pressure

@@ -14,25 +14,11 @@ n=${N:-100}
 rounds=${ROUNDS:-5}
 before=${BEFORE:-}
 alternations=${ALTERNATIONS:-2}
-out=bench/results/time_switch.jsonl
-mkdir -p bench/results
-echo "{\"bench\":\"session\",\"script\":\"run_vtk_legacy_switch\",\"date\":\"$(date -u +%FT%TZ)\",\"commit\":\"$(git rev-parse --short HEAD)\",\"machine\":\"$(nproc) cores, load $(cut -d' ' -f1 /proc/loadavg)\"}" | tee -a "$out"
+. bench/time_switch_common.sh
+time_switch_session run_vtk_legacy_switch
 
 ascii=${ASCII:-}
 dir=$scratch/n$n${ascii:+-ascii}
 [ -f "$dir/flow.pvd" ] || /usr/bin/python3 bench/make_vtk_legacy_series.py "$dir" --n "$n" --steps 3 ${ascii:+--ascii}
 
-run() {
-  "$1/bench/bench_time_switch" "$dir/flow.pvd" --field pressure --rounds "$rounds"
-}
-if [ -z "$before" ]; then
-  run "$build" | tee -a "$out"
-else
-  for _ in $(seq "$alternations"); do
-    for which in before after; do
-      b=$build
-      [ "$which" = before ] && b=$before
-      run "$b" | sed "s/^{/{\"build\":\"$which\",\"load\":$(cut -d' ' -f1 /proc/loadavg),/" | tee -a "$out"
-    done
-  done
-fi
+time_switch_runs "$dir/flow.pvd" --field pressure

@@ -1,8 +1,11 @@
 // Fields-only step reads (io/step_fields.h) and the exact scene's step switch through them: a later step of a .vtu
 // series read without its mesh equals the full read; a step whose mesh moved (one point) or was reconnected is still
 // caught (the walk mesh rebuilt); Exodus steps read from the file kept open; the read touches the field bytes only.
+// OpenFOAM cases (copies of tests/data/openfoam with fields added): steps on the constant mesh read fields only, bit
+// for bit the whole read (reconstructed, decomposed, polyhedral), a time directory's polyMesh/points read whole.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -227,6 +230,219 @@ TEST(StepFields, AStepFileTruncatedAfterItsKeyWasCachedFailsCleanly) {
   scene.set_step(2);
   EXPECT_EQ(scene.fields_only, 3u);
   EXPECT_EQ(scene.engine.bound_values(), fresh_values(*series, 2, "f"));
+}
+
+// ---- OpenFOAM
+
+namespace fs = std::filesystem;
+
+// A copy of the fixture case `name` in `dir`.
+std::string copy_case(const ScratchDir& dir, const std::string& name) {
+  const fs::path root = dir.file(name);
+  fs::copy(std::string(UGVR_SOURCE_DIR) + "/tests/data/openfoam/" + name, root, fs::copy_options::recursive);
+  return root.string();
+}
+
+// An ascii pointScalarField of `n` values (i * scale) in `time_dir`, as OpenFOAM writes one.
+void write_point_field(const fs::path& time_dir, int n, double scale) {
+  std::string text =
+      "FoamFile\n{\n    version     2.0;\n    format      ascii;\n    class       pointScalarField;\n"
+      "    object      pw;\n}\n\ndimensions      [0 0 0 0 0 0 0];\n\ninternalField   nonuniform List<scalar> \n" +
+      std::to_string(n) + "\n(\n";
+  for (int i = 0; i < n; ++i) text += std::to_string(scale * i) + "\n";
+  text += ")\n;\n\nboundaryField\n{\n}\n";
+  std::ofstream(time_dir / "pw") << text;
+}
+
+// Field sets equal bit for bit: names, associations, types, shapes and stored bytes, in order.
+void expect_same_bits(const FieldSet& a, const FieldSet& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    SCOPED_TRACE(a[i].name());
+    EXPECT_EQ(a[i].name(), b[i].name());
+    EXPECT_EQ(a[i].association(), b[i].association());
+    ASSERT_EQ(a[i].data().type(), b[i].data().type());
+    ASSERT_EQ(a[i].data().components(), b[i].data().components());
+    ASSERT_EQ(a[i].data().tuples(), b[i].data().tuples());
+    EXPECT_EQ(std::memcmp(a[i].data().bytes(), b[i].data().bytes(), a[i].data().byte_size()), 0);
+  }
+}
+
+// A fields-only read of step k equals read_time_step(k) but for the grids: fields, format, sources, notes.
+void expect_whole_read(const TimeSeries& series, const StepFields& fields, size_t k) {
+  SCOPED_TRACE("step " + std::to_string(k));
+  const Dataset whole = read_time_step(series, k);
+  ASSERT_EQ(fields.blocks.size(), whole.blocks.size());
+  for (size_t b = 0; b < whole.blocks.size(); ++b) expect_same_bits(fields.blocks[b], whole.blocks[b].fields);
+  EXPECT_EQ(fields.format, whole.format);
+  EXPECT_EQ(fields.sources, whole.sources);
+  EXPECT_EQ(fields.warnings, whole.warnings);
+}
+
+uint64_t bytes_under(const fs::path& dir) {
+  uint64_t n = 0;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) n += e.file_size();
+  return n;
+}
+
+// The cavity case (4 time directories, a cellZones file, a surface field phi the reader skips with a note) with a
+// point field added to the later steps: every step has the constant mesh, and each step's fields read without it
+// equal the whole read bit for bit (cell and vertex fields, the cellZone field, the notes). Through the scene every
+// switch swaps fields on the walk mesh built once. The fields-only read reads the time directory's files, not the
+// mesh's.
+TEST(StepFields, OpenFoamStepsOnTheConstantMeshReadFieldsOnly) {
+  ScratchDir dir;
+  const std::string root = copy_case(dir, "cavity");
+  for (int k = 1; k <= 3; ++k) write_point_field(fs::path(root) / ("0." + std::to_string(k)), 882, 0.5 * k);
+  const auto series = series_of(root);
+  ASSERT_EQ(series->kind, SeriesKind::OpenFoam);
+  ASSERT_EQ(series->size(), 4u);
+  StepFieldReader reader(series);
+  const Dataset shown = reader.read_whole(0);
+  const auto k0 = reader.geometry_keys(0);
+  ASSERT_TRUE(k0.has_value());
+  for (size_t k = 1; k < 4; ++k) {
+    EXPECT_EQ(reader.geometry_keys(k), k0);
+    EXPECT_TRUE(reader.has_mesh_of(k, 0));
+  }
+  for (size_t k : {3u, 1u, 2u, 0u}) expect_whole_read(*series, reader.read(k), k);
+  EXPECT_NE(reader.read(2).blocks[0].find("pw", Association::Vertex), nullptr);
+  EXPECT_NE(reader.read(2).blocks[0].find("cellZone", Association::Cell), nullptr);
+
+  if (bytes_read_so_far() != 0) {
+    const fs::path time = fs::path(root) / "0.3";
+    uint64_t before = bytes_read_so_far();
+    reader.read(3);
+    const uint64_t fields_only = bytes_read_so_far() - before;
+    before = bytes_read_so_far();
+    read_time_step(*series, 3);
+    const uint64_t whole = bytes_read_so_far() - before;
+    // Each field file is read once, and its first 4 KiB once more (has_foam_header); the mesh's files not at all.
+    // (1 KiB more: reading /proc/self/io counts too.)
+    EXPECT_LE(fields_only, bytes_under(time) + 4 * 4096 + 1024);
+    EXPECT_GE(whole, fields_only + bytes_under(fs::path(root) / "constant" / "polyMesh"));
+  }
+
+  ExactScene scene(series, 0);
+  // The scene's first switch reads fields only: the read that made the scene kept the mesh's layout.
+  const uint64_t before_switch = bytes_read_so_far();
+  scene.set_step(2);
+  if (before_switch != 0) {
+    EXPECT_LE(bytes_read_so_far() - before_switch, bytes_under(fs::path(root) / "0.2") + 4 * 4096 + 1024);
+  }
+  for (const char* field : {"p", "pw", "U:1"}) {
+    SCOPED_TRACE(field);
+    scene.bind(field);
+    scene.set_step(scene.step == 3 ? 2 : 3);
+    EXPECT_EQ(scene.engine.bound_values(), fresh_values(*series, scene.step, field));
+  }
+  scene.prefetch(1);
+  scene.set_step(1);
+  EXPECT_EQ(scene.engine.bound_values(), fresh_values(*series, 1, "U:1"));
+  EXPECT_EQ(scene.fields_only, 5u);
+  EXPECT_EQ(scene.rebuilds, 0u);
+}
+
+// A decomposed case (two processor directories, concatenated) and the polyhedral dual mesh (polyhedra split around
+// their centres: cell data repeated on the pieces, point data averaged at the added centres) read fields-only equal
+// the whole read bit for bit; a reader that kept no layout reads its first step whole, then fields only.
+TEST(StepFields, OpenFoamDecomposedAndPolyhedralStepsReadFieldsOnly) {
+  ScratchDir dir;
+  {
+    const auto series = series_of(copy_case(dir, "cavity_decomposed"));
+    StepFieldReader reader(series);
+    reader.read_whole(3);
+    for (size_t k : {0u, 2u}) expect_whole_read(*series, reader.read(k), k);
+  }
+  const std::string dual = copy_case(dir, "dual");
+  write_point_field(fs::path(dual) / "0.02", 692, 0.25);
+  write_point_field(fs::path(dual) / "0", 692, 1.0);
+  const auto series = series_of(dual);
+  ASSERT_EQ(series->size(), 2u);
+  StepFieldReader reader(series);
+  expect_whole_read(*series, reader.read(1), 1);  // no layout kept: read whole, its layout kept
+  expect_whole_read(*series, reader.read(0), 0);
+  const StepFields f = reader.read(1);
+  const Field* pw = f.blocks[0].find("pw", Association::Vertex);
+  ASSERT_NE(pw, nullptr);
+  EXPECT_GT(pw->tuples(), 692u) << "centre points added by the decomposition have values";
+
+  ExactScene scene(series, 0);
+  scene.bind("pw");
+  scene.set_step(1);
+  EXPECT_EQ(scene.fields_only, 1u);
+  EXPECT_EQ(scene.engine.bound_values(), fresh_values(*series, 1, "pw"));
+}
+
+// A time directory with its own polyMesh/points moves the mesh: that step has no key, is read whole, and the walk
+// mesh is rebuilt; the steps after it on the constant mesh switch back (rebuilt) and then read fields only again.
+TEST(StepFields, OpenFoamATimeDirectoryWithPointsMovesTheMesh) {
+  ScratchDir dir;
+  const std::string root = copy_case(dir, "cavity");
+  const fs::path moved = fs::path(root) / "0.2" / "polyMesh";
+  fs::create_directories(moved);
+  {
+    std::ifstream in(fs::path(root) / "constant" / "polyMesh" / "points");
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const size_t at = text.find("(0 0 0)");
+    ASSERT_NE(at, std::string::npos);
+    text.replace(at, 7, "(0 0 -0.001)");
+    std::ofstream(moved / "points") << text;
+  }
+  const auto series = series_of(root);
+  StepFieldReader reader(series);
+  EXPECT_FALSE(reader.geometry_keys(2).has_value());
+  EXPECT_FALSE(reader.has_mesh_of(2, 0));
+  EXPECT_EQ(reader.geometry_keys(3), reader.geometry_keys(0));
+  EXPECT_NE(test::error_of([&] { reader.read(2); }).find("moves the mesh"), std::string::npos);
+
+  ExactScene scene(series, 0);
+  scene.bind("p");
+  scene.set_step(1);
+  EXPECT_EQ(scene.fields_only, 1u);
+  EXPECT_EQ(scene.engine.bounds().lo.z, 0.0f);
+  scene.set_step(2);
+  EXPECT_EQ(scene.rebuilds, 1u);
+  EXPECT_EQ(scene.engine.bounds().lo.z, -0.001f);
+  EXPECT_EQ(scene.engine.bound_values(), fresh_values(*series, 2, "p"));
+  scene.set_step(3);
+  EXPECT_EQ(scene.rebuilds, 2u) << "back on the constant mesh";
+  EXPECT_EQ(scene.engine.bounds().lo.z, 0.0f);
+  scene.set_step(1);
+  EXPECT_EQ(scene.fields_only, 2u);
+  EXPECT_EQ(scene.engine.bound_values(), fresh_values(*series, 1, "p"));
+}
+
+// A truncated field file at a step: the fields-only read fails naming the file, as the whole read does; the scene
+// stays on its step and nothing is kept of the failed read (the file written again switches). A field file missing
+// from a step: the field is absent from that step, as in the whole read.
+TEST(StepFields, OpenFoamADamagedOrMissingFieldFileAtAStep) {
+  ScratchDir dir;
+  const std::string root = copy_case(dir, "cavity");
+  const fs::path p = fs::path(root) / "0.2" / "p";
+  const uintmax_t size = fs::file_size(p);
+  const std::string saved = [&] {
+    std::ifstream in(p);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  }();
+  fs::remove(fs::path(root) / "0.3" / "U");
+  const auto series = series_of(root);
+  ExactScene scene(series, 0);
+  scene.bind("p");
+  fs::resize_file(p, size / 2);
+  const std::string whole = test::error_of([&] { read_time_step(*series, 2); });
+  const std::string e = test::error_of([&] { scene.set_step(2); });
+  EXPECT_NE(e.find(p.string()), std::string::npos) << e;
+  EXPECT_EQ(e, whole) << "the same error as the whole read";
+  EXPECT_EQ(scene.step, 0u);
+  EXPECT_EQ(scene.engine.bound_values(), fresh_values(*series, 0, "p"));
+  std::ofstream(p) << saved;
+  scene.set_step(2);
+  EXPECT_EQ(scene.engine.bound_values(), fresh_values(*series, 2, "p"));
+  expect_whole_read(*series, scene.step_reader().read(3), 3);
+  EXPECT_EQ(scene.step_reader().read(3).blocks[0].find("U"), nullptr);
+  EXPECT_EQ(scene.fields_only, 1u);
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iterator>
@@ -22,6 +23,7 @@
 #include "ugvr/io/step_fields.h"
 #include "ugvr/io/time_series.h"
 #include "ugvr/io/vtu_writer.h"
+#include "ugvr/render/exact/exact_renderer.h"
 #include "ugvr/view/grid_load.h"
 
 namespace ugvr {
@@ -187,6 +189,44 @@ TEST(TimeRange, TheViewersLoadReadsLaterStaticStepsWithoutTheirMesh) {
   // read whole would add 3 files less their fields (about 7.6).
   EXPECT_GE(read, file);
   EXPECT_LT(read, 6 * file) << "steps 1..3 read whole";
+}
+
+uint64_t bytes_under(const std::filesystem::path& dir) {
+  uint64_t n = 0;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) n += e.file_size();
+  return n;
+}
+
+// The viewer's load of an OpenFOAM case (the cavity fixture: 4 time directories on the constant mesh): step 0 read
+// whole, steps 1..3 for the range without the mesh (the layout kept by step 0's read), the range the whole reads';
+// the scene it hands over shares that reader, so its first switch reads the step's time directory only.
+TEST(TimeRange, TheViewersLoadOfAnOpenFoamCaseReadsLaterStepsWithoutTheMesh) {
+  if (bytes_read_so_far() == 0) GTEST_SKIP() << "no /proc/self/io";
+  const std::filesystem::path root = std::filesystem::path(UGVR_SOURCE_DIR) / "tests/data/openfoam/cavity";
+  const auto series = series_of(root.string());
+  ASSERT_EQ(series->size(), 4u);
+  const uint64_t mesh = bytes_under(root / "constant" / "polyMesh");
+  uint64_t times = 0;
+  for (const char* t : {"0", "0.1", "0.2", "0.3"}) times += bytes_under(root / t);
+  const uint64_t before = bytes_read_so_far();
+  view::GridLoad load(series, 0, {"p"}, 8);
+  const view::GridLoad::State s = load_to_end(load);
+  const uint64_t read = bytes_read_so_far() - before;
+  ASSERT_EQ(s.stage, view::GridLoad::Stage::Done) << s.error;
+  const MinMax expected = whole_read_range(*series, "p");
+  EXPECT_EQ(load.grid().fields[0].min, expected.lo);
+  EXPECT_EQ(load.grid().fields[0].max, expected.hi);
+  // The mesh once, every time directory's files (each once, and its first 4 KiB once more: 11 files); steps 1..3
+  // read whole would add the mesh three times more.
+  EXPECT_GE(read, mesh + times);
+  EXPECT_LT(read, 2 * mesh + times) << "steps 1..3 read whole";
+  const std::shared_ptr<ExactScene> scene = load.exact();
+  ASSERT_NE(scene, nullptr);
+  const uint64_t before_switch = bytes_read_so_far();
+  scene->set_step(1);
+  EXPECT_LE(bytes_read_so_far() - before_switch, bytes_under(root / "0.1") + 3 * 4096 + 1024);
+  EXPECT_EQ(scene->fields_only, 1u);
 }
 
 TEST(TimeRange, GeometryKeysAreKeptUntilTheFileChanges) {

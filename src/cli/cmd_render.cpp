@@ -228,8 +228,9 @@ void render_time_steps(const Options& o, Renderer& renderer, ExactScene& scene, 
       const Range range = r.field->range(r.component);
       lo = std::min(lo, range.min), hi = std::max(hi, range.max);
     };
-    // The values alone: a step with the shown step's mesh (static geometry) is read without its mesh.
-    StepFieldReader values(scene.series);
+    // The values alone: a step with the shown step's mesh (static geometry) is read without its mesh, by the scene's
+    // reader (which keeps what an OpenFOAM step's fields need of the mesh read for the scene).
+    StepFieldReader& values = scene.step_reader();
     Progress progress("range over steps", steps.size());
     for (size_t k = 0; k < steps.size(); ++k) {
       if (steps[k] == scene.step) {

@@ -27,16 +27,19 @@ struct Edge {
 }  // namespace
 
 PolyhedronDecomposer::PolyhedronDecomposer(UnstructuredMesh& mesh, std::string source)
-    : mesh_(mesh), source_(std::move(source)), first_cell_(mesh.cell_count()), original_points_(mesh.point_count()) {}
+    : mesh_(mesh), first_cell_(mesh.cell_count()) {
+  map_.source_ = std::move(source);
+  map_.original_points_ = mesh.point_count();
+}
 
 void PolyhedronDecomposer::note_output_cell() {
-  if (!source_cell_.empty()) source_cell_.push_back(input_cells_);
+  if (!map_.source_cell_.empty()) map_.source_cell_.push_back(map_.input_cells_);
 }
 
 void PolyhedronDecomposer::add_native(CellType type, std::span<const uint32_t> vertices) {
   mesh_.add_cell(type, vertices);
   note_output_cell();
-  ++input_cells_;
+  ++map_.input_cells_;
 }
 
 uint32_t PolyhedronDecomposer::add_centre_point(std::span<const uint32_t> sources) {
@@ -48,10 +51,10 @@ uint32_t PolyhedronDecomposer::add_centre_point(std::span<const uint32_t> source
   }
   const double n = double(sources.size());
   if (mesh_.points.size() >= uint64_t(UINT32_MAX))
-    fail_in(source_, "too many points after adding polyhedron centres (the limit is 2^32-1)");
+    fail_in(map_.source_, "too many points after adding polyhedron centres (the limit is 2^32-1)");
   mesh_.points.push_back(Vec3f{float(x / n), float(y / n), float(z / n)});
-  new_point_sources_.insert(new_point_sources_.end(), sources.begin(), sources.end());
-  new_point_offsets_.push_back(new_point_sources_.size());
+  map_.new_point_sources_.insert(map_.new_point_sources_.end(), sources.begin(), sources.end());
+  map_.new_point_offsets_.push_back(map_.new_point_sources_.size());
   return uint32_t(mesh_.points.size() - 1);
 }
 
@@ -66,13 +69,13 @@ void PolyhedronDecomposer::add_piece(CellType type, std::span<uint32_t> v) {
         tet_volume6(p[v[0]], p[v[1]], p[v[2]], p[v[4]]) + tet_volume6(p[v[0]], p[v[2]], p[v[3]], p[v[4]]);
     if (vol < 0) std::swap(v[1], v[3]);
   }
-  if (source_cell_.empty()) {
+  if (map_.source_cell_.empty()) {
     // The first split: from here on the map from output to input cells is no longer the identity.
-    source_cell_.resize(mesh_.cell_count() - first_cell_);
-    for (uint64_t o = 0; o < source_cell_.size(); ++o) source_cell_[o] = o;
+    map_.source_cell_.resize(mesh_.cell_count() - first_cell_);
+    for (uint64_t o = 0; o < map_.source_cell_.size(); ++o) map_.source_cell_[o] = o;
   }
   mesh_.add_cell(type, v);
-  source_cell_.push_back(input_cells_);
+  map_.source_cell_.push_back(map_.input_cells_);
 }
 
 // Recognises the four native shapes from their faces and adds the native cell in VTK's vertex order, or returns
@@ -186,29 +189,29 @@ bool PolyhedronDecomposer::try_native_shape(std::span<const uint32_t> face_sizes
 
 void PolyhedronDecomposer::add_polyhedron(std::span<const uint32_t> face_sizes,
                                           std::span<const uint32_t> face_vertices) {
-  const uint64_t cell = input_cells_;
+  const uint64_t cell = map_.input_cells_;
   if (face_sizes.size() < 4)
-    fail_in(source_, std::string("polyhedron ") + std::to_string(cell) + " has " + std::to_string(face_sizes.size()) +
-                         " faces (a closed cell needs at least 4)");
+    fail_in(map_.source_, std::string("polyhedron ") + std::to_string(cell) + " has " +
+                              std::to_string(face_sizes.size()) + " faces (a closed cell needs at least 4)");
   uint64_t total = 0;
   for (uint32_t s : face_sizes) {
     if (s < 3)
-      fail_in(source_, std::string("polyhedron ") + std::to_string(cell) + " has a face of " + std::to_string(s) +
-                           " vertices (at least 3)");
+      fail_in(map_.source_, std::string("polyhedron ") + std::to_string(cell) + " has a face of " + std::to_string(s) +
+                                " vertices (at least 3)");
     total += s;
   }
   if (total != face_vertices.size())
-    fail_in(source_, std::string("polyhedron ") + std::to_string(cell) + " lists " +
-                         std::to_string(face_vertices.size()) + " face vertices, its face sizes add up to " +
-                         std::to_string(total));
+    fail_in(map_.source_, std::string("polyhedron ") + std::to_string(cell) + " lists " +
+                              std::to_string(face_vertices.size()) + " face vertices, its face sizes add up to " +
+                              std::to_string(total));
   for (uint32_t v : face_vertices)
-    if (v >= original_points_)
-      fail_in(source_, std::string("polyhedron ") + std::to_string(cell) + " uses vertex " + std::to_string(v) +
-                           " of " + std::to_string(original_points_));
+    if (v >= map_.original_points_)
+      fail_in(map_.source_, std::string("polyhedron ") + std::to_string(cell) + " uses vertex " + std::to_string(v) +
+                                " of " + std::to_string(map_.original_points_));
   ++polyhedra_;
   if (try_native_shape(face_sizes, face_vertices)) {
     ++recognised_;
-    ++input_cells_;
+    ++map_.input_cells_;
     return;
   }
 
@@ -245,14 +248,14 @@ void PolyhedronDecomposer::add_polyhedron(std::span<const uint32_t> face_sizes,
       }
     }
   }
-  ++input_cells_;
+  ++map_.input_cells_;
 }
 
-Field PolyhedronDecomposer::expand_point_field(const Field& f) const {
+Field CellExpansion::expand_point_field(const Field& f) const {
   if (f.association() != Association::Vertex || f.tuples() != original_points_)
     fail_in(source_, std::string("field '") + f.name() + "' has " + std::to_string(f.tuples()) + " tuples, the mesh " +
                          std::to_string(original_points_) + " points before decomposition");
-  const uint64_t added = added_points();
+  const uint64_t added = new_point_offsets_.size() - 1;
   if (added == 0) return f;
   const int nc = f.components();
   DataArray out(f.data().type(), nc, original_points_ + added);
@@ -274,13 +277,17 @@ Field PolyhedronDecomposer::expand_point_field(const Field& f) const {
   return Field(f.name(), Association::Vertex, std::move(out));
 }
 
-Field PolyhedronDecomposer::expand_cell_field(const Field& f) const {
+Field CellExpansion::expand_cell_field(const Field& f) const {
   if (f.association() != Association::Cell || f.tuples() != input_cells_)
     fail_in(source_, std::string("field '") + f.name() + "' has " + std::to_string(f.tuples()) + " tuples, the mesh " +
                          std::to_string(input_cells_) + " cells before decomposition");
-  if (identity()) return f;
+  if (source_cell_.empty()) return f;  // the identity
   return Field(f.name(), Association::Cell, f.data().gather(source_cell_));
 }
+
+Field PolyhedronDecomposer::expand_point_field(const Field& f) const { return map_.expand_point_field(f); }
+
+Field PolyhedronDecomposer::expand_cell_field(const Field& f) const { return map_.expand_cell_field(f); }
 
 std::string PolyhedronDecomposer::summary() const {
   if (polyhedra_ == 0) return "";
@@ -288,7 +295,7 @@ std::string PolyhedronDecomposer::summary() const {
                   " with a native shape (tetra, pyramid, wedge, hexahedron)";
   if (decomposed() > 0)
     s += ", " + std::to_string(decomposed()) + " decomposed around their centres into " +
-         std::to_string(output_cells() - (input_cells_ - decomposed())) + " tetrahedra and pyramids (" +
+         std::to_string(output_cells() - (map_.input_cells_ - decomposed())) + " tetrahedra and pyramids (" +
          std::to_string(added_points()) +
          " centre points added; cell data repeated on each piece, point data averaged at the centres)";
   return s;

@@ -30,6 +30,26 @@
 
 namespace ugvr {
 
+// What a decomposer did to its input cells and points, kept apart from the mesh: later fields on the same mesh (a time
+// series' steps read without their mesh) are expanded from it exactly as the decomposer expands its own.
+class CellExpansion {
+ public:
+  Field expand_point_field(const Field& f) const;  // as PolyhedronDecomposer::expand_point_field
+  Field expand_cell_field(const Field& f) const;   // as PolyhedronDecomposer::expand_cell_field
+  uint64_t input_cells() const { return input_cells_; }
+  uint64_t original_points() const { return original_points_; }
+
+ private:
+  friend class PolyhedronDecomposer;
+  std::string source_;  // names the file in error messages
+  uint64_t input_cells_ = 0;
+  uint64_t original_points_ = 0;
+  std::vector<uint64_t> source_cell_;  // input cell of each output cell; empty while the map is the identity
+  // Added points: point original_points_ + k is the mean of new_point_sources_[new_point_offsets_[k] .. k+1).
+  std::vector<uint64_t> new_point_offsets_{0};
+  std::vector<uint32_t> new_point_sources_;
+};
+
 class PolyhedronDecomposer {
  public:
   // `mesh` must hold its points already; cells are appended, and centre points appended after the original points.
@@ -42,17 +62,19 @@ class PolyhedronDecomposer {
   // face of fewer than 3 vertices, fewer than 4 faces or a vertex index out of range.
   void add_polyhedron(std::span<const uint32_t> face_sizes, std::span<const uint32_t> face_vertices);
 
-  uint64_t input_cells() const { return input_cells_; }
+  uint64_t input_cells() const { return map_.input_cells_; }
   uint64_t output_cells() const { return mesh_.cell_count() - first_cell_; }
   uint64_t polyhedra() const { return polyhedra_; }    // cells given as polyhedra
   uint64_t recognised() const { return recognised_; }  // ... of which had a native shape
   uint64_t decomposed() const { return polyhedra_ - recognised_; }
-  uint64_t added_points() const { return new_point_offsets_.size() - 1; }
-  uint64_t original_points() const { return original_points_; }
+  uint64_t added_points() const { return map_.new_point_offsets_.size() - 1; }
+  uint64_t original_points() const { return map_.original_points_; }
   // Input cell of output cell `o` (counted from the first cell this decomposer added).
-  uint64_t source_cell(uint64_t o) const { return identity() ? o : source_cell_[o]; }
+  uint64_t source_cell(uint64_t o) const { return identity() ? o : map_.source_cell_[o]; }
   // True while every input cell is one output cell (nothing decomposed): fields need no expansion.
-  bool identity() const { return source_cell_.empty(); }
+  bool identity() const { return map_.source_cell_.empty(); }
+  // The expansion of fields so far, for fields read after the decomposer is gone (copy it once all cells are in).
+  const CellExpansion& expansion() const { return map_; }
 
   // A field on the original points, extended to the added centre points (means of their source vertices, computed in
   // double and stored in the field's type).
@@ -69,16 +91,10 @@ class PolyhedronDecomposer {
   void note_output_cell();
 
   UnstructuredMesh& mesh_;
-  std::string source_;
   uint64_t first_cell_ = 0;
-  uint64_t original_points_ = 0;
-  uint64_t input_cells_ = 0;
   uint64_t polyhedra_ = 0;
   uint64_t recognised_ = 0;
-  std::vector<uint64_t> source_cell_;  // empty while the map is the identity
-  // Added points: point original_points_ + k is the mean of new_point_sources_[new_point_offsets_[k] .. k+1).
-  std::vector<uint64_t> new_point_offsets_{0};
-  std::vector<uint32_t> new_point_sources_;
+  CellExpansion map_;  // the source name, input cell and point counts, the output-to-input maps
   // Face centres already added, by the face's sorted vertex list (so the two cells on a face share its centre).
   std::unordered_map<std::string, uint32_t> face_centres_;
 };

@@ -61,6 +61,8 @@
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
 #include "ugvr/grid/polyhedra.h"
+#include "ugvr/io/byte_hash.h"
+#include "ugvr/io/ensight_fields.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/saturating_size.h"
 #include "ugvr/io/step_lists.h"
@@ -453,7 +455,12 @@ struct Part {
   Grid grid;
   uint64_t points = 0;       // original points (values per node)
   uint64_t input_cells = 0;  // values per element that are kept
-  FieldSet fields;           // on original points / input cells
+  uint64_t block_cells = 0;  // a structured part's grid's cells ("block" values per element)
+  // Fields-only reads (a part of the layout kept from the mesh's read, io/step_fields.h): no mesh, no decomposer; the
+  // decomposer's expansion instead.
+  std::optional<CellExpansion> expansion;
+  std::string summary;  // ... and its summary
+  FieldSet fields;      // on original points / input cells
 
   bool has_volume() const { return input_cells > 0; }
 };
@@ -703,6 +710,7 @@ class GeoReader {
       }
       p.grid = std::move(sg);
     }
+    p.block_cells = grid_cell_count(p.grid);
     p.input_cells = dims.cell_count();
     if (p.input_cells == 0) {
       g.warnings.push_back(s_.file().name() + ": part " + std::to_string(p.number) + " (" + p.name +
@@ -815,8 +823,7 @@ void read_variable_step(EnsStream& s, const Variable& v, Geometry& g, bool store
         read_run(h, p->points, 0, keep);
       } else if (h.starts_with("block")) {
         if (!p->structured) s.fail(tag + ": 'block' values for an unstructured part");
-        const uint64_t cells = std::get_if<UnstructuredMesh>(&p->grid) ? 0 : grid_cell_count(p->grid);
-        read_run(h, per_node ? p->points : cells, 0, keep);
+        read_run(h, per_node ? p->points : p->block_cells, 0, keep);
       } else {
         if (per_node || p->structured) s.fail(tag + ": unexpected '" + h + "' in a per-node or structured variable");
         const std::string type = split_words(h).empty() ? h : split_words(h)[0];
@@ -1092,11 +1099,83 @@ struct Located {
 
 // ---------------------------------------------------------------------------------------------------------------
 
+// What a step's variables need of the geometry they lie on, kept from the geometry's read (ensight_fields.h): each
+// part's counts, element sections and polyhedra decomposition, and the geometry file's encoding and notes.
+struct PartLayout {
+  int32_t number = 0;
+  std::string name;
+  bool structured = false;
+  uint64_t points = 0, input_cells = 0, block_cells = 0;
+  std::vector<Section> sections;
+  std::optional<CellExpansion> expansion;  // unstructured parts
+  std::string summary;                     // the decomposer's
+};
+
+}  // namespace
+
+struct EnsightLayout {
+  std::optional<uint64_t> mesh_key;  // ensight_mesh_key of the case when read
+  std::string geo_path;
+  FileKind kind;
+  std::vector<std::string> geo_warnings;
+  std::vector<PartLayout> parts;  // in the geometry's order
+};
+
+namespace {
+
+PartLayout part_layout(const Part& p) {
+  PartLayout l{p.number, p.name, p.structured, p.points, p.input_cells, p.block_cells, p.sections, {}, {}};
+  if (p.decomposer) {
+    l.expansion = p.decomposer->expansion();
+    l.summary = p.decomposer->summary();
+  }
+  return l;
+}
+
+// The geometry a step's variables are read against, without its mesh: parts with the layout's counts and sections.
+Geometry skeleton(const EnsightLayout& layout) {
+  Geometry g;
+  for (const PartLayout& l : layout.parts) {
+    auto p = std::make_unique<Part>();
+    p->number = l.number;
+    p->name = l.name;
+    p->structured = l.structured;
+    p->points = l.points;
+    p->input_cells = l.input_cells;
+    p->block_cells = l.block_cells;
+    p->sections = l.sections;
+    p->expansion = l.expansion;
+    p->summary = l.summary;
+    g.parts.push_back(std::move(p));
+  }
+  return g;
+}
+
+// A part's fields as its block carries them: a structured part's as read; an unstructured part's expanded over its
+// polyhedra decomposition (the decomposer's, or a layout's), whose summary joins `warnings`.
+FieldSet part_fields(Part& p, const std::string& geo_path, std::vector<std::string>& warnings) {
+  if (p.structured) return std::move(p.fields);
+  const CellExpansion& x = p.decomposer ? p.decomposer->expansion() : *p.expansion;
+  FieldSet out;
+  for (const Field& f : p.fields)
+    out.add(f.association() == Association::Vertex ? x.expand_point_field(f) : x.expand_cell_field(f));
+  const std::string summary = p.decomposer ? p.decomposer->summary() : p.summary;
+  if (!summary.empty())
+    warnings.push_back(base_name(geo_path) + ": part " + std::to_string(p.number) + " (" + p.name + "): " + summary);
+  return out;
+}
+
+std::string resolve_in(const CaseFile& c, const std::string& name) {
+  if (!name.empty() && name[0] == '/') return name;
+  return c.dir + name;
+}
+
 class EnsightCaseReader {
  public:
   EnsightCaseReader(const std::string& path, int64_t time_step) : requested_(time_step), c_(parse_case(path)) {}
 
-  Dataset read() {
+  // The step whole; where `kept` is given, the layout of its geometry for later fields-only reads.
+  Dataset read(std::shared_ptr<EnsightLayout>* kept = nullptr) {
     choose_time();
     Dataset ds;
     ds.sources.push_back(c_.path);
@@ -1110,37 +1189,26 @@ class EnsightCaseReader {
     seek_step(gs, geo, nullptr, nullptr);
     Geometry g = GeoReader(gs).read();
     ds.sources.push_back(geo.path);
-    for (auto& w : g.warnings) ds.warnings.push_back(std::move(w));
-    for (const Variable& v : c_.variables) {
-      const Located at = locate(v.file, v.ts, v.fs, v.line);
-      InputFile vf(at.path);
-      EnsStream vs(vf, kind.enc, kind.big_endian);
-      if (kind.enc != Encoding::Ascii) {
-        const std::string first = lower(vs.peek_keyword());
-        if (first.starts_with("c binary") || first.starts_with("fortran binary")) vs.read_string(true, "binary tag");
-      }
-      seek_step(vs, at, &v, &g);
-      read_variable_step(vs, v, g, true);
-      ds.sources.push_back(at.path);
+    std::shared_ptr<EnsightLayout> layout;
+    if (kept) {
+      layout = std::make_shared<EnsightLayout>();
+      layout->geo_path = geo.path;
+      layout->kind = kind;
+      layout->geo_warnings = g.warnings;
     }
+    for (auto& w : g.warnings) ds.warnings.push_back(std::move(w));
+    read_variables(g, ds.sources);
     uint64_t file_cells = 0;
     for (auto& p : g.parts) {
       file_cells += p->input_cells + p->dropped;
+      if (layout) layout->parts.push_back(part_layout(*p));
       if (!p->has_volume()) continue;
       Block b;
       b.name = p->name;
+      b.fields = part_fields(*p, geo.path, ds.warnings);
       if (p->structured) {
         b.grid = std::move(p->grid);
-        b.fields = std::move(p->fields);
       } else {
-        for (const Field& f : p->fields) {
-          b.fields.add(f.association() == Association::Vertex ? p->decomposer->expand_point_field(f)
-                                                              : p->decomposer->expand_cell_field(f));
-        }
-        const std::string summary = p->decomposer->summary();
-        if (!summary.empty())
-          ds.warnings.push_back(base_name(geo.path) + ": part " + std::to_string(p->number) + " (" + p->name +
-                                "): " + summary);
         p->decomposer.reset();
         p->mesh.validate(geo.path);
         b.grid = std::move(p->mesh);
@@ -1153,18 +1221,58 @@ class EnsightCaseReader {
                             " elements) has a volume cell (tetra, pyramid, penta, hexa, nfaced or a 3-D block); "
                             "ugvr renders volumes only");
     }
-    ds.format = std::string("EnSight Gold (") +
-                (kind.enc == Encoding::Ascii     ? "ASCII"
-                 : kind.enc == Encoding::CBinary ? "C binary"
-                                                 : "Fortran binary") +
-                (kind.enc == Encoding::Ascii ? ""
-                 : kind.big_endian           ? ", big-endian"
-                                             : ", little-endian") +
-                ")" + time_text_;
+    ds.format = format_text();
+    if (kept) *kept = std::move(layout);
     return ds;
   }
 
+  // The step's variables on the layout's geometry, bit for bit those read() gives (one FieldSet per block), with its
+  // format, sources and warnings; the geometry file is not opened.
+  std::vector<FieldSet> read_fields(const EnsightLayout& layout, std::string& format, std::vector<std::string>& sources,
+                                    std::vector<std::string>& warnings) {
+    choose_time();
+    sources.push_back(c_.path);
+    warnings.insert(warnings.end(), c_.warnings.begin(), c_.warnings.end());
+    kind_ = layout.kind;
+    Geometry g = skeleton(layout);
+    sources.push_back(layout.geo_path);
+    warnings.insert(warnings.end(), layout.geo_warnings.begin(), layout.geo_warnings.end());
+    read_variables(g, sources);
+    std::vector<FieldSet> blocks;
+    for (auto& p : g.parts)
+      if (p->has_volume()) blocks.push_back(part_fields(*p, layout.geo_path, warnings));
+    format = format_text();
+    return blocks;
+  }
+
  private:
+  // Every variable's file at the chosen time, read into the parts' fields (in the geometry's encoding).
+  void read_variables(Geometry& g, std::vector<std::string>& sources) {
+    for (const Variable& v : c_.variables) {
+      const Located at = locate(v.file, v.ts, v.fs, v.line);
+      InputFile vf(at.path);
+      EnsStream vs(vf, kind_.enc, kind_.big_endian);
+      if (kind_.enc != Encoding::Ascii) {
+        const std::string first = lower(vs.peek_keyword());
+        if (first.starts_with("c binary") || first.starts_with("fortran binary")) vs.read_string(true, "binary tag");
+      }
+      seek_step(vs, at, &v, &g);
+      read_variable_step(vs, v, g, true);
+      sources.push_back(at.path);
+    }
+  }
+
+  std::string format_text() const {
+    return std::string("EnSight Gold (") +
+           (kind_.enc == Encoding::Ascii     ? "ASCII"
+            : kind_.enc == Encoding::CBinary ? "C binary"
+                                             : "Fortran binary") +
+           (kind_.enc == Encoding::Ascii ? ""
+            : kind_.big_endian           ? ", big-endian"
+                                         : ", little-endian") +
+           ")" + time_text_;
+  }
+
   void choose_time() {
     // The time set with the most steps is the case's time line.
     const TimeSet* line = nullptr;
@@ -1230,10 +1338,7 @@ class EnsightCaseReader {
                  "file set " + std::to_string(*fs) + " has fewer steps than time set " + std::to_string(*ts));
   }
 
-  std::string resolve(const std::string& name) const {
-    if (!name.empty() && name[0] == '/') return name;
-    return c_.dir + name;
-  }
+  std::string resolve(const std::string& name) const { return resolve_in(c_, name); }
 
   // For a file holding several steps: skips to the wanted step's BEGIN TIME STEP (earlier steps are parsed and
   // dropped: the format has no index to jump by that every writer writes). Files of one step may have no markers.
@@ -1337,6 +1442,45 @@ std::vector<double> list_ensight_times(const std::string& path) {
 Dataset read_ensight(const std::string& path, int64_t time_step) {
   if (extension_lower(path) == ".sos") return read_ensight_sos(path, time_step);
   return EnsightCaseReader(path, time_step).read();
+}
+
+std::optional<uint64_t> ensight_mesh_key(const std::string& path) {
+  if (extension_lower(path) == ".sos") return std::nullopt;
+  const CaseFile c = parse_case(path);
+  // A geometry with a time set of several steps and '*' wildcards (a file per step) or a file set (steps in one file)
+  // changes per step; wildcards without a time set (or with one step) are left to the whole read.
+  if (c.model.find('*') != std::string::npos) return std::nullopt;
+  if (c.model_ts && c.model_fs) {
+    const auto it = c.time_sets.find(*c.model_ts);
+    if (it == c.time_sets.end() || it->second.times.size() != 1) return std::nullopt;
+  }
+  const std::string geo = resolve_in(c, c.model);
+  std::error_code size_error, time_error;
+  const uintmax_t size = std::filesystem::file_size(geo, size_error);
+  const auto mtime = std::filesystem::last_write_time(geo, time_error).time_since_epoch().count();
+  if (size_error || time_error)
+    fail_in(geo, "cannot read its size and time: " + (size_error ? size_error : time_error).message());
+  uint64_t h = hash_mix(hash_mix(kFnvOffset, 0x656e7369), hash_bytes(geo.data(), geo.size()));  // "ensi"
+  return hash_mix(hash_mix(h, uint64_t(size)), uint64_t(mtime));
+}
+
+Dataset read_ensight(const std::string& path, int64_t time_step, std::shared_ptr<const EnsightLayout>* kept) {
+  if (!kept || extension_lower(path) == ".sos") return read_ensight(path, time_step);
+  // Taken before the geometry is read: a geometry rewritten during the read gives another key than the one kept.
+  const std::optional<uint64_t> key = ensight_mesh_key(path);
+  std::shared_ptr<EnsightLayout> layout;
+  Dataset ds = EnsightCaseReader(path, time_step).read(&layout);
+  layout->mesh_key = key;
+  *kept = std::move(layout);
+  return ds;
+}
+
+const std::optional<uint64_t>& ensight_layout_mesh_key(const EnsightLayout& layout) { return layout.mesh_key; }
+
+std::vector<FieldSet> read_ensight_fields(const EnsightLayout& layout, const std::string& path, int64_t time_step,
+                                          std::string& format, std::vector<std::string>& sources,
+                                          std::vector<std::string>& warnings) {
+  return EnsightCaseReader(path, time_step).read_fields(layout, format, sources, warnings);
 }
 
 }  // namespace ugvr

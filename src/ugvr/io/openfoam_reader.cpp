@@ -25,6 +25,7 @@
 #include "ugvr/core/memory.h"
 #include "ugvr/grid/dataset.h"
 #include "ugvr/grid/polyhedra.h"
+#include "ugvr/io/byte_hash.h"
 #include "ugvr/io/byte_swap.h"
 #include "ugvr/io/file_dataset.h"
 #include "ugvr/io/header_counts.h"
@@ -1034,41 +1035,213 @@ std::optional<GridCounts> openfoam_header_counts(const std::string& path) {
   return counts;
 }
 
-Dataset read_openfoam(const std::string& path, int64_t time_step) {
-  fs::path root;
-  const std::vector<fs::path> piece_dirs = case_piece_dirs(path, root);
-  const bool decomposed = piece_dirs.front() != root;  // processor*/ pieces, not the case itself
-  std::error_code ec;
-  const std::string case_name = fs::weakly_canonical(root, ec).filename().string();
+namespace {
 
-  std::vector<std::string> notes;
-  const std::vector<TimeDir> times = time_dirs(piece_dirs[0]);
-  std::string time;
-  if (!times.empty()) {
-    const int64_t n = int64_t(times.size());
-    if (time_step < -1 || time_step >= n)
-      fail_in(root.string(), "time step " + std::to_string(time_step) + " does not exist: the case has " +
+// The files of a polyMesh directory that decide the mesh read_piece builds.
+constexpr std::array<const char*, 6> kMeshFiles{"points", "faces", "owner", "neighbour", "boundary", "cellZones"};
+
+// Whether `time` of the piece in `dir` moves its mesh: read_piece then takes the points (or the whole polyMesh) from
+// the time directory's polyMesh/ instead of constant/polyMesh.
+bool moves_mesh(const fs::path& dir, const std::string& time) {
+  if (time.empty()) return false;
+  const fs::path moved = dir / time / "polyMesh";
+  return !find_file(moved, "points").empty() || !find_file(moved, "faces").empty();
+}
+
+// One step of a case as read_openfoam names it: its root, its pieces, and the time directory it reads.
+struct CaseStep {
+  fs::path root;
+  std::vector<fs::path> piece_dirs;
+  bool decomposed = false;  // processor*/ pieces, not the case itself
+  std::string time;         // the time directory's name; empty when the case has none
+  std::string time_note;    // the dataset's first note: the time directories and the one read
+};
+
+CaseStep case_step(const std::string& path, int64_t time_step) {
+  CaseStep c;
+  c.piece_dirs = case_piece_dirs(path, c.root);
+  c.decomposed = c.piece_dirs.front() != c.root;
+  const std::vector<TimeDir> times = time_dirs(c.piece_dirs[0]);
+  if (times.empty()) {
+    c.time_note = "no time directories: the mesh only";
+    return c;
+  }
+  const int64_t n = int64_t(times.size());
+  if (time_step < -1 || time_step >= n)
+    fail_in(c.root.string(), "time step " + std::to_string(time_step) + " does not exist: the case has " +
                                  std::to_string(n) + " time directories (0.." + std::to_string(n - 1) +
                                  "): " + join_times(times));
-    const size_t k = size_t(time_step < 0 ? n - 1 : time_step);
-    time = times[k].name;
-    notes.push_back("time directories (" + std::to_string(n) + "): " + join_times(times) + "; read " + time +
-                    " (--time-step " + std::to_string(k) + ")");
-  } else {
-    notes.push_back("no time directories: the mesh only");
+  const size_t k = size_t(time_step < 0 ? n - 1 : time_step);
+  c.time = times[k].name;
+  c.time_note = "time directories (" + std::to_string(n) + "): " + join_times(times) + "; read " + c.time +
+                " (--time-step " + std::to_string(k) + ")";
+  return c;
+}
+
+// The stored identity of the constant mesh of a step's pieces; nullopt where a piece's time directory moves its mesh.
+// A hash of the piece count and, per piece, its directory and each mesh file's name, size and modification time (not
+// its bytes: hashing a large mesh's files would cost what reading them does).
+std::optional<uint64_t> constant_mesh_key(const CaseStep& c) {
+  uint64_t h = hash_mix(hash_mix(kFnvOffset, 0x666f616d), c.piece_dirs.size());  // "foam"
+  for (const fs::path& dir : c.piece_dirs) {
+    if (moves_mesh(dir, c.time)) return std::nullopt;
+    const std::string d = dir.string();
+    h = hash_mix(h, hash_bytes(d.data(), d.size()));
+    for (const char* name : kMeshFiles) {
+      const std::string f = find_file(dir / "constant" / "polyMesh", name);
+      h = hash_mix(h, hash_bytes(f.data(), f.size()));
+      if (f.empty()) continue;
+      std::error_code size_error, time_error;
+      const uintmax_t size = fs::file_size(f, size_error);
+      const auto mtime = fs::last_write_time(f, time_error).time_since_epoch().count();
+      if (size_error || time_error)
+        fail_in(f, "cannot read its size and time: " + (size_error ? size_error : time_error).message());
+      h = hash_mix(hash_mix(h, uint64_t(size)), uint64_t(mtime));
+    }
   }
+  return h;
+}
+
+}  // namespace
+
+// What a step's fields need from the mesh they lie on, kept from the mesh's read (openfoam_reader.h).
+struct OpenFoamLayout {
+  struct PieceCounts {
+    fs::path dir;
+    uint64_t cells = 0;   // the piece's cells before decomposition (a cell field's tuples)
+    uint64_t points = 0;  // the piece's points before decomposition (a point field's tuples)
+  };
+  std::string root;                     // the dataset's source
+  std::optional<uint64_t> mesh_key;     // constant_mesh_key of the mesh; nullopt: a mesh moved by its time directory
+  std::string format;                   // the dataset's format
+  std::vector<PieceCounts> pieces;      // in the mesh's order
+  CellExpansion expansion;              // the polyhedra decomposition of the pieces' cells, concatenated
+  std::optional<Field> cell_zone;       // "cellZone", already expanded (the mesh's, not the step's)
+  std::vector<std::string> mesh_notes;  // after the time note: the decomposed case's, the cell zones'
+  std::vector<std::string> tail_notes;  // after the fields': the decomposition summary, the boundary patches
+};
+
+namespace {
+
+// The fields of time directory `time` on the mesh of `layout`, by name; a field missing from a piece, or a file that
+// is not a geometric field, is skipped with a note. `zone` (the layout's cellZone field, or nothing) comes first.
+FieldSet time_fields(const OpenFoamLayout& layout, std::optional<Field> zone, const std::string& time,
+                     std::vector<std::string>& notes) {
+  FieldSet fields;
+  if (zone) fields.add(std::move(*zone));
+  if (time.empty()) return fields;
+  const auto& pieces = layout.pieces;
+  std::error_code ec;
+  std::map<std::string, std::vector<std::string>> files;  // field name -> file per piece
+  for (size_t k = 0; k < pieces.size(); ++k) {
+    for (const auto& e : fs::directory_iterator(pieces[k].dir / time, ec)) {
+      if (!e.is_regular_file(ec)) continue;
+      std::string n = e.path().filename().string();
+      if (n.ends_with(".gz")) n.resize(n.size() - 3);
+      if (n.empty() || n.starts_with(".") || n.ends_with("~") || n.ends_with(".orig")) continue;
+      auto& v = files[n];
+      v.resize(pieces.size());
+      v[k] = e.path().string();
+    }
+  }
+  std::vector<std::string> skipped;
+  for (const auto& [name, per_piece] : files) {
+    if (std::any_of(per_piece.begin(), per_piece.end(), [](const std::string& s) { return s.empty(); })) {
+      skipped.push_back(name + " (not in every processor directory)");
+      continue;
+    }
+    std::vector<double> values;
+    int components = 0;
+    std::optional<Association> assoc;
+    std::string why;
+    bool all_float32 = true;
+    for (size_t k = 0; k < pieces.size() && why.empty(); ++k) {
+      if (!has_foam_header(per_piece[k])) {
+        why = "not a FoamFile";
+        break;
+      }
+      FoamFile f(per_piece[k]);
+      all_float32 = all_float32 && f.header().binary && f.header().scalar_bytes == 4;
+      const std::string& cls = f.header().class_name;
+      const bool vol = cls.starts_with("vol"), point = cls.starts_with("point");
+      if (!(vol || point) || !cls.ends_with("Field")) {
+        why = cls.empty() ? "no class" : cls;
+        break;
+      }
+      // A point field has one tuple per point of its piece (the original points, before decomposition).
+      const std::optional<openfoam::FieldValues> v = f.internal_field(vol ? pieces[k].cells : pieces[k].points);
+      if (!v) {
+        why = "no internalField";
+        break;
+      }
+      components = v->components;
+      assoc = vol ? Association::Cell : Association::Vertex;
+      values.insert(values.end(), v->values.begin(), v->values.end());
+    }
+    if (!why.empty()) {
+      skipped.push_back(name + " (" + why + ")");
+      continue;
+    }
+    // Binary files written with scalar=32 keep float32 (fields keep their stored type); text and scalar=64 are
+    // double.
+    DataArray data;
+    if (all_float32) {
+      data = DataArray::from(std::vector<float>(values.begin(), values.end()), components);
+    } else {
+      data = DataArray::from(std::move(values), components);
+    }
+    Field field(name, *assoc, std::move(data));
+    fields.add(*assoc == Association::Cell ? layout.expansion.expand_cell_field(field)
+                                           : layout.expansion.expand_point_field(field));
+  }
+  if (!skipped.empty()) {
+    std::string s;
+    for (const auto& k : skipped) s += (s.empty() ? "" : ", ") + k;
+    notes.push_back("not read from " + time + ": " + s);
+  }
+  return fields;
+}
+
+// The dataset's notes: the time note, the mesh's, the fields' (`field_notes`), the layout's last ones.
+std::vector<std::string> step_notes(const OpenFoamLayout& layout, std::string time_note,
+                                    std::vector<std::string> field_notes) {
+  std::vector<std::string> notes{std::move(time_note)};
+  notes.insert(notes.end(), layout.mesh_notes.begin(), layout.mesh_notes.end());
+  notes.insert(notes.end(), field_notes.begin(), field_notes.end());
+  notes.insert(notes.end(), layout.tail_notes.begin(), layout.tail_notes.end());
+  return notes;
+}
+
+}  // namespace
+
+std::optional<uint64_t> openfoam_mesh_key(const std::string& path, int64_t time_step) {
+  return constant_mesh_key(case_step(path, time_step));
+}
+
+Dataset read_openfoam(const std::string& path, int64_t time_step) { return read_openfoam(path, time_step, nullptr); }
+
+Dataset read_openfoam(const std::string& path, int64_t time_step, std::shared_ptr<const OpenFoamLayout>* kept) {
+  const CaseStep step = case_step(path, time_step);
+  const fs::path& root = step.root;
+  const std::string& time = step.time;
+  std::error_code ec;
+  const std::string case_name = fs::weakly_canonical(root, ec).filename().string();
+  auto layout = std::make_shared<OpenFoamLayout>();
+  layout->root = root.string();
+  // Taken before the mesh is read: a mesh file rewritten during the read then gives another key than the one kept.
+  if (kept) layout->mesh_key = constant_mesh_key(step);
 
   std::vector<Piece> pieces;
   uint64_t total_points = 0;
-  for (const fs::path& d : piece_dirs) {
+  for (const fs::path& d : step.piece_dirs) {
     pieces.push_back(read_piece(d, time));
     total_points += pieces.back().points.size();
     if (total_points > UINT32_MAX) fail_in(d.string(), "more than 2^32-1 points in all: an in-memory mesh is capped");
   }
-  if (decomposed)
-    notes.push_back("decomposed case: " + std::to_string(pieces.size()) +
-                    " processor directories read as pieces and concatenated; points on processor boundaries are "
-                    "not merged (each piece keeps its own copy)");
+  if (step.decomposed)
+    layout->mesh_notes.push_back("decomposed case: " + std::to_string(pieces.size()) +
+                                 " processor directories read as pieces and concatenated; points on processor "
+                                 "boundaries are not merged (each piece keeps its own copy)");
 
   UnstructuredMesh mesh;
   mesh.points.reserve(total_points);
@@ -1087,8 +1260,9 @@ Dataset read_openfoam(const std::string& path, int64_t time_step) {
     }
   }
   mesh.validate(root.string());
+  layout->expansion = decomposer.expansion();
+  for (const Piece& p : pieces) layout->pieces.push_back({p.dir, p.cells, p.point_count});
 
-  FieldSet fields;
   // cellZones: zone index per cell, -1 outside every zone (zone names are taken from the first piece).
   if (!pieces[0].zones.empty()) {
     std::vector<int32_t> zone;
@@ -1102,92 +1276,44 @@ Dataset read_openfoam(const std::string& path, int64_t time_step) {
       for (size_t z = 0; z < p.zones.size(); ++z)
         for (uint64_t c : p.zones[z].cells) zone[first + c] = int32_t(z);
     }
-    fields.add(decomposer.expand_cell_field(Field("cellZone", Association::Cell, DataArray::from(std::move(zone), 1))));
-    notes.push_back("cell field 'cellZone' (-1 outside every zone): " + names);
+    layout->cell_zone =
+        decomposer.expand_cell_field(Field("cellZone", Association::Cell, DataArray::from(std::move(zone), 1)));
+    layout->mesh_notes.push_back("cell field 'cellZone' (-1 outside every zone): " + names);
   }
-
-  // Fields of the time directory, by name; a field missing from a piece is dropped with a note.
-  if (!time.empty()) {
-    std::map<std::string, std::vector<std::string>> files;  // field name -> file per piece
-    for (size_t k = 0; k < pieces.size(); ++k) {
-      for (const auto& e : fs::directory_iterator(pieces[k].dir / time, ec)) {
-        if (!e.is_regular_file(ec)) continue;
-        std::string n = e.path().filename().string();
-        if (n.ends_with(".gz")) n.resize(n.size() - 3);
-        if (n.empty() || n.starts_with(".") || n.ends_with("~") || n.ends_with(".orig")) continue;
-        auto& v = files[n];
-        v.resize(pieces.size());
-        v[k] = e.path().string();
-      }
-    }
-    std::vector<std::string> skipped;
-    for (const auto& [name, per_piece] : files) {
-      if (std::any_of(per_piece.begin(), per_piece.end(), [](const std::string& s) { return s.empty(); })) {
-        skipped.push_back(name + " (not in every processor directory)");
-        continue;
-      }
-      std::vector<double> values;
-      int components = 0;
-      std::optional<Association> assoc;
-      std::string why;
-      bool all_float32 = true;
-      for (size_t k = 0; k < pieces.size() && why.empty(); ++k) {
-        if (!has_foam_header(per_piece[k])) {
-          why = "not a FoamFile";
-          break;
-        }
-        FoamFile f(per_piece[k]);
-        all_float32 = all_float32 && f.header().binary && f.header().scalar_bytes == 4;
-        const std::string& cls = f.header().class_name;
-        const bool vol = cls.starts_with("vol"), point = cls.starts_with("point");
-        if (!(vol || point) || !cls.ends_with("Field")) {
-          why = cls.empty() ? "no class" : cls;
-          break;
-        }
-        // A point field has one tuple per point of its piece (the original points, before decomposition).
-        const std::optional<openfoam::FieldValues> v = f.internal_field(vol ? pieces[k].cells : pieces[k].point_count);
-        if (!v) {
-          why = "no internalField";
-          break;
-        }
-        components = v->components;
-        assoc = vol ? Association::Cell : Association::Vertex;
-        values.insert(values.end(), v->values.begin(), v->values.end());
-      }
-      if (!why.empty()) {
-        skipped.push_back(name + " (" + why + ")");
-        continue;
-      }
-      // Binary files written with scalar=32 keep float32 (fields keep their stored type); text and scalar=64 are
-      // double.
-      DataArray data;
-      if (all_float32) {
-        data = DataArray::from(std::vector<float>(values.begin(), values.end()), components);
-      } else {
-        data = DataArray::from(std::move(values), components);
-      }
-      Field field(name, *assoc, std::move(data));
-      fields.add(*assoc == Association::Cell ? decomposer.expand_cell_field(field)
-                                             : decomposer.expand_point_field(field));
-    }
-    if (!skipped.empty()) {
-      std::string s;
-      for (const auto& k : skipped) s += (s.empty() ? "" : ", ") + k;
-      notes.push_back("not read from " + time + ": " + s);
-    }
-  }
-
-  if (const std::string s = decomposer.summary(); !s.empty()) notes.push_back(s);
+  if (const std::string s = decomposer.summary(); !s.empty()) layout->tail_notes.push_back(s);
   if (!pieces[0].patches.empty()) {
     std::string s;
     for (const auto& p : pieces[0].patches)
       s += (s.empty() ? "" : ", ") + p.name + " (" + p.type + ", " + std::to_string(p.n_faces) + " faces)";
-    notes.push_back("boundary patches (not rendered: the boundary is derived from the cells): " + s);
+    layout->tail_notes.push_back("boundary patches (not rendered: the boundary is derived from the cells): " + s);
   }
+  layout->format = "OpenFOAM case (" + pieces[0].format + (step.decomposed ? ", decomposed" : "") + ")";
 
+  // The zone field is moved into the dataset unless the layout is kept for later steps (which then copy it).
+  std::vector<std::string> field_notes;
+  FieldSet fields = time_fields(*layout, kept ? layout->cell_zone : std::move(layout->cell_zone), time, field_notes);
   Block block{case_name, std::move(mesh), std::move(fields)};
-  return single_block_dataset("OpenFOAM case (" + pieces[0].format + (decomposed ? ", decomposed" : "") + ")",
-                              root.string(), std::move(block), std::move(notes));
+  Dataset ds = single_block_dataset(layout->format, root.string(), std::move(block),
+                                    step_notes(*layout, step.time_note, std::move(field_notes)));
+  if (kept) *kept = std::move(layout);
+  return ds;
 }
+
+FieldSet read_openfoam_fields(const OpenFoamLayout& layout, const std::string& path, int64_t time_step,
+                              std::string& format, std::vector<std::string>& sources,
+                              std::vector<std::string>& warnings) {
+  const CaseStep step = case_step(path, time_step);
+  if (step.root.string() != layout.root || step.piece_dirs.size() != layout.pieces.size())
+    fail_in(step.root.string(), "the case's pieces are not those of the mesh held (read the step whole)");
+  std::vector<std::string> field_notes;
+  FieldSet fields = time_fields(layout, layout.cell_zone, step.time, field_notes);
+  format = layout.format;
+  sources.push_back(layout.root);
+  std::vector<std::string> notes = step_notes(layout, step.time_note, std::move(field_notes));
+  warnings.insert(warnings.end(), notes.begin(), notes.end());
+  return fields;
+}
+
+const std::optional<uint64_t>& openfoam_layout_mesh_key(const OpenFoamLayout& layout) { return layout.mesh_key; }
 
 }  // namespace ugvr

@@ -179,3 +179,33 @@ class FoamFile {
 bool is_openfoam_path(const std::string& path);
 
 }  // namespace ugvr::openfoam
+
+namespace ugvr {
+
+struct Dataset;
+class FieldSet;
+
+// Fields-only step reads (io/step_fields.h). A step whose time directory has no polyMesh/points nor polyMesh/faces
+// (in no processor directory of a decomposed case) has the case's constant mesh, that of every other such step. What a
+// step's fields need of that mesh (each piece's cell and point counts before decomposition, the polyhedra
+// decomposition's cell order and centre points, the cellZone field, the mesh's notes) is an OpenFoamLayout, kept from
+// a whole read of the mesh; a later step's fields are then read from its time directory alone, through the same
+// decoding as the whole read, nothing of constant/polyMesh read.
+struct OpenFoamLayout;
+
+// The stored identity of the mesh step `time_step` reads: a hash of its pieces' directories and their constant/polyMesh
+// files' names, sizes and modification times; nullopt where the step's time directory moves the mesh (read it whole).
+// Lists directories and stats files; reads none. Throws ugvr::Error as read_openfoam does for a bad case or step.
+std::optional<uint64_t> openfoam_mesh_key(const std::string& path, int64_t time_step);
+// read_openfoam (io/reader.h), and where `kept` is given the layout of the mesh read, for read_openfoam_fields.
+Dataset read_openfoam(const std::string& path, int64_t time_step, std::shared_ptr<const OpenFoamLayout>* kept);
+// The mesh key the layout was read with (openfoam_mesh_key of its step, taken before the mesh was read).
+const std::optional<uint64_t>& openfoam_layout_mesh_key(const OpenFoamLayout& layout);
+// Step `time_step`'s fields on the layout's mesh: bit for bit the fields read_openfoam gives for that step, in its
+// order; `format`, `sources` and `warnings` as the whole read sets the dataset's. The caller has checked that the
+// step's mesh key is the layout's. Throws ugvr::Error naming the file for a missing or damaged field file.
+FieldSet read_openfoam_fields(const OpenFoamLayout& layout, const std::string& path, int64_t time_step,
+                              std::string& format, std::vector<std::string>& sources,
+                              std::vector<std::string>& warnings);
+
+}  // namespace ugvr

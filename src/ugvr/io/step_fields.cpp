@@ -5,6 +5,8 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/io/byte_hash.h"
+#include "ugvr/io/ensight_fields.h"
+#include "ugvr/io/openfoam_reader.h"
 #include "ugvr/io/pvtu_pieces.h"
 
 namespace ugvr {
@@ -45,6 +47,15 @@ bool is_legacy_vtk_path(const std::string& path) { return extension_lower(path) 
 // other formats).
 std::optional<uint64_t> file_geometry_key(const std::string& path) {
   return is_legacy_vtk_path(path) ? vtk_legacy_geometry_key(path) : vtu_geometry_key(path);
+}
+
+StepFields fields_of(Dataset whole) {
+  StepFields out;
+  for (Block& b : whole.blocks) out.blocks.push_back(std::move(b.fields));
+  out.format = std::move(whole.format);
+  out.sources = std::move(whole.sources);
+  out.warnings = std::move(whole.warnings);
+  return out;
 }
 
 Dataset without_grids(StepFields fields) {
@@ -91,7 +102,40 @@ std::optional<uint64_t> StepFieldReader::cached_geometry_key(const std::string& 
   return cached_file_key(path);
 }
 
+Dataset StepFieldReader::read_whole(size_t step) {
+  if (step >= series_->size()) return read_time_step(*series_, step);  // its error names the step count
+  // As read_time_step reads a multi-step file's step (read_dataset: the reader, its step), the layout kept besides.
+  const TimeStep& st = series_->steps[step];
+  if (series_->kind == SeriesKind::OpenFoam) {
+    std::shared_ptr<const OpenFoamLayout> layout;
+    Dataset ds = read_openfoam(st.files[0], st.reader_step, &layout);
+    if (openfoam_layout_mesh_key(*layout)) {
+      std::lock_guard lock(layout_mutex_);
+      foam_layout_ = std::move(layout);
+    }
+    return ds;
+  }
+  if (series_->kind == SeriesKind::EnSight) {
+    std::shared_ptr<const EnsightLayout> layout;  // none for a .sos
+    Dataset ds = read_ensight(st.files[0], st.reader_step, &layout);
+    if (layout && ensight_layout_mesh_key(*layout)) {
+      std::lock_guard lock(layout_mutex_);
+      ensight_layout_ = std::move(layout);
+    }
+    return ds;
+  }
+  return read_time_step(*series_, step);
+}
+
 std::optional<std::vector<uint64_t>> StepFieldReader::geometry_keys(size_t step) const {
+  if ((series_->kind == SeriesKind::OpenFoam || series_->kind == SeriesKind::EnSight) && step < series_->size()) {
+    const TimeStep& st = series_->steps[step];
+    const std::optional<uint64_t> key = series_->kind == SeriesKind::OpenFoam
+                                            ? openfoam_mesh_key(st.files[0], st.reader_step)
+                                            : ensight_mesh_key(st.files[0]);
+    if (!key) return std::nullopt;
+    return std::vector<uint64_t>{*key};
+  }
   if (!steps_are_files(series_->kind) || step >= series_->size()) return std::nullopt;
   std::vector<uint64_t> keys;
   for (const std::string& file : series_->steps[step].files) {
@@ -118,6 +162,8 @@ StepFields StepFieldReader::read(size_t step) {
     out.sources.push_back(st.files[0]);
     return out;
   }
+  if (series_->kind == SeriesKind::OpenFoam) return read_openfoam_step(step);
+  if (series_->kind == SeriesKind::EnSight) return read_ensight_step(step);
   if (!steps_are_files(series_->kind))
     fail_in(series_->source, "time step " + std::to_string(step) + " has no fields-only read (read it whole)");
   std::string legacy_format;  // a .vtk's, as its whole read gives it
@@ -143,6 +189,45 @@ StepFields StepFieldReader::read(size_t step) {
   return out;
 }
 
+StepFields StepFieldReader::read_openfoam_step(size_t step) {
+  const TimeStep& st = series_->steps[step];
+  const std::optional<uint64_t> key = openfoam_mesh_key(st.files[0], st.reader_step);
+  if (!key)
+    fail_in(series_->source, "time step " + std::to_string(step) +
+                                 " moves the mesh (its time directory has a polyMesh): no fields-only read");
+  std::shared_ptr<const OpenFoamLayout> layout;
+  {
+    std::lock_guard lock(layout_mutex_);
+    layout = foam_layout_;
+  }
+  // No layout of this mesh kept yet (its step was not read through read_whole, or the mesh files changed since): this
+  // step read whole keeps one.
+  if (!layout || openfoam_layout_mesh_key(*layout) != key) return fields_of(read_whole(step));
+  StepFields out;
+  out.blocks.push_back(
+      read_openfoam_fields(*layout, st.files[0], st.reader_step, out.format, out.sources, out.warnings));
+  return out;
+}
+
+StepFields StepFieldReader::read_ensight_step(size_t step) {
+  const TimeStep& st = series_->steps[step];
+  const std::optional<uint64_t> key = ensight_mesh_key(st.files[0]);
+  if (!key)
+    fail_in(series_->source,
+            "time step " + std::to_string(step) +
+                ": the geometry changes per step (a file per step or a file set): no fields-only read");
+  std::shared_ptr<const EnsightLayout> layout;
+  {
+    std::lock_guard lock(layout_mutex_);
+    layout = ensight_layout_;
+  }
+  // No layout of this geometry kept yet, or the geometry file changed since: this step read whole keeps one.
+  if (!layout || ensight_layout_mesh_key(*layout) != key) return fields_of(read_whole(step));
+  StepFields out;
+  out.blocks = read_ensight_fields(*layout, st.files[0], st.reader_step, out.format, out.sources, out.warnings);
+  return out;
+}
+
 bool StepFieldReader::has_mesh_of(size_t step, size_t mesh_step) const {
   if (static_by_format()) return true;
   const std::optional<std::vector<uint64_t>> keys = geometry_keys(step);
@@ -151,13 +236,7 @@ bool StepFieldReader::has_mesh_of(size_t step, size_t mesh_step) const {
 
 StepFields StepFieldReader::read_values(size_t step, size_t mesh_step) {
   if (has_mesh_of(step, mesh_step)) return read(step);
-  Dataset whole = read_time_step(*series_, step);
-  StepFields out;
-  for (Block& b : whole.blocks) out.blocks.push_back(std::move(b.fields));
-  out.format = std::move(whole.format);
-  out.sources = std::move(whole.sources);
-  out.warnings = std::move(whole.warnings);
-  return out;
+  return fields_of(read_time_step(*series_, step));
 }
 
 Dataset with_grids_of(const Dataset& mesh, StepFields fields) {

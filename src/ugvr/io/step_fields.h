@@ -24,6 +24,23 @@
 //                 dataset-level FIELD and METADATA blocks (a writer's TIME). Every dataset type the reader reads is
 //                 keyed. The fields-only read passes over POINTS and the cell lists (a seek in BINARY files, the words
 //                 counted unparsed in ASCII ones) and reads CELL_TYPES for the cells whose values the mesh keeps.
+//   OpenFOAM      a step whose time directory holds no polyMesh/points nor polyMesh/faces (in no processor directory
+//                 of a decomposed case): it has the case's constant mesh. Its key (openfoam_mesh_key) hashes the
+//                 pieces' directories and their constant/polyMesh files' names, sizes and modification times (not their
+//                 bytes: that would cost the read it saves); a mesh file rewritten to the same size within the time
+//                 stamp granularity keeps its key. A step whose time directory moves the mesh has no key: read whole.
+//                 The fields-only read needs the layout of the mesh's whole read (OpenFoamLayout: the pieces' cell and
+//                 point counts, the polyhedra decomposition's cell order and centre points, the cellZone field, the
+//                 notes): read_whole keeps it; a read() without it (or with another mesh's) reads its step whole once
+//                 and keeps that step's layout. Then it lists the time directory and decodes its field files through
+//                 the reader's own code, never opening constant/polyMesh.
+//   EnSight       a .case whose geometry ("model:") has no '*' wildcards and no file set (or no time set): one geometry
+//                 for all steps. Its key (ensight_mesh_key) hashes the geometry file's path, size and modification
+//                 time. The layout (EnsightLayout: each part's counts, element sections, polyhedra decomposition, the
+//                 geometry's encoding and notes) is kept by read_whole as for OpenFOAM; the fields-only read parses the
+//                 .case and reads each variable's file with the whole read's code against a mesh-less skeleton of the
+//                 parts, never opening the geometry file. A geometry per step (wildcards, a file set) and a .sos:
+//                 whole.
 //   Files with appended base64 data (whose stored length the header does not give) and other formats have no key:
 //   their steps are read whole.
 // A file that shrinks while its key is hashed is an error naming it and the offset (io/byte_hash.h), which ends the
@@ -103,6 +120,9 @@ struct StepFields {
   std::vector<std::string> warnings;
 };
 
+struct OpenFoamLayout;
+struct EnsightLayout;
+
 // The fields-only reads of one series. Thread-safe: a scene's prefetch thread and its own share one.
 class StepFieldReader {
  public:
@@ -111,7 +131,11 @@ class StepFieldReader {
 
   // Whether every step has the first step's mesh by the format and a fields-only read (Exodus).
   bool static_by_format() const;
-  // One stored geometry key per file of step `step` when every file has one (.vtu, .pvtu, .vtk); nullopt otherwise
+  // Step `step` read whole, as read_time_step reads it; an OpenFOAM step with the constant mesh (an EnSight step of a
+  // case with one geometry) keeps the mesh's layout for later fields-only reads (so read the mesh step shown here).
+  Dataset read_whole(size_t step);
+  // One stored geometry key per file of step `step` when every file has one (.vtu, .pvtu, .vtk; OpenFOAM: one key, the
+  // constant mesh's; EnSight: one key, the static geometry file's); nullopt otherwise
   // (read the step whole). Equal key lists: the same mesh. A .vtu's key (a .pvtu's pieces' keys) is computed once while
   // its size and modification time stay those seen then (a range pass, then the step switches, visit every file again);
   // a file rewritten to the same size within the file system's time stamp granularity (a few milliseconds) would keep
@@ -119,7 +143,7 @@ class StepFieldReader {
   // when a file cannot be read (bad markup, truncated while hashed).
   std::optional<std::vector<uint64_t>> geometry_keys(size_t step) const;
   // Whether step `step` has step `mesh_step`'s mesh as stored: by the format (Exodus) or by equal geometry keys (.vtu,
-  // .pvtu, .vtk).
+  // .pvtu, .vtk, OpenFOAM, EnSight).
   // Then read(step) completes a dataset of mesh_step's grids. False where only a whole read could tell.
   bool has_mesh_of(size_t step, size_t mesh_step) const;
   // Step `step`'s fields; valid where static_by_format() or geometry_keys() says the step has a fields-only read.
@@ -138,10 +162,17 @@ class StepFieldReader {
   std::optional<uint64_t> cached_geometry_key(const std::string& path) const;
   // A .vtu's or .vtk's key (vtu_geometry_key, vtk_legacy_geometry_key), cached by size and modification time.
   std::optional<uint64_t> cached_file_key(const std::string& path) const;
+  // An OpenFOAM step's fields on the kept layout (read whole, keeping its layout, where none of its mesh is kept).
+  StepFields read_openfoam_step(size_t step);
+  // The same for an EnSight step on the kept geometry layout.
+  StepFields read_ensight_step(size_t step);
 
   std::shared_ptr<const TimeSeries> series_;
   std::mutex exodus_mutex_;
   std::unique_ptr<ExodusFieldReader> exodus_;  // opened on the first read
+  std::mutex layout_mutex_;
+  std::shared_ptr<const OpenFoamLayout> foam_layout_;    // of the last constant mesh read whole (read_whole)
+  std::shared_ptr<const EnsightLayout> ensight_layout_;  // of the last static geometry read whole (read_whole)
   mutable std::mutex keys_mutex_;
   mutable std::map<std::string, CachedKey> keys_;  // by file path, see geometry_keys
 };

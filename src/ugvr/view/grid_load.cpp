@@ -23,8 +23,8 @@ GridLoad::GridLoad(std::function<std::shared_ptr<const Dataset>()> load, std::ve
 
 GridLoad::GridLoad(std::shared_ptr<const TimeSeries> series, uint32_t step, std::vector<std::string> fields,
                    int histogram_bins)
-    : series_(std::move(series)), step_(step) {
-  auto load = [s = series_, step] { return std::make_shared<const Dataset>(read_time_step(*s, step)); };
+    : series_(std::move(series)), step_(step), reader_(std::make_shared<StepFieldReader>(series_)) {
+  auto load = [r = reader_, step] { return std::make_shared<const Dataset>(r->read_whole(step)); };
   thread_ = std::thread([this, load = std::move(load), fields = std::move(fields), histogram_bins] {
     run(load, fields, histogram_bins);
   });
@@ -91,7 +91,7 @@ void GridLoad::run(const std::function<std::shared_ptr<const Dataset>()>& load, 
       // does), its ranges united into the shown step's. Progress says which step. A step with the shown step's mesh
       // as stored has its fields read alone, put on a copy of the shown step's grids (`carrier`: copied once, then
       // moved from step to step) for prepare_octree_input; another mesh is read whole.
-      StepFieldReader values(series_);
+      StepFieldReader& values = *reader_;
       std::optional<Dataset> carrier;
       for (uint32_t i = 0; i < series_->size() && !cancel_; ++i) {
         if (i == step_) continue;
@@ -127,6 +127,7 @@ void GridLoad::run(const std::function<std::shared_ptr<const Dataset>()>& load, 
       // A series' scene over the step already read (ExactScene(series, step) would read it again).
       exact->series = series_;
       exact->step = step_;
+      exact->use_step_reader(reader_);
       if (series_->geometry == SeriesGeometry::Detect) exact->geometry = geometry_fingerprint(*dataset);
     }
     std::lock_guard lock(mutex_);

@@ -23,8 +23,9 @@
 #include "ugvr/view/view_protocol.h"
 
 namespace ugvr {
+class StepFieldReader;
 struct ExactScene;
-}
+}  // namespace ugvr
 
 namespace ugvr::view {
 
@@ -72,6 +73,9 @@ class GridLoad {
 
   std::shared_ptr<const TimeSeries> series_;  // null: one dataset
   uint32_t step_ = 0;
+  // The series' fields-only reads: it reads the shown step whole (keeping what an OpenFOAM step's fields need of the
+  // mesh), the range pass's other steps, and goes to the exact scene for its step switches.
+  std::shared_ptr<StepFieldReader> reader_;
   void set(Stage stage, const std::string& label, double fraction);
 
   std::atomic<bool> cancel_{false};

@@ -33,10 +33,15 @@ ExactScene::ExactScene(std::shared_ptr<const Dataset> data, const ProgressCallba
     : dataset(std::move(data)), engine(build_engine(*dataset, progress)) {}
 
 ExactScene::ExactScene(std::shared_ptr<const TimeSeries> s, uint32_t i, const ProgressCallback& progress)
-    : dataset(std::make_shared<Dataset>(read_time_step(*s, i))),
+    : ExactScene(s, i, std::make_shared<StepFieldReader>(s), progress) {}
+
+ExactScene::ExactScene(std::shared_ptr<const TimeSeries> s, uint32_t i, std::shared_ptr<StepFieldReader> reader,
+                       const ProgressCallback& progress)
+    : dataset(std::make_shared<Dataset>(reader->read_whole(i))),
       engine(build_engine(*dataset, progress)),
       series(std::move(s)),
       step(i),
+      step_reader_(std::move(reader)),
       dataset_spare_(true) {
   if (series->geometry == SeriesGeometry::Detect) geometry = geometry_fingerprint(*dataset);
 }
@@ -65,7 +70,7 @@ ExactScene::Prefetched read_step(const TimeSeries& series, StepFieldReader& read
       return p;
     }
   }
-  p.dataset = std::make_shared<Dataset>(read_time_step(series, i));
+  p.dataset = std::make_shared<Dataset>(reader.read_whole(i));
   if (detect) p.fingerprint = geometry_fingerprint(*p.dataset);
   return p;
 }

@@ -33,7 +33,8 @@ namespace ugvr {
 struct ExactScene {
   // Builds the walk mesh (seconds for millions of cells); `progress` sees the stage and may cancel.
   explicit ExactScene(std::shared_ptr<const Dataset> dataset, const ProgressCallback& progress = {});
-  // The scene of a series, showing step `step` (read here).
+  // The scene of a series, showing step `step` (read here, through the series' StepFieldReader, which keeps what later
+  // fields-only reads need of the mesh: an OpenFOAM case's layout).
   ExactScene(std::shared_ptr<const TimeSeries> series, uint32_t step, const ProgressCallback& progress = {});
   std::shared_ptr<const Dataset> dataset;
   ExactEngine engine;
@@ -58,6 +59,11 @@ struct ExactScene {
   // finds it read: playback reads the next step while this one renders. One step ahead; another prefetch waits for
   // this one first. A read error surfaces in set_step(i).
   void prefetch(uint32_t i);
+  // The series' fields-only reads (made on first use: the viewer sets `series` after constructing the scene); a pass
+  // over other steps' values (`ugvr render --time all`'s range) shares it, and with it the mesh's kept layout.
+  StepFieldReader& step_reader();
+  // Makes `reader` the scene's: the reader that read the scene's dataset whole (read_whole) keeps its mesh's layout.
+  void use_step_reader(std::shared_ptr<StepFieldReader> reader) { step_reader_ = std::move(reader); }
   struct Prefetched {
     std::optional<std::vector<uint64_t>> keys;  // the step's stored geometry keys, where its files have them
     std::optional<StepFields> fields;           // read without the mesh (static by format, or `keys` matched)
@@ -81,8 +87,8 @@ struct ExactScene {
   void bind_gpu(const std::string& selector);
 
  private:
-  // The series' fields-only reads (made on first use: the viewer sets `series` after constructing the scene).
-  StepFieldReader& step_reader();
+  ExactScene(std::shared_ptr<const TimeSeries> series, uint32_t step, std::shared_ptr<StepFieldReader> reader,
+             const ProgressCallback& progress);
   // Stored geometry key lists known to hold the mesh shown (those of a step read whole with the mesh's fingerprint
   // join them); nullopt until first needed, then those of the step shown.
   const std::vector<std::vector<uint64_t>>& mesh_keys();
