@@ -36,7 +36,7 @@
 
 namespace ugvr {
 
-// OctreeBuildOptions::max_leaf_cells' default: 262,144 cells, about 21 MB of out-of-core records (tetrahedra with one
+// OctreeBuildOptions::max_leaf_cells' default: 262,144 cells, about 25 MB of out-of-core records (tetrahedra with one
 // vertex field) and 14 MB of the hybrid renderer's prepared cells.
 inline constexpr uint64_t kDefaultMaxLeafCells = uint64_t(1) << 18;
 // How far past max_depth a leaf over max_leaf_cells is split: a cell larger than the node overlaps every child, so
