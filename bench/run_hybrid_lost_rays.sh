@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# The [hybrid] issue's known defect (docs/hybrid.md, "Known defect: cracks"): rays of a converged hybrid frame that
+# come back as the bare background where the exact engine's image of the same camera is not. A generated tetrahedral
+# mesh of N cells is built with its leaves' cells (the flags of bench/run_hybrid_ooc.sh), drawn once by the hybrid
+# engine at SIZE² (full quality: every candidate exact within a 256 MiB cell budget; the camera saved), then by the
+# exact engine (CPU, in core: about 200 bytes a tetrahedron) with that camera; bench/hybrid_lost_rays.py counts.
+# Usage: bench/run_hybrid_lost_rays.sh [N=30000000] [SCRATCH=/tmp/ugvr-lost-rays]   UGVR (default build/ugvr), SIZE (1024)
+# Measured (bench/README.md): 30M tetrahedra, 11 lost pixels of 1,048,576 (200 exact nodes).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+n=${1:-30000000}
+scratch=${2:-/tmp/ugvr-lost-rays}
+ugvr=${UGVR:-$PWD/build/ugvr}
+size=${SIZE:-1024}
+mkdir -p "$scratch"
+vtu="$scratch/tet-$n.vtu" store="$scratch/tet-$n-cells.ugvr"
+[ -f "$vtu" ] || "$ugvr" --quiet generate --cells "$n" --kind tet -o "$vtu" >/dev/null
+[ -f "$store" ] || "$ugvr" --quiet build "$vtu" -o "$store" --out-of-core --cells --memory 1GiB --fields pressure \
+  --error 0.01 --max-depth 8 >/dev/null
+"$ugvr" --quiet render "$store" --engine hybrid --tf viridis --size "$size" --gpu-cell-memory 256MiB \
+  --save-camera "$scratch/camera.json" --stats "$scratch/hybrid.json" -o "$scratch/hybrid.png"
+"$ugvr" --quiet render "$vtu" --engine exact --tf viridis --size "$size" --camera "$scratch/camera.json" \
+  --field pressure -o "$scratch/exact.png"
+python3 - "$scratch/hybrid.json" <<'PY'
+import json, sys
+h = json.load(open(sys.argv[1])).get("hybrid") or {}
+print(json.dumps({k: h.get(k) for k in ("exact_nodes", "exact_cells", "cell_budget_full")}))
+PY
+python3 bench/hybrid_lost_rays.py "$scratch/hybrid.png" "$scratch/exact.png"
+"$ugvr" compare "$scratch/hybrid.png" "$scratch/exact.png"
