@@ -4,7 +4,8 @@
 # mesh of N cells is built with its leaves' cells (the flags of bench/run_hybrid_ooc.sh), drawn once by the hybrid
 # engine at SIZE² (full quality: every candidate exact within a 256 MiB cell budget; the camera saved), then by the
 # exact engine (CPU, in core: about 200 bytes a tetrahedron) with that camera; bench/hybrid_lost_rays.py counts.
-# Usage: bench/run_hybrid_lost_rays.sh [N=30000000] [SCRATCH=/tmp/ugvr-lost-rays]   UGVR (default build/ugvr), SIZE (1024)
+# Usage: bench/run_hybrid_lost_rays.sh [N=30000000] [SCRATCH=/tmp/ugvr-lost-rays]
+#   UGVR (default build/ugvr), SIZE (1024), CELL_MEMORY (256MiB: the cell budget, so which nodes are exact)
 # Measured (bench/README.md): 30M tetrahedra, 11 lost pixels of 1,048,576 (200 exact nodes).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,12 +13,13 @@ n=${1:-30000000}
 scratch=${2:-/tmp/ugvr-lost-rays}
 ugvr=${UGVR:-$PWD/build/ugvr}
 size=${SIZE:-1024}
+cell_memory=${CELL_MEMORY:-256MiB}
 mkdir -p "$scratch"
 vtu="$scratch/tet-$n.vtu" store="$scratch/tet-$n-cells.ugvr"
 [ -f "$vtu" ] || "$ugvr" --quiet generate --cells "$n" --kind tet -o "$vtu" >/dev/null
 [ -f "$store" ] || "$ugvr" --quiet build "$vtu" -o "$store" --out-of-core --cells --memory 1GiB --fields pressure \
   --error 0.01 --max-depth 8 >/dev/null
-"$ugvr" --quiet render "$store" --engine hybrid --tf viridis --size "$size" --gpu-cell-memory 256MiB \
+"$ugvr" --quiet render "$store" --engine hybrid --tf viridis --size "$size" --gpu-cell-memory "$cell_memory" \
   --save-camera "$scratch/camera.json" --stats "$scratch/hybrid.json" -o "$scratch/hybrid.png"
 "$ugvr" --quiet render "$vtu" --engine exact --tf viridis --size "$size" --camera "$scratch/camera.json" \
   --field pressure -o "$scratch/exact.png"
