@@ -4,7 +4,7 @@
 # results written so far always come back. Everything lands in OUT (the device tool's $OUT): log.txt, gpu.jsonl,
 # tests.txt and results.tgz (the images and per-section files).
 # Usage, from the repository root on the GPU machine: bash bench/gpu_device_run.sh
-#   BUNDLE (.gpu/bundle.tar.xz), OUT ($OUT), SECTIONS (default "hybrid exact-gpu slices tricubic view lod"),
+#   BUNDLE (.gpu/bundle.tar.xz), OUT ($OUT), SECTIONS (default "lost-rays hybrid exact-gpu slices tricubic view lod"),
 #   TESTS_SECONDS (150), BENCH_SECONDS (330), SIZE (1024), TEST_FILTER (the GL tests).
 # The set-up (bundle, loader, EGL vendor, the paths compiled into the tests) is bench/gpu_device_env.sh.
 set -u
@@ -20,7 +20,7 @@ grep -E '^\[  FAILED|^\[  SKIPPED' "$out/tests.txt" | sort -u | head -40
 r=/tmp/r
 mkdir -p "$r"
 UGVR=$g/bin/ugvr SEAMS=$g/bin/bench_lod_seams SIZE=${SIZE:-1024} SKIP_BIG=1 \
-  SECTIONS=${SECTIONS:-hybrid exact-gpu slices tricubic view lod} timeout "${BENCH_SECONDS:-330}" \
+  SECTIONS=${SECTIONS:-lost-rays hybrid exact-gpu slices tricubic view lod} timeout "${BENCH_SECONDS:-330}" \
   bash bench/run_gpu.sh "$r" /tmp/s
 echo "run_gpu: exit $?"
 cp "$r/gpu.jsonl" "$out/gpu.jsonl" 2>/dev/null

@@ -12,7 +12,8 @@
 # the oxygen post refined two levels (`ugvr refine --levels 2`, 32.9M tets) at SIZE, and the demo mesh at 1920x1080
 # with the LOD engine's frame at 1920x1080 beside it; double and float walk arithmetic; device bytes per cell.
 # hybrid: run_hybrid.sh (exact cells in the leaves, voxels elsewhere, against the exact engine) at SIZE; slices:
-# run_slices.sh (cutting planes against the exact engine, frame time with and without); tricubic: run_tricubic.sh.
+# run_slices.sh (cutting planes against the exact engine, frame time with and without); tricubic: run_tricubic.sh;
+# lost-rays: run_hybrid_lost_rays.sh (llvmpipe loses a few hybrid rays at 30M: does a GPU?).
 # Writes OUT_DIR/gpu.jsonl (a `session` line naming the GPU, then every result line of the scripts it runs), the
 # images, and OUT_DIR/log.txt. It runs the same on llvmpipe, where it measures llvmpipe.
 set -euo pipefail
@@ -168,6 +169,13 @@ echo "== tricubic isosurfaces (run_tricubic.sh)"
 n=$(lines bench/results/tricubic.jsonl)
 SIZE=$size FRAMES=$((frames / 2 + 2)) bash bench/run_tricubic.sh "$scratch/tricubic"
 collect bench/results/tricubic.jsonl "$n"
+}
+
+section_lost_rays() {
+echo "== hybrid rays lost against the exact engine, 30M tetrahedra (run_hybrid_lost_rays.sh)"
+n=$(lines bench/results/hybrid_lost_rays.jsonl)
+SIZE=$size bash bench/run_hybrid_lost_rays.sh "${LOST_RAYS_CELLS:-30000000}" "$scratch/lost-rays"
+collect bench/results/hybrid_lost_rays.jsonl "$n"
 }
 
 # Each section runs in order; one that fails is reported and the next still runs (a device lease is short).

@@ -23,10 +23,21 @@ vtu="$scratch/tet-$n.vtu" store="$scratch/tet-$n-cells.ugvr"
   --save-camera "$scratch/camera.json" --stats "$scratch/hybrid.json" -o "$scratch/hybrid.png"
 "$ugvr" --quiet render "$vtu" --engine exact --tf viridis --size "$size" --camera "$scratch/camera.json" \
   --field pressure -o "$scratch/exact.png"
-python3 - "$scratch/hybrid.json" <<'PY'
-import json, sys
-h = json.load(open(sys.argv[1])).get("hybrid") or {}
-print(json.dumps({k: h.get(k) for k in ("exact_nodes", "exact_cells", "cell_budget_full")}))
+"$ugvr" compare "$scratch/hybrid.png" "$scratch/exact.png" --json "$scratch/compare.json" >/dev/null
+python3 bench/hybrid_lost_rays.py "$scratch/hybrid.png" "$scratch/exact.png" >"$scratch/lost.json"
+# One line a run in bench/results/hybrid_lost_rays.jsonl (run_gpu.sh's lost-rays section collects it on a GPU).
+mkdir -p bench/results
+python3 - "$scratch" "$n" "$size" "$cell_memory" "$(git rev-parse --short HEAD 2>/dev/null || echo unknown)" \
+  "$(cut -d' ' -f1 /proc/loadavg)" <<'PY' | tee -a bench/results/hybrid_lost_rays.jsonl
+import json, os, sys
+scratch, n, size, cell_memory, commit, load = sys.argv[1:]
+h = json.load(open(f"{scratch}/hybrid.json"))
+lost = json.load(open(f"{scratch}/lost.json"))
+c = json.load(open(f"{scratch}/compare.json"))
+hy = h.get("hybrid") or {}
+print(json.dumps({"bench": "hybrid_lost_rays", "commit": commit, "renderer": h.get("renderer"), "n": int(n),
+                  "size": int(size), "cell_memory": cell_memory, "entry_grid": os.environ.get("UGVR_HYBRID_ENTRY_GRID", "1"),
+                  "exact_nodes": hy.get("exact_nodes"), "exact_cells": hy.get("exact_cells"), "lost": lost["lost"],
+                  "differing": lost["differing"], "first_lost": lost["first_lost"][:5], "psnr_db": c.get("psnr_db"),
+                  "ssim": c.get("ssim"), "load": float(load)}))
 PY
-python3 bench/hybrid_lost_rays.py "$scratch/hybrid.png" "$scratch/exact.png"
-"$ugvr" compare "$scratch/hybrid.png" "$scratch/exact.png"
