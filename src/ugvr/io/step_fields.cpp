@@ -7,6 +7,7 @@
 #include "ugvr/io/byte_hash.h"
 #include "ugvr/io/ensight_fields.h"
 #include "ugvr/io/openfoam_reader.h"
+#include "ugvr/io/plot3d_fields.h"
 #include "ugvr/io/pvtu_pieces.h"
 
 namespace ugvr {
@@ -124,6 +125,16 @@ Dataset StepFieldReader::read_whole(size_t step) {
     }
     return ds;
   }
+  if (series_->kind == SeriesKind::Plot3d) {
+    std::shared_ptr<const Plot3dLayout> layout;
+    Dataset ds = read_plot3d(st.files[0], st.files[1], &layout);
+    ds.format += series_step_label(*series_, step);
+    if (plot3d_layout_mesh_key(*layout)) {
+      std::lock_guard lock(layout_mutex_);
+      plot3d_layout_ = std::move(layout);
+    }
+    return ds;
+  }
   return read_time_step(*series_, step);
 }
 
@@ -136,6 +147,8 @@ std::optional<std::vector<uint64_t>> StepFieldReader::geometry_keys(size_t step)
     if (!key) return std::nullopt;
     return std::vector<uint64_t>{*key};
   }
+  if (series_->kind == SeriesKind::Plot3d && step < series_->size())
+    return std::vector<uint64_t>{plot3d_mesh_key(series_->steps[step].files[0])};
   if (!steps_are_files(series_->kind) || step >= series_->size()) return std::nullopt;
   std::vector<uint64_t> keys;
   for (const std::string& file : series_->steps[step].files) {
@@ -164,6 +177,7 @@ StepFields StepFieldReader::read(size_t step) {
   }
   if (series_->kind == SeriesKind::OpenFoam) return read_openfoam_step(step);
   if (series_->kind == SeriesKind::EnSight) return read_ensight_step(step);
+  if (series_->kind == SeriesKind::Plot3d) return read_plot3d_step(step);
   if (!steps_are_files(series_->kind))
     fail_in(series_->source, "time step " + std::to_string(step) + " has no fields-only read (read it whole)");
   std::string legacy_format;  // a .vtk's, as its whole read gives it
@@ -225,6 +239,22 @@ StepFields StepFieldReader::read_ensight_step(size_t step) {
   if (!layout || ensight_layout_mesh_key(*layout) != key) return fields_of(read_whole(step));
   StepFields out;
   out.blocks = read_ensight_fields(*layout, st.files[0], st.reader_step, out.format, out.sources, out.warnings);
+  return out;
+}
+
+StepFields StepFieldReader::read_plot3d_step(size_t step) {
+  const TimeStep& st = series_->steps[step];
+  const uint64_t key = plot3d_mesh_key(st.files[0]);
+  std::shared_ptr<const Plot3dLayout> layout;
+  {
+    std::lock_guard lock(layout_mutex_);
+    layout = plot3d_layout_;
+  }
+  // No layout of this grid kept yet, or the grid file changed since: this step read whole keeps one.
+  if (!layout || plot3d_layout_mesh_key(*layout) != key) return fields_of(read_whole(step));
+  StepFields out;
+  out.blocks = read_plot3d_fields(*layout, st.files[1], out.format, out.sources, out.warnings);
+  out.format += series_step_label(*series_, step);
   return out;
 }
 

@@ -41,6 +41,12 @@
 //                 .case and reads each variable's file with the whole read's code against a mesh-less skeleton of the
 //                 parts, never opening the geometry file. A geometry per step (wildcards, a file set) and a .sos:
 //                 whole.
+//   PLOT3D        (a grid file and a .q file per step) a step whose grid file is the one read: its key
+//                 (plot3d_mesh_key) hashes the grid file's path, size and modification time. The layout
+//                 (Plot3dLayout: the byte order, records, blocking, precision, IBLANK and block dimensions detected
+//                 from the grid) is kept by read_whole as for OpenFOAM; the fields-only read checks and decodes the
+//                 step's .q file with the whole read's code (plan_q, read_solution), never opening the grid file. A
+//                 tiny grid whose layout only the solution file could decide keeps no layout: its steps read whole.
 //   Files with appended base64 data (whose stored length the header does not give) and other formats have no key:
 //   their steps are read whole.
 // A file that shrinks while its key is hashed is an error naming it and the offset (io/byte_hash.h), which ends the
@@ -122,6 +128,7 @@ struct StepFields {
 
 struct OpenFoamLayout;
 struct EnsightLayout;
+struct Plot3dLayout;
 
 // The fields-only reads of one series. Thread-safe: a scene's prefetch thread and its own share one.
 class StepFieldReader {
@@ -132,10 +139,11 @@ class StepFieldReader {
   // Whether every step has the first step's mesh by the format and a fields-only read (Exodus).
   bool static_by_format() const;
   // Step `step` read whole, as read_time_step reads it; an OpenFOAM step with the constant mesh (an EnSight step of a
-  // case with one geometry) keeps the mesh's layout for later fields-only reads (so read the mesh step shown here).
+  // case with one geometry, a PLOT3D step) keeps the mesh's layout for later fields-only reads (so read the mesh step
+  // shown here).
   Dataset read_whole(size_t step);
   // One stored geometry key per file of step `step` when every file has one (.vtu, .pvtu, .vtk; OpenFOAM: one key, the
-  // constant mesh's; EnSight: one key, the static geometry file's); nullopt otherwise
+  // constant mesh's; EnSight: one key, the static geometry file's; PLOT3D: one key, the grid file's); nullopt otherwise
   // (read the step whole). Equal key lists: the same mesh. A .vtu's key (a .pvtu's pieces' keys) is computed once while
   // its size and modification time stay those seen then (a range pass, then the step switches, visit every file again);
   // a file rewritten to the same size within the file system's time stamp granularity (a few milliseconds) would keep
@@ -143,7 +151,7 @@ class StepFieldReader {
   // when a file cannot be read (bad markup, truncated while hashed).
   std::optional<std::vector<uint64_t>> geometry_keys(size_t step) const;
   // Whether step `step` has step `mesh_step`'s mesh as stored: by the format (Exodus) or by equal geometry keys (.vtu,
-  // .pvtu, .vtk, OpenFOAM, EnSight).
+  // .pvtu, .vtk, OpenFOAM, EnSight, PLOT3D).
   // Then read(step) completes a dataset of mesh_step's grids. False where only a whole read could tell.
   bool has_mesh_of(size_t step, size_t mesh_step) const;
   // Step `step`'s fields; valid where static_by_format() or geometry_keys() says the step has a fields-only read.
@@ -166,6 +174,8 @@ class StepFieldReader {
   StepFields read_openfoam_step(size_t step);
   // The same for an EnSight step on the kept geometry layout.
   StepFields read_ensight_step(size_t step);
+  // The same for a PLOT3D step (its .q file) on the kept grid layout.
+  StepFields read_plot3d_step(size_t step);
 
   std::shared_ptr<const TimeSeries> series_;
   std::mutex exodus_mutex_;
@@ -173,6 +183,7 @@ class StepFieldReader {
   std::mutex layout_mutex_;
   std::shared_ptr<const OpenFoamLayout> foam_layout_;    // of the last constant mesh read whole (read_whole)
   std::shared_ptr<const EnsightLayout> ensight_layout_;  // of the last static geometry read whole (read_whole)
+  std::shared_ptr<const Plot3dLayout> plot3d_layout_;    // of the last PLOT3D grid read whole (read_whole)
   mutable std::mutex keys_mutex_;
   mutable std::map<std::string, CachedKey> keys_;  // by file path, see geometry_keys
 };
