@@ -8,8 +8,9 @@
 //   bind     the field swap alone (the step already in memory): ExactEngine::set_field
 //   playback set_step after ExactScene::prefetch of that step and a --size frame of the current one (what `ugvr render
 //            --time` does): the read overlaps the frame, the switch waits only for what is left of it
-//   --read-pairs  the step's read alone, alternated round by round on the same step: whole (read_time_step and the
-//            geometry fingerprint, what a switch read before fields-only reads) then fields only (StepFieldReader::read
+//   --read-pairs  the step's read alone, alternated round by round on the same step: whole (read_time_step and, where
+//            the series detects its geometry, the geometry fingerprint: what a switch read before fields-only reads; a
+//            series static by its format, PLOT3D's, was not fingerprinted) then fields only (StepFieldReader::read
 //            with the mesh's layout kept by read_whole of step 0); `whole_read_seconds`, `fields_read_seconds` and
 //            `speedup_fields_read` (their medians' ratio) are added, and `read_pairs`: each pair's two seconds
 // Prints one JSON line (`rebuilds`, `fields_only`: the switches that rebuilt the walk mesh, that read the step without
@@ -112,8 +113,10 @@ int main(int argc, char** argv) {
         const auto t0 = std::chrono::steady_clock::now();
         {
           const Dataset whole = read_time_step(*series, k);
-          volatile uint64_t fingerprint = geometry_fingerprint(whole);
-          (void)fingerprint;
+          if (series->geometry == SeriesGeometry::Detect) {
+            volatile uint64_t fingerprint = geometry_fingerprint(whole);
+            (void)fingerprint;
+          }
         }
         whole_read.push_back(seconds_since(t0));
         const auto t1 = std::chrono::steady_clock::now();

@@ -1,20 +1,28 @@
 // The CGNS reader (io/cgns_reader.cpp): the shared structured sample against VTK 9.1's counts and values, and
 // unstructured files written here by libcgns itself (ADF and HDF5; per-type, MIXED and NGON/NFACE sections; rind;
-// iterative data) read back to the mesh and fields they were written from.
+// iterative data) read back to the mesh and fields they were written from. Fields-only steps (io/step_fields.h): a
+// file whose steps are FlowSolutionPointers on a grid that does not move reads a step's solution alone, bit for bit the
+// whole read.
 #include <cgnslib.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <set>
 
 #include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/gen/generator.h"
+#include "ugvr/io/cgns_fields.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/step_fields.h"
+#include "ugvr/io/time_series.h"
 #include "ugvr/io/vtu_writer.h"
+#include "ugvr/render/exact/exact_renderer.h"
 
 namespace ugvr {
 namespace {
@@ -76,8 +84,10 @@ std::vector<cgsize_t> cgns_nodes(const UnstructuredMesh& m, uint64_t c) {
   return n;
 }
 
-// Writes the first block of `ds` (an unstructured mesh with point field "pressure" and a cell field) as a CGNS file.
-void write_unstructured(const std::string& path, const Dataset& ds, Layout layout, int file_type) {
+// Writes the first block of `ds` (an unstructured mesh with point field "pressure" and a cell field) as a CGNS file;
+// `more(fn)` may add nodes to its zone (base 1, zone 1) before the file is closed.
+void write_unstructured(const std::string& path, const Dataset& ds, Layout layout, int file_type,
+                        const std::function<void(int)>& more = {}) {
   const auto& mesh = std::get<UnstructuredMesh>(ds.blocks[0].grid);
   CG(cg_set_file_type(file_type));
   int fn = 0, B = 0, Z = 0;
@@ -167,6 +177,7 @@ void write_unstructured(const std::string& path, const Dataset& ds, Layout layou
       CG(cg_field_write(fn, B, Z, sol, RealDouble, name.c_str(), v.data(), &F));
     }
   }
+  if (more) more(fn);
   CG(cg_close(fn));
 }
 
@@ -431,6 +442,190 @@ TEST(CgnsReader, FilesWithoutACgnsHeaderAreRefusedNotAborted) {
     write_unstructured(path, ds, Layout::PerType, format);
     EXPECT_EQ(read_dataset(std::vector<std::string>{path}).cell_count(), ds.cell_count());
   }
+}
+
+// ---- Fields-only steps
+
+// Field sets equal bit for bit: names, associations, types, shapes and stored bytes, in order.
+void expect_same_bits(const FieldSet& a, const FieldSet& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    SCOPED_TRACE(a[i].name());
+    EXPECT_EQ(a[i].name(), b[i].name());
+    EXPECT_EQ(a[i].association(), b[i].association());
+    ASSERT_EQ(a[i].data().type(), b[i].data().type());
+    ASSERT_EQ(a[i].data().tuples(), b[i].data().tuples());
+    ASSERT_EQ(a[i].data().components(), b[i].data().components());
+    EXPECT_EQ(std::memcmp(a[i].data().bytes(), b[i].data().bytes(), a[i].data().byte_size()), 0);
+  }
+}
+
+// A fields-only read of step k equals read_time_step(k) but for the grids: fields, format, sources, notes.
+void expect_whole_read(const TimeSeries& series, const StepFields& fields, size_t k) {
+  SCOPED_TRACE("step " + std::to_string(k));
+  const Dataset whole = read_time_step(series, k);
+  ASSERT_EQ(fields.blocks.size(), whole.blocks.size());
+  for (size_t b = 0; b < whole.blocks.size(); ++b) expect_same_bits(fields.blocks[b], whole.blocks[b].fields);
+  EXPECT_EQ(fields.format, whole.format);
+  EXPECT_EQ(fields.sources, whole.sources);
+  EXPECT_EQ(fields.warnings, whole.warnings);
+}
+
+// Adds `steps` FlowSolutions to zone 1 of the file open as `fn` (written by write_unstructured without fields) and the
+// iterative data naming one per step (`pointer(k)`, default "Step<k>"): step k has a vertex field Q = k + i / 8 and a
+// vector P (PX, PY, PZ), except step 1, at the cell centres (Q = 100 k + c / 4).
+void add_steps(int fn, const UnstructuredMesh& mesh, int steps, const std::function<std::string(int)>& pointer = {}) {
+  for (int k = 0; k < steps; ++k) {
+    const bool cells = k == 1;
+    const std::string name = "Step" + std::to_string(k);
+    int sol = 0, F = 0;
+    CG(cg_sol_write(fn, 1, 1, name.c_str(), cells ? CellCenter : Vertex, &sol));
+    const size_t n = cells ? mesh.cell_count() : mesh.point_count();
+    std::vector<double> q(n);
+    for (size_t i = 0; i < n; ++i) q[i] = cells ? 100.0 * k + double(i) / 4 : k + double(i) / 8;
+    CG(cg_field_write(fn, 1, 1, sol, RealDouble, "Q", q.data(), &F));
+    if (cells) continue;
+    for (const char* axis : {"PX", "PY", "PZ"}) {
+      for (size_t i = 0; i < n; ++i) q[i] = double(axis[1]) * k - double(i);
+      CG(cg_field_write(fn, 1, 1, sol, RealDouble, axis, q.data(), &F));
+    }
+  }
+  CG(cg_ziter_write(fn, 1, 1, "ZoneIterativeData"));
+  CG(cg_goto(fn, 1, "Zone_t", 1, "ZoneIterativeData_t", 1, "end"));
+  std::vector<char> pointers(size_t(32 * steps), ' ');
+  for (int k = 0; k < steps; ++k) {
+    const std::string name = pointer ? pointer(k) : "Step" + std::to_string(k);
+    std::copy(name.begin(), name.end(), pointers.begin() + 32 * k);
+  }
+  cgsize_t dims[2] = {32, steps};
+  CG(cg_array_write("FlowSolutionPointers", Character, 2, dims, pointers.data()));
+  CG(cg_biter_write(fn, 1, "BaseIterativeData", steps));
+}
+
+std::shared_ptr<const TimeSeries> series_of(const std::string& path) {
+  return std::make_shared<const TimeSeries>(list_time_steps(std::span<const std::string>(&path, 1)));
+}
+
+Dataset mesh_without_fields() {
+  Dataset ds = small_mixed_mesh();
+  ds.blocks[0].fields = FieldSet{};
+  return ds;
+}
+
+// ADF and HDF5, a MIXED section (a boundary section beside it skipped with a note) and polyhedra (NFACE_n: through the
+// decomposition's expansion; not per-type sections: a section per run of one type is hundreds of nodes here, and
+// libcgns took 200 ms to open such a file): each step's solution read alone equals the whole read bit for bit (vertex
+// and cell fields, the vector grouped, the notes: the mesh's and the step's "time step k of 3"), and reads fewer bytes
+// than it. Through the scene, switches swap the fields on the walk mesh built once.
+TEST(CgnsSteps, StaticMeshStepsReadTheirSolutionAloneBitForBit) {
+  ScratchDir dir;
+  const Dataset ds = mesh_without_fields();
+  const auto& mesh = std::get<UnstructuredMesh>(ds.blocks[0].grid);
+  for (const int file_type : {CG_FILE_ADF, CG_FILE_HDF5}) {
+    for (const Layout layout : {Layout::Mixed, Layout::Polyhedra}) {
+      SCOPED_TRACE(std::to_string(file_type) + (layout == Layout::Mixed ? " mixed" : " polyhedra"));
+      const std::string path = dir.file("steps.cgns");
+      std::filesystem::remove(path);
+      write_unstructured(path, ds, layout, file_type, [&](int fn) { add_steps(fn, mesh, 3); });
+      const auto series = series_of(path);
+      ASSERT_EQ(series->kind, SeriesKind::Cgns);
+      ASSERT_EQ(series->size(), 3u);
+      StepFieldReader reader(series);
+      reader.read_whole(0);
+      const auto k0 = reader.geometry_keys(0);
+      ASSERT_TRUE(k0.has_value());
+      EXPECT_EQ(reader.geometry_keys(2), k0);
+      EXPECT_TRUE(reader.has_mesh_of(2, 0));
+      for (size_t k : {2u, 1u, 0u}) expect_whole_read(*series, reader.read(k), k);
+      EXPECT_NE(reader.read(0).blocks[0].find("P"), nullptr) << "PX, PY, PZ grouped";
+      EXPECT_EQ(reader.read(1).blocks[0].find("Q")->association(), Association::Cell);
+      if (test::bytes_read_so_far() != 0) {
+        uint64_t before = test::bytes_read_so_far();
+        reader.read(2);
+        const uint64_t fields_only = test::bytes_read_so_far() - before;
+        before = test::bytes_read_so_far();
+        read_time_step(*series, 2);
+        const uint64_t whole = test::bytes_read_so_far() - before;
+        EXPECT_LT(fields_only, whole) << "no coordinates nor element sections";
+      }
+    }
+  }
+  const auto series = series_of(dir.file("steps.cgns"));
+  ExactScene scene(series, 0);
+  scene.bind("Q");
+  for (uint32_t k : {2u, 0u}) {
+    scene.set_step(k);
+    ExactScene fresh(std::make_shared<const Dataset>(read_time_step(*series, k)));
+    fresh.bind("Q");
+    EXPECT_EQ(scene.engine.bound_values(), fresh.engine.bound_values()) << k;
+  }
+  EXPECT_EQ(scene.fields_only, 2u);
+  EXPECT_EQ(scene.rebuilds, 0u);
+}
+
+// The shared 12-zone structured sample (cell-centred solutions, no iterative data: every solution read): the fields
+// read on the kept layout equal the whole read's, zone by zone, and its notes in order.
+TEST(CgnsSteps, TheTwelveZoneSampleReadOnItsLayoutEqualsTheWholeRead) {
+  UGVR_REQUIRE_DATA("cgns-sqnz/sqnz_s.adf.cgns");
+  std::shared_ptr<const CgnsLayout> layout;
+  const Dataset whole = read_cgns(relative_data_path, -1, &layout);
+  ASSERT_TRUE(cgns_layout_mesh_key(*layout).has_value());
+  std::string format;
+  std::vector<std::string> sources, notes;
+  const std::vector<FieldSet> fields = read_cgns_fields(*layout, relative_data_path, -1, format, sources, notes);
+  ASSERT_EQ(fields.size(), 12u);
+  for (size_t b = 0; b < 12; ++b) expect_same_bits(fields[b], whole.blocks[b].fields);
+  EXPECT_EQ(format, whole.format);
+  EXPECT_EQ(sources, whole.sources);
+  EXPECT_EQ(notes, whole.warnings);
+}
+
+// A zone with an ArbitraryGridMotion has no key: its steps are read whole (a pass over the values too). A pointer to a
+// solution the zone lacks: the fields-only read fails with the whole read's error, and a switch to that step leaves
+// the scene on its step.
+TEST(CgnsSteps, AMovingGridIsReadWholeAndABadPointerIsTheWholeReadsError) {
+  ScratchDir dir;
+  const Dataset ds = mesh_without_fields();
+  const auto& mesh = std::get<UnstructuredMesh>(ds.blocks[0].grid);
+  const std::string moving = dir.file("moving.cgns");
+  write_unstructured(moving, ds, Layout::Mixed, CG_FILE_HDF5, [&](int fn) {
+    add_steps(fn, mesh, 2);
+    int A = 0;
+    CG(cg_arbitrary_motion_write(fn, 1, 1, "Motion", DeformingGrid, &A));
+  });
+  const auto series = series_of(moving);
+  StepFieldReader reader(series);
+  reader.read_whole(0);
+  EXPECT_FALSE(reader.geometry_keys(1).has_value());
+  EXPECT_FALSE(reader.has_mesh_of(1, 0));
+  expect_whole_read(*series, reader.read_values(1, 0), 1);
+
+  const std::string bad = dir.file("bad.cgns");
+  write_unstructured(bad, ds, Layout::Mixed, CG_FILE_HDF5, [&](int fn) {
+    add_steps(fn, mesh, 3, [](int k) { return k == 2 ? std::string("Missing") : "Step" + std::to_string(k); });
+  });
+  const auto bad_series = series_of(bad);
+  StepFieldReader bad_reader(bad_series);
+  bad_reader.read_whole(0);
+  ASSERT_TRUE(bad_reader.has_mesh_of(2, 0));
+  std::string whole;
+  try {
+    read_time_step(*bad_series, 2);
+  } catch (const Error& e) {
+    whole = e.what();
+  }
+  EXPECT_NE(whole.find("names 'Missing'"), std::string::npos) << whole;
+  try {
+    bad_reader.read(2);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), whole);
+  }
+  ExactScene scene(bad_series, 0);
+  EXPECT_THROW(scene.set_step(2), Error);
+  EXPECT_EQ(scene.step, 0u);
+  scene.set_step(1);
+  EXPECT_EQ(scene.fields_only, 1u);
 }
 
 }  // namespace

@@ -179,7 +179,9 @@ TEST(OutOfCoreCells, SameBlocksAsInCore) {
         EXPECT_GT(b.leaves_in_pieces, 0u) << "no leaf in pieces";
       }
       // 150 cells of records fit the 64 KiB a worker has at the least: no leaf is sampled (and welded) in pieces.
-      if (c.max_leaf_cells < 3000) EXPECT_EQ(b.leaves_in_pieces, 0u);
+      if (c.max_leaf_cells < 3000) {
+        EXPECT_EQ(b.leaves_in_pieces, 0u);
+      }
     }
   }
 }

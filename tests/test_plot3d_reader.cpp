@@ -1,12 +1,15 @@
 // PLOT3D reader: the two real datasets (checked against their published ranges), every layout the reader detects
 // written synthetically and read back value by value, and malformed files that must fail with ugvr::Error naming the
-// file.
+// file. Fields-only steps (io/step_fields.h): a series' later steps read their .q file alone, bit for bit the whole
+// read.
 #include <gtest/gtest.h>
 
 #include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <random>
@@ -16,6 +19,9 @@
 #include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/io/reader.h"
+#include "ugvr/io/step_fields.h"
+#include "ugvr/io/time_series.h"
+#include "ugvr/render/exact/exact_renderer.h"
 
 namespace ugvr {
 namespace {
@@ -633,6 +639,143 @@ TEST_F(Plot3dMalformed, EmptyAndMissingFiles) {
   EXPECT_NE(fails("grid.xyz").find("size of 0 bytes"), std::string::npos);
   std::filesystem::remove(xyz());
   EXPECT_NE(fails("grid.xyz").find("cannot open"), std::string::npos);
+}
+
+// ---- Fields-only steps
+
+// Field sets equal bit for bit: names, associations, types, shapes and stored bytes, in order.
+void expect_same_bits(const FieldSet& a, const FieldSet& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    SCOPED_TRACE(a[i].name());
+    EXPECT_EQ(a[i].name(), b[i].name());
+    EXPECT_EQ(a[i].association(), b[i].association());
+    ASSERT_EQ(a[i].data().type(), b[i].data().type());
+    ASSERT_EQ(a[i].data().tuples(), b[i].data().tuples());
+    ASSERT_EQ(a[i].data().components(), b[i].data().components());
+    EXPECT_EQ(std::memcmp(a[i].data().bytes(), b[i].data().bytes(), a[i].data().byte_size()), 0);
+  }
+}
+
+// A fields-only read of step k equals read_time_step(k) but for the grids: fields, format, sources, warnings.
+void expect_whole_read(const TimeSeries& series, const StepFields& fields, size_t k) {
+  SCOPED_TRACE("step " + std::to_string(k));
+  const Dataset whole = read_time_step(series, k);
+  ASSERT_EQ(fields.blocks.size(), whole.blocks.size());
+  for (size_t b = 0; b < whole.blocks.size(); ++b) expect_same_bits(fields.blocks[b], whole.blocks[b].fields);
+  EXPECT_EQ(fields.format, whole.format);
+  EXPECT_EQ(fields.sources, whole.sources);
+  EXPECT_EQ(fields.warnings, whole.warnings);
+}
+
+// A series of `count` steps on one grid (`blocks`): step k's solution has its density, energy and time raised by k, so
+// every step's values differ; step 1's block 1 has its own Q header (a warning) and step 2 trailing padding (another).
+std::shared_ptr<const TimeSeries> write_series(const ScratchDir& dir, const Spec& s, std::vector<SynthBlock> blocks,
+                                               int count) {
+  std::vector<std::string> inputs{dir.file("grid.xyz")};
+  write_file(inputs[0], grid_bytes(s, blocks));
+  for (int k = 0; k < count; ++k) {
+    std::vector<SynthBlock> step = blocks;
+    for (SynthBlock& b : step) {
+      for (double& v : b.rho) v += k;
+      for (double& v : b.energy) v += 2.0 * k;
+      b.qheader = {2.5, 0.5, 1000.0, 7.25 + k};  // one header for every block
+    }
+    if (k == 1 && step.size() > 1) step[1].qheader[0] += 1;
+    inputs.push_back(dir.file("sol_" + std::to_string(k) + ".q"));
+    write_file(inputs.back(), q_bytes(s, step) + (k == 2 ? std::string(64, '\0') : std::string()));
+  }
+  return std::make_shared<const TimeSeries>(list_time_steps(inputs));
+}
+
+// A grid rewritten as garbage of its own size, its time stamp put back: its mesh key stays, a whole read fails.
+void spoil_keeping_size_and_time(const std::string& path) {
+  const auto stamp = std::filesystem::last_write_time(path);
+  write_file(path, std::string(std::filesystem::file_size(path), 'x'));
+  std::filesystem::last_write_time(path, stamp);
+}
+
+// Multi-block series in two layouts (float32 C binary with IBLANK, big-endian; float64 Fortran records, little-endian):
+// each step's solution read alone equals the whole read bit for bit (fields, format with the step's Q header, sources,
+// warnings). The grid file is then overwritten with garbage of its size and its time stamp put back: the fields-only
+// reads still give the same fields (the grid is never opened) while a whole read fails on it.
+TEST(Plot3dSteps, LaterStepsReadTheirSolutionAloneBitForBit) {
+  for (const Spec& s : {Spec{.big = true, .multi = true, .iblank = true},
+                        Spec{.big = false, .fortran = true, .multi = true, .precision = 8}}) {
+    SCOPED_TRACE(s.precision == 4 ? "float32 C IBLANK" : "float64 Fortran");
+    ScratchDir dir;
+    const auto series = write_series(dir, s, {make_block({3, 4, 2}, 0), make_block({2, 3, 5}, 1)}, 3);
+    ASSERT_EQ(series->kind, SeriesKind::Plot3d);
+    StepFieldReader reader(series);
+    reader.read_whole(0);
+    const auto k0 = reader.geometry_keys(0);
+    ASSERT_TRUE(k0.has_value());
+    EXPECT_EQ(reader.geometry_keys(2), k0);
+    EXPECT_TRUE(reader.has_mesh_of(2, 0));
+    for (size_t k : {2u, 1u, 0u}) expect_whole_read(*series, reader.read(k), k);
+    EXPECT_EQ(reader.read(1).warnings.size(), 1u) << "block 1's own Q header";
+    EXPECT_EQ(reader.read(2).warnings.size(), 1u) << "the padding";
+
+    std::vector<StepFields> before;
+    for (size_t k = 0; k < 3; ++k) before.push_back(reader.read(k));
+    spoil_keeping_size_and_time(series->source);
+    EXPECT_EQ(reader.geometry_keys(1), k0);
+    for (size_t k = 0; k < 3; ++k) {
+      const StepFields after = reader.read(k);
+      ASSERT_EQ(after.blocks.size(), 2u);
+      for (size_t b = 0; b < 2; ++b) expect_same_bits(after.blocks[b], before[k].blocks[b]);
+      EXPECT_EQ(after.format, before[k].format);
+    }
+    EXPECT_NE(error_of([&] { read_time_step(*series, 1); }).find("grid.xyz"), std::string::npos)
+        << "the whole read opens the grid";
+  }
+}
+
+// Through the exact scene: every switch swaps the fields on the walk mesh built once, the values those of a scene made
+// from the step alone; a prefetched step too.
+TEST(Plot3dSteps, TheSceneSwitchesStepsFieldsOnly) {
+  ScratchDir dir;
+  const auto series = write_series(dir, Spec{.multi = true}, {make_block({4, 3, 3}, 0), make_block({3, 3, 4}, 1)}, 3);
+  ExactScene scene(series, 0);
+  scene.bind("Density");
+  for (uint32_t k : {2u, 1u}) {
+    scene.set_step(k);
+    ExactScene fresh(std::make_shared<const Dataset>(read_time_step(*series, k)));
+    fresh.bind("Density");
+    EXPECT_EQ(scene.engine.bound_values(), fresh.engine.bound_values()) << k;
+  }
+  scene.prefetch(0);
+  scene.set_step(0);
+  EXPECT_EQ(scene.fields_only, 3u);
+  EXPECT_EQ(scene.rebuilds, 0u);
+}
+
+// A truncated .q file: the fields-only read fails with the whole read's error (naming the file and the offset), and a
+// switch to it leaves the scene on its step. A tiny grid whose layout only the solution decided keeps no layout: its
+// steps are read whole (a spoiled grid then fails them).
+TEST(Plot3dSteps, ATruncatedSolutionFailsAsTheWholeReadAndAnAmbiguousGridReadsWhole) {
+  ScratchDir dir;
+  const auto series = write_series(dir, Spec{.fortran = true, .multi = true}, {make_block({3, 2, 2}, 0)}, 3);
+  const std::string q1 = series->steps[1].files[1];
+  StepFieldReader reader(series);
+  reader.read_whole(0);
+  std::filesystem::resize_file(q1, std::filesystem::file_size(q1) - 10);
+  const std::string whole = error_of([&] { read_time_step(*series, 1); });
+  EXPECT_NE(whole.find("sol_1.q"), std::string::npos) << whole;
+  EXPECT_EQ(error_of([&] { reader.read(1); }), whole);
+  ExactScene scene(series, 0);
+  EXPECT_EQ(error_of([&] { scene.set_step(1); }), whole);
+  EXPECT_EQ(scene.step, 0u);
+  scene.set_step(2);
+  EXPECT_EQ(scene.fields_only, 1u);
+
+  ScratchDir tiny_dir;
+  const auto tiny = write_series(tiny_dir, Spec{.multi = true}, {make_block({1, 1, 1}, 0)}, 2);
+  StepFieldReader tiny_reader(tiny);
+  tiny_reader.read_whole(0);
+  expect_whole_read(*tiny, tiny_reader.read(1), 1);
+  spoil_keeping_size_and_time(tiny->source);
+  EXPECT_NE(error_of([&] { tiny_reader.read(1); }).find("grid.xyz"), std::string::npos);
 }
 
 }  // namespace

@@ -26,6 +26,8 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -33,6 +35,8 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/grid/polyhedra.h"
+#include "ugvr/io/byte_hash.h"
+#include "ugvr/io/cgns_fields.h"
 #include "ugvr/io/header_counts.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/saturating_size.h"
@@ -71,9 +75,17 @@ void check_cgns_header(const std::string& path, uint64_t size) {
                     " bytes");
 }
 
+// libcgns keeps global state (its open files, the cg_goto position): one file in use at a time in the process. A
+// series' step read ahead on another thread (ExactScene::prefetch) and a key taken meanwhile would otherwise
+// interleave.
+std::mutex& cgns_library_mutex() {
+  static std::mutex m;
+  return m;
+}
+
 class CgnsFile {
  public:
-  explicit CgnsFile(std::string path) : path_(std::move(path)) {
+  explicit CgnsFile(std::string path) : lock_(cgns_library_mutex()), path_(std::move(path)) {
     std::error_code ec;
     file_size_ = std::filesystem::file_size(path_, ec);
     if (ec) fail_in(path_, "cannot open: " + ec.message());
@@ -138,6 +150,7 @@ class CgnsFile {
   }
 
  private:
+  std::lock_guard<std::mutex> lock_;
   std::string path_;
   uint64_t file_size_ = 0;
   int fn_ = -1;
@@ -368,8 +381,42 @@ std::vector<NamedValues> read_solutions(const CgnsFile& f, int B, int Z, const Z
   return values;
 }
 
+// What a zone's solutions need of its mesh, kept from its read (cgns_fields.h).
+struct ZoneLayout {
+  int base = 0, zone = 0;  // B, Z
+  std::string where;
+  ZoneShape shape{Structured, {}, {}, 3};  // the shape its solutions are read with
+  std::optional<CellExpansion> expansion;  // unstructured zones: the polyhedra decomposition's
+  size_t notes_at = 0;                     // the mesh's notes before this zone's solutions' (CgnsLayout::notes)
+};
+
+// The zone's fields: its solutions read with `shape`, expanded over the polyhedra decomposition where there is one.
+FieldSet zone_fields(const CgnsFile& f, int B, int Z, const ZoneShape& shape, const CellExpansion* expansion,
+                     int64_t time_step, const std::string& where, std::vector<std::string>& notes) {
+  FieldSet raw = make_fields(read_solutions(f, B, Z, shape, time_step, where, notes));
+  if (!expansion) return raw;
+  FieldSet out;
+  for (const Field& field : raw)
+    out.add(field.association() == Association::Vertex ? expansion->expand_point_field(field)
+                                                       : expansion->expand_cell_field(field));
+  return out;
+}
+
+// Where `kept` is given, records what zone_fields needs, and in `notes_at` where the zone's solutions' notes start
+// among the dataset's notes (read_cgns_file makes it a position among the mesh's notes alone).
+void keep_zone(ZoneLayout* kept, int B, int Z, const std::string& where, const ZoneShape& shape,
+               const CellExpansion* expansion, size_t notes_at) {
+  if (!kept) return;
+  kept->base = B;
+  kept->zone = Z;
+  kept->where = where;
+  kept->shape = shape;
+  if (expansion) kept->expansion = *expansion;
+  kept->notes_at = notes_at;
+}
+
 Block read_structured_zone(const CgnsFile& f, int B, int Z, const std::string& where, const cgsize_t* size,
-                           int64_t time_step, std::vector<std::string>& notes) {
+                           int64_t time_step, std::vector<std::string>& notes, ZoneLayout* kept) {
   ZoneShape shape{Structured, {}, {}, 3};
   for (int d = 0; d < 3; ++d) {
     if (size[d] < 1 || uint64_t(size[d]) > uint64_t(UINT32_MAX))
@@ -389,7 +436,8 @@ Block read_structured_zone(const CgnsFile& f, int B, int Z, const std::string& w
   Block block;
   block.name = where;
   block.grid = std::move(grid);
-  block.fields = make_fields(read_solutions(f, B, Z, shape, time_step, where, notes));
+  keep_zone(kept, B, Z, where, shape, nullptr, notes.size());
+  block.fields = zone_fields(f, B, Z, shape, nullptr, time_step, where, notes);
   return block;
 }
 
@@ -425,7 +473,7 @@ struct PendingCell {
 };
 
 Block read_unstructured_zone(const CgnsFile& f, int B, int Z, const std::string& where, const cgsize_t* size,
-                             int64_t time_step, std::vector<std::string>& notes) {
+                             int64_t time_step, std::vector<std::string>& notes, ZoneLayout* kept) {
   ZoneShape shape{Unstructured, {uint64_t(size[0]), 1, 1}, {uint64_t(size[1]), 1, 1}, 1};
   if (size[0] < 1 || uint64_t(size[0]) >= uint64_t(UINT32_MAX))
     fail_in(f.path(), where + ": " + std::to_string(size[0]) + " vertices");
@@ -591,11 +639,8 @@ Block read_unstructured_zone(const CgnsFile& f, int B, int Z, const std::string&
   block.name = where;
   ZoneShape field_shape = shape;
   field_shape.cells = {decomposer.input_cells(), 1, 1};
-  FieldSet raw = make_fields(read_solutions(f, B, Z, field_shape, time_step, where, notes));
-  for (const Field& field : raw) {
-    block.fields.add(field.association() == Association::Vertex ? decomposer.expand_point_field(field)
-                                                                : decomposer.expand_cell_field(field));
-  }
+  keep_zone(kept, B, Z, where, field_shape, &decomposer.expansion(), notes.size());
+  block.fields = zone_fields(f, B, Z, field_shape, &decomposer.expansion(), time_step, where, notes);
   block.grid = std::move(mesh);
   return block;
 }
@@ -673,13 +718,25 @@ std::optional<GridCounts> cgns_header_counts(const std::string& path) {
   return counts;
 }
 
-Dataset read_cgns(const std::string& path, int64_t time_step) {
+// What a step's solutions need of the mesh, kept from its read (cgns_fields.h).
+struct CgnsLayout {
+  std::optional<uint64_t> mesh_key;  // cgns_mesh_key of the file when read
+  std::string format;
+  std::vector<std::string> notes;  // the whole read's notes but the solutions' (which each step reads again)
+  std::vector<ZoneLayout> zones;   // one per block, in block order
+};
+
+namespace {
+
+// The whole read; where `kept` is given, the layout of its mesh.
+Dataset read_cgns_file(const std::string& path, int64_t time_step, CgnsLayout* kept) {
   CgnsFile f(path);
   Dataset ds;
   int file_type = 0;
   cg_get_file_type(f.fn(), &file_type);
   ds.format = std::string("CGNS (") + (file_type == CG_FILE_HDF5 ? "HDF5" : "ADF") + ")";
   ds.sources = {path};
+  size_t solution_notes = 0;  // the solutions' notes so far (not kept in the layout)
   for (const CgnsFile::Base& base : f.bases()) {
     if (base.cell_dim != 3) {
       ds.warnings.push_back("base " + base.name + ": cell dimension " + std::to_string(base.cell_dim) +
@@ -689,17 +746,113 @@ Dataset read_cgns(const std::string& path, int64_t time_step) {
     for (int Z = 1; Z <= base.zones; ++Z) {
       const CgnsFile::Zone zone = f.zone(base, Z);
       const std::string where = base.name + "/" + zone.name;
-      if (zone.type == Structured)
-        ds.blocks.push_back(read_structured_zone(f, base.index, Z, where, zone.size.data(), time_step, ds.warnings));
-      else if (zone.type == Unstructured)
-        ds.blocks.push_back(read_unstructured_zone(f, base.index, Z, where, zone.size.data(), time_step, ds.warnings));
-      else
+      ZoneLayout layout;
+      ZoneLayout* keep = kept ? &layout : nullptr;
+      if (zone.type == Structured) {
+        ds.blocks.push_back(
+            read_structured_zone(f, base.index, Z, where, zone.size.data(), time_step, ds.warnings, keep));
+      } else if (zone.type == Unstructured) {
+        ds.blocks.push_back(
+            read_unstructured_zone(f, base.index, Z, where, zone.size.data(), time_step, ds.warnings, keep));
+      } else {
         ds.warnings.push_back(where + ": zone type not structured nor unstructured, skipped");
+        continue;
+      }
+      if (!kept) continue;
+      // The notes from the solutions' start to the zone's end are the solutions' (read_solutions is the zone's last
+      // step): the mesh's notes before them are kept, theirs are not.
+      const size_t solutions_from = layout.notes_at;
+      kept->notes.insert(kept->notes.end(), ds.warnings.begin() + std::ptrdiff_t(kept->notes.size() + solution_notes),
+                         ds.warnings.begin() + std::ptrdiff_t(solutions_from));
+      layout.notes_at = kept->notes.size();
+      solution_notes += ds.warnings.size() - solutions_from;
+      kept->zones.push_back(std::move(layout));
     }
   }
   if (ds.blocks.empty()) fail_in(path, "no zone with volume cells (bases of cell dimension 3)");
   for (const Block& b : ds.blocks) b.validate_fields(path);
+  if (kept) {
+    kept->notes.insert(kept->notes.end(), ds.warnings.begin() + std::ptrdiff_t(kept->notes.size() + solution_notes),
+                       ds.warnings.end());
+    kept->format = ds.format;
+  }
   return ds;
+}
+
+// Whether a zone's grid moves from step to step: several GridCoordinates_t, grid motion nodes, or
+// GridCoordinatesPointers in its iterative data.
+bool zone_grid_moves(const CgnsFile& f, int B, int Z) {
+  int grids = 0, rigid = 0, arbitrary = 0;
+  f.check(cg_ngrids(f.fn(), B, Z, &grids), "zone " + std::to_string(Z));
+  f.check(cg_n_rigid_motions(f.fn(), B, Z, &rigid), "zone " + std::to_string(Z));
+  f.check(cg_n_arbitrary_motions(f.fn(), B, Z, &arbitrary), "zone " + std::to_string(Z));
+  if (grids > 1 || rigid > 0 || arbitrary > 0) return true;
+  char iter_name[33] = {};
+  if (cg_ziter_read(f.fn(), B, Z, iter_name) != CG_OK) return false;
+  if (cg_goto(f.fn(), B, "Zone_t", Z, "ZoneIterativeData_t", 1, "end") != CG_OK) return false;
+  int narrays = 0;
+  if (cg_narrays(&narrays) != CG_OK) return false;
+  for (int a = 1; a <= narrays; ++a) {
+    char name[33] = {};
+    DataType_t type;
+    int dim = 0;
+    cgsize_t extent[12] = {};
+    if (cg_array_info(a, name, &type, &dim, extent) == CG_OK && std::string(name) == "GridCoordinatesPointers")
+      return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+Dataset read_cgns(const std::string& path, int64_t time_step) { return read_cgns_file(path, time_step, nullptr); }
+
+std::optional<uint64_t> cgns_mesh_key(const std::string& path) {
+  {
+    const CgnsFile f(path);
+    for (const CgnsFile::Base& base : f.bases())
+      for (int Z = 1; Z <= base.zones; ++Z)
+        if (zone_grid_moves(f, base.index, Z)) return std::nullopt;
+  }
+  std::error_code size_error, time_error;
+  const uintmax_t size = std::filesystem::file_size(path, size_error);
+  const auto mtime = std::filesystem::last_write_time(path, time_error).time_since_epoch().count();
+  if (size_error || time_error)
+    fail_in(path, "cannot read its size and time: " + (size_error ? size_error : time_error).message());
+  const uint64_t h = hash_mix(hash_mix(kFnvOffset, 0x63676e73), hash_bytes(path.data(), path.size()));  // "cgns"
+  return hash_mix(hash_mix(h, uint64_t(size)), uint64_t(mtime));
+}
+
+Dataset read_cgns(const std::string& path, int64_t time_step, std::shared_ptr<const CgnsLayout>* kept) {
+  if (!kept) return read_cgns(path, time_step);
+  // Taken before the mesh is read: a file rewritten during the read gives another key than the one kept.
+  const std::optional<uint64_t> key = cgns_mesh_key(path);
+  auto layout = std::make_shared<CgnsLayout>();
+  Dataset ds = read_cgns_file(path, time_step, layout.get());
+  layout->mesh_key = key;
+  *kept = std::move(layout);
+  return ds;
+}
+
+const std::optional<uint64_t>& cgns_layout_mesh_key(const CgnsLayout& layout) { return layout.mesh_key; }
+
+std::vector<FieldSet> read_cgns_fields(const CgnsLayout& layout, const std::string& path, int64_t time_step,
+                                       std::string& format, std::vector<std::string>& sources,
+                                       std::vector<std::string>& warnings) {
+  const CgnsFile f(path);
+  format = layout.format;
+  sources = {path};
+  std::vector<FieldSet> blocks;
+  size_t note = 0;
+  for (const ZoneLayout& z : layout.zones) {
+    warnings.insert(warnings.end(), layout.notes.begin() + std::ptrdiff_t(note),
+                    layout.notes.begin() + std::ptrdiff_t(z.notes_at));
+    note = z.notes_at;
+    blocks.push_back(
+        zone_fields(f, z.base, z.zone, z.shape, z.expansion ? &*z.expansion : nullptr, time_step, z.where, warnings));
+  }
+  warnings.insert(warnings.end(), layout.notes.begin() + std::ptrdiff_t(note), layout.notes.end());
+  return blocks;
 }
 
 }  // namespace ugvr

@@ -32,13 +32,17 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
+#include "ugvr/io/byte_hash.h"
+#include "ugvr/io/plot3d_fields.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/saturating_size.h"
 
@@ -252,6 +256,7 @@ std::string header_summary(const DimsHeader& h) {
 struct GridCandidate {
   Layout layout;
   DimsHeader header;
+  bool told_by_solution = false;  // several layouts fit the grid: the solution file chose this one
 };
 
 uint64_t grid_block_bytes(uint64_t points, const Layout& l) {
@@ -350,28 +355,28 @@ struct QPlan {
   uint64_t end = 0;  // first byte after the last block
 };
 
-// Checks the Q file against the grid's layout and dimensions and locates every block's values; throws ugvr::Error
-// naming the Q file, the byte offset and what was expected there.
-QPlan plan_q(const InputFile& q, const InputFile& xyz, const GridCandidate& g) {
+// Checks the Q file against the grid's layout and dimensions (the grid file named `grid_name` in messages) and locates
+// every block's values; throws ugvr::Error naming the Q file, the byte offset and what was expected there.
+QPlan plan_q(const InputFile& q, const std::string& grid_name, const GridCandidate& g) {
   const Layout& l = g.layout;
   const size_t nblocks = g.header.dims.size();
   const Decoder d(q, l.order);
   std::string why;
   const std::optional<DimsHeader> h = parse_dims(d, l.fortran, l.multi, why);
   if (!h) {
-    fail_in(q.path(), "not a PLOT3D solution file in the layout of grid file " + xyz.name() + " (" +
+    fail_in(q.path(), "not a PLOT3D solution file in the layout of grid file " + grid_name + " (" +
                           layout_name(l, nblocks) + "): " + why);
   }
   if (h->dims.size() != nblocks) {
     fail_at_offset(q.path(), l.fortran ? 4 : 0,
-                   "block count " + std::to_string(h->dims.size()) + ", but grid file " + xyz.name() + " has " +
+                   "block count " + std::to_string(h->dims.size()) + ", but grid file " + grid_name + " has " +
                        std::to_string(nblocks));
   }
   for (size_t b = 0; b < nblocks; ++b) {
     if (h->dims[b] != g.header.dims[b]) {
       fail_at_offset(q.path(), h->dims_offset + 12 * b,
                      "block " + std::to_string(b) + " has dimensions " + dims_text(h->dims[b]) + ", but grid file " +
-                         xyz.name() + " has " + dims_text(g.header.dims[b]) + " for it");
+                         grid_name + " has " + dims_text(g.header.dims[b]) + " for it");
     }
   }
 
@@ -462,17 +467,18 @@ GridCandidate detect_layout(const InputFile& xyz, const InputFile* q) {
   std::vector<GridCandidate> fit;
   for (const GridCandidate& c : found) {
     try {
-      plan_q(*q, xyz, c);
+      plan_q(*q, xyz.name(), c);
       fit.push_back(c);
     } catch (const Error&) {
       // this candidate does not explain the solution file: not the layout
     }
   }
+  for (GridCandidate& c : fit) c.told_by_solution = true;
   if (fit.size() == 1) return fit.front();
   // The solution file may carry padding after its data; one that fits a candidate exactly is the stronger evidence.
   std::vector<GridCandidate> exact;
   for (const GridCandidate& c : fit) {
-    if (plan_q(*q, xyz, c).end == q->size()) exact.push_back(c);
+    if (plan_q(*q, xyz.name(), c).end == q->size()) exact.push_back(c);
   }
   if (exact.size() == 1) return exact.front();
   fail_in(xyz.path(), ambiguous + "\nand the solution file " + q->name() + " fits " +
@@ -576,9 +582,68 @@ bool all_zero_from(const InputFile& f, uint64_t from) {
   return true;
 }
 
+// What the solution file adds to the dataset: each block's fields, the format line's "; q: ..." and the warnings.
+struct Solution {
+  std::vector<FieldSet> blocks;
+  std::string format;
+  std::vector<std::string> warnings;
+};
+
+// The solution file's blocks on grid layout `g`, located by `plan` (plan_q): the decoding both the whole read and the
+// fields-only read of a series' step go through.
+Solution read_solution(const InputFile& q, const GridCandidate& g, const QPlan& plan) {
+  const Layout& l = g.layout;
+  const size_t nblocks = g.header.dims.size();
+  const Decoder q_decoder(q, l.order);
+  Solution out;
+  std::vector<QHeader> headers;
+  for (size_t b = 0; b < nblocks; ++b) {
+    const QBlockPlan& p = plan.blocks[b];
+    headers.push_back(read_q_header(q_decoder, l.precision, p.header_offset));
+    const uint64_t n = g.header.points[b];
+    out.blocks.push_back(l.precision == 4 ? read_q_block<float>(q_decoder, l.precision, p.data_offset, n)
+                                          : read_q_block<double>(q_decoder, l.precision, p.data_offset, n));
+  }
+  out.format = "; q: " + q_header_text(headers.front());
+  // One warning, not one per block: a hostile file may have a million blocks.
+  size_t differing = 0, first = 0;
+  for (size_t b = nblocks; b-- > 1;) {
+    if (q_header_text(headers[b]) != q_header_text(headers.front())) {  // as shown; NaN == NaN here
+      ++differing;
+      first = b;
+    }
+  }
+  if (differing > 0) {
+    out.warnings.push_back(q.name() + ": " + std::to_string(differing) + " block(s) have a Q header other than block " +
+                           "0's shown in the format line, first block " + std::to_string(first) + ": " +
+                           q_header_text(headers[first]));
+  }
+  if (plan.end < q.size()) {
+    out.warnings.push_back(q.name() + ": ignored " + std::to_string(q.size() - plan.end) +
+                           " trailing bytes after the last block, from byte " + std::to_string(plan.end) +
+                           (all_zero_from(q, plan.end) ? " (all zero: padding)" : " (not all zero)"));
+  }
+  return out;
+}
+
+std::string grid_format(const GridCandidate& g) {
+  return "PLOT3D (" + layout_name(g.layout, g.header.dims.size()) + ")";
+}
+
 }  // namespace
 
-Dataset read_plot3d(const std::string& xyz_path, const std::string& q_path) {
+// What a step's solution needs of the grid, kept from the grid's read (plot3d_fields.h).
+struct Plot3dLayout {
+  std::optional<uint64_t> mesh_key;  // plot3d_mesh_key of the grid when read; none where the solution chose the layout
+  std::string xyz_path;              // the dataset's first source
+  std::string xyz_name;              // the grid as the solution's messages name it
+  GridCandidate grid;
+};
+
+namespace {
+
+// The grid and its solution (if any) as one dataset; where `kept` is given, the layout detected from the grid.
+Dataset read_grid_and_solution(const std::string& xyz_path, const std::string& q_path, Plot3dLayout* kept) {
   const InputFile xyz(xyz_path);
   std::optional<InputFile> q;
   if (!q_path.empty()) q.emplace(q_path);
@@ -587,10 +652,15 @@ Dataset read_plot3d(const std::string& xyz_path, const std::string& q_path) {
   const Layout& l = g.layout;
   const size_t nblocks = g.header.dims.size();
   std::optional<QPlan> plan;
-  if (q) plan = plan_q(*q, xyz, g);
+  if (q) plan = plan_q(*q, xyz.name(), g);
+  if (kept) {
+    kept->xyz_path = xyz_path;
+    kept->xyz_name = xyz.name();
+    kept->grid = g;
+  }
 
   Dataset ds;
-  ds.format = "PLOT3D (" + layout_name(l, nblocks) + ")";
+  ds.format = grid_format(g);
   ds.sources.push_back(xyz_path);
   if (q) ds.sources.push_back(q_path);
 
@@ -604,36 +674,55 @@ Dataset read_plot3d(const std::string& xyz_path, const std::string& q_path) {
   }
   if (!q) return ds;
 
-  const Decoder q_decoder(*q, l.order);
-  std::vector<QHeader> headers;
+  Solution solution = read_solution(*q, g, *plan);
   for (size_t b = 0; b < nblocks; ++b) {
-    const QBlockPlan& p = plan->blocks[b];
-    headers.push_back(read_q_header(q_decoder, l.precision, p.header_offset));
-    const uint64_t n = g.header.points[b];
-    ds.blocks[b].fields = l.precision == 4 ? read_q_block<float>(q_decoder, l.precision, p.data_offset, n)
-                                           : read_q_block<double>(q_decoder, l.precision, p.data_offset, n);
+    ds.blocks[b].fields = std::move(solution.blocks[b]);
     ds.blocks[b].validate_fields(q->path());
   }
-  ds.format += "; q: " + q_header_text(headers.front());
-  // One warning, not one per block: a hostile file may have a million blocks.
-  size_t differing = 0, first = 0;
-  for (size_t b = nblocks; b-- > 1;) {
-    if (q_header_text(headers[b]) != q_header_text(headers.front())) {  // as shown; NaN == NaN here
-      ++differing;
-      first = b;
-    }
-  }
-  if (differing > 0) {
-    ds.warnings.push_back(q->name() + ": " + std::to_string(differing) + " block(s) have a Q header other than block " +
-                          "0's shown in the format line, first block " + std::to_string(first) + ": " +
-                          q_header_text(headers[first]));
-  }
-  if (plan->end < q->size()) {
-    ds.warnings.push_back(q->name() + ": ignored " + std::to_string(q->size() - plan->end) +
-                          " trailing bytes after the last block, from byte " + std::to_string(plan->end) +
-                          (all_zero_from(*q, plan->end) ? " (all zero: padding)" : " (not all zero)"));
-  }
+  ds.format += solution.format;
+  ds.warnings = std::move(solution.warnings);
   return ds;
+}
+
+}  // namespace
+
+Dataset read_plot3d(const std::string& xyz_path, const std::string& q_path) {
+  return read_grid_and_solution(xyz_path, q_path, nullptr);
+}
+
+uint64_t plot3d_mesh_key(const std::string& xyz_path) {
+  std::error_code size_error, time_error;
+  const uintmax_t size = std::filesystem::file_size(xyz_path, size_error);
+  const auto mtime = std::filesystem::last_write_time(xyz_path, time_error).time_since_epoch().count();
+  if (size_error || time_error)
+    fail_in(xyz_path, "cannot read its size and time: " + (size_error ? size_error : time_error).message());
+  const uint64_t h =
+      hash_mix(hash_mix(kFnvOffset, 0x706c3364), hash_bytes(xyz_path.data(), xyz_path.size()));  // "pl3d"
+  return hash_mix(hash_mix(h, uint64_t(size)), uint64_t(mtime));
+}
+
+Dataset read_plot3d(const std::string& xyz_path, const std::string& q_path, std::shared_ptr<const Plot3dLayout>* kept) {
+  if (!kept) return read_plot3d(xyz_path, q_path);
+  // Taken before the grid is read: a grid rewritten during the read gives another key than the one kept.
+  const uint64_t key = plot3d_mesh_key(xyz_path);
+  auto layout = std::make_shared<Plot3dLayout>();
+  Dataset ds = read_grid_and_solution(xyz_path, q_path, layout.get());
+  if (!layout->grid.told_by_solution) layout->mesh_key = key;
+  *kept = std::move(layout);
+  return ds;
+}
+
+const std::optional<uint64_t>& plot3d_layout_mesh_key(const Plot3dLayout& layout) { return layout.mesh_key; }
+
+std::vector<FieldSet> read_plot3d_fields(const Plot3dLayout& layout, const std::string& q_path, std::string& format,
+                                         std::vector<std::string>& sources, std::vector<std::string>& warnings) {
+  const InputFile q(q_path);
+  const QPlan plan = plan_q(q, layout.xyz_name, layout.grid);
+  Solution solution = read_solution(q, layout.grid, plan);
+  format = grid_format(layout.grid) + solution.format;
+  sources = {layout.xyz_path, q_path};
+  warnings.insert(warnings.end(), solution.warnings.begin(), solution.warnings.end());
+  return std::move(solution.blocks);
 }
 
 }  // namespace ugvr

@@ -5,8 +5,10 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/io/byte_hash.h"
+#include "ugvr/io/cgns_fields.h"
 #include "ugvr/io/ensight_fields.h"
 #include "ugvr/io/openfoam_reader.h"
+#include "ugvr/io/plot3d_fields.h"
 #include "ugvr/io/pvtu_pieces.h"
 
 namespace ugvr {
@@ -78,19 +80,19 @@ StepFieldReader::~StepFieldReader() = default;
 
 bool StepFieldReader::static_by_format() const { return series_->kind == SeriesKind::Exodus; }
 
-std::optional<uint64_t> StepFieldReader::cached_file_key(const std::string& path) const {
+std::optional<uint64_t> StepFieldReader::cached_file_key(const std::string& path, FileKey key_of) const {
   std::error_code size_error, time_error;
   const uintmax_t size = std::filesystem::file_size(path, size_error);
   const std::filesystem::file_time_type mtime = std::filesystem::last_write_time(path, time_error);
   // A file that cannot be stat'ed is not cached: the key's read names it in its error.
-  if (size_error || time_error) return file_geometry_key(path);
+  if (size_error || time_error) return key_of(path);
   {
     std::lock_guard lock(keys_mutex_);
     const auto it = keys_.find(path);
     if (it != keys_.end() && it->second.size == size && it->second.mtime == mtime) return it->second.key;
   }
   // Computed unlocked (it reads the geometry's stored bytes): two threads may both compute one file's key, the same.
-  const std::optional<uint64_t> key = file_geometry_key(path);
+  const std::optional<uint64_t> key = key_of(path);
   std::lock_guard lock(keys_mutex_);
   keys_[path] = CachedKey{size, mtime, key};
   return key;
@@ -98,8 +100,9 @@ std::optional<uint64_t> StepFieldReader::cached_file_key(const std::string& path
 
 std::optional<uint64_t> StepFieldReader::cached_geometry_key(const std::string& path) const {
   if (is_pvtu_path(path))
-    return combined_pvtu_key(path, [this](const std::string& piece) { return cached_file_key(piece); });
-  return cached_file_key(path);
+    return combined_pvtu_key(path,
+                             [this](const std::string& piece) { return cached_file_key(piece, file_geometry_key); });
+  return cached_file_key(path, file_geometry_key);
 }
 
 Dataset StepFieldReader::read_whole(size_t step) {
@@ -124,6 +127,25 @@ Dataset StepFieldReader::read_whole(size_t step) {
     }
     return ds;
   }
+  if (series_->kind == SeriesKind::Cgns) {
+    std::shared_ptr<const CgnsLayout> layout;
+    Dataset ds = read_cgns(st.files[0], st.reader_step, &layout);
+    if (cgns_layout_mesh_key(*layout)) {
+      std::lock_guard lock(layout_mutex_);
+      cgns_layout_ = std::move(layout);
+    }
+    return ds;
+  }
+  if (series_->kind == SeriesKind::Plot3d) {
+    std::shared_ptr<const Plot3dLayout> layout;
+    Dataset ds = read_plot3d(st.files[0], st.files[1], &layout);
+    ds.format += series_step_label(*series_, step);
+    if (plot3d_layout_mesh_key(*layout)) {
+      std::lock_guard lock(layout_mutex_);
+      plot3d_layout_ = std::move(layout);
+    }
+    return ds;
+  }
   return read_time_step(*series_, step);
 }
 
@@ -133,6 +155,14 @@ std::optional<std::vector<uint64_t>> StepFieldReader::geometry_keys(size_t step)
     const std::optional<uint64_t> key = series_->kind == SeriesKind::OpenFoam
                                             ? openfoam_mesh_key(st.files[0], st.reader_step)
                                             : ensight_mesh_key(st.files[0]);
+    if (!key) return std::nullopt;
+    return std::vector<uint64_t>{*key};
+  }
+  if (series_->kind == SeriesKind::Plot3d && step < series_->size())
+    return std::vector<uint64_t>{plot3d_mesh_key(series_->steps[step].files[0])};
+  if (series_->kind == SeriesKind::Cgns && step < series_->size()) {
+    // Cached: the key opens the file (libcgns reads its node tree), which costs as much as a small step's solution.
+    const std::optional<uint64_t> key = cached_file_key(series_->steps[step].files[0], cgns_mesh_key);
     if (!key) return std::nullopt;
     return std::vector<uint64_t>{*key};
   }
@@ -164,6 +194,8 @@ StepFields StepFieldReader::read(size_t step) {
   }
   if (series_->kind == SeriesKind::OpenFoam) return read_openfoam_step(step);
   if (series_->kind == SeriesKind::EnSight) return read_ensight_step(step);
+  if (series_->kind == SeriesKind::Plot3d) return read_plot3d_step(step);
+  if (series_->kind == SeriesKind::Cgns) return read_cgns_step(step);
   if (!steps_are_files(series_->kind))
     fail_in(series_->source, "time step " + std::to_string(step) + " has no fields-only read (read it whole)");
   std::string legacy_format;  // a .vtk's, as its whole read gives it
@@ -225,6 +257,41 @@ StepFields StepFieldReader::read_ensight_step(size_t step) {
   if (!layout || ensight_layout_mesh_key(*layout) != key) return fields_of(read_whole(step));
   StepFields out;
   out.blocks = read_ensight_fields(*layout, st.files[0], st.reader_step, out.format, out.sources, out.warnings);
+  return out;
+}
+
+StepFields StepFieldReader::read_plot3d_step(size_t step) {
+  const TimeStep& st = series_->steps[step];
+  const uint64_t key = plot3d_mesh_key(st.files[0]);
+  std::shared_ptr<const Plot3dLayout> layout;
+  {
+    std::lock_guard lock(layout_mutex_);
+    layout = plot3d_layout_;
+  }
+  // No layout of this grid kept yet, or the grid file changed since: this step read whole keeps one.
+  if (!layout || plot3d_layout_mesh_key(*layout) != key) return fields_of(read_whole(step));
+  StepFields out;
+  out.blocks = read_plot3d_fields(*layout, st.files[1], out.format, out.sources, out.warnings);
+  out.format += series_step_label(*series_, step);
+  return out;
+}
+
+StepFields StepFieldReader::read_cgns_step(size_t step) {
+  const TimeStep& st = series_->steps[step];
+  const std::optional<std::vector<uint64_t>> keys = geometry_keys(step);
+  const std::optional<uint64_t> key = keys ? std::optional<uint64_t>(keys->front()) : std::nullopt;
+  if (!key)
+    fail_in(series_->source, "time step " + std::to_string(step) +
+                                 ": a zone's grid moves (grid motion or GridCoordinatesPointers): no fields-only read");
+  std::shared_ptr<const CgnsLayout> layout;
+  {
+    std::lock_guard lock(layout_mutex_);
+    layout = cgns_layout_;
+  }
+  // No layout of this mesh kept yet, or the file changed since: this step read whole keeps one.
+  if (!layout || cgns_layout_mesh_key(*layout) != key) return fields_of(read_whole(step));
+  StepFields out;
+  out.blocks = read_cgns_fields(*layout, st.files[0], st.reader_step, out.format, out.sources, out.warnings);
   return out;
 }
 

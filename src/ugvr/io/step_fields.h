@@ -41,6 +41,18 @@
 //                 .case and reads each variable's file with the whole read's code against a mesh-less skeleton of the
 //                 parts, never opening the geometry file. A geometry per step (wildcards, a file set) and a .sos:
 //                 whole.
+//   PLOT3D        (a grid file and a .q file per step) a step whose grid file is the one read: its key
+//                 (plot3d_mesh_key) hashes the grid file's path, size and modification time. The layout
+//                 (Plot3dLayout: the byte order, records, blocking, precision, IBLANK and block dimensions detected
+//                 from the grid) is kept by read_whole as for OpenFOAM; the fields-only read checks and decodes the
+//                 step's .q file with the whole read's code (plan_q, read_solution), never opening the grid file. A
+//                 tiny grid whose layout only the solution file could decide keeps no layout: its steps read whole.
+//   CGNS          (steps by FlowSolutionPointers) a file none of whose zones' grids move (one GridCoordinates_t, no
+//                 RigidGridMotion / ArbitraryGridMotion, no GridCoordinatesPointers): its key (cgns_mesh_key) hashes
+//                 the file's path, size and modification time. The layout (CgnsLayout: each zone's location, the shape
+//                 its solutions are read with, the polyhedra decomposition's CellExpansion, the mesh's notes) is kept
+//                 by read_whole; the fields-only read reads each zone's solutions with the whole read's code
+//                 (zone_fields: read_solutions, the same expansion), no coordinates nor element sections.
 //   Files with appended base64 data (whose stored length the header does not give) and other formats have no key:
 //   their steps are read whole.
 // A file that shrinks while its key is hashed is an error naming it and the offset (io/byte_hash.h), which ends the
@@ -122,6 +134,8 @@ struct StepFields {
 
 struct OpenFoamLayout;
 struct EnsightLayout;
+struct Plot3dLayout;
+struct CgnsLayout;
 
 // The fields-only reads of one series. Thread-safe: a scene's prefetch thread and its own share one.
 class StepFieldReader {
@@ -132,18 +146,19 @@ class StepFieldReader {
   // Whether every step has the first step's mesh by the format and a fields-only read (Exodus).
   bool static_by_format() const;
   // Step `step` read whole, as read_time_step reads it; an OpenFOAM step with the constant mesh (an EnSight step of a
-  // case with one geometry) keeps the mesh's layout for later fields-only reads (so read the mesh step shown here).
+  // case with one geometry, a PLOT3D step, a CGNS step of a static mesh) keeps the mesh's layout for later fields-only
+  // reads (so read the mesh step shown here).
   Dataset read_whole(size_t step);
   // One stored geometry key per file of step `step` when every file has one (.vtu, .pvtu, .vtk; OpenFOAM: one key, the
-  // constant mesh's; EnSight: one key, the static geometry file's); nullopt otherwise
-  // (read the step whole). Equal key lists: the same mesh. A .vtu's key (a .pvtu's pieces' keys) is computed once while
-  // its size and modification time stay those seen then (a range pass, then the step switches, visit every file again);
-  // a file rewritten to the same size within the file system's time stamp granularity (a few milliseconds) would keep
-  // its old key. A .pvtu's piece list is read again each time (its markup only). Throws ugvr::Error naming the file
-  // when a file cannot be read (bad markup, truncated while hashed).
+  // constant mesh's; EnSight: one key, the static geometry file's; PLOT3D: one key, the grid file's; CGNS: one key, the
+  // file's when no grid moves); nullopt otherwise (read the step whole). Equal key lists: the same mesh. A .vtu's key
+  // (a .pvtu's pieces' keys) is computed once while its size and modification time stay those seen then (a range pass,
+  // then the step switches, visit every file again); a file rewritten to the same size within the file system's time
+  // stamp granularity (a few milliseconds) would keep its old key. A .pvtu's piece list is read again each time (its
+  // markup only). Throws ugvr::Error naming the file when a file cannot be read (bad markup, truncated while hashed).
   std::optional<std::vector<uint64_t>> geometry_keys(size_t step) const;
   // Whether step `step` has step `mesh_step`'s mesh as stored: by the format (Exodus) or by equal geometry keys (.vtu,
-  // .pvtu, .vtk, OpenFOAM, EnSight).
+  // .pvtu, .vtk, OpenFOAM, EnSight, PLOT3D, CGNS).
   // Then read(step) completes a dataset of mesh_step's grids. False where only a whole read could tell.
   bool has_mesh_of(size_t step, size_t mesh_step) const;
   // Step `step`'s fields; valid where static_by_format() or geometry_keys() says the step has a fields-only read.
@@ -160,12 +175,18 @@ class StepFieldReader {
     std::optional<uint64_t> key;
   };
   std::optional<uint64_t> cached_geometry_key(const std::string& path) const;
-  // A .vtu's or .vtk's key (vtu_geometry_key, vtk_legacy_geometry_key), cached by size and modification time.
-  std::optional<uint64_t> cached_file_key(const std::string& path) const;
+  // A file's key by `key_of` (vtu_geometry_key, vtk_legacy_geometry_key, cgns_mesh_key), cached by size and
+  // modification time.
+  using FileKey = std::optional<uint64_t> (*)(const std::string&);
+  std::optional<uint64_t> cached_file_key(const std::string& path, FileKey key_of) const;
   // An OpenFOAM step's fields on the kept layout (read whole, keeping its layout, where none of its mesh is kept).
   StepFields read_openfoam_step(size_t step);
   // The same for an EnSight step on the kept geometry layout.
   StepFields read_ensight_step(size_t step);
+  // The same for a PLOT3D step (its .q file) on the kept grid layout.
+  StepFields read_plot3d_step(size_t step);
+  // The same for a CGNS step (its FlowSolution) on the kept mesh layout.
+  StepFields read_cgns_step(size_t step);
 
   std::shared_ptr<const TimeSeries> series_;
   std::mutex exodus_mutex_;
@@ -173,6 +194,8 @@ class StepFieldReader {
   std::mutex layout_mutex_;
   std::shared_ptr<const OpenFoamLayout> foam_layout_;    // of the last constant mesh read whole (read_whole)
   std::shared_ptr<const EnsightLayout> ensight_layout_;  // of the last static geometry read whole (read_whole)
+  std::shared_ptr<const Plot3dLayout> plot3d_layout_;    // of the last PLOT3D grid read whole (read_whole)
+  std::shared_ptr<const CgnsLayout> cgns_layout_;        // of the last static CGNS mesh read whole (read_whole)
   mutable std::mutex keys_mutex_;
   mutable std::map<std::string, CachedKey> keys_;  // by file path, see geometry_keys
 };

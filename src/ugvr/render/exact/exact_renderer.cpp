@@ -63,7 +63,9 @@ ExactScene::Prefetched read_step(const TimeSeries& series, StepFieldReader& read
     return p;
   }
   const bool detect = series.geometry == SeriesGeometry::Detect;
-  if (detect && !mesh_keys.empty()) {
+  // Keys decide wherever the mesh's files have them: a series that detects its geometry, and one static by its format
+  // whose reads would all read the same mesh file again (PLOT3D's grid, unchanged since it was read).
+  if (!mesh_keys.empty()) {
     p.keys = reader.geometry_keys(i);
     if (holds(mesh_keys, p.keys)) {
       p.fields = reader.read(i);
@@ -85,8 +87,7 @@ StepFieldReader& ExactScene::step_reader() {
 const std::vector<std::vector<uint64_t>>& ExactScene::mesh_keys() {
   if (!mesh_keys_) {
     mesh_keys_.emplace();
-    if (series->geometry == SeriesGeometry::Detect)
-      if (auto keys = step_reader().geometry_keys(step)) mesh_keys_->push_back(std::move(*keys));
+    if (auto keys = step_reader().geometry_keys(step)) mesh_keys_->push_back(std::move(*keys));
   }
   return *mesh_keys_;
 }

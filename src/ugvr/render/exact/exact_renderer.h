@@ -90,7 +90,8 @@ struct ExactScene {
   ExactScene(std::shared_ptr<const TimeSeries> series, uint32_t step, std::shared_ptr<StepFieldReader> reader,
              const ProgressCallback& progress);
   // Stored geometry key lists known to hold the mesh shown (those of a step read whole with the mesh's fingerprint
-  // join them); nullopt until first needed, then those of the step shown.
+  // join them, and in a series static by its format, PLOT3D's, those of any step read whole); nullopt until first
+  // needed, then those of the step shown.
   const std::vector<std::vector<uint64_t>>& mesh_keys();
   // Takes a read step: on the mesh held (returns true) or, with other geometry, a rebuilt walk mesh (false).
   bool take_step(Prefetched read, const ProgressCallback& progress);
