@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "oracle/reference_renderer.h"
+#include "step_fields_checks.h"
 #include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/io/reader.h"
@@ -607,29 +608,8 @@ std::shared_ptr<const TimeSeries> series_of(const std::string& path) {
   return std::make_shared<const TimeSeries>(list_time_steps(std::span<const std::string>(&path, 1)));
 }
 
-// Field sets equal bit for bit: names, associations, types, shapes and stored bytes, in order.
-void expect_same_bits(const FieldSet& a, const FieldSet& b) {
-  ASSERT_EQ(a.size(), b.size());
-  for (size_t i = 0; i < a.size(); ++i) {
-    SCOPED_TRACE(a[i].name());
-    EXPECT_EQ(a[i].name(), b[i].name());
-    EXPECT_EQ(a[i].association(), b[i].association());
-    ASSERT_EQ(a[i].data().type(), b[i].data().type());
-    ASSERT_EQ(a[i].data().tuples(), b[i].data().tuples());
-    ASSERT_EQ(a[i].data().components(), b[i].data().components());
-    EXPECT_EQ(std::memcmp(a[i].data().bytes(), b[i].data().bytes(), a[i].data().byte_size()), 0);
-  }
-}
-
-void expect_whole_read(const TimeSeries& series, const StepFields& fields, size_t k) {
-  SCOPED_TRACE("step " + std::to_string(k));
-  const Dataset whole = read_time_step(series, k);
-  ASSERT_EQ(fields.blocks.size(), whole.blocks.size());
-  for (size_t b = 0; b < whole.blocks.size(); ++b) expect_same_bits(fields.blocks[b], whole.blocks[b].fields);
-  EXPECT_EQ(fields.format, whole.format);
-  EXPECT_EQ(fields.sources, whole.sources);
-  EXPECT_EQ(fields.warnings, whole.warnings);
-}
+using test::expect_same_bits;
+using test::expect_whole_read;
 
 // The generated case in every encoding (one geometry: a mixed part with a dropped triangle, undef and partial values,
 // an iblanked uniform block, a rectilinear block; "t" per node a file per step, "c" per element one file): each step's

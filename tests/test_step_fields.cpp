@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "hex_fixtures.h"
+#include "step_fields_checks.h"
 #include "test_data.h"
 #include "ugvr/core/file.h"
 #include "ugvr/io/byte_hash.h"
@@ -254,30 +255,8 @@ void write_point_field(const fs::path& time_dir, int n, double scale) {
   std::ofstream(time_dir / "pw") << text;
 }
 
-// Field sets equal bit for bit: names, associations, types, shapes and stored bytes, in order.
-void expect_same_bits(const FieldSet& a, const FieldSet& b) {
-  ASSERT_EQ(a.size(), b.size());
-  for (size_t i = 0; i < a.size(); ++i) {
-    SCOPED_TRACE(a[i].name());
-    EXPECT_EQ(a[i].name(), b[i].name());
-    EXPECT_EQ(a[i].association(), b[i].association());
-    ASSERT_EQ(a[i].data().type(), b[i].data().type());
-    ASSERT_EQ(a[i].data().components(), b[i].data().components());
-    ASSERT_EQ(a[i].data().tuples(), b[i].data().tuples());
-    EXPECT_EQ(std::memcmp(a[i].data().bytes(), b[i].data().bytes(), a[i].data().byte_size()), 0);
-  }
-}
-
-// A fields-only read of step k equals read_time_step(k) but for the grids: fields, format, sources, notes.
-void expect_whole_read(const TimeSeries& series, const StepFields& fields, size_t k) {
-  SCOPED_TRACE("step " + std::to_string(k));
-  const Dataset whole = read_time_step(series, k);
-  ASSERT_EQ(fields.blocks.size(), whole.blocks.size());
-  for (size_t b = 0; b < whole.blocks.size(); ++b) expect_same_bits(fields.blocks[b], whole.blocks[b].fields);
-  EXPECT_EQ(fields.format, whole.format);
-  EXPECT_EQ(fields.sources, whole.sources);
-  EXPECT_EQ(fields.warnings, whole.warnings);
-}
+using test::expect_same_bits;
+using test::expect_whole_read;
 
 uint64_t bytes_under(const fs::path& dir) {
   uint64_t n = 0;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -99,6 +100,16 @@ uint64_t hash_file_range(const InputFile& file, uint64_t begin, uint64_t end) {
     h = hash_mix(h, wh);
   }
   return h;
+}
+
+uint64_t hash_file_stamp(uint64_t h, const std::string& path) {
+  std::error_code size_error, time_error;
+  const uintmax_t size = std::filesystem::file_size(path, size_error);
+  const auto mtime = std::filesystem::last_write_time(path, time_error).time_since_epoch().count();
+  if (size_error || time_error)
+    fail_in(path, "cannot read its size and time: " + (size_error ? size_error : time_error).message());
+  h = hash_mix(h, hash_bytes(path.data(), path.size()));
+  return hash_mix(hash_mix(h, uint64_t(size)), uint64_t(mtime));
 }
 
 }  // namespace ugvr

@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 
 #include "ugvr/core/file.h"
 
@@ -25,5 +26,9 @@ uint64_t hash_bytes(const void* data, size_t n);
 // when the file shrank after `file` was opened (never SIGBUS: nothing is mapped), "unexpected end of file" when the
 // range runs past the size it was opened with.
 uint64_t hash_file_range(const InputFile& file, uint64_t begin, uint64_t end);
+// `h` mixed with a file's stamp: its path, size and modification time (not its bytes: the mesh keys of formats whose
+// mesh files are too large to hash per step switch, io/step_fields.h). Throws ugvr::Error naming the file when its size
+// or time cannot be read.
+uint64_t hash_file_stamp(uint64_t h, const std::string& path);
 
 }  // namespace ugvr

@@ -814,13 +814,7 @@ std::optional<uint64_t> cgns_mesh_key(const std::string& path) {
       for (int Z = 1; Z <= base.zones; ++Z)
         if (zone_grid_moves(f, base.index, Z)) return std::nullopt;
   }
-  std::error_code size_error, time_error;
-  const uintmax_t size = std::filesystem::file_size(path, size_error);
-  const auto mtime = std::filesystem::last_write_time(path, time_error).time_since_epoch().count();
-  if (size_error || time_error)
-    fail_in(path, "cannot read its size and time: " + (size_error ? size_error : time_error).message());
-  const uint64_t h = hash_mix(hash_mix(kFnvOffset, 0x63676e73), hash_bytes(path.data(), path.size()));  // "cgns"
-  return hash_mix(hash_mix(h, uint64_t(size)), uint64_t(mtime));
+  return hash_file_stamp(hash_mix(kFnvOffset, 0x63676e73), path);  // "cgns"
 }
 
 Dataset read_cgns(const std::string& path, int64_t time_step, std::shared_ptr<const CgnsLayout>* kept) {

@@ -1454,14 +1454,7 @@ std::optional<uint64_t> ensight_mesh_key(const std::string& path) {
     const auto it = c.time_sets.find(*c.model_ts);
     if (it == c.time_sets.end() || it->second.times.size() != 1) return std::nullopt;
   }
-  const std::string geo = resolve_in(c, c.model);
-  std::error_code size_error, time_error;
-  const uintmax_t size = std::filesystem::file_size(geo, size_error);
-  const auto mtime = std::filesystem::last_write_time(geo, time_error).time_since_epoch().count();
-  if (size_error || time_error)
-    fail_in(geo, "cannot read its size and time: " + (size_error ? size_error : time_error).message());
-  uint64_t h = hash_mix(hash_mix(kFnvOffset, 0x656e7369), hash_bytes(geo.data(), geo.size()));  // "ensi"
-  return hash_mix(hash_mix(h, uint64_t(size)), uint64_t(mtime));
+  return hash_file_stamp(hash_mix(kFnvOffset, 0x656e7369), resolve_in(c, c.model));  // "ensi"
 }
 
 Dataset read_ensight(const std::string& path, int64_t time_step, std::shared_ptr<const EnsightLayout>* kept) {

@@ -1089,14 +1089,7 @@ std::optional<uint64_t> constant_mesh_key(const CaseStep& c) {
     h = hash_mix(h, hash_bytes(d.data(), d.size()));
     for (const char* name : kMeshFiles) {
       const std::string f = find_file(dir / "constant" / "polyMesh", name);
-      h = hash_mix(h, hash_bytes(f.data(), f.size()));
-      if (f.empty()) continue;
-      std::error_code size_error, time_error;
-      const uintmax_t size = fs::file_size(f, size_error);
-      const auto mtime = fs::last_write_time(f, time_error).time_since_epoch().count();
-      if (size_error || time_error)
-        fail_in(f, "cannot read its size and time: " + (size_error ? size_error : time_error).message());
-      h = hash_mix(hash_mix(h, uint64_t(size)), uint64_t(mtime));
+      h = f.empty() ? hash_mix(h, hash_bytes(f.data(), f.size())) : hash_file_stamp(h, f);
     }
   }
   return h;

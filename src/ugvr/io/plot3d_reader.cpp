@@ -691,14 +691,7 @@ Dataset read_plot3d(const std::string& xyz_path, const std::string& q_path) {
 }
 
 uint64_t plot3d_mesh_key(const std::string& xyz_path) {
-  std::error_code size_error, time_error;
-  const uintmax_t size = std::filesystem::file_size(xyz_path, size_error);
-  const auto mtime = std::filesystem::last_write_time(xyz_path, time_error).time_since_epoch().count();
-  if (size_error || time_error)
-    fail_in(xyz_path, "cannot read its size and time: " + (size_error ? size_error : time_error).message());
-  const uint64_t h =
-      hash_mix(hash_mix(kFnvOffset, 0x706c3364), hash_bytes(xyz_path.data(), xyz_path.size()));  // "pl3d"
-  return hash_mix(hash_mix(h, uint64_t(size)), uint64_t(mtime));
+  return hash_file_stamp(hash_mix(kFnvOffset, 0x706c3364), xyz_path);  // "pl3d"
 }
 
 Dataset read_plot3d(const std::string& xyz_path, const std::string& q_path, std::shared_ptr<const Plot3dLayout>* kept) {

@@ -112,38 +112,26 @@ Dataset StepFieldReader::read_whole(size_t step) {
   if (series_->kind == SeriesKind::OpenFoam) {
     std::shared_ptr<const OpenFoamLayout> layout;
     Dataset ds = read_openfoam(st.files[0], st.reader_step, &layout);
-    if (openfoam_layout_mesh_key(*layout)) {
-      std::lock_guard lock(layout_mutex_);
-      foam_layout_ = std::move(layout);
-    }
+    if (openfoam_layout_mesh_key(*layout)) keep_layout(foam_layout_, std::move(layout));
     return ds;
   }
   if (series_->kind == SeriesKind::EnSight) {
     std::shared_ptr<const EnsightLayout> layout;  // none for a .sos
     Dataset ds = read_ensight(st.files[0], st.reader_step, &layout);
-    if (layout && ensight_layout_mesh_key(*layout)) {
-      std::lock_guard lock(layout_mutex_);
-      ensight_layout_ = std::move(layout);
-    }
+    if (layout && ensight_layout_mesh_key(*layout)) keep_layout(ensight_layout_, std::move(layout));
     return ds;
   }
   if (series_->kind == SeriesKind::Cgns) {
     std::shared_ptr<const CgnsLayout> layout;
     Dataset ds = read_cgns(st.files[0], st.reader_step, &layout);
-    if (cgns_layout_mesh_key(*layout)) {
-      std::lock_guard lock(layout_mutex_);
-      cgns_layout_ = std::move(layout);
-    }
+    if (cgns_layout_mesh_key(*layout)) keep_layout(cgns_layout_, std::move(layout));
     return ds;
   }
   if (series_->kind == SeriesKind::Plot3d) {
     std::shared_ptr<const Plot3dLayout> layout;
     Dataset ds = read_plot3d(st.files[0], st.files[1], &layout);
     ds.format += series_step_label(*series_, step);
-    if (plot3d_layout_mesh_key(*layout)) {
-      std::lock_guard lock(layout_mutex_);
-      plot3d_layout_ = std::move(layout);
-    }
+    if (plot3d_layout_mesh_key(*layout)) keep_layout(plot3d_layout_, std::move(layout));
     return ds;
   }
   return read_time_step(*series_, step);
@@ -227,11 +215,7 @@ StepFields StepFieldReader::read_openfoam_step(size_t step) {
   if (!key)
     fail_in(series_->source, "time step " + std::to_string(step) +
                                  " moves the mesh (its time directory has a polyMesh): no fields-only read");
-  std::shared_ptr<const OpenFoamLayout> layout;
-  {
-    std::lock_guard lock(layout_mutex_);
-    layout = foam_layout_;
-  }
+  const std::shared_ptr<const OpenFoamLayout> layout = kept_layout(foam_layout_);
   // No layout of this mesh kept yet (its step was not read through read_whole, or the mesh files changed since): this
   // step read whole keeps one.
   if (!layout || openfoam_layout_mesh_key(*layout) != key) return fields_of(read_whole(step));
@@ -248,11 +232,7 @@ StepFields StepFieldReader::read_ensight_step(size_t step) {
     fail_in(series_->source,
             "time step " + std::to_string(step) +
                 ": the geometry changes per step (a file per step or a file set): no fields-only read");
-  std::shared_ptr<const EnsightLayout> layout;
-  {
-    std::lock_guard lock(layout_mutex_);
-    layout = ensight_layout_;
-  }
+  const std::shared_ptr<const EnsightLayout> layout = kept_layout(ensight_layout_);
   // No layout of this geometry kept yet, or the geometry file changed since: this step read whole keeps one.
   if (!layout || ensight_layout_mesh_key(*layout) != key) return fields_of(read_whole(step));
   StepFields out;
@@ -263,11 +243,7 @@ StepFields StepFieldReader::read_ensight_step(size_t step) {
 StepFields StepFieldReader::read_plot3d_step(size_t step) {
   const TimeStep& st = series_->steps[step];
   const uint64_t key = plot3d_mesh_key(st.files[0]);
-  std::shared_ptr<const Plot3dLayout> layout;
-  {
-    std::lock_guard lock(layout_mutex_);
-    layout = plot3d_layout_;
-  }
+  const std::shared_ptr<const Plot3dLayout> layout = kept_layout(plot3d_layout_);
   // No layout of this grid kept yet, or the grid file changed since: this step read whole keeps one.
   if (!layout || plot3d_layout_mesh_key(*layout) != key) return fields_of(read_whole(step));
   StepFields out;
@@ -283,11 +259,7 @@ StepFields StepFieldReader::read_cgns_step(size_t step) {
   if (!key)
     fail_in(series_->source, "time step " + std::to_string(step) +
                                  ": a zone's grid moves (grid motion or GridCoordinatesPointers): no fields-only read");
-  std::shared_ptr<const CgnsLayout> layout;
-  {
-    std::lock_guard lock(layout_mutex_);
-    layout = cgns_layout_;
-  }
+  const std::shared_ptr<const CgnsLayout> layout = kept_layout(cgns_layout_);
   // No layout of this mesh kept yet, or the file changed since: this step read whole keeps one.
   if (!layout || cgns_layout_mesh_key(*layout) != key) return fields_of(read_whole(step));
   StepFields out;

@@ -191,6 +191,17 @@ class StepFieldReader {
   std::shared_ptr<const TimeSeries> series_;
   std::mutex exodus_mutex_;
   std::unique_ptr<ExodusFieldReader> exodus_;  // opened on the first read
+  // A kept layout, read or replaced under layout_mutex_ (a scene's prefetch thread and its own share the reader).
+  template <class Layout>
+  std::shared_ptr<const Layout> kept_layout(const std::shared_ptr<const Layout>& slot) {
+    std::lock_guard lock(layout_mutex_);
+    return slot;
+  }
+  template <class Layout>
+  void keep_layout(std::shared_ptr<const Layout>& slot, std::shared_ptr<const Layout> layout) {
+    std::lock_guard lock(layout_mutex_);
+    slot = std::move(layout);
+  }
   std::mutex layout_mutex_;
   std::shared_ptr<const OpenFoamLayout> foam_layout_;    // of the last constant mesh read whole (read_whole)
   std::shared_ptr<const EnsightLayout> ensight_layout_;  // of the last static geometry read whole (read_whole)
