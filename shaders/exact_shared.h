@@ -72,7 +72,8 @@ const int EXACT_COUNTER_STEPS_HI = 2;
 const int EXACT_COUNTER_REENTRIES = 3;
 const int EXACT_COUNTER_NONLINEAR = 4;
 const int EXACT_COUNTER_LOST = 5;
-const int EXACT_COUNTER_COUNT = 6;
+const int EXACT_COUNTER_CUT = 6;  // rays llvmpipe's loop limit cut short (loop_limit_probe.glsl), traced on the CPU
+const int EXACT_COUNTER_COUNT = 7;
 
 const int EXACT_TF_TEXELS = 4096;
 const int EXACT_MAX_ISO = 16;
@@ -97,7 +98,7 @@ layout(std140, binding = EXACT_FRAME_BLOCK_BINDING) uniform ExactFrame {
   uvec4 u_face_begin;  // 224 where each type's neighbours start
   ivec4 u_size;        // 240 width, height, tiles per row, tile size
   ivec4 u_flags;       // 256 per-cell data, clip plane on, surface lighting, volume lighting
-  ivec4 u_counts;      // 272 cell count, iso count, chunk shift, -
+  ivec4 u_counts;      // 272 cell count, iso count, chunk shift, loop-limit probe count (loop_limit_probe.glsl)
   vec4 u_params;       // 288 overlay opacity, iso opacity, 1 - early-termination opacity, -
   vec4 u_tf_map;       // 304 x, y: TF texture coordinate = value x + y
   vec4 u_iso[EXACT_MAX_ISO / 4];          // 320 isovalues, ascending

@@ -67,6 +67,7 @@ layout(std430, binding = EXACT_COUNTERS_BINDING) buffer Counters { uint counters
 const float AMBIENT = 0.2, DIFFUSE = 0.8, SPECULAR = 0.25, SHININESS = 32.0;
 const vec3 OVERLAY_COLOR = vec3(0.85);
 #include "cell_walk.glsl"  // the cell tables, the ray frame and the walk, shared with lod_raycast.comp
+#include "loop_limit_probe.glsl"
 
 
 // ---- mesh access ---------------------------------------------------------------------------------------------------
@@ -490,7 +491,15 @@ void main() {
     result = vec4(g_acc.rgb + g_acc.a * c.rgb * c.a, g_acc.a * (1.0 - c.a));
   }
 #endif
+  // A ray that llvmpipe's loop limit cut short is flagged (transmittance -1) for the engine to trace on the CPU, which
+  // counts its walk: not counted here.
+  bool cut = loop_limit_reached(u_counts.w);
+  if (cut) result = vec4(0.0, 0.0, 0.0, -1.0);
   imageStore(u_out, pixel, result);
+  if (cut) {
+    atomicAdd(counters[EXACT_COUNTER_CUT], 1u);
+    return;
+  }
   if (rays_hit > 0u) atomicAdd(counters[EXACT_COUNTER_RAYS_HIT], rays_hit);
   if (reentries > 0u) atomicAdd(counters[EXACT_COUNTER_REENTRIES], reentries);
   if (g_nonlinear > 0u) atomicAdd(counters[EXACT_COUNTER_NONLINEAR], g_nonlinear);

@@ -15,6 +15,7 @@
 // pattern changes abruptly (no seams; gvdb-voxels #99, OSPRay PR 187).
 
 #include "lod_shared.h"  // constants, bindings and the uniform block LodFrame, shared with the engine
+#include "loop_limit_probe.glsl"  // rays llvmpipe's loop limit cut short, counted
 
 // Compile-time choices (the engine compiles one program per combination it meets): on llvmpipe every branch of the
 // sample loop costs its full price whatever a uniform says, so code a frame does not need must not be there.
@@ -1499,6 +1500,8 @@ void main() {
   }
 #endif
   imageStore(u_out, pix, result);
+  // Counted, never silent: such a ray's image is whatever it had gathered when llvmpipe's loop limit ended its loops.
+  if (loop_limit_reached(u_loop_probe)) atomicAdd(counters[COUNTER_LOOP_LIMIT], 1u);
   atomicAdd(counters[COUNTER_SAMPLES], samples);
   atomicAdd(counters[COUNTER_BRICKS], bricks);
 #if HYBRID

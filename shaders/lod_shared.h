@@ -113,7 +113,8 @@ const uint NODE_SKIP = 0xFFFFFFFFu;     // neither drawn nor an ancestor: culled
 const int COUNTER_SAMPLES = 0;     // texture samples of the volume, summed over rays
 const int COUNTER_BRICKS = 1;      // node traversals (bricks entered), summed over rays
 const int COUNTER_CELL_STEPS = 2;  // cells walked in exact nodes (HYBRID), summed over rays
-const int COUNTER_COUNT = 3;
+const int COUNTER_LOOP_LIMIT = 3;  // rays llvmpipe's loop limit cut short (shaders/loop_limit_probe.glsl)
+const int COUNTER_COUNT = 4;
 
 // Texels of the transfer-function table and of its integrals, over the transfer function's own range: texel i at
 // u = i / (TF_TEXELS - 1) of it. The integrals' texel i holds (∫ c·τ du, ∫ τ du) from u = 0 to u_i (lod_engine.cpp).
@@ -161,7 +162,7 @@ layout(std140, binding = FRAME_BLOCK_BINDING) uniform LodFrame {
   bool32 u_fixed_step;        // 160 one world step at every level
   bool32 u_lighting;          // 164 shade surfaces
   bool32 u_clip;              // 168
-  int u_unused;               // 172 (padding: u_iso starts on 16 bytes)
+  int u_loop_probe;           // 172 2: loop_limit_reached's count (shaders/loop_limit_probe.glsl)
   vec4 u_iso[MAX_ISO / 4];    // 176 normalised isovalues, ascending, 4 per vec4 (a float[] would take 16 bytes each)
   vec4 u_slice_plane[LOD_MAX_SLICES];  // 240 slice i: dot(xyz, p) + w = 0, p normalised, xyz a unit normal there
   vec4 u_slice_map[LOD_MAX_SLICES];    // 368 slice i: colour-table coordinate = value · x + y; z its opacity

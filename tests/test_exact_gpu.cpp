@@ -102,6 +102,42 @@ const Dataset& mixed_mesh() {
   return dataset;
 }
 
+// llvmpipe ends every loop of a shader invocation after 65,535 back edges in all (shaders/loop_limit_probe.glsl): a ray
+// down a column of 3,000 hexahedra (vertex data: each cell's walk and its error-bounded subdivision loop) reaches it,
+// and its walk stopped there, drawn as whatever it had gathered. Such rays are now flagged by the shader and traced
+// on the CPU, so the image is the CPU's; on a hardware GPU nothing is flagged.
+TEST(ExactGpu, RaysCutByTheDevicesLoopLimitAreTracedOnTheCpu) {
+  REQUIRE_GL(gl);
+  ImageGrid grid;
+  grid.dims.points = {3, 3, 3001};
+  ExplicitCells cells = make_explicit_cells(Grid(grid), StructuredCellShape::Hexahedra);
+  std::vector<double> values;
+  for (const Vec3f& p : cells.mesh.points) values.push_back(std::sin(0.05 * p.z) + 0.2 * p.x + 0.1 * p.y * p.z / 3000);
+  Block block{"column", std::move(cells.mesh), {}};
+  block.fields.add(Field("s", Association::Vertex, DataArray::from(std::move(values), 1)));
+  Dataset ds;
+  ds.format = "test column";
+  ds.blocks.push_back(std::move(block));
+  ExactEngine engine(ds);
+  engine.set_field(ds, "s");
+  Scene s = default_scene(engine, "iso", 16);
+  // Down the column from below it: every ray that hits crosses all 3,000 cells.
+  s.camera.position = {1, 1, -4};
+  s.camera.focal_point = {1, 1, 1500};
+  s.camera.view_up = {0, 1, 0};
+  s.camera.parallel_projection = true;
+  s.camera.parallel_scale = 0.95;
+  s.tf.opacity_unit_distance = 3000;  // faint, so every ray goes all the way
+  const Compared c = compare_engines(engine, gl, s);
+  expect_match(c, "column of 3,000 hexahedra");
+  EXPECT_GT(c.cpu.cell_steps, 1000 * c.cpu.rays_hit) << "each ray walks over a thousand cells";
+  if (gl->software()) {
+    EXPECT_GT(c.gpu.cpu_traced_rays, 0u) << "llvmpipe's loop limit is reached here: the fallback must have run";
+  } else {
+    EXPECT_EQ(c.gpu.cpu_traced_rays, 0u);
+  }
+}
+
 TEST(ExactGpu, MixedMeshVertexData) {
   REQUIRE_GL(gl);
   const Dataset& ds = mixed_mesh();

@@ -192,7 +192,7 @@ TEST(LodGpuContract, DriverLaysOutTheFrameBlockAsTheCppStruct) {
                                        UGVR_MEMBER(u_fixed_step),
                                        UGVR_MEMBER(u_lighting),
                                        UGVR_MEMBER(u_clip),
-                                       UGVR_MEMBER(u_unused),
+                                       UGVR_MEMBER(u_loop_probe),
                                        Member{"u_iso[0]", offsetof(lod_gpu::LodFrame, u_iso)},
                                        Member{"u_slice_plane[0]", offsetof(lod_gpu::LodFrame, u_slice_plane)},
                                        Member{"u_slice_map[0]", offsetof(lod_gpu::LodFrame, u_slice_map)},

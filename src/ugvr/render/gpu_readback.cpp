@@ -7,7 +7,7 @@
 namespace ugvr {
 
 Image read_back_composited(GlBuffer& readback, const GlTexture& texture, int width, int height,
-                           const std::array<double, 4>& background, const char* who) {
+                           const std::array<double, 4>& background, const char* who, std::vector<uint32_t>* flagged) {
   const size_t pixels = size_t(width) * size_t(height), bytes = pixels * 4 * sizeof(float);
   readback.reserve_readback(bytes);
   glBindBuffer(GL_PIXEL_PACK_BUFFER, readback.id());
@@ -24,6 +24,11 @@ Image read_back_composited(GlBuffer& readback, const GlTexture& texture, int wid
       composite_pixel(image.rgba.data() + 4 * i, radiance, raw[4 * i + 3], background);
     }
   });
+  if (flagged) {
+    flagged->clear();
+    for (size_t i = 0; i < pixels; ++i)
+      if (raw[4 * i + 3] < 0) flagged->push_back(uint32_t(i));
+  }
   glUnmapNamedBuffer(readback.id());
   return image;
 }

@@ -7,6 +7,8 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
+#include <vector>
 
 #include "ugvr/gpu/gl_program.h"
 #include "ugvr/render/image.h"
@@ -14,8 +16,11 @@
 namespace ugvr {
 
 // `readback` is the caller's buffer, kept between frames (grown when the image grows); `who` names the engine in
-// errors. The context must be current and the writes to `texture` made visible (glMemoryBarrier).
+// errors. The context must be current and the writes to `texture` made visible (glMemoryBarrier). With `flagged`, the
+// pixels (y * width + x, ascending) whose transmittance is negative, a shader's mark for "not drawn here", are listed
+// there; their composite is meaningless until the caller draws them.
 Image read_back_composited(GlBuffer& readback, const GlTexture& texture, int width, int height,
-                           const std::array<double, 4>& background, const char* who);
+                           const std::array<double, 4>& background, const char* who,
+                           std::vector<uint32_t>* flagged = nullptr);
 
 }  // namespace ugvr

@@ -853,20 +853,19 @@ double ExactEngine::tolerance_abs(const TransferFunction& tf) const {
   return impl_->nonlinear_tolerance * scale;
 }
 
-Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
-                          ExactRenderStats* stats) const {
-  const Impl& I = *impl_;
-  if (!I.bound) fail_in("exact engine", "no field bound: call set_field first");
-  settings.validate("render settings");
-  tf.validate("transfer function");
-  const auto t0 = std::chrono::steady_clock::now();
+namespace {
 
+// One frame of the walk over the tiles of the image: every pixel, or (with `only`, y * width + x ascending) those
+// listed, written into `image`. Returns false when `keep_going` stopped it.
+bool trace_frame(const WalkMesh& mesh, const std::vector<float>& values, bool per_cell,
+                 const std::optional<Bounds>& clip_box, double tolerance, const std::function<bool()>& keep_going,
+                 const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
+                 std::span<const uint32_t> only, bool all, Image& image, Counters& total) {
   const OpticalTable table(tf);
   std::vector<double> iso = settings.iso_values;
   std::sort(iso.begin(), iso.end());
-  const double diagonal = length(I.mesh.bounds.size());
-  Scene scene{I.values, I.per_cell,        I.mesh,          table,      tf, settings,
-              iso,      tolerance_abs(tf), 1e-7 * diagonal, I.clip_box, {}};
+  const double diagonal = length(mesh.bounds.size());
+  Scene scene{values, per_cell, mesh, table, tf, settings, iso, tolerance, 1e-7 * diagonal, clip_box, {}};
   for (const Slice& sl : settings.slices) {
     TransferFunction colors = sl.color_map.empty() ? tf : builtin_preset(sl.color_map);
     if (sl.range)
@@ -884,11 +883,21 @@ Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, cons
   const CameraRays rays(camera, width, height);
   scene.footprint = {rays.right() * (2 * rays.half_width() / width), rays.up() * (2 * rays.half_height() / height),
                      rays.forward(), camera.parallel_projection};
-  const BoundaryBins bins(I.mesh, camera, width, height, kTileSize);
-  Image image(width, height);
+  const BoundaryBins bins(mesh, camera, width, height, kTileSize);
   const auto& bg = settings.background;
   tbb::combinable<Counters> counters;
   const int tiles = bins.tiles_x() * bins.tiles_y();
+  // With `only`: which pixels of each tile to trace (a tile without any is skipped).
+  std::vector<uint8_t> wanted;
+  std::vector<uint8_t> tile_wanted;
+  if (!all) {
+    wanted.assign(size_t(width) * size_t(height), 0);
+    tile_wanted.assign(size_t(tiles), 0);
+    for (uint32_t i : only) {
+      wanted[i] = 1;
+      tile_wanted[size_t((int(i) / width) / kTileSize) * bins.tiles_x() + (int(i) % width) / kTileSize] = 1;
+    }
+  }
   std::atomic<bool> stopped{false};  // keep_going said no: the tiles not begun are skipped
   tbb::parallel_for(tbb::blocked_range<int>(0, tiles, 1), [&](const tbb::blocked_range<int>& r) {
     thread_local std::vector<RayFrame> frames;
@@ -896,34 +905,53 @@ Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, cons
     thread_local std::vector<uint32_t> pixel_begin;
     Counters& local = counters.local();
     for (int tile = r.begin(); tile != r.end(); ++tile) {
-      if (I.keep_going && (stopped.load(std::memory_order_relaxed) || !I.keep_going())) {
+      if (keep_going && (stopped.load(std::memory_order_relaxed) || !keep_going())) {
         stopped.store(true, std::memory_order_relaxed);
         return;
       }
+      if (!all && !tile_wanted[size_t(tile)]) continue;
       const int x0 = (tile % bins.tiles_x()) * kTileSize, y0 = (tile / bins.tiles_x()) * kTileSize;
       const int tw = std::min(kTileSize, width - x0), th = std::min(kTileSize, height - y0);
       frames.clear();
       for (int y = y0; y < y0 + th; ++y)
         for (int x = x0; x < x0 + tw; ++x) frames.emplace_back(rays.pixel(x, y));
-      tile_entries(I.mesh, bins, tile, width, height, frames, hits, pixel_begin);
+      tile_entries(mesh, bins, tile, width, height, frames, hits, pixel_begin);
       for (int p = 0; p < tw * th; ++p) {
+        const int x = x0 + p % tw, y = y0 + p / tw;
+        if (!all && !wanted[size_t(y) * size_t(width) + size_t(x)]) continue;
         RayTracer tracer(scene, frames[p], local);
         tracer.begin(hits.data() + pixel_begin[p], pixel_begin[p + 1] - pixel_begin[p]);
         while (tracer.advance()) {
         }
-        write_pixel(image, x0 + p % tw, y0 + p / tw, tracer.result(), bg);
+        write_pixel(image, x, y, tracer.result(), bg);
       }
     }
   });
-  if (stopped.load()) throw FrameInterrupted();
+  total = counters.combine([](Counters a, const Counters& b) {
+    a.rays_hit += b.rays_hit, a.cell_steps += b.cell_steps, a.reentries += b.reentries;
+    a.nonlinear_samples += b.nonlinear_samples, a.lost_rays += b.lost_rays;
+    return a;
+  });
+  return !stopped.load();
+}
+
+}  // namespace
+
+Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
+                          ExactRenderStats* stats) const {
+  const Impl& I = *impl_;
+  if (!I.bound) fail_in("exact engine", "no field bound: call set_field first");
+  settings.validate("render settings");
+  tf.validate("transfer function");
+  const auto t0 = std::chrono::steady_clock::now();
+  Image image(settings.width, settings.height);
+  Counters total;
+  if (!trace_frame(I.mesh, I.values, I.per_cell, I.clip_box, tolerance_abs(tf), I.keep_going, camera, tf, settings, {},
+                   true, image, total))
+    throw FrameInterrupted();
   if (stats) {
-    const Counters total = counters.combine([](Counters a, const Counters& b) {
-      a.rays_hit += b.rays_hit, a.cell_steps += b.cell_steps, a.reentries += b.reentries;
-      a.nonlinear_samples += b.nonlinear_samples, a.lost_rays += b.lost_rays;
-      return a;
-    });
     stats->render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    stats->rays = uint64_t(width) * uint64_t(height);
+    stats->rays = uint64_t(settings.width) * uint64_t(settings.height);
     stats->rays_hit = total.rays_hit;
     stats->cell_steps = total.cell_steps;
     stats->reentries = total.reentries;
@@ -932,6 +960,27 @@ Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, cons
     stats->threads = worker_threads();
   }
   return image;
+}
+
+void trace_exact_pixels(const WalkMesh& mesh, const std::vector<float>& values, bool per_cell, const Camera& camera,
+                        const TransferFunction& tf, const RenderSettings& settings, double tolerance_abs,
+                        std::span<const uint32_t> pixels, Image& image, ExactRenderStats* stats) {
+  if (pixels.empty()) return;
+  if (image.width != settings.width || image.height != settings.height)
+    fail_in("exact engine", "the image to trace pixels into is not the settings' size");
+  for (uint32_t i : pixels)
+    if (uint64_t(i) >= uint64_t(settings.width) * uint64_t(settings.height))
+      fail_in("exact engine", "pixel " + std::to_string(i) + " is outside the image");
+  Counters total;
+  trace_frame(mesh, values, per_cell, std::nullopt, tolerance_abs, {}, camera, tf, settings, pixels, false, image,
+              total);
+  if (stats) {
+    stats->rays_hit += total.rays_hit;
+    stats->reentries += total.reentries;
+    stats->cell_steps += total.cell_steps;
+    stats->nonlinear_samples += total.nonlinear_samples;
+    stats->lost_rays += total.lost_rays;
+  }
 }
 
 }  // namespace ugvr

@@ -12,6 +12,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -34,6 +35,9 @@ struct ExactRenderStats {
   uint64_t reentries = 0;          // times a ray entered the mesh again after leaving it (non-convex meshes, holes)
   uint64_t nonlinear_samples = 0;  // interior field evaluations in non-tetrahedral cells (error-bounded integration)
   uint64_t lost_rays = 0;          // rays abandoned on a degenerate walk (should be 0; counted, never silent)
+  // GPU engine: rays that llvmpipe's loop limit cut short (shaders/loop_limit_probe.glsl), traced again on the CPU
+  // (trace_exact_pixels); 0 on a hardware GPU.
+  uint64_t cpu_traced_rays = 0;
   int threads = 0;
 };
 
@@ -99,5 +103,13 @@ class ExactEngine {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// The CPU walk of the listed pixels (y * width + x, ascending) of the image that `settings` describes, written over
+// those pixels of `image` (settings.width x settings.height): what the GPU engine does with the rays that llvmpipe's
+// loop limit cut short (shaders/loop_limit_probe.glsl). `values` and `per_cell` as bound to the walk mesh; `stats`
+// gains the cells they walked. Throws ugvr::Error for a pixel outside the image.
+void trace_exact_pixels(const WalkMesh& mesh, const std::vector<float>& values, bool per_cell, const Camera& camera,
+                        const TransferFunction& tf, const RenderSettings& settings, double tolerance_abs,
+                        std::span<const uint32_t> pixels, Image& image, ExactRenderStats* stats);
 
 }  // namespace ugvr

@@ -75,6 +75,9 @@ struct ExactGpuEngine::Impl {
   GlTexture slice_texture;  // the slices' colour tables (EXACT_SLICE_TEXTURE_BINDING), created on first use
   int out_w = 0, out_h = 0;
   bool per_cell = false, have_values = false;
+  // The bound field on the host too: rays llvmpipe's loop limit cut short are traced on the CPU (trace_exact_pixels).
+  std::vector<float> host_values;
+  std::vector<uint32_t> cut_pixels;
   uint64_t mesh_bytes = 0, frame_bytes = 0, values_bytes = 0, tf_bytes = 0;
   std::optional<TransferFunction> uploaded_tf;                    // what the optical table and the TF texture hold
   std::map<std::tuple<int, bool, int>, ComputeProgram> programs;  // by (mode, volume lighting, slices)
@@ -174,6 +177,7 @@ void ExactGpuEngine::set_values(const std::vector<float>& values, bool per_cell)
   I.values.upload(values.data(), values.size() * sizeof(float));
   check_gl("uploading the field");
   I.values_bytes = values.size() * sizeof(float);
+  I.host_values = values;
   I.per_cell = per_cell;
   I.have_values = true;
 }
@@ -280,7 +284,7 @@ Image ExactGpuEngine::render(const Camera& camera, const TransferFunction& tf, c
                settings.volume_lighting ? 1 : 0};
   std::vector<double> iso = settings.iso_values;
   std::sort(iso.begin(), iso.end());
-  f.u_counts = {int(I.mesh.cell_count()), int(iso.size()), I.chunk_shift, 0};
+  f.u_counts = {int(I.mesh.cell_count()), int(iso.size()), I.chunk_shift, 2};  // .w: loop_limit_reached's count
   f.u_params = {settings.mode == RenderMode::Mip ? 0.0f : float(settings.boundary_overlay_opacity),
                 float(settings.iso_opacity), float(1 - settings.early_termination_opacity), 0};
   f.u_tf_map = {hi > lo ? float(1 / (hi - lo)) : 0.0f, hi > lo ? float(-lo / (hi - lo)) : 0.0f, 0, 0};
@@ -375,7 +379,11 @@ Image ExactGpuEngine::render(const Camera& camera, const TransferFunction& tf, c
   uint32_t counted[exact_gpu::EXACT_COUNTER_COUNT] = {};
   glGetNamedBufferSubData(I.counters.id(), 0, sizeof counted, counted);
 
-  Image image = read_back_composited(I.readback, I.out_texture, w, h, settings.background, "exact engine (GPU)");
+  Image image =
+      read_back_composited(I.readback, I.out_texture, w, h, settings.background, "exact engine (GPU)", &I.cut_pixels);
+  // Rays llvmpipe's loop limit cut short (shaders/loop_limit_probe.glsl; none on a hardware GPU): the CPU's walk.
+  ExactRenderStats cpu;
+  trace_exact_pixels(I.mesh, I.host_values, I.per_cell, camera, tf, settings, tolerance_abs, I.cut_pixels, image, &cpu);
   const size_t bytes = size_t(w) * size_t(h) * 4 * sizeof(float);
   I.frame_bytes = boxes.size() * 4 + list.size() * 4 + I.tf_bytes + bytes * 2;
   if (stats) {
@@ -386,7 +394,12 @@ Image ExactGpuEngine::render(const Camera& camera, const TransferFunction& tf, c
         uint64_t(counted[exact_gpu::EXACT_COUNTER_STEPS_HI]) << 32 | counted[exact_gpu::EXACT_COUNTER_STEPS_LO];
     stats->reentries = counted[exact_gpu::EXACT_COUNTER_REENTRIES];
     stats->nonlinear_samples = counted[exact_gpu::EXACT_COUNTER_NONLINEAR];
-    stats->lost_rays = counted[exact_gpu::EXACT_COUNTER_LOST];
+    stats->lost_rays = counted[exact_gpu::EXACT_COUNTER_LOST] + cpu.lost_rays;
+    stats->rays_hit += cpu.rays_hit;
+    stats->reentries += cpu.reentries;
+    stats->cell_steps += cpu.cell_steps;
+    stats->nonlinear_samples += cpu.nonlinear_samples;
+    stats->cpu_traced_rays = I.cut_pixels.size();
     stats->threads = 0;
   }
   return image;

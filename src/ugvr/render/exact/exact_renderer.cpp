@@ -210,6 +210,7 @@ void ExactFrameStats::to_json(nlohmann::json& j) const {
   j["reentries"] = render.reentries;
   j["nonlinear_samples"] = render.nonlinear_samples;
   j["lost_rays"] = render.lost_rays;
+  j["cpu_traced_rays"] = render.cpu_traced_rays;
 }
 
 ExactRenderer::ExactRenderer(std::shared_ptr<ExactScene> scene, bool on_gpu)
@@ -354,6 +355,9 @@ std::string ExactRenderer::summary(const FrameStats& last) const {
                 on_gpu_ ? format_bytes(scene_->gpu_engine->device_bytes()).c_str() : "");
   std::string s = buf;
   if (st.lost_rays > 0) s += "\nwarning: " + std::to_string(st.lost_rays) + " rays were abandoned on a degenerate walk";
+  if (st.cpu_traced_rays > 0)
+    s += "\nnote: " + std::to_string(st.cpu_traced_rays) +
+         " rays traced on the CPU: the device's loop limit (llvmpipe) cut them short on the GPU";
   return s;
 }
 

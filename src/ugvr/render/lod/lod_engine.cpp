@@ -609,6 +609,7 @@ lod_gpu::LodFrame LodEngine::Impl::frame_parameters(const Camera& camera, const 
   f.u_iso_opacity = float(settings.iso_opacity);
   f.u_lighting = settings.lighting ? 1 : 0;
   f.u_min_transmittance = float(1 - settings.early_termination_opacity);
+  f.u_loop_probe = 2;
   f.u_clip = settings.clip_plane ? 1 : 0;
   if (settings.clip_plane) f.u_clip_plane = normalised_plane(*settings.clip_plane, root);
   f.u_overlay_opacity = overlay ? float(settings.boundary_overlay_opacity) : 0.0f;
@@ -1078,6 +1079,7 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   st.samples = counted[lod_gpu::COUNTER_SAMPLES];
   st.bricks_entered = counted[lod_gpu::COUNTER_BRICKS];
   st.cell_steps = counted[lod_gpu::COUNTER_CELL_STEPS];
+  st.loop_limit_rays = counted[lod_gpu::COUNTER_LOOP_LIMIT];
   I.exact_now.clear();  // a grant holds for one frame
 
   const auto t3 = std::chrono::steady_clock::now();
