@@ -378,15 +378,22 @@ bool neighbourhood_sample(int r, const uint16_t* texels, const CubicNeighbourhoo
 
 }  // namespace
 
+int cubic_reach(int extension, bool next_to_fill, bool fill_nearby) {
+  if (next_to_fill) return extension + 3 * extension / 4;
+  if (fill_nearby) return extension + extension / 4;
+  return extension;
+}
+
 bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector<double>& coefficients,
-                        const CubicNeighbourhood* neighbours, int extension, bool fill) {
+                        const CubicNeighbourhood* neighbours, int extension, bool fill, bool fill_nearby) {
   const int r = int(resolution), s = r + 2;
   const bool complete = all_data(resolution, texels);
   if (!complete && !fill) return false;
   // Next to samples without data the fill is only C0 at the mesh's boundary, and a block's not-a-knot end near that
-  // kink leaves a residual 0.27^k of a large third difference: the prefilter reaches half as far again there
-  // (brick_atlas.h, kCubicExtension).
-  if (fill && next_to_samples_without_data(resolution, texels, neighbours)) extension += extension / 2;
+  // kink leaves a residual 0.27^k of a large third difference: the prefilter reaches farther there, and a little
+  // farther one brick away (brick_atlas.h, cubic_reach).
+  if (fill)
+    extension = cubic_reach(extension, next_to_samples_without_data(resolution, texels, neighbours), fill_nearby);
   int lo[3], hi[3];
   extension_box(resolution, neighbours, std::clamp(extension, 0, r - 1), fill, lo, hi);
   // The block of samples: brick sample q (-lo .. r - 1 + hi along each axis) from the brick or the neighbours that
@@ -536,10 +543,11 @@ void BrickAtlas::add_coefficients() {
 }
 
 BrickAtlas::CubicSlot BrickAtlas::cubic_slot(const uint16_t* texels, const CubicNeighbourhood* neighbours,
-                                             const CubicLevelBlend* levels) const {
+                                             const CubicLevelBlend* levels, bool fill_nearby) const {
   const size_t side = size_t(resolution_) + 2;
   std::vector<double> coefficients;
-  const bool prefiltered = cubic_coefficients(resolution_, texels, coefficients, neighbours, extension_, fill_);
+  const bool prefiltered =
+      cubic_coefficients(resolution_, texels, coefficients, neighbours, extension_, fill_, fill_nearby);
   if (prefiltered && levels && level_blend_) blend_towards_coarser(resolution_, *levels, coefficients);
   // [-1/2, 3/2] to [0, 1] (brick_atlas.h); without the prefilter, the samples themselves.
   CubicSlot out;

@@ -67,11 +67,7 @@ uint16_t cubic_margin_code(uint32_t resolution, const uint16_t* texels,
 // samples: neighbour (-1, 0, 0)'s sample R - 1 - m along x is the brick's sample -m.
 using CubicNeighbourhood = std::array<const uint16_t*, 27>;
 // Samples the prefilter takes from each neighbour (k): 0.27^4 = 0.5 % of a border coefficient's error left
-// (LodTricubic.ExtendedPrefilterMatchesTheWholeLattice measures it). Where a brick of the neighbourhood has samples
-// without data (or is missing inside the root cell), k + k / 2 (6): the fill is only C0 at the mesh's boundary, and a
-// block's not-a-knot end near that kink leaves a residual 0.27^k of a much larger third difference
-// (LodTricubic.BluntFinSameLevelBricksAgreeNextToTheBoundary: 4 -> 6 samples took the seam there from 2.8e-3 to
-// 4.0e-4 in gradient; 8 gave the same largest seam at 1.7x the block).
+// (LodTricubic.ExtendedPrefilterMatchesTheWholeLattice measures it); farther near samples without data (cubic_reach).
 constexpr int kCubicExtension = 4;
 
 // The coefficients of the interpolating cubic B-spline of one slot's samples (make_atlas_slot's layout; the values
@@ -93,17 +89,28 @@ constexpr int kCubicExtension = 4;
 // kept) where the brick has samples without data.
 //
 // With `neighbours`, the prefilter is solved over the brick extended by `extension` samples (default
-// kCubicExtension) into each same-level neighbour that has one (docs/tricubic.md, "Seams"): the recursive filter's
-// influence decays as (2 - sqrt 3)^k, so the coefficients at the brick and its apron are within about 0.27^k of the
-// whole lattice's, and two neighbours hold nearly the same spline across their shared face (value and derivatives).
-// The not-a-knot ends move to the extension's far ends. A side whose neighbour is missing (the domain's border, a
-// coarser leaf or an empty octant there; without `fill`, also a neighbour with samples without data) keeps the
-// brick's own end, as without neighbours; the extended block is a box, so a side is dropped too when a diagonal
-// neighbour it needs is missing.
-// Without neighbours (or with none present), exactly the per-brick solve above.
+// kCubicExtension; with `fill`, cubic_reach's of it, `fill_nearby` the caller's) into each same-level neighbour that
+// has one (docs/tricubic.md, "Seams"): the recursive filter's influence decays as (2 - sqrt 3)^k, so the coefficients
+// at the brick and its apron are within about 0.27^k of the whole lattice's, and two neighbours hold nearly the same
+// spline across their shared face (value and derivatives). The not-a-knot ends move to the extension's far ends. A side
+// whose neighbour is missing (the domain's border, a coarser leaf or an empty octant there; without `fill`, also a
+// neighbour with samples without data) keeps the brick's own end, as without neighbours; the extended block is a box,
+// so a side is dropped too when a diagonal neighbour it needs is missing. Without neighbours (or with none present),
+// exactly the per-brick solve above.
 bool cubic_coefficients(uint32_t resolution, const uint16_t* texels, std::vector<double>& coefficients,
                         const CubicNeighbourhood* neighbours = nullptr, int extension = kCubicExtension,
-                        bool fill = true);
+                        bool fill = true, bool fill_nearby = false);
+// The prefilter's reach (samples taken from each neighbour) for a brick with the fill of samples without data nearby
+// (docs/tricubic.md, "Samples without data"). The fill is only C0 at the mesh's boundary, and a block's not-a-knot end
+// near that kink leaves a residual 0.27^k of a much larger third difference than smooth data have; the seam on a face
+// is the larger of its two bricks' truncations. So: `extension` + 3/4 of it (7 for 4) where a brick of the
+// neighbourhood (the brick included) has samples without data or is missing inside the root cell (`next_to_fill`);
+// + 1/4 (5) where only a brick within two of it has (`fill_nearby`: its neighbours' neighbourhoods, the 5³ same-level
+// positions around it, which the caller knows); `extension` elsewhere (the coefficients as they were, bit for bit).
+// Blunt fin, same-level pairs next to the boundary (LodTricubic.BluntFinSameLevelBricksAgreeNextToTheBoundary),
+// gradient seam against the floor of pairs with data all round (1.20e-4): 6 / 4 (as before) 3.97e-4; 8 / 4 the same
+// (the reach-4 side's own truncation next to a reach-8 brick); 6 / 6 3.73e-4; 7 / 5 1.12e-4; 8 / 6 3.9e-5.
+int cubic_reach(int extension, bool next_to_fill, bool fill_nearby);
 
 // Level borders (docs/tricubic.md, "Level borders"). A node's uniform cubic B-spline is also a B-spline on its
 // children's lattice, of half the spacing (dyadic knot insertion, exact): along an axis the child's coefficient at
@@ -166,13 +173,13 @@ class BrickAtlas {
   // The same in two steps, so that a batch's bricks are prefiltered in parallel (the prefilter is the upload's CPU
   // cost): cubic_slot computes a slot's coefficient codes and cubic margin (thread-safe: it reads the atlas's
   // settings only), upload puts them and the texels into the slot (GL: the context's thread); a null `cubic`
-  // uploads the texels alone, as the other modes do.
+  // uploads the texels alone, as the other modes do. `fill_nearby`: cubic_coefficients' (cubic_reach).
   struct CubicSlot {
     std::vector<uint16_t> codes;  // (R+2)³, x fastest: the coefficients mapped from [-1/2, 3/2] (above)
     float margin = 1.0f;          // the slot's cubic margin, normalised units
   };
-  CubicSlot cubic_slot(const uint16_t* texels, const CubicNeighbourhood* neighbours,
-                       const CubicLevelBlend* levels) const;
+  CubicSlot cubic_slot(const uint16_t* texels, const CubicNeighbourhood* neighbours, const CubicLevelBlend* levels,
+                       bool fill_nearby = false) const;
   void upload(uint64_t slot, const uint16_t* texels, const CubicSlot* cubic);
   bool level_blend() const { return level_blend_; }
   bool fill() const { return fill_; }           // samples without data filled before the prefilter (cubic_coefficients)

@@ -161,6 +161,9 @@ struct LodEngine::Impl {
   uint64_t neighbour(uint64_t node, int dx, int dy, int dz);
   // The node with a brick at (level, i, j, k), or kNoNode.
   uint64_t neighbour_key_node(uint64_t level, int64_t i, int64_t j, int64_t k);
+  // Whether a same-level position within two of the node's (the 5³ around it, inside the root cell) has samples
+  // without data or no brick: the fill lies within its neighbours' neighbourhoods (cubic_coefficients' fill_nearby).
+  bool fill_within_two(uint64_t node);
   uint64_t load_cubic(std::span<const uint64_t> nodes, const BrickSlotTable::Plan& plan, BrickResidency& residency,
                       double lo, double hi);
   // Level borders (brick_atlas.h, CubicLevelBlend): per direction (CubicNeighbourhood's index) the level of the cut
@@ -338,6 +341,21 @@ uint64_t LodEngine::Impl::neighbour_key_node(uint64_t level, int64_t i, int64_t 
   return it == same_level.end() ? kNoNode : it->second;
 }
 
+bool LodEngine::Impl::fill_within_two(uint64_t node) {
+  const BrickNode& b = store.node(node);
+  const int64_t side = int64_t(1) << b.level;
+  for (int64_t dz = -2; dz <= 2; ++dz)
+    for (int64_t dy = -2; dy <= 2; ++dy)
+      for (int64_t dx = -2; dx <= 2; ++dx) {
+        const int64_t q[3] = {int64_t(b.i) + dx, int64_t(b.j) + dy, int64_t(b.k) + dz};
+        if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= side || q[1] >= side || q[2] >= side) continue;
+        const uint64_t m = neighbour_key_node(b.level, q[0], q[1], q[2]);
+        // valid_fraction is 1 exactly where every sample of the brick has data (the mask is the fields' shared one).
+        if (m == kNoNode || store.node(m).valid_fraction < 1.0f) return true;
+      }
+  return false;
+}
+
 uint64_t LodEngine::Impl::neighbour(uint64_t node, int dx, int dy, int dz) {
   const BrickNode& b = store.node(node);
   return neighbour_key_node(b.level, int64_t(b.i) + dx, int64_t(b.j) + dy, int64_t(b.k) + dz);
@@ -445,6 +463,11 @@ uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const Bric
         for (uint64_t m : ancestors[a]) want(m);
       }
     }
+    // Where the fill lies within two bricks (the prefilter's reach, brick_atlas.h cubic_reach); found here, on one
+    // thread: neighbour_key_node builds its index on first use.
+    std::unordered_map<uint64_t, bool> near_fill;
+    for (size_t i = 0; i < count; ++i) near_fill[plan.missing[b + i]] = fill_within_two(plan.missing[b + i]);
+    for (const auto& [a, ids] : ancestors) near_fill[a] = fill_within_two(a);
     std::vector<std::vector<uint16_t>> extra(to_read.size());
     tbb::parallel_for(size_t(0), to_read.size(), [&](size_t i) {
       thread_local std::vector<float> samples;
@@ -473,7 +496,7 @@ uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const Bric
     tbb::parallel_for(size_t(0), ancestor_ids.size(), [&](size_t i) {
       const CubicNeighbourhood hood = hood_of(ancestors.at(ancestor_ids[i]));
       ancestor_ok[i] = cubic_coefficients(r, texels.at(ancestor_ids[i]), ancestor_coefficients[i], &hood,
-                                          atlas.extension(), atlas.fill());
+                                          atlas.extension(), atlas.fill(), near_fill.at(ancestor_ids[i]));
     });
     // The batch's splines in parallel (the prefilter is the upload's CPU cost), then into their slots. Only reads
     // here: neighbour_key_node's index was built by around_of above.
@@ -494,7 +517,7 @@ uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const Bric
         target.coefficients = refined_onto(n, a, ancestor_coefficients[size_t(at - ancestor_ids.begin())]);
         levels.push_back(std::move(target));
       }
-      splines[i] = atlas.cubic_slot(texels.at(n), &hood, &levels);
+      splines[i] = atlas.cubic_slot(texels.at(n), &hood, &levels, near_fill.at(n));
     });
     for (size_t i = 0; i < count; ++i) {
       const uint64_t n = plan.missing[b + i];
