@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "hex_fixtures.h"
+#include "openfoam_fixtures.h"
 #include "step_fields_checks.h"
 #include "test_data.h"
 #include "ugvr/core/file.h"
@@ -237,33 +238,11 @@ TEST(StepFields, AStepFileTruncatedAfterItsKeyWasCachedFailsCleanly) {
 
 namespace fs = std::filesystem;
 
-// A copy of the fixture case `name` in `dir`.
-std::string copy_case(const ScratchDir& dir, const std::string& name) {
-  const fs::path root = dir.file(name);
-  fs::copy(std::string(UGVR_SOURCE_DIR) + "/tests/data/openfoam/" + name, root, fs::copy_options::recursive);
-  return root.string();
-}
-
-// An ascii pointScalarField of `n` values (i * scale) in `time_dir`, as OpenFOAM writes one.
-void write_point_field(const fs::path& time_dir, int n, double scale) {
-  std::string text =
-      "FoamFile\n{\n    version     2.0;\n    format      ascii;\n    class       pointScalarField;\n"
-      "    object      pw;\n}\n\ndimensions      [0 0 0 0 0 0 0];\n\ninternalField   nonuniform List<scalar> \n" +
-      std::to_string(n) + "\n(\n";
-  for (int i = 0; i < n; ++i) text += std::to_string(scale * i) + "\n";
-  text += ")\n;\n\nboundaryField\n{\n}\n";
-  std::ofstream(time_dir / "pw") << text;
-}
-
+using test::bytes_under;
+using test::copy_openfoam_case;
 using test::expect_same_bits;
 using test::expect_whole_read;
-
-uint64_t bytes_under(const fs::path& dir) {
-  uint64_t n = 0;
-  for (const auto& e : fs::recursive_directory_iterator(dir))
-    if (e.is_regular_file()) n += e.file_size();
-  return n;
-}
+using test::write_point_field;
 
 // The cavity case (4 time directories, a cellZones file, a surface field phi the reader skips with a note) with a
 // point field added to the later steps: every step has the constant mesh, and each step's fields read without it
@@ -272,7 +251,7 @@ uint64_t bytes_under(const fs::path& dir) {
 // mesh's.
 TEST(StepFields, OpenFoamStepsOnTheConstantMeshReadFieldsOnly) {
   ScratchDir dir;
-  const std::string root = copy_case(dir, "cavity");
+  const std::string root = copy_openfoam_case(dir, "cavity");
   for (int k = 1; k <= 3; ++k) write_point_field(fs::path(root) / ("0." + std::to_string(k)), 882, 0.5 * k);
   const auto series = series_of(root);
   ASSERT_EQ(series->kind, SeriesKind::OpenFoam);
@@ -329,12 +308,12 @@ TEST(StepFields, OpenFoamStepsOnTheConstantMeshReadFieldsOnly) {
 TEST(StepFields, OpenFoamDecomposedAndPolyhedralStepsReadFieldsOnly) {
   ScratchDir dir;
   {
-    const auto series = series_of(copy_case(dir, "cavity_decomposed"));
+    const auto series = series_of(copy_openfoam_case(dir, "cavity_decomposed"));
     StepFieldReader reader(series);
     reader.read_whole(3);
     for (size_t k : {0u, 2u}) expect_whole_read(*series, reader.read(k), k);
   }
-  const std::string dual = copy_case(dir, "dual");
+  const std::string dual = copy_openfoam_case(dir, "dual");
   write_point_field(fs::path(dual) / "0.02", 692, 0.25);
   write_point_field(fs::path(dual) / "0", 692, 1.0);
   const auto series = series_of(dual);
@@ -358,7 +337,7 @@ TEST(StepFields, OpenFoamDecomposedAndPolyhedralStepsReadFieldsOnly) {
 // mesh is rebuilt; the steps after it on the constant mesh switch back (rebuilt) and then read fields only again.
 TEST(StepFields, OpenFoamATimeDirectoryWithPointsMovesTheMesh) {
   ScratchDir dir;
-  const std::string root = copy_case(dir, "cavity");
+  const std::string root = copy_openfoam_case(dir, "cavity");
   const fs::path moved = fs::path(root) / "0.2" / "polyMesh";
   fs::create_directories(moved);
   {
@@ -398,7 +377,7 @@ TEST(StepFields, OpenFoamATimeDirectoryWithPointsMovesTheMesh) {
 // from a step: the field is absent from that step, as in the whole read.
 TEST(StepFields, OpenFoamADamagedOrMissingFieldFileAtAStep) {
   ScratchDir dir;
-  const std::string root = copy_case(dir, "cavity");
+  const std::string root = copy_openfoam_case(dir, "cavity");
   const fs::path p = fs::path(root) / "0.2" / "p";
   const uintmax_t size = fs::file_size(p);
   const std::string saved = [&] {

@@ -382,6 +382,8 @@ void register_build(CLI::App& app) {
                                 {"time_steps", s.time_steps},
                                 {"read_seconds", s.read_seconds},
                                 {"first_step_nodes", s.first_step_nodes},
+                                {"step_reads_fields_only", s.fields_only_reads},
+                                {"step_reads_whole", s.whole_reads},
                                 {"preview_depth", opts->build.preview_depth},
                                 {"preview_seconds", s.preview_seconds},
                                 {"preview_nodes", s.preview_nodes},
@@ -411,6 +413,9 @@ void register_build(CLI::App& app) {
       if (s.time_steps > 0)
         std::printf("  %u time step(s) on one tree (the first step's own: %llu nodes), reading %.2f s\n", s.time_steps,
                     (unsigned long long)s.first_step_nodes, s.read_seconds);
+      if (s.fields_only_reads + s.whole_reads > 0)
+        std::printf("  step reads: %u fields-only (onto the mesh held), %u whole\n", s.fields_only_reads,
+                    s.whole_reads);
     }
     if (!s.boundary_note.empty()) std::fprintf(stderr, "warning: %s\n", s.boundary_note.c_str());
     if (!out_of_core && peak_rss_bytes() > opts->memory) {

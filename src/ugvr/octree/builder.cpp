@@ -23,6 +23,7 @@
 #include "ugvr/octree/node_cells.h"
 #include "ugvr/octree/node_error.h"
 #include "ugvr/octree/split.h"
+#include "ugvr/octree/step_loader.h"
 #include "ugvr/octree/subdivide.h"
 #include "ugvr/octree/time_steps.h"
 #include "ugvr/store/brick_pad.h"
@@ -282,24 +283,22 @@ OctreeBuildStats build_octree_steps(const TimeSeries& series, std::span<const ui
   OctreeBuildStats stats;
   stats.time_steps = uint32_t(S);
   auto step_name = [&](size_t k) { return step_label(series, steps, k); };
-  // One step's dataset and what the builder takes from it; the previous one is released first.
+  // One step's dataset (the first read whole, later ones' fields read onto its mesh where their files hold it:
+  // octree/step_loader.h) and what the builder takes from it.
   struct Loaded {
-    std::unique_ptr<Dataset> dataset;
+    const Dataset* dataset = nullptr;
     OctreeInput input;
   };
+  StepDatasetLoader loader(series, steps, options.whole_step_reads);
   std::vector<std::string> names(selectors.begin(), selectors.end());
-  uint64_t fingerprint = 0;
   auto load = [&](size_t k, Loaded& out) {
     out = {};
     const auto t0 = std::chrono::steady_clock::now();
     {
       Progress progress(step_name(k) + ": read", 1, options.progress);
-      out.dataset = std::make_unique<Dataset>(read_time_step(series, steps[k]));
+      out.dataset = &loader.load(k);
       progress.finish();
     }
-    const uint64_t f = geometry_fingerprint(*out.dataset);
-    if (k == 0 && fingerprint == 0) fingerprint = f;
-    if (f != fingerprint) fail_geometry_differs(series, steps[k], steps[0], "geometry fingerprint");
     out.input = prepare_octree_input(*out.dataset, names);
     if (names.empty())  // the fields the first step picked, kept for every step (a field constant at first stays)
       for (const BrickStoreField& fd : out.input.fields) names.push_back(fd.name);
@@ -410,6 +409,8 @@ OctreeBuildStats build_octree_steps(const TimeSeries& series, std::span<const ui
     writer.end_step(pass.errors(), pass.tf_errors());
   }
   writer.commit(shape.nodes, {}, {}, &boundary);
+  stats.fields_only_reads = loader.fields_only_reads();
+  stats.whole_reads = loader.whole_reads();
   stats.brick_seconds = seconds_since(bricks_start);
   stats.store_bytes = std::filesystem::file_size(path);
   if (options.tf_errors)

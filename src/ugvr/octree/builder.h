@@ -88,6 +88,9 @@ struct OctreeBuildOptions {
   bool point_sketch = false;
   std::string sketch_path;
   std::function<void(const std::string& path, int depth)> on_sketch;
+  // build_octree_steps: read every step whole, as before fields-only step reads (octree/step_loader.h); the store is
+  // the same either way (tests compare the two).
+  bool whole_step_reads = false;
 };
 
 // The deepest level a build may make: max_depth, or past it by kLeafCellsExtraDepth where leaf cells are capped.
@@ -132,6 +135,8 @@ struct OctreeBuildStats {
   uint32_t time_steps = 0;
   double read_seconds = 0;
   uint64_t first_step_nodes = 0;
+  // Of those reads: steps read fields-only (onto the mesh held) and whole (a step read twice counts twice).
+  uint32_t fields_only_reads = 0, whole_reads = 0;
 };
 
 // The root cell: a cube with the data's lower corner and its largest extent. A cube keeps voxels isotropic, so a
@@ -148,11 +153,14 @@ OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions
 // its bricks, per-node ranges and errors. The tree is the union of the steps' own trees: a node splits where the split
 // rule splits it for any step (at --error 0 the rule looks at the geometry alone, so every step's tree is the same and
 // one is built). Each step's bricks are quantized over that step's own range, so a step's bricks equal those of a
-// store of that step alone wherever the trees agree. Memory: one step's dataset at a time beside the tree's cell
-// lists; at --error > 0 each step is read twice (its tree, then its bricks). `fields` as prepare_octree_input takes
-// them (empty: those it picks for the first step, kept for all). Throws ugvr::Error when a step's geometry differs
-// from the first's (geometry_fingerprint), naming both steps: such a series needs one store per step. Not with
-// options.leaf_cells (the cell blocks hold one step's values) unless a single step is selected.
+// store of that step alone wherever the trees agree. Reads: the first step whole, each later step's fields alone where
+// its files hold the first's mesh as stored (octree/step_loader.h; a step read whole otherwise). Memory: the mesh and
+// one step's fields at a time beside the tree's cell lists; at --error > 0 each step's fields are read twice (for its
+// tree, then for its bricks: keeping every step's fields between the passes would hold the whole series' values).
+// `fields` as prepare_octree_input takes them (empty: those it picks for the first step, kept for all). Throws
+// ugvr::Error when a step read whole has another geometry than the first's (geometry_fingerprint), naming both steps:
+// such a series needs one store per step. Not with options.leaf_cells (the cell blocks hold one step's values) unless
+// a single step is selected.
 OctreeBuildStats build_octree_steps(const TimeSeries& series, std::span<const uint32_t> steps,
                                     std::span<const std::string> fields, const OctreeBuildOptions& options,
                                     const std::string& path);
