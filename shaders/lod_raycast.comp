@@ -1499,9 +1499,14 @@ void main() {
     result = vec4(radiance + transmittance * tf.rgb * a, transmittance * (1.0 - a));
   }
 #endif
+  // A ray llvmpipe's loop limit cut short holds whatever it had gathered: counted, never silent; in the hybrid
+  // variant flagged (transmittance -1) for the engine to draw from the voxels instead.
+  bool cut = loop_limit_reached(u_loop_probe);
+#if HYBRID
+  if (cut) result = vec4(0.0, 0.0, 0.0, -1.0);
+#endif
   imageStore(u_out, pix, result);
-  // Counted, never silent: such a ray's image is whatever it had gathered when llvmpipe's loop limit ended its loops.
-  if (loop_limit_reached(u_loop_probe)) atomicAdd(counters[COUNTER_LOOP_LIMIT], 1u);
+  if (cut) atomicAdd(counters[COUNTER_LOOP_LIMIT], 1u);
   atomicAdd(counters[COUNTER_SAMPLES], samples);
   atomicAdd(counters[COUNTER_BRICKS], bricks);
 #if HYBRID

@@ -25,6 +25,7 @@
 #include "ugvr/core/error.h"
 #include "ugvr/gen/generator.h"
 #include "ugvr/gpu/gl_context.h"
+#include "ugvr/grid/structured_cells.h"
 #include "ugvr/octree/builder.h"
 #include "ugvr/octree/input.h"
 #include "ugvr/render/exact/exact_engine.h"
@@ -34,6 +35,7 @@
 #include "ugvr/render/lod/lod_engine.h"
 #include "ugvr/render/lod/time_critical.h"
 #include "ugvr/render/renderer.h"
+#include "ugvr/render/transfer_function.h"
 #include "ugvr/store/brick_store.h"
 
 namespace ugvr {
@@ -353,6 +355,59 @@ TEST(Hybrid, AFrameIsInterruptedBetweenBandsAndTheNextIsUnchanged) {
 // A node whose cells cannot fit what is left of the cell budget is sized from its block's header and never read or
 // prepared (a 250M-cell store's largest leaves took minutes and gigabytes to prepare before the budget refused them).
 // The bound from the header is below the prepared size, so what fits is still granted.
+// llvmpipe ends a shader invocation's loops after 65,535 back edges in all (shaders/loop_limit_probe.glsl). Down a
+// column of 3,000 hexahedra every ray walks all of them and is cut short: each is flagged and drawn from the voxels of
+// the same cut, so the frame is the voxel frame, not rays stopped part-way. On a hardware GPU nothing is cut.
+TEST(Hybrid, RaysCutByTheDevicesLoopLimitAreDrawnFromTheVoxels) {
+  REQUIRE_GL();
+  const Fixture& f = fixture();
+  ImageGrid grid;
+  grid.dims.points = {3, 3, 3001};
+  ExplicitCells cells = make_explicit_cells(Grid(grid), StructuredCellShape::Hexahedra);
+  std::vector<double> values;
+  for (const Vec3f& p : cells.mesh.points) values.push_back(std::sin(0.05 * p.z) + 0.2 * p.x + 0.1 * p.y * p.z / 3000);
+  Block block{"column", std::move(cells.mesh), {}};
+  block.fields.add(Field("s", Association::Vertex, DataArray::from(std::move(values), 1)));
+  Dataset ds;
+  ds.format = "test column";
+  ds.blocks.push_back(std::move(block));
+  OctreeBuildOptions o;
+  o.leaf_cells = true;
+  const std::string store = (f.dir / "column.ugvr").string();
+  const std::vector<std::string> fields = {"s"};
+  build_octree(prepare_octree_input(ds, fields), o, store);
+
+  Camera cam;  // down the column, parallel rays: each crosses all 3,000 cells
+  cam.position = {1, 1, -4};
+  cam.focal_point = {1, 1, 1500};
+  cam.view_up = {0, 1, 0};
+  cam.parallel_projection = true;
+  cam.parallel_scale = 0.95;
+  TransferFunction tf = builtin_preset("viridis");
+  tf.rescale(-1.0, 1.6);
+  tf.opacity_unit_distance = 3000;
+  RenderSettings rs;
+  rs.width = rs.height = 16;
+  const CutSpec leaves{CutSpec::Kind::Leaves, 0};
+  LodOptions ho;
+  ho.hybrid = true;
+  LodEngine hybrid(store, *f.gl, ho);
+  hybrid.set_field("s");
+  LodRenderStats st;
+  const Image h = hybrid.render(cam, tf, rs, leaves, &st);
+  ASSERT_GT(st.exact_nodes, 0u);
+  LodEngine voxels(store, *f.gl);
+  voxels.set_field("s");
+  const Image v = voxels.render(cam, tf, rs, leaves);
+  if (f.gl->software()) {
+    EXPECT_EQ(st.loop_limit_rays, 256u) << "every ray walks 3,000 cells: llvmpipe cuts it";
+    EXPECT_EQ(st.loop_limit_voxel_rays, st.loop_limit_rays);
+    EXPECT_EQ(compare_images(h, v).max_abs, 0.0) << "every ray drawn from the voxels";
+  } else {
+    EXPECT_EQ(st.loop_limit_rays, 0u);
+  }
+}
+
 TEST(Hybrid, ANodeTooLargeForTheCellBudgetIsNeverPrepared) {
   REQUIRE_GL();
   const Fixture& f = fixture();

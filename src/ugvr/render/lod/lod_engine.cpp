@@ -1011,6 +1011,10 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   // Exact nodes (render() granted them for this cut): drawn by their cells. Their bricks stay loaded all the same, so
   // that a node whose grant ends draws at once.
   const bool hybrid = !I.exact_now.empty();
+  // The voxel nodes' states without the exact grants: what the rays llvmpipe's loop limit cuts short in the hybrid
+  // pass are drawn from (shaders/loop_limit_probe.glsl).
+  std::vector<uint32_t> voxel_state;
+  if (hybrid && I.gl.software()) voxel_state = state;
   for (const auto& [n, entry] : I.exact_now) {
     if (state[n] >= lod_gpu::NODE_DESCEND || entry >= lod_gpu::NODE_EXACT)
       fail_in("lod engine", "exact node " + std::to_string(n) + " is not a node of the cut");
@@ -1019,8 +1023,10 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   // Focus+context: the resampled nodes of zero interest are drawn as context (lod_shared.h NODE_CONTEXT).
   if (I.interest.any())
     for (uint64_t n : nodes)
-      if (state[n] < lod_gpu::NODE_CONTEXT && node_interest(I.store, n, I.interest) == 0)
-        state[n] |= lod_gpu::NODE_CONTEXT;
+      if (node_interest(I.store, n, I.interest) == 0) {
+        if (state[n] < lod_gpu::NODE_CONTEXT) state[n] |= lod_gpu::NODE_CONTEXT;
+        if (!voxel_state.empty() && voxel_state[n] < lod_gpu::NODE_CONTEXT) voxel_state[n] |= lod_gpu::NODE_CONTEXT;
+      }
   I.state.upload(state.data(), state.size() * sizeof(uint32_t));
   st.load_seconds = seconds_since(t1);
   st.atlas_bytes = I.atlas.bytes();
@@ -1106,7 +1112,25 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   I.exact_now.clear();  // a grant holds for one frame
 
   const auto t3 = std::chrono::steady_clock::now();
-  Image image = read_back_composited(I.readback, I.out_texture, w, h, settings.background, "lod engine");
+  std::vector<uint32_t> cut;
+  Image image =
+      read_back_composited(I.readback, I.out_texture, w, h, settings.background, "lod engine", hybrid ? &cut : nullptr);
+  if (!cut.empty()) {
+    // The hybrid rays llvmpipe's loop limit cut short (no hardware GPU has one): the voxel pass of the same cut.
+    if (voxel_state.empty()) fail_in("lod engine", "rays were cut short on a device not known to cut them");
+    I.state.upload(voxel_state.data(), voxel_state.size() * sizeof(uint32_t));
+    const ComputeProgram& voxels = I.program_for(mode, mode == LOD_MODE_EA && settings.volume_lighting, overlay, slices,
+                                                 tricubic, false, focus_windows);
+    glUseProgram(voxels.id());
+    I.counters.upload(zero, sizeof zero);
+    dispatch_image(w, h, lod_gpu::WORKGROUP_SIZE, lod_gpu::BAND_ORIGIN_LOCATION, {});
+    glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
+    glFinish();
+    check_gl("ray casting the cut rays' voxels");
+    const Image voxel = read_back_composited(I.readback, I.out_texture, w, h, settings.background, "lod engine");
+    for (uint32_t i : cut) std::copy_n(voxel.rgba.data() + 4 * size_t(i), 4, image.rgba.data() + 4 * size_t(i));
+    st.loop_limit_voxel_rays = cut.size();
+  }
   st.readback_seconds = seconds_since(t3);
   st.render_seconds = seconds_since(t0) + st.cut_seconds;
   if (stats) *stats = st;

@@ -67,9 +67,10 @@ struct LodRenderStats {
   uint64_t cell_bytes = 0, cell_budget_bytes = 0, cells_prepared = 0, cell_steps = 0;
   bool cell_budget_full = false;
   double cells_seconds = 0;  // choosing, reading, preparing and uploading cells
-  // Rays that llvmpipe's loop limit cut short (shaders/loop_limit_probe.glsl: 65,535 loop iterations per 8 rays):
-  // their pixels hold what they had gathered. 0 on a hardware GPU.
-  uint64_t loop_limit_rays = 0;
+  // Rays that llvmpipe's loop limit cut short (shaders/loop_limit_probe.glsl: 65,535 loop iterations per 8 rays),
+  // 0 on a hardware GPU. In a hybrid frame they are drawn again from the voxels (loop_limit_voxel_rays of them);
+  // elsewhere their pixels hold what they had gathered.
+  uint64_t loop_limit_rays = 0, loop_limit_voxel_rays = 0;
 };
 
 // Whether settings draw tricubic isosurfaces (the other modes ignore the interpolation).

@@ -70,6 +70,7 @@ void LodFrameStats::to_json(nlohmann::json& j) const {
   j["cut"] = cut_spec_name(cut);
   j["cut_nodes"] = st.cut_nodes;
   j["loop_limit_rays"] = st.loop_limit_rays;
+  j["loop_limit_voxel_rays"] = st.loop_limit_voxel_rays;
   j["cut_max_level"] = st.max_level;
   j["cut_mean_level"] = st.mean_level;
   j["culled_frustum"] = st.culled_frustum;
@@ -238,10 +239,13 @@ std::string LodRenderer::summary(const FrameStats& last) const {
       if (st.focus_excluded) out += ", " + std::to_string(st.focus_excluded) + " outside --focus / --roi resampled";
     }
   }
-  if (st.loop_limit_rays > 0)
-    out += "\nwarning: " + std::to_string(st.loop_limit_rays) +
+  if (st.loop_limit_rays > st.loop_limit_voxel_rays)
+    out += "\nwarning: " + std::to_string(st.loop_limit_rays - st.loop_limit_voxel_rays) +
            " rays were cut short by the device's loop limit (llvmpipe: 65,535 loop iterations per 8 rays); their "
            "pixels hold what they had gathered (docs/hybrid.md, \"llvmpipe's loop limit\")";
+  if (st.loop_limit_voxel_rays > 0)
+    out += "\nnote: " + std::to_string(st.loop_limit_voxel_rays) +
+           " exact rays were cut short by the device's loop limit (llvmpipe) and drawn from the voxels instead";
   return out;
 }
 
