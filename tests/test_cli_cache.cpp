@@ -96,8 +96,8 @@ TEST(CliCache, APartitionedStoreIsOneEntryWithItsPieces) {
   EXPECT_EQ(fs::path(listed[2].path).filename(), "mesh-1.json");
   EXPECT_EQ(listed[2].bytes, 310u);
 
-  // To 100 bytes: the index with its pieces, then the unfinished pieces go.
-  const auto removed = view::prune_cached_stores(cache.string(), 100);
+  // To 50 bytes: the index with its pieces, then the unfinished pieces go.
+  const auto removed = view::prune_cached_stores(cache.string(), 50);
   ASSERT_EQ(removed.size(), 2u);
   EXPECT_FALSE(fs::exists(cache / "mesh-1.json"));
   EXPECT_FALSE(fs::exists(cache / "mesh-1.d"));
