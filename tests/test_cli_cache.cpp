@@ -72,5 +72,39 @@ TEST(CliCache, ListsPrunesOldestFirstAndClears) {
   EXPECT_TRUE(view::cached_stores((cache / "none").string()).empty());
 }
 
+// A partitioned store the viewer built for want of scratch (view/scratch_pieces.h) is one entry: its index and its
+// pieces' folder, counted together and removed together; a pieces folder without its index (an interrupted build) is
+// an entry of its own.
+TEST(CliCache, APartitionedStoreIsOneEntryWithItsPieces) {
+  test::ScratchDir dir;
+  const fs::path cache = dir.file("cache");
+  fs::create_directories(cache / "mesh-1.d");
+  fs::create_directories(cache / "mesh-2.d");
+  put(cache / "mesh-1.json", 10, 30);
+  put(cache / "mesh-1.d" / "piece-0.ugvr", 100, 30);
+  put(cache / "mesh-1.d" / "piece-1.ugvr", 200, 30);
+  put(cache / "mesh-2.d" / "piece-0.ugvr", 40, 20);  // no index: unfinished
+  fs::last_write_time(cache / "mesh-2.d", fs::file_time_type::clock::now() - std::chrono::hours(20));
+  put(cache / "other.ugvr", 50, 10);
+  put(cache / "notes.json", 5, 40);  // a .json without a pieces folder: not a store
+
+  const auto listed = view::cached_stores(cache.string());
+  ASSERT_EQ(listed.size(), 3u);
+  EXPECT_EQ(fs::path(listed[0].path).filename(), "other.ugvr");
+  EXPECT_EQ(fs::path(listed[1].path).filename(), "mesh-2.d");
+  EXPECT_EQ(listed[1].bytes, 40u);
+  EXPECT_EQ(fs::path(listed[2].path).filename(), "mesh-1.json");
+  EXPECT_EQ(listed[2].bytes, 310u);
+
+  // To 50 bytes: the index with its pieces, then the unfinished pieces go.
+  const auto removed = view::prune_cached_stores(cache.string(), 50);
+  ASSERT_EQ(removed.size(), 2u);
+  EXPECT_FALSE(fs::exists(cache / "mesh-1.json"));
+  EXPECT_FALSE(fs::exists(cache / "mesh-1.d"));
+  EXPECT_FALSE(fs::exists(cache / "mesh-2.d"));
+  EXPECT_TRUE(fs::exists(cache / "other.ugvr"));
+  EXPECT_TRUE(fs::exists(cache / "notes.json"));
+}
+
 }  // namespace
 }  // namespace ugvr

@@ -332,6 +332,50 @@ TEST_F(CliRender, AMeshOverTheMemoryBudgetIsDrawnFromItsStoreBuiltOutOfCore) {
   EXPECT_NE(exact.out.find("over the memory budget"), std::string::npos) << exact.out;
 }
 
+// A mesh over the memory budget whose one out-of-core build's scratch does not fit the cache's disk (here
+// $UGVR_SCRATCH_FREE_BYTES says 200,000 bytes are free, and the whole build needs at least 2 x 2,000 cells x 84 bytes)
+// is built in pieces into the cache, one piece's scratch at a time (4: the least that fits, view/scratch_pieces.h),
+// and drawn from their index: the same image, pixel for pixel, as `ugvr build --pieces 4 --out-of-core` at the same
+// memory budget and a render of that index (the out-of-core build's stores depend on its budget: at 1 GiB the image
+// differs, 49.7 dB). The next render draws the cached index without building; a time budget is refused (drawn whole).
+TEST_F(CliRender, AMeshWhoseScratchDoesNotFitIsBuiltInPiecesIntoTheCache) {
+  const std::string env =
+      "UGVR_CACHE_DIR=" + file("cache") + " UGVR_VIEW_MEMORY_BUDGET=100KiB UGVR_SCRATCH_FREE_BYTES=200000 ";
+  const std::string view = " --size 48 --view iso --field pressure --tf viridis";
+  const CommandResult first =
+      test::run_command(env + UGVR_BINARY + " render " + data() + " -o " + file("a.pfm") + view);
+  ASSERT_EQ(first.status, 0) << first.out;
+  EXPECT_NE(first.out.find("not enough scratch for one build"), std::string::npos) << first.out;
+  EXPECT_NE(first.out.find("building 4 pieces, one at a time"), std::string::npos) << first.out;
+  std::vector<std::string> indexes;
+  for (const auto& e : std::filesystem::directory_iterator(file("cache")))
+    if (e.path().extension() == ".json") indexes.push_back(e.path().string());
+  ASSERT_EQ(indexes.size(), 1u);
+  EXPECT_EQ(json::parse(read_bytes(indexes[0]))["pieces"].size(), 4u);
+
+  const std::string index = file("manual.json");
+  const CommandResult built =
+      run_ugvr("build " + data() + " --pieces 4 --out-of-core --memory 100KiB --fields pressure -o " + index);
+  ASSERT_EQ(built.status, 0) << built.out;
+  ASSERT_EQ(run_ugvr("render " + index + " -o " + file("b.pfm") + view).status, 0);
+  const Image a = read_pfm(file("a.pfm")), b = read_pfm(file("b.pfm"));
+  EXPECT_TRUE(a == b);
+  bool drawn = false;  // not one colour all over
+  for (size_t i = 0; i < a.rgba.size(); ++i) drawn = drawn || a.rgba[i] != a.rgba[i % 4];
+  EXPECT_TRUE(drawn);
+
+  const CommandResult again =
+      test::run_command(env + UGVR_BINARY + " render " + data() + " -o " + file("c.pfm") + view);
+  ASSERT_EQ(again.status, 0) << again.out;
+  EXPECT_NE(again.out.find("drawing the partitioned store built earlier"), std::string::npos) << again.out;
+  EXPECT_TRUE(read_pfm(file("c.pfm")) == a);
+
+  const CommandResult timed = test::run_command(env + UGVR_BINARY + " --quiet render " + data() + " -o " +
+                                                file("d.pfm") + view + " --time-budget 30");
+  EXPECT_NE(timed.status, 0) << timed.out;
+  EXPECT_NE(timed.out.find("--time-budget"), std::string::npos) << timed.out;
+}
+
 // Time-critical rendering along a path: one stats line per frame; once the camera rests the image converges to the
 // full-quality single image of the same view.
 TEST_F(CliRender, LodPathConvergesWhenTheCameraRests) {

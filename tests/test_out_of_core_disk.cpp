@@ -2,6 +2,7 @@
 // before anything is written, with what it needs, what is free and what to do instead.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <string>
 
 #include "ugvr/core/error.h"
@@ -34,6 +35,23 @@ TEST(OutOfCoreDisk, TooLittleFreeSpaceIsRefusedWithAdvice) {
     // The advice runs as written: the partitioned build, one piece's scratch at a time, to an index beside the input.
     EXPECT_NE(m.find("ugvr build /data/big.vtu --pieces 16 --out-of-core -o /data/big.json"), std::string::npos) << m;
   }
+}
+
+// $UGVR_SCRATCH_FREE_BYTES stands for the free space (tests cannot fill a disk); a value that is not a count is refused
+// naming the variable; unset, the file system's own figure.
+TEST(OutOfCoreDisk, TheFreeSpaceSeenCanBeSetForTests) {
+  ::unsetenv(kScratchFreeBytesEnv);
+  EXPECT_GT(scratch_free_bytes("."), 0u);
+  ::setenv(kScratchFreeBytesEnv, "12345", 1);
+  EXPECT_EQ(scratch_free_bytes("."), 12345u);
+  ::setenv(kScratchFreeBytesEnv, "12k", 1);
+  try {
+    scratch_free_bytes(".");
+    FAIL() << "12k was taken as a byte count";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(kScratchFreeBytesEnv), std::string::npos) << e.what();
+  }
+  ::unsetenv(kScratchFreeBytesEnv);
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 #include "ugvr/core/memory.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/view/memory_budget.h"
+#include "ugvr/view/scratch_pieces.h"
 
 namespace ugvr::view {
 namespace {
@@ -164,6 +165,30 @@ TEST(GridCountsFromHeaders, ExodusAndCgnsSamplesMatchTheirRead) {
     EXPECT_EQ(c->points, ds.point_count()) << name;
     EXPECT_EQ(c->cells, ds.cell_count()) << name;
   }
+}
+
+// Too little free space for one out-of-core build's scratch: the least power of two whose piece fits (its kd box grown
+// by the ghost margin, kScratchPieceMargin over it); none up to kMaxScratchPieces keeps the refusal.
+TEST(ScratchPieces, TheLeastPowerOfTwoWhosePieceFits) {
+  // 2,000 cells, one field: the floor is 2 x 2,000 x 96 bytes.
+  const ScratchPieces fits = pieces_for_scratch(2000, 0, 32, 384000, "/cache");
+  EXPECT_EQ(fits.pieces, 1);
+  EXPECT_EQ(fits.whole, 384000u);
+  EXPECT_TRUE(fits.why.empty());
+  // Two pieces hold 0.629 of the cells (half the x axis and twice 2/31 of it), 302 KB with the margin; four
+  // 0.629^2, 190 KB.
+  const ScratchPieces four = pieces_for_scratch(2000, 1, 32, 200000, "/cache");
+  EXPECT_EQ(four.pieces, 4);
+  EXPECT_LE(four.piece, 200000u);
+  EXPECT_NE(four.why.find("building 4 pieces, one at a time"), std::string::npos) << four.why;
+  EXPECT_NE(four.why.find("/cache"), std::string::npos) << four.why;
+  EXPECT_NE(four.why.find("2000 cells"), std::string::npos) << four.why;
+  // Named fields are counted as vertex fields, the larger record: 2 x 2,000 x 112 for two.
+  EXPECT_EQ(pieces_for_scratch(2000, 2, 32, 0, "/cache").whole, 448000u);
+  // More pieces never hold less than the ghost layers: with 1 KB free none fits.
+  const ScratchPieces none = pieces_for_scratch(2000, 1, 32, 1000, "/cache");
+  EXPECT_EQ(none.pieces, 0);
+  EXPECT_TRUE(none.why.empty());
 }
 
 }  // namespace

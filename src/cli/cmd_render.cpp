@@ -29,6 +29,7 @@
 #include "ugvr/core/threads.h"
 #include "ugvr/io/step_fields.h"
 #include "ugvr/io/time_series.h"
+#include "ugvr/mpi/piece_build_ooc.h"
 #include "ugvr/mpi/piece_index.h"
 #include "ugvr/mpi/piece_renderer.h"
 #include "ugvr/octree/input.h"
@@ -464,8 +465,12 @@ void run_render(const Options& o, std::optional<double> time_budget) {
 #endif
   if (!timed && !time_store && !under_mpi && !(o.inputs.size() == 1 && is_piece_index(o.inputs[0])))
     big = flag_errors([&] {
-      return view::store_for_a_mesh_over_budget(o.inputs, settings.field, o.engine, time_budget, start,
-                                                Progress::enabled());
+      return view::store_for_a_mesh_over_budget(
+          o.inputs, settings.field, o.engine, time_budget, start, Progress::enabled(),
+          [](const std::string& vtu, const std::vector<std::string>& fields, int pieces, int ghost_level,
+             const OctreeBuildOptions& build, uint64_t budget, const std::string& index) {
+            build_index_out_of_core(vtu, fields, pieces, ghost_level, build, budget, index);
+          });
     });
   if (big && time_budget) budget_lod = true;
   // Tricubic isosurfaces are the lod engine's, drawn from a brick store's bricks (docs/tricubic.md): the exact engine
@@ -525,6 +530,7 @@ void run_render(const Options& o, std::optional<double> time_budget) {
       if (time_budget) fail_flag("--time-budget", "is not supported for a partitioned store yet (docs/mpi.md)");
       return open_piece_renderer(read_piece_index(o.inputs[0]), {}, ro);
     }
+    if (big && big->pieces > 0) return open_piece_renderer(read_piece_index(big->path), {}, ro);
     if (big) return open_renderer_default_field({big->path}, o.read, ro, &opened);
     if (voxel) return open_renderer_default_field({voxel->path}, o.read, ro, &opened);
     return open_renderer_default_field(o.inputs, o.read, ro, &opened);

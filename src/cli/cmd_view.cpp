@@ -8,6 +8,7 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -18,11 +19,14 @@
 #include "cli/demo_scene.h"
 #include "ugvr/core/error.h"
 #include "ugvr/core/memory.h"
+#include "ugvr/core/progress.h"
 #include "ugvr/gen/generator.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/time_series.h"
+#include "ugvr/mpi/piece_build_ooc.h"
 #include "ugvr/mpi/piece_index.h"
 #include "ugvr/mpi/piece_renderer.h"
+#include "ugvr/octree/out_of_core.h"
 #include "ugvr/render/camera.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/render/renderer_factory.h"
@@ -30,13 +34,13 @@
 #include "ugvr/render/transfer_function.h"
 #include "ugvr/store/brick_store.h"
 #include "ugvr/view/memory_budget.h"
+#include "ugvr/view/scratch_pieces.h"
 #include "ugvr/view/view_protocol.h"
 #include "ugvr/view/view_server.h"
 #include "ugvr/view/view_store.h"
 #ifdef UGVR_HAVE_MPI
 #include <tbb/global_control.h>
 
-#include "ugvr/core/progress.h"
 #include "ugvr/mpi/mpi_session.h"
 #include "ugvr/mpi/mpi_view.h"
 #endif
@@ -182,24 +186,57 @@ void run_view_mpi(const Options& o, view::ViewServerOptions vo) {
 }
 #endif
 
-// `ugvr view INDEX.json` in one process (docs/mpi.md, "The viewer on a cluster"): every piece of a partitioned store
-// drawn here, as `ugvr render INDEX` draws them (piece_renderer.h), through the same collective path as under MPI
-// (the tabs' one renderer, one cut per frame, the image scaled down while the view moves:
-// render/scaled_while_moving.h). Nothing is built: a store of a billion cells is opened where its pieces were written.
-void run_view_pieces(const Options& o, view::ViewServerOptions vo) {
-  if (!o.store_path.empty() || o.free_grid)
-    fail_in(o.free_grid ? "--free-grid" : "--store", "a partitioned store's index is shown as built: nothing to build");
-  const PieceIndex index = read_piece_index(o.inputs[0]);  // a bad index fails here, before serving
-  vo.collective = [index, ro = collective_renderer_options(o)] {
+// The partitioned store at `index_path` served in one process: every piece drawn here, as `ugvr render INDEX` draws
+// them (piece_renderer.h), through the same collective path as under MPI (the tabs' one renderer, one cut per frame,
+// the image scaled down while the view moves: render/scaled_while_moving.h). `build`: the index is built first
+// (ViewServerOptions::collective_build, its progress in the page), else it exists and a bad one fails here, before
+// serving.
+void serve_pieces(const Options& o, view::ViewServerOptions vo, const std::string& index_path, int pieces,
+                  std::function<void(const Progress::Observer&)> build = {}) {
+  if (!build) pieces = read_piece_index(index_path).count();
+  vo.collective = [index_path, ro = collective_renderer_options(o)] {
+    const PieceIndex index = read_piece_index(index_path);
     view::CollectiveRenderer c;
     describe_pieces(index, c);
     c.renderer = std::make_shared<ScaledWhileMovingRenderer>(open_piece_renderer(index, {}, ro));
     return c;
   };
+  vo.collective_build = std::move(build);
+  vo.store = index_path;  // the build's cache entry
   // In one process a resting frame stops between (and inside) pieces when the view moves on: no rest delay needed.
   vo.collective_interruptible = true;
-  serve(std::move(vo), "a partitioned store: its " + std::to_string(index.count()) +
+  serve(std::move(vo), "a partitioned store: its " + std::to_string(pieces) +
                            " pieces drawn in this process, one after another (mpirun -np N shares them out)");
+}
+
+// `ugvr view INDEX.json` in one process (docs/mpi.md, "The viewer on a cluster"). Nothing is built: a store of a
+// billion cells is opened where its pieces were written.
+void run_view_pieces(const Options& o, view::ViewServerOptions vo) {
+  if (!o.store_path.empty() || o.free_grid)
+    fail_in(o.free_grid ? "--free-grid" : "--store", "a partitioned store's index is shown as built: nothing to build");
+  serve_pieces(o, std::move(vo), o.inputs[0], 0);
+}
+
+// A .vtu over the memory budget whose one out-of-core build's scratch would not fit the cache's disk but whose pieces
+// do (view/scratch_pieces.h): its partitioned store, built in the cache one piece at a time (as `ugvr build --pieces
+// N --out-of-core` builds it) unless an earlier view built it, then shown as an index is. `why`: why out of core.
+void view_in_pieces(const Options& o, view::ViewServerOptions vo, const std::vector<std::string>& fields,
+                    uint64_t budget, const std::string& why, const view::ScratchPieces& sp) {
+  OctreeBuildOptions build = o.build;  // the LOD engine draws the pieces: no cells
+  build.leaf_cells = false;
+  build.threads = 0;
+  const std::string index = view::cached_index_path(o.inputs, fields, build, sp.pieces, view::kScratchPiecesGhostLevel);
+  if (is_piece_index(index)) {
+    std::fprintf(stderr, "ugvr view: %s: showing the partitioned store built earlier, %s\n", why.c_str(),
+                 index.c_str());
+    return serve_pieces(o, std::move(vo), index, 0);
+  }
+  vo.notice = why + "; " + sp.why;
+  std::fprintf(stderr, "ugvr view: %s, into %s\n", vo.notice.c_str(), index.c_str());
+  serve_pieces(o, std::move(vo), index, sp.pieces,
+               [vtu = o.inputs[0], fields, pieces = sp.pieces, build, budget, index](const Progress::Observer& p) {
+                 build_index_out_of_core(vtu, fields, pieces, view::kScratchPiecesGhostLevel, build, budget, index, p);
+               });
 }
 
 void run_view(const Options& o) {
@@ -343,6 +380,13 @@ void run_view(const Options& o) {
         const std::string why = view::over_budget_reason(need, budget, budget_source);
         view::require_out_of_core_input(o.inputs, why,
                                         std::string("--memory-budget or $") + view::kViewMemoryBudgetEnv);
+        if (o.store_path.empty()) {  // the scratch goes next to the store: in the cache
+          const std::string cache = view::view_cache_dir();
+          std::filesystem::create_directories(cache);
+          const view::ScratchPieces sp = view::pieces_for_scratch(need.cells, fields.size(), vo.build.resolution,
+                                                                  scratch_free_bytes(cache), cache);
+          if (sp.pieces > 1) return view_in_pieces(o, std::move(vo), fields, budget, why, sp);
+        }
         vo.out_of_core_input = o.inputs[0];
         vo.out_of_core_budget = budget;
         vo.notice = why +

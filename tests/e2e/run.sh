@@ -42,7 +42,8 @@ UGVR="$ugvr" UGVR_MESH="$tmp/mixed.vtu" timeout -k 5 300 node --test-reporter=sp
 UGVR="$ugvr" UGVR_SERIES="$tmp/wake.pvd" timeout -k 5 300 node --test-reporter=spec "$here/time.test.mjs"
 # The same panel over a time store (the level-of-detail engine, steps read at the tab's cut).
 UGVR="$ugvr" UGVR_TIME_STORE="$tmp/wake.ugvr" timeout -k 5 300 node --test-reporter=spec "$here/time_store.test.mjs"
-# A partitioned store's index in one process (no mpirun), against the whole store's viewer.
-UGVR="$ugvr" UGVR_PIECES="$tmp/pieces.json" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 5 300 node --test-reporter=spec "$here/pieces.test.mjs"
+# A partitioned store's index in one process (no mpirun), against the whole store's viewer; and one the viewer builds
+# for a mesh whose out-of-core build's scratch does not fit.
+UGVR="$ugvr" UGVR_PIECES="$tmp/pieces.json" UGVR_STORE="$tmp/mixed.ugvr" timeout -k 5 600 node --test-reporter=spec "$here/pieces.test.mjs"
 # The hybrid engine over a store with cells: exact at rest, the engine picker, the interest panel's box and brush.
 UGVR="$ugvr" UGVR_CELLS_STORE="$tmp/mixed-cells.ugvr" timeout -k 5 420 node --test-reporter=spec "$here/hybrid.test.mjs"

@@ -1,9 +1,13 @@
 #include "ugvr/mpi/piece_build_ooc.h"
 
+#include <algorithm>
 #include <chrono>
+#include <filesystem>
 
 #include "ugvr/core/error.h"
 #include "ugvr/mpi/kd_partition.h"
+#include "ugvr/mpi/piece_record.h"
+#include "ugvr/octree/build_parts.h"
 #include "ugvr/octree/out_of_core.h"
 #include "ugvr/octree/vtu_cells.h"
 
@@ -58,6 +62,52 @@ OctreeBuildStats build_piece_out_of_core(const std::string& vtu_path, std::span<
   plan.plan.cells[size_t(k)] = owned;
   plan.plan.ghost_cells[size_t(k)] = held - owned;
   return stats;
+}
+
+PieceIndex build_index_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors, int pieces,
+                                   int ghost_level, OctreeBuildOptions options, uint64_t memory_budget,
+                                   const std::string& index_path, const Progress::Observer& progress) {
+  // Steps: the plan, then each piece.
+  const double steps = double(pieces) + 1;
+  auto report = [&](double step, const std::string& what, double fraction) {
+    if (progress) progress(what, (step + std::clamp(fraction, 0.0, 1.0)) / steps);
+  };
+  // Without `progress` the steps report as they do alone (core/progress.h).
+  Progress::Observer plan_progress;
+  if (progress) plan_progress = [&](const std::string& label, double f) { report(0, "planning: " + label, f); };
+  OutOfCorePiecePlan plan = plan_pieces_out_of_core(vtu_path, selectors, pieces, options.resolution, ghost_level,
+                                                    memory_budget, plan_progress);
+  std::filesystem::create_directories(piece_folder(index_path));
+  options.inputs = {vtu_path};
+  const std::string provenance = store_layout(options, {}, plan.plan.root, plan.plan.bounds, true).provenance;
+  const std::string input_path = std::filesystem::weakly_canonical(vtu_path).string();
+  const std::vector<std::string> fields(selectors.begin(), selectors.end());
+  for (int k = 0; k < pieces; ++k) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::string path =
+        (std::filesystem::path(index_path).parent_path() / piece_store_name(index_path, k)).string();
+    PieceRecord record = planned_piece_record(plan.plan, k, input_path, provenance, fields);
+    std::string why;
+    if (const std::optional<PieceRecord> kept = kept_piece(path, record, &why)) {
+      plan.plan.cells[size_t(k)] = kept->cells;
+      plan.plan.ghost_cells[size_t(k)] = kept->ghost_cells;
+      report(1 + k, "piece " + std::to_string(k + 1) + " of " + std::to_string(pieces) + ": kept", 1);
+      continue;
+    }
+    const std::string name = "piece " + std::to_string(k + 1) + " of " + std::to_string(pieces) + ": ";
+    if (progress)
+      options.progress = [&, name, k](const std::string& label, double f) { report(1 + k, name + label, f); };
+    const OctreeBuildStats s = build_piece_out_of_core(vtu_path, selectors, plan, k, options, memory_budget, path);
+    record.cells = plan.plan.cells[size_t(k)];
+    record.ghost_cells = plan.plan.ghost_cells[size_t(k)];
+    record.nodes = s.nodes;
+    record.store_bytes = std::filesystem::file_size(path);
+    record.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    write_piece_record(path, record);
+  }
+  const PieceIndex index = make_piece_index(plan.fields, plan.plan, index_path, options.resolution);
+  write_piece_index(index_path, index);
+  return index;
 }
 
 }  // namespace ugvr

@@ -24,6 +24,7 @@
 
 #include "ugvr/core/progress.h"
 #include "ugvr/mpi/piece_build.h"
+#include "ugvr/mpi/piece_index.h"
 #include "ugvr/store/brick_store.h"
 
 namespace ugvr {
@@ -50,5 +51,17 @@ OutOfCorePiecePlan plan_pieces_out_of_core(const std::string& vtu_path, std::spa
 OctreeBuildStats build_piece_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors,
                                          OutOfCorePiecePlan& plan, int k, const OctreeBuildOptions& options,
                                          uint64_t memory_budget, const std::string& path);
+
+// The whole partitioned store of `pieces` pieces in this process (what `ugvr view` and `ugvr render` build into their
+// cache when one out-of-core build's scratch does not fit the disk: view/scratch_pieces.h): the plan, then every piece
+// one after another (one piece's scratch at a time) into piece_folder(index_path), each with its record
+// (piece_record.h), a piece whose store and record match this plan's (an interrupted earlier build's) kept as
+// `ugvr build --resume` keeps it; then the index at `index_path`, written last (atomically), so an index that exists
+// names finished pieces. The same stores and index as `ugvr build VTU --pieces N --out-of-core --ghost-level L` with
+// `options`. `progress`: (what, fraction of the whole build), the plan's pass counted as one piece's; an exception it
+// throws stops the build (a piece under way leaves nothing). Throws ugvr::Error as the steps do.
+PieceIndex build_index_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors, int pieces,
+                                   int ghost_level, OctreeBuildOptions options, uint64_t memory_budget,
+                                   const std::string& index_path, const Progress::Observer& progress = {});
 
 }  // namespace ugvr

@@ -13,6 +13,7 @@
 #include <bit>
 #include <cctype>
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <mutex>
 #include <numeric>
@@ -784,6 +785,19 @@ uint64_t out_of_core_scratch_floor(uint64_t cells, const SoupLayout& layout) {
   return 2 * cells * uint64_t(layout.record_bytes(4));
 }
 
+uint64_t scratch_free_bytes(const std::string& folder) {
+  if (const char* v = std::getenv(kScratchFreeBytesEnv); v && *v) {
+    const std::string text(v);
+    if (!std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; }) || text.size() > 19)
+      throw Error(std::string("$") + kScratchFreeBytesEnv + ": \"" + text + "\" is not a byte count");
+    return std::stoull(text);
+  }
+  std::error_code ec;
+  const std::filesystem::space_info space = std::filesystem::space(folder, ec);
+  if (ec) fail_in(folder, "cannot read its free space: " + ec.message());
+  return space.available;
+}
+
 void check_out_of_core_scratch(const std::string& input, uint64_t cells, uint64_t needed, uint64_t available,
                                const std::string& scratch_folder) {
   if (available >= needed) return;
@@ -835,7 +849,7 @@ OctreeBuildStats build_out_of_core(const std::string& vtu_path, std::span<const 
   if (!subset)
     check_out_of_core_scratch(vtu_path, source.file_cell_count(),
                               out_of_core_scratch_floor(source.file_cell_count(), source.layout()),
-                              std::filesystem::space(temp_path).available, temp_path.string());
+                              scratch_free_bytes(temp_path.string()), temp_path.string());
   OctreeBuildStats stats;
   // The point sketch (octree/point_sketch.h) before the cells: from the points alone, what a viewer shows within
   // seconds. Its lattice and layout are the store's (vertex fields only: their ranges are known already).

@@ -59,6 +59,12 @@ uint64_t soup_point_budget(uint64_t memory_budget);
 // twice the soup, counted with the smallest record a cell can have (a tetrahedron's). A floor, not an estimate: the
 // measured peak is about that at 100M tetrahedra (docs/octree-build.md), more where cells are larger.
 uint64_t out_of_core_scratch_floor(uint64_t cells, const SoupLayout& layout);
+// The bytes free for scratch in `folder`: what its file system has available, or, when $UGVR_SCRATCH_FREE_BYTES is set
+// (a byte count; for tests, which cannot fill a disk), that figure. The one place the variable is read: the check
+// below and the viewer's choice of a partitioned build (view/scratch_pieces.h) see the same free space. Throws
+// ugvr::Error naming the variable when it is not a count, or the folder when its space cannot be read.
+inline constexpr const char* kScratchFreeBytesEnv = "UGVR_SCRATCH_FREE_BYTES";
+uint64_t scratch_free_bytes(const std::string& folder);
 // Throws ugvr::Error naming `input`, the scratch folder, what is needed and what is free, with advice (free space,
 // another disk for the output, or a partitioned build's one piece at a time), when `available` < `needed`: refused
 // before anything is written, not half an hour later on a full disk.

@@ -84,6 +84,10 @@ BackgroundBuild::BackgroundBuild(OutOfCore input, std::vector<std::string> field
   });
 }
 
+BackgroundBuild::BackgroundBuild(Work work, std::string path) : path_(std::move(path)), work_(std::move(work)) {
+  thread_ = std::thread([this] { run(nullptr, {}, {}, {}); });
+}
+
 BackgroundBuild::~BackgroundBuild() {
   cancel_ = true;
   if (thread_.joinable()) thread_.join();
@@ -130,6 +134,8 @@ void BackgroundBuild::run(std::shared_ptr<const Dataset> dataset, const OutOfCor
     if (in_core) {
       const OctreeInput input = prepare_octree_input(*dataset, fields);
       build_octree(input, options, path_);
+    } else if (work_) {
+      work_(options.progress);
     } else {
       build_octree_out_of_core(out_of_core.vtu, fields, options, out_of_core.memory_budget, path_);
     }

@@ -10,6 +10,7 @@
 #include <thread>
 #include <vector>
 
+#include "ugvr/core/progress.h"
 #include "ugvr/grid/dataset.h"
 #include "ugvr/octree/builder.h"
 
@@ -52,6 +53,11 @@ class BackgroundBuild {
   };
   BackgroundBuild(OutOfCore input, std::vector<std::string> fields, OctreeBuildOptions options, std::string path,
                   std::function<void()> before = {});
+  // The same with the work given: `work(progress)` writes `path` itself (a partitioned store's index after its pieces:
+  // the CLI passes mpi/piece_build_ooc.h's build_index_out_of_core, which this module does not reach), reporting to
+  // `progress`, which throws at its next report once cancelled. The cache entry's lock and reuse are as above.
+  using Work = std::function<void(const Progress::Observer& progress)>;
+  BackgroundBuild(Work work, std::string path);
   // Cancels the build if it is still running and waits for its thread (a cancelled build writes nothing).
   ~BackgroundBuild();
   BackgroundBuild(const BackgroundBuild&) = delete;
@@ -61,11 +67,12 @@ class BackgroundBuild {
   const std::string& path() const { return path_; }
 
  private:
-  // One of `dataset` (in core) and `out_of_core.vtu`.
+  // One of `dataset` (in core), `out_of_core.vtu` and `work_`.
   void run(std::shared_ptr<const Dataset> dataset, const OutOfCore& out_of_core, std::vector<std::string> fields,
            OctreeBuildOptions options);
 
   std::string path_;
+  Work work_;
   std::atomic<bool> cancel_{false};
   mutable std::mutex mutex_;
   State state_;

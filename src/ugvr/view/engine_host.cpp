@@ -133,6 +133,9 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
     // renderer makes its own there (the LOD engine), current on that thread from then on.
     pending_collective_ = std::move(options_.collective);
     renderer_ = kOpeningTheData;
+    notice_ = options_.notice;
+    if (options_.collective_build)
+      collective_build_ = std::make_unique<BackgroundBuild>(std::move(options_.collective_build), options_.store);
     return;
   }
   gl_ = std::make_shared<GlContext>(options_.gpu);
@@ -178,6 +181,23 @@ EngineHost::EngineHost(ViewServerOptions options) : options_(std::move(options))
 std::optional<EngineHost::LoadReport> EngineHost::poll_load() {
   if (opening_collective()) {
     LoadReport r;
+    if (collective_build_) {
+      const BackgroundBuild::State st = collective_build_->state();
+      const std::string note = notice_.empty() ? "" : notice_ + "; ";
+      switch (st.stage) {
+        case BackgroundBuild::Stage::Running:
+          r.progress = {"build", st.label, st.fraction,
+                        note + std::to_string(int(std::lround(100 * st.fraction))) + " % (" + st.label + ")"};
+          return r;
+        case BackgroundBuild::Stage::Failed:
+          collective_build_.reset();
+          pending_collective_ = nullptr;
+          r.failed = true;
+          r.progress = {"failed", "", 0, "building " + options_.store + " failed: " + st.error};
+          return r;
+        case BackgroundBuild::Stage::Done: collective_build_.reset(); break;
+      }
+    }
     if (!collective_error_.empty()) {
       r.failed = true;
       r.progress = {"failed", "", 0, std::string(kOpeningTheData) + " failed: " + collective_error_};
@@ -266,9 +286,10 @@ void EngineHost::finish_load() {
 }
 
 EngineHost::~EngineHost() {
-  collective_.reset();  // under MPI: the other ranks are told to quit
-  load_.reset();        // stops the walk mesh (a read under way finishes first)
-  build_.reset();       // cancels a build still running
+  collective_build_.reset();  // cancels a partitioned store's build still running
+  collective_.reset();        // under MPI: the other ranks are told to quit
+  load_.reset();              // stops the walk mesh (a read under way finishes first)
+  build_.reset();             // cancels a build still running
   tabs_.clear();
   exact_.reset();
   lod_.reset();
@@ -379,6 +400,7 @@ std::optional<EngineHost::BuildReport> EngineHost::build_report() const {
 }
 
 std::optional<ProgressInfo> EngineHost::initial_progress() const {
+  if (collective_build_) return ProgressInfo{"build", "", 0, notice_};
   if (pending_collective_) return ProgressInfo{"read", "", 0, kOpeningTheData};
   const std::string note = notice_.empty() ? "" : notice_ + "; ";
   if (load_) return ProgressInfo{"read", "", 0, note + "reading the grid"};

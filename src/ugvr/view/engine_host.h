@@ -134,6 +134,8 @@ class EngineHost {
   // constructor, so that the URL is printed at once: opening a billion-cell store's 16 pieces takes seconds (their
   // boundary planes, docs/mpi.md). Empty once opened or failed; the failure's message until poll_load reports it.
   std::function<CollectiveRenderer()> pending_collective_;
+  // options.collective_build while it runs (before pending_collective_ opens what it built).
+  std::unique_ptr<BackgroundBuild> collective_build_;
   std::string collective_error_;
   bool opening_collective() const { return bool(pending_collective_) || !collective_error_.empty(); }
   std::string notice_;          // options.notice: said with every progress of the load

@@ -8,8 +8,10 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/octree/coarse_preview.h"
+#include "ugvr/octree/out_of_core.h"
 #include "ugvr/render/renderer_factory.h"
 #include "ugvr/view/memory_budget.h"
+#include "ugvr/view/scratch_pieces.h"
 #include "ugvr/view/view_store.h"
 
 namespace ugvr::view {
@@ -17,7 +19,8 @@ namespace ugvr::view {
 std::optional<OverBudgetStore> store_for_a_mesh_over_budget(const std::vector<std::string>& inputs,
                                                             const std::string& field, const std::string& engine,
                                                             std::optional<double> time_budget,
-                                                            std::chrono::steady_clock::time_point start, bool say) {
+                                                            std::chrono::steady_clock::time_point start, bool say,
+                                                            const BuildPieces& build_pieces) {
   if (inputs.empty() || is_brick_store(inputs[0])) return std::nullopt;
   std::string source;
   const uint64_t budget = view_memory_budget(std::nullopt, &source);
@@ -40,6 +43,31 @@ std::optional<OverBudgetStore> store_for_a_mesh_over_budget(const std::vector<st
     return out;
   }
   std::filesystem::create_directories(std::filesystem::path(out.path).parent_path());
+  if (build_pieces) {
+    const std::string cache = std::filesystem::path(out.path).parent_path().string();
+    const ScratchPieces sp =
+        pieces_for_scratch(need.cells, fields.size(), build.resolution, scratch_free_bytes(cache), cache);
+    if (sp.pieces > 1) {
+      if (time_budget)
+        throw OptionError("time-budget", out.why + "; " + sp.why +
+                                             ": a partitioned store is drawn whole (leave "
+                                             "--time-budget out)");
+      OctreeBuildOptions pieces_build;  // as `ugvr build --pieces N --out-of-core` builds them: the LOD engine's
+      pieces_build.threads = 0;
+      out.path = cached_index_path(inputs, fields, pieces_build, sp.pieces, kScratchPiecesGhostLevel);
+      out.pieces = sp.pieces;
+      out.shown = "partitioned store";
+      if (std::filesystem::exists(out.path)) {
+        if (say)
+          std::fprintf(stderr, "%s: drawing the partitioned store built earlier, %s\n", out.why.c_str(),
+                       out.path.c_str());
+        return out;
+      }
+      if (say) std::fprintf(stderr, "%s; %s, into %s\n", out.why.c_str(), sp.why.c_str(), out.path.c_str());
+      build_pieces(inputs[0], fields, sp.pieces, kScratchPiecesGhostLevel, pieces_build, budget, out.path);
+      return out;
+    }
+  }
   build.preview_depth = coarse_preview_depth_for(budget, build.resolution, 1);
   build.point_sketch = true;
   if (say)

@@ -261,8 +261,9 @@ Turn ViewServer::Impl::next_turn() {
       if (options.on_failure) options.on_failure(load->progress.message);
     } else if (load->ready) {
       return FinishLoad{};
-    } else if (load->progress.stage == "read") {
-      broadcast_progress(load->progress, false);  // then the build's progress says the rest (the walk mesh too)
+    } else if (load->progress.stage == "read" || !engine->building()) {
+      // Then the build's progress says the rest (the walk mesh too); a collective renderer's build has only this.
+      broadcast_progress(load->progress, false);
     }
   }
   if (const std::optional<EngineHost::BuildReport> build = engine->build_report()) {

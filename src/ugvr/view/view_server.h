@@ -118,6 +118,11 @@ struct ViewServerOptions {
   // MPI: called on the render thread instead of opening `store` or loading a grid; its renderer draws every tab, as
   // the only engine (no build, no histograms, no degree of interest). Empty: the single-process viewer.
   std::function<CollectiveRenderer()> collective;
+  // With `collective`: what it opens is built first, on a thread of its own (background_build.h, its cache entry
+  // `store`: the partitioned store `ugvr view` builds in its cache when one out-of-core build's scratch does not fit
+  // the disk, view/scratch_pieces.h), its progress said in the page after `notice`; `collective` is called once it
+  // is done. Reports (label, fraction) to the progress it is given, which throws once the viewer stops.
+  std::function<void(const std::function<void(const std::string&, double)>& progress)> collective_build;
   // Whether the collective renderer's resting frames may be cut short by a move (FrameRequest::keep_going): the pieces
   // of an index drawn in this process and the ranks of an MPI job (they agree to stop together: mpi/mpi_frame_stop.h)
   // say yes. A collective renderer that cannot be cut short leaves it false: then a resting frame waits a moment

@@ -23,6 +23,10 @@ std::string view_cache_dir();
 // The stores in a cache directory (its *.ugvr files; previews and sketches are stores too), newest first by
 // modification time, which is when each was built (a build writes a temporary file and renames it). Nothing removes
 // them by itself: a viewer may hold any of them open, and only the user knows which are still wanted (`ugvr cache`).
+// A partitioned store the viewer built for want of scratch space (scratch_pieces.h) is one entry: its index NAME.json
+// with its pieces' folder NAME.d (mpi/piece_build.h, piece_folder), whose files are counted in `bytes`; a folder
+// NAME.d without its index (a build interrupted: the next view of the mesh keeps its finished pieces) is an entry too,
+// named by the folder.
 struct CachedStore {
   std::string path;
   uint64_t bytes = 0;
@@ -47,6 +51,10 @@ nlohmann::json files_identity(std::span<const std::string> inputs);
 // asked for (empty: the default ones) and build settings. The directory is not created here.
 std::string cached_store_path(std::span<const std::string> inputs, std::span<const std::string> fields,
                               const OctreeBuildOptions& build);
+// The index of the partitioned store built for these inputs, fields and settings in `pieces` pieces at `ghost_level`
+// (scratch_pieces.h): "STEM-HASH.json" in the cache directory, its pieces in "STEM-HASH.d/".
+std::string cached_index_path(std::span<const std::string> inputs, std::span<const std::string> fields,
+                              const OctreeBuildOptions& build, int pieces, int ghost_level);
 // The same for data that is not a file (the built-in demo): `stem` names it, `key` says what it is.
 std::string cached_store_path(const std::string& stem, const std::string& key, std::span<const std::string> fields,
                               const OctreeBuildOptions& build);
