@@ -149,11 +149,12 @@ TEST(GlProgramIncludes, MissingIncludeOrCycleNamesTheIncludingLine) {
 TEST(LodGpuContract, RayCasterIncludesTheSharedHeader) {
   std::vector<std::string> files;
   const std::string src = preprocess_shader("lod_raycast.comp", {{"MODE", "2"}}, files);
-  ASSERT_EQ(files.size(), 5u);  // and optical.glsl, which the cells integrate with
+  ASSERT_EQ(files.size(), 6u);  // and optical.glsl, which the cells integrate with
   EXPECT_NE(files[1].find("lod_shared.h"), std::string::npos) << files[1];
-  EXPECT_NE(files[2].find("slice_contours.glsl"), std::string::npos) << files[2];
-  EXPECT_NE(files[3].find("cell_walk.glsl"), std::string::npos) << files[3];
-  EXPECT_NE(files[4].find("optical.glsl"), std::string::npos) << files[4];
+  EXPECT_NE(files[2].find("loop_limit_probe.glsl"), std::string::npos) << files[2];
+  EXPECT_NE(files[3].find("slice_contours.glsl"), std::string::npos) << files[3];
+  EXPECT_NE(files[4].find("cell_walk.glsl"), std::string::npos) << files[4];
+  EXPECT_NE(files[5].find("optical.glsl"), std::string::npos) << files[5];
   EXPECT_NE(src.find("uniform LodFrame {"), std::string::npos);
 }
 
