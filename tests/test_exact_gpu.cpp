@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "column_mesh.h"
 #include "gl_test_support.h"
 #include "renumber_mesh.h"
 #include "test_data.h"
@@ -108,25 +109,11 @@ const Dataset& mixed_mesh() {
 // on the CPU, so the image is the CPU's; on a hardware GPU nothing is flagged.
 TEST(ExactGpu, RaysCutByTheDevicesLoopLimitAreTracedOnTheCpu) {
   REQUIRE_GL(gl);
-  ImageGrid grid;
-  grid.dims.points = {3, 3, 3001};
-  ExplicitCells cells = make_explicit_cells(Grid(grid), StructuredCellShape::Hexahedra);
-  std::vector<double> values;
-  for (const Vec3f& p : cells.mesh.points) values.push_back(std::sin(0.05 * p.z) + 0.2 * p.x + 0.1 * p.y * p.z / 3000);
-  Block block{"column", std::move(cells.mesh), {}};
-  block.fields.add(Field("s", Association::Vertex, DataArray::from(std::move(values), 1)));
-  Dataset ds;
-  ds.format = "test column";
-  ds.blocks.push_back(std::move(block));
+  const Dataset ds = test::column_mesh();
   ExactEngine engine(ds);
   engine.set_field(ds, "s");
   Scene s = default_scene(engine, "iso", 16);
-  // Down the column from below it: every ray that hits crosses all 3,000 cells.
-  s.camera.position = {1, 1, -4};
-  s.camera.focal_point = {1, 1, 1500};
-  s.camera.view_up = {0, 1, 0};
-  s.camera.parallel_projection = true;
-  s.camera.parallel_scale = 0.95;
+  s.camera = test::column_camera();   // every ray that hits crosses all 3,000 cells
   s.tf.opacity_unit_distance = 3000;  // faint, so every ray goes all the way
   const Compared c = compare_engines(engine, gl, s);
   expect_match(c, "column of 3,000 hexahedra");

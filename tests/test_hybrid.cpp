@@ -20,12 +20,12 @@
 #include <nlohmann/json.hpp>
 #include <span>
 
+#include "column_mesh.h"
 #include "gl_test_support.h"
 #include "test_data.h"
 #include "ugvr/core/error.h"
 #include "ugvr/gen/generator.h"
 #include "ugvr/gpu/gl_context.h"
-#include "ugvr/grid/structured_cells.h"
 #include "ugvr/octree/builder.h"
 #include "ugvr/octree/input.h"
 #include "ugvr/render/exact/exact_engine.h"
@@ -361,28 +361,14 @@ TEST(Hybrid, AFrameIsInterruptedBetweenBandsAndTheNextIsUnchanged) {
 TEST(Hybrid, RaysCutByTheDevicesLoopLimitAreDrawnFromTheVoxels) {
   REQUIRE_GL();
   const Fixture& f = fixture();
-  ImageGrid grid;
-  grid.dims.points = {3, 3, 3001};
-  ExplicitCells cells = make_explicit_cells(Grid(grid), StructuredCellShape::Hexahedra);
-  std::vector<double> values;
-  for (const Vec3f& p : cells.mesh.points) values.push_back(std::sin(0.05 * p.z) + 0.2 * p.x + 0.1 * p.y * p.z / 3000);
-  Block block{"column", std::move(cells.mesh), {}};
-  block.fields.add(Field("s", Association::Vertex, DataArray::from(std::move(values), 1)));
-  Dataset ds;
-  ds.format = "test column";
-  ds.blocks.push_back(std::move(block));
+  const Dataset ds = test::column_mesh();
   OctreeBuildOptions o;
   o.leaf_cells = true;
   const std::string store = (f.dir / "column.ugvr").string();
   const std::vector<std::string> fields = {"s"};
   build_octree(prepare_octree_input(ds, fields), o, store);
 
-  Camera cam;  // down the column, parallel rays: each crosses all 3,000 cells
-  cam.position = {1, 1, -4};
-  cam.focal_point = {1, 1, 1500};
-  cam.view_up = {0, 1, 0};
-  cam.parallel_projection = true;
-  cam.parallel_scale = 0.95;
+  const Camera cam = test::column_camera();  // parallel rays: each crosses all 3,000 cells
   TransferFunction tf = builtin_preset("viridis");
   tf.rescale(-1.0, 1.6);
   tf.opacity_unit_distance = 3000;

@@ -855,12 +855,13 @@ double ExactEngine::tolerance_abs(const TransferFunction& tf) const {
 
 namespace {
 
-// One frame of the walk over the tiles of the image: every pixel, or (with `only`, y * width + x ascending) those
-// listed, written into `image`. Returns false when `keep_going` stopped it.
+// One frame of the walk over the tiles of the image: every pixel (`only` empty), or those `only` lists (y * width + x),
+// written into `image`. Returns false when `keep_going` stopped it.
 bool trace_frame(const WalkMesh& mesh, const std::vector<float>& values, bool per_cell,
                  const std::optional<Bounds>& clip_box, double tolerance, const std::function<bool()>& keep_going,
                  const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
-                 std::span<const uint32_t> only, bool all, Image& image, Counters& total) {
+                 std::span<const uint32_t> only, Image& image, Counters& total) {
+  const bool all = only.empty();
   const OpticalTable table(tf);
   std::vector<double> iso = settings.iso_values;
   std::sort(iso.begin(), iso.end());
@@ -947,7 +948,7 @@ Image ExactEngine::render(const Camera& camera, const TransferFunction& tf, cons
   Image image(settings.width, settings.height);
   Counters total;
   if (!trace_frame(I.mesh, I.values, I.per_cell, I.clip_box, tolerance_abs(tf), I.keep_going, camera, tf, settings, {},
-                   true, image, total))
+                   image, total))
     throw FrameInterrupted();
   if (stats) {
     stats->render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -972,8 +973,7 @@ void trace_exact_pixels(const WalkMesh& mesh, const std::vector<float>& values, 
     if (uint64_t(i) >= uint64_t(settings.width) * uint64_t(settings.height))
       fail_in("exact engine", "pixel " + std::to_string(i) + " is outside the image");
   Counters total;
-  trace_frame(mesh, values, per_cell, std::nullopt, tolerance_abs, {}, camera, tf, settings, pixels, false, image,
-              total);
+  trace_frame(mesh, values, per_cell, std::nullopt, tolerance_abs, {}, camera, tf, settings, pixels, image, total);
   if (stats) {
     stats->rays_hit += total.rays_hit;
     stats->reentries += total.reentries;

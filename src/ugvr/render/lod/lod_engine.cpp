@@ -1023,7 +1023,8 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   // Focus+context: the resampled nodes of zero interest are drawn as context (lod_shared.h NODE_CONTEXT).
   if (I.interest.any())
     for (uint64_t n : nodes)
-      if (node_interest(I.store, n, I.interest) == 0) {
+      if ((state[n] < lod_gpu::NODE_CONTEXT || (!voxel_state.empty() && voxel_state[n] < lod_gpu::NODE_CONTEXT)) &&
+          node_interest(I.store, n, I.interest) == 0) {
         if (state[n] < lod_gpu::NODE_CONTEXT) state[n] |= lod_gpu::NODE_CONTEXT;
         if (!voxel_state.empty() && voxel_state[n] < lod_gpu::NODE_CONTEXT) voxel_state[n] |= lod_gpu::NODE_CONTEXT;
       }
