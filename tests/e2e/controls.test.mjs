@@ -10,7 +10,7 @@ const UGVR = process.env.UGVR, STORE = process.env.UGVR_STORE;
 if (!UGVR || !STORE) throw new Error("set UGVR (the ugvr binary) and UGVR_STORE (a .ugvr store); run.sh does");
 
 const CONVERGE_MS = 60_000;
-const VIEWPORT = { width: 820, height: 560 };  // smaller than viewer.test.mjs's: fewer pixels to converge
+const VIEWPORT = { width: 720, height: 520 };  // small: fewer pixels to converge on llvmpipe (CI time)
 
 let viewer, browser, context, page;
 
