@@ -44,7 +44,7 @@ Outcome outcome(const test::CommandResult& r) {
 TEST(CliBuildResume, KeepsFinishedPiecesAndBuildsTheRest) {
   test::ScratchDir dir;
   const std::string mesh = dir.file("m.vtu"), index = dir.file("m.json");
-  ASSERT_EQ(run_ugvr("generate --cells 20000 --kind tet -o " + mesh).status, 0);
+  ASSERT_EQ(run_ugvr("generate --cells 5000 --kind tet -o " + mesh).status, 0);
   const std::string build =
       "build " + mesh + " -o " + index + " --fields pressure --brick 8 --max-depth 4 --pieces 4 --out-of-core --json";
   Outcome first = outcome(run_ugvr(build));
