@@ -33,7 +33,8 @@
 // still writes one block, from all of its records at once, one such leaf at a time: that is beyond the budget's
 // accounting, by up to about 65 MiB for the largest leaves of 10M tetrahedra at --memory 128MiB (measured:
 // docs/octree-build.md, "Cells per leaf"). Disk: the soup (96
-// bytes per tetrahedron with one scalar) and the files of the pending nodes, about twice the soup at most, next to the
+// bytes per tetrahedron with one scalar) and the files of the pending nodes, about twice the soup at most (and, while a
+// leaf is sampled in pieces, its point file: 24 + 4F bytes a data point, a fraction of its records), next to the
 // output, in the scratch folder "<path>.cells" (core/temp_files.h: removed on error, SIGINT and SIGTERM, and after a
 // SIGKILL by the next build of the same output).
 #pragma once
