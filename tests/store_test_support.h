@@ -63,6 +63,27 @@ void expect_same_nodes_and_bricks(const BrickStoreReader& reference, const Brick
   }
 }
 
+// Two out-of-core builds of one mesh at different memory budgets (octree/out_of_core.h): the same nodes and bricks as
+// above, and every node's errors (max and rms) and transfer-function error entries equal, interior nodes too. Their
+// boundary sections are not compared: a budget too small for the boundary's triangles leaves the section out.
+inline void expect_same_store_at_any_budget(const BrickStoreReader& a, const BrickStoreReader& b) {
+  ASSERT_EQ(a.node_count(), b.node_count());
+  ASSERT_EQ(a.has_tf_errors(), b.has_tf_errors());
+  expect_same_nodes_and_bricks(a, b, [](uint64_t, uint64_t, uint32_t) {});
+  const auto pa = nodes_by_place(a), pb = nodes_by_place(b);
+  for (const auto& [place, ia] : pa) {
+    const uint64_t ib = pb.at(place);
+    for (uint32_t f = 0; f < a.field_count(); ++f) {
+      EXPECT_EQ(a.stats(ia, f).error_max, b.stats(ib, f).error_max) << "node " << ia << " field " << f;
+      EXPECT_EQ(a.stats(ia, f).error_rms, b.stats(ib, f).error_rms) << "node " << ia << " field " << f;
+      if (!a.has_tf_errors()) continue;
+      const store_format::TfErrorEntry &ta = a.tf_errors()[ia * a.field_count() + f],
+                                       &tb = b.tf_errors()[ib * b.field_count() + f];
+      EXPECT_EQ(std::memcmp(&ta, &tb, sizeof ta), 0) << "node " << ia << " field " << f;
+    }
+  }
+}
+
 // `ugvr generate`'s mesh of `kind` in memory, with a cell field of its own ("cell97": the cell id modulo 97) beside
 // its vertex fields.
 inline Dataset generated_with_cell_field(GenCellKind kind, uint64_t cells) {

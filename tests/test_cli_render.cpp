@@ -336,8 +336,9 @@ TEST_F(CliRender, AMeshOverTheMemoryBudgetIsDrawnFromItsStoreBuiltOutOfCore) {
 // $UGVR_SCRATCH_FREE_BYTES says 200,000 bytes are free, and the whole build needs at least 2 x 2,000 cells x 84 bytes)
 // is built in pieces into the cache, one piece's scratch at a time (4: the least that fits, view/scratch_pieces.h),
 // and drawn from their index: the same image, pixel for pixel, as `ugvr build --pieces 4 --out-of-core` at the same
-// memory budget and a render of that index (the out-of-core build's stores depend on its budget: at 1 GiB the image
-// differs, 49.7 dB). The next render draws the cached index without building; a time budget is refused (drawn whole).
+// memory budget and a render of that index. At this budget the pieces leave out the exact boundary (its triangles
+// need more than half of it; at 1 GiB the stores keep it and the image differs), and both commands say so for each
+// such piece. The next render draws the cached index without building; a time budget is refused (drawn whole).
 TEST_F(CliRender, AMeshWhoseScratchDoesNotFitIsBuiltInPiecesIntoTheCache) {
   const std::string env =
       "UGVR_CACHE_DIR=" + file("cache") + " UGVR_VIEW_MEMORY_BUDGET=100KiB UGVR_SCRATCH_FREE_BYTES=200000 ";
@@ -347,6 +348,7 @@ TEST_F(CliRender, AMeshWhoseScratchDoesNotFitIsBuiltInPiecesIntoTheCache) {
   ASSERT_EQ(first.status, 0) << first.out;
   EXPECT_NE(first.out.find("not enough scratch for one build"), std::string::npos) << first.out;
   EXPECT_NE(first.out.find("building 4 pieces, one at a time"), std::string::npos) << first.out;
+  EXPECT_NE(first.out.find(" of 4: the mesh boundary's"), std::string::npos) << first.out;
   std::vector<std::string> indexes;
   for (const auto& e : std::filesystem::directory_iterator(file("cache")))
     if (e.path().extension() == ".json") indexes.push_back(e.path().string());
@@ -357,6 +359,8 @@ TEST_F(CliRender, AMeshWhoseScratchDoesNotFitIsBuiltInPiecesIntoTheCache) {
   const CommandResult built =
       run_ugvr("build " + data() + " --pieces 4 --out-of-core --memory 100KiB --fields pressure -o " + index);
   ASSERT_EQ(built.status, 0) << built.out;
+  EXPECT_NE(built.out.find("warning: piece "), std::string::npos) << built.out;
+  EXPECT_NE(built.out.find("over half of the memory budget"), std::string::npos) << built.out;
   ASSERT_EQ(run_ugvr("render " + index + " -o " + file("b.pfm") + view).status, 0);
   const Image a = read_pfm(file("a.pfm")), b = read_pfm(file("b.pfm"));
   EXPECT_TRUE(a == b);

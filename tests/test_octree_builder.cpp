@@ -478,18 +478,17 @@ TEST(OctreeBuilder, RejectsBadOptionsAndFields) {
 // ---- out of core
 // ------------------------------------------------------------------------------------------------------
 
-// The same tree, the same bricks bit for bit, the same leaf errors; interior errors can only be lower out of core
+// The same tree, the same bricks bit for bit, the same leaf errors (max, rms and transfer-function error entry: a
+// leaf sampled in pieces measures the same points, each once); interior errors can only be lower out of core
 // (measured at the children's samples, not at the data points too).
 void expect_same_store(const BrickStoreReader& in_core, const BrickStoreReader& ooc) {
   ASSERT_EQ(in_core.node_count(), ooc.node_count());
-  // A leaf's rms (a leaf sampled in pieces weighs points by incidence) is not compared; its transfer-function error
-  // entry is (from the same pairs).
   test::expect_same_nodes_and_bricks(in_core, ooc, [&](uint64_t ia, uint64_t ib, uint32_t f) {
     ASSERT_TRUE(in_core.has_tf_errors() && ooc.has_tf_errors());
+    EXPECT_EQ(in_core.stats(ia, f).error_rms, ooc.stats(ib, f).error_rms) << "node " << ia;
     const auto& ta = in_core.tf_errors()[ia * in_core.field_count() + f];
     const auto& tb = ooc.tf_errors()[ib * ooc.field_count() + f];
-    EXPECT_EQ(ta.bound[0], tb.bound[0]) << "node " << ia;
-    EXPECT_EQ(ta.bound[store_format::kTfErrorGroups], tb.bound[store_format::kTfErrorGroups]) << "node " << ia;
+    EXPECT_EQ(std::memcmp(&ta, &tb, sizeof ta), 0) << "node " << ia;
   });
 }
 
@@ -547,14 +546,17 @@ TEST(OctreeOutOfCore, SameStoreAsInCore) {
     // A budget this small cannot hold the boundary's triangles: the store keeps the stencil's boundary and says why.
     EXPECT_FALSE(store.has_boundary());
     EXPECT_NE(b.boundary_note.find("memory budget"), std::string::npos) << b.boundary_note;
-    // With room, the same boundary section as in core.
-    const OctreeBuildStats c = build_octree_out_of_core(vtu, fields, o, uint64_t(256) << 20, dir.file("ooc.ugvr"));
+    // With room, the same boundary section as in core; and, beside the boundary, the same store as at the small
+    // budget: every node's errors and transfer-function entries too (its leaves were not sampled in pieces).
+    const OctreeBuildStats c = build_octree_out_of_core(vtu, fields, o, uint64_t(256) << 20, dir.file("roomy.ugvr"));
     EXPECT_TRUE(c.boundary_note.empty()) << c.boundary_note;
+    EXPECT_EQ(c.leaves_in_pieces, 0u);
     EXPECT_EQ(c.boundary_triangles, a.boundary_triangles);
     EXPECT_EQ(c.boundary_bytes, a.boundary_bytes);
-    const BrickStoreReader roomy(dir.file("ooc.ugvr"));
+    const BrickStoreReader roomy(dir.file("roomy.ugvr"));
     expect_same_store(BrickStoreReader(dir.file("in.ugvr")), roomy);
     expect_same_boundary(BrickStoreReader(dir.file("in.ugvr")), roomy);
+    test::expect_same_store_at_any_budget(roomy, store);
   }
   // Nothing is left beside the output.
   size_t files = 0;
@@ -562,7 +564,7 @@ TEST(OctreeOutOfCore, SameStoreAsInCore) {
     (void)e;
     ++files;
   }
-  EXPECT_EQ(files, 3u);  // syn.vtu, in.ugvr, ooc.ugvr
+  EXPECT_EQ(files, 4u);  // syn.vtu, in.ugvr, ooc.ugvr, roomy.ugvr
 }
 
 TEST(OctreeOutOfCore, PointsInSlicesGiveTheSameCells) {

@@ -4,6 +4,8 @@
 // leaves are sampled in pieces; a file changed since the plan is refused.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -110,6 +112,7 @@ TEST(PiecesOutOfCore, EachPieceIsTheInCorePieceOfTheSamePlan) {
   const Dataset ds = read_dataset(std::vector<std::string>{vtu});
   const OctreeInput in = prepare_octree_input(ds, fields);
   const OctreeBuildOptions o = small_options(5, 3, 0.02);
+  std::array<uint64_t, 4> small_budget_leaves_in_pieces{};
   for (int ghost_level : {0, 1}) {
     SCOPED_TRACE("ghost level " + std::to_string(ghost_level));
     OutOfCorePiecePlan streamed = plan_pieces_out_of_core(vtu, fields, 4, o.resolution, ghost_level, 1);
@@ -127,11 +130,14 @@ TEST(PiecesOutOfCore, EachPieceIsTheInCorePieceOfTheSamePlan) {
     uint64_t in_pieces = 0, owned = 0;
     for (int k = 0; k < 4; ++k) {
       SCOPED_TRACE("piece " + std::to_string(k));
-      const std::string a = dir.file("in-" + std::to_string(k) + ".ugvr"),
-                        b = dir.file("ooc-" + std::to_string(k) + ".ugvr");
+      const std::string level = "-g" + std::to_string(ghost_level) + "-" + std::to_string(k) + ".ugvr";
+      const std::string a = dir.file("in" + level), b = dir.file("ooc" + level);
       build_piece(in, in_plan, k, o, a);
       const OctreeBuildStats s = build_piece_out_of_core(vtu, fields, streamed, k, o, 1, b);
       in_pieces += s.leaves_in_pieces;
+      if (ghost_level == 0) small_budget_leaves_in_pieces[size_t(k)] = s.leaves_in_pieces;
+      // The budget cannot hold the boundary's triangles: the piece's build says it leaves the section out.
+      EXPECT_NE(s.boundary_note.find("memory budget"), std::string::npos) << s.boundary_note;
       EXPECT_EQ(streamed.plan.cells[size_t(k)], in_plan.cells[size_t(k)]);
       EXPECT_EQ(streamed.plan.ghost_cells[size_t(k)], in_plan.ghost_cells[size_t(k)]);
       EXPECT_EQ(s.cells, in_plan.cells[size_t(k)] + in_plan.ghost_cells[size_t(k)]);
@@ -143,17 +149,24 @@ TEST(PiecesOutOfCore, EachPieceIsTheInCorePieceOfTheSamePlan) {
     EXPECT_EQ(owned, in.mesh->cell_count());
     EXPECT_GT(in_pieces, 0u);
   }
-  // With room: the exact boundary, the same triangles as the in-core piece's.
+  // With room: the exact boundary, the same triangles as the in-core piece's; and, beside the boundary, the same
+  // store as the small budget's, whose leaves were sampled in pieces (the piece with the most of them).
+  const int k = int(std::max_element(small_budget_leaves_in_pieces.begin(), small_budget_leaves_in_pieces.end()) -
+                    small_budget_leaves_in_pieces.begin());
+  ASSERT_GT(small_budget_leaves_in_pieces[size_t(k)], 0u);
   OutOfCorePiecePlan streamed = plan_pieces_out_of_core(vtu, fields, 4, o.resolution, 0, uint64_t(256) << 20);
   const PiecePlan in_plan = plan_pieces(in, 4, o.resolution, 0, &streamed.plan.tree);
-  const OctreeBuildStats a = build_piece(in, in_plan, 2, o, dir.file("in.ugvr"));
+  const OctreeBuildStats a = build_piece(in, in_plan, k, o, dir.file("in.ugvr"));
   const OctreeBuildStats b =
-      build_piece_out_of_core(vtu, fields, streamed, 2, o, uint64_t(256) << 20, dir.file("ooc.ugvr"));
+      build_piece_out_of_core(vtu, fields, streamed, k, o, uint64_t(256) << 20, dir.file("ooc.ugvr"));
   EXPECT_TRUE(b.boundary_note.empty()) << b.boundary_note;
+  EXPECT_EQ(b.leaves_in_pieces, 0u);
   EXPECT_GT(b.boundary_triangles, 0u);
   EXPECT_EQ(a.boundary_triangles, b.boundary_triangles);
   EXPECT_EQ(a.boundary_bytes, b.boundary_bytes);
   expect_same_piece(BrickStoreReader(dir.file("in.ugvr")), BrickStoreReader(dir.file("ooc.ugvr")));
+  test::expect_same_store_at_any_budget(BrickStoreReader(dir.file("ooc.ugvr")),
+                                        BrickStoreReader(dir.file("ooc-g0-" + std::to_string(k) + ".ugvr")));
 }
 
 // A file that is not the one planned (other values, other bounds) is refused naming the piece, not built on a lattice

@@ -469,7 +469,7 @@ void run_render(const Options& o, std::optional<double> time_budget) {
           o.inputs, settings.field, o.engine, time_budget, start, Progress::enabled(),
           [](const std::string& vtu, const std::vector<std::string>& fields, int pieces, int ghost_level,
              const OctreeBuildOptions& build, uint64_t budget, const std::string& index) {
-            build_index_out_of_core(vtu, fields, pieces, ghost_level, build, budget, index);
+            build_index_out_of_core(vtu, fields, pieces, ghost_level, build, budget, index, {}, print_warning);
           });
     });
   if (big && time_budget) budget_lod = true;

@@ -235,7 +235,8 @@ void view_in_pieces(const Options& o, view::ViewServerOptions vo, const std::vec
   std::fprintf(stderr, "ugvr view: %s, into %s\n", vo.notice.c_str(), index.c_str());
   serve_pieces(o, std::move(vo), index, sp.pieces,
                [vtu = o.inputs[0], fields, pieces = sp.pieces, build, budget, index](const Progress::Observer& p) {
-                 build_index_out_of_core(vtu, fields, pieces, view::kScratchPiecesGhostLevel, build, budget, index, p);
+                 build_index_out_of_core(vtu, fields, pieces, view::kScratchPiecesGhostLevel, build, budget, index, p,
+                                         print_warning);
                });
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -23,7 +24,11 @@ void register_cache(CLI::App& app);
 // Adds the positional INPUT argument every reading subcommand takes: one file, or a PLOT3D grid file followed by
 // its solution file.
 CLI::Option* add_input(CLI::App& cmd, std::vector<std::string>& inputs);
-// Adds the reading options: --time-step (Exodus, CGNS, EnSight, OpenFOAM) and the --raw-* layout of headerless voxel volumes.
+// Adds the reading options: --time-step (Exodus, CGNS, EnSight, OpenFOAM) and the --raw-* layout of headerless voxel
+// volumes.
 void add_read_options(CLI::App& cmd, ReadOptions& options);
+
+// "warning: WHAT" on stderr (a build's note passed up from the library, e.g. a piece's boundary_note).
+inline void print_warning(const std::string& what) { std::fprintf(stderr, "warning: %s\n", what.c_str()); }
 
 }  // namespace ugvr::cli

@@ -66,7 +66,8 @@ OctreeBuildStats build_piece_out_of_core(const std::string& vtu_path, std::span<
 
 PieceIndex build_index_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors, int pieces,
                                    int ghost_level, OctreeBuildOptions options, uint64_t memory_budget,
-                                   const std::string& index_path, const Progress::Observer& progress) {
+                                   const std::string& index_path, const Progress::Observer& progress,
+                                   const BuildWarning& warn) {
   // Steps: the plan, then each piece.
   const double steps = double(pieces) + 1;
   auto report = [&](double step, const std::string& what, double fraction) {
@@ -98,6 +99,7 @@ PieceIndex build_index_out_of_core(const std::string& vtu_path, std::span<const 
     if (progress)
       options.progress = [&, name, k](const std::string& label, double f) { report(1 + k, name + label, f); };
     const OctreeBuildStats s = build_piece_out_of_core(vtu_path, selectors, plan, k, options, memory_budget, path);
+    if (warn && !s.boundary_note.empty()) warn(name + s.boundary_note);
     record.cells = plan.plan.cells[size_t(k)];
     record.ghost_cells = plan.plan.ghost_cells[size_t(k)];
     record.nodes = s.nodes;

@@ -18,6 +18,7 @@
 //     then one per piece) instead of one: what keeps the scratch to a piece's.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
@@ -59,9 +60,13 @@ OctreeBuildStats build_piece_out_of_core(const std::string& vtu_path, std::span<
 // `ugvr build --resume` keeps it; then the index at `index_path`, written last (atomically), so an index that exists
 // names finished pieces. The same stores and index as `ugvr build VTU --pieces N --out-of-core --ghost-level L` with
 // `options`. `progress`: (what, fraction of the whole build), the plan's pass counted as one piece's; an exception it
-// throws stops the build (a piece under way leaves nothing). Throws ugvr::Error as the steps do.
+// throws stops the build (a piece under way leaves nothing). `warn`: called with what a piece's build noted ("piece 3
+// of 8: " and OctreeBuildStats::boundary_note: its store leaves out the exact boundary, whose triangles need more than
+// half of the budget). Throws ugvr::Error as the steps do.
+using BuildWarning = std::function<void(const std::string&)>;
 PieceIndex build_index_out_of_core(const std::string& vtu_path, std::span<const std::string> selectors, int pieces,
                                    int ghost_level, OctreeBuildOptions options, uint64_t memory_budget,
-                                   const std::string& index_path, const Progress::Observer& progress = {});
+                                   const std::string& index_path, const Progress::Observer& progress = {},
+                                   const BuildWarning& warn = {});
 
 }  // namespace ugvr

@@ -220,23 +220,28 @@ void measure_against_children(const BrickSamples& brick, const std::array<const 
   }
 }
 
-void measure_against_points(const BrickSamples& brick, const Bounds& box, const OctreeDataPoints& data,
-                            std::span<const uint64_t> points, std::span<ErrorSum> sums) {
-  const uint32_t R = brick.resolution, F = brick.field_count;
-  Vec3d scale;
+BrickPointMeasure::BrickPointMeasure(const BrickSamples& brick, const Bounds& box)
+    : brick_(brick), box_(box), interpolated_(brick.field_count) {
   for (int a = 0; a < 3; ++a) {
     const double extent = box.hi[a] - box.lo[a];
-    scale[a] = extent > 0 ? double(R - 1) / extent : 0.0;
+    scale_[a] = extent > 0 ? double(brick.resolution - 1) / extent : 0.0;
   }
-  std::vector<double> interpolated(F);
+}
+
+void BrickPointMeasure::add(Vec3d p, const float* exact, std::span<ErrorSum> sums) {
+  const Vec3d u{(p.x - box_.lo.x) * scale_.x, (p.y - box_.lo.y) * scale_.y, (p.z - box_.lo.z) * scale_.z};
+  if (!interpolate_brick(brick_, u, interpolated_.data())) return;
+  for (uint32_t f = 0; f < brick_.field_count; ++f)
+    if (!std::isnan(exact[f])) sums[f].add(interpolated_[f], double(exact[f]));
+}
+
+void measure_against_points(const BrickSamples& brick, const Bounds& box, const OctreeDataPoints& data,
+                            std::span<const uint64_t> points, std::span<ErrorSum> sums) {
+  BrickPointMeasure measure(brick, box);
+  std::vector<float> exact(brick.field_count);
   for (uint64_t p : points) {
-    const Vec3d pos = data.position(p);
-    const Vec3d u{(pos.x - box.lo.x) * scale.x, (pos.y - box.lo.y) * scale.y, (pos.z - box.lo.z) * scale.z};
-    if (!interpolate_brick(brick, u, interpolated.data())) continue;
-    for (uint32_t f = 0; f < F; ++f) {
-      const float exact = data.value(p, f);
-      if (!std::isnan(exact)) sums[f].add(interpolated[f], double(exact));
-    }
+    for (uint32_t f = 0; f < brick.field_count; ++f) exact[f] = data.value(p, f);
+    measure.add(data.position(p), exact.data(), sums);
   }
 }
 

@@ -103,4 +103,20 @@ void measure_against_children(const BrickSamples& brick, const std::array<const 
 void measure_against_points(const BrickSamples& brick, const Bounds& box, const OctreeDataPoints& data,
                             std::span<const uint64_t> points, std::span<ErrorSum> sums);
 
+// The same measure one point at a time, for points that are not in a mesh in memory (the out-of-core builder's leaves
+// sampled in pieces: octree/out_of_core.h). `brick` padded, covering `box`; both must outlive this.
+class BrickPointMeasure {
+ public:
+  BrickPointMeasure(const BrickSamples& brick, const Bounds& box);
+  // Adds |brick(p) - exact[f]| to sums[f] for each field f whose exact[f] is not NaN (NaN: the point carries no value
+  // of f), unless none of the 8 samples around p has data.
+  void add(Vec3d p, const float* exact, std::span<ErrorSum> sums);
+
+ private:
+  const BrickSamples& brick_;
+  Bounds box_;
+  Vec3d scale_;
+  std::vector<double> interpolated_;
+};
+
 }  // namespace ugvr

@@ -30,6 +30,7 @@
 #include "ugvr/octree/coarse_preview.h"
 #include "ugvr/octree/data_points.h"
 #include "ugvr/octree/downsample.h"
+#include "ugvr/octree/leaf_points.h"
 #include "ugvr/octree/node_cells.h"
 #include "ugvr/octree/node_error.h"
 #include "ugvr/octree/point_sketch.h"
@@ -168,15 +169,22 @@ class OutOfCoreBuild {
         welded = sample_leaf(node, box, kept, scratch, *r, sums);
       } else {
         // More cells than this worker's share of the budget: the brick in pieces (see sample_in_pieces), its error
-        // from the data points streamed from the file.
+        // at the data points the pieces wrote, each once (octree/leaf_points.h).
         pieces = true;
         std::vector<std::byte>().swap(kept);
         init_brick(r->brick);
-        sample_in_pieces(node, box, file, 0, r->brick);
+        const std::string points = (temp_ / ("points-" + std::to_string(id))).string();
+        {
+          LeafPointWriter writer(points, F_);
+          sample_in_pieces(node, box, OwnedRegion{box}, file, 0, r->brick, writer);
+          writer.close();
+        }
         leaf_samples_ += r->brick.mask.size();
         valid_samples_ += r->brick.valid;
         pad_brick(o_.resolution, F_, r->brick.values.data(), r->brick.mask.data());
-        measure_streamed(r->brick, box, file, sums);
+        BrickPointMeasure measure(r->brick, box);
+        for_each_leaf_point(points, F_, [&](Vec3d p, const float* exact) { measure.add(p, exact, sums); });
+        std::filesystem::remove(points);
       }
       if (check && interpolant_exceeds(r->brick, box, pieces ? nullptr : &kept, file, scratch)) {
         split = true;
@@ -480,8 +488,10 @@ class OutOfCoreBuild {
   // cells only, keeping the samples inside the piece. A point inside a piece lies only in cells that overlap it, so
   // it gets what sampling the whole leaf would give it, bit for bit; points outside find no candidate in their
   // buckets and cost next to nothing, so the work stays about that of the leaf. Pieces are not nodes of the tree.
-  void sample_in_pieces(const OctreeNode& node, const Bounds& region, const std::string& file, int depth,
-                        BrickSamples& out) {
+  // Each piece also writes the data points in `owned` (its part of the leaf's box, octree/leaf_points.h) to `points`,
+  // each once, for the leaf's error.
+  void sample_in_pieces(const OctreeNode& node, const Bounds& region, const OwnedRegion& owned, const std::string& file,
+                        int depth, BrickSamples& out, LeafPointWriter& points) {
     const std::array<std::string, 8> files = route("piece-" + std::to_string(pieces_++), region, file);
     const Vec3d size = region.size();
     auto box_lo = [&](int axis, uint32_t i) { return region.lo[axis] + size[axis] * (double(i) / 2.0); };
@@ -506,12 +516,19 @@ class OutOfCoreBuild {
         }
       }
       // Pieces stop halving after 16 levels (cells so large that each overlaps every piece): then all are loaded.
+      // The halves meet where route() put their common face: the lower half's hi, the upper half's lo.
+      const OwnedRegion sub_owned = owned.octant(o, {box_lo(0, 1), box_lo(1, 1), box_lo(2, 1)});
       if (!complete && depth < 16) {
         std::vector<std::byte>().swap(kept);
-        sample_in_pieces(node, sub, files[o], depth + 1, out);
+        sample_in_pieces(node, sub, sub_owned, files[o], depth + 1, out, points);
       } else {
         if (!complete) kept = load(files[o]);
-        sample(*weld(kept), node.level, {node.i, node.j, node.k}, scratch, piece);
+        {
+          const std::unique_ptr<LocalMesh> local = weld(kept);
+          std::vector<std::byte>().swap(kept);
+          sample(*local, node.level, {node.i, node.j, node.k}, scratch, piece);
+          write_owned_points(*local, sub_owned, points);
+        }
         std::array<std::vector<uint8_t>, 3> inside;
         for (int a = 0; a < 3; ++a) {
           const uint64_t m0 = uint64_t(a == 0 ? node.i : (a == 1 ? node.j : node.k)) * (R - 1);
@@ -569,43 +586,17 @@ class OutOfCoreBuild {
     return false;
   }
 
-  // The leaf's error at the data points of its cells, streamed from its file. Points shared by several cells count
-  // once per cell here (in core: once), which weighs the rms by incidence; the max is the same.
-  void measure_streamed(const BrickSamples& brick, const Bounds& box, const std::string& file,
-                        std::vector<ErrorSum>& sums) {
-    Vec3d scale;
-    for (int a = 0; a < 3; ++a) {
-      const double extent = box.hi[a] - box.lo[a];
-      scale[a] = extent > 0 ? double(o_.resolution - 1) / extent : 0.0;
-    }
-    std::vector<double> interpolated(F_);
-    auto measure = [&](Vec3d p, auto value_of) {
-      if (!box_contains(box, p)) return;
-      const Vec3d u{(p.x - box.lo.x) * scale.x, (p.y - box.lo.y) * scale.y, (p.z - box.lo.z) * scale.z};
-      if (!interpolate_brick(brick, u, interpolated.data())) return;
-      for (uint32_t f = 0; f < F_; ++f) {
-        const float exact = value_of(f);
-        if (!std::isnan(exact)) sums[f].add(interpolated[f], double(exact));
-      }
-    };
-    SoupReader reader(file, layout_);
-    const std::byte* rec = nullptr;
-    while (reader.next(rec)) {
-      const SoupCell cell(rec, layout_);
-      const int n = cell.vertex_count();
-      Vec3d sum{};
-      for (int i = 0; i < n; ++i) {
-        const Vec3d p = to_double(cell.position(i));
-        sum = sum + p;
-        if (layout_.vertex_fields == 0) continue;
-        measure(p, [&](uint32_t f) {
-          return slots_[f].association == Association::Vertex ? cell.vertex_value(slots_[f].index, i) : NAN;
-        });
-      }
-      if (layout_.cell_fields == 0) continue;
-      measure(sum * (1.0 / double(n)), [&](uint32_t f) {
-        return slots_[f].association == Association::Cell ? cell.cell_value(slots_[f].index) : NAN;
-      });
+  // The data points of a piece's welded mesh (each once: vertices by id) that lie in `owned`, to `points`.
+  void write_owned_points(const LocalMesh& local, const OwnedRegion& owned, LeafPointWriter& points) const {
+    const OctreeDataPoints data(local.mesh, local.refs);
+    std::vector<uint64_t> ids;
+    data.points_inside(local.cells, owned.box, ids);
+    std::vector<float> values(F_);
+    for (uint64_t p : ids) {
+      const Vec3d position = data.position(p);
+      if (!owned.contains(position)) continue;
+      for (uint32_t f = 0; f < F_; ++f) values[f] = data.value(p, f);
+      points.add(position, values.data());
     }
   }
 

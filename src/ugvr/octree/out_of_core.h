@@ -13,7 +13,9 @@
 // What differs from the in-core build, by design: node ids are given at split time (each split takes a block of
 // consecutive ids for its children, which keeps the store's rules) so they depend on the schedule, and an interior
 // node's error is measured at its children's samples only (its data points would have to be streamed again), then
-// made monotone as in core. The tree, every brick and the leaves' max errors are the same (the tests compare them).
+// made monotone as in core. The tree, every brick and the leaves' errors are the same (the tests compare them), at any
+// memory budget; only the store's boundary section depends on the budget (dropped when its triangles need more than
+// half of it: see find_boundary in out_of_core.cpp).
 //
 // Memory, all within `memory_budget` (measured: docs/octree-build.md): while the soup is written, a slice of the
 // points and vertex scalars (half the budget beyond 48 MiB for the program; one more pass over the cells per
@@ -22,15 +24,17 @@
 // the rest (sampling takes up to about 10 times their size). A leaf with more records than that is sampled in
 // pieces: its cells are routed to the halves of its box (halved again while too large) and its lattice is sampled
 // once per piece with that piece's cells, keeping the samples inside the piece, which gives its samples bit for bit
-// for about the work of sampling it whole; its error is then measured at the data points streamed from
-// its file (the max as in core, the rms weighing shared points by their cells). With options.leaf_cells, a leaf also
+// for about the work of sampling it whole; each piece writes the data points of its part of the box to a file, each
+// once (octree/leaf_points.h), and the leaf's error is measured there once its brick is whole: the same points as in
+// core, so the same errors and transfer-function error entries at any budget. With options.leaf_cells, a leaf also
 // writes its cell block (octree/node_cells.h, gather_welded_cells) once it stays a leaf: from its welded mesh, with the
 // mesh's own topology, after sampling (its topology and block take less than the sampler did), and the whole
 // mesh's boundary faces (8 bytes each, from octree/soup_boundary.h) held through the build; a leaf sampled in pieces
 // still writes one block, from all of its records at once, one such leaf at a time: that is beyond the budget's
 // accounting, by up to about 65 MiB for the largest leaves of 10M tetrahedra at --memory 128MiB (measured:
 // docs/octree-build.md, "Cells per leaf"). Disk: the soup (96
-// bytes per tetrahedron with one scalar) and the files of the pending nodes, about twice the soup at most, next to the
+// bytes per tetrahedron with one scalar) and the files of the pending nodes, about twice the soup at most (and, while a
+// leaf is sampled in pieces, its point file: 24 + 4F bytes a data point, a fraction of its records), next to the
 // output, in the scratch folder "<path>.cells" (core/temp_files.h: removed on error, SIGINT and SIGTERM, and after a
 // SIGKILL by the next build of the same output).
 #pragma once
