@@ -20,9 +20,10 @@
 # renders that store (its first field; e.g. the blunt fin's Density) instead of the generated NRRD's, from the default
 # view framed on its data.
 # BASE=PATH adds, in each round, tricubic drawn by another ugvr binary (e.g. one built at the commit before a change:
-# variant tricubic-base) after the default, for before/after of a change that no environment variable turns off.
+# variant tricubic-base) after the default, for before/after of a change that no environment variable turns off;
+# BASE2=PATH a second one after it (variant tricubic-base2).
 # Usage: bench/run_tricubic.sh [OUT_DIR=/tmp/ugvr-tricubic]; UGVR (default build/ugvr), N, SIZE, FRAMES, ROUNDS,
-# FIELD (sphere), BRICKS (64), PER_BRICK, LEVELS, FILL, BASE, CUT (leaves), STORE, ISO, PYTHON. One JSON line per render is appended to bench/results/tricubic.jsonl.
+# FIELD (sphere), BRICKS (64), PER_BRICK, LEVELS, FILL, BASE, BASE2, CUT (leaves), STORE, ISO, PYTHON. One JSON line per render is appended to bench/results/tricubic.jsonl.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-/tmp/ugvr-tricubic}
@@ -78,6 +79,7 @@ variants="trilinear tricubic"
 [ "${LEVELS:-0}" = 1 ] && variants="$variants tricubic-no-level-blend"
 [ "${FILL:-0}" = 1 ] && variants="$variants tricubic-no-fill"
 [ -n "${BASE:-}" ] && variants="$variants tricubic-base"
+[ -n "${BASE2:-}" ] && variants="$variants tricubic-base2"
 cut=${CUT:-leaves}
 upload_size=64
 [ "$cut" != leaves ] && upload_size=$size
@@ -92,6 +94,7 @@ for round in $(seq "$rounds"); do
     [ "$variant" = tricubic-no-fill ] && fill=0
     binary=$ugvr
     [ "$variant" = tricubic-base ] && binary=$BASE
+    [ "$variant" = tricubic-base2 ] && binary=$BASE2
     UGVR_TRICUBIC_EXTENSION=$extension UGVR_TRICUBIC_LEVEL_BLEND=$blend UGVR_TRICUBIC_FILL=$fill "$binary" --quiet render "$store" --tf viridis --engine lod --cut "$cut" \
       "${camera_args[@]}" --size "$size" --iso $iso --interpolation "$interp" -o "$out/$variant.png" \
       --stats "$out/$variant.json" --frames "$frames"
@@ -106,7 +109,8 @@ print(json.dumps({'bench': 'tricubic', 'field': '$field', 'bricks': $bricks, 'in
                   'cut': '$cut', 'cut_nodes': u.get('cut_nodes'), 'mean_level': u.get('cut_mean_level'),
                   'size': $size, 'round': $round, 'median_frame_seconds': s['median_frame_seconds'],
                   'upload_seconds': u['load_seconds'], 'bricks_loaded': u['bricks_loaded_last_frame'],
-                  'neighbour_reads': u.get('neighbour_reads'), 'uploaded_bytes': u.get('uploaded_bytes')}))" \
+                  'neighbour_reads': u.get('neighbour_reads'), 'uploaded_bytes': u.get('uploaded_bytes'),
+                  'cubic_prefilters': u.get('cubic_prefilters')}))" \
       | tee -a "$jsonl"
   done
 done

@@ -19,6 +19,7 @@
 #include <stdlib.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -41,6 +42,7 @@
 #include "ugvr/render/image.h"
 #include "ugvr/render/lod/brick_atlas.h"
 #include "ugvr/render/lod/lod_engine.h"
+#include "ugvr/render/lod/same_level_bricks.h"
 #include "ugvr/render/render_settings.h"
 #include "ugvr/store/brick_store.h"
 #include "ugvr/view/voxel_store.h"
@@ -796,6 +798,20 @@ TEST(LodTricubic, LevelBlendFollowsTheCut) {
   EXPECT_EQ(first.bricks_loaded, 64u);
   EXPECT_EQ(second.bricks_loaded, 32u) << "4 new coarse nodes and the 28 kept leaves next to them";
   EXPECT_GE(third.bricks_loaded, 28u);
+  // The coefficient cache (cubic_cache.h): the 28 leaves uploaded again for the level blend, and every leaf back in
+  // the third frame, take their coefficients from it; only the new coarse nodes and the leaves' ancestors they blend
+  // into are prefiltered.
+  std::printf("prefilters %llu / %llu / %llu, cache hits %llu / %llu / %llu, cache %llu bytes\n",
+              (unsigned long long)first.cubic_prefilters, (unsigned long long)second.cubic_prefilters,
+              (unsigned long long)third.cubic_prefilters, (unsigned long long)first.cubic_cache_hits,
+              (unsigned long long)second.cubic_cache_hits, (unsigned long long)third.cubic_cache_hits,
+              (unsigned long long)third.cubic_cache_bytes);
+  EXPECT_EQ(first.cubic_prefilters, 64u);
+  EXPECT_EQ(first.cubic_cache_hits, 0u);
+  EXPECT_EQ(second.cubic_cache_hits, 28u);
+  EXPECT_EQ(third.cubic_prefilters, 0u) << "nothing prefiltered again";
+  EXPECT_EQ(third.cubic_cache_hits, third.bricks_loaded);
+  EXPECT_GT(third.cubic_cache_bytes, 0u);
   const Image blended = fresh(checkerboard);
   ::setenv("UGVR_TRICUBIC_LEVEL_BLEND", "0", 1);
   const Image unblended = fresh(checkerboard);
@@ -811,7 +827,7 @@ TEST(LodTricubic, LevelBlendFollowsTheCut) {
   // the cubic margins took the apron's whole |coefficient - sample| (cubic_margin_code): a walk artifact (ended
   // rounds), not the spline's; the spline at every sample (UGVR_TRICUBIC_NO_BRACKET) gives 1.91e-3 too.
   EXPECT_LT(to_checkerboard.max_abs, 0.05 * blend_change.max_abs);
-  EXPECT_LT(to_leaves.max_abs, 0.05 * blend_change.max_abs);
+  EXPECT_EQ(to_leaves.max_abs, 0.0) << "the leaves from the cache draw what a fresh engine's prefilter draws";
 }
 
 // The atlas budget counts what tricubic frames add per slot (2 bytes of coefficient a texel and a float of cubic
@@ -1372,12 +1388,15 @@ struct BluntFinBricks {
           if (t[2 * ((size_t(z) * s + y) * s + x) + 1] == 0) return false;
     return true;
   }
-  // The node's coefficients (cubic_coefficients with `fill`), or empty where it keeps its samples.
-  std::vector<double> coefficients(uint64_t n, bool fill) {
+  // The node's coefficients (cubic_coefficients with `fill`), or empty where it keeps its samples; computed once.
+  std::map<std::pair<uint64_t, bool>, std::vector<double>> computed;
+  const std::vector<double>& coefficients(uint64_t n, bool fill) {
+    const auto it = computed.find({n, fill});
+    if (it != computed.end()) return it->second;
     const CubicNeighbourhood h = hood(n);
     std::vector<double> c;
     if (!cubic_coefficients(uint32_t(r), slot(n), c, &h, kCubicExtension, fill, near_boundary_within_two(n))) c.clear();
-    return c;
+    return computed[{n, fill}] = std::move(c);
   }
   // What the atlas uploads for the node: the coefficients, or its samples where it keeps them.
   std::vector<double> uploaded(uint64_t n, bool fill) {
@@ -1551,6 +1570,40 @@ TEST(LodTricubic, BluntFinSameLevelBricksAgreeNextToTheBoundary) {
   ASSERT_GT(pairs[0], 20);
   ASSERT_GT(pairs[1], 20);
   ASSERT_GT(complete, 10);
+  // The engine's neighbourhoods and reach (SameLevelBricks, what load_cubic asks: the positions from the store's
+  // nodes, fill_within_two from their valid fractions) against the bricks' own stencils above, on every brick of levels
+  // 3 and 4; and those bricks' coefficients, bit for bit main's at 1ddb66a (before the gather by rows): an FNV-1a hash
+  // of their bytes, in the order of their keys.
+  SameLevelBricks engine(fin.store);
+  int near_two = 0, reach_differs = 0, hood_differs = 0, hashed = 0;
+  uint64_t hash = 14695981039346656037ull;
+  for (const auto& [key, n] : fin.by_key) {
+    if (key[0] < BluntFinBricks::kFine - 1) continue;
+    const bool near = fin.near_boundary_within_two(n);
+    near_two += near;
+    reach_differs += engine.fill_within_two(n) != near;
+    const std::array<uint64_t, 27> around = engine.around(n);
+    const CubicNeighbourhood hood = fin.hood(n);
+    for (int d = 0; d < 27; ++d) {
+      const uint64_t m = d == 13 ? kNoNode : fin.neighbour(n, d);
+      const bool same = around[size_t(d)] == SameLevelBricks::kNoData ? hood[size_t(d)] == fin.no_data.data()
+                                                                      : around[size_t(d)] == m;
+      hood_differs += !same;
+    }
+    for (const double c : fin.coefficients(n, true)) {
+      uint64_t bits;
+      std::memcpy(&bits, &c, sizeof bits);
+      for (int byte = 0; byte < 8; ++byte) hash = (hash ^ (bits >> (8 * byte) & 0xff)) * 1099511628211ull;
+    }
+    ++hashed;
+  }
+  std::printf("%d bricks of levels 3-4, %d with the fill within two; coefficients' hash %016llx\n", hashed, near_two,
+              (unsigned long long)hash);
+  EXPECT_EQ(reach_differs, 0) << "the engine's fill_within_two against the bricks' stencils";
+  EXPECT_EQ(hood_differs, 0) << "the engine's neighbourhoods";
+  EXPECT_GT(near_two, 100);
+  EXPECT_LT(near_two, hashed);
+  EXPECT_EQ(hash, 0xb264cc4b3af25e60ull) << "the coefficients are main's, bit for bit";
   EXPECT_EQ(identical, complete) << "bricks without the fill within two bricks keep their coefficients";
   EXPECT_LE(worst[1][0][1], worst[0][0][1]) << "the longer reach within two bricks of the fill lowers the floor";
   // The seam next to the boundary: it was far above the inner borders' floor, and the fill brings it down to it

@@ -544,21 +544,30 @@ void BrickAtlas::add_coefficients() {
 
 BrickAtlas::CubicSlot BrickAtlas::cubic_slot(const uint16_t* texels, const CubicNeighbourhood* neighbours,
                                              const CubicLevelBlend* levels, bool fill_nearby) const {
-  const size_t side = size_t(resolution_) + 2;
   std::vector<double> coefficients;
   const bool prefiltered =
       cubic_coefficients(resolution_, texels, coefficients, neighbours, extension_, fill_, fill_nearby);
-  if (prefiltered && levels && level_blend_) blend_towards_coarser(resolution_, *levels, coefficients);
+  return cubic_slot_of(texels, prefiltered ? &coefficients : nullptr, levels);
+}
+
+BrickAtlas::CubicSlot BrickAtlas::cubic_slot_of(const uint16_t* texels, const std::vector<double>* prefiltered,
+                                                const CubicLevelBlend* levels) const {
+  const size_t side = size_t(resolution_) + 2;
+  std::vector<double> blended;
+  const std::vector<double>* coefficients = prefiltered;
+  if (prefiltered && levels && !levels->empty() && level_blend_) {
+    blended = *prefiltered;
+    blend_towards_coarser(resolution_, *levels, blended);
+    coefficients = &blended;
+  }
   // [-1/2, 3/2] to [0, 1] (brick_atlas.h); without the prefilter, the samples themselves.
   CubicSlot out;
   out.codes.resize(side * side * side);
   for (size_t i = 0; i < out.codes.size(); ++i) {
-    const double c = prefiltered ? coefficients[i] : double(texels[2 * i]) / 65535.0;
+    const double c = coefficients ? (*coefficients)[i] : double(texels[2 * i]) / 65535.0;
     out.codes[i] = uint16_t(std::clamp(std::round((c + 0.5) * 0.5 * 65535.0), 0.0, 65535.0));
   }
-  out.margin = no_bracket_
-                   ? 1.0f
-                   : float(cubic_margin_code(resolution_, texels, prefiltered ? &coefficients : nullptr)) / 65535.0f;
+  out.margin = no_bracket_ ? 1.0f : float(cubic_margin_code(resolution_, texels, coefficients)) / 65535.0f;
   return out;
 }
 

@@ -180,6 +180,10 @@ class BrickAtlas {
   };
   CubicSlot cubic_slot(const uint16_t* texels, const CubicNeighbourhood* neighbours, const CubicLevelBlend* levels,
                        bool fill_nearby = false) const;
+  // The same from the prefilter's result (cubic_coefficients'; null where it kept the samples), e.g. one kept in the
+  // engine's coefficient cache: the level blend on a copy, the codes and the margin.
+  CubicSlot cubic_slot_of(const uint16_t* texels, const std::vector<double>* coefficients,
+                          const CubicLevelBlend* levels) const;
   void upload(uint64_t slot, const uint16_t* texels, const CubicSlot* cubic);
   bool level_blend() const { return level_blend_; }
   bool fill() const { return fill_; }           // samples without data filled before the prefilter (cubic_coefficients)

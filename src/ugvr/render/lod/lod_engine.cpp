@@ -28,7 +28,9 @@
 #include "ugvr/render/lod/brick_cache.h"
 #include "ugvr/render/lod/brick_residency.h"
 #include "ugvr/render/lod/cell_cache.h"
+#include "ugvr/render/lod/cubic_cache.h"
 #include "ugvr/render/lod/hybrid_select.h"
+#include "ugvr/render/lod/same_level_bricks.h"
 #include "ugvr/render/lod/tf_error.h"
 #include "ugvr/render/optical_table.h"
 #include "ugvr/render/renderer.h"
@@ -155,15 +157,10 @@ struct LodEngine::Impl {
   uint64_t budget_slots() const;
   void ensure_atlas(uint64_t needed);
   uint64_t load(std::span<const uint64_t> nodes, BrickResidency& residency);
-  // Tricubic uploads: the nodes with bricks by (level, i, j, k), built on first use; a node's same-level neighbour at
-  // offset (dx, dy, dz), or kNoNode.
-  std::unordered_map<uint64_t, uint64_t> same_level;
-  uint64_t neighbour(uint64_t node, int dx, int dy, int dz);
-  // The node with a brick at (level, i, j, k), or kNoNode.
-  uint64_t neighbour_key_node(uint64_t level, int64_t i, int64_t j, int64_t k);
-  // Whether a same-level position within two of the node's (the 5³ around it, inside the root cell) has samples
-  // without data or no brick: the fill lies within its neighbours' neighbourhoods (cubic_coefficients' fill_nearby).
-  bool fill_within_two(uint64_t node);
+  // Tricubic uploads: the nodes with bricks by (level, i, j, k), their neighbourhoods and where the fill lies; built on
+  // first use.
+  std::unique_ptr<SameLevelBricks> same_level;
+  SameLevelBricks& same_level_bricks();
   uint64_t load_cubic(std::span<const uint64_t> nodes, const BrickSlotTable::Plan& plan, BrickResidency& residency,
                       double lo, double hi);
   // Level borders (brick_atlas.h, CubicLevelBlend): per direction (CubicNeighbourhood's index) the level of the cut
@@ -177,6 +174,10 @@ struct LodEngine::Impl {
   // coefficients.
   std::vector<double> refined_onto(uint64_t node, uint64_t ancestor, const std::vector<double>& coefficients) const;
   uint64_t neighbour_reads = 0;  // of the last load
+  // Tricubic: the prefilter's coefficients per node (cubic_cache.h), within options.cubic_cache_bytes; prefilters
+  // computed by the last load, and the cache's hits before it.
+  CubicCoefficientCache cubic_cache{options.cubic_cache_bytes};
+  uint64_t cubic_prefilters = 0, cubic_hits_before = 0;
   void upload_transfer_function(const TransferFunction& tf);
   lod_gpu::LodFrame frame_parameters(const Camera& camera, const TransferFunction& tf, const RenderSettings& settings,
                                      bool overlay) const;
@@ -274,6 +275,8 @@ uint64_t LodEngine::Impl::load(std::span<const uint64_t> nodes, BrickResidency& 
   const BrickSlotTable::Plan plan = residency.plan(nodes);
   const double lo = store.layout().fields[field].min, hi = store.layout().fields[field].max;
   neighbour_reads = 0;
+  cubic_prefilters = 0;
+  cubic_hits_before = cubic_cache.hits();
   if (atlas.has_coefficients()) return load_cubic(nodes, plan, residency, lo, hi);
   std::vector<std::vector<uint16_t>> read(kLoadBatch);
   std::vector<BrickResidency::Texels> ram(kLoadBatch);
@@ -329,36 +332,9 @@ std::vector<double> LodEngine::Impl::refined_onto(uint64_t node, uint64_t ancest
   return c;
 }
 
-uint64_t LodEngine::Impl::neighbour_key_node(uint64_t level, int64_t i, int64_t j, int64_t k) {
-  if (same_level.empty())
-    for (uint64_t n = 0; n < store.node_count(); ++n) {
-      const BrickNode& b = store.node(n);
-      if (b.has_brick()) same_level.emplace(level_key(b.level, b.i, b.j, b.k), n);
-    }
-  const int64_t side = int64_t(1) << level;  // nodes of a level per axis of the root cell
-  if (i < 0 || j < 0 || k < 0 || i >= side || j >= side || k >= side) return kNoNode;
-  const auto it = same_level.find(level_key(level, i, j, k));
-  return it == same_level.end() ? kNoNode : it->second;
-}
-
-bool LodEngine::Impl::fill_within_two(uint64_t node) {
-  const BrickNode& b = store.node(node);
-  const int64_t side = int64_t(1) << b.level;
-  for (int64_t dz = -2; dz <= 2; ++dz)
-    for (int64_t dy = -2; dy <= 2; ++dy)
-      for (int64_t dx = -2; dx <= 2; ++dx) {
-        const int64_t q[3] = {int64_t(b.i) + dx, int64_t(b.j) + dy, int64_t(b.k) + dz};
-        if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= side || q[1] >= side || q[2] >= side) continue;
-        const uint64_t m = neighbour_key_node(b.level, q[0], q[1], q[2]);
-        // valid_fraction is 1 exactly where every sample of the brick has data (the mask is the fields' shared one).
-        if (m == kNoNode || store.node(m).valid_fraction < 1.0f) return true;
-      }
-  return false;
-}
-
-uint64_t LodEngine::Impl::neighbour(uint64_t node, int dx, int dy, int dz) {
-  const BrickNode& b = store.node(node);
-  return neighbour_key_node(b.level, int64_t(b.i) + dx, int64_t(b.j) + dy, int64_t(b.k) + dz);
+SameLevelBricks& LodEngine::Impl::same_level_bricks() {
+  if (!same_level) same_level = std::make_unique<SameLevelBricks>(store);
+  return *same_level;
 }
 
 // load() for tricubic frames: each brick is prefiltered over its same-level neighbourhood (brick_atlas.h,
@@ -404,7 +380,9 @@ uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const Bric
     plan.slots.push_back(residency.gpu().slot(n));
   }
   std::vector<std::vector<uint16_t>> read(batch);
-  constexpr uint64_t kNoData = kNoNode - 1;
+  SameLevelBricks& by_level = same_level_bricks();
+  cubic_cache.use({field, store.step(), lo, hi, atlas.extension(), atlas.fill()});
+  constexpr uint64_t kNoData = SameLevelBricks::kNoData;
   const std::vector<uint16_t> no_data(side * side * side * 2, 0);  // value 0, stencil 0: no sample has data
   std::vector<BrickResidency::Texels> from_ram(batch);
   for (size_t b = 0; b < plan.missing.size(); b += batch) {
@@ -427,47 +405,39 @@ uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const Bric
       texels[n] = nullptr;
       to_read.push_back(n);
     };
+    // Each brick's prefilter, and its ancestors' at the coarser levels next to it (the level blend): from the
+    // coefficient cache, or computed below over the node's same-level neighbourhood, whose texels are then gathered.
     // A same-level position inside the root cell without a brick (an empty octant, or a coarser leaf there) is
     // kNoData: a brick whose samples all lack data, which the prefilter fills like any partial neighbour
     // (brick_atlas.h, cubic_coefficients), so that the bricks around it extend their splines into it alike; outside the
     // root cell kNoNode: the side is dropped (the domain's border, the not-a-knot end).
-    const auto around_of = [&](uint64_t n) {
-      std::array<uint64_t, 27> around;
-      const BrickNode& node = store.node(n);
-      const int64_t per_axis = int64_t(1) << node.level;
-      for (int d = 0; d < 27; ++d) {
-        const int64_t q[3] = {int64_t(node.i) + d % 3 - 1, int64_t(node.j) + d / 3 % 3 - 1,
-                              int64_t(node.k) + d / 9 - 1};
-        const bool inside =
-            q[0] >= 0 && q[1] >= 0 && q[2] >= 0 && q[0] < per_axis && q[1] < per_axis && q[2] < per_axis;
-        const uint64_t m = d == 13 ? kNoNode : neighbour_key_node(node.level, q[0], q[1], q[2]);
-        around[size_t(d)] = d != 13 && m == kNoNode && inside ? kNoData : m;
+    std::unordered_map<uint64_t, CubicCoefficientCache::Shared> prefiltered;
+    std::vector<uint64_t> to_prefilter;
+    const auto need = [&](uint64_t n) {
+      if (prefiltered.count(n)) return;
+      CubicCoefficientCache::Shared kept = cubic_cache.find(n);
+      if (!kept) {
+        to_prefilter.push_back(n);
+        want(n);
+        for (uint64_t m : by_level.around(n)) want(m);
       }
-      return around;
+      prefiltered[n] = std::move(kept);
     };
-    // The batch's neighbourhoods, and those of the ancestors at the coarser levels next to its bricks.
-    std::vector<std::array<uint64_t, 27>> around(count);
-    std::unordered_map<uint64_t, std::array<uint64_t, 27>> ancestors;
     for (size_t i = 0; i < count; ++i) {
       const uint64_t n = plan.missing[b + i];
-      around[i] = around_of(n);
-      for (uint64_t m : around[i]) want(m);
+      need(n);
       const BrickNode& node = store.node(n);
       for (uint8_t level : levels_of[n]) {
         if (level == kNotCoarser) continue;
         const int up = int(node.level) - level;
-        const uint64_t a = neighbour_key_node(level, node.i >> up, node.j >> up, node.k >> up);
-        if (a == kNoNode || ancestors.count(a)) continue;
-        ancestors[a] = around_of(a);
-        want(a);
-        for (uint64_t m : ancestors[a]) want(m);
+        const uint64_t a = by_level.at(level, node.i >> up, node.j >> up, node.k >> up);
+        if (a != kNoNode) need(a);
       }
     }
-    // Where the fill lies within two bricks (the prefilter's reach, brick_atlas.h cubic_reach); found here, on one
-    // thread: neighbour_key_node builds its index on first use.
-    std::unordered_map<uint64_t, bool> near_fill;
-    for (size_t i = 0; i < count; ++i) near_fill[plan.missing[b + i]] = fill_within_two(plan.missing[b + i]);
-    for (const auto& [a, ids] : ancestors) near_fill[a] = fill_within_two(a);
+    // Where the fill lies within two bricks (the prefilter's reach, brick_atlas.h cubic_reach); asked here, on one
+    // thread: SameLevelBricks keeps each node's answer.
+    std::vector<char> near_fill(to_prefilter.size());
+    for (size_t i = 0; i < to_prefilter.size(); ++i) near_fill[i] = by_level.fill_within_two(to_prefilter[i]);
     std::vector<std::vector<uint16_t>> extra(to_read.size());
     tbb::parallel_for(size_t(0), to_read.size(), [&](size_t i) {
       thread_local std::vector<float> samples;
@@ -479,31 +449,26 @@ uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const Bric
     });
     for (size_t i = 0; i < to_read.size(); ++i) texels[to_read[i]] = extra[i].data();
     neighbour_reads += to_read.size();
-    const auto hood_of = [&](const std::array<uint64_t, 27>& ids) {
+    // The prefilters in parallel (the upload's CPU cost; SameLevelBricks::around is const), then into the cache.
+    std::vector<CubicCoefficientCache::Entry> computed(to_prefilter.size());
+    tbb::parallel_for(size_t(0), to_prefilter.size(), [&](size_t i) {
+      const std::array<uint64_t, 27> ids = by_level.around(to_prefilter[i]);
       CubicNeighbourhood hood{};
       for (size_t d = 0; d < 27; ++d)
         if (ids[d] == kNoData)
           hood[d] = no_data.data();
         else if (ids[d] != kNoNode)
           hood[d] = texels.at(ids[d]);
-      return hood;
-    };
-    // The ancestors' splines (their level's, prefiltered over their own neighbourhoods); none where they lack data.
-    std::vector<uint64_t> ancestor_ids;
-    for (const auto& [a, ids] : ancestors) ancestor_ids.push_back(a);
-    std::vector<std::vector<double>> ancestor_coefficients(ancestor_ids.size());
-    std::vector<char> ancestor_ok(ancestor_ids.size(), 0);
-    tbb::parallel_for(size_t(0), ancestor_ids.size(), [&](size_t i) {
-      const CubicNeighbourhood hood = hood_of(ancestors.at(ancestor_ids[i]));
-      ancestor_ok[i] = cubic_coefficients(r, texels.at(ancestor_ids[i]), ancestor_coefficients[i], &hood,
-                                          atlas.extension(), atlas.fill(), near_fill.at(ancestor_ids[i]));
+      computed[i].prefiltered = cubic_coefficients(r, texels.at(to_prefilter[i]), computed[i].coefficients, &hood,
+                                                   atlas.extension(), atlas.fill(), near_fill[i] != 0);
     });
-    // The batch's splines in parallel (the prefilter is the upload's CPU cost), then into their slots. Only reads
-    // here: neighbour_key_node's index was built by around_of above.
+    for (size_t i = 0; i < to_prefilter.size(); ++i)
+      prefiltered[to_prefilter[i]] = cubic_cache.put(to_prefilter[i], std::move(computed[i]));
+    cubic_prefilters += to_prefilter.size();
+    // The batch's splines (level blend, codes and margins) in parallel, then into their slots.
     std::vector<BrickAtlas::CubicSlot> splines(count);
     tbb::parallel_for(size_t(0), count, [&](size_t i) {
       const uint64_t n = plan.missing[b + i];
-      const CubicNeighbourhood hood = hood_of(around[i]);
       CubicLevelBlend levels;
       const BrickNode& node = store.node(n);
       for (int level = int(node.level) - 1; level >= 0; --level) {  // the finest coarser level first
@@ -511,13 +476,14 @@ uint64_t LodEngine::Impl::load_cubic(std::span<const uint64_t> nodes, const Bric
         for (size_t d = 0; d < 27; ++d) target.towards[d] = levels_of.at(n)[d] == level;
         if (std::none_of(target.towards.begin(), target.towards.end(), [](bool t) { return t; })) continue;
         const int up = int(node.level) - level;
-        const uint64_t a = neighbour_key_node(uint64_t(level), node.i >> up, node.j >> up, node.k >> up);
-        const auto at = std::find(ancestor_ids.begin(), ancestor_ids.end(), a);
-        if (at == ancestor_ids.end() || !ancestor_ok[size_t(at - ancestor_ids.begin())]) continue;
-        target.coefficients = refined_onto(n, a, ancestor_coefficients[size_t(at - ancestor_ids.begin())]);
+        const uint64_t a = by_level.at(uint64_t(level), node.i >> up, node.j >> up, node.k >> up);
+        const auto ancestor = prefiltered.find(a);
+        if (ancestor == prefiltered.end() || !ancestor->second->prefiltered) continue;
+        target.coefficients = refined_onto(n, a, ancestor->second->coefficients);
         levels.push_back(std::move(target));
       }
-      splines[i] = atlas.cubic_slot(texels.at(n), &hood, &levels, near_fill.at(n));
+      const CubicCoefficientCache::Entry& own = *prefiltered.at(n);
+      splines[i] = atlas.cubic_slot_of(texels.at(n), own.prefiltered ? &own.coefficients : nullptr, &levels);
     });
     for (size_t i = 0; i < count; ++i) {
       const uint64_t n = plan.missing[b + i];
@@ -1000,6 +966,9 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   st.bricks_loaded = I.load(nodes, residency);
   st.bricks_read_sync = residency.sync_reads();
   st.neighbour_reads = I.neighbour_reads;
+  st.cubic_prefilters = I.cubic_prefilters;
+  st.cubic_cache_hits = I.cubic_cache.hits() - I.cubic_hits_before;
+  st.cubic_cache_bytes = I.cubic_cache.bytes();
   st.uploaded_bytes = st.bricks_loaded * I.slot_bytes();
   std::vector<uint32_t> state(I.store.node_count(), lod_gpu::NODE_SKIP);
   for (uint64_t n : nodes) {

@@ -50,6 +50,9 @@ struct LodRenderStats {
   uint64_t uploaded_bytes = 0;
   // Tricubic: same-level neighbours of the uploaded bricks read from the store for their prefilter (brick_atlas.h).
   uint64_t neighbour_reads = 0;
+  // Tricubic: bricks (and ancestors, for the level blend) prefiltered this frame, those whose coefficients came from
+  // the coefficient cache instead, and the cache's bytes now (LodOptions::cubic_cache_bytes; docs/tricubic.md).
+  uint64_t cubic_prefilters = 0, cubic_cache_hits = 0, cubic_cache_bytes = 0;
   uint64_t culled_frustum = 0, culled_tf = 0;
   bool budget_limited = false;
   int max_level = 0;
@@ -99,6 +102,9 @@ class AtlasRefused : public Error {
 
 struct LodOptions {
   uint64_t atlas_budget_bytes = uint64_t(2) << 30;  // GPU memory for bricks
+  // RAM for the tricubic prefilter's coefficients per brick (cubic_cache.h: (R+2)³ doubles a brick, 10.6 KiB for
+  // bricks of 9³, 343 KiB for 33³), so that a brick uploaded again is not prefiltered again; 0: none kept.
+  uint64_t cubic_cache_bytes = uint64_t(256) << 20;
   double step_voxels = 0.5;  // sample step in voxels of each node (RenderSettings.sample_step = 0)
   // Hybrid rendering (docs/hybrid.md): render() draws the cut's nodes that have cells in the store (format version 5)
   // by walking their cells, in priority order (hybrid_select.h) within a GPU budget for cells (0: a quarter of

@@ -77,8 +77,11 @@ void LodFrameStats::to_json(nlohmann::json& j) const {
   j["culled_tf"] = st.culled_tf;
   j["budget_limited"] = st.budget_limited;
   j["bricks_loaded_last_frame"] = st.bricks_loaded;
-  j["uploaded_bytes"] = st.uploaded_bytes;    // texels, and with tricubic the coefficients and margins
-  j["neighbour_reads"] = st.neighbour_reads;  // tricubic: neighbours read for the prefilter (docs/tricubic.md)
+  j["uploaded_bytes"] = st.uploaded_bytes;      // texels, and with tricubic the coefficients and margins
+  j["neighbour_reads"] = st.neighbour_reads;    // tricubic: neighbours read for the prefilter (docs/tricubic.md)
+  j["cubic_prefilters"] = st.cubic_prefilters;  // tricubic: bricks prefiltered, and those the coefficient cache had
+  j["cubic_cache_hits"] = st.cubic_cache_hits;
+  j["cubic_cache_bytes"] = st.cubic_cache_bytes;
   j["cut_seconds"] = st.cut_seconds;
   j["load_seconds"] = st.load_seconds;
   j["gpu_seconds"] = st.gpu_seconds;
