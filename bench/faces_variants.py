@@ -13,6 +13,8 @@ Usage: bench/faces_variants.py SHADER_DIR OUT_ROOT VARIANT...   writes OUT_ROOT/
   batch1     the face passes not batched (main's loop runs them at every node step, as before the batches)
   notrigger  the trigger removed from the sample loop
   nopass     the trigger and the second pass, but no face test (the state stays with the stencil)
+  tailcut    the second pass ends at the node's last crossing (the rest of the node not drawn): what handing that
+             stretch to anything else could save at most
   nfcheap    node_faces replaced by a stub that sets a state and at most one crossing (no walk, no triangle)
   noside     no nearest-face rule (side_of_faces) where the line meets no face
   nowalk     nodes over the cap treated as having no faces (no walk through descendants or virtual nodes)
@@ -25,7 +27,19 @@ by two counts, c0 and c1, summed over the rays; render one frame):
   count-calls     c0: cells whose triangles are tested (cell_faces), c1: cells clipped at their plane (plane_faces)
   count-planes12  cell_faces calls whose triangles lie on c0: one plane (not covering the section), c1: two planes
   count-planes34  the same, c0: three planes, c1: four or more (1e-4 apart in normal and offset, normalised)
+  count-rounds    per SIMD vector (GL_ARB_shader_ballot: one lane of each vector counts), c0: rounds of the first
+                  pass's sample loop, c1: of the second pass's (what llvmpipe runs: a round costs the vector whether
+                  one of its rays or all eight take it)
+  count-steps     per SIMD vector, c0: node steps of main's loop, c1: batches (each runs the face pass's code once)
+Patch variants (bench/faces_variants/NAME.diff, the variants tried for issue 25 in helper facecost's session; made
+against the shaders of the commit that added them and applied with `patch`, which may need a hand where the shader
+has moved since):
+  handback   the second pass hands the rest of the node back to the first pass after the node's last crossing
+             (same image bits)
+  planefirst a node on one plane clipped in the first pass, no face pass (the image differs by float rounding)
+  vote       the rays of a SIMD vector leave a batch together when one stops (GL_ARB_shader_group_vote; same bits)
 """
+import subprocess
 import os
 import shutil
 import sys
@@ -38,6 +52,9 @@ VARIANTS = {
     'batch1': [('#define LOD_FACE_BATCH_NODES 16 ', '#define LOD_FACE_BATCH_NODES 1 ')],
     'notrigger': [('if (!crossings && fpend && ((vb.g > 0.001', 'if (false && fpend && ((vb.g > 0.001')],
     'nopass': [('fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);', 'fstate = -1;')],
+    'tailcut': [('      fnext = fj < g_nh ? g_fh[fj] : 3.0e38;\n    }\n',
+                 '      fnext = fj < g_nh ? g_fh[fj] : 3.0e38;\n    }\n'
+                 '    if (crossings && fstate >= 0 && fj == g_nh) break;\n')],
     'nfcheap': [('fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);',
                  'fstate = int(face_node[node].y & 1u); g_nh = int(face_node[node].x & 1u); g_fh[0] = tstart; '
                  'g_fs[0] = 1.0;')],
@@ -73,6 +90,12 @@ int distinct_planes(uvec2 fe) {
 }
 '''), ('  atomicAdd(counters[COUNTER_SAMPLES], samples);',
         '  samples = g_c0;\n  bricks = g_c1;\n  atomicAdd(counters[COUNTER_SAMPLES], samples);')]
+# Counting per SIMD vector: the first active lane of each vector counts (readFirstInvocationARB).
+# Outside the FACES code, so that they apply to the `off` variant too (faces_variants.py OFF_DIR OUT count-rounds).
+BALLOT = [('#version 450\n', '#version 450\n#extension GL_ARB_shader_ballot : require\n'),
+          ('#include "lod_shared.h"', 'uint g_c0 = 0u, g_c1 = 0u;\nbool lead_lane() { return gl_SubGroupInvocationARB == '
+                                      'readFirstInvocationARB(gl_SubGroupInvocationARB); }\n#include "lod_shared.h"'),
+          COUNT_COMMON[1]]
 CELL_FACES = 'bool cell_faces(uvec2 fe, vec3 o, vec3 d, float t0, float t1, float eps, inout int state) {\n'
 PLANE_FACES = 'bool plane_faces(uint at, vec3 o, vec3 d, float t0, float t1, inout int state) {\n'
 NODE_FACES = '  int fstate = node_faces(node, lo, size, base, dir, inv_dir, tstart, t_exit, u_nudge);\n'
@@ -90,11 +113,21 @@ VARIANTS.update({
         (CELL_FACES, CELL_FACES + '  int np = distinct_planes(fe);\n  if (np == 1) ++g_c0;\n  if (np == 2) ++g_c1;\n')],
     'count-planes34': COUNT_COMMON + [
         (CELL_FACES, CELL_FACES + '  int np = distinct_planes(fe);\n  if (np == 3) ++g_c0;\n  if (np >= 4) ++g_c1;\n')],
+    'count-rounds': BALLOT + [
+        ('    ++samples;\n    bool first = sb == tstart;\n',
+         '    ++samples;\n    if (lead_lane()) {\n      if (crossings) ++g_c1; else ++g_c0;\n    }\n'
+         '    bool first = sb == tstart;\n')],
+    'count-steps': BALLOT + [
+        ('    // Point location: descend from the root to the cut node (or empty region) just past t.\n',
+         '    // Point location: descend from the root to the cut node (or empty region) just past t.\n'
+         '    if (lead_lane()) ++g_c0;\n'),
+        ('  bool f_pending = false', '  if (lead_lane()) ++g_c1;\n  bool f_pending = false')],
 })
+PATCHES = ('handback', 'planefirst', 'vote')
 
 
 def main():
-    if len(sys.argv) < 4 or any(v not in VARIANTS for v in sys.argv[3:]):
+    if len(sys.argv) < 4 or any(v not in VARIANTS and v not in PATCHES for v in sys.argv[3:]):
         sys.exit(__doc__)
     src, root = sys.argv[1], sys.argv[2]
     text = open(os.path.join(src, 'lod_raycast.comp')).read()
@@ -102,6 +135,12 @@ def main():
         out = os.path.join(root, name)
         shutil.rmtree(out, ignore_errors=True)
         shutil.copytree(src, out)
+        if name in PATCHES:
+            diff = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'faces_variants', name + '.diff')
+            with open(diff) as f:
+                subprocess.run(['patch', '-s', '-p1', '-d', out], stdin=f, check=True)
+            print(out)
+            continue
         s = text
         for old, new in VARIANTS[name]:
             if s.count(old) != 1:

@@ -123,6 +123,7 @@ float g_fs[MAX_FACE_HITS];
 vec3 g_fn[MAX_FACE_HITS];
 #endif
 int g_nh;
+uint g_face_passes = 0u;  // node_faces calls (COUNTER_FACE_PASSES)
 
 // The point of triangle (a, b, c) nearest to p (Ericson, "Real-Time Collision Detection", 5.1.5).
 vec3 closest_on_triangle(vec3 p, vec3 a, vec3 b, vec3 c) {
@@ -269,6 +270,7 @@ bool plane_faces(uint at, vec3 o, vec3 d, float t0, float t1, inout int state) {
 // is near, or past MAX_FACE_HITS crossings.
 int node_faces(uint node, vec3 clo, float csize, vec3 o, vec3 d, vec3 inv_d, float t0, float t1, float eps) {
   g_nh = 0;
+  ++g_face_passes;
   uvec2 fe = face_node[node];
   if (fe.y == 0u) return -1;
   int state = -1;
@@ -1509,6 +1511,9 @@ void main() {
   if (cut) atomicAdd(counters[COUNTER_LOOP_LIMIT], 1u);
   atomicAdd(counters[COUNTER_SAMPLES], samples);
   atomicAdd(counters[COUNTER_BRICKS], bricks);
+#if FACES
+  if (g_face_passes > 0u) atomicAdd(counters[COUNTER_FACE_PASSES], g_face_passes);
+#endif
 #if HYBRID
   if (g_cell_steps > 0u) atomicAdd(counters[COUNTER_CELL_STEPS], g_cell_steps);
 #endif

@@ -114,7 +114,8 @@ const int COUNTER_SAMPLES = 0;     // texture samples of the volume, summed over
 const int COUNTER_BRICKS = 1;      // node traversals (bricks entered), summed over rays
 const int COUNTER_CELL_STEPS = 2;  // cells walked in exact nodes (HYBRID), summed over rays
 const int COUNTER_LOOP_LIMIT = 3;  // rays llvmpipe's loop limit cut short (shaders/loop_limit_probe.glsl)
-const int COUNTER_COUNT = 4;
+const int COUNTER_FACE_PASSES = 4;  // FACES: face passes (a node's faces intersected, node_faces), summed over rays
+const int COUNTER_COUNT = 5;
 
 // Texels of the transfer-function table and of its integrals, over the transfer function's own range: texel i at
 // u = i / (TF_TEXELS - 1) of it. The integrals' texel i holds (∫ c·τ du, ∫ τ du) from u = 0 to u_i (lod_engine.cpp).

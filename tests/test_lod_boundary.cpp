@@ -331,7 +331,7 @@ TEST(LodBoundary, BoundaryIndependentOfTheLevel) {
 // A node whose faces all lie on one plane (here the far field's flat top and floor) is clipped at the plane, one test
 // instead of its triangles and of the walk through its descendants (boundary_face_planes): the images are the
 // triangles' to float rounding (the two compute the same crossing differently), at two cut depths, with and without
-// the boundary overlay (whose normal then comes from the plane).
+// the boundary overlay (whose normal then comes from the plane), with the same face passes.
 TEST(LodBoundary, PlanesDrawWhatTheTrianglesDraw) {
   REQUIRE_GL();
   const Fixture& f = fixture();
@@ -363,7 +363,8 @@ TEST(LodBoundary, PlanesDrawWhatTheTrianglesDraw) {
     rs.boundary_overlay_opacity = overlay;
     for (int depth : {2, 4}) {
       const std::vector<uint64_t> cut = level_cut(store, depth);
-      const Image a = with_planes.render_nodes(cam, tf, rs, cut), b = without.render_nodes(cam, tf, rs, cut);
+      LodRenderStats sa, sb;
+      const Image a = with_planes.render_nodes(cam, tf, rs, cut, &sa), b = without.render_nodes(cam, tf, rs, cut, &sb);
       // The overlay differs at a few pixels (32 of 9,216 here, up to 0.16), mostly where the triangles' own answer
       // is the odd one out among its neighbours: a ray through a shared edge or corner of the cap's triangulation,
       // whose two float crossings miss or double. Without the overlay the images agree to 1e-6. A plane of the wrong
@@ -378,10 +379,16 @@ TEST(LodBoundary, PlanesDrawWhatTheTrianglesDraw) {
             differing += c == 0 && diff > 1e-3;
           }
       const double mean = sum / (3.0 * a.width * a.height);
-      std::printf("overlay %.1f, depth %d: mean difference %.3g, %d pixels over 1e-3\n", overlay, depth, mean,
-                  differing);
+      std::printf(
+          "overlay %.1f, depth %d: mean difference %.3g, %d pixels over 1e-3; face passes %llu (planes) vs %llu\n",
+          overlay, depth, mean, differing, (unsigned long long)sa.face_passes, (unsigned long long)sb.face_passes);
       EXPECT_LT(mean, 1e-3) << "overlay " << overlay << ", depth " << depth;
       EXPECT_LE(differing, a.width * a.height / 100) << "overlay " << overlay << ", depth " << depth;
+      // The rays that look at the faces (the render's face_passes) are the same with the planes: a plane changes how
+      // a pass clips, not which rays take one (up to a ray that the float difference ends a node sooner).
+      EXPECT_GT(sa.face_passes, 0u);
+      EXPECT_LE(std::abs(double(sa.face_passes) - double(sb.face_passes)), 0.01 * double(sb.face_passes))
+          << "overlay " << overlay << ", depth " << depth;
     }
   }
 }

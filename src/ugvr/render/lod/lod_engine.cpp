@@ -1079,6 +1079,7 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
   st.bricks_entered = counted[lod_gpu::COUNTER_BRICKS];
   st.cell_steps = counted[lod_gpu::COUNTER_CELL_STEPS];
   st.loop_limit_rays = counted[lod_gpu::COUNTER_LOOP_LIMIT];
+  st.face_passes = counted[lod_gpu::COUNTER_FACE_PASSES];
   I.exact_now.clear();  // a grant holds for one frame
 
   const auto t3 = std::chrono::steady_clock::now();

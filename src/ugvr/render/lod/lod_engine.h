@@ -74,6 +74,9 @@ struct LodRenderStats {
   // 0 on a hardware GPU. In a hybrid frame they are drawn again from the voxels (loop_limit_voxel_rays of them);
   // elsewhere their pixels hold what they had gathered.
   uint64_t loop_limit_rays = 0, loop_limit_voxel_rays = 0;
+  // Exact boundary (a store with faces; docs/lod-engine.md, "Exact boundary"): the times a ray intersected a node's
+  // faces (node_faces, before a second pass through the node), summed over rays; 0 without faces.
+  uint64_t face_passes = 0;
 };
 
 // Whether settings draw tricubic isosurfaces (the other modes ignore the interpolation).

@@ -71,6 +71,7 @@ void LodFrameStats::to_json(nlohmann::json& j) const {
   j["cut_nodes"] = st.cut_nodes;
   j["loop_limit_rays"] = st.loop_limit_rays;
   j["loop_limit_voxel_rays"] = st.loop_limit_voxel_rays;
+  j["face_passes"] = st.face_passes;
   j["cut_max_level"] = st.max_level;
   j["cut_mean_level"] = st.mean_level;
   j["culled_frustum"] = st.culled_frustum;
