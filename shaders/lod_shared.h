@@ -110,10 +110,10 @@ const uint TREE_LEVEL_SHIFT = 8u;    // the node's level above it
 const uint NODE_DESCEND = 0xFFFFFFFEu;  // an ancestor of cut nodes: descend to the child at the ray's position
 const uint NODE_SKIP = 0xFFFFFFFFu;     // neither drawn nor an ancestor: culled or empty, the ray passes
 
-const int COUNTER_SAMPLES = 0;     // texture samples of the volume, summed over rays
-const int COUNTER_BRICKS = 1;      // node traversals (bricks entered), summed over rays
-const int COUNTER_CELL_STEPS = 2;  // cells walked in exact nodes (HYBRID), summed over rays
-const int COUNTER_LOOP_LIMIT = 3;  // rays llvmpipe's loop limit cut short (shaders/loop_limit_probe.glsl)
+const int COUNTER_SAMPLES = 0;      // texture samples of the volume, summed over rays
+const int COUNTER_BRICKS = 1;       // node traversals (bricks entered), summed over rays
+const int COUNTER_CELL_STEPS = 2;   // cells walked in exact nodes (HYBRID), summed over rays
+const int COUNTER_LOOP_LIMIT = 3;   // rays llvmpipe's loop limit cut short (shaders/loop_limit_probe.glsl)
 const int COUNTER_FACE_PASSES = 4;  // FACES: face passes (a node's faces intersected, node_faces), summed over rays
 const int COUNTER_COUNT = 5;
 
