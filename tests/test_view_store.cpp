@@ -128,6 +128,33 @@ TEST(BackgroundBuild, TwoViewersOfOneGridBuildItOnce) {
     EXPECT_EQ(e.path(), path) << "left behind: " << e.path();
 }
 
+// Out of core at a budget too small for the mesh boundary's triangles the store keeps the stencil's boundary; the
+// build says so (State::note), and the viewer and `ugvr render` pass it on. At a roomy budget it says nothing.
+TEST(BackgroundBuild, OutOfCoreSaysWhenItLeavesOutTheBoundary) {
+  const fs::path dir = scratch("boundary-note");
+  GenerateOptions g;
+  g.cells = 2000, g.kind = GenCellKind::Mixed;
+  const std::string vtu = (dir / "wing.vtu").string();
+  generate_dataset(g, vtu);
+  OctreeBuildOptions o;
+  o.resolution = 8, o.max_depth = 3;
+  auto note_at = [&](uint64_t budget, const std::string& name) {
+    BackgroundBuild build(BackgroundBuild::OutOfCore{vtu, budget}, {"pressure"}, o, (dir / name).string());
+    BackgroundBuild::State st;
+    for (int i = 0; i < 1200; ++i) {
+      st = build.state();
+      if (st.stage != BackgroundBuild::Stage::Running) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    EXPECT_EQ(st.stage, BackgroundBuild::Stage::Done) << st.error;
+    return st.note;
+  };
+  const std::string tight = note_at(100 << 10, "tight.ugvr");
+  EXPECT_NE(tight.find("over half of the memory budget"), std::string::npos) << tight;
+  EXPECT_EQ(tight.find("about 0 MiB"), std::string::npos) << tight;  // a small boundary in KiB, not "0 MiB"
+  EXPECT_EQ(note_at(uint64_t(256) << 20, "roomy.ugvr"), "");
+}
+
 TEST(BackgroundBuild, AFailureIsReported) {
   BackgroundBuild build(wing(2000), {"no_such_field"}, OctreeBuildOptions{}, (scratch("fail") / "x.ugvr").string());
   BackgroundBuild::State st;

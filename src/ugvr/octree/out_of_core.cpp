@@ -689,8 +689,8 @@ HeldBoundary find_boundary(const std::string& root_file, const SoupLayout& layou
   const uint64_t need = held.triangles.size() * uint64_t(150);
   if (need > memory_budget / 2) {
     stats.boundary_note = "the mesh boundary's " + std::to_string(held.triangles.size()) + " triangles need about " +
-                          std::to_string(need >> 20) +
-                          " MiB, over half of the memory budget: the store keeps the stencil's boundary (a budget of " +
+                          format_bytes(need) +
+                          ", over half of the memory budget: the store keeps the stencil's boundary (a budget of " +
                           std::to_string((2 * need >> 20) + 1) + " MiB or more keeps the exact one)";
     held.triangles = {};
   }

@@ -137,7 +137,10 @@ void BackgroundBuild::run(std::shared_ptr<const Dataset> dataset, const OutOfCor
     } else if (work_) {
       work_(options.progress);
     } else {
-      build_octree_out_of_core(out_of_core.vtu, fields, options, out_of_core.memory_budget, path_);
+      const OctreeBuildStats built =
+          build_octree_out_of_core(out_of_core.vtu, fields, options, out_of_core.memory_budget, path_);
+      std::lock_guard lock(mutex_);
+      state_.note = built.boundary_note;
     }
     std::lock_guard lock(mutex_);
     state_.stage = Stage::Done;

@@ -33,6 +33,9 @@ class BackgroundBuild {
     // The preview is the point sketch (OctreeBuildOptions::point_sketch: approximate, from the points alone), shown
     // before the coarse preview replaces it.
     bool preview_sketch = false;
+    // Done out of core: what the build said of its store that a user should hear (OctreeBuildStats::boundary_note:
+    // the exact boundary left out for the memory budget); empty when nothing.
+    std::string note;
   };
 
   // Starts building `fields` of `dataset` into `path` (atomically: a valid store appears there only when done). The

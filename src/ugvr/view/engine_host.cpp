@@ -419,6 +419,7 @@ EngineHost::Switch EngineHost::switch_to_store() {
   } catch (const std::exception& e) {
     error = e.what();
   }
+  const std::string note = build_ ? build_->state().note : "";
   build_.reset();
   if (!store) {
     // A preview shown meanwhile stays (its file is open); the page says the store failed.
@@ -430,7 +431,8 @@ EngineHost::Switch EngineHost::switch_to_store() {
   }
   show_store(std::move(store));
   preview_depth_ = 0;
-  return {true, {"ready", "", 1, "showing the brick store " + options_.store}};
+  return {true,
+          {"ready", "", 1, "showing the brick store " + options_.store + (note.empty() ? "" : "; warning: " + note)}};
 }
 
 void EngineHost::show_store(std::shared_ptr<LodScene> store) {

@@ -79,6 +79,7 @@ std::optional<OverBudgetStore> store_for_a_mesh_over_budget(const std::vector<st
   for (;;) {
     const BackgroundBuild::State st = out.build->state();
     if (st.stage == BackgroundBuild::Stage::Done) {
+      if (say && !st.note.empty()) std::fprintf(stderr, "warning: %s\n", st.note.c_str());
       out.build.reset();
       return out;
     }
