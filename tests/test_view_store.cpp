@@ -33,6 +33,17 @@ std::shared_ptr<const Dataset> wing(uint64_t cells) {
   return std::make_shared<Dataset>(generate_in_memory(g));
 }
 
+// The build's state once it is no longer running (or after a minute).
+BackgroundBuild::State finished(const BackgroundBuild& build) {
+  BackgroundBuild::State st;
+  for (int i = 0; i < 1200; ++i) {
+    st = build.state();
+    if (st.stage != BackgroundBuild::Stage::Running) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return st;
+}
+
 TEST(ViewStore, CachePathFollowsInputsFieldsAndOptions) {
   const fs::path dir = scratch("key");
   const std::string a = (dir / "a.vtu").string(), b = (dir / "b.vtu").string();
@@ -74,12 +85,7 @@ TEST(BackgroundBuild, BuildsTheStoreAndReportsProgress) {
   OctreeBuildOptions o;
   o.resolution = 8, o.max_depth = 3;
   BackgroundBuild build(wing(3000), {"pressure"}, o, path.string());
-  BackgroundBuild::State st;
-  for (int i = 0; i < 1200; ++i) {
-    st = build.state();
-    if (st.stage != BackgroundBuild::Stage::Running) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
+  const BackgroundBuild::State st = finished(build);
   ASSERT_EQ(st.stage, BackgroundBuild::Stage::Done) << st.error;
   EXPECT_EQ(st.fraction, 1.0);
   const BrickStoreReader reader(path.string());
@@ -140,12 +146,7 @@ TEST(BackgroundBuild, OutOfCoreSaysWhenItLeavesOutTheBoundary) {
   o.resolution = 8, o.max_depth = 3;
   auto note_at = [&](uint64_t budget, const std::string& name) {
     BackgroundBuild build(BackgroundBuild::OutOfCore{vtu, budget}, {"pressure"}, o, (dir / name).string());
-    BackgroundBuild::State st;
-    for (int i = 0; i < 1200; ++i) {
-      st = build.state();
-      if (st.stage != BackgroundBuild::Stage::Running) break;
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    }
+    const BackgroundBuild::State st = finished(build);
     EXPECT_EQ(st.stage, BackgroundBuild::Stage::Done) << st.error;
     return st.note;
   };

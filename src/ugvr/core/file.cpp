@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cctype>
 #include <cerrno>
@@ -164,6 +165,49 @@ void AtomicOutputFile::commit() {
   }
   committed_ = true;
   registration_.release();
+}
+
+namespace {
+constexpr size_t kScratchBuffer = size_t(1) << 20;
+
+[[noreturn]] void fail_scratch(const std::string& path, const std::string& what) {
+  fail_in(path, what + ": " + std::strerror(errno));
+}
+}  // namespace
+
+BufferedFileWriter::BufferedFileWriter(std::string path, std::string what)
+    : path_(std::move(path)), what_(std::move(what)) {
+  file_ = std::fopen(path_.c_str(), "wb");
+  if (!file_) fail_scratch(path_, "cannot create the " + what_);
+  buffer_.reserve(kScratchBuffer);
+}
+
+BufferedFileWriter::~BufferedFileWriter() {
+  if (file_) std::fclose(file_);
+}
+
+void BufferedFileWriter::append(const void* data, size_t n) {
+  const auto* p = static_cast<const std::byte*>(data);
+  while (n > 0) {
+    const size_t take = std::min(n, kScratchBuffer - buffer_.size());
+    buffer_.insert(buffer_.end(), p, p + take);
+    p += take, n -= take;
+    if (buffer_.size() == kScratchBuffer) flush();
+  }
+}
+
+void BufferedFileWriter::flush() {
+  if (!buffer_.empty() && std::fwrite(buffer_.data(), 1, buffer_.size(), file_) != buffer_.size())
+    fail_scratch(path_, "cannot write the " + what_);
+  buffer_.clear();
+}
+
+void BufferedFileWriter::close() {
+  if (!file_) return;
+  flush();
+  const int rc = std::fclose(file_);
+  file_ = nullptr;
+  if (rc != 0) fail_scratch(path_, "cannot close the " + what_);
 }
 
 }  // namespace ugvr

@@ -5,10 +5,12 @@
 //    or failed write never leaves a file that looks complete; the temporary is removed if commit() is never reached,
 //    by the signal handler on SIGINT / SIGTERM / SIGHUP (core/temp_files.h), and, after a SIGKILL, by the next
 //    AtomicOutputFile of the same path (the stale temporaries of dead processes are removed when one is opened).
+//  - BufferedFileWriter: a build's scratch file appended front to back in large blocks.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -70,6 +72,28 @@ class AtomicOutputFile {
   std::vector<char> buffer_;
   bool committed_ = false;
   TempRegistration registration_;  // the temporary, for the signal handler
+};
+
+// A scratch file of the build (not a result: no temporary-and-rename, no fsync) appended to front to back, 1 MiB at
+// a time; truncates one that exists. `what` names it in errors ("temporary value file"): ugvr::Error naming the path,
+// "cannot create / write / close the <what>: <reason>".
+class BufferedFileWriter {
+ public:
+  BufferedFileWriter(std::string path, std::string what);
+  ~BufferedFileWriter();  // closes without reporting errors
+  BufferedFileWriter(const BufferedFileWriter&) = delete;
+  BufferedFileWriter& operator=(const BufferedFileWriter&) = delete;
+
+  void append(const void* data, size_t n);
+  // Flushes and closes, reporting errors; nothing more may be appended.
+  void close();
+  const std::string& path() const { return path_; }
+
+ private:
+  void flush();
+  std::string path_, what_;
+  std::FILE* file_ = nullptr;
+  std::vector<std::byte> buffer_;
 };
 
 // Writes all n bytes at offset of an open descriptor (retrying short writes and EINTR); throws ugvr::Error naming

@@ -1,7 +1,6 @@
 #include "ugvr/octree/leaf_points.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cstring>
 
 #include "ugvr/core/error.h"
@@ -10,49 +9,20 @@
 namespace ugvr {
 namespace {
 
-constexpr size_t kBufferBytes = size_t(1) << 20;  // written and read 1 MiB at a time
-
-[[noreturn]] void fail_io(const std::string& path, const char* what) {
-  fail_in(path, std::string(what) + ": " + std::strerror(errno));
-}
+constexpr size_t kBufferBytes = size_t(1) << 20;  // read 1 MiB at a time
 
 size_t point_bytes(uint32_t field_count) { return 3 * sizeof(double) + size_t(field_count) * sizeof(float); }
 
 }  // namespace
 
 LeafPointWriter::LeafPointWriter(std::string path, uint32_t field_count)
-    : path_(std::move(path)), field_count_(field_count) {
-  file_ = std::fopen(path_.c_str(), "wb");
-  if (!file_) fail_io(path_, "cannot create the temporary point file");
-  buffer_.reserve(kBufferBytes + point_bytes(field_count));
-}
-
-LeafPointWriter::~LeafPointWriter() {
-  if (file_) std::fclose(file_);
-}
+    : file_(std::move(path), "temporary point file"), field_count_(field_count) {}
 
 void LeafPointWriter::add(Vec3d position, const float* values) {
   const double xyz[3] = {position.x, position.y, position.z};
-  const auto* p = reinterpret_cast<const std::byte*>(xyz);
-  buffer_.insert(buffer_.end(), p, p + sizeof xyz);
-  const auto* v = reinterpret_cast<const std::byte*>(values);
-  buffer_.insert(buffer_.end(), v, v + size_t(field_count_) * sizeof(float));
+  file_.append(xyz, sizeof xyz);
+  file_.append(values, size_t(field_count_) * sizeof(float));
   ++points_;
-  if (buffer_.size() >= kBufferBytes) flush();
-}
-
-void LeafPointWriter::flush() {
-  if (!buffer_.empty() && std::fwrite(buffer_.data(), 1, buffer_.size(), file_) != buffer_.size())
-    fail_io(path_, "cannot write the temporary point file");
-  buffer_.clear();
-}
-
-void LeafPointWriter::close() {
-  if (!file_) return;
-  flush();
-  const int rc = std::fclose(file_);
-  file_ = nullptr;
-  if (rc != 0) fail_io(path_, "cannot close the temporary point file");
 }
 
 void for_each_leaf_point(const std::string& path, uint32_t field_count,

@@ -11,11 +11,10 @@
 
 #include <array>
 #include <cstdint>
-#include <cstdio>
 #include <functional>
 #include <string>
-#include <vector>
 
+#include "ugvr/core/file.h"
 #include "ugvr/core/vec.h"
 
 namespace ugvr {
@@ -53,21 +52,15 @@ struct OwnedRegion {
 class LeafPointWriter {
  public:
   LeafPointWriter(std::string path, uint32_t field_count);
-  ~LeafPointWriter();
-  LeafPointWriter(const LeafPointWriter&) = delete;
-  LeafPointWriter& operator=(const LeafPointWriter&) = delete;
 
   void add(Vec3d position, const float* values);
   // Flushes and closes; the destructor closes without reporting errors.
-  void close();
+  void close() { file_.close(); }
   uint64_t points() const { return points_; }
 
  private:
-  void flush();
-  std::string path_;
+  BufferedFileWriter file_;
   uint32_t field_count_;
-  std::FILE* file_ = nullptr;
-  std::vector<std::byte> buffer_;
   uint64_t points_ = 0;
 };
 

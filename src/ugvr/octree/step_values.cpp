@@ -1,19 +1,11 @@
 #include "ugvr/octree/step_values.h"
 
 #include <algorithm>
-#include <cerrno>
-#include <cstring>
 
 #include "ugvr/core/error.h"
 
 namespace ugvr {
 namespace {
-
-constexpr size_t kBufferFloats = size_t(1) << 18;  // 1 MiB written at a time
-
-[[noreturn]] void fail_io(const std::string& path, const char* what) {
-  fail_in(path, std::string(what) + ": " + std::strerror(errno));
-}
 
 // The distinct ids of a batch of records in ascending order, and each id's index among them: through a table over
 // their range when it is not much larger than the references (the ids of a node of an ordered mesh: linear time), else
@@ -120,42 +112,9 @@ void append_record_geometry(const SoupCell& cell, const SoupLayout& layout, std:
   out.resize(out.size() + layout.record_bytes(n) - geometry, std::byte{0});
 }
 
-ValueFileWriter::ValueFileWriter(std::string path) : path_(std::move(path)) {
-  file_ = std::fopen(path_.c_str(), "wb");
-  if (!file_) fail_io(path_, "cannot create the temporary value file");
-  buffer_.reserve(kBufferFloats);
-}
-
-ValueFileWriter::~ValueFileWriter() {
-  if (file_) std::fclose(file_);
-}
-
-void ValueFileWriter::flush() {
-  if (!buffer_.empty() && std::fwrite(buffer_.data(), sizeof(float), buffer_.size(), file_) != buffer_.size())
-    fail_io(path_, "cannot write the temporary value file");
-  buffer_.clear();
-}
-
-void ValueFileWriter::append(const float* values, size_t count) {
-  while (count > 0) {
-    const size_t n = std::min(count, kBufferFloats - buffer_.size());
-    buffer_.insert(buffer_.end(), values, values + n);
-    values += n, count -= n;
-    if (buffer_.size() == kBufferFloats) flush();
-  }
-}
-
 void ValueFileWriter::append_zeros(uint64_t count) {
   const float zero = 0.0f;
   for (uint64_t i = 0; i < count; ++i) append(&zero, 1);
-}
-
-void ValueFileWriter::close() {
-  if (!file_) return;
-  flush();
-  const int rc = std::fclose(file_);
-  file_ = nullptr;
-  if (rc != 0) fail_io(path_, "cannot close the temporary value file");
 }
 
 InputFile StepValues::open_values(const std::string& path, uint64_t count) {

@@ -29,21 +29,15 @@ std::string step_cell_values_path(const std::string& prefix, uint32_t field);
 // Appends floats to one of those files (truncating one that exists). Throws ugvr::Error naming the file on failure.
 class ValueFileWriter {
  public:
-  explicit ValueFileWriter(std::string path);
-  ~ValueFileWriter();
-  ValueFileWriter(const ValueFileWriter&) = delete;
-  ValueFileWriter& operator=(const ValueFileWriter&) = delete;
+  explicit ValueFileWriter(std::string path) : file_(std::move(path), "temporary value file") {}
 
-  void append(const float* values, size_t count);
+  void append(const float* values, size_t count) { file_.append(values, count * sizeof(float)); }
   void append_zeros(uint64_t count);
-  // Flushes and closes; the destructor does it too, without reporting errors.
-  void close();
+  // Flushes and closes; the destructor closes without reporting errors.
+  void close() { file_.close(); }
 
  private:
-  void flush();
-  std::string path_;
-  std::FILE* file_ = nullptr;
-  std::vector<float> buffer_;
+  BufferedFileWriter file_;
 };
 
 // Appends `cell` to `out` in `layout` (which may be another step's: a field can be a vertex field in one step and a
