@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Hybrid rendering against the exact engine (the [hybrid] issue, part 2; docs/hybrid.md): blunt fin (Density) and
-# oxygen post (StagnationEnergy) built with their leaves' cells (`ugvr build --cells`), at SIZE² with the cameras of
+# Hybrid rendering against the exact engine (the [hybrid] issue, part 2; docs/hybrid.md): blunt fin (Density),
+# oxygen post (StagnationEnergy) and the demo (scene `demo`: scripts/demo.sh's mesh, camera and transfer function) built with their leaves' cells (`ugvr build --cells`), at SIZE² with the cameras of
 # bench/results/exact-render and the steep transfer function of bench/run_lod_fidelity.sh (opacity rising from 0 to
 # 0.9 over 10 % of the field's range, unit distance diagonal / 200). Per scene: the exact engine's image (CPU), the
 # voxel image (`--engine lod --cut leaves`) and the converged hybrid image (`--engine hybrid`: every visible leaf with
@@ -8,8 +8,9 @@
 # time over FRAMES frames (the exact engine's: one frame on the CPU, when its image is made), and the three side by
 # side (bench/side_by_side.py).
 # Usage: bench/run_hybrid.sh LABEL [OUT_DIR=SCRATCH/LABEL] [SCRATCH=/tmp/ugvr-hybrid]
-#   UGVR (default build/ugvr), UGVR_DATA (default ../shared/data), SCENES ("blunt-fin lox-post"), SIZE (512),
-#   FRAMES (3), PYTHON (python3), EXTRA (more flags for both LOD renders, e.g. "--gpu 0").
+#   UGVR (default build/ugvr), UGVR_DATA (default ../shared/data), SCENES ("blunt-fin lox-post"; also "demo"), SIZE (512),
+#   FRAMES (3), PYTHON (python3), EXTRA (more flags for both LOD renders, e.g. "--gpu 0"), VIEW_EXTRA (more flags for
+#   all three renders, e.g. "--mode mip" or "--iso 0.1,0.5": use another SCRATCH, which keeps the exact reference).
 # One JSON line per scene is appended to bench/results/hybrid.jsonl after a `session` line.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -24,6 +25,7 @@ size=${SIZE:-512}
 frames=${FRAMES:-3}
 py=${PYTHON:-$(command -v python3)}
 extra=(${EXTRA:-})
+view_extra=(${VIEW_EXTRA:-})
 jsonl=bench/results/hybrid.jsonl
 mkdir -p "$outdir" "$scratch" bench/results
 commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
@@ -50,12 +52,24 @@ for name in $scenes; do
   case $name in
     blunt-fin) field=Density inputs=("$data/blunt-fin/bluntfinxyz.bin" "$data/blunt-fin/bluntfinq.bin") band=(0.15 0.25) ;;
     lox-post) field=StagnationEnergy inputs=("$data/lox-post/postxyz.bin" "$data/lox-post/postq.bin") band=(0.7 0.8) ;;
+    demo) field=pressure inputs=("$scratch/demo.vtu") band=() ;;
     *) echo "unknown scene $name" >&2; exit 1 ;;
   esac
-  steep_tf "$scratch/$name-tf.json" "${band[@]}"
-  unit=$("$py" -c "print($(diagonal "${inputs[@]}") / 200)")
-  view=(--camera "bench/results/exact-render/$name-camera.json" --tf "$scratch/$name-tf.json" --unit-distance "$unit"
-    --size "$size" --field "$field")
+  if [ $name = demo ]; then
+    # The demo's first view (scripts/demo.sh, src/cli/demo_scene.h): its 200,000-cell mixed mesh, camera and
+    # transfer function (its own unit distance, the range as given), over its dark background.
+    [ -f "${inputs[0]}" ] || "$ugvr" --quiet generate --cells 200000 --kind mixed -o "${inputs[0]}"
+    sed -n '/^cat >out\/demo-camera.json/,/^JSON/p; /^cat >out\/demo-tf.json/,/^JSON/p' scripts/demo.sh |
+      sed "s#out/#$scratch/#" | bash
+    view=(--camera "$scratch/demo-camera.json" --tf "$scratch/demo-tf.json" --keep-range --background 0.02,0.02,0.04
+      --size "$size" --field "$field")
+  else
+    steep_tf "$scratch/$name-tf.json" "${band[@]}"
+    unit=$("$py" -c "print($(diagonal "${inputs[@]}") / 200)")
+    view=(--camera "bench/results/exact-render/$name-camera.json" --tf "$scratch/$name-tf.json" --unit-distance "$unit"
+      --size "$size" --field "$field")
+  fi
+  view+=("${view_extra[@]}")
   store="$scratch/$name-cells.ugvr"
   [ -f "$store" ] || "$ugvr" --quiet build "${inputs[@]}" --fields "$field" --cells -o "$store"
   ref="$scratch/$name-exact.pfm"

@@ -182,11 +182,34 @@ bool inverse_map(real3 point, real3 guess, real tolerance, out real3 rst) {
 }
 const vec3 CENTER[4] = vec3[4](vec3(0.25), vec3(0.4, 0.4, 0.2), vec3(1.0 / 3.0, 1.0 / 3.0, 0.5), vec3(0.5));
 
-// World gradient of the field in the current cell (build_monomials done) at distance t; zero for cell data.
 bool g_monomials_built = false;  // for the current cell
 void need_monomials(int k) {
   if (!g_monomials_built) build_monomials(k);
   g_monomials_built = true;
+}
+
+// The gradient of the field at parametric point rst of the current cell (need_monomials done), in the walk's
+// coordinates; zero for cell data.
+vec3 gradient_at_rst(real3 rst) {
+  if (cell_data()) return vec3(0);
+  real3 jr, js, jt;
+  jacobian(rst, jr, js, jt);
+  real3 a0 = cross(js, jt), a1 = cross(jt, jr), a2 = cross(jr, js);
+  real det = dot(jr, a0);
+  if (!(abs(det) > 0.0)) return vec3(0);
+  real r = rst.x, s = rst.y, tt = rst.z;
+  real gr = g_field[1] + g_field[4] * s + g_field[5] * tt + g_field[7] * s * tt;
+  real gs = g_field[2] + g_field[4] * r + g_field[6] * tt + g_field[7] * r * tt;
+  real gt = g_field[3] + g_field[5] * r + g_field[6] * s + g_field[7] * r * s;
+  // J^-T g: the rows of J^-1 are a0, a1, a2 over det.
+  return vec3((a0 * gr + a1 * gs + a2 * gt) / det);
+}
+// The same at distance t along the ray inside the current cell (need_monomials done).
+vec3 cell_gradient_at(int k, real t) {
+  if (cell_data()) return vec3(0);
+  real3 rst = real3(CENTER[k]);
+  if (k != 0 && !inverse_map(g_origin + g_dir * t, rst, 1e-9, rst)) rst = real3(CENTER[k]);
+  return gradient_at_rst(rst);
 }
 
 // ---- the walk ------------------------------------------------------------------------------------------------------

@@ -133,27 +133,6 @@ vec4 tf_lookup(float value) {
   return texture(u_tf, (u * float(EXACT_TF_TEXELS - 1) + 0.5) / float(EXACT_TF_TEXELS));
 }
 
-// The gradient at parametric point rst of the current cell (monomials built).
-vec3 gradient_at_rst(real3 rst) {
-  if (u_flags.x != 0) return vec3(0);
-  real3 jr, js, jt;
-  jacobian(rst, jr, js, jt);
-  real3 a0 = cross(js, jt), a1 = cross(jt, jr), a2 = cross(jr, js);
-  real det = dot(jr, a0);
-  if (!(abs(det) > 0.0)) return vec3(0);
-  real r = rst.x, s = rst.y, tt = rst.z;
-  real gr = g_field[1] + g_field[4] * s + g_field[5] * tt + g_field[7] * s * tt;
-  real gs = g_field[2] + g_field[4] * r + g_field[6] * tt + g_field[7] * r * tt;
-  real gt = g_field[3] + g_field[5] * r + g_field[6] * s + g_field[7] * r * s;
-  // J^-T g: the rows of J^-1 are a0, a1, a2 over det.
-  return vec3((a0 * gr + a1 * gs + a2 * gt) / det);
-}
-vec3 gradient_at(int k, real t) {
-  if (u_flags.x != 0) return vec3(0);
-  real3 rst = real3(CENTER[k]);
-  if (k != 0 && !inverse_map(g_origin + g_dir * t, rst, 1e-9, rst)) rst = real3(CENTER[k]);
-  return gradient_at_rst(rst);
-}
 vec3 triangle_normal(int k, int face, ivec3 c) {
   ivec4 fv = FACE_V[k * 6 + face];
   vec3 a = point_at(g_vid[fv[c.x]]), b = point_at(g_vid[fv[c.y]]), d = point_at(g_vid[fv[c.z]]);
@@ -184,7 +163,7 @@ void iso_crossings(float a, float b, int k, real ta, real tb, int normal_face, i
       normal = triangle_normal(k, normal_face, corners);
     } else {
       need_monomials(k);
-      normal = gradient_at(k, ta + real((v - a) / (b - a)) * (tb - ta));
+      normal = cell_gradient_at(k, ta + real((v - a) / (b - a)) * (tb - ta));
     }
     composite_surface(shade_surface(tf_lookup(v).rgb, normal, vec3(-g_dir)), u_params.y);
   }
@@ -249,7 +228,7 @@ void volume_piece(real ta, real tb, float sa, float sb, int k) {
   float shade = 1.0;
   if (VOLUME_LIGHTING != 0 && sa != sb) {
     need_monomials(k);
-    vec3 g = gradient_at(k, 0.5 * (ta + tb));
+    vec3 g = cell_gradient_at(k, 0.5 * (ta + tb));
     float len = length(g);
     if (len > 0.0) shade = AMBIENT + DIFFUSE * abs(dot(g, vec3(-g_dir))) / len;
   }

@@ -44,13 +44,13 @@
 #define FOCUS_WINDOWS 0  // smooth brush edges: each sample's interest from the u_focus windows (docs/hybrid.md)
 #endif
 #ifndef HYBRID
-#define HYBRID 0  // exact cells in the nodes granted them (emission-absorption without overlay; docs/hybrid.md)
+#define HYBRID 0  // exact cells in the nodes granted them (no overlay, slices, tricubic; docs/hybrid.md)
 #endif
 // Tricubic isosurfaces bracket on the trilinear samples and evaluate the spline after the walk (below, g_cand);
 // with slices, whose crossings must be known in order, the spline is evaluated in the sample loop instead.
 #define TRICUBIC_WALK (TRICUBIC && MODE == LOD_MODE_ISO && !SLICES)
-#if HYBRID && (MODE != LOD_MODE_EA || OVERLAY)
-#error HYBRID is an emission-absorption variant without the boundary overlay
+#if HYBRID && (OVERLAY || SLICES || TRICUBIC)
+#error HYBRID is a variant without the boundary overlay, slices and tricubic interpolation
 #endif
 
 layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE) in;
@@ -445,12 +445,36 @@ float vertex_value(uint id) { return cell_floats[g_cn[3].y + id]; }
 float cell_value(uint c) { return cell_floats[g_cn[3].y + c]; }
 real nonlinear_tolerance() { return u_cell_tolerance; }
 
-// A linear piece of the field, clamped to the node's stretch [g_t_lo, g_t_hi] and integrated in closed form.
+// A linear piece of the field, clamped to the node's stretch [g_t_lo, g_t_hi] and integrated in closed form. In MIP
+// and isosurfaces the exact engine's rules, on values normalised to the field's range as the bricks' samples are
+// (u_focus_map.zw): one maximum per ray, and the same isovalues, for cells and samples. MIP: the piece's larger end.
+// Isosurfaces: where the linear piece crosses each value, in the order the ray meets them, shaded by the cell's own
+// gradient there (vertex data only: the engine draws a cell field's surfaces from the bricks).
+vec3 shade_surface(vec3 color, vec3 g, vec3 view);
 int g_hint = -1;
+float g_mip_max = -1.0;
+vec3 g_dir_world;  // the ray's world direction (surface shading)
 void piece(real ta, real tb, float sa, float sb, int k) {
   if (tb <= g_t_lo || ta >= g_t_hi || !(tb > ta)) return;
   if (ta < g_t_lo) sa = sa + (sb - sa) * float((g_t_lo - ta) / (tb - ta)), ta = g_t_lo;
   if (tb > g_t_hi) sb = sa + (sb - sa) * float((g_t_hi - ta) / (tb - ta)), tb = g_t_hi;
+#if MODE == LOD_MODE_MIP
+  g_mip_max = max(g_mip_max, max(sa, sb) * u_focus_map.z + u_focus_map.w);
+#elif MODE == LOD_MODE_ISO
+  float a = sa * u_focus_map.z + u_focus_map.w, b = sb * u_focus_map.z + u_focus_map.w;
+  if (a == b) return;
+  bool up = b > a;
+  for (int i = 0; i < u_iso_count && !done(); ++i) {
+    float v = iso_value(up ? i : u_iso_count - 1 - i);
+    if ((a < v) == (b < v)) continue;
+    need_monomials(k);
+    // The walk's coordinates are the root cell's, normalised per axis: the world gradient divides by its size.
+    vec3 g = cell_gradient_at(k, ta + real((v - a) / (b - a)) * (tb - ta)) / u_root_size;
+    vec3 color = shade_surface(tf_at(v).rgb, g, g_dir_world);
+    g_acc.rgb += g_acc.a * u_iso_opacity * color;
+    g_acc.a *= 1.0 - u_iso_opacity;
+  }
+#else
 #if FOCUS_WINDOWS
   vec4 before = g_acc;
 #endif
@@ -458,6 +482,7 @@ void piece(real ta, real tb, float sa, float sb, int k) {
 #if FOCUS_WINDOWS
   float interest = sample_interest(0.5 * (sa + sb) * u_focus_map.x + u_focus_map.y);
   if (interest < 1.0) g_acc = interest_mix_piece(before, g_acc, interest);
+#endif
 #endif
 }
 
@@ -1329,6 +1354,7 @@ void main() {
 #endif
 #if HYBRID
   walk_frame(base, dir);
+  g_dir_world = dir_world;
 #endif
 #if TRICUBIC_WALK
   for (int round = 0; round < TRICUBIC_ROUNDS; ++round) {  // not indented: the walk inside is everyone's
@@ -1404,6 +1430,7 @@ void main() {
       g_acc = vec4(radiance, transmittance);
       walk_node(state & ~NODE_EXACT, t, min(t_exit, t_end));
       radiance = g_acc.rgb, transmittance = g_acc.a;
+      have_prev = false;  // the next node's samples start at its entry: no isosurface crossing spans this one
       ++bricks;
       t = t_exit;
       continue;
@@ -1494,6 +1521,9 @@ void main() {
 
   vec4 result = vec4(radiance, transmittance);
 #if MODE == LOD_MODE_MIP
+#if HYBRID
+  mip_max = max(mip_max, g_mip_max);  // the exact nodes' maximum
+#endif
   // radiance and transmittance hold the slices alone (none without SLICES); the maximum is drawn behind them.
   if (mip_max >= 0.0) {
     vec4 tf = tf_at(mip_max);

@@ -180,7 +180,9 @@ layout(std140, binding = FRAME_BLOCK_BINDING) uniform LodFrame {
   // 1 / EDGE in transfer-function coordinates (u_tf_map's), w the range's group (one group's ranges ANDed, groups
   // ORed).
   vec4 u_focus[LOD_MAX_FOCUS_WINDOWS];
-  vec4 u_focus_map;  // 624 HYBRID with u_focus: a cell value's transfer-function coordinate = value · x + y
+  // 624 HYBRID: a cell value's transfer-function coordinate = value · x + y (with u_focus); normalised to the field's
+  // range as the bricks' samples are = value · z + w (MIP)
+  vec4 u_focus_map;
 };
 
 #ifdef __cplusplus

@@ -386,10 +386,11 @@ TEST_F(CliRender, LodPathConvergesWhenTheCameraRests) {
   const std::string store = file("mixed.ugvr");
   ASSERT_EQ(run_ugvr("build " + data() + " --fields pressure --brick 8 --max-depth 3 -o " + store).status, 0);
   const std::string view = " --size 48 --view iso";
-  const CommandResult r =
-      run_ugvr("render " + store + view + " --fps 1000 --path orbit:6,rest:30 --uploads-per-frame 4 -o " +
-               file("path.pfm") + " --stats " + file("path.jsonl") + " --out " + file("frames"));
+  const CommandResult r = run_ugvr(
+      "render " + store + view + " --fps 1000 --path orbit:6,rest:30 --uploads-per-frame 4 -o " + file("path.pfm") +
+      " --stats " + file("path.jsonl") + " --out " + file("frames") + " --float " + file("last.pfm"));
   ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_EQ(compare_images(read_pfm(file("last.pfm")), read_pfm(file("path.pfm"))).max_abs, 0.0);  // the last frame
   std::ifstream in(file("path.jsonl"));
   std::vector<json> lines;
   for (std::string line; std::getline(in, line);) lines.push_back(json::parse(line));

@@ -166,6 +166,7 @@ void render_frames_along_path(const Options& o, Renderer& renderer, FrameRequest
     progress.set(i + 1);
   });
   write_image(o.output, image);
+  if (!o.float_output.empty()) write_pfm(o.float_output, image);  // the last frame, as -o
   if (!o.stats.empty()) {
     AtomicOutputFile out(o.stats);
     out.write(lines);

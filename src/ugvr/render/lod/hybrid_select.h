@@ -4,7 +4,9 @@
 //  - Screen-space error: pixels covered by one texel of the node's brick at its nearest depth (view_metrics.h), the
 //    cut's own criterion: a voxel larger on screen hides more of the cells' detail.
 //  - Data error: TfNodeErrors::error (tf_error.h), how far the node's voxels differ from its finest data under the
-//    current transfer function; unknown (a store without the table): 1, the screen-space error alone.
+//    current transfer function; unknown (a store without the table; MIP and isosurfaces, where a node transparent
+//    under the transfer function still holds the ray's maximum or a surface: lod_engine.cpp passes no table): 1,
+//    the screen-space error alone.
 // Nodes without cells in the store, and nodes whose data error is exactly 0 (transparent or uniform under the transfer
 // function: their voxels and their cells draw the same nothing), are no candidates. The cell cache (cell_cache.h)
 // grants candidates in this order within its budget; the rest stay resampled.

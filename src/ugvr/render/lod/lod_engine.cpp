@@ -631,6 +631,9 @@ lod_gpu::LodFrame LodEngine::Impl::frame_parameters(const Camera& camera, const 
   }
   f.u_context = {float(options.context_saturation), float(options.context_opacity), 0.0f, 0.0f};
   set_focus_windows(f, interest, field, t_lo, tf_width);
+  // Hybrid MIP: a cell's value normalised to the field's range, as the atlas holds the bricks' samples.
+  f.u_focus_map.z = f_hi > f_lo ? float(1 / (f_hi - f_lo)) : 0.0f;
+  f.u_focus_map.w = f_hi > f_lo ? float(-f_lo / (f_hi - f_lo)) : 0.0f;
   return f;
 }
 
@@ -676,8 +679,10 @@ void LodEngine::Impl::choose_exact(std::span<const uint64_t> cut, const Camera& 
   st.hybrid = true;
   if (!store.has_cells()) {
     st.hybrid_off = "the store keeps no cells (ugvr build --cells)";
-  } else if (settings.mode != RenderMode::EmissionAbsorption) {
-    st.hybrid_off = "exact cells are drawn in emission-absorption mode only";
+  } else if (settings.mode == RenderMode::Isosurface && settings.interpolation == Interpolation::Tricubic) {
+    st.hybrid_off = "exact cells draw isosurfaces with trilinear interpolation only";
+  } else if (settings.mode == RenderMode::Isosurface && store.layout().fields[field].association == Association::Cell) {
+    st.hybrid_off = "exact cells draw the isosurfaces of vertex fields only";
   } else if (boundary_overlay_on(settings) || !settings.slices.empty() || settings.hide_volume != HideVolume::None) {
     st.hybrid_off = "exact cells are drawn without the boundary overlay and slices only";
   }
@@ -685,8 +690,12 @@ void LodEngine::Impl::choose_exact(std::span<const uint64_t> cut, const Camera& 
   const auto t0 = std::chrono::steady_clock::now();
   const uint64_t budget = options.cell_budget_bytes ? options.cell_budget_bytes : options.atlas_budget_bytes / 4;
   if (!cells || cells->budget_bytes() != budget) cells = std::make_unique<CellCache>(store, budget);
-  const std::vector<ExactCandidate> cand =
-      exact_candidates(store, cut, camera, settings.width, settings.height, tf_errors, interest, &st.focus_excluded);
+  // The transfer-function-aware error is emission-absorption's: a node transparent there still holds a MIP maximum
+  // or an isosurface, so in those modes the screen-space error alone orders the nodes with cells.
+  const TfNodeErrors unweighted(store, field);
+  const std::vector<ExactCandidate> cand = exact_candidates(
+      store, cut, camera, settings.width, settings.height,
+      settings.mode == RenderMode::EmissionAbsorption ? tf_errors : unweighted, interest, &st.focus_excluded);
   std::vector<uint64_t> order;
   order.reserve(cand.size());
   for (const ExactCandidate& c : cand) order.push_back(c.node);
@@ -1024,7 +1033,7 @@ Image LodEngine::render_nodes(const Camera& camera, const TransferFunction& tf, 
                                                 tricubic, hybrid, focus_windows);
   if (hybrid) {
     I.cells->bind();
-    if (!I.optical_tf || !(*I.optical_tf == tf)) {
+    if (mode == LOD_MODE_EA && (!I.optical_tf || !(*I.optical_tf == tf))) {
       const std::vector<float> packed = OpticalTable(tf).pack_for_gpu();
       I.optical.upload(packed.data(), packed.size() * sizeof(float));
       I.optical_tf = tf;
