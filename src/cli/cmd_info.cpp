@@ -56,12 +56,16 @@ namespace {
 
 // `ugvr info STORE.ugvr [--verify]`: the store's header and node table (opening validates both), then, with
 // --verify, every block against its checksum. A corrupt store fails after the report, naming the first bad block.
-// Bytes of the blocks of a time store's steps after the first (store_report counts step 0's).
+// Bytes of the blocks of a time store's steps after the first, their cells' values blocks too (store_report counts
+// step 0's).
 uint64_t later_steps_block_bytes(const BrickStoreReader& store) {
   uint64_t bytes = 0;
-  for (uint32_t s = 1; s < store.step_count(); ++s)
-    for (uint64_t n = 0; n < store.node_count(); ++n)
+  for (uint32_t s = 1; s < store.step_count(); ++s) {
+    for (uint64_t n = 0; n < store.node_count(); ++n) {
       for (uint32_t f = 0; f < store.field_count(); ++f) bytes += store.block(n, f, s).size;
+      bytes += store.cell_values_block(n, s).size;
+    }
+  }
   return bytes;
 }
 

@@ -275,7 +275,7 @@ OctreeBuildStats build_octree_steps(const TimeSeries& series, std::span<const ui
                                     std::span<const std::string> selectors, const OctreeBuildOptions& options,
                                     const std::string& path) {
   validate_build_options(options);
-  check_step_selection(series, steps, options);
+  check_step_selection(series, steps);
   const auto start = std::chrono::steady_clock::now();
   std::optional<tbb::global_control> threads;
   if (options.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(options.threads));
@@ -372,7 +372,8 @@ OctreeBuildStats build_octree_steps(const TimeSeries& series, std::span<const ui
     }
     const UnstructuredMesh& mesh = *cur.input.mesh;
     if (k == 0) {
-      // Shared by every step: the boundary faces (and, for one step, the leaves' cells) of the first step's mesh.
+      // Shared by every step: the boundary faces and the leaves' cells (with the first step's values) of the first
+      // step's mesh.
       if (options.leaf_cells) {
         topology.emplace(build_topology(mesh));
         const auto cells_start = std::chrono::steady_clock::now();
@@ -392,6 +393,12 @@ OctreeBuildStats build_octree_steps(const TimeSeries& series, std::span<const ui
       stats.boundary_seconds = bst.seconds;
     }
     writer.begin_step(uint32_t(k), ranges[k]);
+    if (k > 0 && options.leaf_cells) {
+      // A later step's values of the leaves' cells, before the pass drops the leaves' cell lists.
+      const auto cells_start = std::chrono::steady_clock::now();
+      stats.cell_bytes += write_leaf_cell_values(writer, mesh, cur.input.scalars, shape.nodes, shape.leaf_cells).bytes;
+      stats.cell_seconds += seconds_since(cells_start);
+    }
     const OctreeDataPoints data(mesh, cur.input.scalars);
     const BrickSampler sampler(mesh, cur.input.scalars, options.sampler);
     Progress progress(step_name(k) + ": bricks", stats.nodes, options.progress);

@@ -125,7 +125,8 @@ struct OctreeBuildStats {
   // Why the store has no boundary faces although they were asked for (out of core: over the memory budget); empty
   // otherwise.
   std::string boundary_note;
-  // The leaves' cells (leaf_cells): blocks, cells over all blocks (a cell in several leaves counts in each), bytes;
+  // The leaves' cells (leaf_cells): blocks, cells over all blocks (a cell in several leaves counts in each), bytes (a
+  // store of several time steps: with the later steps' values blocks);
   // the time writing them (in core: wall clock; out of core, where leaves write theirs as they are sampled: summed
   // over threads).
   uint64_t cell_blocks = 0, leaf_cells = 0, cell_bytes = 0;
@@ -159,8 +160,8 @@ OctreeBuildStats build_octree(const OctreeInput& input, const OctreeBuildOptions
 // tree, then for its bricks: keeping every step's fields between the passes would hold the whole series' values).
 // `fields` as prepare_octree_input takes them (empty: those it picks for the first step, kept for all). Throws
 // ugvr::Error when a step read whole has another geometry than the first's (geometry_fingerprint), naming both steps:
-// such a series needs one store per step. Not with options.leaf_cells (the cell blocks hold one step's values) unless
-// a single step is selected.
+// such a series needs one store per step. With options.leaf_cells the leaves' cell blocks (geometry, and the first
+// step's values) are shared, and each later step adds its values of them (store_format::kStepsHaveCells).
 OctreeBuildStats build_octree_steps(const TimeSeries& series, std::span<const uint32_t> steps,
                                     std::span<const std::string> fields, const OctreeBuildOptions& options,
                                     const std::string& path);

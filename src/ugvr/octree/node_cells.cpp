@@ -12,6 +12,37 @@
 
 namespace ugvr {
 
+namespace {
+
+// The store's fields at a block's points (`global`: the input points, in the block's order) or cells: the block's last
+// array (NodeCells::values).
+std::vector<float> block_values(std::span<const ScalarRef> scalars, std::span<const uint64_t> cells,
+                                std::span<const uint32_t> global) {
+  std::vector<float> values;
+  for (const ScalarRef& s : scalars) {
+    if (s.field->association() == Association::Cell) {
+      for (uint64_t c : cells) values.push_back(float(s.field->scalar(c, s.component)));
+    } else {
+      for (uint32_t v : global) values.push_back(float(s.field->scalar(v, s.component)));
+    }
+  }
+  return values;
+}
+
+}  // namespace
+
+std::vector<float> gather_node_values(const UnstructuredMesh& mesh, std::span<const ScalarRef> scalars,
+                                      std::span<const uint64_t> cells) {
+  // The points in order of first use, as gather_node_cells numbers them.
+  std::unordered_map<uint32_t, uint32_t> local;
+  local.reserve(cells.size() * 2);
+  std::vector<uint32_t> global;
+  for (uint64_t c : cells)
+    for (uint32_t v : mesh.cell(c))
+      if (local.try_emplace(v, uint32_t(global.size())).second) global.push_back(v);
+  return block_values(scalars, cells, global);
+}
+
 NodeCells gather_node_cells(const UnstructuredMesh& mesh, const MeshTopology& topology,
                             std::span<const ScalarRef> scalars, std::span<const uint64_t> cells) {
   NodeCells out;
@@ -46,13 +77,7 @@ NodeCells gather_node_cells(const UnstructuredMesh& mesh, const MeshTopology& to
   }
   out.points.reserve(global.size());
   for (uint32_t v : global) out.points.push_back(mesh.points[v]);
-  for (const ScalarRef& s : scalars) {
-    if (s.field->association() == Association::Cell) {
-      for (uint64_t c : cells) out.values.push_back(float(s.field->scalar(c, s.component)));
-    } else {
-      for (uint32_t v : global) out.values.push_back(float(s.field->scalar(v, s.component)));
-    }
-  }
+  out.values = block_values(scalars, cells, global);
   return out;
 }
 
@@ -97,6 +122,22 @@ LeafCellStats write_leaf_cells(BrickStoreWriter& writer, const UnstructuredMesh&
     }
   });
   return {blocks.load(), cells.load(), bytes.load()};
+}
+
+LeafCellStats write_leaf_cell_values(BrickStoreWriter& writer, const UnstructuredMesh& mesh,
+                                     std::span<const ScalarRef> scalars, std::span<const OctreeNode> nodes,
+                                     std::span<const std::vector<uint64_t>> leaf_cells) {
+  std::atomic<uint64_t> blocks{0}, bytes{0};
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nodes.size(), 16), [&](const tbb::blocked_range<uint64_t>& r) {
+    for (uint64_t id = r.begin(); id != r.end(); ++id) {
+      if (!nodes[id].is_leaf() || id >= leaf_cells.size() || leaf_cells[id].empty()) continue;
+      const EncodedCells e = writer.encode_cell_values(gather_node_values(mesh, scalars, leaf_cells[id]));
+      writer.append_cell_values(id, e);
+      blocks += 1;
+      bytes += e.bytes.size();
+    }
+  });
+  return {blocks.load(), 0, bytes.load()};
 }
 
 }  // namespace ugvr

@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "ugvr/grid/field.h"
 #include "ugvr/grid/topology.h"
@@ -32,6 +33,11 @@ NodeCells gather_welded_cells(const UnstructuredMesh& mesh, const MeshTopology& 
                               std::span<const ScalarRef> scalars, std::span<const uint64_t> ids,
                               std::span<const uint64_t> boundary_faces);
 
+// Only the values of gather_node_cells' block for the same cells (NodeCells::values, its points numbered alike): a
+// time store's later step (store_format::kStepsHaveCells), its fields on the first step's mesh.
+std::vector<float> gather_node_values(const UnstructuredMesh& mesh, std::span<const ScalarRef> scalars,
+                                      std::span<const uint64_t> cells);
+
 struct LeafCellStats {
   uint64_t blocks = 0, cells = 0, bytes = 0;
 };
@@ -40,5 +46,11 @@ struct LeafCellStats {
 LeafCellStats write_leaf_cells(BrickStoreWriter& writer, const UnstructuredMesh& mesh, const MeshTopology& topology,
                                std::span<const ScalarRef> scalars, std::span<const OctreeNode> nodes,
                                std::span<const std::vector<uint64_t>> leaf_cells);
+
+// A time store's later step (begun on the writer): every leaf's values of its cells, as write_leaf_cells wrote their
+// blocks (the blocks counted, cells 0).
+LeafCellStats write_leaf_cell_values(BrickStoreWriter& writer, const UnstructuredMesh& mesh,
+                                     std::span<const ScalarRef> scalars, std::span<const OctreeNode> nodes,
+                                     std::span<const std::vector<uint64_t>> leaf_cells);
 
 }  // namespace ugvr

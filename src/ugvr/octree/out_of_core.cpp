@@ -459,9 +459,20 @@ class OutOfCoreBuild {
 
   // The leaf's cell block (octree/node_cells.h), from its welded mesh: the leaf's own topology, and the whole mesh's
   // boundary faces to tell the boundary from the faces that lead to cells of other nodes. The same block as in core.
+  // A later step's leaf (the first step's records with this step's values, welded alike) writes only its values of
+  // the same cells, in the block's order (gather_welded_cells numbers the points as gather_node_values does).
   void write_cells(uint64_t id, const LocalMesh& local) {
     if (local.ids.empty()) return;
     const auto t0 = std::chrono::steady_clock::now();
+    if (leaves_.values) {
+      std::vector<uint64_t> all(local.mesh.cell_count());
+      std::iota(all.begin(), all.end(), uint64_t(0));
+      const EncodedCells e = writer_.encode_cell_values(gather_node_values(local.mesh, local.refs, all));
+      writer_.append_cell_values(id, e);
+      cell_bytes_ += e.bytes.size();
+      cell_ns_ += uint64_t(seconds_since(t0) * 1e9);
+      return;
+    }
     EncodedCells e;
     {
       const MeshTopology topology = build_topology(local.mesh);
@@ -1007,7 +1018,7 @@ OctreeBuildStats build_octree_out_of_core_steps(const TimeSeries& series, std::s
                                                 const OctreeBuildOptions& options, uint64_t memory_budget,
                                                 const std::string& path) {
   validate_build_options(options);
-  check_step_selection(series, steps, options);
+  check_step_selection(series, steps);
   std::vector<std::string> files;
   for (uint32_t s : steps) files.push_back(out_of_core_step_file(series, s));  // every step checked before any work
   if (options.error > 0) throw Error(error_above_0_advice(series, steps, files, options.error));

@@ -6,13 +6,8 @@
 
 namespace ugvr {
 
-void check_step_selection(const TimeSeries& series, std::span<const uint32_t> steps,
-                          const OctreeBuildOptions& options) {
+void check_step_selection(const TimeSeries& series, std::span<const uint32_t> steps) {
   if (steps.empty()) throw Error(series.source + ": no time step selected");
-  if (options.leaf_cells && steps.size() > 1)
-    throw Error(series.source +
-                ": --cells keeps one step's values in each cell block; a store of several time steps "
-                "cannot keep them yet (build one store per step with --time-step N, or leave out --cells)");
   for (size_t k = 0; k < steps.size(); ++k) {
     if (steps[k] >= series.size())
       throw Error(series.source + ": time step " + std::to_string(steps[k]) + " out of range (the series has " +

@@ -11,9 +11,8 @@
 
 namespace ugvr {
 
-// Throws ugvr::Error naming the series when `steps` is empty, out of range or not increasing, or when the options ask
-// for what a store of several steps cannot hold (leaf cells: a cell block keeps one step's values).
-void check_step_selection(const TimeSeries& series, std::span<const uint32_t> steps, const OctreeBuildOptions& options);
+// Throws ugvr::Error naming the series when `steps` is empty, out of range or not increasing.
+void check_step_selection(const TimeSeries& series, std::span<const uint32_t> steps);
 
 // "step 3/21 (#2, t = 0.2)": the k-th selected step, for progress labels.
 std::string step_label(const TimeSeries& series, std::span<const uint32_t> steps, size_t k);

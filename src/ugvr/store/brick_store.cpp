@@ -165,11 +165,12 @@ TfErrorEntry recode_tf_entry(const TfErrorEntry& e, double from_lo, double from_
 }
 
 // Bytes of a steps section (store_format::StepsHeaderRecord).
-uint64_t steps_section_size(uint64_t steps, uint64_t nodes, uint64_t fields, bool tf_errors) {
+uint64_t steps_section_size(uint64_t steps, uint64_t nodes, uint64_t fields, bool tf_errors, bool cells) {
   const uint64_t later = steps - 1;
   return 8 * steps + sizeof(StepFieldRange) * fields * steps +
          later * nodes * (sizeof(StepNodeRecord) + sizeof(NodeFieldRecord) * fields) +
-         (tf_errors ? later * nodes * fields * sizeof(TfErrorEntry) : 0);
+         (tf_errors ? later * nodes * fields * sizeof(TfErrorEntry) : 0) +
+         (cells ? later * nodes * sizeof(CellBlockRecord) : 0);
 }
 
 }  // namespace
@@ -388,7 +389,47 @@ EncodedCells BrickStoreWriter::encode_cells(const NodeCells& c) const {
   out.bytes.resize(n);
   out.crc = crc32_of(out.bytes.data(), out.bytes.size());
   out.cells = uint32_t(C);
+  out.values = c.values.size();
   return out;
+}
+
+EncodedCells BrickStoreWriter::encode_cell_values(std::span<const float> values) const {
+  if (values.empty() || values.size_bytes() > kMaxCellBlockBytes)
+    fail_in(path_, "encode_cell_values: " + std::to_string(values.size()) + " values");
+  EncodedCells out;
+  out.bytes.resize(ZSTD_compressBound(values.size_bytes()));
+  const size_t n = ZSTD_compress(out.bytes.data(), out.bytes.size(), values.data(), values.size_bytes(), 3);
+  if (ZSTD_isError(n)) fail_in(path_, std::string("encode_cell_values: zstd: ") + ZSTD_getErrorName(n));
+  out.bytes.resize(n);
+  out.crc = crc32_of(out.bytes.data(), out.bytes.size());
+  out.values = values.size();
+  return out;
+}
+
+void BrickStoreWriter::append_cell_values(uint64_t node, const EncodedCells& values) {
+  std::lock_guard lock(mutex_);
+  if (done_) fail_in(path_, "cell values appended after commit() or after a failed write");
+  if (!step_open_ || step_ < 1)
+    fail_in(path_,
+            "append_cell_values: the values of a time step after the first, between its begin_step and end_step");
+  if (node >= cell_blocks_.size() || cell_blocks_[node].offset == 0)
+    fail_in(path_, "append_cell_values: node " + std::to_string(node) + " has no cell block");
+  if (values.values != cell_value_counts_[node] || values.bytes.empty() || values.bytes.size() > 0xFFFFFFFFu)
+    fail_in(path_, "append_cell_values: node " + std::to_string(node) + ": " + std::to_string(values.values) +
+                       " values, its cell block holds " + std::to_string(cell_value_counts_[node]));
+  std::vector<CellBlockRecord>& index = done_steps_.back().cell_values;
+  if (node >= index.size()) index.resize(std::max<size_t>(size_t(node) + 1, index.size() * 3 / 2));
+  if (index[node].offset)
+    fail_in(path_, "time step " + std::to_string(step_) + ": node " + std::to_string(node) + " already has values");
+  const uint64_t offset = out_->position();
+  try {
+    out_->write(values.bytes.data(), values.bytes.size());
+  } catch (...) {
+    done_ = true;
+    throw;
+  }
+  index[node] = {offset, uint32_t(values.bytes.size()), values.crc};
+  block_bytes_ += values.bytes.size();
 }
 
 void BrickStoreWriter::append_cells(uint64_t node, const EncodedCells& cells) {
@@ -396,7 +437,10 @@ void BrickStoreWriter::append_cells(uint64_t node, const EncodedCells& cells) {
   if (done_) fail_in(path_, "cells appended after commit() or after a failed write");
   if (node >= kMaxNodeId) fail_in(path_, "node id " + std::to_string(node) + " is absurdly large");
   if (cells.bytes.empty() || cells.bytes.size() > 0xFFFFFFFFu) fail_in(path_, "append_cells: no or too many bytes");
-  if (node >= cell_blocks_.size()) cell_blocks_.resize(std::max<size_t>(size_t(node) + 1, cell_blocks_.size() * 3 / 2));
+  if (node >= cell_blocks_.size()) {
+    cell_blocks_.resize(std::max<size_t>(size_t(node) + 1, cell_blocks_.size() * 3 / 2));
+    cell_value_counts_.resize(cell_blocks_.size());
+  }
   if (cell_blocks_[node].offset) fail_in(path_, "node " + std::to_string(node) + " already has cells");
   const uint64_t offset = out_->position();
   try {
@@ -406,6 +450,7 @@ void BrickStoreWriter::append_cells(uint64_t node, const EncodedCells& cells) {
     throw;
   }
   cell_blocks_[node] = {offset, uint32_t(cells.bytes.size()), cells.crc};
+  cell_value_counts_[node] = cells.values;
   total_cells_ += cells.cells;
   block_bytes_ += cells.bytes.size();
 }
@@ -605,10 +650,22 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
   StepsHeaderRecord steps_header;
   if (step_count > 0) {
     const bool with_tf = !tf_errors.empty();
+    // The later steps' values of the cells: every node with a cell block has them in every later step.
+    const bool with_cells = !cell_blocks_.empty() && step_count > 1;
+    for (uint64_t s = 1; s < step_count && with_cells; ++s) {
+      std::vector<CellBlockRecord>& index = done_steps_[s].cell_values;
+      index.resize(count);  // append_cell_values took nodes with cells only, all below count
+      for (uint64_t id = 0; id < count; ++id) {
+        if (cell_blocks_[id].offset && !index[id].offset)
+          fail_in(path_, "commit: time step " + std::to_string(s) + ": node " + std::to_string(id) +
+                             " keeps cells but has no values for the step");
+      }
+    }
     steps_header.section_offset = out_->position();
-    steps_header.section_size = steps_section_size(step_count, count, nf, with_tf);
+    steps_header.section_size = steps_section_size(step_count, count, nf, with_tf, with_cells);
     steps_header.step_count = uint32_t(step_count);
-    steps_header.flags = with_tf ? store_format::kStepsHaveTfErrors : 0;
+    steps_header.flags =
+        (with_tf ? store_format::kStepsHaveTfErrors : 0) | (with_cells ? store_format::kStepsHaveCells : 0);
     uint32_t crc = 0;
     auto put = [&](const void* p, size_t n) {
       crc = crc32_of(p, n, crc);
@@ -661,6 +718,8 @@ void BrickStoreWriter::commit(std::span<const OctreeNode> nodes, std::span<const
     }
     for (uint64_t s = 1; s < step_count && with_tf; ++s)
       put(done_steps_[s].tf_errors.data(), done_steps_[s].tf_errors.size() * sizeof(TfErrorEntry));
+    for (uint64_t s = 1; s < step_count && with_cells; ++s)
+      put(done_steps_[s].cell_values.data(), count * sizeof(CellBlockRecord));
     steps_header.section_crc = crc;
   }
   uint32_t provenance_size = 0;
@@ -781,19 +840,27 @@ void BrickStoreReader::read_steps() {
   const uint64_t n = node_count(), nf = field_count();
   const uint64_t rec = sizeof(StepNodeRecord) + sizeof(NodeFieldRecord) * nf;
   const bool with_tf = (h.flags & store_format::kStepsHaveTfErrors) != 0;
-  if (h.flags > store_format::kStepsHaveTfErrors || with_tf != has_tf_errors())
+  const bool with_cells = (h.flags & store_format::kStepsHaveCells) != 0;
+  if ((h.flags & ~(store_format::kStepsHaveTfErrors | store_format::kStepsHaveCells)) != 0 ||
+      with_tf != has_tf_errors())
     fail_at_offset(name, at + offsetof(StepsHeaderRecord, flags),
                    "steps flags " + std::to_string(h.flags) +
                        (with_tf != has_tf_errors() ? ": the transfer-function error tables of the "
                                                      "steps and of the node table disagree"
                                                    : ": unknown flags"));
+  // The cell blocks hold step 0's values: a store keeping cells has every later step's, and only such a store.
+  if (with_cells != (has_cells() && h.step_count > 1))
+    fail_at_offset(name, at + offsetof(StepsHeaderRecord, flags),
+                   "steps flags " + std::to_string(h.flags) + ": " +
+                       (with_cells ? "values of cells for a store that keeps no cells or one step"
+                                   : "the store keeps cells but not their values for the steps after the first"));
   const uint64_t end = node_table_offset_ - header_.provenance_size;
   // The step count bounded by the file before any size is computed from it (no overflow, no huge allocation).
   if (h.step_count == 0 || (h.step_count > 1 && uint64_t(h.step_count - 1) > file_.size() / (n * rec)))
     fail_at_offset(name, at + offsetof(StepsHeaderRecord, step_count),
                    std::to_string(h.step_count) + " time steps: impossible in a store of " +
                        std::to_string(file_.size()) + " bytes with " + std::to_string(n) + " nodes");
-  const uint64_t expected = steps_section_size(h.step_count, n, nf, with_tf);
+  const uint64_t expected = steps_section_size(h.step_count, n, nf, with_tf, with_cells);
   if (h.section_size != expected)
     fail_at_offset(name, at + offsetof(StepsHeaderRecord, section_size),
                    "steps section of " + std::to_string(h.section_size) + " bytes; expected " +
@@ -854,6 +921,28 @@ void BrickStoreReader::read_steps() {
     const size_t step_entries = size_t(n * nf);
     tf_errors_.resize(size_t(S) * step_entries);
     std::memcpy(tf_errors_.data() + step_entries, p, (S - 1) * step_entries * sizeof(TfErrorEntry));
+    p += (S - 1) * step_entries * sizeof(TfErrorEntry);
+  }
+  if (with_cells) {
+    // Each later step's values blocks: exactly the nodes with a cell block have one, among the blocks (before the
+    // cell index, which follows them all); the blocks themselves are checked when read.
+    std::vector<CellBlockRecord> values(size_t((S - 1) * n));
+    std::memcpy(values.data(), p, values.size() * sizeof(CellBlockRecord));
+    const uint64_t records_at = h.section_offset + uint64_t(p - bytes.data());
+    for (uint64_t e = 0; e < values.size(); ++e) {
+      const CellBlockRecord& r = values[e];
+      const uint64_t id = e % n;
+      const std::string what = "time step " + std::to_string(e / n + 1) + " node " + std::to_string(id) + ": ";
+      if ((r.offset != 0) != (cell_blocks_[id].offset != 0))
+        fail_at_offset(name, records_at + e * sizeof(CellBlockRecord),
+                       what + (r.offset ? "values of cells where the node keeps none" : "no values of its cells"));
+      if (r.offset != 0 && (r.offset < header_.header_size || r.size == 0 || r.offset > cells_header_.index_offset ||
+                            r.size > cells_header_.index_offset - r.offset))
+        fail_at_offset(name, records_at + e * sizeof(CellBlockRecord),
+                       what + "the values of its cells (offset " + std::to_string(r.offset) + ", " +
+                           std::to_string(r.size) + " bytes) do not lie among the blocks");
+    }
+    cell_values_ = std::move(values);
   }
   times_ = std::move(times);
   ranges_ = std::move(ranges);
@@ -1042,7 +1131,44 @@ store_format::CellBlockHeader BrickStoreReader::cell_block_header(uint64_t node)
   return h;
 }
 
-NodeCells BrickStoreReader::read_cells(uint64_t node) const {
+CellBlockRecord BrickStoreReader::cell_values_block(uint64_t node, uint32_t step) const {
+  check_node_field(node, 0, step);
+  if (step == 0 || cell_values_.empty()) return {};
+  return cell_values_[size_t((uint64_t(step) - 1) * node_count() + node)];
+}
+
+std::vector<float> BrickStoreReader::read_values_block(uint64_t node, uint32_t step, uint64_t count) const {
+  const CellBlockRecord r = cell_values_block(node, step);
+  const std::string where =
+      "time step " + std::to_string(step) + " values of the cells of node " + std::to_string(node);
+  if (r.offset == 0) fail_in(file_.path(), where + ": none stored");
+  auto fail = [&](const std::string& what) { fail_at_offset(file_.path(), r.offset, where + ": " + what); };
+  if (4 * count > kMaxCellBlockBytes) fail(std::to_string(count) + " values are too many");
+  std::vector<std::byte> frame(r.size);
+  file_.read_at(r.offset, frame.data(), frame.size());
+  if (const uint32_t crc = crc32_of(frame.data(), frame.size()); crc != r.crc)
+    fail("checksum mismatch (stored " + hex32(r.crc) + ", computed " + hex32(crc) + "): the block is corrupt");
+  const unsigned long long raw_size = ZSTD_getFrameContentSize(frame.data(), frame.size());
+  if (raw_size != 4 * count)
+    fail("a zstd frame of " + std::to_string(raw_size) + " bytes, not " + std::to_string(4 * count) + " (" +
+         std::to_string(count) + " values, as the cell block holds)");
+  std::vector<float> values(static_cast<size_t>(count));
+  const size_t got = ZSTD_decompress(values.data(), 4 * values.size(), frame.data(), frame.size());
+  if (ZSTD_isError(got) || got != 4 * values.size()) fail("the zstd frame does not decode");
+  for (float v : values)
+    if (!std::isfinite(v)) fail("a value is not finite");
+  return values;
+}
+
+std::vector<float> BrickStoreReader::read_cell_values(uint64_t node, uint32_t step) const {
+  check_node_field(node, 0, step);
+  if (step == 0) return read_cells(node, 0).values;
+  const CellBlockHeader h = cell_block_header(node);
+  return read_values_block(node, step, cell_value_count(layout_, h.cell_count, h.point_count));
+}
+
+NodeCells BrickStoreReader::read_cells(uint64_t node, uint32_t step) const {
+  check_node_field(node, 0, step);
   const std::string& name = file_.path();
   const CellBlockRecord r = cell_block(node);
   if (r.offset == 0) fail_in(name, "node " + std::to_string(node) + " keeps no cells");
@@ -1101,6 +1227,10 @@ NodeCells BrickStoreReader::read_cells(uint64_t node) const {
   p += z.points;
   for (const Vec3f& q : c.points)
     if (!std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z)) fail("a point is not finite");
+  if (step > 0) {
+    c.values = read_values_block(node, step, z.values / 4);
+    return c;
+  }
   c.values.resize(z.values / 4);
   std::memcpy(c.values.data(), p, z.values);
   for (float v : c.values)

@@ -155,7 +155,8 @@ struct NodeCells {
 struct EncodedCells {
   std::vector<std::byte> bytes;  // one zstd frame
   uint32_t crc = 0;
-  uint32_t cells = 0;
+  uint32_t cells = 0;   // 0 for a values block (encode_cell_values)
+  uint64_t values = 0;  // the values it holds (every field's)
 };
 
 // One node's bricks, encoded (by BrickStoreWriter::encode, on any thread) and ready to append.
@@ -192,6 +193,13 @@ class BrickStoreWriter {
   EncodedCells encode_cells(const NodeCells& cells) const;
   // Appends node `node`'s cell block. Thread-safe; a node gets at most one.
   void append_cells(uint64_t node, const EncodedCells& cells);
+  // A time store's cells (store_format::kStepsHaveCells): a later step's values of a node's cells, every field's in
+  // its cell block's order (as NodeCells::values), encoded as one zstd frame. Thread-safe and I/O-free.
+  EncodedCells encode_cell_values(std::span<const float> values) const;
+  // Appends them for the step begun (1 or later) to node `node`, whose cell block must be appended already with as
+  // many values. Thread-safe; a node gets one per step. commit() refuses a store of several steps in which a node
+  // with cells lacks a step's values.
+  void append_cell_values(uint64_t node, const EncodedCells& values);
 
   // Writes the node table and the header, syncs and renames the file into place. `nodes` is the whole tree (node 0
   // the root); `errors` has nodes.size() × F entries, node-major (empty: all zero). Validates the tree and that every
@@ -229,6 +237,7 @@ class BrickStoreWriter {
   std::vector<uint32_t> sizes_, crcs_;                      // node × F
   std::vector<float> lo_, hi_;                              // node × F
   std::vector<store_format::CellBlockRecord> cell_blocks_;  // by node id; offset 0: none
+  std::vector<uint64_t> cell_value_counts_;                 // by node id: the values its cell block holds
   uint64_t total_cells_ = 0;
   uint64_t block_bytes_ = 0;
   bool done_ = false;  // committed, or failed: no more writes
@@ -241,6 +250,7 @@ class BrickStoreWriter {
     std::vector<FieldError> errors;
     std::vector<store_format::TfErrorEntry> tf_errors;
     std::vector<store_format::StepFieldRange> ranges;
+    std::vector<store_format::CellBlockRecord> cell_values;  // by node id: its values block (offset 0: none)
   };
   int64_t step_ = -1;
   bool step_open_ = false;
@@ -294,8 +304,17 @@ class BrickStoreReader {
   // Where node `node`'s block is (offset 0: the node keeps no cells, or the store none).
   store_format::CellBlockRecord cell_block(uint64_t node) const;
   // Reads and checks node `node`'s cells: checksum, sizes, every index in range, positions and values finite. Throws
-  // ugvr::Error naming the file, node and offset. Thread-safe.
-  NodeCells read_cells(uint64_t node) const;
+  // ugvr::Error naming the file, node and offset. Thread-safe. `step`: a time store's step, whose values the cells
+  // then hold (a later step's from its values block, checked likewise, the error naming the step too); without it,
+  // the step set_step() selected.
+  NodeCells read_cells(uint64_t node, uint32_t step) const;
+  NodeCells read_cells(uint64_t node) const { return read_cells(node, step_); }
+  // Only the values of node `node`'s cells in step `step` (NodeCells::values): for a later step its values block and
+  // the counts from its cell block's header, without decoding the geometry; for step 0 the whole cell block. Checked
+  // and thread-safe as read_cells.
+  std::vector<float> read_cell_values(uint64_t node, uint32_t step) const;
+  // Where node `node`'s values of step `step` >= 1 are (store_format::kStepsHaveCells; offset 0: none).
+  store_format::CellBlockRecord cell_values_block(uint64_t node, uint32_t step) const;
   // The counts of node `node`'s cells (its block's header), decoded from the first bytes of the block alone: what a
   // cell budget needs to know before it decides to read a block of millions of cells. As stored: the checksum and
   // the arrays are checked when read_cells reads the block. Throws ugvr::Error naming the file, node and offset for a
@@ -350,6 +369,8 @@ class BrickStoreReader {
   void check_node_field(uint64_t node, uint32_t field, uint32_t step = 0) const;
   // Where the record holding node `node`'s entries for `step` starts (the node table's for step 0).
   uint64_t step_record_offset(uint64_t node, uint32_t step) const;
+  // A later step's values of node `node`'s cells, `count` of them (from its cell block's header), checked.
+  std::vector<float> read_values_block(uint64_t node, uint32_t step, uint64_t count) const;
 
   InputFile file_;
   store_format::HeaderRecord header_;
@@ -360,10 +381,11 @@ class BrickStoreReader {
   store_format::CellsHeaderRecord cells_header_;
   std::vector<store_format::CellBlockRecord> cell_blocks_;  // by node id; empty: none
   store_format::StepsHeaderRecord steps_header_;
-  std::vector<double> times_;                         // per step; empty: one step
-  std::vector<store_format::StepFieldRange> ranges_;  // step × F; empty: one step
-  uint64_t steps_nodes_offset_ = 0;                   // where step 1's node records start in the section
-  uint32_t step_ = 0;                                 // set_step()
+  std::vector<double> times_;                               // per step; empty: one step
+  std::vector<store_format::StepFieldRange> ranges_;        // step × F; empty: one step
+  std::vector<store_format::CellBlockRecord> cell_values_;  // (step - 1) × N; empty: none
+  uint64_t steps_nodes_offset_ = 0;                         // where step 1's node records start in the section
+  uint32_t step_ = 0;                                       // set_step()
   BrickStoreLayout layout_;
   uint64_t node_table_offset_ = 0;
   std::vector<BrickNode> nodes_;

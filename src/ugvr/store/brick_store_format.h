@@ -212,16 +212,26 @@ inline constexpr uint32_t kCellAcrossOutside = 0xFFFFFFFEu;
 //   TfErrorEntry × F × N × (S - 1)              steps 1 .. S-1: the transfer-function error entries (only with
 //                                               kStepsHaveTfErrors), codes over the FieldRecord's range as in the
 //                                               node table's (the union of the steps')
-// The blocks of every step lie among the brick blocks, appended step after step.
+//   CellBlockRecord × N × (S - 1)               steps 1 .. S-1: per node (id order) where its cells' values for that
+//                                               step are (only with kStepsHaveCells, which a store keeping cells and
+//                                               more than one step must have); offset 0 exactly where the cell index's
+//                                               is. A values block is one zstd frame holding, per store field in field
+//                                               order, float32 × V (vertex field) or × C (cell field) in the node's
+//                                               cell block's point / cell order: the block's last array, for that
+//                                               step. The cell blocks themselves (geometry, and step 0's values) are
+//                                               shared.
+// The blocks of every step (and the values blocks) lie among the brick blocks, appended step after step.
 struct StepsHeaderRecord {
   uint64_t section_offset = 0;  //  0  file offset of the section (the first time); 0: the store holds one step
-  uint64_t section_size = 0;    //  8  bytes: 8 S + 16 F S + (S - 1) N (8 + 24 F) [+ (S - 1) N F 44] (0 without)
+  uint64_t section_size = 0;    //  8  bytes: 8 S + 16 F S + (S - 1) N (8 + 24 F) [+ (S - 1) N F 44]
+                                //     [+ (S - 1) N 16] (0 without)
   uint32_t step_count = 0;      // 16  S >= 1 (0 without a section)
   uint32_t section_crc = 0;     // 20  crc32 (zlib) of the section's bytes
-  uint32_t flags = 0;           // 24  kStepsHaveTfErrors
+  uint32_t flags = 0;           // 24  kStepsHaveTfErrors | kStepsHaveCells
   uint32_t reserved = 0;        // 28  0
 };
 inline constexpr uint32_t kStepsHaveTfErrors = 1;  // the section holds the later steps' transfer-function error tables
+inline constexpr uint32_t kStepsHaveCells = 2;     // the section holds the later steps' cell values blocks' records
 // A step's range of one field.
 struct StepFieldRange {
   double min = 0;  // 0

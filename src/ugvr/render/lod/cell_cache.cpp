@@ -95,6 +95,21 @@ void build_entry_grid(const WalkMesh& w, bool entry_grid, PreparedNodeCells& p) 
   p.floats.insert(p.floats.end(), step_f.begin(), step_f.end());
 }
 
+// Field `field`'s values in the walk mesh's order, from `all` (every field's, in the cell block's order: per point, or
+// per cell, the cell block's cell c being walk cell order[c]).
+std::vector<float> walk_values(const BrickStoreLayout& layout, uint32_t field, std::span<const float> all,
+                               uint64_t cells, uint64_t points, std::span<const uint32_t> order) {
+  size_t offset = 0;
+  for (uint32_t f = 0; f < field; ++f) offset += layout.fields[f].association == Association::Cell ? cells : points;
+  if (layout.fields[field].association == Association::Cell) {
+    std::vector<float> values(cells, 0.0f);
+    for (size_t c = 0; c < order.size(); ++c)
+      if (order[c] != kWalkBoundary) values[order[c]] = all[offset + c];
+    return values;
+  }
+  return std::vector<float>(all.begin() + std::ptrdiff_t(offset), all.begin() + std::ptrdiff_t(offset + points));
+}
+
 }  // namespace
 
 uint64_t PreparedNodeCells::bytes() const {
@@ -172,20 +187,21 @@ PreparedNodeCells prepare_node_cells(const BrickStoreReader& store, uint64_t nod
     p.floats.push_back(float((double(q.y) - root.lo.y) / size.y));
     p.floats.push_back(float((double(q.z) - root.lo.z) / size.z));
   }
-  size_t offset = 0;
-  for (uint32_t f = 0; f < field; ++f)
-    offset += layout.fields[f].association == Association::Cell ? nc.ids.size() : nc.points.size();
-  const BrickStoreField& fd = layout.fields[field];
-  if (fd.association == Association::Cell) {
-    std::vector<float> values(p.cells, 0.0f);
-    for (size_t c = 0; c < order.size(); ++c)
-      if (order[c] != kWalkBoundary) values[order[c]] = nc.values[offset + c];
-    p.floats.insert(p.floats.end(), values.begin(), values.end());
-  } else {
-    for (size_t v = 0; v < nc.points.size(); ++v) p.floats.push_back(nc.values[offset + v]);
-  }
+  if (p.cells != nc.ids.size() || p.points != nc.points.size())
+    fail_in(store.path(), "node " + std::to_string(node) + ": the walk mesh's cells or points are not the block's");
+  const std::vector<float> values = walk_values(layout, field, nc.values, p.cells, p.points, order);
+  p.floats.insert(p.floats.end(), values.begin(), values.end());
   build_entry_grid(w, entry_grid, p);
   return p;
+}
+
+void swap_step_values(const BrickStoreReader& store, uint64_t node, uint32_t field, uint32_t step,
+                      PreparedNodeCells& p) {
+  const std::vector<float> all = store.read_cell_values(node, step);
+  const std::span<const uint32_t> order(p.ints.data() + p.order_begin, p.cells);
+  const std::vector<float> values = walk_values(store.layout(), field, all, p.cells, p.points, order);
+  // The values follow the points' coordinates (the node record's "first value").
+  std::copy(values.begin(), values.end(), p.floats.begin() + 3 * std::ptrdiff_t(p.points));
 }
 
 uint64_t PreparedSize::bytes() const { return 4 * (ints + floats) + uint64_t(lod_gpu::CELL_NODE_UVEC4S) * 16; }
@@ -207,16 +223,23 @@ CellCache::CellCache(const BrickStoreReader& store, uint64_t budget_bytes) : sto
     max_block_ = std::min<uint64_t>(max_block_, std::strtoull(cap, nullptr, 10));
 }
 
-const PreparedNodeCells& CellCache::get(uint64_t node, uint32_t field, bool& fresh) {
+const PreparedNodeCells& CellCache::get(uint64_t node, uint32_t field, bool& fresh, bool& swapped) {
   auto it = ram_.find(node);
   fresh = it == ram_.end();
+  swapped = false;
+  const uint32_t step = store_.step();
   if (fresh) {
     const uint64_t bytes = known_size(node).bytes();
     if (ram_bytes_ + bytes > 2 * budget_) drop_from_ram(2 * budget_ > bytes ? 2 * budget_ - bytes : 0);
-    it = ram_.emplace(node, Entry{prepare_node_cells(store_, node, field, entry_grid_), 0}).first;
+    it = ram_.emplace(node, Entry{prepare_node_cells(store_, node, field, entry_grid_), 0, step}).first;
     const PreparedNodeCells& p = it->second.cells;
     ram_bytes_ += p.bytes();
     sizes_[node] = {{p.ints.size(), p.floats.size()}, true};
+  } else if (it->second.step != step) {
+    // Another time step: the same cells (a time store shares them), that step's values.
+    swap_step_values(store_, node, field, step, it->second.cells);
+    it->second.step = step;
+    swapped = true;
   }
   return it->second.cells;
 }
@@ -250,6 +273,10 @@ CellCache::Grant CellCache::grant(std::span<const uint64_t> candidates, uint32_t
     // The values' count may differ between fields (per point or per cell): back to the headers' bounds.
     std::erase_if(sizes_, [](const auto& kv) { return kv.second.prepared; });
   }
+  if (store_.step() != step_) {
+    step_ = store_.step();
+    uploaded_.clear();  // the granted nodes' values change: the buffers are rewritten even for the same set
+  }
   ++tick_;
   Grant g;
   uint64_t ints = 0, floats = 0, records = 0;
@@ -271,9 +298,10 @@ CellCache::Grant CellCache::grant(std::span<const uint64_t> candidates, uint32_t
       g.budget_full = true;
       continue;
     }
-    bool fresh = false;
-    const PreparedNodeCells& p = get(n, field, fresh);
+    bool fresh = false, swapped = false;
+    const PreparedNodeCells& p = get(n, field, fresh, swapped);
     if (fresh) ++g.prepared;
+    if (swapped) ++g.swapped;
     if (!fits({p.ints.size(), p.floats.size()})) {
       g.budget_full = true;
       continue;

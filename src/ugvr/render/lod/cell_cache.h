@@ -38,7 +38,9 @@
 //
 // Residency: decoded and prepared nodes are kept in RAM, least recently granted dropped first beyond twice the budget;
 // the GPU buffers hold exactly the granted set and are rewritten when it changes (a transfer-function edit or a
-// camera move that keeps the set uploads nothing).
+// camera move that keeps the set uploads nothing). A time store's step change (BrickStoreReader::set_step) keeps the
+// prepared nodes: each granted one gets the new step's values alone (a values block per node, swap_step_values), and
+// the buffers are rewritten.
 #pragma once
 
 #include <array>
@@ -72,11 +74,17 @@ inline constexpr float kEntryGridMargin = 2e-5f;
 // A node with more entry triangles than 16-bit list entries can name gets a grid of one cell (the linear scan).
 inline constexpr uint32_t kEntryGridMaxTriangles = 65536;
 
-// Node `node`'s cells as the GPU walks them, for store field `field`. Throws ugvr::Error for a node without cells.
-// With `entry_grid` false the entry grid is one cell holding every entry triangle: the shader then tests them all,
-// as the linear scan did (the environment's UGVR_HYBRID_ENTRY_GRID=0 makes the cell cache do that, for A/B checks).
+// Node `node`'s cells as the GPU walks them, for store field `field` and the store's step (BrickStoreReader::set_step).
+// Throws ugvr::Error for a node without cells. With `entry_grid` false the entry grid is one cell holding every entry
+// triangle: the shader then tests them all, as the linear scan did (the environment's UGVR_HYBRID_ENTRY_GRID=0 makes
+// the cell cache do that, for A/B checks).
 PreparedNodeCells prepare_node_cells(const BrickStoreReader& store, uint64_t node, uint32_t field,
                                      bool entry_grid = true);
+// A time store (format version 6 with cells): `p`, node `node`'s prepared cells for field `field`, given the values of
+// step `step` in place of those it holds (read alone: BrickStoreReader::read_cell_values). The cells themselves are
+// the same in every step, so the walk mesh, ids and entry grid stay.
+void swap_step_values(const BrickStoreReader& store, uint64_t node, uint32_t field, uint32_t step,
+                      PreparedNodeCells& p);
 // How much of each GPU buffer a node's prepared cells take (PreparedNodeCells: ints, floats, one node record).
 struct PreparedSize {
   uint64_t ints = 0, floats = 0;  // words
@@ -101,14 +109,17 @@ class CellCache {
     std::vector<uint32_t> entries;  // their entries in the node buffer (the shader's NODE_EXACT | entry)
     uint64_t cells = 0, bytes = 0;  // of the granted nodes
     uint64_t prepared = 0;          // nodes read and prepared for this grant (not in RAM before)
+    uint64_t swapped = 0;           // nodes in RAM given another time step's values (swap_step_values)
     bool budget_full = false;       // a candidate did not fit the budget
     bool uploaded = false;          // the GPU buffers were rewritten
   };
   // Grants exact cells to `candidates` (nodes with cells, highest priority first), at most `max_nodes`, each while the
   // budget and the buffers' cap allow (a node that does not fit is skipped; smaller ones after it may still fit), and
-  // uploads the granted set if it changed. A node is read and prepared only when its size (the bound from its block's
-  // header, or its prepared size once known) fits what is left, so a full budget costs no reads; the nodes prepared
-  // and kept in RAM never exceed twice the budget, even within one grant.
+  // uploads the granted set if it changed. The values are those of the store's step (BrickStoreReader::set_step): a
+  // node prepared for another step gets this one's values alone (swap_step_values), and the set is uploaded again. A
+  // node is read and prepared only when its size (the bound from its block's header, or its prepared size once known)
+  // fits what is left, so a full budget costs no reads; the nodes prepared and kept in RAM never exceed twice the
+  // budget, even within one grant.
   Grant grant(std::span<const uint64_t> candidates, uint32_t field, uint64_t max_nodes);
   void bind() const;  // the three buffers at their bindings (lod_shared.h)
   uint64_t budget_bytes() const { return budget_; }
@@ -118,7 +129,7 @@ class CellCache {
  private:
   // The node's prepared cells, read and prepared if not in RAM (after dropping the least recently granted to keep
   // RAM within twice the budget).
-  const PreparedNodeCells& get(uint64_t node, uint32_t field, bool& fresh);
+  const PreparedNodeCells& get(uint64_t node, uint32_t field, bool& fresh, bool& swapped);
   // The node's size as far as it is known without preparing it: its prepared size once it has been prepared for the
   // current field, else prepared_size_at_least of its block's header, read once. A node that does not fit is a
   // candidate again every frame: neither its header nor its cells are read again.
@@ -128,10 +139,12 @@ class CellCache {
   const BrickStoreReader& store_;
   uint64_t budget_ = 0, max_block_ = 0;
   uint32_t field_ = UINT32_MAX;
+  uint32_t step_ = 0;       // the store's step the uploaded buffers hold
   bool entry_grid_ = true;  // false: UGVR_HYBRID_ENTRY_GRID=0, one grid cell per node (the linear scan)
   struct Entry {
     PreparedNodeCells cells;
     uint64_t last_used = 0;
+    uint32_t step = 0;  // whose values `cells` holds
   };
   std::unordered_map<uint64_t, Entry> ram_;
   struct KnownSize {

@@ -707,6 +707,7 @@ void LodEngine::Impl::choose_exact(std::span<const uint64_t> cut, const Camera& 
   st.cell_bytes = g.bytes;
   st.cell_budget_bytes = budget;
   st.cells_prepared = g.prepared;
+  st.cells_swapped = g.swapped;
   st.cell_budget_full = g.budget_full;
   st.cells_seconds = seconds_since(t0);
 }

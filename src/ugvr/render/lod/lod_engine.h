@@ -61,13 +61,14 @@ struct LodRenderStats {
   uint64_t atlas_slots = 0;
   // Hybrid rendering (LodOptions::hybrid; docs/hybrid.md): the cut's nodes that have cells and a nonzero data error
   // (candidates), those drawn exact this frame and their cells, the cell cache's bytes and budget, nodes read and
-  // prepared this frame, cells walked by all rays; budget_full: a candidate did not fit the budget. `hybrid_off`
+  // prepared this frame, nodes given another time step's values this frame (kept prepared: cell_cache.h), cells walked
+  // by all rays; budget_full: a candidate did not fit the budget. `hybrid_off`
   // says why no node could be exact ("" when hybrid ran).
   bool hybrid = false;
   std::string hybrid_off;
   uint64_t exact_candidates = 0, exact_nodes = 0, exact_cells = 0;
   uint64_t focus_excluded = 0;  // nodes with cells left resampled for zero interest (--focus)
-  uint64_t cell_bytes = 0, cell_budget_bytes = 0, cells_prepared = 0, cell_steps = 0;
+  uint64_t cell_bytes = 0, cell_budget_bytes = 0, cells_prepared = 0, cells_swapped = 0, cell_steps = 0;
   bool cell_budget_full = false;
   double cells_seconds = 0;  // choosing, reading, preparing and uploading cells
   // Rays that llvmpipe's loop limit cut short (shaders/loop_limit_probe.glsl: 65,535 loop iterations per 8 rays),

@@ -55,6 +55,7 @@ void hybrid_json(const LodRenderStats& st, nlohmann::json& j) {
   h["cell_budget_bytes"] = st.cell_budget_bytes;
   h["cell_budget_full"] = st.cell_budget_full;
   h["cells_prepared"] = st.cells_prepared;
+  h["cells_swapped"] = st.cells_swapped;
   h["cells_seconds"] = st.cells_seconds;
   h["cell_steps"] = st.cell_steps;
   j["hybrid"] = std::move(h);
