@@ -15,6 +15,8 @@
 //             (with a warning), because a field needs one value per cell.
 // All kept blocks are merged into one mesh, cells in block order, with an Int32 cell field "block_id".
 // node_num_map / elem_map (global numbering) are not needed: connectivity uses local 1-based node numbers.
+// A part read (read_exodus_cells, exodus_parts.h) reads a range of those cells: hyperslabs of the connect and element
+// variables' rows, and of the coordinates and nodal variables over the nodes the range uses.
 //
 // Element types: HEX*, TET*, WEDGE*, PYRAMID*/PYRA* are kept; higher-order ones (HEX20, TETRA10, WEDGE15, PYRAMID13,
 // ...) are linearised to their corner nodes, which Exodus lists first. Exodus corner orderings of hex, tet and pyramid
@@ -50,6 +52,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
+#include "ugvr/io/exodus_parts.h"
 #include "ugvr/io/header_counts.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/step_fields.h"
@@ -530,7 +533,10 @@ struct BlockInfo {
   std::string elem_type;
   uint64_t elements = 0;
   bool kept = false;
-  uint64_t first_cell = 0;  // in the merged mesh
+  uint64_t first_cell = 0;  // in the merged mesh (the whole read's numbering)
+  // The elements read (all of them in a whole read; those in the cell range of a part read) and where they land in
+  // the mesh read.
+  uint64_t row_first = 0, rows = 0, out_first = 0;
 };
 
 // A variable's values at one time step, in its stored type (float or double).
@@ -543,7 +549,16 @@ struct Values {
 
 class ExodusReader {
  public:
-  ExodusReader(const std::string& path, int64_t time_step) : nc_(path), requested_step_(time_step) {}
+  ExodusReader(const std::string& path, int64_t time_step, std::optional<ExodusCellRange> range = std::nullopt)
+      : nc_(path), requested_step_(time_step), range_(range) {}
+
+  ExodusLayout layout() const {
+    ExodusLayout out;
+    for (const BlockInfo& b : blocks_)
+      if (b.kept) out.block_starts.push_back(b.first_cell);
+    out.cells = cells_;
+    return out;
+  }
 
   // For fields_at: the dimensions, the element blocks' layout (which are kept, where their cells start) and the times,
   // without the coordinates or the connectivity.
@@ -572,11 +587,14 @@ class ExodusReader {
 
   Dataset read() {
     check_dimensions();
-    read_points();
+    read_node_count();
     read_blocks();
+    if (range_) choose_node_slab();
+    read_points();
     choose_time_step();
     Block block;
     block.name = base_name(nc_.path());
+    if (range_) block.name += " cells " + std::to_string(range_->first) + "+" + std::to_string(range_->count);
     add_block_ids(block.fields);
     if (step_) {
       add_nodal_variables(block.fields);
@@ -607,26 +625,41 @@ class ExodusReader {
     if (!nodes || *nodes == 0) nc_.fail("the file has no nodes (dimension num_nodes missing or 0)");
     if (*nodes > kMaxVertices) nc_.fail("num_nodes = " + std::to_string(*nodes) + " is over the limit of 2^32-1");
     nodes_ = *nodes;
+    node_first_ = 0;
+    node_count_ = nodes_;
+  }
+
+  // A part read holds the nodes node_first_ .. node_first_ + node_count_ - 1: from the least to the greatest node its
+  // cells use (one netCDF hyperslab per variable rather than a gather of scattered nodes: solvers number the nodes of
+  // a block together, so the slab holds few others), widened to node 1 or num_nodes when asked (so that the pieces'
+  // slabs cover the nodes no volume cell uses at the ends, which a whole read's bounds count). Connectivity is made
+  // relative to the slab.
+  void choose_node_slab() {
+    uint32_t lo = std::numeric_limits<uint32_t>::max(), hi = 0;
+    for (const uint32_t v : mesh_.connectivity) lo = std::min(lo, v), hi = std::max(hi, v);
+    if (mesh_.connectivity.empty()) lo = hi = 0;
+    if (range_->from_first_node) lo = 0;
+    if (range_->to_last_node) hi = uint32_t(nodes_ - 1);
+    node_first_ = lo;
+    node_count_ = uint64_t(hi) - lo + 1;
+    for (uint32_t& v : mesh_.connectivity) v -= lo;
   }
 
   void read_points() {
-    read_node_count();
     std::array<std::vector<double>, 3> xyz;
     if (const auto v = nc_.var("coord")) {
       nc_.expect_shape(*v, "coord", {3, nodes_}, "(num_dim, num_nodes)");
-      const std::vector<double> all = nc_.read_all<double>(*v, "coord");
-      for (size_t a = 0; a < 3; ++a)
-        xyz[a].assign(all.begin() + ptrdiff_t(a * nodes_), all.begin() + ptrdiff_t((a + 1) * nodes_));
+      for (size_t a = 0; a < 3; ++a) xyz[a] = nc_.read<double>(*v, "coord", {a, node_first_}, {1, node_count_});
     } else {
       const char* names[3] = {"coordx", "coordy", "coordz"};
       for (size_t a = 0; a < 3; ++a) {
         const int cv = nc_.require_var(names[a], "node coordinates: neither coord nor coordx/coordy/coordz");
         nc_.expect_shape(cv, names[a], {nodes_}, "(num_nodes)");
-        xyz[a] = nc_.read_all<double>(cv, names[a]);
+        xyz[a] = nc_.read<double>(cv, names[a], {node_first_}, {node_count_});
       }
     }
-    mesh_.points.resize(size_t(nodes_));
-    for (size_t i = 0; i < nodes_; ++i) {
+    mesh_.points.resize(size_t(node_count_));
+    for (size_t i = 0; i < node_count_; ++i) {
       mesh_.points[i] = Vec3f{float(xyz[0][i]), float(xyz[1][i]), float(xyz[2][i])};
     }
   }
@@ -656,6 +689,9 @@ class ExodusReader {
       }
       blocks_.push_back(info);
     }
+    if (range_ && range_->first + range_->count > cells_)
+      nc_.fail("cells " + std::to_string(range_->first) + "+" + std::to_string(range_->count) +
+               " asked for, the volume blocks have " + std::to_string(cells_));
     if (cells_ == 0) {
       nc_.fail(dropped ? "no volume elements: all " + std::to_string(dropped) + " elements are lower-dimensional (" +
                              dropped_types + ")"
@@ -695,18 +731,25 @@ class ExodusReader {
     info.kept = true;
     info.first_cell = cells_;
     cells_ += info.elements;
-    if (layout_only_) return;
-    const std::vector<long long> ids = nc_.read_all<long long>(*v, connect);
-    mesh_.reserve(mesh_.cell_count() + info.elements, mesh_.connectivity.size() + info.elements * kind.corners);
+    // The rows of this block in the cell range read (all of them in a whole read).
+    const uint64_t lo = range_ ? std::clamp(range_->first, info.first_cell, cells_) : info.first_cell;
+    const uint64_t hi = range_ ? std::clamp(range_->first + range_->count, lo, cells_) : cells_;
+    info.row_first = lo - info.first_cell;
+    info.rows = hi - lo;
+    info.out_first = out_cells_;
+    out_cells_ += info.rows;
+    if (layout_only_ || info.rows == 0) return;
+    const std::vector<long long> ids = nc_.read<long long>(*v, connect, {info.row_first, 0}, {info.rows, *per});
+    mesh_.reserve(mesh_.cell_count() + info.rows, mesh_.connectivity.size() + info.rows * kind.corners);
     std::array<uint32_t, 8> corners{};
-    for (uint64_t e = 0; e < info.elements; ++e) {
+    for (uint64_t e = 0; e < info.rows; ++e) {
       // Every node the element stores is checked, also the mid-edge ones of a higher-order element that only its
       // corners are kept from: an id out of range anywhere means the connectivity cannot be trusted.
       for (uint64_t k = 0; k < *per; ++k) {
         const long long id = ids[size_t(e * *per + k)];
         if (id < 1 || uint64_t(id) > nodes_) {
-          nc_.fail("variable " + connect + ": element " + std::to_string(e + 1) + " node " + std::to_string(k + 1) +
-                   " is " + std::to_string(id) + ", outside 1.." + std::to_string(nodes_));
+          nc_.fail("variable " + connect + ": element " + std::to_string(info.row_first + e + 1) + " node " +
+                   std::to_string(k + 1) + " is " + std::to_string(id) + ", outside 1.." + std::to_string(nodes_));
         }
         if (k < kind.corners) corners[k] = uint32_t(id - 1);
       }
@@ -755,9 +798,9 @@ class ExodusReader {
 
   void add_block_ids(FieldSet& fields) const {
     std::vector<int32_t> ids;
-    ids.reserve(size_t(cells_));
+    ids.reserve(size_t(out_cells_));
     for (const BlockInfo& b : blocks_)
-      if (b.kept) ids.insert(ids.end(), size_t(b.elements), b.id);
+      if (b.kept) ids.insert(ids.end(), size_t(b.rows), b.id);
     fields.add(Field("block_id", Association::Cell, DataArray::from(std::move(ids), 1)));
   }
 
@@ -794,12 +837,12 @@ class ExodusReader {
           nc_.expect_shape(*combined, "vals_nod_var", {steps, names.size(), nodes_},
                            "(time_step, num_nod_var, num_nodes)");
         }
-        val = read_values(*combined, "vals_nod_var", {size_t(*step_), i, 0}, {1, 1, size_t(nodes_)});
+        val = read_values(*combined, "vals_nod_var", {size_t(*step_), i, node_first_}, {1, 1, node_count_});
       } else {
         const std::string var_name = "vals_nod_var" + std::to_string(i + 1);
         const int v = nc_.require_var(var_name, "values of nodal variable " + names[i]);
         nc_.expect_shape(v, var_name, {steps, nodes_}, "(time_step, num_nodes)");
-        val = read_values(v, var_name, {size_t(*step_), 0}, {1, size_t(nodes_)});
+        val = read_values(v, var_name, {size_t(*step_), node_first_}, {1, node_count_});
       }
       val.name = names[i].empty() ? "nodal_" + std::to_string(i + 1) : names[i];
       values.push_back(std::move(val));
@@ -820,7 +863,7 @@ class ExodusReader {
     for (size_t i = 0; i < names.size(); ++i) {
       Values val;
       val.name = names[i].empty() ? "element_" + std::to_string(i + 1) : names[i];
-      std::vector<double> merged(size_t(cells_), 0.0);
+      std::vector<double> merged(size_t(out_cells_), 0.0);
       bool any_float = false, any_double = false;
       std::string missing;
       for (size_t b = 0; b < blocks_.size(); ++b) {
@@ -837,8 +880,10 @@ class ExodusReader {
         }
         nc_.expect_shape(*v, var_name, {steps, blk.elements},
                          "(time_step, num_el_in_blk" + std::to_string(blk.index) + ")");
-        const std::vector<double> d = nc_.read<double>(*v, var_name, {size_t(*step_), 0}, {1, size_t(blk.elements)});
-        std::copy(d.begin(), d.end(), merged.begin() + ptrdiff_t(blk.first_cell));
+        // Every kept block decides the variable's type and whether it exists (a part read gives the whole read's
+        // fields), only the rows read are read.
+        const std::vector<double> d = nc_.read<double>(*v, var_name, {size_t(*step_), blk.row_first}, {1, blk.rows});
+        std::copy(d.begin(), d.end(), merged.begin() + ptrdiff_t(blk.out_first));
         (nc_.var_type(*v, var_name) == NC_FLOAT ? any_float : any_double) = true;
       }
       if (!any_float && !any_double) {
@@ -906,7 +951,10 @@ class ExodusReader {
   NcFile nc_;
   int64_t requested_step_;
   uint64_t nodes_ = 0;
-  uint64_t cells_ = 0;  // the kept blocks' elements: the mesh's cells
+  uint64_t node_first_ = 0, node_count_ = 0;  // the nodes read (all of them but in a part read)
+  uint64_t cells_ = 0;                        // the kept blocks' elements: a whole read's cells
+  uint64_t out_cells_ = 0;                    // the cells read (cells_ but in a part read)
+  std::optional<ExodusCellRange> range_;      // a part read's cells
   bool layout_only_ = false;
   UnstructuredMesh mesh_;
   std::vector<BlockInfo> blocks_;
@@ -918,6 +966,32 @@ class ExodusReader {
 }  // namespace
 
 Dataset read_exodus(const std::string& path, int64_t time_step) { return ExodusReader(path, time_step).read(); }
+
+ExodusLayout read_exodus_layout(const std::string& path) {
+  ExodusReader reader(path, -1);
+  reader.read_layout();
+  return reader.layout();
+}
+
+std::vector<ExodusCellRange> exodus_cell_ranges(const ExodusLayout& layout, uint64_t pieces) {
+  const uint64_t target = std::max<uint64_t>(1, (layout.cells + std::max<uint64_t>(pieces, 1) - 1) / pieces);
+  std::vector<ExodusCellRange> out;
+  uint64_t start = 0;
+  std::vector<uint64_t> ends;  // where each block ends
+  for (size_t b = 1; b < layout.block_starts.size(); ++b) ends.push_back(layout.block_starts[b]);
+  ends.push_back(layout.cells);
+  for (const uint64_t end : ends) {
+    for (; end - start >= 2 * target; start += target) out.push_back({start, target});
+    if (end - start >= target) out.push_back({start, end - start}), start = end;
+  }
+  if (start < layout.cells) out.push_back({start, layout.cells - start});
+  if (!out.empty()) out.front().from_first_node = out.back().to_last_node = true;
+  return out;
+}
+
+Dataset read_exodus_cells(const std::string& path, int64_t time_step, const ExodusCellRange& range) {
+  return ExodusReader(path, time_step, range).read();
+}
 
 struct ExodusFieldReader::Impl {
   explicit Impl(const std::string& path) : reader(path, -1) { reader.read_layout(); }

@@ -51,6 +51,7 @@
 #include "ugvr/io/vtk_xml_array.h"
 #include "ugvr/io/vtk_xml_document.h"
 #include "ugvr/io/vtk_xml_skeleton.h"
+#include "ugvr/io/vtu_pieces.h"
 
 namespace ugvr {
 
@@ -500,8 +501,11 @@ void check_declared_fields(const std::vector<UgPiece>& pieces, const std::vector
   }
 }
 
+// `only_piece`: read that <Piece> of the documents' pieces alone (read_vtu_piece), with the fields every piece agrees
+// on.
 Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<XmlDoc>> docs, std::string format,
-                          const std::vector<FieldSpec>& declared, pugi::xml_node declared_at, const XmlDoc* pdoc) {
+                          const std::vector<FieldSpec>& declared, pugi::xml_node declared_at, const XmlDoc* pdoc,
+                          std::optional<size_t> only_piece = std::nullopt) {
   Dataset ds;
   ds.format = std::move(format);
   ds.sources.push_back(path);
@@ -509,10 +513,19 @@ Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<X
     if (d->path != path) ds.sources.push_back(d->path);
   }
 
-  const std::vector<UgPiece> pieces = describe_ug_pieces(docs, ds.warnings);
+  std::vector<UgPiece> pieces = describe_ug_pieces(docs, ds.warnings);
   refuse_duplicate_pieces(docs, pieces);
   const std::vector<FieldSpec> specs = agreed_field_specs(docs, pieces);
   check_declared_fields(pieces, specs, declared, declared_at, pdoc);
+  const bool several = pieces.size() > 1;
+  if (only_piece) {
+    if (*only_piece >= pieces.size())
+      fail_in(path,
+              "<Piece> " + std::to_string(*only_piece) + " asked for, the file has " + std::to_string(pieces.size()));
+    UgPiece one = std::move(pieces[*only_piece]);
+    pieces.clear();
+    pieces.push_back(std::move(one));
+  }
 
   // Probe every array's size and count the kept cells before allocating anything.
   uint64_t total_points = 0, total_cells = 0;
@@ -549,7 +562,6 @@ Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<X
   for (const FieldSpec& s : specs) {
     field_data.push_back(make_field_data(s, s.association == Association::Vertex ? total_points : total_cells));
   }
-  const bool several = pieces.size() > 1;
   uint64_t point_base = 0, cell_base = 0;
   Progress progress("reading " + base_name(path), total_points + total_cells);
   for (size_t di = 0; di < docs.size(); ++di) {
@@ -1056,6 +1068,24 @@ std::vector<std::string> pvtu_piece_files(const std::string& path) {
   std::vector<std::string> paths = pvtu_piece_paths(*doc, grid);
   if (paths.empty()) doc->fail(grid, "<PUnstructuredGrid> lists no <Piece Source=...>");
   return paths;
+}
+
+size_t vtu_piece_count(const std::string& path) {
+  const std::unique_ptr<XmlDoc> doc = load_doc(path);
+  if (doc->type != "UnstructuredGrid")
+    fail_in(path, "VTKFile type \"" + doc->type.substr(0, 40) + "\", expected UnstructuredGrid");
+  const pugi::xml_node grid = single_child(*doc, doc->root, "UnstructuredGrid");
+  if (!grid) doc->fail(doc->root, "no <UnstructuredGrid> element");
+  return size_t(std::distance(grid.children("Piece").begin(), grid.children("Piece").end()));
+}
+
+Dataset read_vtu_piece(const std::string& path, size_t piece) {
+  std::unique_ptr<XmlDoc> doc = load_doc(path);
+  if (doc->type != "UnstructuredGrid")
+    fail_in(path, "VTKFile type \"" + doc->type.substr(0, 40) + "\", expected UnstructuredGrid");
+  std::vector<std::unique_ptr<XmlDoc>> docs;
+  docs.push_back(std::move(doc));
+  return read_unstructured(path, std::move(docs), "VTK XML UnstructuredGrid (.vtu)", {}, {}, nullptr, piece);
 }
 
 Dataset read_vtk_xml(const std::string& path) {

@@ -1,6 +1,7 @@
 #include "ugvr/mpi/mesh_part.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <numeric>
@@ -242,6 +243,50 @@ std::vector<std::string> write_pvtu(const Block& block, const std::string& path,
   std::vector<std::string> paths;
   for (const std::string& f : files) paths.push_back(dir_name(path) + f);
   return paths;
+}
+
+void write_vtu_pieces(const Block& block, const std::string& path, std::span<const uint32_t> piece_of_cell,
+                      uint32_t pieces) {
+  const UnstructuredMesh& mesh = unstructured(block, path);
+  if (piece_of_cell.size() != mesh.cell_count()) fail_in(path, "one piece number per cell expected");
+  // Each piece is written by write_vtu (one <Piece>, raw appended data) to a scratch file, whose <Piece> markup and
+  // appended bytes are then joined: offsets moved by the appended bytes of the pieces before.
+  constexpr std::string_view kOpen = "<AppendedData encoding=\"raw\">\n   _", kClose = "\n  </AppendedData>";
+  const std::string scratch = path + ".piece-scratch.vtu";
+  std::string head, markup, appended;
+  std::vector<uint8_t> keep(mesh.cell_count());
+  for (uint32_t k = 0; k < pieces; ++k) {
+    for (uint64_t c = 0; c < keep.size(); ++c) keep[c] = piece_of_cell[c] == k;
+    Dataset piece;
+    piece.blocks.push_back(block_subset(block, keep));
+    write_vtu(piece, scratch);
+    const std::string bytes = InputFile(scratch).read_all(uint64_t(1) << 32);
+    const size_t begin = bytes.find("<Piece"), end = bytes.find("</Piece>"), data = bytes.find(kOpen);
+    const size_t data_end = bytes.rfind(kClose);
+    if (begin == std::string::npos || end == std::string::npos || data == std::string::npos ||
+        data_end == std::string::npos || data_end < data + kOpen.size())
+      fail_in(scratch, "not the layout write_vtu writes");
+    if (k == 0) head = bytes.substr(0, begin);
+    std::string piece_markup = bytes.substr(begin, end + std::string_view("</Piece>\n").size() - begin);
+    for (size_t at = 0; (at = piece_markup.find("offset=\"", at)) != std::string::npos;) {
+      at += std::string_view("offset=\"").size();
+      const size_t stop = piece_markup.find('"', at);
+      const uint64_t offset = std::stoull(piece_markup.substr(at, stop - at)) + appended.size();
+      piece_markup.replace(at, stop - at, std::to_string(offset));
+    }
+    markup += "    " + piece_markup;
+    appended.append(bytes, data + kOpen.size(), data_end - data - kOpen.size());
+  }
+  std::remove(scratch.c_str());
+  AtomicOutputFile out(path);
+  out.write(head);
+  out.write(markup);
+  out.write("  </UnstructuredGrid>\n  ");
+  out.write(kOpen);
+  out.write(appended);
+  out.write(kClose);
+  out.write("\n</VTKFile>\n");
+  out.commit();
 }
 
 }  // namespace ugvr

@@ -1,0 +1,139 @@
+// The pieces an input is read by under MPI (src/ugvr/mpi/part_source.h), without MPI: read in order, an Exodus file's
+// cell ranges and a .vtu's <Piece>s give the whole read's cells (types, vertex positions), cell values and vertex
+// values (for the time step asked); each piece holds fewer points than the file; the Exodus ranges tile the cells; a
+// piece that cannot be read is refused naming the file.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "test_data.h"
+#include "ugvr/io/exodus_parts.h"
+#include "ugvr/io/reader.h"
+#include "ugvr/mpi/mesh_part.h"
+#include "ugvr/mpi/part_source.h"
+
+namespace ugvr {
+namespace {
+
+const UnstructuredMesh& mesh_of(const Dataset& ds) { return std::get<UnstructuredMesh>(ds.blocks.at(0).grid); }
+
+// Every piece of `source`, in order, against `whole`: cell c of the pieces is cell c of the whole read, with the same
+// corner positions, cell values and vertex values at its corners. Returns the largest piece's point count.
+uint64_t expect_pieces_equal_whole(const mpi::PartSource& source, const Dataset& whole) {
+  const UnstructuredMesh& w = mesh_of(whole);
+  const FieldSet& wf = whole.blocks[0].fields;
+  uint64_t cell = 0, most_points = 0;
+  for (size_t k = 0; k < source.pieces(); ++k) {
+    const Dataset piece = source.read_piece(k);
+    const UnstructuredMesh& p = mesh_of(piece);
+    const FieldSet& pf = piece.blocks[0].fields;
+    most_points = std::max<uint64_t>(most_points, p.point_count());
+    EXPECT_EQ(pf.size(), wf.size()) << "piece " << k;
+    if (pf.size() != wf.size()) return most_points;
+    for (uint64_t c = 0; c < p.cell_count(); ++c, ++cell) {
+      if (cell >= w.cell_count()) {
+        ADD_FAILURE() << "the pieces have more cells than the whole read";
+        return most_points;
+      }
+      const auto pv = p.cell(c), wv = w.cell(cell);
+      ASSERT_EQ(p.cell_types[c], w.cell_types[cell]) << "cell " << cell;
+      ASSERT_EQ(pv.size(), wv.size());
+      for (size_t i = 0; i < pv.size(); ++i) {
+        ASSERT_EQ(p.points[pv[i]], w.points[wv[i]]) << "cell " << cell << " corner " << i;
+        for (size_t f = 0; f < wf.size(); ++f) {
+          if (wf[f].association() != Association::Vertex) continue;
+          ASSERT_EQ(pf[f].name(), wf[f].name());
+          for (int a = 0; a < wf[f].components(); ++a) {
+            ASSERT_EQ(pf[f].scalar(pv[i], a), wf[f].scalar(wv[i], a)) << wf[f].name() << " cell " << cell;
+          }
+        }
+      }
+      for (size_t f = 0; f < wf.size(); ++f) {
+        if (wf[f].association() != Association::Cell) continue;
+        ASSERT_EQ(pf[f].name(), wf[f].name());
+        ASSERT_EQ(pf[f].data().type(), wf[f].data().type()) << wf[f].name();
+        for (int a = 0; a < wf[f].components(); ++a) {
+          ASSERT_EQ(pf[f].scalar(c, a), wf[f].scalar(cell, a)) << wf[f].name() << " cell " << cell;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(cell, w.cell_count());
+  return most_points;
+}
+
+// mug.e: 1,716 hexahedra in block 1 and 760 in block 76 (its only blocks: ids 1 and 76), 21 time
+// steps of nodal and element variables; 7 pieces asked: both blocks are cut into ranges.
+TEST(PartSources, ExodusCellRangesEqualTheWholeReadAtEveryStepAsked) {
+  UGVR_REQUIRE_DATA("exodus-misc/mug.e");
+  for (const int64_t step : {int64_t(-1), int64_t(3)}) {
+    const Dataset whole = read_exodus(relative_data_path, step);
+    const auto source = mpi::exodus_part_source(relative_data_path, step, 7);
+    EXPECT_EQ(source->kind(), "exodus-blocks");
+    EXPECT_EQ(source->cells_from_headers(), mesh_of(whole).cell_count());
+    EXPECT_GE(source->pieces(), 5u);
+    EXPECT_LE(source->pieces(), 7u);
+    const uint64_t most_points = expect_pieces_equal_whole(*source, whole);
+    EXPECT_LT(most_points, mesh_of(whole).point_count()) << "a piece read every node";
+  }
+}
+
+// mesh_fs8: wedges (reordered on read) in 3 blocks; disk_out_ref: one block of 7,472 hexahedra, 3-component V.
+TEST(PartSources, ExodusWedgeBlocksAndASlicedBlock) {
+  for (const char* file : {"exodus-misc/mesh_fs8.exo", "disk-out-ref/disk_out_ref.ex2"}) {
+    const std::string path = test::data_path(file);
+    if (!std::filesystem::exists(path)) continue;  // skipped piecewise: the data set is optional
+    const Dataset whole = read_exodus(path, -1);
+    const auto source = mpi::exodus_part_source(path, -1, 5);
+    expect_pieces_equal_whole(*source, whole);
+  }
+}
+
+TEST(PartSources, ExodusRangesTileTheCellsJoiningSmallBlocksAndCuttingLargeOnes) {
+  // Blocks of 10, 3, 3, 3, 100 and 1 cells, 6 pieces asked: a target of 20 cells.
+  const ExodusLayout layout{{0, 10, 13, 16, 19, 119}, 120};
+  const std::vector<ExodusCellRange> ranges = exodus_cell_ranges(layout, 6);
+  std::vector<std::pair<uint64_t, uint64_t>> got;
+  for (const ExodusCellRange& r : ranges) got.emplace_back(r.first, r.count);
+  // Blocks 1-4 (19 cells) are fewer than 20: joined with block 5, the run to block 5's end (119 cells) is cut into
+  // 20s while 40 or more remain, and the rest (39) ends at the block boundary; the last block stays alone.
+  const std::vector<std::pair<uint64_t, uint64_t>> want{{0, 20}, {20, 20}, {40, 20}, {60, 20}, {80, 39}, {119, 1}};
+  EXPECT_EQ(got, want);
+  EXPECT_TRUE(ranges.front().from_first_node);
+  EXPECT_TRUE(ranges.back().to_last_node);
+  EXPECT_FALSE(ranges[2].from_first_node || ranges[2].to_last_node);
+}
+
+TEST(PartSources, ExodusRangePastTheCellsNamesTheFile) {
+  UGVR_REQUIRE_DATA("exodus-misc/mug.e");
+  const std::string e = test::error_of([&] { read_exodus_cells(relative_data_path, -1, {2400, 100}); });
+  EXPECT_NE(e.find("mug.e"), std::string::npos) << e;
+  EXPECT_NE(e.find("2476"), std::string::npos) << e;
+}
+
+// A generated mixed mesh written as one .vtu of 5 <Piece>s (slabs): each <Piece> read alone, in order, gives the
+// whole read's cells and values; a <Piece> out of range and a truncated file are refused naming the file.
+TEST(PartSources, VtuPiecesEqualTheWholeRead) {
+  test::ScratchDir dir;
+  ASSERT_EQ(test::run_ugvr("generate --cells 3000 --kind mixed -o " + dir.file("m.vtu")).status, 0);
+  const Dataset mesh = read_dataset(std::vector<std::string>{dir.file("m.vtu")});
+  write_vtu_pieces(mesh.blocks.at(0), dir.file("p.vtu"), slab_pieces(mesh.blocks.at(0), 5, 1), 5);
+  const Dataset whole = read_vtk_xml(dir.file("p.vtu"));
+  const auto source = mpi::vtu_piece_source(dir.file("p.vtu"));
+  EXPECT_EQ(source->kind(), "vtu-pieces");
+  ASSERT_EQ(source->pieces(), 5u);
+  EXPECT_EQ(source->cells_from_headers(), mesh_of(whole).cell_count());
+  const uint64_t most_points = expect_pieces_equal_whole(*source, whole);
+  EXPECT_LT(most_points, mesh_of(whole).point_count() / 2);
+  const std::string e = test::error_of([&] { source->read_piece(5); });
+  EXPECT_NE(e.find("p.vtu"), std::string::npos) << e;
+  std::filesystem::resize_file(dir.file("p.vtu"), std::filesystem::file_size(dir.file("p.vtu")) - 5000);
+  const std::string t = test::error_of([&] { source->read_piece(4); });
+  EXPECT_NE(t.find("p.vtu"), std::string::npos) << t;
+}
+
+}  // namespace
+}  // namespace ugvr
