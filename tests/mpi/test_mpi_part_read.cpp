@@ -106,33 +106,47 @@ TEST_F(PvtuPartRead, RanksReadTheirPiecesAndTheImageEqualsOneRanks) {
   }
 }
 
-// A non-convex mesh (rays leave and enter again) as 8 slabs, looking into the slot: as a .pvtu of 8 files and as one
-// .vtu of 8 <Piece>s (vtu_part_source.cpp; looking into the slot only), every rank reading only its pieces.
+// A non-convex mesh (rays leave and enter again) as 8 slabs, looking into the slot.
 TEST_F(PvtuPartRead, NonConvexSlabsFourRanksEqualOne) {
   test::write_u_shaped_mesh(file("u.vtk"));
   const std::string pvtu = write_pieces(file("u.vtk"), "u.pvtu", 8, false);
+  for (const std::string view : {"--view +y", ""}) {
+    const std::string flags = "--size 96 --engine exact " + view;
+    const Run one = render(1, pvtu, flags);
+    const Run four = render(4, pvtu, flags);
+    ASSERT_FALSE(four.stats.is_null());
+    const ImageDifference d = compare_images(four.image, one.image);
+    std::printf("U-shaped %s: 4 ranks vs 1: %.2f dB\n", view.c_str(), d.psnr_db);
+    EXPECT_GE(d.psnr_db, 60) << view;
+    EXPECT_EQ(four.stats["mpi"].value("read", ""), "pvtu-part");
+  }
+}
+
+// The same mesh as one .vtu of 8 <Piece>s (vtu_part_source.cpp) and as a .vtu of one <Piece> in raw appended data,
+// read by cell ranges (vtu_range_source.cpp), looking into the slot: 4 ranks equal 1, every rank reading fewer cells
+// than the file has, each cell once in the job.
+TEST_F(PvtuPartRead, VtuPiecesAndCellRangesFourRanksEqualOne) {
+  test::write_u_shaped_mesh(file("u.vtk"));
   const Dataset u = read_dataset(std::vector<std::string>{file("u.vtk")});
   write_vtu_pieces(u.blocks.at(0), file("u8.vtu"), slab_pieces(u.blocks.at(0), 8, 0), 8);
+  write_vtu(u, file("u1.vtu"));  // raw appended, uncompressed
   const uint64_t cells = std::get<UnstructuredMesh>(u.blocks.at(0).grid).cell_count();
-  for (const auto& [input, read] : {std::pair{pvtu, "pvtu-part"}, std::pair{file("u8.vtu"), "vtu-pieces"}}) {
-    for (const std::string view : {"--view +y", ""}) {
-      if (read == std::string("vtu-pieces") && view.empty()) continue;  // one view is enough for the source
-      const std::string flags = "--size 96 --engine exact " + view;
-      const Run one = render(1, input, flags);
-      const Run four = render(4, input, flags);
-      ASSERT_FALSE(four.stats.is_null());
-      const ImageDifference d = compare_images(four.image, one.image);
-      std::printf("U-shaped %s %s: 4 ranks vs 1: %.2f dB\n", read, view.c_str(), d.psnr_db);
-      EXPECT_GE(d.psnr_db, 60) << read << " " << view;
-      const nlohmann::json& m = four.stats["mpi"];
-      EXPECT_EQ(m.value("read", ""), read);
-      uint64_t read_sum = 0;
-      for (int r = 0; r < 4; ++r) {
-        EXPECT_LT(m["rank_cells_read"][size_t(r)].get<double>(), double(cells)) << read << " rank " << r;
-        read_sum += uint64_t(m["rank_cells_read"][size_t(r)].get<double>());
-      }
-      EXPECT_EQ(read_sum, cells) << read;
+  for (const auto& [input, read] : {std::pair{file("u8.vtu"), "vtu-pieces"}, std::pair{file("u1.vtu"), "vtu-ranges"}}) {
+    const std::string flags = "--size 96 --engine exact --view +y";
+    const Run one = render(1, input, flags);
+    const Run four = render(4, input, flags);
+    ASSERT_FALSE(four.stats.is_null());
+    const ImageDifference d = compare_images(four.image, one.image);
+    std::printf("U-shaped %s: 4 ranks vs 1: %.2f dB\n", read, d.psnr_db);
+    EXPECT_GE(d.psnr_db, 60) << read;
+    const nlohmann::json& m = four.stats["mpi"];
+    EXPECT_EQ(m.value("read", ""), read);
+    uint64_t read_sum = 0;
+    for (int r = 0; r < 4; ++r) {
+      EXPECT_LT(m["rank_cells_read"][size_t(r)].get<double>(), double(cells)) << read << " rank " << r;
+      read_sum += uint64_t(m["rank_cells_read"][size_t(r)].get<double>());
     }
+    EXPECT_EQ(read_sum, cells) << read;
   }
 }
 

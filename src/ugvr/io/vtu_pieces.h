@@ -2,6 +2,7 @@
 // reads the pieces it owns (src/ugvr/mpi/part_source.h, docs/mpi.md). read_vtk_xml concatenates them into one mesh.
 #pragma once
 #include <cstddef>
+#include <cstdint>
 #include <string>
 
 #include "ugvr/grid/dataset.h"
@@ -16,5 +17,17 @@ size_t vtu_piece_count(const std::string& path);
 // with its points, its volume cells in order and the fields every piece has (checked over all pieces, as a whole read
 // checks them). Throws ugvr::Error naming the file, and the piece, as read_vtk_xml does.
 Dataset read_vtu_piece(const std::string& path, size_t piece);
+
+// Whether the .vtu at `path` can be read by cell ranges, each reading only its own bytes: one <Piece> with cells, every
+// array in raw appended data (<AppendedData encoding="raw">), uncompressed. False also for a file the markup of which
+// cannot be read (a whole read then says why).
+bool vtu_reads_by_cell_ranges(const std::string& path);
+
+// Cells [first, first + count) of the file's one <Piece> (its volume cells among them, in order, as read_vtk_xml keeps
+// them), with the points from the least to the greatest id they use and the fields on those points and cells: the
+// offsets, types, connectivity, points and field arrays are each read at that range alone (XmlArrayReader::skip seeks
+// in raw data; other encodings are decoded through). Throws ugvr::Error naming the file: a range past the cells, an
+// offset or point id out of range, an array too short.
+Dataset read_vtu_cells(const std::string& path, uint64_t first, uint64_t count);
 
 }  // namespace ugvr

@@ -5,6 +5,7 @@
 //   exodus_part_source  Exodus II: a piece is a range of the volume blocks' cells: a run of   ("exodus-blocks")
 //                       small blocks or a slice of a large one (exodus_parts.h)
 //   vtu_piece_source    a .vtu of several <Piece>s: a piece is a <Piece> (vtu_pieces.h)      ("vtu-pieces")
+//   vtu_range_source    a .vtu of one <Piece>, raw appended: a piece is a range of its cells    ("vtu-ranges")
 // No MPI here: the sources are tested on their own (tests/test_part_sources.cpp).
 #pragma once
 #include <cstdint>
@@ -20,7 +21,7 @@ namespace ugvr::mpi {
 class PartSource {
  public:
   virtual ~PartSource() = default;
-  // What --stats' mpi.read says: "pvtu-part", "exodus-blocks", "vtu-pieces".
+  // What --stats' mpi.read says: "pvtu-part", "exodus-blocks", "vtu-pieces", "vtu-ranges".
   virtual std::string kind() const = 0;
   virtual const std::string& path() const = 0;
   // The part's Dataset::format.
@@ -39,6 +40,8 @@ class PartSource {
 std::unique_ptr<PartSource> pvtu_part_source(const std::string& path);
 // About `pieces` pieces (exodus_cell_ranges), of time step `time_step` (-1: the last).
 std::unique_ptr<PartSource> vtu_piece_source(const std::string& path);
+// `pieces` ranges of equal cell counts (fewer for fewer cells).
+std::unique_ptr<PartSource> vtu_range_source(const std::string& path, uint64_t pieces);
 std::unique_ptr<PartSource> exodus_part_source(const std::string& path, int64_t time_step, uint64_t pieces);
 
 // The source reading `path` by parts, for `ranks` ranks, when its format has one (nullptr otherwise: read whole).
