@@ -109,6 +109,14 @@ TEST(PartSources, ExodusRangesTileTheCellsJoiningSmallBlocksAndCuttingLargeOnes)
   EXPECT_FALSE(ranges[2].from_first_node || ranges[2].to_last_node);
 }
 
+TEST(PartSources, RangeCountEvensRanksButKeepsRangesLarge) {
+  EXPECT_EQ(mpi::range_count(1'000'000, 4), 64u);    // 4 a rank, at least 64
+  EXPECT_EQ(mpi::range_count(1'000'000, 32), 128u);  // 4 a rank
+  EXPECT_EQ(mpi::range_count(100'000, 2), 24u);      // ranges of at least 4096 cells
+  EXPECT_EQ(mpi::range_count(2476, 4), 4u);          // but one a rank
+  EXPECT_EQ(mpi::range_count(0, 3), 3u);
+}
+
 TEST(PartSources, ExodusRangePastTheCellsNamesTheFile) {
   UGVR_REQUIRE_DATA("exodus-misc/mug.e");
   const std::string e = test::error_of([&] { read_exodus_cells(relative_data_path, -1, {2400, 100}); });
