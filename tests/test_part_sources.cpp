@@ -23,22 +23,24 @@ namespace {
 const UnstructuredMesh& mesh_of(const Dataset& ds) { return std::get<UnstructuredMesh>(ds.blocks.at(0).grid); }
 
 // Every piece of `source`, in order, against `whole`: cell c of the pieces is cell c of the whole read, with the same
-// corner positions, cell values and vertex values at its corners. Returns the largest piece's point count.
-uint64_t expect_pieces_equal_whole(const mpi::PartSource& source, const Dataset& whole) {
+// corner positions, cell values and vertex values at its corners. `most_points`: the largest piece's point count.
+// (Call it under ASSERT_NO_FATAL_FAILURE.)
+void expect_pieces_equal_whole(const mpi::PartSource& source, const Dataset& whole, uint64_t& most_points) {
   const UnstructuredMesh& w = mesh_of(whole);
   const FieldSet& wf = whole.blocks[0].fields;
-  uint64_t cell = 0, most_points = 0;
+  uint64_t cell = 0;
+  most_points = 0;
   for (size_t k = 0; k < source.pieces(); ++k) {
     const Dataset piece = source.read_piece(k);
     const UnstructuredMesh& p = mesh_of(piece);
     const FieldSet& pf = piece.blocks[0].fields;
     most_points = std::max<uint64_t>(most_points, p.point_count());
     EXPECT_EQ(pf.size(), wf.size()) << "piece " << k;
-    if (pf.size() != wf.size()) return most_points;
+    if (pf.size() != wf.size()) return;
     for (uint64_t c = 0; c < p.cell_count(); ++c, ++cell) {
       if (cell >= w.cell_count()) {
         ADD_FAILURE() << "the pieces have more cells than the whole read";
-        return most_points;
+        return;
       }
       const auto pv = p.cell(c), wv = w.cell(cell);
       ASSERT_EQ(p.cell_types[c], w.cell_types[cell]) << "cell " << cell;
@@ -64,11 +66,11 @@ uint64_t expect_pieces_equal_whole(const mpi::PartSource& source, const Dataset&
     }
   }
   EXPECT_EQ(cell, w.cell_count());
-  return most_points;
 }
 
 // mug.e: 1,716 hexahedra in block 1 and 760 in block 76 (its only blocks: ids 1 and 76), 21 time
-// steps of nodal and element variables; 7 pieces asked: both blocks are cut into ranges.
+// steps of nodal and element variables; 7 even ranges: block 1 is cut, and one range spans the end of block 1 and the
+// start of block 76.
 TEST(PartSources, ExodusCellRangesEqualTheWholeReadAtEveryStepAsked) {
   UGVR_REQUIRE_DATA("exodus-misc/mug.e");
   for (const int64_t step : {int64_t(-1), int64_t(3)}) {
@@ -76,9 +78,9 @@ TEST(PartSources, ExodusCellRangesEqualTheWholeReadAtEveryStepAsked) {
     const auto source = mpi::exodus_part_source(relative_data_path, step, 7);
     EXPECT_EQ(source->kind(), "exodus-blocks");
     EXPECT_EQ(source->cells_from_headers(), mesh_of(whole).cell_count());
-    EXPECT_GE(source->pieces(), 5u);
-    EXPECT_LE(source->pieces(), 7u);
-    const uint64_t most_points = expect_pieces_equal_whole(*source, whole);
+    EXPECT_EQ(source->pieces(), 7u);
+    uint64_t most_points = 0;
+    ASSERT_NO_FATAL_FAILURE(expect_pieces_equal_whole(*source, whole, most_points));
     EXPECT_LT(most_points, mesh_of(whole).point_count()) << "a piece read every node";
   }
 }
@@ -90,23 +92,25 @@ TEST(PartSources, ExodusWedgeBlocksAndASlicedBlock) {
     if (!std::filesystem::exists(path)) continue;  // skipped piecewise: the data set is optional
     const Dataset whole = read_exodus(path, -1);
     const auto source = mpi::exodus_part_source(path, -1, 5);
-    expect_pieces_equal_whole(*source, whole);
+    uint64_t most_points = 0;
+    ASSERT_NO_FATAL_FAILURE(expect_pieces_equal_whole(*source, whole, most_points)) << file;
   }
 }
 
-TEST(PartSources, ExodusRangesTileTheCellsJoiningSmallBlocksAndCuttingLargeOnes) {
-  // Blocks of 10, 3, 3, 3, 100 and 1 cells, 6 pieces asked: a target of 20 cells.
+TEST(PartSources, ExodusRangesAreEvenAndFallBetweenBlocksWhenNear) {
+  // Blocks of 10, 3, 3, 3, 100 and 1 cells, 6 ranges asked: even cuts at 20, 40, 60, 80 and 100; the first moves to
+  // block 5's start (19: within 20 / 8), the others have no block start near. Every range holds 17 to 23 cells.
   const ExodusLayout layout{{0, 10, 13, 16, 19, 119}, 120};
   const std::vector<ExodusCellRange> ranges = exodus_cell_ranges(layout, 6);
   std::vector<std::pair<uint64_t, uint64_t>> got;
   for (const ExodusCellRange& r : ranges) got.emplace_back(r.first, r.count);
-  // Blocks 1-4 (19 cells) are fewer than 20: joined with block 5, the run to block 5's end (119 cells) is cut into
-  // 20s while 40 or more remain, and the rest (39) ends at the block boundary; the last block stays alone.
-  const std::vector<std::pair<uint64_t, uint64_t>> want{{0, 20}, {20, 20}, {40, 20}, {60, 20}, {80, 39}, {119, 1}};
+  const std::vector<std::pair<uint64_t, uint64_t>> want{{0, 19}, {19, 21}, {40, 20}, {60, 20}, {80, 20}, {100, 20}};
   EXPECT_EQ(got, want);
   EXPECT_TRUE(ranges.front().from_first_node);
   EXPECT_TRUE(ranges.back().to_last_node);
   EXPECT_FALSE(ranges[2].from_first_node || ranges[2].to_last_node);
+  // More ranges asked than cells: one a cell.
+  EXPECT_EQ(exodus_cell_ranges(ExodusLayout{{0}, 3}, 8).size(), 3u);
 }
 
 TEST(PartSources, RangeCountEvensRanksButKeepsRangesLarge) {
@@ -136,7 +140,8 @@ TEST(PartSources, VtuPiecesEqualTheWholeRead) {
   EXPECT_EQ(source->kind(), "vtu-pieces");
   ASSERT_EQ(source->pieces(), 5u);
   EXPECT_EQ(source->cells_from_headers(), mesh_of(whole).cell_count());
-  const uint64_t most_points = expect_pieces_equal_whole(*source, whole);
+  uint64_t most_points = 0;
+  ASSERT_NO_FATAL_FAILURE(expect_pieces_equal_whole(*source, whole, most_points));
   EXPECT_LT(most_points, mesh_of(whole).point_count() / 2);
   const std::string e = test::error_of([&] { source->read_piece(5); });
   EXPECT_NE(e.find("p.vtu"), std::string::npos) << e;
@@ -158,7 +163,9 @@ TEST(PartSources, VtuCellRangesEqualTheWholeReadAndReadTheirBytesOnly) {
   EXPECT_EQ(source->kind(), "vtu-ranges");
   ASSERT_EQ(source->pieces(), 7u);
   EXPECT_EQ(source->cells_from_headers(), mesh_of(whole).cell_count());
-  expect_pieces_equal_whole(*source, whole);
+  uint64_t most_points = 0;
+  ASSERT_NO_FATAL_FAILURE(expect_pieces_equal_whole(*source, whole, most_points));
+  EXPECT_LT(most_points, mesh_of(whole).point_count());
   const uint64_t before = test::bytes_read_so_far();
   if (before == 0) GTEST_SKIP() << "no /proc/self/io";
   source->read_piece(6);

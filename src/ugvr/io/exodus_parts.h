@@ -25,9 +25,9 @@ struct ExodusLayout {
 };
 ExodusLayout read_exodus_layout(const std::string& path);
 
-// Cell ranges of about `cells / pieces` cells (at least 1): consecutive blocks are joined until a range holds that
-// many, and a block larger than twice that is cut into ranges of that many; so a range is at most twice the target
-// and only the last one may be smaller.
+// `pieces` cell ranges (fewer for fewer cells) of about equal counts: cut evenly, each cut moved to the nearest block
+// boundary within 1/8 of a range, so small blocks are joined into ranges and large blocks cut, the ranges even to
+// within 1/8 (ranks dealt them round robin read alike), and a range falls between blocks where that is cheap.
 std::vector<ExodusCellRange> exodus_cell_ranges(const ExodusLayout& layout, uint64_t pieces);
 
 // read_exodus of the cells in `range` only, for time step `time_step` (-1: the last): one unstructured block with

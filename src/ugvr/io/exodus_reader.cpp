@@ -974,17 +974,27 @@ ExodusLayout read_exodus_layout(const std::string& path) {
 }
 
 std::vector<ExodusCellRange> exodus_cell_ranges(const ExodusLayout& layout, uint64_t pieces) {
-  const uint64_t target = std::max<uint64_t>(1, (layout.cells + std::max<uint64_t>(pieces, 1) - 1) / pieces);
-  std::vector<ExodusCellRange> out;
-  uint64_t start = 0;
-  std::vector<uint64_t> ends;  // where each block ends
-  for (size_t b = 1; b < layout.block_starts.size(); ++b) ends.push_back(layout.block_starts[b]);
-  ends.push_back(layout.cells);
-  for (const uint64_t end : ends) {
-    for (; end - start >= 2 * target; start += target) out.push_back({start, target});
-    if (end - start >= target) out.push_back({start, end - start}), start = end;
+  const uint64_t n = std::clamp<uint64_t>(pieces, 1, std::max<uint64_t>(layout.cells, 1));
+  const uint64_t snap = layout.cells / n / 8;  // how far a cut moves to fall between blocks
+  std::vector<uint64_t> cuts{0};
+  for (uint64_t k = 1; k < n; ++k) {
+    uint64_t cut = layout.cells * k / n;
+    // The block start nearest the even cut, when it is near enough and keeps the ranges in order.
+    const auto next = std::lower_bound(layout.block_starts.begin(), layout.block_starts.end(), cut);
+    for (const auto it : {next, next == layout.block_starts.begin() ? next : std::prev(next)}) {
+      if (it == layout.block_starts.end()) continue;
+      const uint64_t d = *it > cut ? *it - cut : cut - *it;
+      if (d <= snap && *it > cuts.back() && *it < layout.cells * (k + 1) / n) {
+        cut = *it;
+        break;
+      }
+    }
+    cuts.push_back(cut);
   }
-  if (start < layout.cells) out.push_back({start, layout.cells - start});
+  cuts.push_back(layout.cells);
+  std::vector<ExodusCellRange> out;
+  for (size_t k = 0; k + 1 < cuts.size(); ++k)
+    if (cuts[k + 1] > cuts[k]) out.push_back({cuts[k], cuts[k + 1] - cuts[k]});
   if (!out.empty()) out.front().from_first_node = out.back().to_last_node = true;
   return out;
 }
