@@ -31,10 +31,11 @@ ExodusLayout read_exodus_layout(const std::string& path);
 std::vector<ExodusCellRange> exodus_cell_ranges(const ExodusLayout& layout, uint64_t pieces);
 
 // read_exodus of the cells in `range` only, for time step `time_step` (-1: the last): one unstructured block with
-// those cells (block_id and the element variables included), the nodes from the least to the greatest one they use
-// (one netCDF hyperslab per variable; widened as `range` asks) and the nodal variables on those nodes. Fields and
-// their types are the whole read's (an element variable that this range's blocks lack is 0 there, as in a whole
-// read). Throws ugvr::Error naming the file, as read_exodus does, and for a range beyond the volume cells.
+// those cells (block_id and the element variables included), the nodes they use, read in runs of node numbers (one
+// netCDF hyperslab per run and variable; used nodes under 64 apart share a run; widened as `range` asks), and the
+// nodal variables on those nodes. Fields and their types are the whole read's (an element variable that this range's
+// blocks lack is 0 there, as in a whole read). Throws ugvr::Error naming the file, as read_exodus does, and for a
+// range beyond the volume cells.
 Dataset read_exodus_cells(const std::string& path, int64_t time_step, const ExodusCellRange& range);
 
 }  // namespace ugvr

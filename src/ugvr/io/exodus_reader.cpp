@@ -16,7 +16,7 @@
 // All kept blocks are merged into one mesh, cells in block order, with an Int32 cell field "block_id".
 // node_num_map / elem_map (global numbering) are not needed: connectivity uses local 1-based node numbers.
 // A part read (read_exodus_cells, exodus_parts.h) reads a range of those cells: hyperslabs of the connect and element
-// variables' rows, and of the coordinates and nodal variables over the nodes the range uses.
+// variables' rows, and of the coordinates and nodal variables over runs of the nodes the range uses.
 //
 // Element types: HEX*, TET*, WEDGE*, PYRAMID*/PYRA* are kept; higher-order ones (HEX20, TETRA10, WEDGE15, PYRAMID13,
 // ...) are linearised to their corner nodes, which Exodus lists first. Exodus corner orderings of hex, tet and pyramid
@@ -589,7 +589,7 @@ class ExodusReader {
     check_dimensions();
     read_node_count();
     read_blocks();
-    if (range_) choose_node_slab();
+    if (range_) choose_node_runs();
     read_points();
     choose_time_step();
     Block block;
@@ -625,37 +625,69 @@ class ExodusReader {
     if (!nodes || *nodes == 0) nc_.fail("the file has no nodes (dimension num_nodes missing or 0)");
     if (*nodes > kMaxVertices) nc_.fail("num_nodes = " + std::to_string(*nodes) + " is over the limit of 2^32-1");
     nodes_ = *nodes;
-    node_first_ = 0;
+    node_runs_ = {{0, nodes_}};
     node_count_ = nodes_;
   }
 
-  // A part read holds the nodes node_first_ .. node_first_ + node_count_ - 1: from the least to the greatest node its
-  // cells use (one netCDF hyperslab per variable rather than a gather of scattered nodes: solvers number the nodes of
-  // a block together, so the slab holds few others), widened to node 1 or num_nodes when asked (so that the pieces'
-  // slabs cover the nodes no volume cell uses at the ends, which a whole read's bounds count). Connectivity is made
-  // relative to the slab.
-  void choose_node_slab() {
-    uint32_t lo = std::numeric_limits<uint32_t>::max(), hi = 0;
-    for (const uint32_t v : mesh_.connectivity) lo = std::min(lo, v), hi = std::max(hi, v);
-    if (mesh_.connectivity.empty()) lo = hi = 0;
-    if (range_->from_first_node) lo = 0;
-    if (range_->to_last_node) hi = uint32_t(nodes_ - 1);
-    node_first_ = lo;
-    node_count_ = uint64_t(hi) - lo + 1;
-    for (uint32_t& v : mesh_.connectivity) v -= lo;
+  // A part read holds the nodes its cells use, read as runs of consecutive node numbers (one netCDF hyperslab per run
+  // and variable): used nodes fewer than kNodeGap apart share a run, the nodes between them read too, so that a file
+  // whose blocks number their nodes together reads a few slabs, and one whose numbering is scattered (mug.e,
+  // disk_out_ref) reads its used nodes and little more. The first run starts at node 1 and the last ends at
+  // num_nodes when the range asks (the first and the last range: the pieces then cover the nodes no volume cell uses
+  // at the ends, which a whole read's bounds count). Connectivity is renumbered to the runs' concatenation.
+  static constexpr uint64_t kNodeGap = 64;
+  void choose_node_runs() {
+    std::vector<uint32_t> used(mesh_.connectivity.begin(), mesh_.connectivity.end());
+    std::sort(used.begin(), used.end());
+    used.erase(std::unique(used.begin(), used.end()), used.end());
+    node_runs_.clear();
+    for (const uint32_t id : used) {
+      if (!node_runs_.empty() && id - (node_runs_.back().first + node_runs_.back().second) < kNodeGap)
+        node_runs_.back().second = id + 1 - node_runs_.back().first;
+      else
+        node_runs_.push_back({id, 1});
+    }
+    if (node_runs_.empty()) node_runs_.push_back({0, 1});
+    if (range_->from_first_node) node_runs_.front().second += node_runs_.front().first, node_runs_.front().first = 0;
+    if (range_->to_last_node) node_runs_.back().second = nodes_ - node_runs_.back().first;
+    std::vector<uint64_t> run_start;  // each run's first node in the concatenation
+    node_count_ = 0;
+    for (const auto& [first, count] : node_runs_) run_start.push_back(node_count_), node_count_ += count;
+    for (uint32_t& v : mesh_.connectivity) {
+      const auto run = std::upper_bound(node_runs_.begin(), node_runs_.end(), v,
+                                        [](uint32_t id, const auto& r) { return id < r.first; }) -
+                       1;
+      v = uint32_t(run_start[size_t(run - node_runs_.begin())] + (v - run->first));
+    }
+  }
+
+  // Variable v's values over the runs' nodes, concatenated: `start` and `count` give its leading indices (the
+  // time step, the variable), the node index last.
+  template <class T>
+  std::vector<T> read_nodes(int v, const std::string& name, std::vector<size_t> start,
+                            std::vector<size_t> count) const {
+    std::vector<T> out;
+    out.reserve(size_t(node_count_));
+    start.push_back(0), count.push_back(0);
+    for (const auto& [first, n] : node_runs_) {
+      start.back() = size_t(first), count.back() = size_t(n);
+      const std::vector<T> run = nc_.read<T>(v, name, start, count);
+      out.insert(out.end(), run.begin(), run.end());
+    }
+    return out;
   }
 
   void read_points() {
     std::array<std::vector<double>, 3> xyz;
     if (const auto v = nc_.var("coord")) {
       nc_.expect_shape(*v, "coord", {3, nodes_}, "(num_dim, num_nodes)");
-      for (size_t a = 0; a < 3; ++a) xyz[a] = nc_.read<double>(*v, "coord", {a, node_first_}, {1, node_count_});
+      for (size_t a = 0; a < 3; ++a) xyz[a] = read_nodes<double>(*v, "coord", {a}, {1});
     } else {
       const char* names[3] = {"coordx", "coordy", "coordz"};
       for (size_t a = 0; a < 3; ++a) {
         const int cv = nc_.require_var(names[a], "node coordinates: neither coord nor coordx/coordy/coordz");
         nc_.expect_shape(cv, names[a], {nodes_}, "(num_nodes)");
-        xyz[a] = nc_.read<double>(cv, names[a], {node_first_}, {node_count_});
+        xyz[a] = read_nodes<double>(cv, names[a], {}, {});
       }
     }
     mesh_.points.resize(size_t(node_count_));
@@ -805,14 +837,15 @@ class ExodusReader {
   }
 
   // One time step of variable v of shape (time_step, ..., n) where the trailing n values start at `start`.
-  Values read_values(int v, const std::string& var_name, const std::vector<size_t>& start,
-                     const std::vector<size_t>& count) const {
+  // One time step of a nodal variable over the nodes read; `start` / `count` are its leading indices.
+  Values read_node_values(int v, const std::string& var_name, const std::vector<size_t>& start,
+                          const std::vector<size_t>& count) const {
     Values out;
     out.is_double = nc_.var_type(v, var_name) != NC_FLOAT;
     if (out.is_double) {
-      out.d = nc_.read<double>(v, var_name, start, count);
+      out.d = read_nodes<double>(v, var_name, start, count);
     } else {
-      out.f = nc_.read<float>(v, var_name, start, count);
+      out.f = read_nodes<float>(v, var_name, start, count);
     }
     return out;
   }
@@ -837,12 +870,12 @@ class ExodusReader {
           nc_.expect_shape(*combined, "vals_nod_var", {steps, names.size(), nodes_},
                            "(time_step, num_nod_var, num_nodes)");
         }
-        val = read_values(*combined, "vals_nod_var", {size_t(*step_), i, node_first_}, {1, 1, node_count_});
+        val = read_node_values(*combined, "vals_nod_var", {size_t(*step_), i}, {1, 1});
       } else {
         const std::string var_name = "vals_nod_var" + std::to_string(i + 1);
         const int v = nc_.require_var(var_name, "values of nodal variable " + names[i]);
         nc_.expect_shape(v, var_name, {steps, nodes_}, "(time_step, num_nodes)");
-        val = read_values(v, var_name, {size_t(*step_), node_first_}, {1, node_count_});
+        val = read_node_values(v, var_name, {size_t(*step_)}, {1});
       }
       val.name = names[i].empty() ? "nodal_" + std::to_string(i + 1) : names[i];
       values.push_back(std::move(val));
@@ -951,10 +984,11 @@ class ExodusReader {
   NcFile nc_;
   int64_t requested_step_;
   uint64_t nodes_ = 0;
-  uint64_t node_first_ = 0, node_count_ = 0;  // the nodes read (all of them but in a part read)
-  uint64_t cells_ = 0;                        // the kept blocks' elements: a whole read's cells
-  uint64_t out_cells_ = 0;                    // the cells read (cells_ but in a part read)
-  std::optional<ExodusCellRange> range_;      // a part read's cells
+  std::vector<std::pair<uint64_t, uint64_t>> node_runs_;  // the nodes read as (first, count): all but in a part read
+  uint64_t node_count_ = 0;                               // the nodes in the runs
+  uint64_t cells_ = 0;                                    // the kept blocks' elements: a whole read's cells
+  uint64_t out_cells_ = 0;                                // the cells read (cells_ but in a part read)
+  std::optional<ExodusCellRange> range_;                  // a part read's cells
   bool layout_only_ = false;
   UnstructuredMesh mesh_;
   std::vector<BlockInfo> blocks_;
@@ -978,16 +1012,14 @@ std::vector<ExodusCellRange> exodus_cell_ranges(const ExodusLayout& layout, uint
   const uint64_t snap = layout.cells / n / 8;  // how far a cut moves to fall between blocks
   std::vector<uint64_t> cuts{0};
   for (uint64_t k = 1; k < n; ++k) {
-    uint64_t cut = layout.cells * k / n;
+    const uint64_t even = layout.cells * k / n;
     // The block start nearest the even cut, when it is near enough and keeps the ranges in order.
-    const auto next = std::lower_bound(layout.block_starts.begin(), layout.block_starts.end(), cut);
+    uint64_t cut = even, distance = snap + 1;
+    const auto next = std::lower_bound(layout.block_starts.begin(), layout.block_starts.end(), even);
     for (const auto it : {next, next == layout.block_starts.begin() ? next : std::prev(next)}) {
       if (it == layout.block_starts.end()) continue;
-      const uint64_t d = *it > cut ? *it - cut : cut - *it;
-      if (d <= snap && *it > cuts.back() && *it < layout.cells * (k + 1) / n) {
-        cut = *it;
-        break;
-      }
+      const uint64_t d = *it > even ? *it - even : even - *it;
+      if (d<distance&& * it> cuts.back() && *it < layout.cells * (k + 1) / n) cut = *it, distance = d;
     }
     cuts.push_back(cut);
   }
