@@ -114,14 +114,6 @@ TEST(PartSources, ExodusRangesAreEvenAndFallBetweenBlocksWhenNear) {
   EXPECT_EQ(exodus_cell_ranges(ExodusLayout{{0}, 3}, 8).size(), 3u);
 }
 
-TEST(PartSources, RangeCountEvensRanksButKeepsRangesLarge) {
-  EXPECT_EQ(mpi::range_count(1'000'000, 4), 64u);    // 4 a rank, at least 64
-  EXPECT_EQ(mpi::range_count(1'000'000, 32), 128u);  // 4 a rank
-  EXPECT_EQ(mpi::range_count(100'000, 2), 24u);      // ranges of at least 4096 cells
-  EXPECT_EQ(mpi::range_count(2476, 4), 4u);          // but one a rank
-  EXPECT_EQ(mpi::range_count(0, 3), 3u);
-}
-
 TEST(PartSources, ExodusRangePastTheCellsNamesTheFile) {
   UGVR_REQUIRE_DATA("exodus-misc/mug.e");
   const std::string e = test::error_of([&] { read_exodus_cells(relative_data_path, -1, {2400, 100}); });
@@ -151,9 +143,9 @@ TEST(PartSources, VtuPiecesEqualTheWholeRead) {
   EXPECT_NE(t.find("p.vtu"), std::string::npos) << t;
 }
 
-// The generated mesh (20 K cells) as written (one <Piece>, raw appended data) read by 7 cell ranges: in order they give the whole
-// read's cells and values, and the last range reads its own bytes only (XmlArrayReader::skip seeks): well under half
-// the file. A compressed .vtu and one of several <Piece>s are not read by ranges.
+// The generated mesh (20 K cells) as written (one <Piece>, raw appended data) read by 7 cell ranges: in order they give
+// the whole read's cells and values, and the last range reads its own bytes only (XmlArrayReader::skip seeks): well
+// under half the file. A compressed .vtu and one of several <Piece>s are not read by ranges.
 TEST(PartSources, VtuCellRangesEqualTheWholeReadAndReadTheirBytesOnly) {
   test::ScratchDir dir;
   ASSERT_EQ(test::run_ugvr("generate --cells 20000 --kind mixed -o " + dir.file("m.vtu")).status, 0);

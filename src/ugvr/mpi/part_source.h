@@ -44,13 +44,6 @@ std::unique_ptr<PartSource> vtu_piece_source(const std::string& path);
 std::unique_ptr<PartSource> vtu_range_source(const std::string& path, uint64_t pieces);
 std::unique_ptr<PartSource> exodus_part_source(const std::string& path, int64_t time_step, uint64_t pieces);
 
-// How many cell ranges an input of `cells` volume cells is cut into for `ranks` ranks (the Exodus and raw .vtu
-// sources): about 4 a rank and at least 64, so that ranks dealt ranges round robin get about equal cells, but ranges
-// of at least kMinRangeCells (a range's read has a fixed cost: opening the file and reading its header, 1 MiB for a
-// netCDF-3 file), and at least one a rank.
-constexpr uint64_t kMinRangeCells = 4096;
-uint64_t range_count(uint64_t cells, int ranks);
-
 // The source reading `path` by parts, for `ranks` ranks, when its format has one (nullptr otherwise: read whole).
 // Throws ugvr::Error naming the file when its header cannot be read.
 std::unique_ptr<PartSource> open_part_source(const std::string& path, const ReadOptions& read, int ranks);
