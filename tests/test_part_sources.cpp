@@ -23,8 +23,9 @@ namespace {
 const UnstructuredMesh& mesh_of(const Dataset& ds) { return std::get<UnstructuredMesh>(ds.blocks.at(0).grid); }
 
 // Every piece of `source`, in order, against `whole`: cell c of the pieces is cell c of the whole read, with the same
-// corner positions, cell values and vertex values at its corners. `most_points`: the largest piece's point count.
-// (Call it under ASSERT_NO_FATAL_FAILURE.)
+// corner positions, cell values and vertex values at its corners, and the corners' point numbers
+// (kPartPointIdField, where the source gives them) are the whole read's point indices. `most_points`: the largest
+// piece's point count. (Call it under ASSERT_NO_FATAL_FAILURE.)
 void expect_pieces_equal_whole(const mpi::PartSource& source, const Dataset& whole, uint64_t& most_points) {
   const UnstructuredMesh& w = mesh_of(whole);
   const FieldSet& wf = whole.blocks[0].fields;
@@ -33,9 +34,12 @@ void expect_pieces_equal_whole(const mpi::PartSource& source, const Dataset& who
   for (size_t k = 0; k < source.pieces(); ++k) {
     const Dataset piece = source.read_piece(k);
     const UnstructuredMesh& p = mesh_of(piece);
-    const FieldSet& pf = piece.blocks[0].fields;
+    FieldSet pf;  // the piece's fields in the whole read's order (the point numbers apart)
+    for (const Field& f : wf)
+      if (const Field* same = piece.blocks[0].fields.find(f.name(), f.association())) pf.add(*same);
+    const Field* ids = piece.blocks[0].fields.find(mpi::kPartPointIdField, Association::Vertex);
     most_points = std::max<uint64_t>(most_points, p.point_count());
-    EXPECT_EQ(pf.size(), wf.size()) << "piece " << k;
+    EXPECT_EQ(piece.blocks[0].fields.size(), wf.size() + (ids ? 1 : 0)) << "piece " << k;
     if (pf.size() != wf.size()) return;
     for (uint64_t c = 0; c < p.cell_count(); ++c, ++cell) {
       if (cell >= w.cell_count()) {
@@ -47,6 +51,9 @@ void expect_pieces_equal_whole(const mpi::PartSource& source, const Dataset& who
       ASSERT_EQ(pv.size(), wv.size());
       for (size_t i = 0; i < pv.size(); ++i) {
         ASSERT_EQ(p.points[pv[i]], w.points[wv[i]]) << "cell " << cell << " corner " << i;
+        if (ids) {
+          ASSERT_EQ(ids->scalar(pv[i], 0), double(wv[i])) << "cell " << cell << " corner " << i;
+        }
         for (size_t f = 0; f < wf.size(); ++f) {
           if (wf[f].association() != Association::Vertex) continue;
           ASSERT_EQ(pf[f].name(), wf[f].name());
@@ -145,7 +152,8 @@ TEST(PartSources, VtuPiecesEqualTheWholeRead) {
 
 // The generated mesh (20 K cells) as written (one <Piece>, raw appended data) read by 7 cell ranges: in order they give
 // the whole read's cells and values, and the last range reads its own bytes only (XmlArrayReader::skip seeks): well
-// under half the file. A compressed .vtu and one of several <Piece>s are not read by ranges.
+// under half the file; joined on their point numbers (join_blocks) they are the whole mesh again. A compressed .vtu
+// and one of several <Piece>s are not read by ranges.
 TEST(PartSources, VtuCellRangesEqualTheWholeReadAndReadTheirBytesOnly) {
   test::ScratchDir dir;
   ASSERT_EQ(test::run_ugvr("generate --cells 20000 --kind mixed -o " + dir.file("m.vtu")).status, 0);
@@ -164,6 +172,20 @@ TEST(PartSources, VtuCellRangesEqualTheWholeReadAndReadTheirBytesOnly) {
   source->read_piece(6);
   const uint64_t bytes = test::bytes_read_so_far() - before;
   EXPECT_LT(bytes, std::filesystem::file_size(path) / 2) << bytes << " bytes read for 1/7 of the cells";
+  // The ranges joined on their point numbers are the whole mesh: its points (each once), cells and fields.
+  std::vector<Block> blocks;
+  for (size_t k = 0; k < source->pieces(); ++k) blocks.push_back(source->read_piece(k).blocks.at(0));
+  const Block joined = join_blocks(std::move(blocks), mpi::kPartPointIdField, path);
+  const UnstructuredMesh& j = std::get<UnstructuredMesh>(joined.grid);
+  EXPECT_EQ(j.point_count(), mesh_of(whole).point_count());
+  EXPECT_EQ(j.cell_types, mesh_of(whole).cell_types);
+  EXPECT_EQ(joined.fields.size(), whole.blocks[0].fields.size());
+  uint64_t moved = 0;  // corners whose position differs from the whole read's
+  for (uint64_t c = 0; c < j.cell_count(); ++c)
+    for (size_t i = 0; i < j.cell(c).size(); ++i)
+      moved += !(j.points[j.cell(c)[i]] == mesh_of(whole).points[mesh_of(whole).cell(c)[i]]);
+  EXPECT_EQ(moved, 0u);
+
   const std::string e = test::error_of([&] { read_vtu_cells(path, 20000, 5000); });
   EXPECT_NE(e.find("m.vtu"), std::string::npos) << e;
 

@@ -36,6 +36,8 @@ std::vector<ExodusCellRange> exodus_cell_ranges(const ExodusLayout& layout, uint
 // nodal variables on those nodes. Fields and their types are the whole read's (an element variable that this range's
 // blocks lack is 0 there, as in a whole read). Throws ugvr::Error naming the file, as read_exodus does, and for a
 // range beyond the volume cells.
-Dataset read_exodus_cells(const std::string& path, int64_t time_step, const ExodusCellRange& range);
+// `node_numbers`, when given, receives each point's 0-based node number in the file (a whole read's point index).
+Dataset read_exodus_cells(const std::string& path, int64_t time_step, const ExodusCellRange& range,
+                          std::vector<uint32_t>* node_numbers = nullptr);
 
 }  // namespace ugvr

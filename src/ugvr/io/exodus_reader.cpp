@@ -552,6 +552,15 @@ class ExodusReader {
   ExodusReader(const std::string& path, int64_t time_step, std::optional<ExodusCellRange> range = std::nullopt)
       : nc_(path), requested_step_(time_step), range_(range) {}
 
+  // The 0-based file node number of each point read (after read()).
+  std::vector<uint32_t> node_numbers() const {
+    std::vector<uint32_t> out;
+    out.reserve(size_t(node_count_));
+    for (const auto& [first, count] : node_runs_)
+      for (uint64_t i = 0; i < count; ++i) out.push_back(uint32_t(first + i));
+    return out;
+  }
+
   ExodusLayout layout() const {
     ExodusLayout out;
     for (const BlockInfo& b : blocks_)
@@ -1037,8 +1046,12 @@ std::vector<ExodusCellRange> exodus_cell_ranges(const ExodusLayout& layout, uint
   return out;
 }
 
-Dataset read_exodus_cells(const std::string& path, int64_t time_step, const ExodusCellRange& range) {
-  return ExodusReader(path, time_step, range).read();
+Dataset read_exodus_cells(const std::string& path, int64_t time_step, const ExodusCellRange& range,
+                          std::vector<uint32_t>* node_numbers) {
+  ExodusReader reader(path, time_step, range);
+  Dataset ds = reader.read();
+  if (node_numbers) *node_numbers = reader.node_numbers();
+  return ds;
 }
 
 struct ExodusFieldReader::Impl {

@@ -1134,7 +1134,7 @@ bool vtu_reads_by_cell_ranges(const std::string& path) {
                      [](const XmlArray* a) { return a->format == XmlArrayFormat::Appended; });
 }
 
-Dataset read_vtu_cells(const std::string& path, uint64_t first, uint64_t count) {
+Dataset read_vtu_cells(const std::string& path, uint64_t first, uint64_t count, uint64_t* first_point) {
   Dataset ds;
   ds.format = "VTK XML UnstructuredGrid (.vtu), cells " + std::to_string(first) + "+" + std::to_string(count);
   ds.sources.push_back(path);
@@ -1179,6 +1179,7 @@ Dataset read_vtu_cells(const std::string& path, uint64_t first, uint64_t count) 
   }
   if (ids.empty()) lo = 0, hi = -1;
   const uint64_t slab = uint64_t(hi - lo + 1);
+  if (first_point) *first_point = uint64_t(lo);
   UnstructuredMesh mesh;
   mesh.points.resize(size_t(slab));
   if (slab > 0) {

@@ -28,6 +28,7 @@ bool vtu_reads_by_cell_ranges(const std::string& path);
 // offsets, types, connectivity, points and field arrays are each read at that range alone (XmlArrayReader::skip seeks
 // in raw data; other encodings are decoded through). Throws ugvr::Error naming the file: a range past the cells, an
 // offset or point id out of range, an array too short.
-Dataset read_vtu_cells(const std::string& path, uint64_t first, uint64_t count);
+// `first_point`, when given, receives the file's id of the block's point 0 (point i is the file's first_point + i).
+Dataset read_vtu_cells(const std::string& path, uint64_t first, uint64_t count, uint64_t* first_point = nullptr);
 
 }  // namespace ugvr

@@ -18,7 +18,12 @@ class ExodusPartSource final : public PartSource {
   std::string format() const override { return "Exodus II, this rank's part"; }
   size_t pieces() const override { return ranges_.size(); }
   std::optional<uint64_t> cells_from_headers() const override { return layout_.cells; }
-  Dataset read_piece(size_t k) const override { return read_exodus_cells(path_, time_step_, ranges_.at(k)); }
+  Dataset read_piece(size_t k) const override {
+    std::vector<uint32_t> nodes;
+    Dataset ds = read_exodus_cells(path_, time_step_, ranges_.at(k), &nodes);
+    ds.blocks.at(0).fields.add(Field(kPartPointIdField, Association::Vertex, DataArray::from(std::move(nodes), 1)));
+    return ds;
+  }
   std::string piece_file(size_t) const override { return path_; }
 
  private:

@@ -41,6 +41,13 @@ std::vector<Vec3d> sampled_cell_centroids(const Block& block, uint64_t first, ui
 std::vector<std::string> write_pvtu(const Block& block, const std::string& path,
                                     std::span<const uint32_t> piece_of_cell, uint32_t pieces);
 
+// The blocks (unstructured, with the same fields) joined into one: cells in block order, each block's points in
+// order, but a point whose `id_field` value (a vertex field: its number in the input) a block before already has is
+// that point; the id field is dropped. A rank's cuts of an input whose pieces number points alike (part_source.h)
+// become one block whose cells meet across the pieces as in the whole read's walk mesh (faces match by vertex
+// number). Throws ugvr::Error naming `source` when the blocks' fields differ or one lacks the id field.
+Block join_blocks(std::vector<Block> blocks, const std::string& id_field, const std::string& source);
+
 // Writes `block` (unstructured) as one .vtu at `path` holding `pieces` <Piece>s (raw appended data): cell c goes to
 // <Piece> piece_of_cell[c], with the points its cells use, as write_pvtu's piece files. Throws ugvr::Error.
 void write_vtu_pieces(const Block& block, const std::string& path, std::span<const uint32_t> piece_of_cell,

@@ -168,7 +168,8 @@ PartRead read_part(const PartSource& source, const std::string& selector, size_t
     const std::vector<Vec3d> s = sampled_cell_centroids(block, 0, stride);
     samples.insert(samples.end(), s.begin(), s.end());
     for (const Field& f : block.fields)
-      piece_fields[k] += (f.association() == Association::Vertex ? "v" : "c") + f.name() + "\n";
+      if (f.name() != kPartPointIdField)  // the source's point numbers, no field of the data
+        piece_fields[k] += (f.association() == Association::Vertex ? "v" : "c") + f.name() + "\n";
     out.cells_read += piece_cells[k];
     ++out.pieces_read;
     owned.emplace_back(k, std::move(ds));
@@ -262,6 +263,15 @@ PartRead read_part(const PartSource& source, const std::string& selector, size_t
     if (std::find(part->sources.begin(), part->sources.end(), source.piece_file(k)) == part->sources.end())
       part->sources.push_back(source.piece_file(k));
     part->blocks.push_back(std::move(block));
+  }
+  // Pieces that number points as the input does are joined into one block: the walk mesh matches faces by vertex
+  // number, so cells of two pieces meet as in the whole read's (separate blocks would leave a boundary between them,
+  // which rays leave and re-enter: slower, and not the whole read's walk). A .pvtu's pieces stay apart, as its
+  // whole read leaves them.
+  if (!part->blocks.empty() && part->blocks[0].fields.find(kPartPointIdField, Association::Vertex)) {
+    Block joined = join_blocks(std::move(part->blocks), kPartPointIdField, path);
+    part->blocks.clear();
+    part->blocks.push_back(std::move(joined));
   }
   if (part->blocks.empty())
     fail_in(path, "rank " + std::to_string(me) + " of " + std::to_string(ranks) +

@@ -18,6 +18,11 @@
 
 namespace ugvr::mpi {
 
+// A vertex field a source adds to its pieces when they number points as the whole input does (Exodus nodes, a
+// .vtu's point ids): each point's number in the input (UInt32). read_part joins a rank's cuts on it (join_blocks of
+// mesh_part.h) and drops it; it is no field of the data.
+inline constexpr const char* kPartPointIdField = "ugvr_part_point_id";
+
 class PartSource {
  public:
   virtual ~PartSource() = default;
@@ -30,8 +35,8 @@ class PartSource {
   // The volume cells of all pieces from headers, where that is cheap (the kd-tree's sample stride); nullopt if not.
   virtual std::optional<uint64_t> cells_from_headers() const = 0;
   // Piece k (< pieces()): one unstructured block whose cells are the whole read's cells of that piece, in the whole
-  // read's order, with the whole read's fields; pieces in order number the cells as a whole read does. Throws
-  // ugvr::Error naming the file.
+  // read's order, with the whole read's fields (and kPartPointIdField where the source has it); pieces in order
+  // number the cells as a whole read does. Throws ugvr::Error naming the file.
   virtual Dataset read_piece(size_t k) const = 0;
   // The file piece k is read from (the part's Dataset::sources, error messages).
   virtual std::string piece_file(size_t k) const = 0;

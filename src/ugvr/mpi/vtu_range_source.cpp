@@ -25,7 +25,13 @@ class VtuRangeSource final : public PartSource {
   size_t pieces() const override { return starts_.size() - 1; }
   std::optional<uint64_t> cells_from_headers() const override { return cells_; }
   Dataset read_piece(size_t k) const override {
-    return read_vtu_cells(path_, starts_.at(k), starts_.at(k + 1) - starts_.at(k));
+    uint64_t first_point = 0;
+    Dataset ds = read_vtu_cells(path_, starts_.at(k), starts_.at(k + 1) - starts_.at(k), &first_point);
+    Block& block = ds.blocks.at(0);
+    std::vector<uint32_t> ids(std::get<UnstructuredMesh>(block.grid).point_count());
+    for (size_t i = 0; i < ids.size(); ++i) ids[i] = uint32_t(first_point + i);
+    block.fields.add(Field(kPartPointIdField, Association::Vertex, DataArray::from(std::move(ids), 1)));
+    return ds;
   }
   std::string piece_file(size_t) const override { return path_; }
 
