@@ -1,6 +1,7 @@
-// Writes a mesh as a .pvtu of pieces, the input of the MPI part-read benchmark (bench/run_mpi_part_read.sh) and of
-// trying `mpirun -np N ugvr render X.pvtu` by hand: ugvr has no .pvtu writer of its own.
-// Usage: bench_write_pvtu IN OUT.pvtu PIECES [kd|slab-x|slab-y|slab-z]
+// Writes a mesh as a .pvtu of pieces, or as one .vtu of several <Piece>s (OUT ending in .vtu), the input of the MPI
+// part-read benchmark (bench/run_mpi_part_read.sh) and of trying `mpirun -np N ugvr render X.pvtu` by hand: ugvr has
+// no writer of either of its own.
+// Usage: bench_write_pvtu IN OUT.pvtu|OUT.vtu PIECES [kd|slab-x|slab-y|slab-z]
 //   kd (default): the boxes of a kd-tree over the cells' centroids, balanced by count (a partitioner's pieces);
 //   slab-A: equal-count slabs along axis A (a solver's one-dimensional decomposition).
 #include <cstdio>
@@ -13,7 +14,7 @@
 
 int main(int argc, char** argv) {
   if (argc < 4 || argc > 5) {
-    std::fprintf(stderr, "usage: %s IN OUT.pvtu PIECES [kd|slab-x|slab-y|slab-z]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s IN OUT.pvtu|OUT.vtu PIECES [kd|slab-x|slab-y|slab-z]\n", argv[0]);
     return 2;
   }
   const std::string layout = argc == 5 ? argv[4] : "kd";
@@ -31,8 +32,14 @@ int main(int argc, char** argv) {
                                                                                    layout.back() == 'x'   ? 0
                                                                                    : layout.back() == 'y' ? 1
                                                                                                           : 2);
-    const auto files = ugvr::write_pvtu(block, argv[2], piece_of_cell, uint32_t(pieces));
-    std::printf("%s: %zu pieces (%s)\n", argv[2], files.size(), layout.c_str());
+    const std::string out = argv[2];
+    if (out.ends_with(".vtu")) {
+      ugvr::write_vtu_pieces(block, out, piece_of_cell, uint32_t(pieces));
+      std::printf("%s: %ld <Piece>s (%s)\n", argv[2], pieces, layout.c_str());
+    } else {
+      const auto files = ugvr::write_pvtu(block, out, piece_of_cell, uint32_t(pieces));
+      std::printf("%s: %zu pieces (%s)\n", argv[2], files.size(), layout.c_str());
+    }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 1;

@@ -8,8 +8,12 @@
 # reading and the walk-mesh build included, the frame too), each rank's cells decoded and kept (this binary only) and
 # the command's wall time. One JSON line per run is appended to bench/results/mpi_part_read.jsonl after a `session`
 # line, and the medians are printed.
+# INPUT=FILE renders that file instead of the generated .pvtu (an Exodus file, a .vtu of several <Piece>s or a
+# raw-appended single-piece .vtu, read by parts too: docs/mpi.md); the table then adds each run's read seconds (the
+# largest rank's mpi.rank_read_seconds: reading, the exchanges and the part's walk mesh; before: the whole read, the
+# walk mesh and keeping the part).
 # Usage: bench/run_mpi_part_read.sh [AFTER] [WORK]   (default build/ugvr, /tmp/ugvr-bench-part-read);
-#   env: BEFORE, CELLS, PIECES, SIZE, RANKS ("1 2 4"), REPEATS (3). Needs build/bench/bench_write_pvtu.
+#   env: BEFORE, CELLS, PIECES, SIZE, RANKS ("1 2 4"), REPEATS (3), INPUT. Needs build/bench/bench_write_pvtu.
 # Ranks beyond the cores are oversubscribed: on a 2-core machine 4 ranks share 2 cores (time slicing included).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -27,11 +31,15 @@ out=bench/results/mpi_part_read.jsonl
 mkdir -p bench/results "$work"
 mesh=$work/tet-$cells.vtu
 pvtu=$work/tet-$cells-p$pieces.pvtu
-[ -f "$mesh" ] || "$after" --quiet generate --cells "$cells" --kind tet -o "$mesh"
-[ -f "$pvtu" ] || "$writer" "$mesh" "$pvtu" "$pieces" kd
-printf '{"session": "%s", "commit": "%s", "nproc": %s, "load": "%s", "cells": %s, "pieces": %s, "size": %s}\n' \
+if [ -n "${INPUT:-}" ]; then
+  pvtu=$(realpath "$INPUT")
+else
+  [ -f "$mesh" ] || "$after" --quiet generate --cells "$cells" --kind tet -o "$mesh"
+  [ -f "$pvtu" ] || "$writer" "$mesh" "$pvtu" "$pieces" kd
+fi
+printf '{"session": "%s", "commit": "%s", "nproc": %s, "load": "%s", "cells": %s, "pieces": %s, "size": %s, "input": "%s"}\n' \
   "$(date -u +%FT%TZ)" "$(git rev-parse --short HEAD)" "$(nproc)" "$(cut -d' ' -f1-3 /proc/loadavg)" "$cells" \
-  "$pieces" "$size" >> "$out"
+  "$pieces" "$size" "$(basename "$pvtu")" >> "$out"
 runs=$work/runs.jsonl
 : > "$runs"
 for repeat in $(seq "$repeats"); do
@@ -62,7 +70,7 @@ done
 python3 - "$runs" <<'PY'
 import json, statistics, sys
 runs = [json.loads(l) for l in open(sys.argv[1])]
-print("ranks | binary | peak RSS per rank, max (MiB, median) | mean over ranks | cells decoded / kept per rank (max) | wall s")
+print("ranks | binary | peak RSS per rank, max (MiB, median) | mean over ranks | cells decoded / kept per rank (max) | read s, largest rank (median) | wall s | read")
 for n in sorted({r["ranks"] for r in runs}):
     row = {}
     for b in ("before", "after"):
@@ -71,6 +79,7 @@ for n in sorted({r["ranks"] for r in runs}):
         mean = statistics.median(sum(r["rank_peak_rss_mib"]) / n for r in rs)
         cells = f'{max(rs[0]["rank_cells_read"])} / {max(rs[0]["rank_cells_kept"])}' if "rank_cells_read" in rs[0] else "-"
         row[b] = peak
-        print(f'{n} | {b} | {peak:.1f} | {mean:.1f} | {cells} | {statistics.median(r["wall_seconds"] for r in rs):.1f}')
+        read_s = statistics.median(max(r["rank_read_seconds"]) for r in rs) if "rank_read_seconds" in rs[0] else float("nan")
+        print(f'{n} | {b} | {peak:.1f} | {mean:.1f} | {cells} | {read_s:.3f} | {statistics.median(r["wall_seconds"] for r in rs):.2f} | {rs[0]["read"]}')
     print(f'{n} | after/before | {row["after"] / row["before"]:.2f}')
 PY

@@ -1,10 +1,12 @@
 // `mpirun -np N ugvr render MESH.pvtu --engine exact`: each rank reads only the pieces its kd box needs and keeps only
 // the cells meeting it (src/ugvr/mpi/mpi_part_read.h, docs/mpi.md). The composited image of 2 and 4 ranks equals the
 // one-rank image (which reads the whole .pvtu), the colour range is the whole mesh's, and every rank reports in
-// --stats that it decoded and kept fewer cells than the mesh has, every piece decoded once in the job.
+// --stats that it decoded and kept fewer cells than the mesh has, every piece decoded once in the job. The same for an
+// Exodus file read by cell ranges.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -118,6 +120,79 @@ TEST_F(PvtuPartRead, NonConvexSlabsFourRanksEqualOne) {
     EXPECT_GE(d.psnr_db, 60) << view;
     EXPECT_EQ(four.stats["mpi"].value("read", ""), "pvtu-part");
   }
+}
+
+// The U-shaped mesh as one .vtu of 8 <Piece>s (vtu_part_source.cpp), looking into the slot, and the generated mixed
+// mesh as written, one <Piece> in raw appended data, read by cell ranges (vtu_range_source.cpp): 4 ranks equal 1,
+// every rank reading fewer cells than the file has, each cell once in the job. The ranges' cuts are joined on their
+// point numbers (join_blocks): unjoined, the mixed mesh gave 90.0 dB (rays leaving and re-entering at every piece
+// boundary), hence the bound of 120 dB there (every other image here is 157 dB or more).
+TEST_F(PvtuPartRead, VtuPiecesAndCellRangesFourRanksEqualOne) {
+  test::write_u_shaped_mesh(file("u.vtk"));
+  const Dataset u = read_dataset(std::vector<std::string>{file("u.vtk")});
+  write_vtu_pieces(u.blocks.at(0), file("u8.vtu"), slab_pieces(u.blocks.at(0), 8, 0), 8);
+  ASSERT_EQ(test::run_ugvr("generate --cells 20000 --kind mixed -o " + file("m.vtu")).status, 0);
+  for (const auto& [input, read] : {std::pair{file("u8.vtu"), "vtu-pieces"}, std::pair{file("m.vtu"), "vtu-ranges"}}) {
+    const std::string flags = std::string("--size 96 --engine exact") + (input == file("u8.vtu") ? " --view +y" : "");
+    const Run one = render(1, input, flags);
+    const Run four = render(4, input, flags);
+    ASSERT_FALSE(four.stats.is_null());
+    const ImageDifference d = compare_images(four.image, one.image);
+    std::printf("%s: 4 ranks vs 1: %.2f dB\n", read, d.psnr_db);
+    EXPECT_GE(d.psnr_db, read == std::string("vtu-ranges") ? 120 : 60) << read;
+    const uint64_t cells = one.stats["mpi"]["cells_total"].get<uint64_t>();
+    const nlohmann::json& m = four.stats["mpi"];
+    EXPECT_EQ(m.value("read", ""), read);
+    uint64_t read_sum = 0;
+    for (int r = 0; r < 4; ++r) {
+      EXPECT_LT(m["rank_cells_read"][size_t(r)].get<double>(), double(cells)) << read << " rank " << r;
+      read_sum += uint64_t(m["rank_cells_read"][size_t(r)].get<double>());
+    }
+    EXPECT_EQ(read_sum, cells) << read;
+  }
+}
+
+// mug.e (Exodus, 2,476 hexahedra in two volume blocks, 21 time steps) read by cell ranges (part_source.h): 4 ranks
+// equal 1 rank's whole read at the last step and at step 3 (nodal and element fields), and every rank decodes fewer
+// cells than the file has, each cell once in the job.
+TEST_F(PvtuPartRead, ExodusCellRangesFourRanksEqualOneWholeRead) {
+  UGVR_REQUIRE_DATA("exodus-misc/mug.e");
+  for (const std::string step : {"", "--time-step 3 --field aux_elem"}) {
+    const std::string flags = "--size 96 --engine exact " + step;
+    const Run one = render(1, relative_data_path, flags);
+    const Run four = render(4, relative_data_path, flags);
+    ASSERT_FALSE(four.stats.is_null());
+    const ImageDifference d = compare_images(four.image, one.image);
+    std::printf("mug.e %s: 4 ranks vs 1: %.2f dB\n", step.c_str(), d.psnr_db);
+    EXPECT_GE(d.psnr_db, 60) << step;
+    EXPECT_EQ(four.stats["field_range"], one.stats["field_range"]) << step;
+    EXPECT_EQ(four.stats["field"], one.stats["field"]) << step;
+    const nlohmann::json& m = four.stats["mpi"];
+    ASSERT_EQ(m.value("read", ""), "exodus-blocks") << m.dump();
+    const uint64_t cells = m["cells_total"].get<uint64_t>();
+    EXPECT_EQ(cells, 2476u);
+    uint64_t read_sum = 0;
+    for (int r = 0; r < 4; ++r) {
+      const double read = m["rank_cells_read"][size_t(r)].get<double>();
+      EXPECT_LT(read, double(cells)) << "rank " << r << " decoded every cell";
+      EXPECT_GT(m["rank_cells_kept"][size_t(r)].get<double>(), 0);
+      read_sum += uint64_t(read);
+    }
+    EXPECT_EQ(read_sum, cells);
+  }
+}
+
+// A truncated Exodus file: the ranks fail naming the file and what is missing, and the job ends (no rank waits).
+TEST_F(PvtuPartRead, ATruncatedExodusFileEndsTheJobNamingIt) {
+  UGVR_REQUIRE_DATA("exodus-misc/mug.e");
+  const std::string cut = file("cut.e");
+  std::filesystem::copy_file(relative_data_path, cut);
+  std::filesystem::resize_file(cut, std::filesystem::file_size(cut) * 3 / 4);
+  const CommandResult r = mpirun(2, "render " + cut + " --engine exact --threads 1 --size 32 -o " + file("c.png"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.status, 124) << "the job hung until the timeout:\n" << r.out;
+  EXPECT_NE(r.out.find("cut.e"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("truncated"), std::string::npos) << r.out;
 }
 
 // A piece without an array the first piece has: the job ends with the piece's name and the array's.

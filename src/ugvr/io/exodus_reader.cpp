@@ -15,6 +15,8 @@
 //             (with a warning), because a field needs one value per cell.
 // All kept blocks are merged into one mesh, cells in block order, with an Int32 cell field "block_id".
 // node_num_map / elem_map (global numbering) are not needed: connectivity uses local 1-based node numbers.
+// A part read (read_exodus_cells, exodus_parts.h) reads a range of those cells: hyperslabs of the connect and element
+// variables' rows, and of the coordinates and nodal variables over runs of the nodes the range uses.
 //
 // Element types: HEX*, TET*, WEDGE*, PYRAMID*/PYRA* are kept; higher-order ones (HEX20, TETRA10, WEDGE15, PYRAMID13,
 // ...) are linearised to their corner nodes, which Exodus lists first. Exodus corner orderings of hex, tet and pyramid
@@ -50,6 +52,7 @@
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
+#include "ugvr/io/exodus_parts.h"
 #include "ugvr/io/header_counts.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/io/step_fields.h"
@@ -530,7 +533,10 @@ struct BlockInfo {
   std::string elem_type;
   uint64_t elements = 0;
   bool kept = false;
-  uint64_t first_cell = 0;  // in the merged mesh
+  uint64_t first_cell = 0;  // in the merged mesh (the whole read's numbering)
+  // The elements read (all of them in a whole read; those in the cell range of a part read) and where they land in
+  // the mesh read.
+  uint64_t row_first = 0, rows = 0, out_first = 0;
 };
 
 // A variable's values at one time step, in its stored type (float or double).
@@ -543,7 +549,25 @@ struct Values {
 
 class ExodusReader {
  public:
-  ExodusReader(const std::string& path, int64_t time_step) : nc_(path), requested_step_(time_step) {}
+  ExodusReader(const std::string& path, int64_t time_step, std::optional<ExodusCellRange> range = std::nullopt)
+      : nc_(path), requested_step_(time_step), range_(range) {}
+
+  // The 0-based file node number of each point read (after read()).
+  std::vector<uint32_t> node_numbers() const {
+    std::vector<uint32_t> out;
+    out.reserve(size_t(node_count_));
+    for (const auto& [first, count] : node_runs_)
+      for (uint64_t i = 0; i < count; ++i) out.push_back(uint32_t(first + i));
+    return out;
+  }
+
+  ExodusLayout layout() const {
+    ExodusLayout out;
+    for (const BlockInfo& b : blocks_)
+      if (b.kept) out.block_starts.push_back(b.first_cell);
+    out.cells = cells_;
+    return out;
+  }
 
   // For fields_at: the dimensions, the element blocks' layout (which are kept, where their cells start) and the times,
   // without the coordinates or the connectivity.
@@ -572,11 +596,16 @@ class ExodusReader {
 
   Dataset read() {
     check_dimensions();
-    read_points();
+    read_node_count();
+    // A whole read takes the points first (the peak is lower: the coordinates' doubles are freed before the
+    // connectivity is read); a part read needs its cells first, to know which nodes they use.
+    if (!range_) read_points();
     read_blocks();
+    if (range_) choose_node_runs(), read_points();
     choose_time_step();
     Block block;
     block.name = base_name(nc_.path());
+    if (range_) block.name += " cells " + std::to_string(range_->first) + "+" + std::to_string(range_->count);
     add_block_ids(block.fields);
     if (step_) {
       add_nodal_variables(block.fields);
@@ -607,26 +636,77 @@ class ExodusReader {
     if (!nodes || *nodes == 0) nc_.fail("the file has no nodes (dimension num_nodes missing or 0)");
     if (*nodes > kMaxVertices) nc_.fail("num_nodes = " + std::to_string(*nodes) + " is over the limit of 2^32-1");
     nodes_ = *nodes;
+    node_runs_ = {{0, nodes_}};
+    node_count_ = nodes_;
+  }
+
+  // A part read holds the nodes its cells use, read as runs of consecutive node numbers (one netCDF hyperslab per run
+  // and variable): used nodes fewer than kNodeGap apart share a run, the nodes between them read too, so that a file
+  // whose blocks number their nodes together reads a few slabs, and one whose numbering is scattered (mug.e,
+  // disk_out_ref) reads its used nodes and little more. The first run starts at node 1 and the last ends at
+  // num_nodes when the range asks (the first and the last range: the pieces then cover the nodes no volume cell uses
+  // at the ends, which a whole read's bounds count). Connectivity is renumbered to the runs' concatenation.
+  static constexpr uint64_t kNodeGap = 64;
+  void choose_node_runs() {
+    std::vector<uint32_t> used(mesh_.connectivity.begin(), mesh_.connectivity.end());
+    std::sort(used.begin(), used.end());
+    used.erase(std::unique(used.begin(), used.end()), used.end());
+    node_runs_.clear();
+    for (const uint32_t id : used) {
+      if (!node_runs_.empty() && id - (node_runs_.back().first + node_runs_.back().second) < kNodeGap)
+        node_runs_.back().second = id + 1 - node_runs_.back().first;
+      else
+        node_runs_.push_back({id, 1});
+    }
+    if (node_runs_.empty()) node_runs_.push_back({0, 1});
+    if (range_->from_first_node) node_runs_.front().second += node_runs_.front().first, node_runs_.front().first = 0;
+    if (range_->to_last_node) node_runs_.back().second = nodes_ - node_runs_.back().first;
+    std::vector<uint64_t> run_start;  // each run's first node in the concatenation
+    node_count_ = 0;
+    for (const auto& [first, count] : node_runs_) run_start.push_back(node_count_), node_count_ += count;
+    for (uint32_t& v : mesh_.connectivity) {
+      const auto run = std::upper_bound(node_runs_.begin(), node_runs_.end(), v,
+                                        [](uint32_t id, const auto& r) { return id < r.first; }) -
+                       1;
+      v = uint32_t(run_start[size_t(run - node_runs_.begin())] + (v - run->first));
+    }
+  }
+
+  // Variable v's values over the runs' nodes, concatenated: `start` and `count` give its leading indices (the
+  // time step, the variable), the node index last.
+  template <class T>
+  std::vector<T> read_nodes(int v, const std::string& name, std::vector<size_t> start,
+                            std::vector<size_t> count) const {
+    start.push_back(0), count.push_back(0);
+    if (node_runs_.size() == 1) {  // a whole read: no copy
+      start.back() = size_t(node_runs_[0].first), count.back() = size_t(node_runs_[0].second);
+      return nc_.read<T>(v, name, start, count);
+    }
+    std::vector<T> out;
+    out.reserve(size_t(node_count_));
+    for (const auto& [first, n] : node_runs_) {
+      start.back() = size_t(first), count.back() = size_t(n);
+      const std::vector<T> run = nc_.read<T>(v, name, start, count);
+      out.insert(out.end(), run.begin(), run.end());
+    }
+    return out;
   }
 
   void read_points() {
-    read_node_count();
     std::array<std::vector<double>, 3> xyz;
     if (const auto v = nc_.var("coord")) {
       nc_.expect_shape(*v, "coord", {3, nodes_}, "(num_dim, num_nodes)");
-      const std::vector<double> all = nc_.read_all<double>(*v, "coord");
-      for (size_t a = 0; a < 3; ++a)
-        xyz[a].assign(all.begin() + ptrdiff_t(a * nodes_), all.begin() + ptrdiff_t((a + 1) * nodes_));
+      for (size_t a = 0; a < 3; ++a) xyz[a] = read_nodes<double>(*v, "coord", {a}, {1});
     } else {
       const char* names[3] = {"coordx", "coordy", "coordz"};
       for (size_t a = 0; a < 3; ++a) {
         const int cv = nc_.require_var(names[a], "node coordinates: neither coord nor coordx/coordy/coordz");
         nc_.expect_shape(cv, names[a], {nodes_}, "(num_nodes)");
-        xyz[a] = nc_.read_all<double>(cv, names[a]);
+        xyz[a] = read_nodes<double>(cv, names[a], {}, {});
       }
     }
-    mesh_.points.resize(size_t(nodes_));
-    for (size_t i = 0; i < nodes_; ++i) {
+    mesh_.points.resize(size_t(node_count_));
+    for (size_t i = 0; i < node_count_; ++i) {
       mesh_.points[i] = Vec3f{float(xyz[0][i]), float(xyz[1][i]), float(xyz[2][i])};
     }
   }
@@ -656,6 +736,9 @@ class ExodusReader {
       }
       blocks_.push_back(info);
     }
+    if (range_ && range_->first + range_->count > cells_)
+      nc_.fail("cells " + std::to_string(range_->first) + "+" + std::to_string(range_->count) +
+               " asked for, the volume blocks have " + std::to_string(cells_));
     if (cells_ == 0) {
       nc_.fail(dropped ? "no volume elements: all " + std::to_string(dropped) + " elements are lower-dimensional (" +
                              dropped_types + ")"
@@ -695,18 +778,25 @@ class ExodusReader {
     info.kept = true;
     info.first_cell = cells_;
     cells_ += info.elements;
-    if (layout_only_) return;
-    const std::vector<long long> ids = nc_.read_all<long long>(*v, connect);
-    mesh_.reserve(mesh_.cell_count() + info.elements, mesh_.connectivity.size() + info.elements * kind.corners);
+    // The rows of this block in the cell range read (all of them in a whole read).
+    const uint64_t lo = range_ ? std::clamp(range_->first, info.first_cell, cells_) : info.first_cell;
+    const uint64_t hi = range_ ? std::clamp(range_->first + range_->count, lo, cells_) : cells_;
+    info.row_first = lo - info.first_cell;
+    info.rows = hi - lo;
+    info.out_first = out_cells_;
+    out_cells_ += info.rows;
+    if (layout_only_ || info.rows == 0) return;
+    const std::vector<long long> ids = nc_.read<long long>(*v, connect, {info.row_first, 0}, {info.rows, *per});
+    mesh_.reserve(mesh_.cell_count() + info.rows, mesh_.connectivity.size() + info.rows * kind.corners);
     std::array<uint32_t, 8> corners{};
-    for (uint64_t e = 0; e < info.elements; ++e) {
+    for (uint64_t e = 0; e < info.rows; ++e) {
       // Every node the element stores is checked, also the mid-edge ones of a higher-order element that only its
       // corners are kept from: an id out of range anywhere means the connectivity cannot be trusted.
       for (uint64_t k = 0; k < *per; ++k) {
         const long long id = ids[size_t(e * *per + k)];
         if (id < 1 || uint64_t(id) > nodes_) {
-          nc_.fail("variable " + connect + ": element " + std::to_string(e + 1) + " node " + std::to_string(k + 1) +
-                   " is " + std::to_string(id) + ", outside 1.." + std::to_string(nodes_));
+          nc_.fail("variable " + connect + ": element " + std::to_string(info.row_first + e + 1) + " node " +
+                   std::to_string(k + 1) + " is " + std::to_string(id) + ", outside 1.." + std::to_string(nodes_));
         }
         if (k < kind.corners) corners[k] = uint32_t(id - 1);
       }
@@ -755,21 +845,22 @@ class ExodusReader {
 
   void add_block_ids(FieldSet& fields) const {
     std::vector<int32_t> ids;
-    ids.reserve(size_t(cells_));
+    ids.reserve(size_t(out_cells_));
     for (const BlockInfo& b : blocks_)
-      if (b.kept) ids.insert(ids.end(), size_t(b.elements), b.id);
+      if (b.kept) ids.insert(ids.end(), size_t(b.rows), b.id);
     fields.add(Field("block_id", Association::Cell, DataArray::from(std::move(ids), 1)));
   }
 
   // One time step of variable v of shape (time_step, ..., n) where the trailing n values start at `start`.
-  Values read_values(int v, const std::string& var_name, const std::vector<size_t>& start,
-                     const std::vector<size_t>& count) const {
+  // One time step of a nodal variable over the nodes read; `start` / `count` are its leading indices.
+  Values read_node_values(int v, const std::string& var_name, const std::vector<size_t>& start,
+                          const std::vector<size_t>& count) const {
     Values out;
     out.is_double = nc_.var_type(v, var_name) != NC_FLOAT;
     if (out.is_double) {
-      out.d = nc_.read<double>(v, var_name, start, count);
+      out.d = read_nodes<double>(v, var_name, start, count);
     } else {
-      out.f = nc_.read<float>(v, var_name, start, count);
+      out.f = read_nodes<float>(v, var_name, start, count);
     }
     return out;
   }
@@ -794,12 +885,12 @@ class ExodusReader {
           nc_.expect_shape(*combined, "vals_nod_var", {steps, names.size(), nodes_},
                            "(time_step, num_nod_var, num_nodes)");
         }
-        val = read_values(*combined, "vals_nod_var", {size_t(*step_), i, 0}, {1, 1, size_t(nodes_)});
+        val = read_node_values(*combined, "vals_nod_var", {size_t(*step_), i}, {1, 1});
       } else {
         const std::string var_name = "vals_nod_var" + std::to_string(i + 1);
         const int v = nc_.require_var(var_name, "values of nodal variable " + names[i]);
         nc_.expect_shape(v, var_name, {steps, nodes_}, "(time_step, num_nodes)");
-        val = read_values(v, var_name, {size_t(*step_), 0}, {1, size_t(nodes_)});
+        val = read_node_values(v, var_name, {size_t(*step_)}, {1});
       }
       val.name = names[i].empty() ? "nodal_" + std::to_string(i + 1) : names[i];
       values.push_back(std::move(val));
@@ -820,7 +911,7 @@ class ExodusReader {
     for (size_t i = 0; i < names.size(); ++i) {
       Values val;
       val.name = names[i].empty() ? "element_" + std::to_string(i + 1) : names[i];
-      std::vector<double> merged(size_t(cells_), 0.0);
+      std::vector<double> merged(size_t(out_cells_), 0.0);
       bool any_float = false, any_double = false;
       std::string missing;
       for (size_t b = 0; b < blocks_.size(); ++b) {
@@ -837,8 +928,10 @@ class ExodusReader {
         }
         nc_.expect_shape(*v, var_name, {steps, blk.elements},
                          "(time_step, num_el_in_blk" + std::to_string(blk.index) + ")");
-        const std::vector<double> d = nc_.read<double>(*v, var_name, {size_t(*step_), 0}, {1, size_t(blk.elements)});
-        std::copy(d.begin(), d.end(), merged.begin() + ptrdiff_t(blk.first_cell));
+        // Every kept block decides the variable's type and whether it exists (a part read gives the whole read's
+        // fields), only the rows read are read.
+        const std::vector<double> d = nc_.read<double>(*v, var_name, {size_t(*step_), blk.row_first}, {1, blk.rows});
+        std::copy(d.begin(), d.end(), merged.begin() + ptrdiff_t(blk.out_first));
         (nc_.var_type(*v, var_name) == NC_FLOAT ? any_float : any_double) = true;
       }
       if (!any_float && !any_double) {
@@ -906,7 +999,11 @@ class ExodusReader {
   NcFile nc_;
   int64_t requested_step_;
   uint64_t nodes_ = 0;
-  uint64_t cells_ = 0;  // the kept blocks' elements: the mesh's cells
+  std::vector<std::pair<uint64_t, uint64_t>> node_runs_;  // the nodes read as (first, count): all but in a part read
+  uint64_t node_count_ = 0;                               // the nodes in the runs
+  uint64_t cells_ = 0;                                    // the kept blocks' elements: a whole read's cells
+  uint64_t out_cells_ = 0;                                // the cells read (cells_ but in a part read)
+  std::optional<ExodusCellRange> range_;                  // a part read's cells
   bool layout_only_ = false;
   UnstructuredMesh mesh_;
   std::vector<BlockInfo> blocks_;
@@ -918,6 +1015,44 @@ class ExodusReader {
 }  // namespace
 
 Dataset read_exodus(const std::string& path, int64_t time_step) { return ExodusReader(path, time_step).read(); }
+
+ExodusLayout read_exodus_layout(const std::string& path) {
+  ExodusReader reader(path, -1);
+  reader.read_layout();
+  return reader.layout();
+}
+
+std::vector<ExodusCellRange> exodus_cell_ranges(const ExodusLayout& layout, uint64_t pieces) {
+  const uint64_t n = std::clamp<uint64_t>(pieces, 1, std::max<uint64_t>(layout.cells, 1));
+  const uint64_t snap = layout.cells / n / 8;  // how far a cut moves to fall between blocks
+  std::vector<uint64_t> cuts{0};
+  for (uint64_t k = 1; k < n; ++k) {
+    const uint64_t even = layout.cells * k / n;
+    // The block start nearest the even cut, when it is near enough and keeps the ranges in order.
+    uint64_t cut = even, distance = snap + 1;
+    const auto next = std::lower_bound(layout.block_starts.begin(), layout.block_starts.end(), even);
+    for (const auto it : {next, next == layout.block_starts.begin() ? next : std::prev(next)}) {
+      if (it == layout.block_starts.end()) continue;
+      const uint64_t d = *it > even ? *it - even : even - *it;
+      if (d<distance&& * it> cuts.back() && *it < layout.cells * (k + 1) / n) cut = *it, distance = d;
+    }
+    cuts.push_back(cut);
+  }
+  cuts.push_back(layout.cells);
+  std::vector<ExodusCellRange> out;
+  for (size_t k = 0; k + 1 < cuts.size(); ++k)
+    if (cuts[k + 1] > cuts[k]) out.push_back({cuts[k], cuts[k + 1] - cuts[k]});
+  if (!out.empty()) out.front().from_first_node = out.back().to_last_node = true;
+  return out;
+}
+
+Dataset read_exodus_cells(const std::string& path, int64_t time_step, const ExodusCellRange& range,
+                          std::vector<uint32_t>* node_numbers) {
+  ExodusReader reader(path, time_step, range);
+  Dataset ds = reader.read();
+  if (node_numbers) *node_numbers = reader.node_numbers();
+  return ds;
+}
 
 struct ExodusFieldReader::Impl {
   explicit Impl(const std::string& path) : reader(path, -1) { reader.read_layout(); }

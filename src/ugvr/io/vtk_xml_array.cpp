@@ -55,6 +55,15 @@ class XmlByteSource {
   virtual uint64_t max_remaining() const = 0;
   // File offset of the next encoded byte (of the text for base64), for messages.
   virtual uint64_t offset() const = 0;
+  // Passes over n bytes: reads them (a base64 source must decode through them), or seeks where the bytes are raw.
+  virtual void skip(uint64_t n) {
+    std::byte scratch[4096];
+    for (; n > 0;) {
+      const size_t k = size_t(std::min<uint64_t>(n, sizeof scratch));
+      read(scratch, k);
+      n -= k;
+    }
+  }
 
  protected:
   const XmlArrayReader& owner_;
@@ -77,6 +86,10 @@ class RawSource final : public XmlByteSource {
   }
   uint64_t max_remaining() const override { return end_ - pos_; }
   uint64_t offset() const override { return pos_; }
+  void skip(uint64_t n) override {
+    if (n > end_ - pos_) read(nullptr, size_t(n));  // fails, naming the array
+    pos_ += n;
+  }
 
  private:
   const InputFile& file_;
@@ -195,6 +208,22 @@ class XmlBinaryStream {
     uint64_t packed = 0;
     for (uint64_t p : packed_sizes_) packed += p;  // checked against the bytes available by read_block_header
     return (3 + uint64_t(packed_sizes_.size())) * word + packed;
+  }
+
+  // Passes over n bytes of values: a seek for uncompressed data (a rank reading a range of a raw appended array),
+  // decompressing through them otherwise.
+  void skip(uint64_t n) {
+    if (encoding_.codec != Codec::None || n > size_ - consumed_) {
+      std::vector<std::byte> scratch(size_t(std::min<uint64_t>(n, uint64_t(1) << 20)));
+      for (; n > 0;) {
+        const uint64_t k = std::min<uint64_t>(n, scratch.size());
+        read(scratch.data(), k);
+        n -= k;
+      }
+      return;
+    }
+    consumed_ += n;
+    source_->skip(n);
   }
 
   void read(std::byte* dst, uint64_t n) {
@@ -578,6 +607,11 @@ void XmlArrayReader::read(std::span<float> out) { read_converted(out); }
 void XmlArrayReader::read(std::span<double> out) { read_converted(out); }
 
 void XmlArrayReader::skip(uint64_t count) {
+  if (binary_) {
+    binary_->skip(count * value_size_);
+    values_read_ += count;
+    return;
+  }
   if (scratch_.size() < std::min<uint64_t>(kScratchValues, count) * 8) {
     scratch_.resize(size_t(std::min<uint64_t>(kScratchValues, count)) * 8);
   }

@@ -91,6 +91,8 @@ class XmlArrayReader {
   void read(std::span<int64_t> out);
   void read(std::span<float> out);
   void read(std::span<double> out);
+  // Passes over the next `count` values: a seek in raw (uncompressed, not base64) binary data, so that a reader of a
+  // range of an appended array reads only that range's bytes; decoded through otherwise.
   void skip(uint64_t count);
 
   // Fails if values are left over: every value stored must have been read.

@@ -29,6 +29,7 @@
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <numeric>
@@ -51,6 +52,7 @@
 #include "ugvr/io/vtk_xml_array.h"
 #include "ugvr/io/vtk_xml_document.h"
 #include "ugvr/io/vtk_xml_skeleton.h"
+#include "ugvr/io/vtu_pieces.h"
 
 namespace ugvr {
 
@@ -500,8 +502,11 @@ void check_declared_fields(const std::vector<UgPiece>& pieces, const std::vector
   }
 }
 
+// `only_piece`: read that <Piece> of the documents' pieces alone (read_vtu_piece), with the fields every piece agrees
+// on.
 Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<XmlDoc>> docs, std::string format,
-                          const std::vector<FieldSpec>& declared, pugi::xml_node declared_at, const XmlDoc* pdoc) {
+                          const std::vector<FieldSpec>& declared, pugi::xml_node declared_at, const XmlDoc* pdoc,
+                          std::optional<size_t> only_piece = std::nullopt) {
   Dataset ds;
   ds.format = std::move(format);
   ds.sources.push_back(path);
@@ -509,10 +514,19 @@ Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<X
     if (d->path != path) ds.sources.push_back(d->path);
   }
 
-  const std::vector<UgPiece> pieces = describe_ug_pieces(docs, ds.warnings);
+  std::vector<UgPiece> pieces = describe_ug_pieces(docs, ds.warnings);
   refuse_duplicate_pieces(docs, pieces);
   const std::vector<FieldSpec> specs = agreed_field_specs(docs, pieces);
   check_declared_fields(pieces, specs, declared, declared_at, pdoc);
+  const bool several = pieces.size() > 1;
+  if (only_piece) {
+    if (*only_piece >= pieces.size())
+      fail_in(path,
+              "<Piece> " + std::to_string(*only_piece) + " asked for, the file has " + std::to_string(pieces.size()));
+    UgPiece one = std::move(pieces[*only_piece]);
+    pieces.clear();
+    pieces.push_back(std::move(one));
+  }
 
   // Probe every array's size and count the kept cells before allocating anything.
   uint64_t total_points = 0, total_cells = 0;
@@ -549,7 +563,6 @@ Dataset read_unstructured(const std::string& path, std::vector<std::unique_ptr<X
   for (const FieldSpec& s : specs) {
     field_data.push_back(make_field_data(s, s.association == Association::Vertex ? total_points : total_cells));
   }
-  const bool several = pieces.size() > 1;
   uint64_t point_base = 0, cell_base = 0;
   Progress progress("reading " + base_name(path), total_points + total_cells);
   for (size_t di = 0; di < docs.size(); ++di) {
@@ -1056,6 +1069,154 @@ std::vector<std::string> pvtu_piece_files(const std::string& path) {
   std::vector<std::string> paths = pvtu_piece_paths(*doc, grid);
   if (paths.empty()) doc->fail(grid, "<PUnstructuredGrid> lists no <Piece Source=...>");
   return paths;
+}
+
+size_t vtu_piece_count(const std::string& path) {
+  const std::unique_ptr<XmlDoc> doc = load_doc(path);
+  if (doc->type != "UnstructuredGrid")
+    fail_in(path, "VTKFile type \"" + doc->type.substr(0, 40) + "\", expected UnstructuredGrid");
+  const pugi::xml_node grid = single_child(*doc, doc->root, "UnstructuredGrid");
+  if (!grid) doc->fail(doc->root, "no <UnstructuredGrid> element");
+  return size_t(std::distance(grid.children("Piece").begin(), grid.children("Piece").end()));
+}
+
+Dataset read_vtu_piece(const std::string& path, size_t piece) {
+  std::unique_ptr<XmlDoc> doc = load_doc(path);
+  if (doc->type != "UnstructuredGrid")
+    fail_in(path, "VTKFile type \"" + doc->type.substr(0, 40) + "\", expected UnstructuredGrid");
+  std::vector<std::unique_ptr<XmlDoc>> docs;
+  docs.push_back(std::move(doc));
+  return read_unstructured(path, std::move(docs), "VTK XML UnstructuredGrid (.vtu)", {}, {}, nullptr, piece);
+}
+
+namespace {
+
+// The one <Piece> of a .vtu read by cell ranges, described, and the fields.
+struct SinglePiece {
+  std::unique_ptr<XmlDoc> doc;
+  UgPiece piece;
+  std::vector<FieldSpec> specs;
+};
+
+SinglePiece describe_single_piece(const std::string& path, std::vector<std::string>& warnings) {
+  SinglePiece out;
+  std::vector<std::unique_ptr<XmlDoc>> docs;
+  docs.push_back(load_doc(path));
+  if (docs[0]->type != "UnstructuredGrid")
+    fail_in(path, "VTKFile type \"" + docs[0]->type.substr(0, 40) + "\", expected UnstructuredGrid");
+  std::vector<UgPiece> pieces = describe_ug_pieces(docs, warnings);
+  if (pieces.size() != 1) fail_in(path, "a cell range is read from a .vtu of one <Piece>");
+  out.specs = agreed_field_specs(docs, pieces);
+  out.piece = std::move(pieces[0]);
+  out.doc = std::move(docs[0]);
+  return out;
+}
+
+}  // namespace
+
+bool vtu_reads_by_cell_ranges(const std::string& path) {
+  std::vector<std::string> warnings;
+  const SinglePiece one = [&] {
+    try {
+      return describe_single_piece(path, warnings);
+    } catch (const Error&) {
+      return SinglePiece{};  // read whole, which says what is wrong
+    }
+  }();
+  if (!one.doc || one.piece.cells == 0 || one.doc->encoding.codec != Codec::None || one.doc->encoding.appended_base64)
+    return false;
+  const UgPiece& p = one.piece;
+  std::vector<const XmlArray*> arrays{&*p.connectivity, &*p.offsets, &*p.types};
+  if (p.points_array) arrays.push_back(&*p.points_array);
+  for (const XmlArray& a : p.point_data) arrays.push_back(&a);
+  for (const XmlArray& a : p.cell_data) arrays.push_back(&a);
+  return std::all_of(arrays.begin(), arrays.end(),
+                     [](const XmlArray* a) { return a->format == XmlArrayFormat::Appended; });
+}
+
+Dataset read_vtu_cells(const std::string& path, uint64_t first, uint64_t count, uint64_t* first_point) {
+  Dataset ds;
+  ds.format = "VTK XML UnstructuredGrid (.vtu), cells " + std::to_string(first) + "+" + std::to_string(count);
+  ds.sources.push_back(path);
+  const SinglePiece one = describe_single_piece(path, ds.warnings);
+  const XmlDoc& d = *one.doc;
+  const UgPiece& p = one.piece;
+  if (first > p.cells || count > p.cells - first)
+    d.fail(p.node, "cells " + std::to_string(first) + "+" + std::to_string(count) + " asked for, the <Piece> has " +
+                       std::to_string(p.cells));
+  const InputFile file(path);
+  // The range's offsets (the end of the cell before it too), types and connectivity: each array's reader seeks to
+  // the range (XmlArrayReader::skip) and reads it alone.
+  XmlArrayReader offsets(file, d.encoding, *p.offsets), types(file, d.encoding, *p.types);
+  offsets.expect_count(p.cells, "NumberOfCells=" + std::to_string(p.cells));
+  types.expect_count(p.cells, "NumberOfCells=" + std::to_string(p.cells));
+  std::vector<int64_t> ends(size_t(count) + 1, 0);
+  std::vector<int64_t> type_of(static_cast<size_t>(count));
+  if (first > 0) offsets.skip(first - 1), offsets.read(std::span(ends.data(), 1));
+  offsets.read(std::span(ends.data() + 1, size_t(count)));
+  types.skip(first);
+  types.read(std::span(type_of));
+  XmlArrayReader conn(file, d.encoding, *p.connectivity);
+  const std::optional<uint64_t> conn_total = conn.value_count();
+  for (size_t i = 0; i < count; ++i) {
+    if (ends[i + 1] < ends[i] || ends[i] < 0)
+      offsets.fail("offset " + std::to_string(ends[i + 1]) + " of cell " + std::to_string(first + i) +
+                   " is smaller than the previous offset " + std::to_string(ends[i]));
+  }
+  if (conn_total && uint64_t(ends.back()) > *conn_total)
+    offsets.fail("offset " + std::to_string(ends.back()) + " of cell " + std::to_string(first + count - 1) +
+                 " is beyond the connectivity array's " + std::to_string(*conn_total) + " ids");
+  std::vector<int64_t> ids(size_t(ends.back() - ends.front()));
+  conn.skip(uint64_t(ends.front()));
+  conn.read(std::span(ids));
+  // The points from the least to the greatest id the range uses (one slab per array; a solver's or generator's cells
+  // use points numbered near their own).
+  int64_t lo = std::numeric_limits<int64_t>::max(), hi = -1;
+  for (const int64_t id : ids) {
+    if (id < 0 || uint64_t(id) >= p.points)
+      conn.fail("point id " + std::to_string(id) + " is outside [0, " + std::to_string(p.points) + ")");
+    lo = std::min(lo, id), hi = std::max(hi, id);
+  }
+  if (ids.empty()) lo = 0, hi = -1;
+  const uint64_t slab = uint64_t(hi - lo + 1);
+  if (first_point) *first_point = uint64_t(lo);
+  UnstructuredMesh mesh;
+  mesh.points.resize(size_t(slab));
+  if (slab > 0) {
+    XmlArrayReader r(file, d.encoding, *p.points_array);
+    r.expect_count(p.points * 3, tuples_text(p.points, 3, "NumberOfPoints"));
+    r.skip(uint64_t(lo) * 3);
+    r.read(std::span<float>(&mesh.points[0].x, size_t(slab * 3)));
+  }
+  VtkCellImporter importer(base_name(path), slab);
+  std::vector<int64_t> local;
+  for (size_t i = 0; i < count; ++i) {
+    local.assign(ids.begin() + (ends[i] - ends[0]), ids.begin() + (ends[i + 1] - ends[0]));
+    for (int64_t& id : local) id -= lo;
+    importer.add(clamp_cell_type(type_of[i]), std::span<const int64_t>(local), first + i);
+  }
+  const bool any_kept = std::any_of(type_of.begin(), type_of.end(), [](int64_t t) {
+    return map_vtk_cell_type(clamp_cell_type(t)).kind == VtkCellMapping::Kind::Keep;
+  });
+  if (any_kept) importer.finish(mesh, ds.warnings);  // a range of lower-dimensional cells alone has no cells here
+  Block block;
+  for (const FieldSpec& spec : one.specs) {
+    const bool vertex = spec.association == Association::Vertex;
+    XmlArrayReader r(file, d.encoding, find_field(p.point_data, p.cell_data, spec));
+    const uint64_t tuples = vertex ? p.points : p.cells;
+    r.expect_count(tuples * uint64_t(spec.components),
+                   tuples_text(tuples, spec.components, vertex ? "NumberOfPoints" : "NumberOfCells"));
+    DataArray data = make_field_data(spec, vertex ? slab : count);
+    r.skip((vertex ? uint64_t(lo) : first) * uint64_t(spec.components));
+    read_field_slice(r, data, 0, vertex ? slab : count);
+    if (!vertex) data = any_kept ? importer.filter_cell_data(std::move(data)) : make_field_data(spec, 0);
+    block.fields.add(Field(spec.name, spec.association, std::move(data)));
+  }
+  mesh.validate(base_name(path));
+  block.grid = std::move(mesh);
+  block.validate_fields(base_name(path));
+  ds.blocks.push_back(std::move(block));
+  return ds;
 }
 
 Dataset read_vtk_xml(const std::string& path) {

@@ -1,9 +1,11 @@
 #include "ugvr/mpi/mesh_part.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <numeric>
+#include <unordered_map>
 
 #include "ugvr/core/error.h"
 #include "ugvr/core/file.h"
@@ -75,6 +77,84 @@ Block block_subset(const Block& block, std::span<const uint8_t> keep) {
     out.fields.add(
         Field(f.name(), f.association(), f.data().gather(f.association() == Association::Vertex ? points : cells)));
   out.grid = std::move(part);
+  return out;
+}
+
+Block join_blocks(std::vector<Block> blocks, const std::string& id_field, const std::string& source) {
+  if (blocks.empty()) return Block{};
+  // Concatenated first (points and cells of block b after those of the blocks before), then welded.
+  UnstructuredMesh all;
+  std::vector<std::vector<const DataArray*>> arrays(blocks[0].fields.size());
+  uint64_t points = 0, cells = 0, indices = 0;
+  for (const Block& b : blocks) {
+    const UnstructuredMesh& m = unstructured(b, source);
+    points += m.point_count(), cells += m.cell_count(), indices += m.connectivity.size();
+    if (b.fields.size() != blocks[0].fields.size()) fail_in(source, "the parts' blocks have different fields");
+    for (size_t f = 0; f < b.fields.size(); ++f) {
+      const Field& want = blocks[0].fields[f];
+      const Field* got = b.fields.find(want.name(), want.association());
+      if (!got || got->data().type() != want.data().type() || got->components() != want.components())
+        fail_in(source, "the parts' blocks differ in field '" + want.name() + "'");
+      arrays[f].push_back(&got->data());
+    }
+  }
+  size_t id_index = blocks[0].fields.size();
+  for (size_t f = 0; f < blocks[0].fields.size(); ++f)
+    if (blocks[0].fields[f].name() == id_field && blocks[0].fields[f].association() == Association::Vertex)
+      id_index = f;
+  if (id_index == blocks[0].fields.size())
+    fail_in(source, "the parts' blocks lack the point numbers '" + id_field + "'");
+  std::vector<uint64_t> ids;
+  ids.reserve(points);
+  for (const DataArray* a : arrays[id_index])
+    for (uint64_t p = 0; p < a->tuples(); ++p) ids.push_back(uint64_t(a->get(p, 0)));
+  // Each point's index in the joined block: its number's first occurrence.
+  std::unordered_map<uint64_t, uint32_t> first;
+  first.reserve(size_t(points));
+  std::vector<uint32_t> joined(static_cast<size_t>(points));
+  std::vector<uint64_t> kept;  // the concatenation's points kept
+  for (uint64_t p = 0; p < points; ++p) {
+    const auto [it, added] = first.try_emplace(ids[p], uint32_t(kept.size()));
+    if (added) kept.push_back(p);
+    joined[p] = it->second;
+  }
+  all.reserve(cells, indices);
+  uint64_t base = 0;
+  std::vector<uint32_t> v;
+  for (const Block& b : blocks) {
+    const UnstructuredMesh& m = std::get<UnstructuredMesh>(b.grid);
+    for (uint64_t c = 0; c < m.cell_count(); ++c) {
+      v.clear();
+      for (const uint32_t i : m.cell(c)) v.push_back(joined[base + i]);
+      all.add_cell(m.cell_types[c], v);
+    }
+    base += m.point_count();
+  }
+  all.points.resize(kept.size());
+  {
+    std::vector<Vec3f> concatenated;
+    concatenated.reserve(size_t(points));
+    for (const Block& b : blocks) {
+      const auto& pts = std::get<UnstructuredMesh>(b.grid).points;
+      concatenated.insert(concatenated.end(), pts.begin(), pts.end());
+    }
+    for (size_t i = 0; i < kept.size(); ++i) all.points[i] = concatenated[kept[i]];
+  }
+  Block out;
+  out.name = blocks[0].name;
+  for (size_t f = 0; f < arrays.size(); ++f) {
+    if (f == id_index) continue;
+    const Field& spec = blocks[0].fields[f];
+    const bool vertex = spec.association() == Association::Vertex;
+    DataArray cat(spec.data().type(), spec.components(), vertex ? points : cells);
+    uint64_t at = 0;
+    for (const DataArray* a : arrays[f]) {
+      std::memcpy(cat.bytes() + at, a->bytes(), size_t(a->byte_size()));
+      at += a->byte_size();
+    }
+    out.fields.add(Field(spec.name(), spec.association(), vertex ? cat.gather(kept) : std::move(cat)));
+  }
+  out.grid = std::move(all);
   return out;
 }
 
@@ -242,6 +322,50 @@ std::vector<std::string> write_pvtu(const Block& block, const std::string& path,
   std::vector<std::string> paths;
   for (const std::string& f : files) paths.push_back(dir_name(path) + f);
   return paths;
+}
+
+void write_vtu_pieces(const Block& block, const std::string& path, std::span<const uint32_t> piece_of_cell,
+                      uint32_t pieces) {
+  const UnstructuredMesh& mesh = unstructured(block, path);
+  if (piece_of_cell.size() != mesh.cell_count()) fail_in(path, "one piece number per cell expected");
+  // Each piece is written by write_vtu (one <Piece>, raw appended data) to a scratch file, whose <Piece> markup and
+  // appended bytes are then joined: offsets moved by the appended bytes of the pieces before.
+  constexpr std::string_view kOpen = "<AppendedData encoding=\"raw\">\n   _", kClose = "\n  </AppendedData>";
+  const std::string scratch = path + ".piece-scratch.vtu";
+  std::string head, markup, appended;
+  std::vector<uint8_t> keep(mesh.cell_count());
+  for (uint32_t k = 0; k < pieces; ++k) {
+    for (uint64_t c = 0; c < keep.size(); ++c) keep[c] = piece_of_cell[c] == k;
+    Dataset piece;
+    piece.blocks.push_back(block_subset(block, keep));
+    write_vtu(piece, scratch);
+    const std::string bytes = InputFile(scratch).read_all(uint64_t(1) << 32);
+    const size_t begin = bytes.find("<Piece"), end = bytes.find("</Piece>"), data = bytes.find(kOpen);
+    const size_t data_end = bytes.rfind(kClose);
+    if (begin == std::string::npos || end == std::string::npos || data == std::string::npos ||
+        data_end == std::string::npos || data_end < data + kOpen.size())
+      fail_in(scratch, "not the layout write_vtu writes");
+    if (k == 0) head = bytes.substr(0, begin);
+    std::string piece_markup = bytes.substr(begin, end + std::string_view("</Piece>\n").size() - begin);
+    for (size_t at = 0; (at = piece_markup.find("offset=\"", at)) != std::string::npos;) {
+      at += std::string_view("offset=\"").size();
+      const size_t stop = piece_markup.find('"', at);
+      const uint64_t offset = std::stoull(piece_markup.substr(at, stop - at)) + appended.size();
+      piece_markup.replace(at, stop - at, std::to_string(offset));
+    }
+    markup += "    " + piece_markup;
+    appended.append(bytes, data + kOpen.size(), data_end - data - kOpen.size());
+  }
+  std::remove(scratch.c_str());
+  AtomicOutputFile out(path);
+  out.write(head);
+  out.write(markup);
+  out.write("  </UnstructuredGrid>\n  ");
+  out.write(kOpen);
+  out.write(appended);
+  out.write(kClose);
+  out.write("\n</VTKFile>\n");
+  out.commit();
 }
 
 }  // namespace ugvr

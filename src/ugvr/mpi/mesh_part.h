@@ -1,6 +1,6 @@
 // A rank's part of a mesh read piece by piece (docs/mpi.md, "Reading only a rank's part"), the part without MPI:
-// cutting an unstructured block down to the cells that meet a box, and writing a mesh as a `.pvtu` of pieces (the
-// tests' and the benchmark's input; ugvr has no `.pvtu` writer of its own otherwise).
+// cutting an unstructured block down to the cells that meet a box, and writing a mesh as a `.pvtu` of pieces or a
+// `.vtu` of several <Piece>s (the tests' and the benchmark's input; ugvr has no writer of either otherwise).
 #pragma once
 #include <cstdint>
 #include <span>
@@ -40,6 +40,18 @@ std::vector<Vec3d> sampled_cell_centroids(const Block& block, uint64_t first, ui
 // that uses them, as VTK's parallel writers do). Returns the piece files' paths. Throws ugvr::Error.
 std::vector<std::string> write_pvtu(const Block& block, const std::string& path,
                                     std::span<const uint32_t> piece_of_cell, uint32_t pieces);
+
+// The blocks (unstructured, with the same fields) joined into one: cells in block order, each block's points in
+// order, but a point whose `id_field` value (a vertex field: its number in the input) a block before already has is
+// that point; the id field is dropped. A rank's cuts of an input whose pieces number points alike (part_source.h)
+// become one block whose cells meet across the pieces as in the whole read's walk mesh (faces match by vertex
+// number). Throws ugvr::Error naming `source` when the blocks' fields differ or one lacks the id field.
+Block join_blocks(std::vector<Block> blocks, const std::string& id_field, const std::string& source);
+
+// Writes `block` (unstructured) as one .vtu at `path` holding `pieces` <Piece>s (raw appended data): cell c goes to
+// <Piece> piece_of_cell[c], with the points its cells use, as write_pvtu's piece files. Throws ugvr::Error.
+void write_vtu_pieces(const Block& block, const std::string& path, std::span<const uint32_t> piece_of_cell,
+                      uint32_t pieces);
 
 // An unstructured block as bytes, to send a part to the rank that draws it (mpi_part_read.cpp), appended to `out`.
 // Layout (host byte order: the ranks of one job share it), all counts uint64:

@@ -11,7 +11,6 @@
 #include <span>
 
 #include "ugvr/core/error.h"
-#include "ugvr/io/pvtu_pieces.h"
 #include "ugvr/io/reader.h"
 #include "ugvr/mpi/mesh_part.h"
 #include "ugvr/mpi/mpi_session.h"
@@ -23,7 +22,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 const Block& piece_block(const Dataset& ds, const std::string& file) {
   if (ds.blocks.size() != 1 || !std::holds_alternative<UnstructuredMesh>(ds.blocks[0].grid))
-    fail_in(file, "a piece of a .pvtu must be one unstructured grid");
+    fail_in(file, "a piece read by parts must be one unstructured grid");
   return ds.blocks[0];
 }
 
@@ -140,18 +139,19 @@ void add_engine_range(const Block& block, const std::string& selector, MinMax& i
 
 }  // namespace
 
-PartRead read_pvtu_part(const std::string& path, const std::string& selector, size_t max_fields) {
+PartRead read_part(const PartSource& source, const std::string& selector, size_t max_fields) {
   const auto t0 = std::chrono::steady_clock::now();
-  const std::vector<std::string> files = pvtu_piece_files(path);
-  const size_t pieces = files.size();
+  const std::string& path = source.path();
+  const size_t pieces = source.pieces();
   const int me = rank(), ranks = size();
   const auto owner = [&](size_t k) { return int(k % size_t(ranks)); };
   PartRead out;
+  out.source = source.kind();
   out.pieces_total = uint32_t(pieces);
 
   // Each rank reads the pieces it owns, once, and keeps them until they are dealt out.
-  const std::optional<GridCounts> headers = grid_counts_from_headers(std::vector<std::string>{path});
-  const uint64_t stride = headers ? split_sample_stride(headers->cells) : 1;
+  const std::optional<uint64_t> header_cells = source.cells_from_headers();
+  const uint64_t stride = header_cells ? split_sample_stride(*header_cells) : 1;
   MinMax piece_bounds(3 * pieces);
   std::vector<uint64_t> piece_cells(pieces, 0);
   std::vector<Vec3d> samples;
@@ -159,8 +159,8 @@ PartRead read_pvtu_part(const std::string& path, const std::string& selector, si
   std::vector<std::pair<size_t, Dataset>> owned;
   for (size_t k = 0; k < pieces; ++k) {
     if (owner(k) != me) continue;
-    Dataset ds = read_vtk_xml(files[k]);
-    const Block& block = piece_block(ds, files[k]);
+    Dataset ds = source.read_piece(k);
+    const Block& block = piece_block(ds, source.piece_file(k));
     const Bounds b = block_point_bounds(block);
     if (!b.empty())
       for (int a = 0; a < 3; ++a) piece_bounds.add(3 * k + size_t(a), (&b.lo.x)[a], (&b.hi.x)[a]);
@@ -168,7 +168,8 @@ PartRead read_pvtu_part(const std::string& path, const std::string& selector, si
     const std::vector<Vec3d> s = sampled_cell_centroids(block, 0, stride);
     samples.insert(samples.end(), s.begin(), s.end());
     for (const Field& f : block.fields)
-      piece_fields[k] += (f.association() == Association::Vertex ? "v" : "c") + f.name() + "\n";
+      if (f.name() != kPartPointIdField)  // the source's point numbers, no field of the data
+        piece_fields[k] += (f.association() == Association::Vertex ? "v" : "c") + f.name() + "\n";
     out.cells_read += piece_cells[k];
     ++out.pieces_read;
     owned.emplace_back(k, std::move(ds));
@@ -212,8 +213,9 @@ PartRead read_pvtu_part(const std::string& path, const std::string& selector, si
     for (size_t i = 0; i < names.size(); ++i) {
       const Field* f = block.fields.find(names[i], vertex[i] ? Association::Vertex : Association::Cell);
       if (!f)
-        fail_in(files[k], std::string("lacks the ") + (vertex[i] ? "point" : "cell") + " array '" + names[i] +
-                              "' of the first piece with cells (" + files[first_piece] + ")");
+        fail_in(source.piece_file(k), std::string("lacks the ") + (vertex[i] ? "point" : "cell") + " array '" +
+                                          names[i] + "' of the first piece with cells (" +
+                                          source.piece_file(first_piece) + ")");
       const Range r = f->range(kMagnitude);
       if (r.nan_count < f->tuples()) magnitude.add(i, r.min, r.max);
     }
@@ -225,7 +227,7 @@ PartRead read_pvtu_part(const std::string& path, const std::string& selector, si
   // The cuts dealt out: each owner cuts its pieces to every box they meet, dropping each piece once cut (so the owned
   // pieces shrink as the outgoing bytes grow), and sends every rank its cuts. Per destination, in piece order.
   auto part = std::make_shared<Dataset>();
-  part->format = "VTK XML PUnstructuredGrid (.pvtu), this rank's part";
+  part->format = source.format();
   part->sources.push_back(path);
   std::vector<std::vector<std::byte>> outgoing(static_cast<size_t>(ranks));
   for (auto& [k, ds] : owned) {
@@ -238,7 +240,9 @@ PartRead read_pvtu_part(const std::string& path, const std::string& selector, si
       to.insert(to.end(), reinterpret_cast<const std::byte*>(&piece), reinterpret_cast<const std::byte*>(&piece + 1));
       append_block_bytes(cut, to);
     }
-    for (std::string& w : ds.warnings) part->warnings.push_back(std::move(w));
+    for (std::string& w : ds.warnings)  // pieces of one file may warn alike
+      if (std::find(part->warnings.begin(), part->warnings.end(), w) == part->warnings.end())
+        part->warnings.push_back(std::move(w));
     ds = Dataset{};
   }
   owned = {};
@@ -252,12 +256,22 @@ PartRead read_pvtu_part(const std::string& path, const std::string& selector, si
     std::memcpy(&piece, rest.data(), sizeof piece);
     rest = rest.subspan(sizeof piece);
     if (piece >= pieces) fail_in(path, "a part names a piece out of range");
-    cuts.emplace(piece, read_block_bytes(rest, files[size_t(piece)]));
+    cuts.emplace(piece, read_block_bytes(rest, source.piece_file(size_t(piece))));
   }
   for (auto& [k, block] : cuts) {
     out.cells_kept += std::get<UnstructuredMesh>(block.grid).cell_count();
-    part->sources.push_back(files[size_t(k)]);
+    if (std::find(part->sources.begin(), part->sources.end(), source.piece_file(k)) == part->sources.end())
+      part->sources.push_back(source.piece_file(k));
     part->blocks.push_back(std::move(block));
+  }
+  // Pieces that number points as the input does are joined into one block: the walk mesh matches faces by vertex
+  // number, so cells of two pieces meet as in the whole read's (separate blocks would leave a boundary between them,
+  // which rays leave and re-enter: slower, and not the whole read's walk). A .pvtu's pieces stay apart, as its
+  // whole read leaves them.
+  if (!part->blocks.empty() && part->blocks[0].fields.find(kPartPointIdField, Association::Vertex)) {
+    Block joined = join_blocks(std::move(part->blocks), kPartPointIdField, path);
+    part->blocks.clear();
+    part->blocks.push_back(std::move(joined));
   }
   if (part->blocks.empty())
     fail_in(path, "rank " + std::to_string(me) + " of " + std::to_string(ranks) +

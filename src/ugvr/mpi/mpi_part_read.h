@@ -1,6 +1,7 @@
-// `mpirun -np N ugvr render MESH.pvtu --engine exact`: every piece of the .pvtu is read once in the job, by one rank,
-// and each rank ends up with only the cells that meet its kd box (docs/mpi.md, "Reading only a rank's part"). Other
-// formats are read whole on every rank (mpi_renderer.cpp), as before.
+// `mpirun -np N ugvr render MESH --engine exact` for an input read by parts (part_source.h: a .pvtu's piece files,
+// an Exodus file's cell ranges): every piece is read once in the job, by one rank, and each rank ends up with only
+// the cells that meet its kd box (docs/mpi.md, "Reading only a rank's part"). Other formats are read whole on every
+// rank (mpi_renderer.cpp).
 //
 //  1. Piece k is read by rank k mod N (its owner) and kept: its points' bounds, its cell count, its field names and
 //     the centroids of a stride sample of its cells (split_sample_stride of kd_partition.h over the whole mesh's count
@@ -25,6 +26,7 @@
 #include "ugvr/core/vec.h"
 #include "ugvr/grid/dataset.h"
 #include "ugvr/mpi/kd_partition.h"
+#include "ugvr/mpi/part_source.h"
 #include "ugvr/render/renderer.h"
 
 namespace ugvr::mpi {
@@ -33,8 +35,9 @@ struct PartRead {
   // The rank's part: one unstructured block per piece with cells meeting its box, in piece order (the exact engine
   // numbers cells type-major, block-minor: the order restricting a whole read keeps).
   std::shared_ptr<Dataset> dataset;
-  KdTree tree;    // the same on every rank; boxes[rank] is this rank's
-  Bounds bounds;  // the whole mesh's: the union of every piece's points
+  std::string source;  // PartSource::kind(): --stats' mpi.read
+  KdTree tree;         // the same on every rank; boxes[rank] is this rank's
+  Bounds bounds;       // the whole mesh's: the union of every piece's points
   // The default fields (default_field_names's rule over the whole mesh's ranges, at most `max_fields`) and, for each
   // of them and for the selector asked for, the whole mesh's range of the values the exact engine binds (float).
   std::vector<std::string> fields;
@@ -47,9 +50,10 @@ struct PartRead {
   double seconds = 0;                          // both passes, the exchanges included
 };
 
-// Collective over MPI_COMM_WORLD: every rank must call it with the same arguments. `selector` may be empty (the first
-// default field is bound then). Throws ugvr::Error naming the file at fault (a piece that is not unstructured, a
-// piece lacking a field of the first, a rank whose box holds no cells, more than 2 GiB to exchange for one rank).
-PartRead read_pvtu_part(const std::string& path, const std::string& selector, size_t max_fields);
+// Collective over MPI_COMM_WORLD: every rank must call it with the same arguments (the same source). `selector` may
+// be empty (the first default field is bound then). Throws ugvr::Error naming the file at fault (a piece that is not
+// unstructured, a piece lacking a field of the first, a rank whose box holds no cells, more than 2 GiB to exchange
+// for one rank). A rank failing alone (a piece it cannot read) ends the job through the error's MPI_Abort.
+PartRead read_part(const PartSource& source, const std::string& selector, size_t max_fields);
 
 }  // namespace ugvr::mpi

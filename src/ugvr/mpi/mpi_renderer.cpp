@@ -17,7 +17,6 @@
 #include <thread>
 
 #include "ugvr/core/error.h"
-#include "ugvr/io/pvtu_pieces.h"
 #include "ugvr/mpi/kd_partition.h"
 #include "ugvr/mpi/mpi_compositor.h"
 #include "ugvr/mpi/mpi_frame_stop.h"
@@ -38,10 +37,10 @@ double process_cpu_seconds() {
   return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
-// How a rank got its part of a mesh: the whole input read (every format) or only the pieces of a .pvtu its box needs
-// (mpi_part_read.h). Figures for --stats; a store has none.
+// How a rank got its part of a mesh: the whole input read (every format) or only the pieces it owns of an input read by
+// parts (part_source.h: a .pvtu, Exodus; mpi_part_read.h). Figures for --stats; a store has none.
 struct ReadFigures {
-  std::string how;           // "whole", "pvtu-part"; empty for a store
+  std::string how;           // "whole" or PartSource::kind() ("pvtu-part", "exodus-blocks"); empty for a store
   uint64_t cells_total = 0;  // the mesh's volume cells
   uint64_t cells_read = 0;   // decoded from the input by this rank
   uint64_t cells_kept = 0;   // in the rank's part (its engine's cells)
@@ -306,12 +305,13 @@ class MpiRenderer final : public Renderer {
   }
 };
 
-// A .pvtu on several ranks: each reads only the pieces its box needs (mpi_part_read.h) and draws its part, clipped to
-// its box, as the whole-read path's restrict_to_box does; the whole mesh's bounds and ranges come from the read.
-std::unique_ptr<Renderer> open_pvtu_part(const std::string& path, RendererOptions options, OpenedInput* opened,
-                                         std::vector<std::string>& fields) {
+// An input read by parts on several ranks (a .pvtu, Exodus: part_source.h): each rank reads only the pieces it owns,
+// keeps the cells its box needs (mpi_part_read.h) and draws its part, clipped to its box, as the whole-read path's
+// restrict_to_box does; the whole mesh's bounds and ranges come from the read.
+std::unique_ptr<Renderer> open_part(const PartSource& source, RendererOptions options, OpenedInput* opened,
+                                    std::vector<std::string>& fields) {
   const auto t0 = std::chrono::steady_clock::now();
-  PartRead part = read_pvtu_part(path, options.field, 4);
+  PartRead part = read_part(source, options.field, 4);
   fields = part.fields;
   if (options.field.empty() && !fields.empty()) options.field = fields.front();
   // The viewer's histograms are counted from this: a part here, so the viewer reads whole meshes (MeshRead::Whole).
@@ -319,7 +319,7 @@ std::unique_ptr<Renderer> open_pvtu_part(const std::string& path, RendererOption
   auto scene = std::make_shared<ExactScene>(part.dataset, options.progress);
   scene->engine.set_clip_box(part.tree.boxes[size_t(rank())]);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  ReadFigures figures{"pvtu-part", part.cells_total, part.cells_read, part.cells_kept, seconds};
+  ReadFigures figures{part.source, part.cells_total, part.cells_read, part.cells_kept, seconds};
   WholeMesh whole{part.bounds, std::move(part.ranges)};
   return std::make_unique<MpiRenderer>(make_renderer(scene, options), std::move(part.tree), figures, std::move(whole),
                                        true);
@@ -375,9 +375,9 @@ std::unique_ptr<Renderer> open_renderer(const std::vector<std::string>& inputs, 
   options.device = "cpu";
   const char* whole = std::getenv("UGVR_MPI_WHOLE_MESH");
   const bool whole_mesh = whole && std::string_view(whole) == "1";
-  if (size() > 1 && !whole_mesh && mesh_read == MeshRead::PartWherePossible && inputs.size() == 1 &&
-      is_pvtu_path(inputs[0]))
-    return open_pvtu_part(inputs[0], std::move(options), opened, *fields);
+  if (size() > 1 && !whole_mesh && mesh_read == MeshRead::PartWherePossible && inputs.size() == 1)
+    if (const std::unique_ptr<PartSource> source = open_part_source(inputs[0], read, size()))
+      return open_part(*source, std::move(options), opened, *fields);
   const auto t0 = std::chrono::steady_clock::now();
   auto dataset = std::make_shared<Dataset>(read_dataset(inputs, read));
   if (opened) opened->warnings = dataset->warnings, opened->dataset = dataset;

@@ -1,6 +1,6 @@
 // `mpirun -np N ugvr render ...`: data-parallel rendering with sort-last compositing (docs/mpi.md).
 //
-// Every rank opens the whole input (a .pvtu: only the pieces its box needs, mpi_part_read.h), builds the same kd-tree
+// Every rank opens the whole input (a .pvtu or Exodus: only its part, mpi_part_read.h), builds the same kd-tree
 // over the cells' centroids (kd_partition.h) and renders only the stretch of each ray inside its own box, into a
 // premultiplied image over a transparent background with early ray termination off (a rank cannot know what lies in
 // front of it). The images are blended front to back in the tree's visibility order (mpi_compositor.h) and the
@@ -17,8 +17,9 @@
 
 namespace ugvr::mpi {
 
-// How a mesh's ranks get their parts: a .pvtu read piece by piece, each rank only the pieces its box needs
-// (mpi_part_read.h; other formats are read whole on every rank), or every input read whole on every rank (the
+// How a mesh's ranks get their parts: a .pvtu or an Exodus file read piece by piece, each piece by one rank, each
+// rank keeping the cells its box needs (mpi_part_read.h; other formats are read whole on every rank), or every input
+// read whole on every rank (the
 // viewer: its histograms are counted from rank 0's copy of the whole mesh).
 enum class MeshRead { PartWherePossible, Whole };
 
