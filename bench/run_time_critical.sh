@@ -3,7 +3,9 @@
 # target frame rate and without one; optionally out of core on a generated store of over 2 GiB.
 # Usage: bench/run_time_critical.sh [OUT_DIR=bench/results/time-critical] [SCRATCH=/tmp/ugvr-bench]
 #   UGVR=path/to/ugvr (default build/ugvr), UGVR_DATA (default ../shared/data), SIZE (512), FPS (10), FRAMES (300),
-#   REST (30), GPU (auto), ERROR (store --error, 0.01), FAST_FPS (a second, harder target: 30).
+#   REST (30), GPU (auto), ERROR (store --error, 0.01), FAST_FPS (a second, harder target: 30), CELLS=1 (the store
+#   built with --cells and drawn by the hybrid engine: exact cells at rest, the [hybrid] issue's moving-frames check),
+#   RUNS ("fps fast full": the runs to make).
 #   OOC=1 also runs the out-of-core case: `ugvr generate --cells ${OOC_CELLS:-1600000} --kind hex`, built at --error 0
 #   with --float32 and --out-of-core (a store of about 2.4 GiB, ~2 min), rendered with --ram-memory 64MiB and
 #   --gpu-memory 32MiB (needs ~2.5 GB of scratch).
@@ -64,24 +66,35 @@ EOF
 }
 
 field=StagnationEnergy
-store="$scratch/lox-post-e$error.ugvr"
+cells=(); engine=(); suffix=
+if [[ -n ${CELLS:-} ]]; then cells=(--cells); engine=(--engine hybrid); suffix=-cells; fi
+runs=${RUNS:-fps fast full}
+store="$scratch/lox-post-e$error$suffix.ugvr"
 [ -f "$store" ] || "$ugvr" --quiet build "$data/lox-post/postxyz.bin" "$data/lox-post/postq.bin" --fields "$field" \
-  --error "$error" -o "$store"
-view=(--camera "$scenes/lox-post-camera.json" --tf "$scenes/lox-post-tf.json" --size "$size" --gpu "$gpu")
+  --error "$error" "${cells[@]}" -o "$store"
+view=(--camera "$scenes/lox-post-camera.json" --tf "$scenes/lox-post-tf.json" --size "$size" --gpu "$gpu" "${engine[@]}")
 path="orbit:$frames,rest:$rest"
 
-render_path "$store" "${view[@]}" --fps "$fps" --path "$path" --stats "$outdir/lox-post-fps$fps.jsonl" \
-  -o "$outdir/lox-post-fps$fps.png"
-summarize "lox-post-fps$fps" "$fps" "$outdir/lox-post-fps$fps.jsonl"
+name=lox-post$suffix
+if [[ " $runs " == *" fps "* ]]; then
+  render_path "$store" "${view[@]}" --fps "$fps" --path "$path" --stats "$outdir/$name-fps$fps.jsonl" \
+    -o "$outdir/$name-fps$fps.png"
+  summarize "$name-fps$fps" "$fps" "$outdir/$name-fps$fps.jsonl"
+fi
 # A target the coarsest cut cannot meet at full size on llvmpipe: the image scale is the lever.
 fast=${FAST_FPS:-30}
-render_path "$store" "${view[@]}" --fps "$fast" --path "$path" --stats "$outdir/lox-post-fps$fast.jsonl" \
-  -o "$outdir/lox-post-fps$fast.png"
-summarize "lox-post-fps$fast" "$fast" "$outdir/lox-post-fps$fast.jsonl"
-render_path "$store" "${view[@]}" --path "$path" --stats "$outdir/lox-post-full.jsonl" \
-  -o "$outdir/lox-post-full.png"
-summarize "lox-post-full" 0 "$outdir/lox-post-full.jsonl"
-echo "last frame (at rest) with the target vs without: $("$ugvr" compare "$outdir/lox-post-fps$fps.png" "$outdir/lox-post-full.png")"
+if [[ " $runs " == *" fast "* ]]; then
+  render_path "$store" "${view[@]}" --fps "$fast" --path "$path" --stats "$outdir/$name-fps$fast.jsonl" \
+    -o "$outdir/$name-fps$fast.png"
+  summarize "$name-fps$fast" "$fast" "$outdir/$name-fps$fast.jsonl"
+fi
+if [[ " $runs " == *" full "* ]]; then
+  render_path "$store" "${view[@]}" --path "$path" --stats "$outdir/$name-full.jsonl" -o "$outdir/$name-full.png"
+  summarize "$name-full" 0 "$outdir/$name-full.jsonl"
+fi
+if [[ " $runs " == *" fps "* && " $runs " == *" full "* ]]; then
+  echo "last frame (at rest) with the target vs without: $("$ugvr" compare "$outdir/$name-fps$fps.png" "$outdir/$name-full.png")"
+fi
 
 if [[ -n ${OOC:-} ]]; then
   cells=${OOC_CELLS:-1600000}
