@@ -43,10 +43,10 @@ class PartSource {
 };
 
 std::unique_ptr<PartSource> pvtu_part_source(const std::string& path);
-// About `pieces` pieces (exodus_cell_ranges), of time step `time_step` (-1: the last).
 std::unique_ptr<PartSource> vtu_piece_source(const std::string& path);
 // `pieces` ranges of equal cell counts (fewer for fewer cells).
 std::unique_ptr<PartSource> vtu_range_source(const std::string& path, uint64_t pieces);
+// About `pieces` pieces (exodus_cell_ranges), of time step `time_step` (-1: the last).
 std::unique_ptr<PartSource> exodus_part_source(const std::string& path, int64_t time_step, uint64_t pieces);
 
 // The source reading `path` by parts, for `ranks` ranks, when its format has one (nullptr otherwise: read whole).
