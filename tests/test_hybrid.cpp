@@ -302,8 +302,8 @@ TEST(Hybrid, ConvergesToTheExactEngine) {
 
 // MIP and isosurfaces: an exact node's maximum is its pieces' larger ends, and its surfaces where the linear pieces
 // cross the values, shaded by the cell's gradient (the exact engine's rules), on values normalised to the field's range
-// as the voxel nodes' samples are: one maximum and one set of surfaces per ray. Tricubic isosurfaces, and those of a
-// cell field, fall back to the bricks.
+// as the voxel nodes' samples are: one maximum and one set of surfaces per ray. Tricubic isosurfaces, those of a cell
+// field, and volume lighting fall back to the bricks.
 TEST(Hybrid, MipAndIsosurfacesConvergeToTheExactEngine) {
   REQUIRE_GL();
   const Fixture& f = fixture();
@@ -349,6 +349,14 @@ TEST(Hybrid, MipAndIsosurfacesConvergeToTheExactEngine) {
   hybrid.render(cam, tf, iso, leaves, &sti);
   EXPECT_EQ(sti.exact_nodes, 0u);
   EXPECT_EQ(sti.hybrid_off, "exact cells draw isosurfaces with trilinear interpolation only");
+  // Lit exact pieces would sit unshaded among lit voxels: the frame is the bricks'.
+  RenderSettings lit = test_settings();
+  lit.width = lit.height = 16;
+  lit.volume_lighting = true;
+  LodRenderStats stl;
+  hybrid.render(cam, tf, lit, leaves, &stl);
+  EXPECT_EQ(stl.exact_nodes, 0u);
+  EXPECT_EQ(stl.hybrid_off, "exact cells are drawn without volume lighting only");
 }
 
 // The viewer's resting frames can be cut short (FrameRequest::keep_going): the engines ask between bands of rows (GPU)

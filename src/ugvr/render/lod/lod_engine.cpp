@@ -685,6 +685,9 @@ void LodEngine::Impl::choose_exact(std::span<const uint64_t> cut, const Camera& 
     st.hybrid_off = "exact cells draw the isosurfaces of vertex fields only";
   } else if (boundary_overlay_on(settings) || !settings.slices.empty() || settings.hide_volume != HideVolume::None) {
     st.hybrid_off = "exact cells are drawn without the boundary overlay and slices only";
+  } else if (settings.mode == RenderMode::EmissionAbsorption && settings.volume_lighting) {
+    // The exact pieces would be unlit among lit voxels (the HYBRID variant's pieces take no shade).
+    st.hybrid_off = "exact cells are drawn without volume lighting only";
   }
   if (!st.hybrid_off.empty()) return;
   const auto t0 = std::chrono::steady_clock::now();
