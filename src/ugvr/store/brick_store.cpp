@@ -173,6 +173,19 @@ uint64_t steps_section_size(uint64_t steps, uint64_t nodes, uint64_t fields, boo
          (cells ? later * nodes * sizeof(CellBlockRecord) : 0);
 }
 
+// Appends a block (a brick, a cell block, a step's values of cells) at the end of the file and returns where it
+// starts. A failed write sets `done`: the file may hold part of the block, so only the destructor's cleanup is left.
+uint64_t append_block(AtomicOutputFile& out, const std::vector<std::byte>& bytes, bool& done) {
+  const uint64_t offset = out.position();
+  try {
+    out.write(bytes.data(), bytes.size());
+  } catch (...) {
+    done = true;
+    throw;
+  }
+  return offset;
+}
+
 }  // namespace
 
 uint64_t OctreeNode::child(int octant) const {
@@ -294,13 +307,7 @@ void BrickStoreWriter::append(uint64_t node, const EncodedBrick& brick) {
     hi_.resize(grown * nf);
   }
   if (placed_[node].offset) fail_in(path_, "node " + std::to_string(node) + " already has a brick");
-  const uint64_t offset = out_->position();
-  try {
-    out_->write(brick.bytes.data(), brick.bytes.size());
-  } catch (...) {
-    done_ = true;  // the file may hold part of the brick: only the destructor's cleanup is left to do
-    throw;
-  }
+  const uint64_t offset = append_block(*out_, brick.bytes, done_);
   placed_[node] = {offset, brick.valid};
   for (size_t f = 0; f < nf; ++f) {
     sizes_[node * nf + f] = brick.sizes[f];
@@ -421,13 +428,7 @@ void BrickStoreWriter::append_cell_values(uint64_t node, const EncodedCells& val
   if (node >= index.size()) index.resize(std::max<size_t>(size_t(node) + 1, index.size() * 3 / 2));
   if (index[node].offset)
     fail_in(path_, "time step " + std::to_string(step_) + ": node " + std::to_string(node) + " already has values");
-  const uint64_t offset = out_->position();
-  try {
-    out_->write(values.bytes.data(), values.bytes.size());
-  } catch (...) {
-    done_ = true;
-    throw;
-  }
+  const uint64_t offset = append_block(*out_, values.bytes, done_);
   index[node] = {offset, uint32_t(values.bytes.size()), values.crc};
   block_bytes_ += values.bytes.size();
 }
@@ -442,13 +443,7 @@ void BrickStoreWriter::append_cells(uint64_t node, const EncodedCells& cells) {
     cell_value_counts_.resize(cell_blocks_.size());
   }
   if (cell_blocks_[node].offset) fail_in(path_, "node " + std::to_string(node) + " already has cells");
-  const uint64_t offset = out_->position();
-  try {
-    out_->write(cells.bytes.data(), cells.bytes.size());
-  } catch (...) {
-    done_ = true;
-    throw;
-  }
+  const uint64_t offset = append_block(*out_, cells.bytes, done_);
   cell_blocks_[node] = {offset, uint32_t(cells.bytes.size()), cells.crc};
   cell_value_counts_[node] = cells.values;
   total_cells_ += cells.cells;
